@@ -1,0 +1,49 @@
+"""The ``marops`` command-line application."""
+
+from __future__ import annotations
+
+from typing import Annotated
+
+import typer
+
+from .. import __version__
+from .common import STATE
+from .segment_cmd import segment
+from .synth_cmd import synth
+
+app = typer.Typer(
+    name="marops",
+    help="Operations planner for drone last-mile delivery (MAR-OPS): LaDe export -> depots -> "
+    "flight ranges -> energy-aware multi-parcel routes, window by window.",
+    no_args_is_help=True,
+    add_completion=False,
+    pretty_exceptions_enable=False,
+)
+
+
+def _version(value: bool) -> None:
+    if value:
+        typer.echo(f"marops {__version__}")
+        raise typer.Exit()
+
+
+@app.callback()
+def _root(
+    debug: Annotated[
+        bool, typer.Option("--debug", help="Show a full traceback when something fails.")
+    ] = False,
+    version: Annotated[
+        bool,
+        typer.Option("--version", callback=_version, is_eager=True, help="Print the version."),
+    ] = False,
+) -> None:
+    """Operations planner for drone last-mile delivery."""
+    STATE["debug"] = debug
+
+
+app.command("synth")(synth)
+app.command("segment")(segment)
+
+
+def main() -> None:
+    app()

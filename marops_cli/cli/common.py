@@ -1,0 +1,97 @@
+"""Shared CLI plumbing: error handling, consoles, option parsing helpers."""
+
+from __future__ import annotations
+
+import functools
+import sys
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any, TypeVar
+
+import typer
+from rich.console import Console
+from rich.table import Table
+
+from ..config import PlannerConfig, load_config, override
+from ..data.table import DropReport
+from ..errors import InputError, MaropsError
+
+console = Console(stderr=True, highlight=False)
+STATE: dict[str, bool] = {"debug": False}
+
+F = TypeVar("F", bound=Callable[..., Any])
+
+
+def guarded(fn: F) -> F:
+    """Turn library errors into one line on stderr and the exit code of OUTPUTS.md."""
+
+    @functools.wraps(fn)
+    def wrapper(*args: Any, **kwargs: Any) -> Any:
+        try:
+            return fn(*args, **kwargs)
+        except MaropsError as exc:
+            if STATE["debug"]:
+                raise
+            typer.echo(f"marops: error: {exc}", err=True)
+            raise typer.Exit(exc.exit_code) from None
+        except OSError as exc:
+            if STATE["debug"]:
+                raise
+            typer.echo(f"marops: error: {exc}", err=True)
+            raise typer.Exit(1) from None
+        except KeyboardInterrupt:
+            typer.echo("marops: interrupted", err=True)
+            raise typer.Exit(130) from None
+
+    return wrapper  # type: ignore[return-value]
+
+
+def parse_center(text: str | None) -> tuple[float, float] | None:
+    """``"121.47,31.23"`` -> (lng, lat)."""
+    if text is None:
+        return None
+    try:
+        lng_s, lat_s = text.split(",")
+        lng, lat = float(lng_s), float(lat_s)
+    except ValueError:
+        raise InputError(f"--center expects LNG,LAT (e.g. 121.47,31.23), got {text!r}") from None
+    if not (-180 <= lng <= 180 and -90 <= lat <= 90):
+        raise InputError(f"--center {text!r} is not a valid LNG,LAT")
+    return lng, lat
+
+
+def make_config(config: Path | None, **overrides: Any) -> PlannerConfig:
+    """The TOML config (or defaults) with command-line flags applied on top."""
+    return override(load_config(config), **overrides)
+
+
+def require_input(path: Path) -> None:
+    if not path.exists():
+        raise InputError("file not found", file=path)
+    if path.is_dir():
+        raise InputError("is a folder, expected a LaDe CSV or Parquet file", file=path)
+
+
+def print_drop_report(report: DropReport, name: str) -> None:
+    """Tell the user which rows were dropped and why (SPEC §1)."""
+    if report.n_dropped == 0:
+        console.print(f"{name}: {report.total:,} rows read, none dropped")
+        return
+    parts = ", ".join(f"{n:,} {reason.replace('_', ' ')}" for reason, n in report.dropped.items() if n)
+    console.print(
+        f"{name}: {report.total:,} rows read, {report.kept:,} kept, "
+        f"{report.n_dropped:,} dropped ({parts}); --strict makes these errors"
+    )
+
+
+def kv_table(title: str, rows: list[tuple[str, str]]) -> Table:
+    t = Table(title=title, show_header=False, title_justify="left")
+    t.add_column("key", style="bold")
+    t.add_column("value")
+    for k, v in rows:
+        t.add_row(k, v)
+    return t
+
+
+def is_terminal() -> bool:
+    return sys.stderr.isatty()

@@ -1,0 +1,124 @@
+"""``marops segment``: depots, service areas and action candidates."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.table import Table
+
+from ..data.dates import parse_days
+from ..io import output_set, run_meta
+from ..segment import areas_geojson
+from ..segment.plot import plot_depots
+from ..segment.run import segment_file
+from .common import (
+    console,
+    guarded,
+    make_config,
+    parse_center,
+    print_drop_report,
+    require_input,
+)
+
+
+@guarded
+def segment(
+    data: Annotated[Path, typer.Argument(help="LaDe delivery export (CSV or Parquet).")],
+    out: Annotated[Path, typer.Option("--out", help="Where to write depots.json.")],
+    depots: Annotated[
+        int | None, typer.Option("--depots", help="Number of depots / service areas [16].")
+    ] = None,
+    method: Annotated[
+        str | None, typer.Option("--method", help="kmeans (paper Alg. 1) or squares [kmeans].")
+    ] = None,
+    size_km: Annotated[
+        float | None, typer.Option("--size-km", help="Side of the study-area square in km [10].")
+    ] = None,
+    center: Annotated[
+        str | None,
+        typer.Option("--center", help="Study-area centre LNG,LAT [the densest square]."),
+    ] = None,
+    days: Annotated[
+        str | None,
+        typer.Option("--days", help="History days, e.g. 0801..0824 or 801,802 [all days]."),
+    ] = None,
+    actions: Annotated[
+        int | None,
+        typer.Option("--actions", help="Action candidates per depot, itself included [4]."),
+    ] = None,
+    seed: Annotated[int | None, typer.Option("--seed", help="k-means random seed [0].")] = None,
+    year: Annotated[
+        int | None, typer.Option("--year", help="Year of the MM-DD times in the file [2022].")
+    ] = None,
+    strict: Annotated[
+        bool, typer.Option("--strict", help="Make any bad row an error instead of dropping it.")
+    ] = False,
+    geojson: Annotated[
+        Path | None, typer.Option("--geojson", help="Also write depots and areas as GeoJSON.")
+    ] = None,
+    plot: Annotated[
+        Path | None, typer.Option("--plot", help="Also draw a PNG map of customers and areas.")
+    ] = None,
+    config: Annotated[
+        Path | None, typer.Option("--config", help="Planner config TOML; flags override it.")
+    ] = None,
+) -> None:
+    """Cluster a LaDe export into depots and service areas (k-means or squares)."""
+    require_input(data)
+    cfg = make_config(
+        config,
+        data__year=year,
+        data__size_km=size_km,
+        data__center=parse_center(center),
+        data__strict=strict or None,
+        segment__n_depots=depots,
+        segment__method=method,
+        segment__n_actions=actions,
+        segment__seed=seed,
+    )
+    day_list = parse_days(days, cfg.data.year) if days else None
+    with console.status("segmenting…"):
+        res = segment_file(data, cfg, day_list)
+    print_drop_report(res.table.report, data.name)
+    meta = run_meta(
+        command="segment",
+        config=cfg,
+        source=res.table.source,
+        method=cfg.segment.method,
+        seed=cfg.segment.seed,
+        extra={
+            "days": [d.isoformat() for d in res.days],
+            "n_history": int(res.history_xy.shape[0]),
+            "rows": res.table.report.to_dict(),
+        },
+    )
+    with output_set() as files:
+        files.write_json(out, res.depots.to_dict(meta))
+        if geojson is not None:
+            files.write_json(geojson, areas_geojson(res.depots, meta))
+        if plot is not None:
+            title = (
+                f"{cfg.segment.method}: {len(res.depots)} depots, "
+                f"{res.history_xy.shape[0]:,} history requests, {len(res.days)} days"
+            )
+            files.write_with(plot, lambda p: plot_depots(res.depots, res.history_xy, p, title))
+    _print_summary(res)
+    console.print(f"wrote {out}" + "".join(f", {p}" for p in (geojson, plot) if p is not None))
+
+
+def _print_summary(res) -> None:  # type: ignore[no-untyped-def]
+    f = res.depots.frame
+    t = Table(
+        title=f"{len(res.depots)} depots around ({f.center_lng:.5f}, {f.center_lat:.5f}), "
+        f"{f.size_km:g} km square",
+        title_justify="left",
+    )
+    for col in ("depot", "x km", "y km", "history", "candidates"):
+        t.add_column(col, justify="right" if col != "candidates" else "left")
+    for i in range(len(res.depots)):
+        x, y = res.depots.xy[i] / 1000.0
+        cands = " ".join(str(c) for c in res.depots.candidates[i])
+        t.add_row(str(i), f"{x:.2f}", f"{y:.2f}", f"{res.depots.n_history[i]:,}", cands)
+    console.print(t)

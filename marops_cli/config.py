@@ -1,0 +1,208 @@
+"""One validated pydantic model per stage, gathered in :class:`PlannerConfig`.
+
+A TOML file with one table per stage (``[data]``, ``[segment]``, ``[energy]``,
+``[plan]``, ``[sim]``) loads into :class:`PlannerConfig`; command-line flags
+override single fields afterwards with :func:`override`.
+"""
+
+from __future__ import annotations
+
+import tomllib
+from pathlib import Path
+from typing import Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+
+from .errors import InputError
+
+
+class _Stage(BaseModel):
+    model_config = ConfigDict(extra="forbid", validate_assignment=True)
+
+
+def _parse_hhmm(value: str) -> int:
+    """``"09:00"`` -> seconds after midnight."""
+    try:
+        hh, mm = value.split(":")
+        h, m = int(hh), int(mm)
+    except ValueError as exc:
+        raise ValueError(f"expected a time of day HH:MM, got {value!r}") from exc
+    if not (0 <= h <= 24 and 0 <= m < 60) or h * 60 + m > 24 * 60:
+        raise ValueError(f"expected a time of day HH:MM, got {value!r}")
+    return h * 3600 + m * 60
+
+
+class DataConfig(_Stage):
+    """Reading a LaDe export and preparing days (SPEC §1)."""
+
+    year: int = Field(2022, ge=1970, le=2100, description="year of the MM-DD times")
+    size_km: float = Field(10.0, gt=0, le=200, description="side of the study-area square")
+    center: tuple[float, float] | None = Field(
+        None, description="study-area centre (lng, lat); default: the densest square"
+    )
+    grid_m: float = Field(250.0, gt=0, description="grid step used to find the densest square")
+    service_start: str = Field("09:00", description="start of service hours, HH:MM")
+    service_end: str = Field("17:00", description="end of service hours, HH:MM")
+    window_min: float | None = Field(
+        None, gt=0, description="window length in minutes (default 30)"
+    )
+    windows: int | None = Field(
+        None, gt=0, description="number of windows over service hours (sets the length)"
+    )
+    strict: bool = Field(False, description="treat any dropped row as an error")
+    weight_median_kg: float = Field(0.5, gt=0)
+    weight_sigma: float = Field(0.6, ge=0)
+    weight_min_kg: float = Field(0.1, gt=0)
+    weight_max_kg: float = Field(2.5, gt=0)
+
+    @field_validator("service_start", "service_end")
+    @classmethod
+    def _check_hhmm(cls, v: str) -> str:
+        _parse_hhmm(v)
+        return v
+
+    @model_validator(mode="after")
+    def _check_span(self) -> DataConfig:
+        if self.service_end_s <= self.service_start_s:
+            raise ValueError("expected service_end after service_start")
+        if self.window_min is not None and self.windows is not None:
+            if abs(self.window_min * 60 * self.windows - self.span_s) > 1e-6:
+                raise ValueError("window_min x windows must equal the service hours")
+        if self.weight_max_kg < self.weight_min_kg:
+            raise ValueError("expected weight_max_kg >= weight_min_kg")
+        return self
+
+    @property
+    def service_start_s(self) -> int:
+        return _parse_hhmm(self.service_start)
+
+    @property
+    def service_end_s(self) -> int:
+        return _parse_hhmm(self.service_end)
+
+    @property
+    def span_s(self) -> int:
+        return self.service_end_s - self.service_start_s
+
+    @property
+    def window_s(self) -> float:
+        if self.windows is not None:
+            return self.span_s / self.windows
+        return (self.window_min if self.window_min is not None else 30.0) * 60.0
+
+    @property
+    def n_windows(self) -> int:
+        if self.windows is not None:
+            return self.windows
+        return max(1, int(round(self.span_s / self.window_s)))
+
+
+class SegmentConfig(_Stage):
+    """Depots and service areas (SPEC §2)."""
+
+    method: Literal["kmeans", "squares"] = Field("kmeans", description="segmentation method")
+    n_depots: int = Field(16, ge=1, le=4096, description="number of depots / service areas")
+    n_actions: int = Field(4, ge=1, description="action candidates per depot (itself first)")
+    seed: int = Field(0, description="k-means random_state")
+    n_init: int = Field(4, ge=1, description="k-means restarts")
+
+    @model_validator(mode="after")
+    def _check(self) -> SegmentConfig:
+        if self.method == "squares":
+            side = round(self.n_depots**0.5)
+            if side * side != self.n_depots:
+                raise ValueError(
+                    f"expected a square number of depots for the squares method, got {self.n_depots}"
+                )
+        return self
+
+
+class EnergyConfig(_Stage):
+    """Drone parameters (ENERGY.md)."""
+
+    body_kg: float = Field(2.0, gt=0)
+    battery_kg: float = Field(1.0, gt=0)
+    rotor_diameter_m: float = Field(0.5, gt=0)
+    rotors: int = Field(4, ge=1)
+    speed_ms: float = Field(10.0, gt=0, description="ground speed = airspeed (no wind)")
+    efficiency: float = Field(0.8, gt=0, le=1)
+    air_density: float = Field(1.225, gt=0)
+    g: float = Field(9.81, gt=0)
+    cda_m2: float = Field(0.092951, ge=0, description="drag area of body and battery")
+    parcel_cda_m2: float = Field(0.0, ge=0, description="extra drag area per kg of parcels")
+    max_payload_kg: float = Field(2.5, gt=0)
+    battery_j: float = Field(225_000.0, gt=0, description="battery capacity in joules")
+    reserve: float = Field(0.25, ge=0, lt=1, description="fraction of capacity kept unused")
+    table_step_kg: float = Field(0.001, gt=0, description="payload lookup-table step")
+
+    @property
+    def usable_j(self) -> float:
+        return self.battery_j * (1.0 - self.reserve)
+
+
+class PlanConfig(_Stage):
+    """Flight range, candidate plans and plan selection (SPEC §4)."""
+
+    coverage: float = Field(0.25, gt=0, le=1, description="share of service areas in a range")
+    max_parcels: int = Field(5, ge=1, le=12, description="M-hat: candidates per drone")
+    ordering: Literal["exact", "greedy"] = Field("exact", description="visiting order")
+    alpha: float = Field(0.5, gt=0, le=1, description="trade-off weight: energy vs delay")
+    solver: Literal["highs", "greedy"] = Field("highs", description="plan selection solver")
+    time_limit_s: float = Field(2.0, gt=0, description="solver time limit per window")
+    strict_cover: bool = Field(False, description="paper's exact cover when feasible")
+
+
+class SimConfig(_Stage):
+    """Day replay (SPEC §5)."""
+
+    drones: int = Field(8, ge=1, description="fleet size")
+    policy: str = Field("stay", description="flight-range policy name or torchscript:PATH")
+    seed: int = Field(0, description="seed for random policies")
+
+
+class PlannerConfig(_Stage):
+    """Every stage's settings together; loadable from TOML with one table per stage."""
+
+    data: DataConfig = Field(default_factory=DataConfig)
+    segment: SegmentConfig = Field(default_factory=SegmentConfig)
+    energy: EnergyConfig = Field(default_factory=EnergyConfig)
+    plan: PlanConfig = Field(default_factory=PlanConfig)
+    sim: SimConfig = Field(default_factory=SimConfig)
+
+
+def _validation_message(exc: ValidationError) -> str:
+    err = exc.errors()[0]
+    loc = ".".join(str(p) for p in err["loc"])
+    msg = str(err["msg"]).removeprefix("Value error, ")
+    return f"{loc}: {msg}" if loc else msg
+
+
+def load_config(path: str | Path | None) -> PlannerConfig:
+    """Load a TOML config (or the defaults when ``path`` is None)."""
+    if path is None:
+        return PlannerConfig()
+    p = Path(path)
+    try:
+        raw = tomllib.loads(p.read_text(encoding="utf-8"))
+    except FileNotFoundError as exc:
+        raise InputError("config file not found", file=p) from exc
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        raise InputError(f"not a valid TOML file ({exc})", file=p) from exc
+    try:
+        return PlannerConfig.model_validate(raw)
+    except ValidationError as exc:
+        raise InputError(f"invalid setting {_validation_message(exc)}", file=p) from exc
+
+
+def override(cfg: PlannerConfig, **fields: Any) -> PlannerConfig:
+    """Return a copy with ``stage__field=value`` overrides applied (None = keep)."""
+    data = cfg.model_dump()
+    for key, value in fields.items():
+        if value is None:
+            continue
+        stage, _, name = key.partition("__")
+        data[stage][name] = value
+    try:
+        return PlannerConfig.model_validate(data)
+    except ValidationError as exc:
+        raise InputError(f"invalid option {_validation_message(exc)}") from exc

@@ -1,0 +1,187 @@
+"""Dates and times in LaDe's formats (SPEC §1).
+
+A day on the command line is ``820``, ``0820``, ``08-20``, ``20220820`` or
+``2022-08-20``; several are given as ``0820,0821`` or as an inclusive range
+``0820..0827``. In the files, times are ``MM-DD HH:MM:SS`` (the year is a
+setting) or ``YYYY-MM-DD HH:MM:SS``, and ``ds`` is the date as an integer
+``MMDD``. The column parsers here are vectorised: a LaDe city file has
+1.5 million rows, too many for a Python loop.
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import re
+
+import numpy as np
+import pyarrow as pa
+import pyarrow.compute as pc
+
+from ..errors import InputError
+
+# (pattern, whether it carries the year)
+_DAY_FORMS = (
+    (re.compile(r"(\d{1,2})(\d{2})"), False),  # 820, 0820
+    (re.compile(r"(\d{1,2})-(\d{1,2})"), False),  # 08-20
+    (re.compile(r"(\d{4})(\d{2})(\d{2})"), True),  # 20220820
+    (re.compile(r"(\d{4})-(\d{1,2})-(\d{1,2})"), True),  # 2022-08-20
+)
+_EXPECTED_DAY = "expected a date like 820, 0820 or 2022-08-20"
+
+# Parse status of a time cell.
+TIME_OK, TIME_EMPTY, TIME_BAD = 0, 1, 2
+
+
+def parse_day(text: str, year: int) -> dt.date:
+    """``"820"``, ``"0820"``, ``"08-20"``, ``"20220820"`` or ``"2022-08-20"`` -> a date.
+
+    Forms without a year take ``year``. Raises :class:`InputError` naming the
+    value when it is not a valid date.
+    """
+    s = str(text).strip()
+    for pattern, has_year in _DAY_FORMS:
+        m = pattern.fullmatch(s)
+        if m is None:
+            continue
+        parts = [int(g) for g in m.groups()]
+        y = parts.pop(0) if has_year else year
+        try:
+            return dt.date(y, parts[0], parts[1])
+        except ValueError:
+            break
+    raise InputError(f"{_EXPECTED_DAY}, got {text!r}")
+
+
+def parse_days(spec: str, year: int) -> list[dt.date]:
+    """``"0820,0821"`` or ``"0820..0827"`` (inclusive), mixed freely -> dates.
+
+    Dates keep the order given; a repeated date is listed once.
+    """
+    days: list[dt.date] = []
+    for item in str(spec).split(","):
+        item = item.strip()
+        if not item:
+            raise InputError(f"{_EXPECTED_DAY} in the list of days, got {spec!r}")
+        first, sep, last = item.partition("..")
+        start = parse_day(first, year)
+        end = parse_day(last, year) if sep else start
+        if end < start:
+            raise InputError(f"expected a range from an earlier to a later date, got {item!r}")
+        days.extend(start + dt.timedelta(days=i) for i in range((end - start).days + 1))
+    return list(dict.fromkeys(days))
+
+
+def format_days(days: list[dt.date]) -> str:
+    """``2022-08-01..2022-08-30`` (first..last), one date alone, or ``no dates``."""
+    if not days:
+        return "no dates"
+    first, last = min(days), max(days)
+    return first.isoformat() if first == last else f"{first}..{last}"
+
+
+def _month_start_days(year: np.ndarray, month: np.ndarray) -> np.ndarray:
+    """Days since 1970-01-01 of the first day of each (year, month); inputs must be valid."""
+    months = (year - 1970) * 12 + (month - 1)
+    return months.astype("datetime64[M]").astype("datetime64[D]").astype(np.int64)
+
+
+def _valid_ymd(year: np.ndarray, month: np.ndarray, day: np.ndarray) -> np.ndarray:
+    """Mask of (year, month, day) triples that name a real calendar day."""
+    ok = (month >= 1) & (month <= 12) & (day >= 1) & (year >= 1)
+    m = np.where(ok, month, 1)
+    start = _month_start_days(year, m)
+    next_start = _month_start_days(year + (m == 12), np.where(m == 12, 1, m + 1))
+    return ok & (day <= next_start - start)
+
+
+def _string_bytes(arr: pa.Array) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(data bytes, start offset, length, is-null) of a string array, without copying rows."""
+    arr = arr.cast(pa.large_string()) if arr.type != pa.large_string() else arr
+    _, off_buf, data_buf = arr.buffers()
+    offsets = np.frombuffer(off_buf, dtype=np.int64)[arr.offset : arr.offset + len(arr) + 1]
+    data = np.zeros(0, np.uint8) if data_buf is None else np.frombuffer(data_buf, dtype=np.uint8)
+    isnull = arr.is_null().to_numpy(zero_copy_only=False)
+    return data, offsets[:-1], np.diff(offsets), isnull
+
+
+def parse_times(column: pa.ChunkedArray | pa.Array, year: int) -> tuple[np.ndarray, np.ndarray]:
+    """A column of ``MM-DD HH:MM:SS`` / ``YYYY-MM-DD HH:MM:SS`` strings -> (seconds, status).
+
+    Seconds are naive local time since 1970-01-01 (int64, 0 where not OK);
+    status is :data:`TIME_OK`, :data:`TIME_EMPTY` (null or blank) or
+    :data:`TIME_BAD` per row. Parsing is strict: ``02-30`` or ``24:00:00`` is bad
+    (pyarrow's strptime would roll the first over to March). A timestamp column
+    (from Parquet) is taken as it is.
+    """
+    arr = column.combine_chunks() if isinstance(column, pa.ChunkedArray) else column
+    if pa.types.is_timestamp(arr.type):
+        secs = pc.cast(arr, pa.timestamp("s")).cast(pa.int64())
+        empty = secs.is_null().to_numpy(zero_copy_only=False)
+        return secs.fill_null(0).to_numpy(), np.where(empty, TIME_EMPTY, TIME_OK).astype(np.int8)
+    if not (pa.types.is_string(arr.type) or pa.types.is_large_string(arr.type)):
+        arr = arr.cast(pa.string())
+    data, start, length, isnull = _string_bytes(arr)
+    # Real exports have no padding, but a hand-edited file may; trimming is cheap.
+    filled = length > 0
+    if np.any(data[start[filled]] == 32) or np.any(data[(start + length - 1)[filled]] == 32):
+        data, start, length, isnull = _string_bytes(pc.utf8_trim_whitespace(arr))
+    full = length == 19
+    # A short MM-DD form lines up with the full form shifted by the 5 chars of "YYYY-".
+    base = np.where(full, start, start - 5)
+    shaped = full | (length == 14)
+
+    def char(pos: int) -> np.ndarray:
+        idx = np.clip(base + pos, 0, max(data.size - 1, 0))
+        return data[idx].astype(np.int64) if data.size else np.zeros(start.size, np.int64)
+
+    def number(first: int, n: int) -> tuple[np.ndarray, np.ndarray]:
+        value = np.zeros(start.size, np.int64)
+        ok = np.ones(start.size, bool)
+        for pos in range(first, first + n):
+            d = char(pos) - 48
+            ok &= (d >= 0) & (d <= 9)
+            value = value * 10 + d
+        return value, ok
+
+    yr, ok_y = number(0, 4)
+    yr = np.where(full, yr, year)
+    ok = shaped & np.where(full, ok_y & (char(4) == ord("-")), True)
+    ok &= (char(7) == ord("-")) & ((char(10) == ord(" ")) | (char(10) == ord("T")))
+    ok &= (char(13) == ord(":")) & (char(16) == ord(":"))
+    mo, ok_mo = number(5, 2)
+    dd, ok_dd = number(8, 2)
+    hh, ok_hh = number(11, 2)
+    mi, ok_mi = number(14, 2)
+    ss, ok_ss = number(17, 2)
+    ok &= ok_mo & ok_dd & ok_hh & ok_mi & ok_ss & (hh < 24) & (mi < 60) & (ss < 60)
+    ok &= _valid_ymd(np.where(ok, yr, 1970), np.where(ok, mo, 1), np.where(ok, dd, 1))
+    days = _month_start_days(np.where(ok, yr, 1970), np.where(ok, mo, 1)) + dd - 1
+    secs = np.where(ok, days * 86_400 + hh * 3600 + mi * 60 + ss, 0)
+    empty = isnull | (length == 0)
+    status = np.full(start.size, TIME_BAD, dtype=np.int8)
+    status[ok] = TIME_OK
+    status[empty] = TIME_EMPTY
+    return secs.astype(np.int64), status
+
+
+def parse_ds(column: pa.ChunkedArray | pa.Array, year: int) -> np.ndarray:
+    """Mask of ``ds`` cells that are a valid ``MMDD`` (or ``YYYYMMDD``) date in ``year``.
+
+    ``ds`` is read as text or as integers; empty, non-digit and impossible dates
+    (``231``, ``1301``) are not valid.
+    """
+    arr = column.combine_chunks() if isinstance(column, pa.ChunkedArray) else column
+    if pa.types.is_integer(arr.type):
+        value = arr.cast(pa.int64()).fill_null(-1).to_numpy()
+    else:
+        text = arr.cast(pa.string())
+        try:  # fast path: a clean column casts at once
+            value = text.cast(pa.int64()).fill_null(-1).to_numpy()
+        except pa.ArrowInvalid:
+            text = pc.utf8_trim_whitespace(text)
+            digits = pc.fill_null(pc.match_substring_regex(text, r"^(\d{3,4}|\d{8})$"), False)
+            value = pc.if_else(digits, text, None).cast(pa.int64()).fill_null(-1).to_numpy()
+    long = value >= 10_000_000
+    yr = np.where(long, value // 10_000, year)
+    mmdd = np.where(long, value % 10_000, value)
+    return (value >= 0) & _valid_ymd(yr, mmdd // 100, mmdd % 100)

@@ -1,0 +1,154 @@
+"""From a read export to planning input: study area, windows and weights (SPEC §1).
+
+- :func:`study_frame` places the study area: ``cfg.center`` if set, else the
+  densest ``size_km`` square of the chosen days' customers.
+- :func:`prepare_day` keeps the requests due on one day inside that square and
+  within service hours, and puts each in its windows. Service hours are
+  half-open: a delivery at exactly 17:00:00 is outside 09:00–17:00.
+- :func:`parcel_weights` draws the weights LaDe lacks, from the order id alone.
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import hashlib
+from collections.abc import Iterable
+
+import numpy as np
+from scipy.special import ndtri
+
+from ..config import DataConfig
+from ..errors import InputError
+from .dates import format_days
+from .frame import Frame, densest_square
+from .table import DayRequests, LadeTable
+
+_DAY_S = 86_400
+
+
+def parcel_weights(order_ids: Iterable[object], cfg: DataConfig | None = None) -> np.ndarray:
+    """One weight in kg per order id, the same for that id in every run and process.
+
+    The id's UTF-8 text is hashed with BLAKE2b (Python's ``hash()`` is salted per
+    process); the 64-bit digest is a uniform draw in (0, 1) that the inverse normal
+    CDF turns into a standard normal ``z``. The weight is
+    ``median * exp(sigma * z)`` -- lognormal with that median and sigma -- clipped
+    to ``[weight_min_kg, weight_max_kg]``.
+    """
+    cfg = cfg if cfg is not None else DataConfig()
+    ids = [str(o) for o in np.asarray(order_ids, dtype=object).ravel()]
+    if not ids:
+        return np.zeros(0, dtype=np.float64)
+    raw = b"".join(hashlib.blake2b(i.encode("utf-8"), digest_size=8).digest() for i in ids)
+    h = np.frombuffer(raw, dtype="<u8")
+    # Top 53 bits plus half a step: uniform in the open interval (0, 1), never 0 or 1.
+    u = ((h >> np.uint64(11)).astype(np.float64) + 0.5) / float(1 << 53)
+    z = ndtri(u)
+    w = cfg.weight_median_kg * np.exp(cfg.weight_sigma * z)
+    return np.clip(w, cfg.weight_min_kg, cfg.weight_max_kg)
+
+
+def _check_days_in_file(table: LadeTable, days: Iterable[dt.date]) -> None:
+    have = table.days()
+    present = set(have)
+    for day in days:
+        if day not in present:
+            raise InputError(
+                f"date {day.isoformat()} not in the file (it has {format_days(have)})",
+                file=table.source.path,
+            )
+
+
+def _on_days(table: LadeTable, days: Iterable[dt.date]) -> np.ndarray:
+    """Mask of rows due on any of ``days``."""
+    wanted = np.array([np.datetime64(d, "D") for d in days], dtype="datetime64[D]")
+    return np.isin(table.delivery_day, wanted)
+
+
+def study_frame(
+    table: LadeTable, cfg: DataConfig | None = None, days: Iterable[dt.date] | None = None
+) -> Frame:
+    """The study area: ``cfg.center`` if given, else the densest square of the customers
+    due on ``days`` (every day in the file when None), on a ``cfg.grid_m`` grid."""
+    cfg = cfg if cfg is not None else DataConfig()
+    if cfg.center is not None:
+        return Frame(float(cfg.center[0]), float(cfg.center[1]), cfg.size_km)
+    if days is None:
+        lng, lat = table.lng, table.lat
+    else:
+        days = list(days)
+        _check_days_in_file(table, days)
+        mask = _on_days(table, days)
+        lng, lat = table.lng[mask], table.lat[mask]
+    if lng.size == 0:
+        raise InputError("no requests to place a study area on", file=table.source.path)
+    return densest_square(lng, lat, cfg.size_km, cfg.grid_m)
+
+
+def _windows(offset_s: np.ndarray, window_s: float, n_windows: int) -> np.ndarray:
+    """Window index of each offset from service start, clamped to [0, n_windows - 1]."""
+    return np.clip(np.floor(offset_s / window_s), 0, n_windows - 1).astype(np.int32)
+
+
+def prepare_day(
+    table: LadeTable, frame: Frame, day: dt.date, cfg: DataConfig | None = None
+) -> DayRequests:
+    """The requests due on ``day`` inside ``frame`` and within service hours.
+
+    ``visible_w`` is the window holding the accept time (0 when accepted before
+    service start or on an earlier day); ``due_w`` the window holding the
+    delivery time. Weights come from the file's ``weight_kg`` when present, else
+    :func:`parcel_weights`. Requests are sorted by due time, then order id, then
+    file row. Raises :class:`InputError` when the day is not in the file or
+    nothing is left.
+    """
+    cfg = cfg if cfg is not None else DataConfig()
+    _check_days_in_file(table, [day])
+    start = (np.datetime64(day, "D").astype(np.int64)) * _DAY_S + cfg.service_start_s
+    due = (table.delivery_s - start).astype(np.float64)
+    x, y = frame.to_xy(table.lng, table.lat)
+    mask = _on_days(table, [day]) & frame.contains(x, y) & (due >= 0) & (due < cfg.span_s)
+    if not mask.any():
+        raise InputError(
+            f"no requests on {day.isoformat()} inside the study area "
+            f"({frame.size_km:g} km square around {frame.center_lng:.5f}, "
+            f"{frame.center_lat:.5f}) due within service hours "
+            f"{cfg.service_start}-{cfg.service_end}",
+            file=table.source.path,
+        )
+    sub = table.subset(mask)
+    due, x, y = due[mask], x[mask], y[mask]
+    accept = (sub.accept_s - start).astype(np.float64)
+    # Stable sorts, last key first: due time, then order id, then file order.
+    order = np.argsort(sub.order_id, kind="stable")
+    order = order[np.argsort(due[order], kind="stable")]
+    weight = sub.weight_kg if sub.weight_kg is not None else parcel_weights(sub.order_id, cfg)
+    due_w = _windows(due, cfg.window_s, cfg.n_windows)
+    # Accept <= delivery after reading, so this min only guards the clamping.
+    visible_w = np.minimum(_windows(accept, cfg.window_s, cfg.n_windows), due_w)
+    return DayRequests(
+        day=day,
+        frame=frame,
+        service_start_s=cfg.service_start_s,
+        window_s=cfg.window_s,
+        n_windows=cfg.n_windows,
+        order_id=sub.order_id[order],
+        x_m=x[order],
+        y_m=y[order],
+        lng=sub.lng[order],
+        lat=sub.lat[order],
+        weight_kg=np.asarray(weight, dtype=np.float64)[order],
+        visible_w=visible_w[order],
+        due_w=due_w[order],
+        due_s=due[order],
+        accept_s=accept[order],
+    )
+
+
+def prepare_days(
+    table: LadeTable, days: Iterable[dt.date], cfg: DataConfig | None = None
+) -> tuple[Frame, list[DayRequests]]:
+    """The study area over ``days`` and each day prepared in it, in the order given."""
+    days = list(days)
+    frame = study_frame(table, cfg, days)
+    return frame, [prepare_day(table, frame, d, cfg) for d in days]

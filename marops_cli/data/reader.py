@@ -1,0 +1,365 @@
+"""Read and validate a LaDe-D delivery export, CSV or Parquet (SPEC §1).
+
+:func:`read_lade` returns the kept rows as a :class:`LadeTable` and accounts for
+every other row in its :class:`DropReport`. What is an error and what is dropped:
+
+- errors (:class:`InputError`, exit 2, naming file, row and column): a file that
+  is not CSV/Parquet, is empty or has no data rows; a missing required column; a
+  non-empty time that does not parse; a ``ds`` that is not a ``MMDD`` date; an
+  empty ``order_id``; a ``weight_kg`` (when the column exists) that is empty, not
+  a number or not positive.
+- dropped and counted, in this order of precedence (a row counts once, under the
+  first reason that applies): ``missing_time`` (accept or delivery time empty),
+  ``bad_coordinates`` (lng/lat empty, 0, not a number, NaN or out of range; a
+  non-numeric string is dropped rather than an error because real exports write
+  placeholders such as ``null`` or ``--`` there), ``duplicate`` (same order_id,
+  both times, lng and lat as an earlier row; the first is kept) and
+  ``delivery_before_accept``. With ``cfg.strict`` the first such row in file
+  order is an error instead.
+
+Row numbers are 1-based with the header as row 1, counting non-blank lines
+(pyarrow skips blank lines); for Parquet the first data row is row 2 as well.
+"""
+
+from __future__ import annotations
+
+import csv
+import hashlib
+import io
+import re
+from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+
+import numpy as np
+import pyarrow as pa
+import pyarrow.compute as pc
+import pyarrow.csv as pacsv
+import pyarrow.parquet as pq
+
+from ..config import DataConfig
+from ..errors import InputError
+from .dates import TIME_BAD, TIME_EMPTY, parse_ds, parse_times
+from .table import DROP_REASONS, REQUIRED_COLUMNS, DropReport, LadeTable, SourceInfo
+
+_OPTIONAL_COLUMNS = ("aoi_id", "weight_kg")
+# The column named when a row is dropped (in --strict errors), per reason.
+_REASON_COLUMN = {
+    "duplicate": "order_id",
+    "delivery_before_accept": "delivery_time",
+}
+_BLOCK_BYTES = 16 << 20  # pyarrow CSV block: large blocks parse faster on few cores
+
+
+def sha256_file(path: str | Path, chunk: int = 4 << 20) -> str:
+    """SHA-256 of a file, read in chunks so a large export never sits in memory whole."""
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        while block := f.read(chunk):
+            h.update(block)
+    return h.hexdigest()
+
+
+def _sniff(path: Path) -> tuple[str, str | None]:
+    """('csv' | 'parquet', compression) from the file's first bytes, else its suffix."""
+    try:
+        size = path.stat().st_size
+        with open(path, "rb") as f:
+            head = f.read(4096)
+    except FileNotFoundError as exc:
+        raise InputError("file not found", file=path) from exc
+    except OSError as exc:
+        raise InputError(f"cannot read the file ({exc.strerror})", file=path) from exc
+    if size == 0:
+        raise InputError("the file is empty", file=path)
+    if head[:4] == b"PAR1":
+        return "parquet", None
+    suffixes = [s.lower() for s in path.suffixes]
+    if suffixes[-1:] in ([".parquet"], [".pq"]):
+        raise InputError("not a Parquet file (no PAR1 magic bytes)", file=path)
+    if head[:2] == b"\x1f\x8b":
+        return "csv", "gzip"
+    if b"\x00" in head:
+        raise InputError("not a CSV or Parquet file", file=path)
+    try:
+        head.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        # A cut multi-byte character at the end of the sample is fine; bytes before it are not.
+        if exc.start < len(head) - 4:
+            raise InputError("not a CSV or Parquet file (not UTF-8 text)", file=path) from exc
+    return "csv", None
+
+
+def _csv_header(path: Path, compression: str | None) -> list[str]:
+    """Column names from the first line of a CSV file."""
+    try:
+        with pa.input_stream(str(path), compression=compression) as f:
+            head = f.read(1 << 20)
+    except (OSError, pa.ArrowException) as exc:
+        raise InputError(f"cannot read the file ({exc})", file=path) from exc
+    text = head.decode("utf-8", errors="replace").removeprefix("\ufeff")
+    if not text.strip():
+        raise InputError("the file is empty", file=path)
+    line = text.splitlines()[0]
+    if not line.strip():
+        raise InputError("expected column names on the first line, found a blank", file=path, row=1)
+    return [name.strip() for name in next(csv.reader([line]))]
+
+
+def _check_columns(names: list[str], path: Path) -> list[str]:
+    """The columns to load; raises for a missing required column."""
+    for name in REQUIRED_COLUMNS:
+        if name not in names:
+            raise InputError(
+                f"missing required column '{name}': not a LaDe delivery file "
+                f"(expected columns {', '.join(REQUIRED_COLUMNS)})",
+                file=path,
+                row=1,
+                column=name,
+            )
+    wanted = REQUIRED_COLUMNS + _OPTIONAL_COLUMNS
+    return [n for n in wanted if n in names]
+
+
+def _read_csv(path: Path, compression: str | None) -> pa.Table:
+    names = _csv_header(path, compression)
+    include = _check_columns(names, path)
+    # Every column as text: times and ids keep their exact form, and a stray word in
+    # a number column becomes a dropped row rather than a failed read.
+    types = {n: pa.string() for n in include}
+    convert = pacsv.ConvertOptions(
+        column_types=types,
+        include_columns=include,
+        strings_can_be_null=True,
+        null_values=[""],
+    )
+
+    def read(threads: bool) -> pa.Table:
+        opts = pacsv.ReadOptions(
+            column_names=names, skip_rows=1, block_size=_BLOCK_BYTES, use_threads=threads
+        )
+        with pa.input_stream(str(path), compression=compression) as f:
+            return pacsv.read_csv(f, read_options=opts, convert_options=convert)
+
+    try:
+        table = read(threads=True)
+    except pa.ArrowInvalid as exc:
+        raise _csv_error(exc, path, names, compression, lambda: read(threads=False)) from exc
+    if table.num_rows == 0:
+        raise InputError("the file has a header but no data rows", file=path, row=2)
+    return table
+
+
+def _csv_error(
+    exc: Exception,
+    path: Path,
+    names: list[str],
+    compression: str | None,
+    retry: Callable[[], object],
+) -> InputError:
+    """An InputError for a CSV the parser refused, with the row when it can be found."""
+    msg = str(exc)
+    if "invalid UTF8" in msg:
+        m = re.search(r"column #(\d+)", msg)
+        column = names[int(m.group(1))] if m and int(m.group(1)) < len(names) else None
+        row = _first_non_utf8_line(path, compression)
+        return InputError("not UTF-8 text", file=path, row=row, column=column)
+    # Only the single-threaded parser reports the row; the error path can afford it.
+    try:
+        retry()
+    except pa.ArrowInvalid as again:
+        msg = str(again)
+    m = re.search(r"Row #(\d+): ", msg)
+    row = int(m.group(1)) if m else None  # pyarrow counts the header as row 1 too
+    msg = re.sub(r"Row #\d+: ", "", msg.removeprefix("CSV parse error: ")).strip()
+    return InputError(f"not a valid CSV file: {msg}", file=path, row=row)
+
+
+def _first_non_utf8_line(path: Path, compression: str | None) -> int | None:
+    with pa.input_stream(str(path), compression=compression) as f:
+        for number, line in enumerate(io.BufferedReader(f), start=1):  # type: ignore[arg-type]
+            try:
+                line.decode("utf-8")
+            except UnicodeDecodeError:
+                return number
+    return None
+
+
+def _read_parquet(path: Path) -> pa.Table:
+    try:
+        pf = pq.ParquetFile(str(path))
+        include = _check_columns(list(pf.schema_arrow.names), path)
+        table = pf.read(columns=include)
+    except pa.ArrowException as exc:
+        raise InputError(f"not a valid Parquet file ({exc})", file=path) from exc
+    if table.num_rows == 0:
+        raise InputError("the file has no data rows", file=path, row=2)
+    return table
+
+
+def _numbers(column: pa.ChunkedArray) -> np.ndarray:
+    """A column of numbers or numeric text -> float64, NaN where empty or not a number."""
+    arr = column.combine_chunks()
+    if not (pa.types.is_string(arr.type) or pa.types.is_large_string(arr.type)):
+        return arr.cast(pa.float64()).to_numpy(zero_copy_only=False)
+    try:  # fast path: a clean column casts at once
+        values = arr.cast(pa.float64())
+    except pa.ArrowInvalid:
+        text = pc.utf8_trim_whitespace(arr)
+        num = r"^[-+]?(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$"
+        ok = pc.fill_null(pc.match_substring_regex(text, num), False)
+        values = pc.if_else(ok, text, pa.scalar(None, pa.string())).cast(pa.float64())
+    return values.to_numpy(zero_copy_only=False)
+
+
+def _strings(column: pa.ChunkedArray) -> np.ndarray:
+    """A column as an object array of str (ints in Parquet files become their digits)."""
+    if not (pa.types.is_string(column.type) or pa.types.is_large_string(column.type)):
+        column = column.cast(pa.string())
+    return column.fill_null("").to_numpy(zero_copy_only=False)
+
+
+def _first(mask: np.ndarray) -> int | None:
+    idx = np.flatnonzero(mask)
+    return int(idx[0]) if idx.size else None
+
+
+def _check_errors(table: pa.Table, path: Path, cfg: DataConfig) -> dict[str, np.ndarray]:
+    """Parse times, ds and weights; raise at the first cell that is an error, not a drop."""
+    out: dict[str, np.ndarray] = {}
+    bad: list[tuple[int, str, str]] = []  # (index, column, message)
+    for name in ("accept_time", "delivery_time"):
+        secs, status = parse_times(table[name], cfg.year)
+        out[name], out[name + "_status"] = secs, status
+        if (i := _first(status == TIME_BAD)) is not None:
+            value = table[name][i].as_py()
+            msg = f"expected a time MM-DD HH:MM:SS or YYYY-MM-DD HH:MM:SS, got {value!r}"
+            bad.append((i, name, msg))
+    if (i := _first(~parse_ds(table["ds"], cfg.year))) is not None:
+        value = table["ds"][i].as_py()
+        bad.append((i, "ds", f"expected a date MMDD in {cfg.year}, got {value!r}"))
+    oid = table["order_id"]
+    empty_id = pc.fill_null(pc.equal(pc.utf8_length(oid.cast(pa.string())), 0), True)
+    if (i := _first(empty_id.to_numpy(zero_copy_only=False))) is not None:
+        bad.append((i, "order_id", "expected an order id, got an empty cell"))
+    if "weight_kg" in table.column_names:
+        w = _numbers(table["weight_kg"])
+        if (i := _first(~((w > 0) & np.isfinite(w)))) is not None:
+            value = table["weight_kg"][i].as_py()
+            bad.append((i, "weight_kg", f"expected a positive weight in kg, got {value!r}"))
+        out["weight_kg"] = w
+    if bad:
+        i, column, message = min(bad)
+        raise InputError(message, file=path, row=i + 2, column=column)
+    return out
+
+
+def _good_lng(lng: np.ndarray) -> np.ndarray:
+    with np.errstate(invalid="ignore"):  # NaN compares False: dropped, as wanted
+        return (np.abs(lng) <= 180) & (lng != 0)
+
+
+def _good_lat(lat: np.ndarray) -> np.ndarray:
+    with np.errstate(invalid="ignore"):
+        return (np.abs(lat) <= 90) & (lat != 0)
+
+
+def _drop_reasons(
+    table: pa.Table, parsed: dict[str, np.ndarray]
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(reason code per row: 0 kept, k means DROP_REASONS[k-1]; lng; lat)."""
+    n = table.num_rows
+    code = np.zeros(n, dtype=np.int8)
+
+    def mark(mask: np.ndarray, reason: str) -> None:
+        code[(code == 0) & mask] = DROP_REASONS.index(reason) + 1
+
+    a_st, d_st = parsed["accept_time_status"], parsed["delivery_time_status"]
+    mark((a_st == TIME_EMPTY) | (d_st == TIME_EMPTY), "missing_time")
+    lng, lat = _numbers(table["lng"]), _numbers(table["lat"])
+    mark(~(_good_lng(lng) & _good_lat(lat)), "bad_coordinates")
+    accept, delivery = parsed["accept_time"], parsed["delivery_time"]
+    # Hash grouping over the rows still in play; the first occurrence has the lowest index.
+    live = np.flatnonzero(code == 0)
+    keys = pa.table(
+        {
+            "o": table["order_id"].cast(pa.string()).take(live),
+            "a": accept[live],
+            "d": delivery[live],
+            "x": lng[live],
+            "y": lat[live],
+            "i": live,
+        }
+    )
+    first = keys.group_by(["o", "a", "d", "x", "y"]).aggregate([("i", "min")])
+    is_dup = np.ones(n, dtype=bool)
+    is_dup[first["i_min"].to_numpy()] = False
+    mark(is_dup, "duplicate")
+    mark(delivery < accept, "delivery_before_accept")
+    return code, lng, lat
+
+
+def _strict_error(
+    code: np.ndarray, parsed: dict[str, np.ndarray], lng: np.ndarray, path: Path
+) -> InputError:
+    i = int(np.flatnonzero(code)[0])
+    reason = DROP_REASONS[code[i] - 1]
+    if reason == "missing_time":
+        column = "accept_time" if parsed["accept_time_status"][i] == TIME_EMPTY else "delivery_time"
+    elif reason == "bad_coordinates":
+        column = "lat" if _good_lng(lng[i : i + 1])[0] else "lng"
+    else:
+        column = _REASON_COLUMN[reason]
+    return InputError(
+        f"row would be dropped ({reason}) and --strict is set", file=path, row=i + 2, column=column
+    )
+
+
+def read_lade(path: str | Path, cfg: DataConfig | None = None) -> LadeTable:
+    """Read a LaDe-D delivery export (CSV, CSV.gz or Parquet) into a :class:`LadeTable`.
+
+    The format is told by the file's magic bytes (Parquet ``PAR1``, gzip), else
+    it is read as CSV. See the module docstring for what is dropped and what is
+    an error. Raises :class:`InputError` for bad input.
+    """
+    cfg = cfg if cfg is not None else DataConfig()
+    path = Path(path)
+    kind, compression = _sniff(path)
+    # Hashing the file overlaps the parse: both release the GIL on large buffers.
+    with ThreadPoolExecutor(max_workers=1) as pool:
+        digest = pool.submit(sha256_file, path)
+        table = _read_parquet(path) if kind == "parquet" else _read_csv(path, compression)
+        parsed = _check_errors(table, path, cfg)
+        code, lng, lat = _drop_reasons(table, parsed)
+        if cfg.strict and code.any():
+            raise _strict_error(code, parsed, lng, path)
+        keep = code == 0
+        idx = np.flatnonzero(keep)
+        kept = table.take(idx)
+        aoi = (
+            _strings(kept["aoi_id"])
+            if "aoi_id" in kept.column_names
+            else np.full(idx.size, "", dtype=object)
+        )
+        weight = parsed["weight_kg"][keep] if "weight_kg" in parsed else None
+        counts = np.bincount(code, minlength=len(DROP_REASONS) + 1)
+        report = DropReport(
+            total=int(code.size),
+            kept=int(idx.size),
+            dropped={r: int(counts[k + 1]) for k, r in enumerate(DROP_REASONS)},
+        )
+        source = SourceInfo(
+            path=str(path), name=path.name, size=path.stat().st_size, sha256=digest.result()
+        )
+    return LadeTable(
+        order_id=_strings(kept["order_id"]),
+        lng=lng[keep],
+        lat=lat[keep],
+        accept_s=parsed["accept_time"][keep],
+        delivery_s=parsed["delivery_time"][keep],
+        aoi_id=aoi,
+        weight_kg=weight,
+        row=(idx + 2).astype(np.int64),
+        source=source,
+        report=report,
+    )

@@ -1,0 +1,153 @@
+"""In-memory forms of LaDe data: the cleaned export and one prepared day."""
+
+from __future__ import annotations
+
+import datetime as dt
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .frame import Frame
+
+# Columns of a LaDe-D delivery export, in file order (SPEC §1).
+LADE_COLUMNS: tuple[str, ...] = (
+    "order_id",
+    "region_id",
+    "city",
+    "courier_id",
+    "lng",
+    "lat",
+    "aoi_id",
+    "aoi_type",
+    "accept_time",
+    "accept_gps_time",
+    "accept_gps_lng",
+    "accept_gps_lat",
+    "delivery_time",
+    "delivery_gps_time",
+    "delivery_gps_lng",
+    "delivery_gps_lat",
+    "ds",
+)
+# The columns the planner cannot do without.
+REQUIRED_COLUMNS: tuple[str, ...] = ("order_id", "lng", "lat", "accept_time", "delivery_time", "ds")
+
+# Reasons a row is dropped (reported to the user; ``--strict`` makes them errors).
+DROP_REASONS: tuple[str, ...] = (
+    "bad_coordinates",  # lng/lat empty, 0, or outside [-180, 180] x [-90, 90]
+    "duplicate",  # a repeat of an earlier row (same order_id and times)
+    "delivery_before_accept",
+    "missing_time",  # accept_time or delivery_time empty
+)
+
+
+@dataclass(frozen=True)
+class SourceInfo:
+    """Identity of an input file, recorded in every output's metadata."""
+
+    path: str
+    name: str
+    size: int
+    sha256: str
+
+    def to_dict(self) -> dict[str, object]:
+        return {"name": self.name, "size": self.size, "sha256": self.sha256}
+
+
+@dataclass
+class DropReport:
+    """Every row accounted for: ``total == kept + sum(dropped.values())``."""
+
+    total: int
+    kept: int
+    dropped: dict[str, int] = field(default_factory=dict)
+
+    @property
+    def n_dropped(self) -> int:
+        return int(sum(self.dropped.values()))
+
+    def to_dict(self) -> dict[str, object]:
+        return {"total": self.total, "kept": self.kept, "dropped": dict(self.dropped)}
+
+
+@dataclass
+class LadeTable:
+    """The kept rows of a LaDe export as numpy arrays, in file order.
+
+    Times are naive local seconds since 1970-01-01 (the export has no zone).
+    ``row`` is each request's 1-based row in the source file (header = row 1).
+    """
+
+    order_id: np.ndarray  # object array of str
+    lng: np.ndarray  # float64
+    lat: np.ndarray  # float64
+    accept_s: np.ndarray  # int64
+    delivery_s: np.ndarray  # int64
+    aoi_id: np.ndarray  # object array of str ("" when absent)
+    weight_kg: np.ndarray | None  # float64 when the file has weight_kg
+    row: np.ndarray  # int64
+    source: SourceInfo
+    report: DropReport
+
+    def __len__(self) -> int:
+        return int(self.order_id.shape[0])
+
+    @property
+    def delivery_day(self) -> np.ndarray:
+        """Date (datetime64[D]) of each request's delivery time: the day it is due."""
+        return (self.delivery_s // 86_400).astype("datetime64[D]")
+
+    def days(self) -> list[dt.date]:
+        """Sorted distinct due days in the file."""
+        return [d.item() for d in np.unique(self.delivery_day)]
+
+    def subset(self, mask: np.ndarray) -> LadeTable:
+        """Rows where ``mask`` holds (the report is kept as is)."""
+        return LadeTable(
+            order_id=self.order_id[mask],
+            lng=self.lng[mask],
+            lat=self.lat[mask],
+            accept_s=self.accept_s[mask],
+            delivery_s=self.delivery_s[mask],
+            aoi_id=self.aoi_id[mask],
+            weight_kg=None if self.weight_kg is None else self.weight_kg[mask],
+            row=self.row[mask],
+            source=self.source,
+            report=self.report,
+        )
+
+
+@dataclass
+class DayRequests:
+    """The requests due on one day inside the study area, ready for planning.
+
+    Windows are 0-based over service hours; ``visible_w`` <= ``due_w`` always.
+    ``due_s`` and ``accept_s`` are seconds from the start of service hours.
+    """
+
+    day: dt.date
+    frame: Frame
+    service_start_s: int  # seconds after midnight
+    window_s: float
+    n_windows: int
+    order_id: np.ndarray  # object array of str
+    x_m: np.ndarray
+    y_m: np.ndarray
+    lng: np.ndarray
+    lat: np.ndarray
+    weight_kg: np.ndarray
+    visible_w: np.ndarray  # int32
+    due_w: np.ndarray  # int32
+    due_s: np.ndarray  # float64
+    accept_s: np.ndarray  # float64 (negative when accepted before service start)
+
+    def __len__(self) -> int:
+        return int(self.order_id.shape[0])
+
+    @property
+    def window_hours(self) -> float:
+        return self.window_s / 3600.0
+
+    def window_start(self, w: int) -> dt.datetime:
+        base = dt.datetime.combine(self.day, dt.time())
+        return base + dt.timedelta(seconds=self.service_start_s + w * self.window_s)

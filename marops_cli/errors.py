@@ -1,0 +1,51 @@
+"""Errors that reach the user as one line and an exit code (OUTPUTS.md)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+
+class MaropsError(Exception):
+    """Base class: a failure the CLI reports as one line."""
+
+    exit_code = 1
+
+
+class InputError(MaropsError):
+    """Bad usage or bad input: exit code 2, the message names file, row and column.
+
+    ``row`` is 1-based with the header as row 1, as a spreadsheet shows it.
+    """
+
+    exit_code = 2
+
+    def __init__(
+        self,
+        message: str,
+        *,
+        file: str | Path | None = None,
+        row: int | None = None,
+        column: str | None = None,
+    ) -> None:
+        self.message = message
+        self.file = str(file) if file is not None else None
+        self.row = row
+        self.column = column
+        super().__init__(self.format())
+
+    def format(self) -> str:
+        where = []
+        if self.file is not None:
+            where.append(self.file)
+        if self.row is not None:
+            where.append(f"row {self.row}")
+        if self.column is not None:
+            where.append(f"column '{self.column}'")
+        prefix = ", ".join(where)
+        return f"{prefix}: {self.message}" if prefix else self.message
+
+
+class RunError(MaropsError):
+    """The run failed for a reason other than the input (exit code 1)."""
+
+    exit_code = 1

@@ -1,0 +1,296 @@
+"""Plan selection across drones (SPEC §4, paper Alg. 2 lines 13–16).
+
+x_uk = 1 if drone u flies plan k; each drone flies exactly one plan; each request is
+served at most once. Minimise Σ E_uk x_uk + λ Σ_c v_c (1 − y_c) with
+y_c = Σ_{k ∋ c} x_uk ≤ 1, v_c = 1 + delay_c (h), λ = ((1 − α)/α) · E_ref. Expanding
+y_c gives per-plan costs c_uk = E_uk − λ Σ_{c ∈ p_uk} v_c plus the constant λ Σ_c v_c.
+``strict_cover`` adds the paper's literal constraint (every candidate served exactly
+once) when it is feasible.
+
+What the solvers see: a drone's empty plan serves nothing, so it is the slack of the
+drone's row. Substituting x_u0 = 1 − Σ_{k>0} x_uk leaves one variable per non-empty
+plan with cost c_uk − c_u0 and rows that are all "≤ 1" (Σ_{k>0} x_uk ≤ 1 per drone,
+y_c ≤ 1 per request): one stacked sparse constraint, which keeps cvxpy's
+canonicalisation short. Both backends (cvxpy and highspy directly) solve this same
+matrix.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Literal, Protocol
+
+import cvxpy as cp
+import highspy
+import numpy as np
+import scipy.sparse as sp
+from numpy.typing import NDArray
+
+from ..config import PlanConfig
+from .plans import SelectionProblem
+
+__all__ = [
+    "GreedySelector",
+    "MilpSelector",
+    "SelectionResult",
+    "Selector",
+    "greedy_select",
+    "make_selector",
+    "solve_highs_direct",
+]
+
+_MIP_REL_GAP = 1e-7  # HiGHS' default 1e-4 of the objective is too loose to be "optimal"
+_CANON_BACKEND = "CPP"  # measured faster than "SCIPY" on these models (benchmarks/select.py)
+
+
+@dataclass(frozen=True)
+class SelectionResult:
+    """Chosen plan (local index) per drone and how it was found."""
+
+    chosen: NDArray[np.int64]
+    objective: float
+    status: str
+    fallback: bool
+    solve_s: float
+    build_s: float
+
+
+class Selector(Protocol):
+    """Chooses one plan per drone."""
+
+    def select(self, problem: SelectionProblem) -> SelectionResult: ...
+
+
+@dataclass(frozen=True)
+class _Milp:
+    """The reduced program: one column per non-empty plan, every row "≤ 1" (or "= 1")."""
+
+    cols: NDArray[np.int64]
+    """Plan column (in the problem) of each variable."""
+    cost: NDArray[np.float64]
+    """c_uk − c_u0, scaled to O(1); the objective is recomputed in joules afterwards."""
+    rows: sp.csr_matrix
+    """``(U + R, n)``: the drone rows, then the request rows."""
+    n_drones: int
+
+
+def _reduce(problem: SelectionProblem) -> _Milp:
+    empty = problem.offsets[:-1]
+    mask = np.ones(problem.n_plans, dtype=bool)
+    mask[empty] = False
+    cols = np.flatnonzero(mask)
+    owner = problem.drone[cols]
+    cost = problem.cost[cols] - problem.cost[empty][owner]
+    drone_rows = sp.csr_matrix(
+        (np.ones(cols.size), (owner, np.arange(cols.size))), shape=(problem.n_drones, cols.size)
+    )
+    rows = sp.vstack([drone_rows, problem.cover.tocsc()[:, cols]], format="csr")
+    scale = max(float(np.abs(cost).max(initial=0.0)), 1.0)
+    return _Milp(cols, cost / scale, rows, problem.n_drones)
+
+
+@dataclass
+class _Attempt:
+    x: NDArray[np.float64] | None
+    status: str
+    build_s: float
+    solve_s: float
+
+
+def _decode(
+    problem: SelectionProblem, milp: _Milp, x: NDArray[np.float64] | None
+) -> NDArray[np.int64] | None:
+    """Local plan index per drone from a 0/1 vector over non-empty plans; None if not one."""
+    if x is None or x.shape != milp.cols.shape or not np.all(np.isfinite(x)):
+        return None
+    xr = np.round(x)
+    if np.abs(x - xr).max(initial=0.0) > 1e-6 or xr.min(initial=0) < 0 or xr.max(initial=0) > 1:
+        return None
+    if np.any(milp.rows[: milp.n_drones] @ xr > 1):
+        return None
+    picked = milp.cols[xr > 0.5]
+    chosen = np.zeros(problem.n_drones, dtype=np.int64)
+    owner = problem.drone[picked]
+    chosen[owner] = picked - problem.offsets[owner]
+    return chosen
+
+
+def _solve_cvxpy(milp: _Milp, strict: bool, time_limit_s: float) -> _Attempt:
+    t0 = time.perf_counter()
+    x = cp.Variable(milp.cols.size, boolean=True)
+    if strict:
+        u = milp.n_drones
+        cons = [milp.rows[:u] @ x <= 1, milp.rows[u:] @ x == 1]
+    else:
+        cons = [milp.rows @ x <= 1]
+    prob = cp.Problem(cp.Minimize(milp.cost @ x), cons)
+    data, chain, inverse = prob.get_problem_data(
+        cp.HIGHS, ignore_dpp=True, canon_backend=_CANON_BACKEND
+    )
+    t1 = time.perf_counter()
+    # cvxpy passes solver keyword options to HiGHS' setOptionValue (cvxpy highs_conif.py)
+    opts = {"time_limit": float(time_limit_s), "mip_rel_gap": _MIP_REL_GAP}
+    raw = chain.solve_via_data(prob, data, solver_opts=opts)
+    prob.unpack_results(raw, chain, inverse)
+    found = raw["info"].primal_solution_status == highspy.kSolutionStatusFeasible
+    xv = np.asarray(x.value, dtype=np.float64) if found and x.value is not None else None
+    return _Attempt(xv, raw["model_status"], t1 - t0, time.perf_counter() - t1)
+
+
+def _solve_highs(milp: _Milp, strict: bool, time_limit_s: float) -> _Attempt:
+    t0 = time.perf_counter()
+    a = milp.rows.tocsc()
+    n_row, n_col = a.shape
+    lower = np.full(n_row, -highspy.kHighsInf)
+    if strict:
+        lower[milp.n_drones :] = 1.0
+    lp = highspy.HighsLp()
+    lp.num_col_, lp.num_row_ = n_col, n_row
+    lp.col_cost_ = milp.cost
+    lp.col_lower_, lp.col_upper_ = np.zeros(n_col), np.ones(n_col)
+    lp.row_lower_, lp.row_upper_ = lower, np.ones(n_row)
+    lp.a_matrix_.format_ = highspy.MatrixFormat.kColwise
+    lp.a_matrix_.start_, lp.a_matrix_.index_, lp.a_matrix_.value_ = a.indptr, a.indices, a.data
+    lp.integrality_ = [highspy.HighsVarType.kInteger] * n_col
+    h = highspy.Highs()
+    h.setOptionValue("output_flag", False)
+    h.setOptionValue("time_limit", float(time_limit_s))
+    h.setOptionValue("mip_rel_gap", _MIP_REL_GAP)
+    h.passModel(lp)
+    t1 = time.perf_counter()
+    h.run()
+    found = h.getInfo().primal_solution_status == highspy.kSolutionStatusFeasible
+    xv = np.asarray(h.getSolution().col_value, dtype=np.float64) if found else None
+    return _Attempt(xv, h.getModelStatus().name, t1 - t0, time.perf_counter() - t1)
+
+
+_Backend = Callable[[_Milp, bool, float], _Attempt]
+_BACKENDS: dict[str, _Backend] = {"cvxpy": _solve_cvxpy, "highs": _solve_highs}
+_STATUS = {"kOptimal": "optimal", "kTimeLimit": "time limit", "kInfeasible": "infeasible"}
+
+
+def greedy_select(problem: SelectionProblem) -> NDArray[np.int64]:
+    """Plans by cost gain over the drone's empty plan, best first, if compatible.
+
+    A plan is taken when its drone has none yet and none of its requests is taken;
+    drones left over fly their empty plan. Always feasible.
+    """
+    cost = problem.cost
+    gain = cost[problem.offsets[:-1]][problem.drone] - cost
+    chosen = np.zeros(problem.n_drones, dtype=np.int64)
+    assigned = np.zeros(problem.n_drones, dtype=bool)
+    taken = np.zeros(problem.cover.shape[0], dtype=bool)
+    by_plan = problem.cover.tocsc()
+    for p in np.argsort(-gain, kind="stable"):
+        if gain[p] <= 0:
+            break
+        u = problem.drone[p]
+        reqs = by_plan.indices[by_plan.indptr[p] : by_plan.indptr[p + 1]]
+        if assigned[u] or taken[reqs].any():
+            continue
+        chosen[u], assigned[u] = p - problem.offsets[u], True
+        taken[reqs] = True
+    return chosen
+
+
+class GreedySelector:
+    """:func:`greedy_select` as a :class:`Selector` (no strict cover, no solver)."""
+
+    def select(self, problem: SelectionProblem) -> SelectionResult:
+        t0 = time.perf_counter()
+        chosen = greedy_select(problem)
+        return SelectionResult(
+            chosen, problem.objective(chosen), "greedy", False, time.perf_counter() - t0, 0.0
+        )
+
+
+@dataclass
+class MilpSelector:
+    """The boolean program solved by HiGHS, through cvxpy or highspy directly.
+
+    ``time_limit_s`` is the budget of one selection; a strict-cover attempt that fails
+    leaves the relaxed solve the rest (at least a tenth of it). Any failure — solver
+    error, infeasible, time limit without an incumbent, or a solution that does not
+    verify — falls back to :func:`greedy_select` with ``fallback=True``.
+    """
+
+    time_limit_s: float = 2.0
+    strict_cover: bool = False
+    backend: Literal["cvxpy", "highs"] = "cvxpy"
+
+    def _attempt(
+        self, problem: SelectionProblem, milp: _Milp, strict: bool, limit: float
+    ) -> tuple[NDArray[np.int64] | None, _Attempt]:
+        """One solve, decoded and verified; ``None`` when there is no usable selection."""
+        if milp.cols.size == 0:  # only empty plans: nothing to decide
+            att = _Attempt(np.zeros(0), "kOptimal", 0.0, 0.0)
+        else:
+            try:
+                att = _BACKENDS[self.backend](milp, strict, limit)
+            except Exception as exc:  # any solver failure means: fall back
+                att = _Attempt(None, f"solver error ({type(exc).__name__}: {exc})", 0.0, 0.0)
+        att.status = _STATUS.get(att.status, att.status)
+        chosen = _decode(problem, milp, att.x)
+        if chosen is None:
+            if att.x is not None:
+                att.status += " (solution is not a selection)"
+            return None, att
+        reason = problem.violation(chosen)
+        if reason is None and strict and problem.served(chosen).min(initial=1) < 1:
+            reason = "a request is not covered"
+        if reason is not None:
+            att.status += f" (rejected: {reason})"
+            return None, att
+        return chosen, att
+
+    def select(self, problem: SelectionProblem) -> SelectionResult:
+        t0 = time.perf_counter()
+        milp = _reduce(problem)
+        build_s, solve_s = time.perf_counter() - t0, 0.0
+        prefix = ""
+        if self.strict_cover:
+            missing = problem.uncoverable()
+            if missing.size:
+                prefix = f"strict cover infeasible (in no plan: {missing[:5].tolist()}); relaxed: "
+            else:
+                chosen, att = self._attempt(problem, milp, True, self.time_limit_s)
+                build_s, solve_s = build_s + att.build_s, solve_s + att.solve_s
+                if chosen is not None:
+                    return SelectionResult(
+                        chosen,
+                        problem.objective(chosen),
+                        f"strict cover: {att.status}",
+                        False,
+                        solve_s,
+                        build_s,
+                    )
+                prefix = f"strict cover {att.status}; relaxed: "
+        limit = max(self.time_limit_s - build_s - solve_s, 0.1 * self.time_limit_s)
+        chosen, att = self._attempt(problem, milp, False, limit)
+        build_s, solve_s = build_s + att.build_s, solve_s + att.solve_s
+        status = prefix + att.status
+        fallback = chosen is None
+        if chosen is None:
+            t1 = time.perf_counter()
+            chosen = greedy_select(problem)
+            solve_s += time.perf_counter() - t1
+            status += "; fallback: greedy"
+        return SelectionResult(
+            chosen, problem.objective(chosen), status, fallback, solve_s, build_s
+        )
+
+
+def solve_highs_direct(
+    problem: SelectionProblem, time_limit_s: float = 2.0, strict_cover: bool = False
+) -> SelectionResult:
+    """The same program through highspy without cvxpy (benchmarks, cross-checks)."""
+    return MilpSelector(time_limit_s, strict_cover, backend="highs").select(problem)
+
+
+def make_selector(cfg: PlanConfig) -> Selector:
+    """The selector that ``cfg.solver`` names."""
+    if cfg.solver == "greedy":
+        return GreedySelector()
+    return MilpSelector(time_limit_s=cfg.time_limit_s, strict_cover=cfg.strict_cover)

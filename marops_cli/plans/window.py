@@ -1,0 +1,206 @@
+"""One window of planning (paper Alg. 2, improved): ranges -> candidates -> plans -> selection.
+
+Two scopes (SPEC §7):
+
+* ``range``: each drone's action picks its destination; its candidates are the
+  M̂ most delayed pending requests inside its flight range.
+* ``global`` (OPS-global): no flight range. The pool is the U·M̂ most delayed
+  pending requests of the whole map; each drone's candidates are the M̂ of the
+  pool nearest its depot; each plan lands at the depot nearest its last customer.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..config import PlanConfig
+from ..energy import EnergyModel
+from ..errors import RunError
+from ..policies.base import WindowView
+from .plans import NoFeasiblePlanError, PlanSet, build_plans
+from .ranges import pick_candidates
+from .select import SelectionProblem, SelectionResult, Selector
+
+
+@dataclass
+class DroneRoute:
+    """The route one drone flies in one window; ``stops`` index the day's requests."""
+
+    drone: int
+    start: int
+    end: int
+    action: int
+    stops: tuple[int, ...]
+    legs_m: np.ndarray  # (len(stops) + 1,)
+    legs_j: np.ndarray
+    payload_kg: float  # at take-off
+
+    @property
+    def distance_m(self) -> float:
+        return float(self.legs_m.sum())
+
+    @property
+    def energy_j(self) -> float:
+        return float(self.legs_j.sum())
+
+
+@dataclass
+class WindowPlan:
+    t: int
+    routes: list[DroneRoute]
+    selection: SelectionResult
+    n_candidates: int
+    timings: dict[str, float] = field(default_factory=dict)
+
+
+def _range_plans(
+    view: WindowView, actions: np.ndarray, model: EnergyModel, cfg: PlanConfig
+) -> tuple[list[PlanSet], np.ndarray, np.ndarray, float]:
+    dep = view.depots
+    plan_sets: list[PlanSet] = []
+    ends = np.zeros(view.n_drones, dtype=np.int64)
+    acts = np.asarray(actions, dtype=np.int64).copy()
+    t_cand = 0.0
+    for u, s in enumerate(view.drone_depot):
+        s = int(s)
+        t0 = time.perf_counter()
+        inside = view.ranges[s, acts[u]][view.pending_area]
+        idx = np.flatnonzero(inside)
+        dist = np.hypot(*(view.pending_xy[idx] - dep.xy[s]).T) if idx.size else np.zeros(0)
+        cand = pick_candidates(
+            idx, view.pending_delay_h[idx], view.pending_due_s[idx], dist, cfg.max_parcels
+        )
+        t_cand += time.perf_counter() - t0
+        dest = int(dep.candidates[s, acts[u]])
+        try:
+            ps = build_plans(
+                dep.xy[s], dep.xy[dest], view.pending_xy[cand], view.pending_weight[cand],
+                model, cfg, request_ids=cand,
+            )
+        except NoFeasiblePlanError:
+            # The destination is out of battery range: the drone stays (action 0).
+            acts[u], dest = 0, s
+            ps = build_plans(
+                dep.xy[s], dep.xy[s], view.pending_xy[cand], view.pending_weight[cand],
+                model, cfg, request_ids=cand,
+            )
+        plan_sets.append(ps)
+        ends[u] = dest
+    return plan_sets, ends, acts, t_cand
+
+
+def _global_plans(
+    view: WindowView, model: EnergyModel, cfg: PlanConfig
+) -> tuple[list[PlanSet], list[np.ndarray], float]:
+    """OPS-global candidates; returns each drone's plan sets and each plan's end depot."""
+    dep = view.depots
+    t0 = time.perf_counter()
+    n_pool = view.n_drones * cfg.max_parcels
+    order = np.lexsort(
+        (np.arange(view.pending_idx.size), view.pending_due_s, -view.pending_delay_h)
+    )
+    pool = order[:n_pool]
+    t_cand = time.perf_counter() - t0
+    e0 = float(model.energy_per_m(0.0))
+    plan_sets, plan_ends = [], []
+    for s in view.drone_depot:
+        s = int(s)
+        t0 = time.perf_counter()
+        d = np.hypot(*(view.pending_xy[pool] - dep.xy[s]).T)
+        cand = pool[np.lexsort((pool, d))[: cfg.max_parcels]]
+        t_cand += time.perf_counter() - t0
+        ps = build_plans(
+            dep.xy[s], dep.xy[s], view.pending_xy[cand], view.pending_weight[cand],
+            model, cfg, request_ids=cand,
+        )
+        # Land at the depot nearest the last customer instead of flying back: the
+        # last leg is flown empty, so only its length changes (never longer).
+        sizes = (ps.order >= 0).sum(axis=1)
+        last = np.where(sizes > 0, ps.order[np.arange(ps.n_plans), np.maximum(sizes - 1, 0)], -1)
+        ends = np.full(ps.n_plans, s, dtype=np.int64)
+        energy, distance = ps.energy_j.copy(), ps.distance_m.copy()
+        has = last >= 0
+        if has.any():
+            lxy = view.pending_xy[cand[last[has]]]
+            d_all = np.hypot(lxy[:, None, 0] - dep.xy[None, :, 0], lxy[:, None, 1] - dep.xy[None, :, 1])
+            near = np.argmin(d_all, axis=1)
+            back = d_all[:, s]
+            new = d_all[np.arange(near.size), near]
+            ends[has] = near
+            distance[has] += new - back
+            energy[has] += e0 * (new - back)
+        plan_sets.append(
+            PlanSet(ps.request_ids, ps.members, ps.order, energy, distance, ps.weight_kg)
+        )
+        plan_ends.append(ends)
+    return plan_sets, plan_ends, t_cand
+
+
+def plan_window(
+    view: WindowView,
+    actions: np.ndarray,
+    model: EnergyModel,
+    cfg: PlanConfig,
+    selector: Selector,
+    scope: str = "range",
+) -> WindowPlan:
+    """Plan every drone's route for window ``view.t``; routes always respect payload,
+    battery and the one-visit rule (checked before returning)."""
+    t_start = time.perf_counter()
+    acts = np.asarray(actions, dtype=np.int64)
+    if scope == "global":
+        plan_sets, plan_ends, t_cand = _global_plans(view, model, cfg)
+        acts = np.zeros(view.n_drones, dtype=np.int64)
+    else:
+        plan_sets, ends, acts, t_cand = _range_plans(view, acts, model, cfg)
+        plan_ends = [np.full(ps.n_plans, ends[u]) for u, ps in enumerate(plan_sets)]
+    t_plans = time.perf_counter() - t_start - t_cand
+    delay = {int(i): float(view.pending_delay_h[i]) for ps in plan_sets for i in ps.request_ids}
+    problem = SelectionProblem.from_plan_sets(
+        plan_sets, delay, alpha=cfg.alpha, energy_ref_j=model.usable_j
+    )
+    sel = selector.select(problem)
+    routes = []
+    for u, ps in enumerate(plan_sets):
+        k = int(sel.chosen[u])
+        start, end = int(view.drone_depot[u]), int(plan_ends[u][k])
+        stops_pos = ps.route(k)
+        pts = np.vstack(
+            [view.depots.xy[start], view.pending_xy[list(stops_pos)].reshape(-1, 2),
+             view.depots.xy[end]]
+        )
+        w = view.pending_weight[list(stops_pos)]
+        legs_m, legs_j = model.route_energy(pts, w)
+        routes.append(
+            DroneRoute(
+                drone=u, start=start, end=end, action=int(acts[u]),
+                stops=tuple(int(view.pending_idx[p]) for p in stops_pos),
+                legs_m=np.asarray(legs_m), legs_j=np.asarray(legs_j), payload_kg=float(w.sum()),
+            )
+        )
+    plan = WindowPlan(
+        t=view.t, routes=routes, selection=sel, n_candidates=int(problem.request_ids.size),
+        timings={
+            "candidates": t_cand, "plans": t_plans, "build": sel.build_s, "solve": sel.solve_s,
+            "total": time.perf_counter() - t_start,
+        },
+    )
+    check_routes(plan.routes, model)
+    return plan
+
+
+def check_routes(routes: list[DroneRoute], model: EnergyModel) -> None:
+    """Raise :class:`RunError` if any route breaks payload, battery or one visit per order."""
+    seen: set[int] = set()
+    for r in routes:
+        if r.payload_kg > model.max_payload_kg + 1e-9:
+            raise RunError(f"drone {r.drone}: payload {r.payload_kg:.3f} kg over the limit")
+        if r.energy_j > model.usable_j + 1e-6:
+            raise RunError(f"drone {r.drone}: energy {r.energy_j:.0f} J over the usable battery")
+        for s in r.stops:
+            if s in seen:
+                raise RunError(f"order index {s} visited twice in one window")
+            seen.add(s)

@@ -1,0 +1,19 @@
+"""Flight-range policies: the protocol, baselines, observation and TorchScript loader."""
+
+from .base import Policy, WindowView
+from .baselines import GlobalPolicy, GreedyPolicy, RandomPolicy, StayPolicy
+from .observation import OBS_VERSION, obs_dim, observe
+from .registry import make_policy
+
+__all__ = [
+    "OBS_VERSION",
+    "GlobalPolicy",
+    "GreedyPolicy",
+    "Policy",
+    "RandomPolicy",
+    "StayPolicy",
+    "WindowView",
+    "make_policy",
+    "obs_dim",
+    "observe",
+]

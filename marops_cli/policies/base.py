@@ -1,0 +1,62 @@
+"""The flight-range policy protocol and the window view that policies read."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Literal, Protocol, runtime_checkable
+
+import numpy as np
+
+from ..segment.depots import Depots
+
+
+@dataclass
+class WindowView:
+    """What the drones know at the start of window ``t`` (paper §IV-B, the state).
+
+    ``pending_*`` arrays describe the visible, undelivered requests; ``ranges`` is
+    the ``(N, A, N)`` flight-range table of :func:`marops_cli.plans.ranges.range_table`.
+    """
+
+    t: int
+    n_windows: int
+    window_h: float
+    depots: Depots
+    ranges: np.ndarray
+    drone_depot: np.ndarray  # (U,) depot id of each drone
+    pending_idx: np.ndarray  # (P,) index of each pending request in the day's arrays
+    pending_xy: np.ndarray  # (P, 2) metres
+    pending_area: np.ndarray  # (P,) service area (depot id)
+    pending_delay_h: np.ndarray  # (P,)
+    pending_due_w: np.ndarray  # (P,)
+    pending_due_s: np.ndarray  # (P,) due time, seconds from service start
+    pending_weight: np.ndarray  # (P,)
+
+    @property
+    def n_drones(self) -> int:
+        return int(self.drone_depot.shape[0])
+
+    def action_mask(self) -> np.ndarray:
+        """``(U, A)`` True where the action exists (a depot has fewer candidates when N < A)."""
+        n_cand = self.depots.candidates.shape[1]
+        return np.ones((self.n_drones, n_cand), dtype=bool)
+
+
+@runtime_checkable
+class Policy(Protocol):
+    """Chooses each drone's destination among its depot's action candidates.
+
+    ``scope`` is ``"range"`` for the paper's flight ranges and ``"global"`` for the
+    whole-map baseline (the planner then ignores the actions).
+    """
+
+    name: str
+    scope: Literal["range", "global"]
+
+    def reset(self, seed: int) -> None:
+        """Start a new day (recurrent state, random streams)."""
+        ...
+
+    def act(self, view: WindowView) -> np.ndarray:
+        """Action index (0 = stay) for every drone, shape ``(U,)``."""
+        ...

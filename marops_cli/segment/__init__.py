@@ -1,0 +1,15 @@
+"""Depots, service areas and action candidates (SPEC §2)."""
+
+from .areas import area_polygons, areas_geojson
+from .depots import Depots, nearest_candidates
+from .methods import kmeans_depots, segment_points, squares_depots
+
+__all__ = [
+    "Depots",
+    "area_polygons",
+    "areas_geojson",
+    "kmeans_depots",
+    "nearest_candidates",
+    "segment_points",
+    "squares_depots",
+]

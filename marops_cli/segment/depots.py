@@ -1,0 +1,121 @@
+"""Depots, their service areas and action candidates (SPEC §2, paper Alg. 1)."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..data.frame import Frame
+from ..errors import InputError
+
+
+def nearest_candidates(xy: np.ndarray, n_actions: int) -> np.ndarray:
+    """Each depot's action candidates: itself first, then its nearest other depots.
+
+    Ties in distance go to the lower depot id, so the table is reproducible.
+    Returns an ``(N, min(n_actions, N))`` int array.
+    """
+    n = xy.shape[0]
+    k = min(n_actions, n)
+    d = np.hypot(xy[:, None, 0] - xy[None, :, 0], xy[:, None, 1] - xy[None, :, 1])
+    np.fill_diagonal(d, -1.0)  # itself always first
+    order = np.lexsort((np.broadcast_to(np.arange(n), (n, n)), d), axis=1)
+    return order[:, :k].astype(np.int64)
+
+
+@dataclass
+class Depots:
+    """Depot positions in the study frame, with their action candidates.
+
+    The service area of a depot is its Voronoi cell inside the study square: a
+    point belongs to its nearest depot.
+    """
+
+    method: str
+    frame: Frame
+    xy: np.ndarray  # (N, 2) metres
+    n_history: np.ndarray  # (N,) history requests in each area
+    candidates: np.ndarray  # (N, A) depot ids, itself first
+
+    def __len__(self) -> int:
+        return int(self.xy.shape[0])
+
+    @property
+    def n_actions(self) -> int:
+        return int(self.candidates.shape[1])
+
+    def lnglat(self) -> tuple[np.ndarray, np.ndarray]:
+        return self.frame.to_lnglat(self.xy[:, 0], self.xy[:, 1])
+
+    def assign(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """Service area (depot id) of each point: its nearest depot, ties to the lower id."""
+        x = np.asarray(x, dtype=np.float64)
+        y = np.asarray(y, dtype=np.float64)
+        if x.size == 0:
+            return np.zeros(0, dtype=np.int64)
+        d2 = (x[:, None] - self.xy[None, :, 0]) ** 2 + (y[:, None] - self.xy[None, :, 1]) ** 2
+        return np.argmin(d2, axis=1).astype(np.int64)
+
+    def with_actions(self, n_actions: int) -> Depots:
+        """The same depots with a different number of action candidates."""
+        return Depots(
+            self.method, self.frame, self.xy, self.n_history, nearest_candidates(self.xy, n_actions)
+        )
+
+    def to_dict(self, meta: dict[str, Any]) -> dict[str, Any]:
+        """The ``depots.json`` document of OUTPUTS.md."""
+        lng, lat = self.lnglat()
+        return {
+            "meta": meta,
+            "method": self.method,
+            "frame": self.frame.to_dict(),
+            "depots": [
+                {
+                    "id": i,
+                    "x_m": round(float(self.xy[i, 0]), 3),
+                    "y_m": round(float(self.xy[i, 1]), 3),
+                    "lng": round(float(lng[i]), 7),
+                    "lat": round(float(lat[i]), 7),
+                    "n_history": int(self.n_history[i]),
+                }
+                for i in range(len(self))
+            ],
+            "candidates": {str(i): [int(c) for c in self.candidates[i]] for i in range(len(self))},
+        }
+
+    @classmethod
+    def from_dict(cls, doc: dict[str, Any], source: str = "depots.json") -> Depots:
+        try:
+            frame = Frame(**{k: float(v) for k, v in doc["frame"].items()})
+            rows = sorted(doc["depots"], key=lambda d: int(d["id"]))
+            xy = np.array([[float(d["x_m"]), float(d["y_m"])] for d in rows], dtype=np.float64)
+            n_hist = np.array([int(d.get("n_history", 0)) for d in rows], dtype=np.int64)
+            cand = np.array(
+                [[int(c) for c in doc["candidates"][str(i)]] for i in range(len(rows))],
+                dtype=np.int64,
+            )
+            method = str(doc.get("method", "kmeans"))
+        except (KeyError, TypeError, ValueError) as exc:
+            raise InputError(f"not a marops depots file (missing or bad {exc})", file=source) from exc
+        if xy.shape[0] == 0:
+            raise InputError("the depots file lists no depots", file=source)
+        if cand.ndim != 2 or cand.min() < 0 or cand.max() >= xy.shape[0]:
+            raise InputError("candidates refer to unknown depots", file=source, column="candidates")
+        if not np.array_equal(cand[:, 0], np.arange(xy.shape[0])):
+            raise InputError("each depot must list itself first", file=source, column="candidates")
+        return cls(method, frame, xy, n_hist, cand)
+
+    @classmethod
+    def load(cls, path: str | Path) -> Depots:
+        p = Path(path)
+        try:
+            doc = json.loads(p.read_text(encoding="utf-8"))
+        except FileNotFoundError as exc:
+            raise InputError("depots file not found", file=p) from exc
+        except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+            raise InputError(f"not a JSON file ({exc})", file=p) from exc
+        return cls.from_dict(doc, source=str(p))

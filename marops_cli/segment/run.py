@@ -1,0 +1,64 @@
+"""``segment`` as one library call: read a LaDe file, place the study area, segment it."""
+
+from __future__ import annotations
+
+import datetime as dt
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..config import PlannerConfig
+from ..data.frame import Frame
+from ..data.prepare import study_frame
+from ..data.reader import read_lade
+from ..data.table import LadeTable
+from ..errors import InputError
+from .depots import Depots
+from .methods import segment_points
+
+
+@dataclass
+class SegmentResult:
+    depots: Depots
+    table: LadeTable
+    days: list[dt.date]
+    history_xy: np.ndarray  # (n, 2) customer points used, metres
+
+
+def history_points(
+    table: LadeTable, frame: Frame, days: list[dt.date] | None
+) -> tuple[np.ndarray, list[dt.date]]:
+    """Customer locations of the history days that fall inside the study square."""
+    all_days = table.days()
+    if days:
+        missing = [d for d in days if d not in set(all_days)]
+        if missing:
+            raise InputError(
+                f"date {missing[0].isoformat()} not in the file "
+                f"(it has {all_days[0].isoformat()}..{all_days[-1].isoformat()})",
+                file=table.source.path,
+                column="delivery_time",
+            )
+        mask = np.isin(table.delivery_day, np.array(days, dtype="datetime64[D]"))
+    else:
+        days = all_days
+        mask = np.ones(len(table), dtype=bool)
+    x, y = frame.to_xy(table.lng[mask], table.lat[mask])
+    inside = frame.contains(x, y)
+    if not inside.any():
+        raise InputError(
+            "the study area holds no requests on the chosen days", file=table.source.path
+        )
+    return np.column_stack([x[inside], y[inside]]), days
+
+
+def segment_file(
+    path: str | Path, cfg: PlannerConfig, days: list[dt.date] | None = None
+) -> SegmentResult:
+    """Depots and service areas for the requests of ``days`` (all days when None)."""
+    table = read_lade(path, cfg.data)
+    frame = study_frame(table, cfg.data, days or None)
+    pts, used_days = history_points(table, frame, days)
+    depots = segment_points(pts[:, 0], pts[:, 1], frame, cfg.segment)
+    return SegmentResult(depots, table, used_days, pts)

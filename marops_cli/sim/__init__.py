@@ -1,0 +1,7 @@
+"""Day simulation: state, replay loop, metrics (SPEC §5, §8)."""
+
+from .metrics import day_metrics, gini
+from .replay import DayResult, replay_day
+from .state import DayState, default_fleet
+
+__all__ = ["DayResult", "DayState", "day_metrics", "default_fleet", "gini", "replay_day"]

@@ -1,0 +1,41 @@
+"""Every command and every option explains itself."""
+
+from __future__ import annotations
+
+import typer
+from typer.testing import CliRunner
+
+from marops_cli.cli.app import app
+
+runner = CliRunner()
+
+
+def _commands() -> dict:
+    group = typer.main.get_command(app)
+    return dict(group.commands)  # type: ignore[attr-defined]
+
+
+def test_root_help_lists_every_command() -> None:
+    result = runner.invoke(app, ["--help"])
+    assert result.exit_code == 0
+    for name in _commands():
+        assert name in result.output
+
+
+def test_every_command_and_option_has_help() -> None:
+    commands = _commands()
+    assert {"synth", "segment"} <= set(commands)
+    for name, cmd in commands.items():
+        assert cmd.help and len(cmd.help.strip()) > 10, name
+        for param in cmd.params:
+            if param.param_type_name == "option":
+                assert param.help and param.help.strip(), f"{name} {param.opts} has no help"
+        result = runner.invoke(app, [name, "--help"])
+        assert result.exit_code == 0, name
+        assert "Usage" in result.output
+
+
+def test_version() -> None:
+    result = runner.invoke(app, ["--version"])
+    assert result.exit_code == 0
+    assert result.output.startswith("marops ")

@@ -1,0 +1,111 @@
+"""Day specs on the command line and the vectorised time/ds parsers."""
+
+from __future__ import annotations
+
+import datetime as dt
+
+import numpy as np
+import pyarrow as pa
+import pytest
+
+from marops_cli.data.dates import (
+    TIME_BAD,
+    TIME_EMPTY,
+    TIME_OK,
+    format_days,
+    parse_day,
+    parse_days,
+    parse_ds,
+    parse_times,
+)
+from marops_cli.errors import InputError
+
+AUG20 = dt.date(2022, 8, 20)
+
+
+@pytest.mark.parametrize("text", ["820", "0820", "08-20", "2022-08-20", "20220820", " 820 "])
+def test_parse_day_forms(text: str) -> None:
+    assert parse_day(text, 2022) == AUG20
+
+
+def test_parse_day_uses_year_only_when_missing() -> None:
+    assert parse_day("820", 2023) == dt.date(2023, 8, 20)
+    assert parse_day("2021-08-20", 2023) == dt.date(2021, 8, 20)
+
+
+@pytest.mark.parametrize("text", ["0230", "1301", "aug 20", "", "82", "2022-13-01", "12345"])
+def test_parse_day_bad_names_the_value(text: str) -> None:
+    with pytest.raises(InputError) as err:
+        parse_day(text, 2022)
+    assert repr(text) in str(err.value)
+    assert err.value.exit_code == 2
+
+
+def test_parse_day_leap_year_follows_the_setting() -> None:
+    assert parse_day("0229", 2024) == dt.date(2024, 2, 29)
+    with pytest.raises(InputError):
+        parse_day("0229", 2022)
+
+
+def test_parse_days_list_and_range() -> None:
+    assert parse_days("0820,0821", 2022) == [AUG20, dt.date(2022, 8, 21)]
+    days = parse_days("0820..0827", 2022)
+    assert days[0] == AUG20 and days[-1] == dt.date(2022, 8, 27) and len(days) == 8
+    # Ranges across a month end, mixed with single days; repeats listed once, order kept.
+    assert parse_days("0831..901,820,0831", 2022) == [
+        dt.date(2022, 8, 31),
+        dt.date(2022, 9, 1),
+        AUG20,
+    ]
+
+
+@pytest.mark.parametrize("spec", ["0827..0820", "0820,,0821", "", "0820..x"])
+def test_parse_days_bad(spec: str) -> None:
+    with pytest.raises(InputError):
+        parse_days(spec, 2022)
+
+
+def test_format_days() -> None:
+    assert format_days([dt.date(2022, 8, 30), dt.date(2022, 8, 1)]) == "2022-08-01..2022-08-30"
+    assert format_days([AUG20]) == "2022-08-20"
+    assert format_days([]) == "no dates"
+
+
+def test_parse_times_formats_and_status() -> None:
+    col = pa.chunked_array(
+        [
+            ["08-20 10:31:05", "2022-08-20 10:31:05", " 08-20 10:31:05 ", None],
+            ["", "02-29 10:00:00", "08-20 24:00:00", "8-20 10:31:05", "08-20 10:31:05x"],
+        ]
+    )
+    secs, status = parse_times(col, 2022)
+    expect = np.datetime64("2022-08-20T10:31:05", "s").astype(np.int64)
+    np.testing.assert_array_equal(secs[:3], [expect] * 3)
+    np.testing.assert_array_equal(status, [TIME_OK] * 3 + [TIME_EMPTY] * 2 + [TIME_BAD] * 4)
+
+
+def test_parse_times_matches_numpy_datetime() -> None:
+    # Every minute-ish over a year, in both formats: equals numpy's own parse.
+    stamps = np.arange(
+        np.datetime64("2024-01-01T00:00:07"), np.datetime64("2025-01-01T00:00:00"), 3607
+    )
+    full = pa.array([str(s).replace("T", " ") for s in stamps])
+    short = pa.array([str(s)[5:].replace("T", " ") for s in stamps])
+    expect = stamps.astype("datetime64[s]").astype(np.int64)
+    for col in (full, short):
+        secs, status = parse_times(col, 2024)
+        assert (status == TIME_OK).all()
+        np.testing.assert_array_equal(secs, expect)
+
+
+def test_parse_times_timestamp_column() -> None:
+    col = pa.array([dt.datetime(2022, 8, 20, 10, 31, 5), None], pa.timestamp("ms"))
+    secs, status = parse_times(col, 2022)
+    assert secs[0] == np.datetime64("2022-08-20T10:31:05", "s").astype(np.int64)
+    np.testing.assert_array_equal(status, [TIME_OK, TIME_EMPTY])
+
+
+def test_parse_ds() -> None:
+    text = pa.array(["820", "0820", "1231", "20220820", "1301", "0230", "", None, "x", " 820"])
+    np.testing.assert_array_equal(parse_ds(text, 2022), [True] * 4 + [False] * 5 + [True])
+    np.testing.assert_array_equal(parse_ds(pa.array([820, 229, None]), 2022), [True, False, False])

@@ -1,0 +1,72 @@
+"""The local equirectangular frame and the densest-square study area."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from marops_cli.data.frame import EARTH_RADIUS_M, Frame, densest_square
+
+
+def haversine_m(lng1, lat1, lng2, lat2) -> np.ndarray:
+    p1, p2 = np.radians(lat1), np.radians(lat2)
+    dp, dl = p2 - p1, np.radians(np.asarray(lng2) - np.asarray(lng1))
+    a = np.sin(dp / 2) ** 2 + np.cos(p1) * np.cos(p2) * np.sin(dl / 2) ** 2
+    return 2 * EARTH_RADIUS_M * np.arcsin(np.sqrt(a))
+
+
+def test_round_trip() -> None:
+    f = Frame(121.47, 31.23, 10.0)
+    rng = np.random.default_rng(0)
+    lng = 121.47 + rng.uniform(-0.1, 0.1, 1000)
+    lat = 31.23 + rng.uniform(-0.1, 0.1, 1000)
+    x, y = f.to_xy(lng, lat)
+    back_lng, back_lat = f.to_lnglat(x, y)
+    np.testing.assert_allclose(back_lng, lng, rtol=0, atol=1e-10)  # ~10 um
+    np.testing.assert_allclose(back_lat, lat, rtol=0, atol=1e-10)
+    np.testing.assert_allclose(f.to_xy(np.array([121.47]), np.array([31.23])), [[0], [0]])
+
+
+@pytest.mark.parametrize("center_lat", [22.5, 31.23, 39.9, 45.0])
+def test_equirectangular_error_under_0_1_percent(center_lat: float) -> None:
+    """Distances between points of a 10 km square: planar vs great-circle within 0.1 %."""
+    f = Frame(121.47, center_lat, 10.0)
+    rng = np.random.default_rng(1)
+    x = rng.uniform(-5000, 5000, (2, 4000))
+    y = rng.uniform(-5000, 5000, (2, 4000))
+    lng, lat = f.to_lnglat(x, y)
+    planar = np.hypot(x[0] - x[1], y[0] - y[1])
+    sphere = haversine_m(lng[0], lat[0], lng[1], lat[1])
+    keep = sphere > 100.0  # relative error of very short legs is noise on tiny numbers
+    rel = np.abs(planar[keep] - sphere[keep]) / sphere[keep]
+    assert rel.max() < 1e-3
+    # The corner-to-corner diagonal (~14 km) as well.
+    clng, clat = f.to_lnglat(np.array([-5000.0, 5000.0]), np.array([-5000.0, 5000.0]))
+    d = haversine_m(clng[0], clat[0], clng[1], clat[1])
+    np.testing.assert_allclose(d, np.hypot(10_000, 10_000), rtol=1e-3)
+
+
+def test_contains_edges() -> None:
+    f = Frame(121.47, 31.23, 10.0)
+    x = np.array([0.0, 5000.0, -5000.0, 5000.1, 0.0])
+    y = np.array([0.0, 5000.0, 0.0, 0.0, -5000.1])
+    np.testing.assert_array_equal(f.contains(x, y), [True, True, True, False, False])
+
+
+def test_densest_square_finds_the_cluster() -> None:
+    rng = np.random.default_rng(2)
+    ref = Frame(121.47, 31.23, 10.0)
+    # 3000 points spread over 40 km, and 1500 in a 1 km cluster 12 km east, 6 km north.
+    sx, sy = rng.uniform(-20_000, 20_000, (2, 3000))
+    cx, cy = 12_000 + rng.normal(0, 1000, 1500), 6_000 + rng.normal(0, 1000, 1500)
+    lng, lat = ref.to_lnglat(np.r_[sx, cx], np.r_[sy, cy])
+    frame = densest_square(lng, lat, 5.0, 250.0)
+    fx, fy = ref.to_xy(np.array([frame.center_lng]), np.array([frame.center_lat]))
+    np.testing.assert_allclose([fx[0], fy[0]], [12_000, 6_000], atol=1000)
+    assert frame.size_km == 5.0
+    assert densest_square(lng, lat, 5.0, 250.0) == frame  # reproducible
+
+
+def test_densest_square_empty() -> None:
+    with pytest.raises(ValueError):
+        densest_square(np.array([]), np.array([]), 10.0)

@@ -1,0 +1,327 @@
+"""read_lade on tiny hand-written exports: what is kept, dropped, and refused."""
+
+from __future__ import annotations
+
+import gzip
+import hashlib
+from pathlib import Path
+
+import numpy as np
+import pyarrow as pa
+import pyarrow.parquet as pq
+import pytest
+
+from marops_cli.config import DataConfig
+from marops_cli.data.reader import read_lade
+from marops_cli.data.table import DROP_REASONS, LADE_COLUMNS
+from marops_cli.errors import InputError
+
+
+def row(
+    oid: str,
+    lng: str = "121.47",
+    lat: str = "31.23",
+    acc: str = "08-20 08:00:00",
+    dlv: str = "08-20 10:15:00",
+    ds: str = "820",
+    **extra: str,
+) -> dict[str, str]:
+    """One LaDe row as text; columns not given get plausible filler."""
+    r = {c: "1" for c in LADE_COLUMNS}
+    r.update(
+        order_id=oid,
+        city="Shanghai",
+        lng=lng,
+        lat=lat,
+        accept_time=acc,
+        delivery_time=dlv,
+        ds=ds,
+        aoi_id=f"aoi{oid}",
+    )
+    r.update(extra)
+    return r
+
+
+def write_csv(path: Path, rows: list[dict[str, str]], columns=LADE_COLUMNS) -> Path:
+    lines = [",".join(columns)] + [",".join(r.get(c, "") for c in columns) for r in rows]
+    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    return path
+
+
+CLEAN = [
+    row("1001", "121.4700", "31.2300", "08-20 08:00:00", "08-20 10:15:00"),
+    row("1002", "121.4800", "31.2400", "08-20 09:30:00", "08-20 11:00:30"),
+    row("1003", "121.4900", "31.2500", "08-19 20:00:00", "08-21 09:00:00", ds="821"),
+]
+
+
+def sec(text: str) -> int:
+    return int(np.datetime64(text, "s").astype(np.int64))
+
+
+def assert_accounted(table) -> None:
+    rep = table.report
+    assert rep.total == rep.kept + rep.n_dropped
+    assert rep.kept == len(table)
+    assert set(rep.dropped) == set(DROP_REASONS)
+
+
+def test_clean_file(tmp_path: Path) -> None:
+    path = write_csv(tmp_path / "delivery_sh.csv", CLEAN)
+    t = read_lade(path, DataConfig())
+    assert list(t.order_id) == ["1001", "1002", "1003"]
+    assert all(isinstance(o, str) for o in t.order_id)
+    np.testing.assert_allclose(t.lng, [121.47, 121.48, 121.49], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(t.lat, [31.23, 31.24, 31.25], rtol=0, atol=1e-12)
+    np.testing.assert_array_equal(
+        t.accept_s,
+        [sec("2022-08-20T08:00:00"), sec("2022-08-20T09:30:00"), sec("2022-08-19T20:00:00")],
+    )
+    np.testing.assert_array_equal(t.delivery_s[1], sec("2022-08-20T11:00:30"))
+    np.testing.assert_array_equal(t.row, [2, 3, 4])
+    assert list(t.aoi_id) == ["aoi1001", "aoi1002", "aoi1003"]
+    assert t.weight_kg is None
+    assert t.report.to_dict() == {"total": 3, "kept": 3, "dropped": dict.fromkeys(DROP_REASONS, 0)}
+    data = path.read_bytes()
+    assert t.source.name == "delivery_sh.csv"
+    assert t.source.size == len(data)
+    assert t.source.sha256 == hashlib.sha256(data).hexdigest()
+    assert [str(d) for d in t.days()] == ["2022-08-20", "2022-08-21"]
+
+
+def test_year_setting(tmp_path: Path) -> None:
+    t = read_lade(write_csv(tmp_path / "d.csv", CLEAN[:1]), DataConfig(year=2021))
+    assert t.accept_s[0] == sec("2021-08-20T08:00:00")
+
+
+def test_bad_rows_dropped_and_counted(tmp_path: Path) -> None:
+    rows = [
+        CLEAN[0],
+        row("2", lng="0"),  # bad_coordinates (row 3)
+        row("3", lat=""),  # bad_coordinates
+        row("4", lng="null"),  # bad_coordinates: a placeholder word
+        row("5", lat="95.0"),  # bad_coordinates: out of range
+        dict(CLEAN[0]),  # duplicate of row 2 (row 7)
+        row("6", acc="08-20 12:00:00", dlv="08-20 11:00:00"),  # delivery_before_accept
+        row("7", acc=""),  # missing_time
+        row("8", dlv=""),  # missing_time
+        row("9", acc="", lng="0"),  # both: missing_time wins
+        CLEAN[1],
+        row("1001", dlv="08-20 10:15:01"),  # same id, other time: not a duplicate
+    ]
+    t = read_lade(write_csv(tmp_path / "d.csv", rows), DataConfig())
+    assert t.report.dropped == {
+        "bad_coordinates": 4,
+        "duplicate": 1,
+        "delivery_before_accept": 1,
+        "missing_time": 3,
+    }
+    assert t.report.total == 12 and t.report.kept == 3
+    assert_accounted(t)
+    np.testing.assert_array_equal(t.row, [2, 12, 13])
+    assert list(t.order_id) == ["1001", "1002", "1001"]
+
+
+@pytest.mark.parametrize(
+    ("bad", "column", "reason"),
+    [
+        (row("2", lng="0"), "lng", "bad_coordinates"),
+        (row("2", lat=""), "lat", "bad_coordinates"),
+        (dict(CLEAN[0]), "order_id", "duplicate"),
+        (
+            row("2", acc="08-20 12:00:00", dlv="08-20 11:00:00"),
+            "delivery_time",
+            "delivery_before_accept",
+        ),
+        (row("2", dlv=""), "delivery_time", "missing_time"),
+    ],
+)
+def test_strict_names_first_dropped_row(tmp_path: Path, bad, column: str, reason: str) -> None:
+    path = write_csv(tmp_path / "d.csv", [CLEAN[0], bad, row("9", lng="0")])
+    read_lade(path, DataConfig())  # fine without --strict
+    with pytest.raises(InputError) as err:
+        read_lade(path, DataConfig(strict=True))
+    e = err.value
+    assert (e.row, e.column) == (3, column)
+    assert reason in str(e) and "d.csv" in str(e) and "row 3" in str(e)
+
+
+def test_strict_clean_file_reads(tmp_path: Path) -> None:
+    t = read_lade(write_csv(tmp_path / "d.csv", CLEAN), DataConfig(strict=True))
+    assert len(t) == 3
+
+
+def test_missing_column(tmp_path: Path) -> None:
+    cols = [c for c in LADE_COLUMNS if c != "delivery_time"]
+    path = write_csv(tmp_path / "nodlv.csv", CLEAN, cols)
+    with pytest.raises(InputError) as err:
+        read_lade(path, DataConfig())
+    e = err.value
+    assert (e.row, e.column, e.exit_code) == (1, "delivery_time", 2)
+    assert "nodlv.csv" in str(e) and "row 1" in str(e) and "'delivery_time'" in str(e)
+
+
+def test_extra_columns_and_any_order(tmp_path: Path) -> None:
+    cols = ["note", *reversed(LADE_COLUMNS)]
+    rows = [dict(r, note="x,y") for r in CLEAN]  # an extra column with a comma
+    lines = [",".join(cols)] + [
+        ",".join('"x,y"' if c == "note" else r[c] for c in cols) for r in rows
+    ]
+    path = tmp_path / "shuffled.csv"
+    path.write_text("\n".join(lines) + "\n")
+    t = read_lade(path, DataConfig())
+    ref = read_lade(write_csv(tmp_path / "ref.csv", CLEAN), DataConfig())
+    np.testing.assert_array_equal(t.delivery_s, ref.delivery_s)
+    np.testing.assert_array_equal(t.lng, ref.lng)
+    assert list(t.order_id) == list(ref.order_id)
+
+
+def test_only_required_columns(tmp_path: Path) -> None:
+    cols = ["order_id", "lng", "lat", "accept_time", "delivery_time", "ds"]
+    t = read_lade(write_csv(tmp_path / "min.csv", CLEAN, cols), DataConfig())
+    assert list(t.aoi_id) == ["", "", ""]
+
+
+@pytest.mark.parametrize(
+    ("column", "value", "expect"),
+    [
+        ("accept_time", "08-32 08:00:00", "08-32 08:00:00"),
+        ("delivery_time", "2022/08/20 10:15", "2022/08/20 10:15"),
+        ("accept_time", "02-29 08:00:00", "02-29"),  # no Feb 29 in 2022
+        ("ds", "2013", "2013"),
+        ("ds", "aug", "aug"),
+    ],
+)
+def test_unparseable_cell_is_an_error(tmp_path: Path, column: str, value: str, expect: str) -> None:
+    rows = [CLEAN[0], CLEAN[1], dict(CLEAN[2], **{column: value})]
+    path = write_csv(tmp_path / "badtime.csv", rows)
+    with pytest.raises(InputError) as err:
+        read_lade(path, DataConfig())
+    e = err.value
+    assert (e.row, e.column) == (4, column)
+    msg = str(e)
+    assert "badtime.csv" in msg and "row 4" in msg and f"column '{column}'" in msg
+    assert expect in msg
+
+
+def test_error_beats_drop_and_earliest_row_wins(tmp_path: Path) -> None:
+    rows = [row("1", lng="0"), row("2", ds="x"), row("3", acc="99-99 00:00:00")]
+    with pytest.raises(InputError) as err:
+        read_lade(write_csv(tmp_path / "d.csv", rows), DataConfig())
+    assert (err.value.row, err.value.column) == (3, "ds")
+
+
+def test_empty_order_id_is_an_error(tmp_path: Path) -> None:
+    with pytest.raises(InputError) as err:
+        read_lade(write_csv(tmp_path / "d.csv", [CLEAN[0], row("")]), DataConfig())
+    assert (err.value.row, err.value.column) == (3, "order_id")
+
+
+def test_full_date_format_equals_short(tmp_path: Path) -> None:
+    full = [
+        dict(r, accept_time="2022-" + r["accept_time"], delivery_time="2022-" + r["delivery_time"])
+        for r in CLEAN
+    ]
+    a = read_lade(write_csv(tmp_path / "full.csv", full), DataConfig())
+    b = read_lade(write_csv(tmp_path / "short.csv", CLEAN), DataConfig())
+    np.testing.assert_array_equal(a.accept_s, b.accept_s)
+    np.testing.assert_array_equal(a.delivery_s, b.delivery_s)
+
+
+def test_not_a_lade_file(tmp_path: Path) -> None:
+    path = tmp_path / "people.csv"
+    path.write_text("name,age\nann,31\n")
+    with pytest.raises(InputError) as err:
+        read_lade(path, DataConfig())
+    assert "people.csv" in str(err.value) and err.value.row == 1
+    assert "not a LaDe delivery file" in str(err.value)
+
+
+def test_binary_file(tmp_path: Path) -> None:
+    path = tmp_path / "image.png"
+    path.write_bytes(b"\x89PNG\r\n\x1a\n\x00\x00\x00\rIHDR" + bytes(range(256)))
+    with pytest.raises(InputError, match="image.png.*not a CSV or Parquet file"):
+        read_lade(path, DataConfig())
+
+
+def test_fake_parquet_suffix(tmp_path: Path) -> None:
+    path = write_csv(tmp_path / "d.parquet", CLEAN)
+    with pytest.raises(InputError, match="d.parquet.*not a Parquet file"):
+        read_lade(path, DataConfig())
+
+
+@pytest.mark.parametrize(
+    ("text", "msg"),
+    [("", "empty"), ("\n\n", "empty"), (",".join(LADE_COLUMNS) + "\n", "no data rows")],
+)
+def test_empty_files(tmp_path: Path, text: str, msg: str) -> None:
+    path = tmp_path / "empty.csv"
+    path.write_text(text)
+    with pytest.raises(InputError, match=msg) as err:
+        read_lade(path, DataConfig())
+    assert "empty.csv" in str(err.value)
+
+
+def test_missing_file(tmp_path: Path) -> None:
+    with pytest.raises(InputError, match="nothere.csv.*not found"):
+        read_lade(tmp_path / "nothere.csv", DataConfig())
+
+
+def test_ragged_row(tmp_path: Path) -> None:
+    path = write_csv(tmp_path / "ragged.csv", CLEAN)
+    path.write_text(path.read_text() + "1,2,3\n")
+    with pytest.raises(InputError) as err:
+        read_lade(path, DataConfig())
+    assert "ragged.csv" in str(err.value) and "not a valid CSV" in str(err.value)
+
+
+def _as_parquet(tmp_path: Path, name: str) -> Path:
+    """The CLEAN rows as Parquet with numbers typed as numbers (as real Parquet exports)."""
+    t = pa.table({c: [r[c] for r in CLEAN] for c in LADE_COLUMNS})
+    t = t.set_column(
+        t.schema.get_field_index("order_id"),
+        "order_id",
+        pa.array([int(r["order_id"]) for r in CLEAN]),
+    )
+    for c in ("lng", "lat"):
+        t = t.set_column(t.schema.get_field_index(c), c, pa.array([float(r[c]) for r in CLEAN]))
+    t = t.set_column(t.schema.get_field_index("ds"), "ds", pa.array([int(r["ds"]) for r in CLEAN]))
+    pq.write_table(t, tmp_path / name)
+    return tmp_path / name
+
+
+@pytest.mark.parametrize("name", ["d.parquet", "d.pq", "d_no_suffix"])
+def test_parquet_equals_csv(tmp_path: Path, name: str) -> None:
+    a = read_lade(_as_parquet(tmp_path, name), DataConfig())
+    b = read_lade(write_csv(tmp_path / "d.csv", CLEAN), DataConfig())
+    for field in ("order_id", "lng", "lat", "accept_s", "delivery_s", "aoi_id", "row"):
+        np.testing.assert_array_equal(getattr(a, field), getattr(b, field))
+    assert a.report == b.report
+
+
+def test_gzip_csv(tmp_path: Path) -> None:
+    plain = write_csv(tmp_path / "d.csv", CLEAN)
+    for name in ("d.csv.gz", "d_gz_no_suffix"):
+        gz = tmp_path / name
+        gz.write_bytes(gzip.compress(plain.read_bytes()))
+        t = read_lade(gz, DataConfig())
+        np.testing.assert_array_equal(t.delivery_s, read_lade(plain, DataConfig()).delivery_s)
+
+
+def test_weight_column(tmp_path: Path) -> None:
+    cols = [*LADE_COLUMNS, "weight_kg"]
+    rows = [dict(r, weight_kg=w) for r, w in zip(CLEAN, ["0.25", "1.5", "2"], strict=True)]
+    t = read_lade(write_csv(tmp_path / "w.csv", rows, cols), DataConfig())
+    np.testing.assert_allclose(t.weight_kg, [0.25, 1.5, 2.0], rtol=0, atol=0)
+    rows[1]["weight_kg"] = "heavy"
+    with pytest.raises(InputError) as err:
+        read_lade(write_csv(tmp_path / "w.csv", rows, cols), DataConfig())
+    assert (err.value.row, err.value.column) == (3, "weight_kg")
+
+
+def test_bom_and_crlf(tmp_path: Path) -> None:
+    path = write_csv(tmp_path / "d.csv", CLEAN)
+    path.write_bytes(b"\xef\xbb\xbf" + path.read_bytes().replace(b"\n", b"\r\n"))
+    t = read_lade(path, DataConfig())
+    assert list(t.order_id) == ["1001", "1002", "1003"]
+    np.testing.assert_array_equal(t.row, [2, 3, 4])

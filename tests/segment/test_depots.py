@@ -1,0 +1,117 @@
+"""Depots, candidates, service areas: hand-checkable layouts."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+from sklearn.cluster import KMeans
+
+from marops_cli.config import SegmentConfig
+from marops_cli.data.frame import Frame
+from marops_cli.errors import InputError
+from marops_cli.segment import (
+    Depots,
+    area_polygons,
+    areas_geojson,
+    kmeans_depots,
+    nearest_candidates,
+    squares_depots,
+)
+
+FRAME = Frame(121.47, 31.23, 10.0)
+
+
+def _poly_area(poly: list[tuple[float, float]]) -> float:
+    arr = np.array(poly)
+    x, y = arr[:, 0], arr[:, 1]
+    return 0.5 * abs(float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1))))
+
+
+def test_candidates_itself_first_then_nearest() -> None:
+    # Four depots on a line at 0, 1, 3, 7 km: depot 1's nearest are 0 (1 km), then 2 (2 km).
+    xy = np.array([[0.0, 0.0], [1000.0, 0.0], [3000.0, 0.0], [7000.0, 0.0]])
+    cand = nearest_candidates(xy, 3)
+    assert cand.tolist() == [[0, 1, 2], [1, 0, 2], [2, 1, 0], [3, 2, 1]]
+
+
+def test_candidates_ties_go_to_lower_id_and_cap_at_n() -> None:
+    xy = np.array([[0.0, 0.0], [1000.0, 0.0], [-1000.0, 0.0]])
+    cand = nearest_candidates(xy, 10)
+    assert cand.shape == (3, 3)
+    assert cand[0].tolist() == [0, 1, 2]  # 1 and 2 both 1 km away: lower id first
+
+
+def test_squares_gives_regular_grid() -> None:
+    cfg = SegmentConfig(method="squares", n_depots=16)
+    dep = squares_depots(np.zeros(1), np.zeros(1), FRAME, cfg)
+    xs = np.unique(np.round(dep.xy[:, 0], 6))
+    ys = np.unique(np.round(dep.xy[:, 1], 6))
+    assert_allclose(xs, [-3750.0, -1250.0, 1250.0, 3750.0], atol=1e-9)
+    assert_allclose(ys, xs, atol=1e-9)
+    # Every cell is a 2.5 km square: the Voronoi cells of a regular grid.
+    for poly in area_polygons(dep):
+        assert_allclose(_poly_area(poly), 2500.0**2, rtol=1e-9)
+
+
+def test_squares_needs_square_number() -> None:
+    with pytest.raises(ValueError, match="square number"):
+        SegmentConfig(method="squares", n_depots=10)
+
+
+def test_kmeans_inertia_matches_sklearn() -> None:
+    rng = np.random.default_rng(3)
+    centres = rng.uniform(-4000, 4000, size=(8, 2))
+    pts = np.concatenate([c + rng.normal(0, 400, size=(300, 2)) for c in centres])
+    cfg = SegmentConfig(n_depots=8, seed=5)
+    dep = kmeans_depots(pts[:, 0], pts[:, 1], FRAME, cfg)
+    ref = KMeans(n_clusters=8, n_init=cfg.n_init, random_state=5).fit(pts)
+    ours = float(((pts - dep.xy[dep.assign(pts[:, 0], pts[:, 1])]) ** 2).sum())
+    assert abs(ours - ref.inertia_) / ref.inertia_ < 0.01
+    assert dep.n_history.sum() == pts.shape[0]
+    assert (dep.candidates[:, 0] == np.arange(8)).all()
+
+
+def test_kmeans_needs_enough_points() -> None:
+    with pytest.raises(InputError, match="fewer than the 16 depots"):
+        kmeans_depots(np.zeros(3), np.zeros(3), FRAME, SegmentConfig())
+
+
+def test_areas_partition_the_square() -> None:
+    rng = np.random.default_rng(0)
+    xy = rng.uniform(-5000, 5000, size=(9, 2))
+    dep = Depots("kmeans", FRAME, xy, np.zeros(9, dtype=int), nearest_candidates(xy, 4))
+    polys = area_polygons(dep)
+    assert_allclose(sum(_poly_area(p) for p in polys), 10_000.0**2, rtol=1e-9)
+    # A point inside depot i's polygon is assigned to depot i: test each polygon's centroid.
+    for i, poly in enumerate(polys):
+        c = np.array(poly).mean(axis=0)
+        assert dep.assign(c[:1], c[1:])[0] == i
+
+
+def test_json_round_trip_and_geojson(tmp_path) -> None:
+    xy = np.array([[0.0, 0.0], [2000.0, 0.0], [0.0, 3000.0]])
+    dep = Depots("kmeans", FRAME, xy, np.array([5, 6, 7]), nearest_candidates(xy, 2))
+    doc = dep.to_dict({"version": "x"})
+    assert doc["candidates"] == {"0": [0, 1], "1": [1, 0], "2": [2, 0]}
+    path = tmp_path / "depots.json"
+    path.write_text(json.dumps(doc))
+    back = Depots.load(path)
+    assert_allclose(back.xy, xy, atol=1e-3)
+    assert back.candidates.tolist() == dep.candidates.tolist()
+    assert back.frame == FRAME
+    gj = areas_geojson(dep, {})
+    kinds = [f["properties"]["kind"] for f in gj["features"]]
+    assert kinds.count("depot") == 3 and kinds.count("service_area") == 3
+
+
+def test_bad_depots_file(tmp_path) -> None:
+    p = tmp_path / "d.json"
+    p.write_text("{not json")
+    with pytest.raises(InputError, match="d.json"):
+        Depots.load(p)
+    p.write_text(json.dumps({"frame": {}, "depots": []}))
+    with pytest.raises(InputError, match="not a marops depots file"):
+        Depots.load(p)
