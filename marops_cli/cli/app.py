@@ -8,6 +8,8 @@ import typer
 
 from .. import __version__
 from .common import STATE
+from .plan_window_cmd import plan_window
+from .replay_cmd import replay_day
 from .segment_cmd import segment
 from .synth_cmd import synth
 
@@ -43,6 +45,8 @@ def _root(
 
 app.command("synth")(synth)
 app.command("segment")(segment)
+app.command("plan-window")(plan_window)
+app.command("replay-day")(replay_day)
 
 
 def main() -> None:

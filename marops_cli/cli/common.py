@@ -16,7 +16,10 @@ from ..config import PlannerConfig, load_config, override
 from ..data.table import DropReport
 from ..errors import InputError, MaropsError
 
-console = Console(stderr=True, highlight=False)
+console = Console(stderr=True, highlight=False, width=None if sys.stderr.isatty() else 140)
+"""Messages and progress (stderr)."""
+out = Console(highlight=False, width=None if sys.stdout.isatty() else 140)
+"""Result tables (stdout), so a cron job's log keeps them whole."""
 STATE: dict[str, bool] = {"debug": False}
 
 F = TypeVar("F", bound=Callable[..., Any])

@@ -15,6 +15,7 @@ from ..segment.plot import plot_depots
 from ..segment.run import segment_file
 from .common import (
     console,
+    out as out_console,
     guarded,
     make_config,
     parse_center,
@@ -121,4 +122,4 @@ def _print_summary(res) -> None:  # type: ignore[no-untyped-def]
         x, y = res.depots.xy[i] / 1000.0
         cands = " ".join(str(c) for c in res.depots.candidates[i])
         t.add_row(str(i), f"{x:.2f}", f"{y:.2f}", f"{res.depots.n_history[i]:,}", cands)
-    console.print(t)
+    out_console.print(t)

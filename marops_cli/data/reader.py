@@ -279,20 +279,20 @@ def _drop_reasons(
     lng, lat = _numbers(table["lng"]), _numbers(table["lat"])
     mark(~(_good_lng(lng) & _good_lat(lat)), "bad_coordinates")
     accept, delivery = parsed["accept_time"], parsed["delivery_time"]
-    # Hash grouping over the rows still in play; the first occurrence has the lowest index.
+    # Only rows whose order id repeats can be duplicates: few in a real export, so the
+    # five-key grouping runs on a handful of rows instead of all 1.5 million.
     live = np.flatnonzero(code == 0)
+    oid = table["order_id"].cast(pa.string()).take(live)
+    ids = pc.dictionary_encode(oid).combine_chunks().indices.to_numpy()
+    cand = np.bincount(ids)[ids] > 1
+    live, oid = live[cand], oid.filter(pa.array(cand))
     keys = pa.table(
-        {
-            "o": table["order_id"].cast(pa.string()).take(live),
-            "a": accept[live],
-            "d": delivery[live],
-            "x": lng[live],
-            "y": lat[live],
-            "i": live,
-        }
-    )
+        {"o": oid, "a": accept[live], "d": delivery[live], "x": lng[live], "y": lat[live]}
+    ).append_column("i", pa.array(live))
+    # The first occurrence of each key has the lowest row index.
     first = keys.group_by(["o", "a", "d", "x", "y"]).aggregate([("i", "min")])
-    is_dup = np.ones(n, dtype=bool)
+    is_dup = np.zeros(n, dtype=bool)
+    is_dup[live] = True
     is_dup[first["i_min"].to_numpy()] = False
     mark(is_dup, "duplicate")
     mark(delivery < accept, "delivery_before_accept")
@@ -329,8 +329,11 @@ def read_lade(path: str | Path, cfg: DataConfig | None = None) -> LadeTable:
     with ThreadPoolExecutor(max_workers=1) as pool:
         digest = pool.submit(sha256_file, path)
         table = _read_parquet(path) if kind == "parquet" else _read_csv(path, compression)
+        # mimalloc keeps freed parse buffers; returning them cuts the peak by ~200 MB.
+        pa.default_memory_pool().release_unused()
         parsed = _check_errors(table, path, cfg)
         code, lng, lat = _drop_reasons(table, parsed)
+        pa.default_memory_pool().release_unused()
         if cfg.strict and code.any():
             raise _strict_error(code, parsed, lng, path)
         keep = code == 0

@@ -29,18 +29,16 @@ def run_meta(
     method: str | None = None,
     seed: int | None = None,
     extra: dict[str, Any] | None = None,
+    stamp: bool = True,
 ) -> dict[str, Any]:
     """Version, resolved config, input identity, policy identity, method and seed.
 
-    The run's timestamp lives here only, never in the data tables, so that route
-    files stay byte-identical across runs.
+    ``stamp`` adds the run's UTC time. Route files are written without it, so the
+    same input, config and seed give byte-identical files.
     """
-    meta: dict[str, Any] = {
-        "package": "marops",
-        "version": __version__,
-        "command": command,
-        "created": dt.datetime.now(dt.UTC).replace(microsecond=0).isoformat(),
-    }
+    meta: dict[str, Any] = {"package": "marops", "version": __version__, "command": command}
+    if stamp:
+        meta["created"] = dt.datetime.now(dt.UTC).replace(microsecond=0).isoformat()
     if config is not None:
         meta["config"] = config.model_dump(mode="json")
     if source is not None:

@@ -153,3 +153,20 @@ def table_records(table: pa.Table) -> list[dict[str, Any]]:
             if isinstance(v, dt.datetime):
                 row[k] = v.isoformat()
     return rows
+
+
+def write_route_files(
+    files: Any, out: Path, stops: pa.Table, routes: pa.Table, meta: dict[str, Any]
+) -> list[Path]:
+    """``X.parquet`` (stops) + ``X.routes.parquet``, or one ``X.json`` with meta/stops/routes."""
+    if out.suffix == ".json":
+        files.write_json(
+            out, {"meta": meta, "stops": table_records(stops), "routes": table_records(routes)}
+        )
+        return [out]
+    if out.suffix != ".parquet":
+        raise ValueError(f"expected --out to end in .parquet or .json, got {out.name}")
+    routes_path = out.with_name(out.name.removesuffix(".parquet") + ".routes.parquet")
+    files.write_with(out, lambda p: write_parquet(with_meta(stops, meta), p))
+    files.write_with(routes_path, lambda p: write_parquet(with_meta(routes, meta), p))
+    return [out, routes_path]

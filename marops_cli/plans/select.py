@@ -78,17 +78,26 @@ class _Milp:
 
 def _reduce(problem: SelectionProblem) -> _Milp:
     empty = problem.offsets[:-1]
-    mask = np.ones(problem.n_plans, dtype=bool)
-    mask[empty] = False
-    cols = np.flatnonzero(mask)
+    keep = np.ones(problem.n_plans, dtype=bool)
+    keep[empty] = False
+    cols = np.flatnonzero(keep)
+    n, u = cols.size, problem.n_drones
     owner = problem.drone[cols]
     cost = problem.cost[cols] - problem.cost[empty][owner]
-    drone_rows = sp.csr_matrix(
-        (np.ones(cols.size), (owner, np.arange(cols.size))), shape=(problem.n_drones, cols.size)
+    remap = np.cumsum(keep) - 1  # plan column -> variable (empty plans serve no request)
+    cover = problem.cover.tocoo()
+    rows = sp.csr_matrix(
+        (
+            np.ones(n + cover.nnz),
+            (
+                np.concatenate([owner, u + cover.row]),
+                np.concatenate([np.arange(n), remap[cover.col]]),
+            ),
+        ),
+        shape=(u + cover.shape[0], n),
     )
-    rows = sp.vstack([drone_rows, problem.cover.tocsc()[:, cols]], format="csr")
     scale = max(float(np.abs(cost).max(initial=0.0)), 1.0)
-    return _Milp(cols, cost / scale, rows, problem.n_drones)
+    return _Milp(cols, cost / scale, rows, u)
 
 
 @dataclass

@@ -1,0 +1,114 @@
+"""``marops plan-window``: plan one window for the whole fleet."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.table import Table
+
+from ..data.dates import parse_day
+from ..energy import EnergyModel
+from ..errors import InputError
+from ..io import output_set, run_meta
+from ..io.tables import build_tables, write_route_files
+from ..sim.jobs import delivered_orders, load_fleet, load_scenario, method_policy, plan_one_window
+from . import options as o
+from .common import console, out as out_console, guarded, make_config, require_input
+
+
+@guarded
+def plan_window(
+    data: Annotated[Path, typer.Argument(help="LaDe delivery export (CSV or Parquet).")],
+    depots: Annotated[Path, typer.Option("--depots", help="depots.json from marops segment.")],
+    date: Annotated[str, typer.Option("--date", help="Day to plan: 820, 0820 or 2022-08-20.")],
+    window: Annotated[int, typer.Option("--window", help="0-based window index in the day.")],
+    out: Annotated[
+        Path, typer.Option("--out", help="routes.parquet (+ .routes.parquet) or routes.json.")
+    ],
+    fleet: Annotated[
+        Path | None,
+        typer.Option("--fleet", help="JSON list of each drone's depot [spread over busiest]."),
+    ] = None,
+    drones: o.Drones = None,
+    delivered: Annotated[
+        Path | None,
+        typer.Option("--delivered", help="Earlier stops Parquet: its orders are not planned again."),
+    ] = None,
+    policy: o.Policy = None,
+    method: Annotated[
+        str, typer.Option("--method", help="Method name recorded in the output and its policy.")
+    ] = "greedy",
+    alpha: o.Alpha = None,
+    ordering: o.Ordering = None,
+    strict_cover: o.StrictCover = False,
+    seed: o.Seed = None,
+    year: o.Year = None,
+    strict: o.Strict = False,
+    config: o.Config = None,
+) -> None:
+    """Plan one time window: flight ranges, candidate plans, optimal plan selection."""
+    require_input(data)
+    if out.suffix not in (".parquet", ".json"):
+        raise InputError(f"--out must end in .parquet or .json, got {out.name}")
+    cfg = make_config(
+        config,
+        data__year=year,
+        data__strict=strict or None,
+        plan__alpha=alpha,
+        plan__ordering=ordering,
+        plan__strict_cover=strict_cover or None,
+        sim__drones=drones,
+        sim__seed=seed,
+    )
+    day = parse_day(date, cfg.data.year)
+    scn = load_scenario(data, cfg, depots_path=depots, replay_days=[day])
+    fleet_arr = load_fleet(fleet, scn.depots, cfg.sim.drones)
+    pol = method_policy(method, policy, cfg.sim.seed)
+    done = delivered_orders(delivered) if delivered is not None else None
+    plan, reqs = plan_one_window(scn, day, window, fleet_arr, pol, done)
+    model = EnergyModel(cfg.energy)
+    stops, routes = build_tables(reqs, scn.depots, [plan], model, method)
+    meta = run_meta(
+        command="plan-window",
+        config=cfg,
+        source=scn.table.source,
+        policy=pol.path if hasattr(pol, "path") else pol.name,
+        method=method,
+        seed=cfg.sim.seed,
+        extra={
+            "day": day.isoformat(),
+            "window": window,
+            "solver": {
+                "status": plan.selection.status,
+                "fallback": plan.selection.fallback,
+                "objective": plan.selection.objective,
+            },
+        },
+        stamp=False,
+    )
+    with output_set() as files:
+        written = write_route_files(files, out, stops, routes, meta)
+    _summary(plan, model, reqs.window_start(window).strftime("%Y-%m-%d %H:%M"))
+    console.print("wrote " + ", ".join(str(p) for p in written))
+
+
+def _summary(plan, model: EnergyModel, when: str) -> None:  # type: ignore[no-untyped-def]
+    t = Table(
+        title=f"window {plan.t} ({when}): {plan.n_candidates} candidate requests, "
+        f"solver {plan.selection.status}" + (" (greedy fallback)" if plan.selection.fallback else ""),
+        title_justify="left",
+    )
+    for col in ("drone", "from → to", "parcels", "km", "kJ", "battery %"):
+        t.add_column(col, justify="right")
+    for r in plan.routes:
+        t.add_row(
+            str(r.drone),
+            f"{r.start} → {r.end}",
+            str(len(r.stops)),
+            f"{r.distance_m / 1000:.2f}",
+            f"{r.energy_j / 1000:.1f}",
+            f"{100 * r.energy_j / model.cfg.battery_j:.1f}",
+        )
+    out_console.print(t)

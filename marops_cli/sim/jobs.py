@@ -1,0 +1,197 @@
+"""The analyst's jobs as library calls: load a scenario, plan one window, replay a day.
+
+A *method* (SPEC §7) is a segmentation, a flight-range policy and a planning scope.
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import os
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pyarrow.parquet as pq
+
+from ..config import PlannerConfig
+from ..data.frame import Frame
+from ..data.prepare import prepare_day, study_frame
+from ..data.reader import read_lade
+from ..data.table import DayRequests, LadeTable
+from ..energy import EnergyModel
+from ..errors import InputError
+from ..plans.select import make_selector
+from ..plans.window import WindowPlan, plan_window
+from ..policies.base import Policy
+from ..policies.registry import make_policy
+from ..segment.depots import Depots
+from ..segment.methods import segment_points
+from ..segment.run import history_points
+from .metrics import day_metrics
+from .replay import DayResult, replay_day
+from .state import DayState, default_fleet
+
+# method -> (segmentation, policy); "learned" is the shipped actor (SPEC §7).
+METHODS: dict[str, tuple[str, str]] = {
+    "marops": ("kmeans", "learned"),
+    "ops-global": ("kmeans", "global"),
+    "ops-random": ("kmeans", "random"),
+    "greedy": ("kmeans", "greedy"),
+    "squares": ("squares", "learned"),
+    "stay": ("kmeans", "stay"),
+}
+DEFAULT_POLICY_NAME = "marops-basic.pt"
+
+
+def default_policy_path() -> Path | None:
+    """The shipped actor: ``$MAROPS_POLICY``, else ``policies/marops-basic.pt`` of the source tree."""
+    env = os.environ.get("MAROPS_POLICY")
+    if env:
+        return Path(env)
+    here = Path(__file__).resolve().parents[2] / "policies" / DEFAULT_POLICY_NAME
+    return here if here.is_file() else None
+
+
+def method_policy(method: str, policy: str | None, seed: int) -> Policy:
+    """The policy a method runs: ``policy`` when given, else the method's own."""
+    if method not in METHODS:
+        raise InputError(f"unknown method {method!r}: expected one of {', '.join(METHODS)}")
+    spec = policy or METHODS[method][1]
+    if spec == "learned":
+        path = default_policy_path()
+        if path is None:
+            raise InputError(
+                f"method {method!r} needs a trained actor: none is shipped at "
+                f"policies/{DEFAULT_POLICY_NAME}; pass --policy PATH.pt or a baseline "
+                "(stay, random, greedy)"
+            )
+        spec = f"torchscript:{path}"
+    return make_policy(spec, seed)
+
+
+@dataclass
+class Scenario:
+    """A LaDe file with its study area and service areas, ready to replay days."""
+
+    table: LadeTable
+    frame: Frame
+    depots: Depots
+    cfg: PlannerConfig
+    history_days: list[dt.date]
+
+
+def load_scenario(
+    data: str | Path,
+    cfg: PlannerConfig,
+    *,
+    depots_path: str | Path | None = None,
+    replay_days: Sequence[dt.date] = (),
+    table: LadeTable | None = None,
+) -> Scenario:
+    """Read the file and take depots from ``depots_path`` or segment the history days.
+
+    History days are the file's days other than the replayed ones (all days when
+    that leaves none), so the depots never see the demand they are judged on.
+    """
+    table = table if table is not None else read_lade(data, cfg.data)
+    all_days = table.days()
+    history = [d for d in all_days if d not in set(replay_days)] or all_days
+    if depots_path is not None:
+        depots = Depots.load(depots_path)
+        if depots.n_actions != cfg.segment.n_actions:
+            depots = depots.with_actions(cfg.segment.n_actions)
+        return Scenario(table, depots.frame, depots, cfg, history)
+    frame = study_frame(table, cfg.data, history)
+    pts, _ = history_points(table, frame, history)
+    depots = segment_points(pts[:, 0], pts[:, 1], frame, cfg.segment)
+    return Scenario(table, frame, depots, cfg, history)
+
+
+def load_fleet(path: str | Path | None, depots: Depots, n_drones: int) -> np.ndarray:
+    """Each drone's depot: a fleet JSON (``[3, 3, 5]`` or ``{"drones": [{"depot": 3}, …]}``),
+    else drones spread over the busiest depots."""
+    if path is None:
+        return default_fleet(depots, n_drones)
+    import json
+
+    p = Path(path)
+    try:
+        doc = json.loads(p.read_text(encoding="utf-8"))
+    except FileNotFoundError as exc:
+        raise InputError("fleet file not found", file=p) from exc
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise InputError(f"not a JSON file ({exc})", file=p) from exc
+    items = doc.get("drones", []) if isinstance(doc, dict) else doc
+    try:
+        fleet = np.array([int(d["depot"] if isinstance(d, dict) else d) for d in items], dtype=np.int64)
+    except (KeyError, TypeError, ValueError) as exc:
+        raise InputError(f"expected a list of depot ids ({exc})", file=p, column="depot") from exc
+    if fleet.size == 0:
+        raise InputError("the fleet file lists no drones", file=p)
+    bad = np.flatnonzero((fleet < 0) | (fleet >= len(depots)))
+    if bad.size:
+        raise InputError(
+            f"drone {int(bad[0])} is at depot {int(fleet[bad[0]])}, "
+            f"but the depots file has ids 0..{len(depots) - 1}",
+            file=p,
+            column="depot",
+        )
+    return fleet
+
+
+def delivered_orders(path: str | Path) -> set[str]:
+    """Order ids already delivered according to an earlier stops Parquet file."""
+    p = Path(path)
+    try:
+        table = pq.read_table(p, columns=["kind", "order_id"])
+    except FileNotFoundError as exc:
+        raise InputError("delivered file not found", file=p) from exc
+    except (OSError, ValueError, KeyError) as exc:
+        raise InputError(f"not a marops stops file ({exc})", file=p) from exc
+    kind = table.column("kind").to_pylist()
+    ids = table.column("order_id").to_pylist()
+    return {str(i) for k, i in zip(kind, ids, strict=True) if k == "customer" and i is not None}
+
+
+def plan_one_window(
+    scn: Scenario,
+    day: dt.date,
+    window: int,
+    fleet: np.ndarray,
+    policy: Policy,
+    delivered: set[str] | None = None,
+) -> tuple[WindowPlan, DayRequests]:
+    """Plan window ``window`` of ``day`` with drones at ``fleet`` (SPEC §4)."""
+    cfg = scn.cfg
+    reqs = prepare_day(scn.table, scn.frame, day, cfg.data)
+    if not 0 <= window < reqs.n_windows:
+        raise InputError(f"--window {window} is outside 0..{reqs.n_windows - 1}")
+    state = DayState(reqs, scn.depots, fleet, cfg.plan.coverage)
+    if delivered:
+        done = np.isin(reqs.order_id.astype(str), np.array(sorted(delivered), dtype=str))
+        state.delivered_w[done] = max(0, window - 1)
+    policy.reset(cfg.sim.seed)
+    model = EnergyModel(cfg.energy)
+    view = state.view(window)
+    plan = plan_window(
+        view, policy.act(view), model, cfg.plan, make_selector(cfg.plan), scope=policy.scope
+    )
+    return plan, reqs
+
+
+def replay(
+    scn: Scenario,
+    day: dt.date,
+    fleet: np.ndarray,
+    policy: Policy,
+    method: str,
+    on_window: Callable[[WindowPlan], None] | None = None,
+) -> tuple[DayResult, DayRequests, dict[str, object]]:
+    """Replay ``day`` and compute its metrics."""
+    reqs = prepare_day(scn.table, scn.frame, day, scn.cfg.data)
+    model = EnergyModel(scn.cfg.energy)
+    res = replay_day(
+        reqs, scn.depots, fleet, policy, scn.cfg, method=method, model=model, on_window=on_window
+    )
+    return res, reqs, day_metrics(res, model)

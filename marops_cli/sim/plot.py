@@ -1,0 +1,61 @@
+"""Small-multiples map of a replayed day, like the paper's trajectory figure."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from ..data.table import DayRequests  # noqa: E402
+from ..plans.ranges import delays_h  # noqa: E402
+from ..segment.plot import draw_areas  # noqa: E402
+from .replay import DayResult  # noqa: E402
+
+
+def plot_day(res: DayResult, reqs: DayRequests, path: str | Path) -> None:
+    """One panel per window: areas, depots, pending requests coloured by delay, routes."""
+    st = res.state
+    n = len(res.plans)
+    cols = math.ceil(math.sqrt(n))
+    rows = math.ceil(n / cols)
+    fig, axes = plt.subplots(
+        rows, cols, figsize=(3.2 * cols + 1.0, 3.2 * rows), dpi=90, squeeze=False,
+        constrained_layout=True,
+    )
+    cmap = plt.get_cmap("tab10")
+    vmax = max(1.0, float(reqs.n_windows * reqs.window_hours) / 2)
+    sc = None
+    for ax, plan in zip(axes.ravel(), res.plans, strict=False):
+        t = plan.t
+        # Requests pending at the start of window t: visible, not delivered before t.
+        pend = (reqs.visible_w <= t) & ((st.delivered_w < 0) | (st.delivered_w >= t))
+        d = delays_h(reqs.due_w[pend], t, reqs.window_hours)
+        draw_areas(ax, st.depots, labels=False)
+        sc = ax.scatter(
+            reqs.x_m[pend] / 1000, reqs.y_m[pend] / 1000, c=d, s=5, cmap="RdYlGn_r",
+            vmin=0, vmax=vmax, zorder=3,
+        )
+        for r in plan.routes:
+            pts = np.vstack(
+                [st.depots.xy[r.start], np.column_stack([reqs.x_m, reqs.y_m])[list(r.stops)].reshape(-1, 2),
+                 st.depots.xy[r.end]]
+            ) / 1000
+            if len(pts) > 2 or r.start != r.end:
+                ax.plot(pts[:, 0], pts[:, 1], "-", color=cmap(r.drone % 10), lw=1.2, zorder=5)
+        served = sum(len(r.stops) for r in plan.routes)
+        ax.set_title(f"window {t}: {int(pend.sum())} pending, {served} served", fontsize=8)
+        ax.set_xlabel("")
+        ax.set_ylabel("")
+        ax.tick_params(labelsize=6)
+    for ax in axes.ravel()[n:]:
+        ax.axis("off")
+    if sc is not None:
+        fig.colorbar(sc, ax=axes.ravel().tolist(), shrink=0.6, label="delay (h)")
+    fig.suptitle(f"{reqs.day.isoformat()} — {res.method}, {res.n_drones} drones", fontsize=11)
+    fig.savefig(path, format="png")
+    plt.close(fig)

@@ -1,0 +1,252 @@
+"""Plan selection: MILP (cvxpy and highspy) against brute force, greedy, fallbacks."""
+
+from __future__ import annotations
+
+import itertools
+
+import highspy
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+
+from marops_cli.config import PlanConfig
+from marops_cli.energy import EnergyModel
+from marops_cli.plans import (
+    GreedySelector,
+    MilpSelector,
+    PlanSet,
+    SelectionProblem,
+    SelectionResult,
+    Selector,
+    build_plans,
+    greedy_select,
+    make_selector,
+    solve_highs_direct,
+)
+from marops_cli.plans import select as select_mod
+
+E_REF = 168_750.0
+OBJ_RTOL = 1e-9  # the MILP is solved to a relative gap of 1e-7 of O(1) scaled costs
+
+
+def plan_set(ids, members, energy) -> PlanSet:
+    """A hand-made plan set (plan 0 must be empty); orders follow member positions."""
+    members = np.asarray(members, dtype=bool).reshape(len(energy), len(ids))
+    order = np.full(members.shape, -1, dtype=np.int8)
+    for k, row in enumerate(members):
+        stops = np.flatnonzero(row)
+        order[k, : stops.size] = stops
+    zeros = np.zeros(len(energy))
+    return PlanSet(np.asarray(ids), members, order, np.asarray(energy, float), zeros, zeros)
+
+
+def random_problem(seed: int, drones: int = 3, max_plans: int = 8, alpha: float = 0.5):
+    """Drones with overlapping candidate sets and random plans over them."""
+    rng = np.random.default_rng(seed)
+    pool = 6
+    delay = {i: float(rng.uniform(0, 3)) for i in range(pool)}
+    sets = []
+    for _ in range(drones):
+        ids = np.sort(rng.choice(pool, 4, replace=False))
+        k = int(rng.integers(2, max_plans + 1))
+        members = np.vstack([np.zeros(4, bool), rng.random((k - 1, 4)) < 0.45])
+        # the empty plan is the cheapest, as with real routes (triangle inequality)
+        energy = rng.uniform(10_000, 30_000) + rng.uniform(0, 30_000, k) * (members.sum(axis=1) > 0)
+        energy += 15_000 * members.sum(axis=1)
+        sets.append(plan_set(ids, members, energy))
+    return SelectionProblem.from_plan_sets(sets, delay, alpha=alpha, energy_ref_j=E_REF)
+
+
+def brute_force(problem: SelectionProblem, strict: bool = False) -> float:
+    best = np.inf
+    sizes = np.diff(problem.offsets)
+    for chosen in itertools.product(*(range(int(s)) for s in sizes)):
+        chosen = np.array(chosen)
+        if problem.violation(chosen) is not None:
+            continue
+        if strict and problem.served(chosen).min(initial=1) < 1:
+            continue
+        best = min(best, problem.objective(chosen))
+    return best
+
+
+def assert_valid(problem: SelectionProblem, result: SelectionResult) -> None:
+    assert result.chosen.shape == (problem.n_drones,)
+    assert problem.violation(result.chosen) is None
+    assert_allclose(result.objective, problem.objective(result.chosen), rtol=1e-12)
+
+
+@pytest.mark.parametrize("seed", range(12))
+@pytest.mark.parametrize("backend", ["cvxpy", "highs"])
+def test_milp_matches_brute_force(seed, backend):
+    problem = random_problem(seed)
+    result = MilpSelector(backend=backend).select(problem)
+    assert_valid(problem, result)
+    assert not result.fallback and result.status == "optimal"
+    assert_allclose(result.objective, brute_force(problem), rtol=OBJ_RTOL)
+
+
+@pytest.mark.parametrize("alpha", [0.2, 0.5, 0.9, 1.0])
+def test_milp_matches_brute_force_across_alpha(alpha):
+    problem = random_problem(99, alpha=alpha)
+    result = MilpSelector().select(problem)
+    assert_allclose(result.objective, brute_force(problem), rtol=OBJ_RTOL)
+    if alpha == 1.0:  # λ = 0: energy only, every drone flies its cheapest (empty) plan
+        assert np.all(result.chosen == 0)
+
+
+def real_window(seed: int, drones: int = 8):
+    model = EnergyModel()
+    rng = np.random.default_rng(seed)
+    pool = 4 * drones
+    xy = rng.uniform(0, 4000, (pool, 2))
+    weight = np.clip(rng.lognormal(np.log(0.5), 0.6, pool), 0.1, 2.5)
+    delay = {i: float(rng.uniform(0, 3)) for i in range(pool)}
+    sets = []
+    for _ in range(drones):
+        ids = rng.choice(pool, 5, replace=False)
+        start, end = rng.uniform(1000, 3000, (2, 2))
+        sets.append(build_plans(start, end, xy[ids], weight[ids], model, PlanConfig(), ids))
+    return SelectionProblem.from_plan_sets(sets, delay, alpha=0.5, energy_ref_j=model.usable_j)
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_cvxpy_equals_direct_highspy_on_a_window(seed):
+    problem = real_window(seed)
+    via_cvxpy = MilpSelector(backend="cvxpy").select(problem)
+    direct = solve_highs_direct(problem)
+    assert_valid(problem, via_cvxpy)
+    assert_valid(problem, direct)
+    assert_allclose(via_cvxpy.objective, direct.objective, rtol=OBJ_RTOL)
+    assert via_cvxpy.build_s > 0 and via_cvxpy.solve_s > 0
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_greedy_is_feasible_and_never_beats_the_optimum(seed):
+    problem = random_problem(seed, drones=4)
+    greedy = GreedySelector().select(problem)
+    assert_valid(problem, greedy)
+    assert greedy.status == "greedy" and not greedy.fallback
+    assert greedy.objective >= MilpSelector().select(problem).objective * (1 - 1e-12)
+
+
+def test_greedy_takes_the_best_gain_first():
+    # one request, two drones: drone 1 serves it cheaper, so it gets it
+    a = plan_set([7], [[0], [1]], [10_000.0, 30_000.0])
+    b = plan_set([7], [[0], [1]], [10_000.0, 20_000.0])
+    problem = SelectionProblem.from_plan_sets([a, b], {7: 1.0}, alpha=0.5, energy_ref_j=E_REF)
+    assert list(greedy_select(problem)) == [0, 1]
+
+
+def strict_instance(feasible: bool) -> SelectionProblem:
+    # requests 1, 2, 3; drone a flies {1, 2} (or {1}), drone b flies {2, 3} (or {3}).
+    # Without the single-order plans, covering 1 and 3 serves 2 twice: infeasible.
+    n_plans = 3 if feasible else 2
+    a = plan_set(
+        [1, 2], [[0, 0], [1, 1], [1, 0]][:n_plans], [10_000.0, 30_000.0, 20_000.0][:n_plans]
+    )
+    b = plan_set(
+        [2, 3], [[0, 0], [1, 1], [0, 1]][:n_plans], [10_000.0, 30_000.0, 20_000.0][:n_plans]
+    )
+    # α = 1: λ = 0, so the relaxed program serves nothing; strict must serve everything
+    return SelectionProblem.from_plan_sets(
+        [a, b], {1: 0.0, 2: 0.0, 3: 0.0}, alpha=1.0, energy_ref_j=E_REF
+    )
+
+
+@pytest.mark.parametrize("backend", ["cvxpy", "highs"])
+def test_strict_cover_when_feasible(backend):
+    problem = strict_instance(feasible=True)
+    relaxed = MilpSelector(backend=backend).select(problem)
+    assert list(relaxed.chosen) == [0, 0]
+    strict = MilpSelector(strict_cover=True, backend=backend).select(problem)
+    assert strict.status == "strict cover: optimal" and not strict.fallback
+    assert np.all(problem.served(strict.chosen) == 1)
+    assert_allclose(strict.objective, brute_force(problem, strict=True), rtol=OBJ_RTOL)
+    assert_allclose(strict.objective, 50_000.0)  # {1,2} + {3} (or {1} + {2,3})
+
+
+@pytest.mark.parametrize("backend", ["cvxpy", "highs"])
+def test_strict_cover_infeasible_falls_back_to_the_relaxed_program(backend):
+    problem = strict_instance(feasible=False)
+    result = MilpSelector(strict_cover=True, backend=backend).select(problem)
+    assert result.status == "strict cover infeasible; relaxed: optimal"
+    assert not result.fallback
+    assert_allclose(result.objective, brute_force(problem), rtol=OBJ_RTOL)
+
+
+def test_strict_cover_with_a_request_no_plan_serves():
+    a = plan_set([1, 2], [[0, 0], [1, 0]], [10_000.0, 20_000.0])
+    problem = SelectionProblem.from_plan_sets([a], {1: 1.0, 2: 1.0}, alpha=0.5, energy_ref_j=E_REF)
+    result = MilpSelector(strict_cover=True).select(problem)
+    assert result.status.startswith("strict cover infeasible (in no plan: [2]); relaxed: ")
+    assert list(result.chosen) == [1]
+
+
+def test_only_empty_plans_needs_no_solver(monkeypatch):
+    monkeypatch.setitem(select_mod._BACKENDS, "cvxpy", None)  # would fail if called
+    a = plan_set([], np.zeros((1, 0)), [12_000.0])
+    problem = SelectionProblem.from_plan_sets([a, a], {}, alpha=0.5, energy_ref_j=E_REF)
+    result = MilpSelector().select(problem)
+    assert list(result.chosen) == [0, 0] and result.status == "optimal"
+    assert_allclose(result.objective, 24_000.0)
+
+
+@pytest.mark.parametrize("backend", ["cvxpy", "highs"])
+def test_solver_error_falls_back_to_greedy(monkeypatch, backend):
+    def boom(self):
+        raise RuntimeError("HiGHS crashed")
+
+    monkeypatch.setattr(highspy.Highs, "run", boom)
+    problem = random_problem(3)
+    result = MilpSelector(backend=backend).select(problem)
+    assert result.fallback
+    assert "solver error" in result.status and result.status.endswith("fallback: greedy")
+    assert_valid(problem, result)
+    assert list(result.chosen) == list(greedy_select(problem))
+
+
+def test_time_limit_without_incumbent_falls_back(monkeypatch):
+    def timed_out(milp, strict, limit):
+        return select_mod._Attempt(None, "kTimeLimit", 0.001, 0.002)
+
+    monkeypatch.setitem(select_mod._BACKENDS, "cvxpy", timed_out)
+    problem = random_problem(4)
+    result = MilpSelector().select(problem)
+    assert result.fallback and result.status == "time limit; fallback: greedy"
+    assert_valid(problem, result)
+
+
+def test_a_solution_that_does_not_verify_is_rejected(monkeypatch):
+    def all_ones(milp, strict, limit):  # every plan at once: not a selection
+        return select_mod._Attempt(np.ones(milp.cols.size), "kOptimal", 0.0, 0.0)
+
+    monkeypatch.setitem(select_mod._BACKENDS, "cvxpy", all_ones)
+    problem = random_problem(5)
+    result = MilpSelector().select(problem)
+    assert result.fallback and "not a selection" in result.status
+    assert_valid(problem, result)
+
+
+def test_time_limit_reaches_highs_through_cvxpy(monkeypatch):
+    from cvxpy.reductions.solvers.conic_solvers.highs_conif import HIGHS
+
+    seen = {}
+    original = HIGHS.solve_via_data
+
+    def spy(self, data, warm_start, verbose, solver_opts, solver_cache=None):
+        seen.update(solver_opts)
+        return original(self, data, warm_start, verbose, solver_opts, solver_cache)
+
+    monkeypatch.setattr(HIGHS, "solve_via_data", spy)
+    MilpSelector(time_limit_s=0.75).select(random_problem(6))
+    assert seen["time_limit"] == pytest.approx(0.75, rel=0.01)
+
+
+def test_make_selector_follows_the_config():
+    assert isinstance(make_selector(PlanConfig(solver="greedy")), GreedySelector)
+    milp = make_selector(PlanConfig(time_limit_s=0.5, strict_cover=True))
+    assert isinstance(milp, MilpSelector)
+    assert milp.time_limit_s == 0.5 and milp.strict_cover and milp.backend == "cvxpy"
+    selector: Selector = milp  # both satisfy the protocol
+    assert isinstance(selector.select(random_problem(1)), SelectionResult)
