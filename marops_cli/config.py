@@ -66,7 +66,8 @@ class DataConfig(_Stage):
         if self.service_end_s <= self.service_start_s:
             raise ValueError("expected service_end after service_start")
         if self.window_min is not None and self.windows is not None:
-            if abs(self.window_min * 60 * self.windows - self.span_s) > 1e-6:
+            span = self.window_min * 60 * self.windows
+            if abs(span - self.span_s) > 1e-6:
                 raise ValueError("window_min x windows must equal the service hours")
         if self.weight_max_kg < self.weight_min_kg:
             raise ValueError("expected weight_max_kg >= weight_min_kg")
@@ -112,7 +113,8 @@ class SegmentConfig(_Stage):
             side = round(self.n_depots**0.5)
             if side * side != self.n_depots:
                 raise ValueError(
-                    f"expected a square number of depots for the squares method, got {self.n_depots}"
+                    "expected a square number of depots for the squares method, "
+                    f"got {self.n_depots}"
                 )
         return self
 

@@ -69,7 +69,9 @@ def power_curve_w(payload_kg: ArrayLike, cfg: EnergyConfig | None = None) -> NDA
 def reference_power_w(payload_kg: float, cfg: EnergyConfig | None = None) -> float:
     """Power (W) with ``payload_kg`` on board, by bracketed root-finding: slow, for tests."""
     cfg = cfg or EnergyConfig()
-    thrust, theta, c = (float(t) for t in _flight_terms(np.float64(payload_kg), cfg))
+    thrust, theta, c = (
+        float(t) for t in _flight_terms(np.asarray(payload_kg, dtype=np.float64), cfg)
+    )
     v = cfg.speed_ms
     a, b = v * math.cos(theta), v * math.sin(theta)
 

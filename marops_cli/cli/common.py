@@ -80,7 +80,9 @@ def print_drop_report(report: DropReport, name: str) -> None:
     if report.n_dropped == 0:
         console.print(f"{name}: {report.total:,} rows read, none dropped")
         return
-    parts = ", ".join(f"{n:,} {reason.replace('_', ' ')}" for reason, n in report.dropped.items() if n)
+    parts = ", ".join(
+        f"{n:,} {reason.replace('_', ' ')}" for reason, n in report.dropped.items() if n
+    )
     console.print(
         f"{name}: {report.total:,} rows read, {report.kept:,} kept, "
         f"{report.n_dropped:,} dropped ({parts}); --strict makes these errors"

@@ -16,7 +16,9 @@ Strict = Annotated[
 ]
 Alpha = Annotated[
     float | None,
-    typer.Option("--alpha", help="Trade-off weight in (0, 1]: higher saves energy, lower delay [0.5]."),
+    typer.Option(
+        "--alpha", help="Trade-off weight in (0, 1]: higher saves energy, lower delay [0.5]."
+    ),
 ]
 Drones = Annotated[int | None, typer.Option("--drones", help="Fleet size [8].")]
 Policy = Annotated[
@@ -30,7 +32,9 @@ Policy = Annotated[
 Seed = Annotated[int | None, typer.Option("--seed", help="Seed for random policies [0].")]
 Ordering = Annotated[
     str | None,
-    typer.Option("--ordering", help="Visiting order: exact (energy-optimal) or greedy (paper) [exact]."),
+    typer.Option(
+        "--ordering", help="Visiting order: exact (energy-optimal) or greedy (paper) [exact]."
+    ),
 ]
 StrictCover = Annotated[
     bool,

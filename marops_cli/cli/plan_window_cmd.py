@@ -15,7 +15,8 @@ from ..io import output_set, run_meta
 from ..io.tables import build_tables, write_route_files
 from ..sim.jobs import delivered_orders, load_fleet, load_scenario, method_policy, plan_one_window
 from . import options as o
-from .common import console, out as out_console, guarded, make_config, require_input
+from .common import console, guarded, make_config, require_input
+from .common import out as out_console
 
 
 @guarded
@@ -34,7 +35,9 @@ def plan_window(
     drones: o.Drones = None,
     delivered: Annotated[
         Path | None,
-        typer.Option("--delivered", help="Earlier stops Parquet: its orders are not planned again."),
+        typer.Option(
+            "--delivered", help="Earlier stops Parquet: its orders are not planned again."
+        ),
     ] = None,
     policy: o.Policy = None,
     method: Annotated[
@@ -97,7 +100,8 @@ def plan_window(
 def _summary(plan, model: EnergyModel, when: str) -> None:  # type: ignore[no-untyped-def]
     t = Table(
         title=f"window {plan.t} ({when}): {plan.n_candidates} candidate requests, "
-        f"solver {plan.selection.status}" + (" (greedy fallback)" if plan.selection.fallback else ""),
+        f"solver {plan.selection.status}"
+        + (" (greedy fallback)" if plan.selection.fallback else ""),
         title_justify="left",
     )
     for col in ("drone", "from → to", "parcels", "km", "kJ", "battery %"):

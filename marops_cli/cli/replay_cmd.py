@@ -19,7 +19,8 @@ from ..io import output_set, run_meta
 from ..io.tables import build_tables, table_records, with_meta, write_parquet
 from ..sim.jobs import METHODS, Scenario, load_fleet, load_scenario, method_policy, replay
 from . import options as o
-from .common import console, out as out_console, guarded, is_terminal, make_config, print_drop_report, require_input
+from .common import console, guarded, is_terminal, make_config, print_drop_report, require_input
+from .common import out as out_console
 
 METRIC_COLUMNS = (
     ("mean_energy_kj", "energy kJ/drone", "{:.1f}"),
@@ -105,7 +106,9 @@ def replay_day(
         done = folder / "metrics.json"
         if done.is_file() and not force:
             prior = json.loads(done.read_text(encoding="utf-8"))["days"]
-            console.print(f"{day.isoformat()}: output exists in {folder}, skipped (--force replays)")
+            console.print(
+                f"{day.isoformat()}: output exists in {folder}, skipped (--force replays)"
+            )
             all_metrics.extend(prior)
             continue
         metrics = _replay_one(scn, day, fleet, pol, method, folder, fmt, plot, policy_id)
@@ -132,8 +135,12 @@ def _replay_one(
     n_windows = cfg.data.n_windows
     if is_terminal():
         progress = Progress(
-            TextColumn(f"{day.isoformat()} {method}"), BarColumn(), MofNCompleteColumn(),
-            TimeElapsedColumn(), console=console, transient=True,
+            TextColumn(f"{day.isoformat()} {method}"),
+            BarColumn(),
+            MofNCompleteColumn(),
+            TimeElapsedColumn(),
+            console=console,
+            transient=True,
         )
         task = progress.add_task("windows", total=n_windows)
         with progress:
@@ -141,6 +148,7 @@ def _replay_one(
                 scn, day, fleet, pol, method, on_window=lambda p: progress.advance(task)
             )
     else:
+
         def log(p: Any) -> None:
             served = sum(len(r.stops) for r in p.routes)
             typer.echo(
@@ -153,16 +161,28 @@ def _replay_one(
     model = EnergyModel(cfg.energy)
     stops, routes = build_tables(reqs, scn.depots, res.plans, model, method)
     meta = run_meta(
-        command="replay-day", config=cfg, source=scn.table.source, policy=policy_id,
-        method=method, seed=cfg.sim.seed, extra={"day": day.isoformat()}, stamp=False,
+        command="replay-day",
+        config=cfg,
+        source=scn.table.source,
+        policy=policy_id,
+        method=method,
+        seed=cfg.sim.seed,
+        extra={"day": day.isoformat()},
+        stamp=False,
     )
     with output_set() as files:
         if fmt == "parquet":
-            files.write_with(folder / "stops.parquet", lambda p: write_parquet(with_meta(stops, meta), p))
-            files.write_with(folder / "routes.parquet", lambda p: write_parquet(with_meta(routes, meta), p))
+            files.write_with(
+                folder / "stops.parquet", lambda p: write_parquet(with_meta(stops, meta), p)
+            )
+            files.write_with(
+                folder / "routes.parquet", lambda p: write_parquet(with_meta(routes, meta), p)
+            )
         else:
             files.write_json(folder / "stops.json", {"meta": meta, "stops": table_records(stops)})
-            files.write_json(folder / "routes.json", {"meta": meta, "routes": table_records(routes)})
+            files.write_json(
+                folder / "routes.json", {"meta": meta, "routes": table_records(routes)}
+            )
         if plot:
             from ..sim.plot import plot_day
 

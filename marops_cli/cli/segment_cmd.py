@@ -15,12 +15,14 @@ from ..segment.plot import plot_depots
 from ..segment.run import segment_file
 from .common import (
     console,
-    out as out_console,
     guarded,
     make_config,
     parse_center,
     print_drop_report,
     require_input,
+)
+from .common import (
+    out as out_console,
 )
 
 

@@ -103,11 +103,13 @@ def prepare_day(
     nothing is left.
     """
     cfg = cfg if cfg is not None else DataConfig()
-    _check_days_in_file(table, [day])
+    on_day = _on_days(table, [day])
+    if not on_day.any():
+        _check_days_in_file(table, [day])  # raises, naming the days the file has
     start = (np.datetime64(day, "D").astype(np.int64)) * _DAY_S + cfg.service_start_s
     due = (table.delivery_s - start).astype(np.float64)
     x, y = frame.to_xy(table.lng, table.lat)
-    mask = _on_days(table, [day]) & frame.contains(x, y) & (due >= 0) & (due < cfg.span_s)
+    mask = on_day & frame.contains(x, y) & (due >= 0) & (due < cfg.span_s)
     if not mask.any():
         raise InputError(
             f"no requests on {day.isoformat()} inside the study area "

@@ -264,6 +264,20 @@ def _good_lat(lat: np.ndarray) -> np.ndarray:
         return (np.abs(lat) <= 90) & (lat != 0)
 
 
+def _repeated(*columns: np.ndarray) -> np.ndarray:
+    """Mask of rows whose values in ``columns`` (64-bit each) may repeat another row's.
+
+    A multiplicative hash of the numeric keys, then one sort: every true repeat is
+    caught, plus the rare collision, which the exact grouping afterwards sorts out.
+    Grouping all 1.5 M rows by their string ids instead costs ~0.5 s and ~300 MB.
+    """
+    h = np.zeros(columns[0].shape[0], dtype=np.uint64)
+    for col in columns:
+        h = (h ^ np.ascontiguousarray(col).view(np.uint64)) * np.uint64(0x9E3779B97F4A7C15)
+    _, inverse, counts = np.unique(h, return_inverse=True, return_counts=True)
+    return counts[inverse] > 1
+
+
 def _drop_reasons(
     table: pa.Table, parsed: dict[str, np.ndarray]
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -279,13 +293,9 @@ def _drop_reasons(
     lng, lat = _numbers(table["lng"]), _numbers(table["lat"])
     mark(~(_good_lng(lng) & _good_lat(lat)), "bad_coordinates")
     accept, delivery = parsed["accept_time"], parsed["delivery_time"]
-    # Only rows whose order id repeats can be duplicates: few in a real export, so the
-    # five-key grouping runs on a handful of rows instead of all 1.5 million.
     live = np.flatnonzero(code == 0)
+    live = live[_repeated(accept[live], delivery[live], lng[live], lat[live])]
     oid = table["order_id"].cast(pa.string()).take(live)
-    ids = pc.dictionary_encode(oid).combine_chunks().indices.to_numpy()
-    cand = np.bincount(ids)[ids] > 1
-    live, oid = live[cand], oid.filter(pa.array(cand))
     keys = pa.table(
         {"o": oid, "a": accept[live], "d": delivery[live], "x": lng[live], "y": lat[live]}
     ).append_column("i", pa.array(live))

@@ -89,8 +89,9 @@ def build_plans(
     """Every feasible plan of one drone over its candidates.
 
     Feasible: at most ``cfg.max_parcels`` stops, weight within the payload limit
-    (eq. (16)), energy within the usable battery (eq. (15)). Plans are listed by bitmask, so the
-    empty plan comes first. ``request_ids`` default to ``0..n-1``.
+    (eq. (16)), energy within the usable battery (the battery limit of eq. (15), in
+    joules). Plans are listed by bitmask, so the empty plan comes first.
+    ``request_ids`` default to ``0..n-1``; visiting order per ``cfg.ordering``.
 
     Raises
     ------

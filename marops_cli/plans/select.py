@@ -34,6 +34,7 @@ from .plans import SelectionProblem
 __all__ = [
     "GreedySelector",
     "MilpSelector",
+    "SelectionProblem",  # defined in plans.py, re-exported for callers of the selection
     "SelectionResult",
     "Selector",
     "greedy_select",
@@ -129,8 +130,8 @@ def _decode(
 def _solve_cvxpy(milp: _Milp, strict: bool, time_limit_s: float) -> _Attempt:
     t0 = time.perf_counter()
     x = cp.Variable(milp.cols.size, boolean=True)
-    if strict:
-        u = milp.n_drones
+    u = milp.n_drones
+    if strict and milp.rows.shape[0] > u:
         cons = [milp.rows[:u] @ x <= 1, milp.rows[u:] @ x == 1]
     else:
         cons = [milp.rows @ x <= 1]
@@ -177,7 +178,12 @@ def _solve_highs(milp: _Milp, strict: bool, time_limit_s: float) -> _Attempt:
 
 _Backend = Callable[[_Milp, bool, float], _Attempt]
 _BACKENDS: dict[str, _Backend] = {"cvxpy": _solve_cvxpy, "highs": _solve_highs}
-_STATUS = {"kOptimal": "optimal", "kTimeLimit": "time limit", "kInfeasible": "infeasible"}
+_STATUS = {
+    "kOptimal": "optimal",
+    "kTimeLimit": "time limit",
+    "kInfeasible": "infeasible",
+    "kUnboundedOrInfeasible": "infeasible",
+}
 
 
 def greedy_select(problem: SelectionProblem) -> NDArray[np.int64]:

@@ -77,15 +77,25 @@ def _range_plans(
         dest = int(dep.candidates[s, acts[u]])
         try:
             ps = build_plans(
-                dep.xy[s], dep.xy[dest], view.pending_xy[cand], view.pending_weight[cand],
-                model, cfg, request_ids=cand,
+                dep.xy[s],
+                dep.xy[dest],
+                view.pending_xy[cand],
+                view.pending_weight[cand],
+                model,
+                cfg,
+                request_ids=cand,
             )
         except NoFeasiblePlanError:
             # The destination is out of battery range: the drone stays (action 0).
             acts[u], dest = 0, s
             ps = build_plans(
-                dep.xy[s], dep.xy[s], view.pending_xy[cand], view.pending_weight[cand],
-                model, cfg, request_ids=cand,
+                dep.xy[s],
+                dep.xy[s],
+                view.pending_xy[cand],
+                view.pending_weight[cand],
+                model,
+                cfg,
+                request_ids=cand,
             )
         plan_sets.append(ps)
         ends[u] = dest
@@ -113,8 +123,13 @@ def _global_plans(
         cand = pool[np.lexsort((pool, d))[: cfg.max_parcels]]
         t_cand += time.perf_counter() - t0
         ps = build_plans(
-            dep.xy[s], dep.xy[s], view.pending_xy[cand], view.pending_weight[cand],
-            model, cfg, request_ids=cand,
+            dep.xy[s],
+            dep.xy[s],
+            view.pending_xy[cand],
+            view.pending_weight[cand],
+            model,
+            cfg,
+            request_ids=cand,
         )
         # Land at the depot nearest the last customer instead of flying back: the
         # last leg is flown empty, so only its length changes (never longer).
@@ -125,7 +140,9 @@ def _global_plans(
         has = last >= 0
         if has.any():
             lxy = view.pending_xy[cand[last[has]]]
-            d_all = np.hypot(lxy[:, None, 0] - dep.xy[None, :, 0], lxy[:, None, 1] - dep.xy[None, :, 1])
+            d_all = np.hypot(
+                lxy[:, None, 0] - dep.xy[None, :, 0], lxy[:, None, 1] - dep.xy[None, :, 1]
+            )
             near = np.argmin(d_all, axis=1)
             back = d_all[:, s]
             new = d_all[np.arange(near.size), near]
@@ -169,22 +186,36 @@ def plan_window(
         start, end = int(view.drone_depot[u]), int(plan_ends[u][k])
         stops_pos = ps.route(k)
         pts = np.vstack(
-            [view.depots.xy[start], view.pending_xy[list(stops_pos)].reshape(-1, 2),
-             view.depots.xy[end]]
+            [
+                view.depots.xy[start],
+                view.pending_xy[list(stops_pos)].reshape(-1, 2),
+                view.depots.xy[end],
+            ]
         )
         w = view.pending_weight[list(stops_pos)]
         legs_m, legs_j = model.route_energy(pts, w)
         routes.append(
             DroneRoute(
-                drone=u, start=start, end=end, action=int(acts[u]),
+                drone=u,
+                start=start,
+                end=end,
+                action=int(acts[u]),
                 stops=tuple(int(view.pending_idx[p]) for p in stops_pos),
-                legs_m=np.asarray(legs_m), legs_j=np.asarray(legs_j), payload_kg=float(w.sum()),
+                legs_m=np.asarray(legs_m),
+                legs_j=np.asarray(legs_j),
+                payload_kg=float(w.sum()),
             )
         )
     plan = WindowPlan(
-        t=view.t, routes=routes, selection=sel, n_candidates=int(problem.request_ids.size),
+        t=view.t,
+        routes=routes,
+        selection=sel,
+        n_candidates=int(problem.request_ids.size),
         timings={
-            "candidates": t_cand, "plans": t_plans, "build": sel.build_s, "solve": sel.solve_s,
+            "candidates": t_cand,
+            "plans": t_plans,
+            "build": sel.build_s,
+            "solve": sel.solve_s,
             "total": time.perf_counter() - t_start,
         },
     )

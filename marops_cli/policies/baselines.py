@@ -70,7 +70,9 @@ class GreedyPolicy:
         value = np.bincount(
             view.pending_area, weights=view.pending_delay_h + self.pending_weight_h, minlength=n
         )
-        d = np.hypot(dep.xy[:, None, 0] - dep.xy[None, :, 0], dep.xy[:, None, 1] - dep.xy[None, :, 1])
+        d = np.hypot(
+            dep.xy[:, None, 0] - dep.xy[None, :, 0], dep.xy[:, None, 1] - dep.xy[None, :, 1]
+        )
         spacing = float(np.median(np.sort(d, axis=1)[:, 1]))
         for u, s in enumerate(view.drone_depot):
             dests = dep.candidates[int(s)]

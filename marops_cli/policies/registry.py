@@ -27,5 +27,6 @@ def make_policy(spec: str, seed: int = 0) -> Policy:
 
         return TorchScriptPolicy(Path(path))
     raise InputError(
-        f"unknown policy {spec!r}: expected one of {', '.join(SIMPLE)}, torchscript:PATH or a .pt file"
+        f"unknown policy {spec!r}: expected one of {', '.join(SIMPLE)}, "
+        "torchscript:PATH or a .pt file"
     )

@@ -28,7 +28,9 @@ def read_sidecar(model_path: str | Path) -> dict[str, Any]:
     try:
         doc = json.loads(side.read_text(encoding="utf-8"))
     except FileNotFoundError as exc:
-        raise InputError("policy sidecar not found (expected beside the .pt file)", file=side) from exc
+        raise InputError(
+            "policy sidecar not found (expected beside the .pt file)", file=side
+        ) from exc
     except (json.JSONDecodeError, UnicodeDecodeError) as exc:
         raise InputError(f"policy sidecar is not JSON ({exc})", file=side) from exc
     for key in ("obs_version", "n_actions", "hidden_size"):

@@ -53,7 +53,9 @@ def areas_geojson(depots: Depots, meta: dict[str, Any]) -> dict[str, Any]:
         if poly:
             arr = np.array(poly + [poly[0]])
             plng, plat = depots.frame.to_lnglat(arr[:, 0], arr[:, 1])
-            ring = [[round(float(a), 7), round(float(b), 7)] for a, b in zip(plng, plat, strict=True)]
+            ring = [
+                [round(float(a), 7), round(float(b), 7)] for a, b in zip(plng, plat, strict=True)
+            ]
             features.append(
                 {
                     "type": "Feature",

@@ -100,7 +100,9 @@ class Depots:
             )
             method = str(doc.get("method", "kmeans"))
         except (KeyError, TypeError, ValueError) as exc:
-            raise InputError(f"not a marops depots file (missing or bad {exc})", file=source) from exc
+            raise InputError(
+                f"not a marops depots file (missing or bad {exc})", file=source
+            ) from exc
         if xy.shape[0] == 0:
             raise InputError("the depots file lists no depots", file=source)
         if cand.ndim != 2 or cand.min() < 0 or cand.max() >= xy.shape[0]:

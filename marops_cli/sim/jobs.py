@@ -15,6 +15,7 @@ import numpy as np
 import pyarrow.parquet as pq
 
 from ..config import PlannerConfig
+from ..data.dates import format_days
 from ..data.frame import Frame
 from ..data.prepare import prepare_day, study_frame
 from ..data.reader import read_lade
@@ -45,7 +46,7 @@ DEFAULT_POLICY_NAME = "marops-basic.pt"
 
 
 def default_policy_path() -> Path | None:
-    """The shipped actor: ``$MAROPS_POLICY``, else ``policies/marops-basic.pt`` of the source tree."""
+    """The shipped actor: ``$MAROPS_POLICY``, else the source tree's ``policies/marops-basic.pt``."""
     env = os.environ.get("MAROPS_POLICY")
     if env:
         return Path(env)
@@ -96,6 +97,13 @@ def load_scenario(
     """
     table = table if table is not None else read_lade(data, cfg.data)
     all_days = table.days()
+    missing = [d for d in replay_days if d not in set(all_days)]
+    if missing:
+        raise InputError(
+            f"date {missing[0].isoformat()} not in the file (it has {format_days(all_days)})",
+            file=table.source.path,
+            column="delivery_time",
+        )
     history = [d for d in all_days if d not in set(replay_days)] or all_days
     if depots_path is not None:
         depots = Depots.load(depots_path)
@@ -124,7 +132,9 @@ def load_fleet(path: str | Path | None, depots: Depots, n_drones: int) -> np.nda
         raise InputError(f"not a JSON file ({exc})", file=p) from exc
     items = doc.get("drones", []) if isinstance(doc, dict) else doc
     try:
-        fleet = np.array([int(d["depot"] if isinstance(d, dict) else d) for d in items], dtype=np.int64)
+        fleet = np.array(
+            [int(d["depot"] if isinstance(d, dict) else d) for d in items], dtype=np.int64
+        )
     except (KeyError, TypeError, ValueError) as exc:
         raise InputError(f"expected a list of depot ids ({exc})", file=p, column="depot") from exc
     if fleet.size == 0:

@@ -24,7 +24,11 @@ def plot_day(res: DayResult, reqs: DayRequests, path: str | Path) -> None:
     cols = math.ceil(math.sqrt(n))
     rows = math.ceil(n / cols)
     fig, axes = plt.subplots(
-        rows, cols, figsize=(3.2 * cols + 1.0, 3.2 * rows), dpi=90, squeeze=False,
+        rows,
+        cols,
+        figsize=(3.2 * cols + 1.0, 3.2 * rows),
+        dpi=90,
+        squeeze=False,
         constrained_layout=True,
     )
     cmap = plt.get_cmap("tab10")
@@ -37,14 +41,26 @@ def plot_day(res: DayResult, reqs: DayRequests, path: str | Path) -> None:
         d = delays_h(reqs.due_w[pend], t, reqs.window_hours)
         draw_areas(ax, st.depots, labels=False)
         sc = ax.scatter(
-            reqs.x_m[pend] / 1000, reqs.y_m[pend] / 1000, c=d, s=5, cmap="RdYlGn_r",
-            vmin=0, vmax=vmax, zorder=3,
+            reqs.x_m[pend] / 1000,
+            reqs.y_m[pend] / 1000,
+            c=d,
+            s=5,
+            cmap="RdYlGn_r",
+            vmin=0,
+            vmax=vmax,
+            zorder=3,
         )
         for r in plan.routes:
-            pts = np.vstack(
-                [st.depots.xy[r.start], np.column_stack([reqs.x_m, reqs.y_m])[list(r.stops)].reshape(-1, 2),
-                 st.depots.xy[r.end]]
-            ) / 1000
+            pts = (
+                np.vstack(
+                    [
+                        st.depots.xy[r.start],
+                        np.column_stack([reqs.x_m, reqs.y_m])[list(r.stops)].reshape(-1, 2),
+                        st.depots.xy[r.end],
+                    ]
+                )
+                / 1000
+            )
             if len(pts) > 2 or r.start != r.end:
                 ax.plot(pts[:, 0], pts[:, 1], "-", color=cmap(r.drone % 10), lw=1.2, zorder=5)
         served = sum(len(r.stops) for r in plan.routes)

@@ -325,3 +325,28 @@ def test_bom_and_crlf(tmp_path: Path) -> None:
     t = read_lade(path, DataConfig())
     assert list(t.order_id) == ["1001", "1002", "1003"]
     np.testing.assert_array_equal(t.row, [2, 3, 4])
+
+
+def test_duplicates_need_every_key_equal(tmp_path: Path) -> None:
+    base = CLEAN[0]
+    rows = [
+        base,
+        CLEAN[1],
+        dict(base, order_id="1999"),  # same times and place, other id: kept
+        dict(base),  # duplicate (row 5)
+        dict(base, lng="121.470"),  # same number written differently: duplicate
+        dict(base, lat="31.2301"),  # other place: kept
+        dict(CLEAN[1]),  # duplicate of row 3
+    ]
+    t = read_lade(write_csv(tmp_path / "d.csv", rows), DataConfig())
+    assert t.report.dropped["duplicate"] == 3
+    np.testing.assert_array_equal(t.row, [2, 3, 4, 7])
+    assert_accounted(t)
+
+
+def test_every_row_dropped(tmp_path: Path) -> None:
+    rows = [row("1", lng="0"), row("2", acc="")]
+    t = read_lade(write_csv(tmp_path / "d.csv", rows), DataConfig())
+    assert len(t) == 0 and t.report.kept == 0 and t.report.n_dropped == 2
+    assert t.order_id.shape == t.lng.shape == t.row.shape == (0,)
+    assert t.days() == []

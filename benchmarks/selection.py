@@ -1,9 +1,8 @@
 """Timing of visiting orders and plan selection; prints figures, is not a test.
 
-    .venv/bin/python -m benchmarks.select [--repeat 50] [--drones 8] [--candidates 5]
+    .venv/bin/python -m benchmarks.selection [--repeat 50] [--drones 8] [--candidates 5]
 
-(run it as a module: as a script, ``select.py`` would shadow the standard library
-module ``select``)
+(it also runs as a script: ``python benchmarks/selection.py``)
 
 * the exact (DP over subsets) and greedy orders of every subset, 5 .. 12 candidates;
 * plan selection on random windows (``--drones`` drones with ``--candidates``
@@ -17,6 +16,7 @@ import argparse
 import statistics
 import time
 from collections.abc import Callable
+from functools import partial
 
 import numpy as np
 
@@ -63,8 +63,13 @@ def bench_orders(model: EnergyModel, repeat: int) -> None:
         xy = rng.uniform(0, 2000, (n, 2))
         w = rng.uniform(0.05, 2.5 / n, n)
         reps = repeat if n <= 8 else max(5, repeat // 10)
-        exact = _median_ms(lambda: subset_orders((0, 0), (500, 500), xy, w, model, "exact"), reps)
-        greedy = _median_ms(lambda: subset_orders((0, 0), (500, 500), xy, w, model, "greedy"), reps)
+        timed = {
+            method: _median_ms(
+                partial(subset_orders, (0, 0), (500, 500), xy, w, model, method), reps
+            )
+            for method in ("exact", "greedy")
+        }
+        exact, greedy = timed["exact"], timed["greedy"]
         print(f"  n={n:2d} ({1 << n:5d} subsets): exact {exact:7.3f}  greedy {greedy:7.3f}")
 
 

@@ -1,0 +1,179 @@
+"""Bad input: one line naming file/row/column, exit code 2, nothing written."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from marops_cli.cli.app import app
+
+runner = CliRunner()
+
+HEADER = (
+    "order_id,region_id,city,courier_id,lng,lat,aoi_id,aoi_type,accept_time,accept_gps_time,"
+    "accept_gps_lng,accept_gps_lat,delivery_time,delivery_gps_time,delivery_gps_lng,"
+    "delivery_gps_lat,ds"
+)
+
+
+def _row(
+    oid: int,
+    lng: str = "121.47",
+    lat: str = "31.23",
+    acc: str = "08-20 08:00:00",
+    dlv: str = "08-20 10:00:00",
+    ds: str = "820",
+) -> str:
+    return f"{oid},1,Shanghai,7,{lng},{lat},5,1,{acc},,,,{dlv},,,,{ds}"
+
+
+def _write(tmp_path: Path, lines: list[str], name: str = "lade.csv") -> Path:
+    p = tmp_path / name
+    p.write_text("\n".join(lines) + "\n")
+    return p
+
+
+def _fails_cleanly(args: list[str], out_dir: Path, *needles: str) -> str:
+    before = set(out_dir.rglob("*"))
+    res = runner.invoke(app, args)
+    assert res.exit_code == 2, res.output
+    err = res.stderr.strip()
+    assert len(err.splitlines()) == 1, err
+    assert "Traceback" not in res.output
+    for n in needles:
+        assert n in err, (n, err)
+    assert set(out_dir.rglob("*")) == before, "something was written"
+    return err
+
+
+def test_missing_column(tmp_path: Path) -> None:
+    data = _write(tmp_path, [HEADER.replace(",lat,", ",latitude,"), _row(1)])
+    _fails_cleanly(
+        ["segment", str(data), "--depots", "1", "--out", str(tmp_path / "d.json")],
+        tmp_path,
+        "lade.csv",
+        "row 1",
+        "'lat'",
+    )
+
+
+def test_unparseable_time_names_row_and_column(tmp_path: Path) -> None:
+    data = _write(tmp_path, [HEADER, _row(1), _row(2, dlv="08-20 25:99:00"), _row(3)])
+    _fails_cleanly(
+        ["segment", str(data), "--depots", "1", "--out", str(tmp_path / "d.json")],
+        tmp_path,
+        "lade.csv",
+        "row 3",
+        "delivery_time",
+    )
+
+
+def test_not_a_lade_file(tmp_path: Path) -> None:
+    data = _write(tmp_path, ["hello,world", "1,2"], "notes.csv")
+    _fails_cleanly(["segment", str(data), "--out", str(tmp_path / "d.json")], tmp_path, "notes.csv")
+
+
+def test_missing_file(tmp_path: Path) -> None:
+    _fails_cleanly(
+        ["segment", str(tmp_path / "nope.csv"), "--out", str(tmp_path / "d.json")],
+        tmp_path,
+        "nope.csv",
+    )
+
+
+def test_date_not_in_file(example_csv: Path, tmp_path: Path) -> None:
+    _fails_cleanly(
+        [
+            "replay-day",
+            str(example_csv),
+            "--date",
+            "0911",
+            "--method",
+            "greedy",
+            "--out",
+            str(tmp_path / "out"),
+        ],
+        tmp_path,
+        "2022-09-11",
+        "shanghai_synth.csv",
+    )
+
+
+def test_empty_study_area(example_csv: Path, tmp_path: Path) -> None:
+    _fails_cleanly(
+        ["segment", str(example_csv), "--center", "100.0,10.0", "--out", str(tmp_path / "d.json")],
+        tmp_path,
+        "shanghai_synth.csv",
+        "no requests",
+    )
+
+
+def test_strict_turns_a_dropped_row_into_an_error(tmp_path: Path) -> None:
+    rows = [HEADER] + [_row(i, lng=f"121.4{i}") for i in range(1, 6)] + [_row(9, lng="0", lat="0")]
+    data = _write(tmp_path, rows)
+    _fails_cleanly(
+        ["segment", str(data), "--depots", "1", "--strict", "--out", str(tmp_path / "d.json")],
+        tmp_path,
+        "lade.csv",
+        "row 7",
+    )
+
+
+def test_bad_option_values(example_csv: Path, tmp_path: Path) -> None:
+    _fails_cleanly(
+        [
+            "replay-day",
+            str(example_csv),
+            "--date",
+            "0811",
+            "--alpha",
+            "1.5",
+            "--out",
+            str(tmp_path / "o"),
+        ],
+        tmp_path,
+        "alpha",
+    )
+    _fails_cleanly(
+        [
+            "replay-day",
+            str(example_csv),
+            "--date",
+            "0811",
+            "--method",
+            "fastest",
+            "--out",
+            str(tmp_path / "o"),
+        ],
+        tmp_path,
+        "fastest",
+    )
+    _fails_cleanly(
+        ["segment", str(example_csv), "--center", "east", "--out", str(tmp_path / "d.json")],
+        tmp_path,
+        "--center",
+    )
+
+
+@pytest.mark.parametrize("content", ["{bad", '{"frame": {}}'])
+def test_bad_depots_file(example_csv: Path, tmp_path: Path, content: str) -> None:
+    dep = tmp_path / "depots.json"
+    dep.write_text(content)
+    _fails_cleanly(
+        [
+            "plan-window",
+            str(example_csv),
+            "--depots",
+            str(dep),
+            "--date",
+            "0811",
+            "--window",
+            "3",
+            "--out",
+            str(tmp_path / "w.parquet"),
+        ],
+        tmp_path,
+        "depots.json",
+    )
