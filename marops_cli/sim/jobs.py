@@ -46,7 +46,7 @@ DEFAULT_POLICY_NAME = "marops-basic.pt"
 
 
 def default_policy_path() -> Path | None:
-    """The shipped actor: ``$MAROPS_POLICY``, else the source tree's ``policies/marops-basic.pt``."""
+    """The shipped actor: ``$MAROPS_POLICY``, else ``policies/marops-basic.pt`` in the tree."""
     env = os.environ.get("MAROPS_POLICY")
     if env:
         return Path(env)
