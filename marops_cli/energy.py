@@ -11,7 +11,6 @@ import math
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.optimize import brentq
 
 from .config import EnergyConfig
 
@@ -68,6 +67,8 @@ def power_curve_w(payload_kg: ArrayLike, cfg: EnergyConfig | None = None) -> NDA
 
 def reference_power_w(payload_kg: float, cfg: EnergyConfig | None = None) -> float:
     """Power (W) with ``payload_kg`` on board, by bracketed root-finding: slow, for tests."""
+    from scipy.optimize import brentq  # only the slow reference path needs scipy
+
     cfg = cfg or EnergyConfig()
     thrust, theta, c = (
         float(t) for t in _flight_terms(np.asarray(payload_kg, dtype=np.float64), cfg)

@@ -3,20 +3,18 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 from rich.table import Table
 
-from ..data.dates import parse_day
-from ..energy import EnergyModel
 from ..errors import InputError
-from ..io import output_set, run_meta
-from ..io.tables import build_tables, write_route_files
-from ..sim.jobs import delivered_orders, load_fleet, load_scenario, method_policy, plan_one_window
 from . import options as o
 from .common import console, guarded, make_config, require_input
 from .common import out as out_console
+
+if TYPE_CHECKING:
+    from ..energy import EnergyModel
 
 
 @guarded
@@ -52,6 +50,18 @@ def plan_window(
     config: o.Config = None,
 ) -> None:
     """Plan one time window: flight ranges, candidate plans, optimal plan selection."""
+    from ..data.dates import parse_day
+    from ..energy import EnergyModel
+    from ..io import output_set, run_meta
+    from ..io.tables import build_tables, write_route_files
+    from ..sim.jobs import (
+        delivered_orders,
+        load_fleet,
+        load_scenario,
+        method_policy,
+        plan_one_window,
+    )
+
     require_input(data)
     if out.suffix not in (".parquet", ".json"):
         raise InputError(f"--out must end in .parquet or .json, got {out.name}")

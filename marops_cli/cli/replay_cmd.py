@@ -5,22 +5,22 @@ from __future__ import annotations
 import datetime as dt
 import json
 from pathlib import Path
-from typing import Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
-from ..config import PlannerConfig
-from ..data.dates import parse_day, parse_days
-from ..energy import EnergyModel
 from ..errors import InputError
 from ..io import output_set, run_meta
-from ..io.tables import build_tables, table_records, with_meta, write_parquet
-from ..sim.jobs import METHODS, Scenario, load_fleet, load_scenario, method_policy, replay
 from . import options as o
 from .common import console, guarded, is_terminal, make_config, print_drop_report, require_input
 from .common import out as out_console
+
+if TYPE_CHECKING:
+    from ..sim.jobs import Scenario
+
+METHOD_NAMES = "marops, ops-global, ops-random, greedy, squares, mappo, stay"
 
 METRIC_COLUMNS = (
     ("mean_energy_kj", "energy kJ/drone", "{:.1f}"),
@@ -58,7 +58,7 @@ def replay_day(
     drones: o.Drones = None,
     method: Annotated[
         str,
-        typer.Option("--method", help=f"One of {', '.join(METHODS)} (SPEC §7) [marops]."),
+        typer.Option("--method", help=f"One of {METHOD_NAMES} (SPEC §7) [marops]."),
     ] = "marops",
     policy: o.Policy = None,
     alpha: o.Alpha = None,
@@ -76,6 +76,9 @@ def replay_day(
     config: o.Config = None,
 ) -> None:
     """Replay whole days window by window; write stops, routes and the paper's metrics."""
+    from ..data.dates import parse_day, parse_days
+    from ..sim.jobs import METHODS, load_fleet, load_scenario, method_policy
+
     require_input(data)
     if (date is None) == (dates is None):
         raise InputError("give exactly one of --date or --dates")
@@ -131,7 +134,11 @@ def _replay_one(
     plot: bool,
     policy_id: Any,
 ) -> dict[str, Any]:
-    cfg: PlannerConfig = scn.cfg
+    from ..energy import EnergyModel
+    from ..io.tables import build_tables, table_records, with_meta, write_parquet
+    from ..sim.jobs import replay
+
+    cfg = scn.cfg
     n_windows = cfg.data.n_windows
     if is_terminal():
         progress = Progress(

@@ -8,11 +8,6 @@ from typing import Annotated
 import typer
 from rich.table import Table
 
-from ..data.dates import parse_days
-from ..io import output_set, run_meta
-from ..segment import areas_geojson
-from ..segment.plot import plot_depots
-from ..segment.run import segment_file
 from .common import (
     console,
     guarded,
@@ -69,6 +64,12 @@ def segment(
     ] = None,
 ) -> None:
     """Cluster a LaDe export into depots and service areas (k-means or squares)."""
+    from ..data.dates import parse_days
+    from ..io import output_set, run_meta
+    from ..segment import areas_geojson
+    from ..segment.plot import plot_depots
+    from ..segment.run import segment_file
+
     require_input(data)
     cfg = make_config(
         config,

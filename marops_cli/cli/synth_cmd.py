@@ -9,8 +9,6 @@ from typing import Annotated
 import typer
 from pydantic import ValidationError
 
-from ..data.dates import parse_day
-from ..data.synth import SynthConfig, generate, write
 from ..errors import InputError
 from .common import console, guarded
 
@@ -32,6 +30,9 @@ def synth(
     ] = None,
 ) -> None:
     """Generate LaDe-shaped delivery data (all 17 columns, the real export's formats and quirks)."""
+    from ..data.dates import parse_day
+    from ..data.synth import SynthConfig, generate, write
+
     if fmt not in (None, "csv", "parquet"):
         raise InputError(f"--format expects csv or parquet, got {fmt!r}")
     first: dt.date = parse_day(start, 2022)

@@ -88,8 +88,12 @@ class TorchScriptPolicy:
         with torch.no_grad():
             out, self._hidden = self._module(torch.from_numpy(obs), self._hidden)
         logits = out.numpy().astype(np.float64)
-        logits[~view.action_mask()] = -np.inf
+        logits[~self.mask(view)] = -np.inf
         return logits
+
+    def mask(self, view: WindowView) -> np.ndarray:
+        """``(U, n_logits)`` True where the action exists."""
+        return view.action_mask()
 
     def act(self, view: WindowView) -> np.ndarray:
         return np.argmax(self.logits(view), axis=1).astype(np.int64)

@@ -1,0 +1,52 @@
+"""Hyperparameters of MAPPO training (paper §IV-D, §V-A), one documented model."""
+
+from __future__ import annotations
+
+from typing import Literal
+
+from pydantic import BaseModel, ConfigDict, Field
+
+
+class TrainConfig(BaseModel):
+    """Everything that shapes a training run besides the planner config.
+
+    Paper values where the paper gives one (γ, clip, minibatch, GRU 64 tanh);
+    the rest are cleanrl's PPO defaults or were tuned on synthetic data
+    (``policies/README.md``).
+    """
+
+    model_config = ConfigDict(extra="forbid", validate_assignment=True)
+
+    method: Literal["marops", "mappo"] = Field(
+        "marops", description="marops: actions pick a destination; mappo: destination × plan slot"
+    )
+    episodes: int = Field(2000, ge=1, description="training episodes (one episode = one day)")
+    seed: int = Field(0, description="seed of every random stream of the run")
+    workers: int = Field(2, ge=1, description="rollout processes (results do not depend on it)")
+    episodes_per_update: int = Field(8, ge=1, description="episodes gathered per PPO update")
+    hidden_size: int = Field(64, ge=1, description="GRU units of the actor (paper: 64)")
+    critic_hidden: int = Field(64, ge=1, description="units of each critic hidden layer (paper: 64)")
+    gamma: float = Field(0.95, gt=0, le=1, description="discount factor γ (paper: 0.95)")
+    gae_lambda: float = Field(0.95, ge=0, le=1, description="GAE λ (1 = Monte-Carlo returns)")
+    clip: float = Field(0.2, gt=0, description="PPO clip ε of the surrogate (paper: 0.2)")
+    minibatch: int = Field(64, ge=1, description="transitions per minibatch, H (paper: 64)")
+    update_epochs: int = Field(4, ge=1, description="passes over each batch per update")
+    lr: float = Field(3e-4, gt=0, description="Adam learning rate of actor and critic")
+    anneal_lr: bool = Field(True, description="decay the learning rate linearly to 0")
+    ent_coef: float = Field(0.01, ge=0, description="weight of the entropy bonus")
+    vf_coef: float = Field(0.5, ge=0, description="weight of the critic loss")
+    max_grad_norm: float = Field(0.5, gt=0, description="global gradient-norm clip")
+    norm_adv: bool = Field(True, description="normalise advantages per minibatch")
+    reward_scope: Literal["team", "observed"] = Field(
+        "team",
+        description="whose delay enters eq. (10): the whole map's (team) or u's observed areas",
+    )
+    delay_scale_h: float = Field(
+        4.0, gt=0, description="delay (h) per drone at which the delay term is half saturated"
+    )
+    energy_scale_kj: float = Field(
+        60.0, gt=0, description="flight energy (kJ) at which the energy term is half saturated"
+    )
+    plan_slots: int = Field(4, ge=2, description="mappo: plan slots per destination (last = empty)")
+    eval_every: int = Field(200, ge=1, description="episodes between held-out evaluations")
+    checkpoint_every: int = Field(40, ge=1, description="episodes between checkpoints")
