@@ -8,6 +8,7 @@ import typer
 
 from .. import __version__
 from .common import STATE
+from .evaluate_cmd import evaluate
 from .plan_window_cmd import plan_window
 from .replay_cmd import replay_day
 from .segment_cmd import segment
@@ -47,6 +48,7 @@ app.command("synth")(synth)
 app.command("segment")(segment)
 app.command("plan-window")(plan_window)
 app.command("replay-day")(replay_day)
+app.command("evaluate")(evaluate)
 
 
 def main() -> None:

@@ -168,7 +168,45 @@ def parse_times(column: pa.ChunkedArray | pa.Array, year: int) -> tuple[np.ndarr
     status = np.full(start.size, TIME_BAD, dtype=np.int8)
     status[ok] = TIME_OK
     status[empty] = TIME_EMPTY
+    bad = np.flatnonzero(status == TIME_BAD)
+    if bad.size:
+        _lenient(arr, bad, year, secs, status)
     return secs, status
+
+
+# Forms other tools write: 2022/08/20, 8-20 9:05, 10:31 without seconds, 10:31:05.000.
+_LENIENT = re.compile(
+    r"^\s*(?:(\d{4})[-/.])?(\d{1,2})[-/.](\d{1,2})[ T](\d{1,2}):(\d{2})(?::(\d{2})(?:\.\d+)?)?\s*$"
+)
+_EPOCH = dt.datetime(1970, 1, 1)
+
+
+def _lenient(
+    arr: pa.Array, rows: np.ndarray, year: int, secs: np.ndarray, status: np.ndarray
+) -> None:
+    """Second chance, in place, for the cells the fast parser rejected (few, so a loop is fine).
+
+    Each distinct text is parsed once; a cell that still fails stays :data:`TIME_BAD`.
+    """
+    texts = arr.take(pa.array(rows)).to_pylist()
+    cache: dict[str, int | None] = {}
+    for r, text in zip(rows, texts, strict=True):
+        if text not in cache:
+            m = _LENIENT.match(str(text))
+            value = None
+            if m:
+                y, mo, d, h, mi, sec = m.groups()
+                try:
+                    when = dt.datetime(
+                        int(y or year), int(mo), int(d), int(h), int(mi), int(sec or 0)
+                    )
+                    value = int((when - _EPOCH).total_seconds())
+                except ValueError:
+                    value = None
+            cache[text] = value
+        if cache[text] is not None:
+            secs[r] = cache[text]
+            status[r] = TIME_OK
 
 
 def parse_ds(column: pa.ChunkedArray | pa.Array, year: int) -> np.ndarray:
@@ -178,7 +216,11 @@ def parse_ds(column: pa.ChunkedArray | pa.Array, year: int) -> np.ndarray:
     (``231``, ``1301``) are not valid.
     """
     arr = column.combine_chunks() if isinstance(column, pa.ChunkedArray) else column
-    if pa.types.is_integer(arr.type):
+    if pa.types.is_floating(arr.type):  # a column with gaps re-saved by pandas: 820.0
+        f = arr.fill_null(-1.0).to_numpy(zero_copy_only=False)
+        whole = np.isfinite(f) & (f == np.floor(f))
+        value = np.where(whole, f, -1).astype(np.int64)
+    elif pa.types.is_integer(arr.type):
         value = arr.cast(pa.int64()).fill_null(-1).to_numpy()
     else:
         text = arr.cast(pa.string())
@@ -186,6 +228,9 @@ def parse_ds(column: pa.ChunkedArray | pa.Array, year: int) -> np.ndarray:
             value = text.cast(pa.int64()).fill_null(-1).to_numpy()
         except pa.ArrowInvalid:
             text = pc.utf8_trim_whitespace(text)
+            # 820.0 (pandas) and 2022-08-20 (ISO) are read as 820 and 20220820.
+            text = pc.replace_substring_regex(text, r"^(\d{3,4})\.0+$", r"\1")
+            text = pc.replace_substring_regex(text, r"^(\d{4})-(\d{2})-(\d{2})$", r"\1\2\3")
             digits = pc.fill_null(pc.match_substring_regex(text, r"^(\d{3,4}|\d{8})$"), False)
             value = pc.if_else(digits, text, None).cast(pa.int64()).fill_null(-1).to_numpy()
     long = value >= 10_000_000

@@ -42,7 +42,7 @@ from ..errors import InputError
 from .dates import TIME_BAD, TIME_EMPTY, parse_ds, parse_times
 from .table import DROP_REASONS, REQUIRED_COLUMNS, DropReport, LadeTable, SourceInfo
 
-_OPTIONAL_COLUMNS = ("aoi_id", "weight_kg")
+_OPTIONAL_COLUMNS = ("ds", "aoi_id", "weight_kg")
 # The column named when a row is dropped (in --strict errors), per reason.
 _REASON_COLUMN = {
     "duplicate": "order_id",
@@ -235,7 +235,17 @@ def _check_errors(table: pa.Table, path: Path, cfg: DataConfig) -> dict[str, np.
             value = table[name][i].as_py()
             msg = f"expected a time MM-DD HH:MM:SS or YYYY-MM-DD HH:MM:SS, got {value!r}"
             bad.append((i, name, msg))
-    if (i := _first(~parse_ds(table["ds"], cfg.year))) is not None:
+    has_ds = "ds" in table.column_names
+    # An empty ds is harmless (the day comes from delivery_time); a malformed one is not.
+    ds_bad = (
+        ~parse_ds(table["ds"], cfg.year)
+        & ~pc.equal(pc.utf8_length(pc.utf8_trim_whitespace(table["ds"].cast(pa.string()))), 0)
+        .fill_null(True)
+        .to_numpy(zero_copy_only=False)
+        if has_ds
+        else None
+    )
+    if ds_bad is not None and (i := _first(ds_bad)) is not None:
         value = table["ds"][i].as_py()
         bad.append((i, "ds", f"expected a date MMDD in {cfg.year}, got {value!r}"))
     oid = table["order_id"]

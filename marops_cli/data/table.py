@@ -29,8 +29,9 @@ LADE_COLUMNS: tuple[str, ...] = (
     "delivery_gps_lat",
     "ds",
 )
-# The columns the planner cannot do without.
-REQUIRED_COLUMNS: tuple[str, ...] = ("order_id", "lng", "lat", "accept_time", "delivery_time", "ds")
+# The columns the planner cannot do without. ``ds`` is checked when present but not
+# needed: a request's day is the date of its delivery time.
+REQUIRED_COLUMNS: tuple[str, ...] = ("order_id", "lng", "lat", "accept_time", "delivery_time")
 
 # Reasons a row is dropped (reported to the user; ``--strict`` makes them errors).
 DROP_REASONS: tuple[str, ...] = (

@@ -1,1 +1,45 @@
-"""evaluate"""
+"""Method comparison, sweeps and plots (paper §V, SPEC §7–9).
+
+``prepare`` reads the data once and lists the jobs (day × method × setting ×
+repeat), ``evaluate`` runs them over worker processes, ``write_outputs`` writes
+``results.parquet``, ``summary.csv``, ``summary.md`` and the figures together.
+"""
+
+from .evaluation import Evaluation, evaluate
+from .report import markdown_table, summary_markdown, table3, write_outputs
+from .runner import Prepared, check_methods, prepare, run
+from .settings import (
+    SWEEP_FLAGS,
+    Job,
+    Setting,
+    expand_settings,
+    parse_values,
+    plan_jobs,
+    split_days,
+    swept_flags,
+)
+from .tables import combined_cost, results_table, summarize
+
+__all__ = [
+    "SWEEP_FLAGS",
+    "Evaluation",
+    "Job",
+    "Prepared",
+    "Setting",
+    "check_methods",
+    "combined_cost",
+    "evaluate",
+    "expand_settings",
+    "markdown_table",
+    "parse_values",
+    "plan_jobs",
+    "prepare",
+    "results_table",
+    "run",
+    "split_days",
+    "summarize",
+    "summary_markdown",
+    "swept_flags",
+    "table3",
+    "write_outputs",
+]

@@ -56,6 +56,29 @@ class WindowPlan:
     timings: dict[str, float] = field(default_factory=dict)
 
 
+def _range_candidates(
+    view: WindowView, rank: np.ndarray, rank_area: np.ndarray, s: int, a: int, m_hat: int
+) -> np.ndarray:
+    """Ĉ_u of a drone at depot ``s`` taking action ``a``: pending positions in its range.
+
+    ``rank`` lists the pending requests by delay (highest first), then due time, and
+    ``rank_area`` their areas, so only the head of the drone's range needs the full
+    sort of :func:`pick_candidates` (with its distance tie-break): the first ``m_hat``
+    requests and any tied with the last of them on delay and due time.
+    """
+    inside = rank[view.ranges[s, a][rank_area]]
+    if inside.size > m_hat:
+        last, rest = inside[m_hat - 1], inside[m_hat:]
+        tie = (view.pending_delay_h[rest] == view.pending_delay_h[last]) & (
+            view.pending_due_s[rest] == view.pending_due_s[last]
+        )
+        inside = inside[: m_hat + (tie.size if tie.all() else int(np.argmin(tie)))]
+    dist = np.hypot(*(view.pending_xy[inside] - view.depots.xy[s]).T)
+    return pick_candidates(
+        inside, view.pending_delay_h[inside], view.pending_due_s[inside], dist, m_hat
+    )
+
+
 def _range_plans(
     view: WindowView, actions: np.ndarray, model: EnergyModel, cfg: PlanConfig
 ) -> tuple[list[PlanSet], np.ndarray, np.ndarray, float]:
@@ -63,42 +86,45 @@ def _range_plans(
     plan_sets: list[PlanSet] = []
     ends = np.zeros(view.n_drones, dtype=np.int64)
     acts = np.asarray(actions, dtype=np.int64).copy()
-    t_cand = 0.0
-    for u, s in enumerate(view.drone_depot):
-        s = int(s)
-        t0 = time.perf_counter()
-        inside = view.ranges[s, acts[u]][view.pending_area]
-        idx = np.flatnonzero(inside)
-        dist = np.hypot(*(view.pending_xy[idx] - dep.xy[s]).T) if idx.size else np.zeros(0)
-        cand = pick_candidates(
-            idx, view.pending_delay_h[idx], view.pending_due_s[idx], dist, cfg.max_parcels
-        )
-        t_cand += time.perf_counter() - t0
-        dest = int(dep.candidates[s, acts[u]])
-        try:
-            ps = build_plans(
-                dep.xy[s],
-                dep.xy[dest],
-                view.pending_xy[cand],
-                view.pending_weight[cand],
-                model,
-                cfg,
-                request_ids=cand,
-            )
-        except NoFeasiblePlanError:
-            # The destination is out of battery range: the drone stays (action 0).
-            acts[u], dest = 0, s
-            ps = build_plans(
-                dep.xy[s],
-                dep.xy[s],
-                view.pending_xy[cand],
-                view.pending_weight[cand],
-                model,
-                cfg,
-                request_ids=cand,
-            )
+    t0 = time.perf_counter()
+    rank = np.lexsort((view.pending_due_s, -view.pending_delay_h))
+    rank_area = view.pending_area[rank]
+    t_cand = time.perf_counter() - t0
+    # Drones at the same depot taking the same action have the same candidates and plans.
+    done: dict[tuple[int, int], tuple[PlanSet, int, int]] = {}
+    for u, s0 in enumerate(view.drone_depot):
+        key = s, a = int(s0), int(acts[u])
+        if key in done:
+            ps, dest, a = done[key]
+            plan_sets.append(ps)
+            ends[u], acts[u] = dest, a
+            continue
+        while True:
+            t0 = time.perf_counter()
+            cand = _range_candidates(view, rank, rank_area, s, a, cfg.max_parcels)
+            t_cand += time.perf_counter() - t0
+            dest = int(dep.candidates[s, a])
+            try:
+                ps = build_plans(
+                    dep.xy[s],
+                    dep.xy[dest],
+                    view.pending_xy[cand],
+                    view.pending_weight[cand],
+                    model,
+                    cfg,
+                    request_ids=cand,
+                )
+                break
+            except NoFeasiblePlanError:
+                # The destination is out of battery range: the drone stays (action 0,
+                # candidate 0 is the start itself), and its candidates come from the
+                # flight range of staying, so the route lies in the range it reports.
+                if a == 0:
+                    raise
+                a = 0
+        done[key] = ps, dest, a
         plan_sets.append(ps)
-        ends[u] = dest
+        ends[u], acts[u] = dest, a
     return plan_sets, ends, acts, t_cand
 
 
@@ -113,14 +139,26 @@ def _global_plans(
         (np.arange(view.pending_idx.size), view.pending_due_s, -view.pending_delay_h)
     )
     pool = order[:n_pool]
+    # Distance from every pooled request to every depot, and its nearest depot (ties to
+    # the lower id), once for all drones.
+    pxy = view.pending_xy[pool]
+    d_pool = np.hypot(pxy[:, None, 0] - dep.xy[None, :, 0], pxy[:, None, 1] - dep.xy[None, :, 1])
+    near = np.argmin(d_pool, axis=1)
+    d_near = d_pool[np.arange(pool.size), near]
     t_cand = time.perf_counter() - t0
     e0 = float(model.energy_per_m(0.0))
     plan_sets, plan_ends = [], []
-    for s in view.drone_depot:
-        s = int(s)
+    done: dict[int, tuple[PlanSet, np.ndarray]] = {}  # drones at one depot plan alike
+    for s0 in view.drone_depot:
+        s = int(s0)
+        if s in done:
+            plan_sets.append(done[s][0])
+            plan_ends.append(done[s][1])
+            continue
         t0 = time.perf_counter()
-        d = np.hypot(*(view.pending_xy[pool] - dep.xy[s]).T)
-        cand = pool[np.lexsort((pool, d))[: cfg.max_parcels]]
+        d = d_pool[:, s]
+        sel = np.lexsort((pool, d))[: cfg.max_parcels]  # positions in the pool
+        cand = pool[sel]
         t_cand += time.perf_counter() - t0
         ps = build_plans(
             dep.xy[s],
@@ -134,24 +172,19 @@ def _global_plans(
         # Land at the depot nearest the last customer instead of flying back: the
         # last leg is flown empty, so only its length changes (never longer).
         sizes = (ps.order >= 0).sum(axis=1)
-        last = np.where(sizes > 0, ps.order[np.arange(ps.n_plans), np.maximum(sizes - 1, 0)], -1)
         ends = np.full(ps.n_plans, s, dtype=np.int64)
         energy, distance = ps.energy_j.copy(), ps.distance_m.copy()
-        has = last >= 0
+        has = sizes > 0  # (no candidates at all: only the empty plan, nothing to index)
         if has.any():
-            lxy = view.pending_xy[cand[last[has]]]
-            d_all = np.hypot(
-                lxy[:, None, 0] - dep.xy[None, :, 0], lxy[:, None, 1] - dep.xy[None, :, 1]
-            )
-            near = np.argmin(d_all, axis=1)
-            back = d_all[:, s]
-            new = d_all[np.arange(near.size), near]
-            ends[has] = near
-            distance[has] += new - back
-            energy[has] += e0 * (new - back)
-        plan_sets.append(
-            PlanSet(ps.request_ids, ps.members, ps.order, energy, distance, ps.weight_kg)
+            last = sel[ps.order[has, sizes[has] - 1]]
+            ends[has] = near[last]
+            distance[has] += d_near[last] - d[last]
+            energy[has] += e0 * (d_near[last] - d[last])
+        done[s] = (
+            PlanSet(ps.request_ids, ps.members, ps.order, energy, distance, ps.weight_kg),
+            ends,
         )
+        plan_sets.append(done[s][0])
         plan_ends.append(ends)
     return plan_sets, plan_ends, t_cand
 
@@ -175,10 +208,12 @@ def plan_window(
         plan_sets, ends, acts, t_cand = _range_plans(view, acts, model, cfg)
         plan_ends = [np.full(ps.n_plans, ends[u]) for u, ps in enumerate(plan_sets)]
     t_plans = time.perf_counter() - t_start - t_cand
+    t0 = time.perf_counter()
     delay = {int(i): float(view.pending_delay_h[i]) for ps in plan_sets for i in ps.request_ids}
     problem = SelectionProblem.from_plan_sets(
         plan_sets, delay, alpha=cfg.alpha, energy_ref_j=model.usable_j
     )
+    t_problem = time.perf_counter() - t0  # the plan table is part of building the model
     sel = selector.select(problem)
     routes = []
     for u, ps in enumerate(plan_sets):
@@ -214,7 +249,7 @@ def plan_window(
         timings={
             "candidates": t_cand,
             "plans": t_plans,
-            "build": sel.build_s,
+            "build": t_problem + sel.build_s,
             "solve": sel.solve_s,
             "total": time.perf_counter() - t_start,
         },

@@ -43,8 +43,11 @@ def _candidate_features(
     pxy = view.pending_xy[inside]
     dist_s = np.hypot(*(pxy - xy_s).T)
     cand = pick_candidates(
-        np.arange(inside.size), view.pending_delay_h[inside], view.pending_due_s[inside],
-        dist_s, m_hat,
+        np.arange(inside.size),
+        view.pending_delay_h[inside],
+        view.pending_due_s[inside],
+        dist_s,
+        m_hat,
     )
     detour = dist_s[cand] + np.hypot(*(pxy[cand] - xy_d).T) - np.hypot(*(xy_d - xy_s))
     return float(view.pending_delay_h[inside][cand].sum()), float(cand.size), float(detour.mean())

@@ -25,7 +25,9 @@ class TrainConfig(BaseModel):
     workers: int = Field(2, ge=1, description="rollout processes (results do not depend on it)")
     episodes_per_update: int = Field(8, ge=1, description="episodes gathered per PPO update")
     hidden_size: int = Field(64, ge=1, description="GRU units of the actor (paper: 64)")
-    critic_hidden: int = Field(64, ge=1, description="units of each critic hidden layer (paper: 64)")
+    critic_hidden: int = Field(
+        64, ge=1, description="units of each critic hidden layer (paper: 64)"
+    )
     gamma: float = Field(0.95, gt=0, le=1, description="discount factor γ (paper: 0.95)")
     gae_lambda: float = Field(0.95, ge=0, le=1, description="GAE λ (1 = Monte-Carlo returns)")
     clip: float = Field(0.2, gt=0, description="PPO clip ε of the surrogate (paper: 0.2)")
@@ -41,11 +43,14 @@ class TrainConfig(BaseModel):
         "team",
         description="whose delay enters eq. (10): the whole map's (team) or u's observed areas",
     )
+    energy_scope: Literal["team", "own"] = Field(
+        "team", description="whose energy enters eq. (10): the fleet's mean (team) or u's own"
+    )
     delay_scale_h: float = Field(
-        4.0, gt=0, description="delay (h) per drone at which the delay term is half saturated"
+        12.0, gt=0, description="delay (h) per drone at which the delay term is half saturated"
     )
     energy_scale_kj: float = Field(
-        60.0, gt=0, description="flight energy (kJ) at which the energy term is half saturated"
+        50.0, gt=0, description="flight energy (kJ) at which the energy term is half saturated"
     )
     plan_slots: int = Field(4, ge=2, description="mappo: plan slots per destination (last = empty)")
     eval_every: int = Field(200, ge=1, description="episodes between held-out evaluations")

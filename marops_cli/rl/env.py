@@ -35,7 +35,7 @@ import numpy as np
 from ..config import PlannerConfig
 from ..data.table import DayRequests
 from ..energy import EnergyModel
-from ..plans.select import Selector, make_selector
+from ..plans.select import MilpSelector, Selector, make_selector
 from ..plans.window import plan_window
 from ..policies.base import WindowView
 from ..policies.direct import SlotSelector
@@ -52,11 +52,21 @@ def squash(x: np.ndarray, scale: float) -> np.ndarray:
     return 2.0 / (1.0 + np.exp(-_LN3 * np.asarray(x, dtype=np.float64) / scale)) - 1.0
 
 
-def reward(delay_h: np.ndarray, energy_kj: np.ndarray, alpha: float, tcfg: TrainConfig) -> np.ndarray:
+def reward(
+    delay_h: np.ndarray, energy_kj: np.ndarray, alpha: float, tcfg: TrainConfig
+) -> np.ndarray:
     """Eq. (10) with sigmoid-normalised terms, one value per drone."""
     return -(1.0 - alpha) * squash(delay_h, tcfg.delay_scale_h) - alpha * squash(
         energy_kj, tcfg.energy_scale_kj
     )
+
+
+def _fast_selector(cfg: PlannerConfig) -> Selector:
+    """The planner's selector; the MILP through highspy directly (same program as
+    ``replay-day``, without cvxpy's per-call canonicalisation: a third of a step)."""
+    if cfg.plan.solver == "highs":
+        return MilpSelector(cfg.plan.time_limit_s, cfg.plan.strict_cover, backend="highs")
+    return make_selector(cfg.plan)
 
 
 class DeliveryEnv:
@@ -73,7 +83,7 @@ class DeliveryEnv:
         self.n_dest = int(depots.candidates.shape[1])
         self.direct = tcfg.method == "mappo"
         self.n_slots = tcfg.plan_slots if self.direct else 1
-        self.selector: Selector = SlotSelector(self.n_slots) if self.direct else make_selector(cfg.plan)
+        self.selector: Selector = SlotSelector(self.n_slots) if self.direct else _fast_selector(cfg)
         self.state: DayState | None = None
         self.view: WindowView | None = None
         self.t = 0
@@ -92,7 +102,7 @@ class DeliveryEnv:
         self.state = DayState(day, self.depots, fleet, self.cfg.plan.coverage)
         self.t = 0
         self.view = self.state.view(0)
-        return observe(self.view, self.cfg.plan.max_parcels)
+        return observe(self.view)
 
     @property
     def done(self) -> bool:
@@ -103,9 +113,12 @@ class DeliveryEnv:
         assert self.view is not None
         return np.repeat(self.view.action_mask(), self.n_slots, axis=1)
 
-    def step(self, actions: np.ndarray) -> tuple[np.ndarray | None, np.ndarray, dict[str, np.ndarray]]:
+    def step(
+        self, actions: np.ndarray
+    ) -> tuple[np.ndarray | None, np.ndarray, dict[str, np.ndarray]]:
         """Fly window t with ``actions``; returns (next obs or None at the day's end,
-        rewards ``(U,)``, info with each drone's ``energy_kj`` and ``delay_h``)."""
+        rewards ``(U,)``, info: each drone's ``energy_kj`` and ``delay_h`` (D_u), and
+        ``late_h``, the delay the whole map added in this window)."""
         assert self.state is not None and self.view is not None and not self.done
         st, view = self.state, self.view
         actions = np.asarray(actions, dtype=np.int64)
@@ -117,23 +130,25 @@ class DeliveryEnv:
         energy_kj = np.array([r.energy_j for r in plan.routes]) / 1000.0
         starts = view.drone_depot.copy()
         st.apply(plan, self.model.speed_ms)
-        delay_h = self._delay_added(starts)
-        r = reward(delay_h, energy_kj, self.cfg.plan.alpha, self.tcfg)
+        delay_h, late_h = self._delay_added(starts)
+        e_u = energy_kj if self.tcfg.energy_scope == "own" else np.full_like(energy_kj, energy_kj.mean())
+        r = reward(delay_h, e_u, self.cfg.plan.alpha, self.tcfg)
         self.t += 1
         obs = None
         if not self.done:
             self.view = st.view(self.t)
-            obs = observe(self.view, self.cfg.plan.max_parcels)
-        return obs, r, {"energy_kj": energy_kj, "delay_h": delay_h}
+            obs = observe(self.view)
+        return obs, r, {"energy_kj": energy_kj, "delay_h": delay_h, "late_h": np.array(late_h)}
 
-    def _delay_added(self, starts: np.ndarray) -> np.ndarray:
-        """D_u(t): window length × requests due by t still undelivered after window t."""
+    def _delay_added(self, starts: np.ndarray) -> tuple[np.ndarray, float]:
+        """(D_u(t) per drone, the whole map's added delay): window length × requests
+        due by t and still undelivered after window t."""
         st = self.state
         assert st is not None
         late = (st.day.due_w <= self.t) & (st.delivered_w < 0)
-        wh = st.day.window_hours
+        total = st.day.window_hours * float(late.sum())
         if self.tcfg.reward_scope == "team":
-            return np.full(self.n_drones, wh * late.sum() / self.n_drones)
+            return np.full(self.n_drones, total / self.n_drones), total
         per_area = np.bincount(st.area[late], minlength=len(self.depots)).astype(np.float64)
         seen = st.ranges[starts].any(axis=1)  # (U, N): union of u's candidate ranges
-        return wh * (seen * per_area[None, :]).sum(axis=1)
+        return st.day.window_hours * (seen * per_area[None, :]).sum(axis=1), total

@@ -22,7 +22,11 @@ MASKED_LOGIT = -1e9  # finite, so masked actions give p log p = 0 rather than Na
 
 
 def gae(
-    rewards: np.ndarray, values: np.ndarray, gamma: float, lam: float, last_value: np.ndarray | None = None
+    rewards: np.ndarray,
+    values: np.ndarray,
+    gamma: float,
+    lam: float,
+    last_value: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Generalised advantage estimates and returns, both ``(T, ...)``.
 
@@ -118,9 +122,19 @@ def ppo_update(
     seq_obs = batch.obs.reshape(t_, e_ * u_, d_)
     critic_in = fleet_input(batch.obs).reshape(n, -1)
     actions, old_logp = batch.actions.reshape(n), batch.logp.reshape(n)
-    mask, adv_all, ret_all = batch.mask.reshape(n, -1), batch.advantages.reshape(n), batch.returns.reshape(n)
+    mask, adv_all, ret_all = (
+        batch.mask.reshape(n, -1),
+        batch.advantages.reshape(n),
+        batch.returns.reshape(n),
+    )
     params = [*actor.parameters(), *critic.parameters()]
-    sums: dict[str, float] = {"pg_loss": 0.0, "v_loss": 0.0, "entropy": 0.0, "approx_kl": 0.0, "clipfrac": 0.0}
+    sums: dict[str, float] = {
+        "pg_loss": 0.0,
+        "v_loss": 0.0,
+        "entropy": 0.0,
+        "approx_kl": 0.0,
+        "clipfrac": 0.0,
+    }
     steps = 0
     for _ in range(tcfg.update_epochs):
         perm = torch.randperm(n, generator=generator)
@@ -132,9 +146,15 @@ def ppo_update(
             if tcfg.norm_adv and idx.numel() > 1:
                 adv = (adv - adv.mean()) / (adv.std() + 1e-8)
             terms = ppo_loss(
-                dist.log_prob(actions[idx]), old_logp[idx], adv,
-                critic.net(critic_in[idx]).squeeze(-1), ret_all[idx], dist.entropy(),
-                tcfg.clip, tcfg.vf_coef, tcfg.ent_coef,
+                dist.log_prob(actions[idx]),
+                old_logp[idx],
+                adv,
+                critic.net(critic_in[idx]).squeeze(-1),
+                ret_all[idx],
+                dist.entropy(),
+                tcfg.clip,
+                tcfg.vf_coef,
+                tcfg.ent_coef,
             )
             optimizer.zero_grad()
             terms["loss"].backward()

@@ -75,13 +75,33 @@ def test_parse_times_formats_and_status() -> None:
     col = pa.chunked_array(
         [
             ["08-20 10:31:05", "2022-08-20 10:31:05", " 08-20 10:31:05 ", None],
-            ["", "02-29 10:00:00", "08-20 24:00:00", "8-20 10:31:05", "08-20 10:31:05x"],
+            ["", "02-29 10:00:00", "08-20 24:00:00", "08-20 10:31:05x", "20 Aug 10:31"],
         ]
     )
     secs, status = parse_times(col, 2022)
     expect = np.datetime64("2022-08-20T10:31:05", "s").astype(np.int64)
     np.testing.assert_array_equal(secs[:3], [expect] * 3)
     np.testing.assert_array_equal(status, [TIME_OK] * 3 + [TIME_EMPTY] * 2 + [TIME_BAD] * 4)
+
+
+def test_parse_times_lenient_forms_of_other_exporters() -> None:
+    # Unpadded fields, slashes, no seconds, fractional seconds: read, not rejected.
+    col = pa.array(
+        ["8-20 9:05:00", "2022/08/20 10:31:05", "08-20 10:31", "08-20 10:31:05.250", "8/2 7:00"]
+    )
+    secs, status = parse_times(col, 2022)
+    assert (status == TIME_OK).all()
+    expect = np.array(
+        [
+            "2022-08-20T09:05:00",
+            "2022-08-20T10:31:05",
+            "2022-08-20T10:31:00",
+            "2022-08-20T10:31:05",
+            "2022-08-02T07:00:00",
+        ],
+        dtype="datetime64[s]",
+    ).astype(np.int64)
+    np.testing.assert_array_equal(secs, expect)
 
 
 def test_parse_times_matches_numpy_datetime() -> None:

@@ -186,7 +186,7 @@ def test_only_required_columns(tmp_path: Path) -> None:
     ("column", "value", "expect"),
     [
         ("accept_time", "08-32 08:00:00", "08-32 08:00:00"),
-        ("delivery_time", "2022/08/20 10:15", "2022/08/20 10:15"),
+        ("delivery_time", "2022/08/20 10h15", "2022/08/20 10h15"),
         ("accept_time", "02-29 08:00:00", "02-29"),  # no Feb 29 in 2022
         ("ds", "2013", "2013"),
         ("ds", "aug", "aug"),
@@ -350,3 +350,26 @@ def test_every_row_dropped(tmp_path: Path) -> None:
     assert len(t) == 0 and t.report.kept == 0 and t.report.n_dropped == 2
     assert t.order_id.shape == t.lng.shape == t.row.shape == (0,)
     assert t.days() == []
+
+
+def test_ds_is_optional_and_may_be_empty_or_float(tmp_path: Path) -> None:
+    """Other exporters drop ds, leave it empty, or write it as 820.0 after pandas."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    from marops_cli.config import DataConfig
+    from marops_cli.data.reader import read_lade
+
+    base = {
+        "order_id": ["1", "2", "3"],
+        "lng": [121.47, 121.48, 121.49],
+        "lat": [31.23, 31.24, 31.25],
+        "accept_time": ["08-20 08:00:00"] * 3,
+        "delivery_time": ["08-20 10:00:00"] * 3,
+    }
+    pq.write_table(pa.table(base), tmp_path / "no_ds.parquet")
+    pq.write_table(pa.table(base | {"ds": [820.0, None, 820.0]}), tmp_path / "float_ds.parquet")
+    for name in ("no_ds.parquet", "float_ds.parquet"):
+        table = read_lade(tmp_path / name, DataConfig())
+        assert len(table) == 3
+        assert [d.isoformat() for d in table.days()] == ["2022-08-20"]

@@ -1,0 +1,202 @@
+"""Wall time of one planning window (``plan_window``), split by stage; prints figures.
+
+Two scenarios, each planned ``--repeats`` times on the same window:
+
+* basic: the example's day 2022-08-11 (16 k-means depots from the other days, 8
+  drones at the busiest depots, M̂ = 5) with every request of the day made pending at
+  mid-day window 8 (about 500 pending requests);
+* large: 64 k-means depots over a 20 km square, 100 drones, 10,000 pending requests
+  drawn around 40 clustered hubs (a synthetic city a few times the example's size).
+
+For each, the median of ``WindowPlan.timings`` (candidates, plans, model build, solve,
+total) for the range scope (greedy flight-range policy) and the global scope
+(OPS-global), then the same selection program solved through cvxpy and through
+highspy directly (``solve_highs_direct``), interleaved, with the cvxpy/direct ratio.
+Goals for the basic scenario: a window under 50 ms; cvxpy build + solve within 1.5×
+of direct HiGHS.
+
+    python benchmarks/plan_window.py [DATA] [--repeats 20] [--profile]
+"""
+
+from __future__ import annotations
+
+import argparse
+import cProfile
+import datetime as dt
+import io
+import pstats
+import statistics
+import sys
+import time
+from pathlib import Path
+
+sys.path = [p for p in sys.path if Path(p or ".").resolve() != Path(__file__).parent.resolve()]
+
+import numpy as np  # noqa: E402
+
+from marops_cli.config import PlannerConfig, SegmentConfig  # noqa: E402
+from marops_cli.data.frame import Frame  # noqa: E402
+from marops_cli.data.prepare import prepare_day  # noqa: E402
+from marops_cli.energy import EnergyModel  # noqa: E402
+from marops_cli.plans.plans import SelectionProblem  # noqa: E402
+from marops_cli.plans.ranges import delays_h, range_table  # noqa: E402
+from marops_cli.plans.select import MilpSelector, solve_highs_direct  # noqa: E402
+from marops_cli.plans.window import _global_plans, _range_plans, plan_window  # noqa: E402
+from marops_cli.policies.base import WindowView  # noqa: E402
+from marops_cli.policies.baselines import GreedyPolicy  # noqa: E402
+from marops_cli.segment import segment_points  # noqa: E402
+from marops_cli.sim.jobs import load_scenario  # noqa: E402
+from marops_cli.sim.state import DayState, default_fleet  # noqa: E402
+
+STAGES = ("candidates", "plans", "build", "solve", "total")
+MID_WINDOW = 8
+
+
+def basic_view(data: str, cfg: PlannerConfig) -> WindowView:
+    """Day 0811 of the example, every request pending at window 8, 8 drones."""
+    day = dt.date(2022, 8, 11)
+    scn = load_scenario(data, cfg, replay_days=[day])
+    reqs = prepare_day(scn.table, scn.frame, day, cfg.data)
+    reqs.visible_w[:] = 0  # all of the day's requests are known and undelivered
+    fleet = default_fleet(scn.depots, cfg.sim.drones)
+    return DayState(reqs, scn.depots, fleet, cfg.plan.coverage).view(MID_WINDOW)
+
+
+def large_view(cfg: PlannerConfig, seed: int = 0) -> WindowView:
+    """64 depots, 100 drones, 10,000 pending requests in a 20 km square."""
+    rng = np.random.default_rng(seed)
+    half = 10_000.0
+    n_req, n_hubs = 10_000, 40
+    hubs = rng.uniform(-0.8 * half, 0.8 * half, (n_hubs, 2))
+    share = rng.dirichlet(np.ones(n_hubs))
+    which = rng.choice(n_hubs, n_req, p=share)
+    xy = hubs[which] + rng.normal(0.0, rng.uniform(300, 1500, n_hubs)[which, None], (n_req, 2))
+    xy = np.clip(xy, -half, half)
+    hist = hubs[rng.choice(n_hubs, 5 * n_req, p=share)] + rng.normal(0, 900, (5 * n_req, 2))
+    frame = Frame(121.47, 31.23, 20.0)
+    seg = SegmentConfig(n_depots=64, n_actions=cfg.segment.n_actions)
+    depots = segment_points(hist[:, 0], hist[:, 1], frame, seg)
+    due_w = rng.integers(0, 16, n_req)
+    weight = np.clip(rng.lognormal(np.log(0.5), 0.6, n_req), 0.1, 2.5)
+    return WindowView(
+        t=MID_WINDOW,
+        n_windows=16,
+        window_h=0.5,
+        depots=depots,
+        ranges=range_table(depots, cfg.plan.coverage),
+        drone_depot=default_fleet(depots, 100),
+        pending_idx=np.arange(n_req),
+        pending_xy=xy,
+        pending_area=depots.assign(xy[:, 0], xy[:, 1]),
+        pending_delay_h=delays_h(due_w, MID_WINDOW, 0.5),
+        pending_due_w=due_w,
+        pending_due_s=due_w * 1800.0 + rng.uniform(0, 1800, n_req),
+        pending_weight=weight,
+    )
+
+
+def problem_of(
+    view: WindowView, actions: np.ndarray, model: EnergyModel, cfg: PlannerConfig, scope: str
+) -> SelectionProblem:
+    """The selection program ``plan_window`` builds for this window."""
+    if scope == "global":
+        plan_sets = _global_plans(view, model, cfg.plan)[0]
+    else:
+        plan_sets = _range_plans(view, actions, model, cfg.plan)[0]
+    delay = {int(i): float(view.pending_delay_h[i]) for ps in plan_sets for i in ps.request_ids}
+    return SelectionProblem.from_plan_sets(
+        plan_sets, delay, alpha=cfg.plan.alpha, energy_ref_j=model.usable_j
+    )
+
+
+def ms(xs: list[float]) -> str:
+    return f"{1e3 * statistics.median(xs):8.2f}"
+
+
+def bench(name: str, view: WindowView, cfg: PlannerConfig, repeats: int, profile: bool) -> None:
+    model = EnergyModel(cfg.energy)
+    actions = GreedyPolicy().act(view)
+    selector = MilpSelector(time_limit_s=cfg.plan.time_limit_s)
+    print(
+        f"\n{name}: {len(view.depots)} depots, {view.n_drones} drones, "
+        f"{view.pending_idx.size} pending requests, M̂ = {cfg.plan.max_parcels}, "
+        f"window {view.t}, {repeats} repeats (median ms)"
+    )
+    print(f"{'scope':>7} {'cands':>6} {'plans':>6} " + " ".join(f"{s:>8}" for s in STAGES))
+    for scope in ("range", "global"):
+        plan_window(view, actions, model, cfg.plan, selector, scope)  # warm-up
+        times: dict[str, list[float]] = {s: [] for s in STAGES}
+        for _ in range(repeats):
+            plan = plan_window(view, actions, model, cfg.plan, selector, scope)
+            for s in STAGES:
+                times[s].append(plan.timings[s])
+        n_plans = problem_of(view, actions, model, cfg, scope).n_plans
+        print(
+            f"{scope:>7} {plan.n_candidates:6d} {n_plans:6d} "
+            + " ".join(ms(times[s]) for s in STAGES)
+            + f"   ({plan.selection.status}, served "
+            f"{sum(len(r.stops) for r in plan.routes)})"
+        )
+        if profile:
+            prof = cProfile.Profile()
+            prof.enable()
+            for _ in range(3):
+                plan_window(view, actions, model, cfg.plan, selector, scope)
+            prof.disable()
+            buf = io.StringIO()
+            pstats.Stats(prof, stream=buf).sort_stats("cumulative").print_stats(18)
+            print(buf.getvalue())
+
+    print(f"selection only (same program), {repeats} repeats, median ms:")
+    print(f"{'scope':>7} {'backend':>8} {'build':>8} {'solve':>8} {'b+s':>8} {'wall':>8}  ratio")
+    for scope in ("range", "global"):
+        problem = problem_of(view, actions, model, cfg, scope)
+        runs: dict[str, dict[str, list[float]]] = {
+            b: {"build": [], "solve": [], "wall": []} for b in ("cvxpy", "direct")
+        }
+        solvers = {
+            "cvxpy": lambda p=problem: selector.select(p),
+            "direct": lambda p=problem: solve_highs_direct(p, cfg.plan.time_limit_s),
+        }
+        objective = {}
+        for fn in solvers.values():
+            fn()  # warm-up
+        for _ in range(repeats):
+            for b, fn in solvers.items():  # interleaved, so drift hits both alike
+                t0 = time.perf_counter()
+                res = fn()
+                runs[b]["wall"].append(time.perf_counter() - t0)
+                runs[b]["build"].append(res.build_s)
+                runs[b]["solve"].append(res.solve_s)
+                objective[b] = res.objective
+        bs = {
+            b: statistics.median([x + y for x, y in zip(r["build"], r["solve"], strict=True)])
+            for b, r in runs.items()
+        }
+        for b, r in runs.items():
+            ratio = f"{bs['cvxpy'] / bs['direct']:.2f}" if b == "cvxpy" else ""
+            print(
+                f"{scope:>7} {b:>8} {ms(r['build'])} {ms(r['solve'])} "
+                f"{1e3 * bs[b]:8.2f} {ms(r['wall'])}  {ratio}"
+            )
+        gap = abs(objective["cvxpy"] - objective["direct"]) / max(abs(objective["direct"]), 1.0)
+        print(f"{'':>7} same objective: {gap < 1e-6} (relative difference {gap:.1e})")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__)
+    ap.add_argument("data", nargs="?", default="examples/shanghai_synth.csv")
+    ap.add_argument("--repeats", type=int, default=20)
+    ap.add_argument("--scenarios", default="basic,large")
+    ap.add_argument("--profile", action="store_true", help="cProfile 3 windows per scope")
+    args = ap.parse_args()
+    cfg = PlannerConfig()
+    names = args.scenarios.split(",")
+    if "basic" in names:
+        bench("basic", basic_view(args.data, cfg), cfg, args.repeats, args.profile)
+    if "large" in names:
+        bench("large", large_view(cfg), cfg, args.repeats, args.profile)
+
+
+if __name__ == "__main__":
+    main()

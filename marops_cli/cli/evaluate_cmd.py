@@ -1,0 +1,177 @@
+"""``marops evaluate``: compare methods over held-out days, sweep settings, plot."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import TYPE_CHECKING, Annotated
+
+import typer
+from rich.table import Table
+
+from ..data.dates import parse_days
+from ..errors import InputError
+from . import options as o
+from .common import console, guarded, is_terminal, make_config, print_drop_report, require_input
+from .common import out as out_console
+
+if TYPE_CHECKING:
+    from ..evaluate import Evaluation, Job, Prepared
+
+
+@guarded
+def evaluate(
+    data: Annotated[Path, typer.Argument(help="LaDe delivery export (CSV or Parquet).")],
+    out: Annotated[Path, typer.Option("--out", help="Output folder.")],
+    methods: Annotated[
+        str | None,
+        typer.Option(
+            "--methods",
+            help="Methods to compare, comma-separated: marops, ops-global, ops-random, mappo, "
+            "squares, greedy, stay (SPEC §7) (default: every one this build can run but stay).",
+        ),
+    ] = None,
+    dates: Annotated[
+        str | None, typer.Option("--dates", help="Days to replay: 0820,0821 or 0820..0827.")
+    ] = None,
+    split: Annotated[
+        str | None,
+        typer.Option(
+            "--split",
+            help="test: the last 20 % of the file's dates; train: the rest (default test).",
+        ),
+    ] = None,
+    repeats: Annotated[int, typer.Option("--repeats", help="Runs per day (seed + r).")] = 1,
+    drones: Annotated[str | None, typer.Option("--drones", help="Fleet sizes: 4,8,16 [8].")] = None,
+    alpha: Annotated[
+        str | None, typer.Option("--alpha", help="Trade-off weights: 0.2,0.5,0.8 [0.5].")
+    ] = None,
+    coverage: Annotated[
+        str | None, typer.Option("--coverage", help="Flying coverage densities: 0.25,0.5 [0.25].")
+    ] = None,
+    depots_n: Annotated[
+        str | None, typer.Option("--depots-n", help="Numbers of service areas: 8,16,32 [16].")
+    ] = None,
+    workers: Annotated[int, typer.Option("--workers", help="Worker processes.")] = 2,
+    policy: Annotated[
+        Path | None,
+        typer.Option(
+            "--policy",
+            help="Trained actor (.pt) for the learned methods (default: the shipped one).",
+        ),
+    ] = None,
+    plots: Annotated[bool, typer.Option("--plots/--no-plots", help="Draw the figures.")] = True,
+    seed: o.Seed = None,
+    year: o.Year = None,
+    strict: o.Strict = False,
+    config: o.Config = None,
+) -> None:
+    """Compare methods on held-out days (paper Table III); sweep flags given several values."""
+    # The library (pyarrow, matplotlib, the planner) loads here, so `marops --help` stays fast.
+    from ..evaluate import expand_settings, parse_values, prepare, write_outputs
+
+    require_input(data)
+    cfg = make_config(config, data__year=year, data__strict=strict or None, sim__seed=seed)
+    settings = expand_settings(
+        cfg,
+        alpha=parse_values(alpha, float, "--alpha"),
+        drones=parse_values(drones, int, "--drones"),
+        coverage=parse_values(coverage, float, "--coverage"),
+        depots_n=parse_values(depots_n, int, "--depots-n"),
+    )
+    days = parse_days(dates, cfg.data.year) if dates else None
+    if days and split:
+        raise InputError("give at most one of --dates or --split")
+    chosen = _methods(methods, policy)
+    prep = prepare(
+        data,
+        cfg,
+        chosen,
+        settings,
+        days=days,
+        split=split or "test",
+        repeats=repeats,
+        policy=policy,
+    )
+    print_drop_report(prep.source.report, data.name)
+    console.print(
+        f"evaluate: {len(prep.methods)} methods x {len(settings)} settings x "
+        f"{len(prep.days)} days x {repeats} repeats = {len(prep.jobs)} replays, {workers} workers"
+    )
+    ev = _run(prep, workers)
+    paths = write_outputs(out, prep, ev.results, ev.summary, plots=plots)
+    _print_tables(ev)
+    console.print(f"wrote {', '.join(str(p) for p in paths)}")
+
+
+def _methods(text: str | None, policy: Path | None) -> list[str]:
+    """The listed methods, or every one this build can run (learned ones need an actor)."""
+    from ..evaluate import check_methods
+    from ..sim.jobs import METHODS
+
+    if text is not None:
+        return [m.strip() for m in text.split(",") if m.strip()]
+    chosen = []
+    for m in METHODS:
+        try:
+            check_methods([m], policy)
+        except InputError:
+            continue  # the default list skips what cannot run; a listed method errors
+        if m != "stay":
+            chosen.append(m)
+    return chosen
+
+
+def _run(prep: Prepared, workers: int) -> Evaluation:
+    """Run the jobs with a progress bar on a terminal, one log line per replay otherwise."""
+    from rich.progress import (
+        BarColumn,
+        MofNCompleteColumn,
+        Progress,
+        TextColumn,
+        TimeElapsedColumn,
+        TimeRemainingColumn,
+    )
+
+    from ..evaluate import evaluate as run_evaluation
+
+    if not is_terminal():
+
+        def log(done: int, total: int, job: Job) -> None:
+            s = prep.settings[job.setting]
+            typer.echo(
+                f"evaluate {done}/{total}: {job.day.isoformat()} {job.method} alpha={s.alpha:g} "
+                f"drones={s.drones} coverage={s.coverage:g} depots={s.depots_n} "
+                f"repeat {job.repeat}",
+                err=True,
+            )
+
+        return run_evaluation(prep, workers, log)
+    progress = Progress(
+        TextColumn("evaluate"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TimeElapsedColumn(),
+        TimeRemainingColumn(),
+        console=console,
+        transient=True,
+    )
+    task = progress.add_task("replays", total=len(prep.jobs))
+    with progress:
+        return run_evaluation(
+            prep, workers, lambda done, total, job: progress.update(task, completed=done)
+        )
+
+
+def _print_tables(ev: Evaluation) -> None:
+    from ..evaluate import table3
+    from ..evaluate.report import setting_title
+
+    for s in sorted(set(ev.summary.column("setting").to_pylist())):
+        methods, body = table3(ev.summary, s)
+        t = Table(title=setting_title(ev.summary, s), title_justify="left")
+        t.add_column("metric")
+        for m in methods:
+            t.add_column(m, justify="right")
+        for label, cells in body:
+            t.add_row(label, *cells)
+        out_console.print(t)

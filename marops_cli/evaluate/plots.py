@@ -1,0 +1,143 @@
+"""Figures like the paper's (Figs. tradeoff, drones, depots): one per swept flag.
+
+Each panel draws a metric's mean against the swept value, one line per method,
+with a band of ± one standard deviation (the paper's shadow). Flags that were not
+swept are held at their base value (the config's, else the first given).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+import pyarrow as pa
+from matplotlib.axes import Axes
+from matplotlib.figure import Figure  # the object API: no pyplot state, no display needed
+
+from .settings import SWEEP_FLAGS, Setting
+from .tables import depot_loads
+
+# Panels of each sweep figure (metric column, axis label); "depot_load" is a heatmap.
+PANELS: dict[str, tuple[tuple[str, str], ...]] = {
+    "alpha": (
+        ("avg_delay_h", "average delivery delay (h)"),
+        ("mean_energy_kj", "mean energy consumption (kJ)"),
+        ("combined_cost", "combined cost"),
+    ),
+    "drones": (
+        ("avg_delay_h", "average delivery delay (h)"),
+        ("mean_energy_kj", "mean energy consumption (kJ)"),
+        ("combined_cost", "combined cost"),
+        ("runtime_s", "running time per day (s)"),
+        ("depot_load", "depot load (kg)"),
+    ),
+    "coverage": (
+        ("avg_delay_h", "average delivery delay (h)"),
+        ("mean_energy_kj", "mean energy consumption (kJ)"),
+        ("combined_cost", "combined cost"),
+        ("delay_unfairness", "delay unfairness (Gini)"),
+    ),
+}
+PANELS["depots_n"] = PANELS["coverage"]
+
+
+def base_values(settings: Sequence[Setting], base: Setting) -> dict[str, float]:
+    """Where each flag is held when another one is plotted."""
+    held = {}
+    for flag in SWEEP_FLAGS:
+        present = [getattr(s, flag) for s in settings]
+        value = getattr(base, flag)
+        held[flag] = value if value in present else present[0]
+    return held
+
+
+def _slice(summary: pa.Table, flag: str, held: dict[str, float]) -> np.ndarray:
+    """Rows of ``summary`` where every flag but ``flag`` is at its held value."""
+    keep = np.ones(summary.num_rows, dtype=bool)
+    for other, value in held.items():
+        if other != flag:
+            keep &= np.isclose(summary.column(other).to_numpy().astype(float), value)
+    return keep
+
+
+def sweep_figure(
+    summary: pa.Table,
+    results: pa.Table,
+    flag: str,
+    methods: Sequence[str],
+    held: dict[str, float],
+) -> Figure:
+    """Metrics against the swept ``flag``, one line per method."""
+    panels = PANELS[flag]
+    fig = Figure(figsize=(4.2 * len(panels), 3.6), dpi=100, layout="constrained")
+    axes = fig.subplots(1, len(panels), squeeze=False)[0]
+    rows = _slice(summary, flag, held)
+    x_all = summary.column(flag).to_numpy().astype(float)
+    method = np.asarray(summary.column("method").to_pylist(), dtype=object)
+    for ax, (metric, label) in zip(axes, panels, strict=True):
+        if metric == "depot_load":
+            _depot_panel(fig, ax, results, flag, methods[0], held)
+            continue
+        for m in methods:
+            sel = rows & (method == m)
+            order = np.argsort(x_all[sel])
+            x = x_all[sel][order]
+            mean = summary.column(f"{metric}_mean").to_numpy()[sel][order]
+            std = summary.column(f"{metric}_std").to_numpy()[sel][order]
+            ax.plot(x, mean, marker="o", label=m)
+            ax.fill_between(x, mean - std, mean + std, alpha=0.2)
+        ax.set_xlabel(SWEEP_FLAGS[flag][1])
+        ax.set_ylabel(label)
+        ax.grid(alpha=0.3)
+    axes[0].legend(fontsize=8)
+    fig.suptitle(f"{SWEEP_FLAGS[flag][1]} ({_held_text(flag, held)})", fontsize=10)
+    return fig
+
+
+def _held_text(flag: str, held: dict[str, float]) -> str:
+    return ", ".join(f"{f} = {v:g}" for f, v in held.items() if f != flag)
+
+
+def _depot_panel(
+    fig: Figure, ax: Axes, results: pa.Table, flag: str, method: str, held: dict[str, float]
+) -> None:
+    """Heatmap: mean parcel weight picked up at each depot, per swept value."""
+    rows = _slice(results, flag, held) & (
+        np.asarray(results.column("method").to_pylist(), dtype=object) == method
+    )
+    x_all = results.column(flag).to_numpy().astype(float)
+    xs = sorted(set(x_all[rows].tolist()))
+    loads = [depot_loads(results, rows & np.isclose(x_all, x)) for x in xs]
+    width = max(v.size for v in loads)
+    grid = np.full((len(xs), width), np.nan)
+    for i, v in enumerate(loads):
+        grid[i, : v.size] = v
+    im = ax.imshow(grid, aspect="auto", cmap="viridis", origin="lower")
+    ax.set_yticks(range(len(xs)), [f"{x:g}" for x in xs])
+    ax.set_xlabel("depot (service area) id")
+    ax.set_ylabel(SWEEP_FLAGS[flag][1])
+    ax.set_title(f"depot load (kg/day), {method}", fontsize=9)
+    fig.colorbar(im, ax=ax)
+
+
+def unfairness_figure(summary: pa.Table, methods: Sequence[str], held: dict[str, float]) -> Figure:
+    """Delay unfairness (Gini over service areas) per method at the base setting."""
+    fig = Figure(figsize=(1.2 * len(methods) + 2.5, 3.6), dpi=100, layout="constrained")
+    ax = fig.subplots()
+    rows = _slice(summary, "", held)
+    method = np.asarray(summary.column("method").to_pylist(), dtype=object)
+    mean = summary.column("delay_unfairness_mean").to_numpy()
+    std = summary.column("delay_unfairness_std").to_numpy()
+    heights = [float(mean[rows & (method == m)][0]) for m in methods]
+    errs = [float(std[rows & (method == m)][0]) for m in methods]
+    ax.bar(list(methods), heights, yerr=errs, capsize=4, color="tab:blue", alpha=0.8)
+    ax.set_ylabel("delay unfairness (Gini over areas)")
+    ax.set_title(_held_text("", held), fontsize=9)
+    ax.grid(axis="y", alpha=0.3)
+    return fig
+
+
+def save_png(fig: Figure, path: str | Path) -> None:
+    """Write ``fig`` as PNG (the path may be a temporary without the suffix)."""
+    fig.savefig(path, format="png")

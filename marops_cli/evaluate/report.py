@@ -1,0 +1,130 @@
+"""Table III-style summaries (methods as columns, metrics as rows) and the output files."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import pyarrow as pa
+import pyarrow.csv as pacsv
+
+from ..io import output_set, run_meta
+from ..io.tables import with_meta, write_parquet
+from .plots import base_values, save_png, sweep_figure, unfairness_figure
+from .runner import Prepared
+from .settings import Setting, swept_flags
+
+# Rows of the paper's Table III (and a few more), with their number format.
+TABLE_ROWS = (
+    ("mean_energy_kj", "Mean energy consumption (kJ)", "{:.1f}"),
+    ("avg_delay_h", "Average delivery delay (h)", "{:.2f}"),
+    ("combined_cost", "Combined cost", "{:.2f}"),
+    ("delay_unfairness", "Delay unfairness", "{:.2f}"),
+    ("runtime_s", "Average running time (s)", "{:.2f}"),
+    ("avg_early_h", "Average early arrival (h)", "{:.2f}"),
+    ("co2_g", "CO2 per day (g)", "{:.0f}"),
+    ("delivered", "Delivered per day", "{:.1f}"),
+    ("undelivered", "Undelivered per day", "{:.1f}"),
+    ("battery_frac_mean", "Battery used per flight", "{:.2f}"),
+)
+COMBINED_COST_RULE = (
+    "per setting, on the means over days and repeats: "
+    "(mean energy / max over methods + mean delay / max over methods) / 2"
+)
+
+
+def setting_title(summary: pa.Table, setting: int) -> str:
+    """``α = 0.5, 8 drones, coverage 0.25, 16 areas, 4 actions``."""
+    row = _rows_of(summary, setting)[0]
+    return (
+        f"α = {row['alpha']:g}, {row['drones']} drones, coverage {row['coverage']:g}, "
+        f"{row['depots_n']} areas, {row['n_actions']} actions"
+    )
+
+
+def _rows_of(summary: pa.Table, setting: int) -> list[dict[str, Any]]:
+    return [r for r in summary.to_pylist() if r["setting"] == setting]
+
+
+def table3(summary: pa.Table, setting: int) -> tuple[list[str], list[tuple[str, list[str]]]]:
+    """(methods, [(metric label, ["mean ± std" per method])]) for one setting."""
+    rows = _rows_of(summary, setting)
+    methods = [r["method"] for r in rows]
+    body = [
+        (label, [f"{fmt.format(r[f'{k}_mean'])} ± {fmt.format(r[f'{k}_std'])}" for r in rows])
+        for k, label, fmt in TABLE_ROWS
+        if f"{k}_mean" in summary.column_names
+    ]
+    return methods, body
+
+
+def markdown_table(summary: pa.Table, setting: int) -> str:
+    """One setting's Table III as a Markdown table."""
+    methods, body = table3(summary, setting)
+    lines = ["| metric | " + " | ".join(methods) + " |", "|---" * (len(methods) + 1) + "|"]
+    lines += [f"| {label} | " + " | ".join(cells) + " |" for label, cells in body]
+    return "\n".join(lines)
+
+
+def summary_markdown(summary: pa.Table, prep: Prepared) -> str:
+    """``summary.md``: one Table III per setting, with what was run."""
+    days = f"{prep.days[0].isoformat()}..{prep.days[-1].isoformat()}"
+    parts = [
+        "# marops evaluate",
+        "",
+        f"{len(prep.days)} days ({days}), {prep.repeats} repeat(s) each; mean ± std "
+        "over days and repeats. Combined cost: " + COMBINED_COST_RULE + ".",
+    ]
+    for s in sorted(set(summary.column("setting").to_pylist())):
+        parts += ["", f"## {setting_title(summary, s)}", "", markdown_table(summary, s)]
+    return "\n".join(parts) + "\n"
+
+
+def figures(summary: pa.Table, results: pa.Table, prep: Prepared) -> dict[str, Any]:
+    """File name -> figure: one per swept flag, and the delay-unfairness bars."""
+    cfg = prep.cfg
+    base = Setting(cfg.plan.alpha, cfg.sim.drones, cfg.plan.coverage, cfg.segment.n_depots)
+    held = base_values(prep.settings, base)
+    figs = {
+        f"{flag}.png": sweep_figure(summary, results, flag, prep.methods, held)
+        for flag in swept_flags(prep.settings)
+    }
+    figs["unfairness.png"] = unfairness_figure(summary, prep.methods, held)
+    return figs
+
+
+def evaluation_meta(prep: Prepared) -> dict[str, Any]:
+    """The ``marops`` metadata of an evaluation's files (OUTPUTS.md)."""
+    return run_meta(
+        command="evaluate",
+        config=prep.cfg,
+        source=prep.source.source,
+        policy=prep.policy,
+        method=",".join(prep.methods),
+        seed=prep.cfg.sim.seed,
+        extra={
+            "methods": prep.methods,
+            "days": [d.isoformat() for d in prep.days],
+            "repeats": prep.repeats,
+            "settings": [s.columns() for s in prep.settings],
+            "swept": swept_flags(prep.settings),
+            "combined_cost": COMBINED_COST_RULE,
+        },
+    )
+
+
+def write_outputs(
+    out: Path, prep: Prepared, results: pa.Table, summary: pa.Table, *, plots: bool = True
+) -> list[Path]:
+    """``results.parquet``, ``summary.csv``, ``summary.md`` and the PNGs, all or none."""
+    meta = evaluation_meta(prep)
+    paths = [out / "results.parquet", out / "summary.csv", out / "summary.md"]
+    figs = figures(summary, results, prep) if plots else {}
+    with output_set() as files:
+        files.write_with(paths[0], lambda p: write_parquet(with_meta(results, meta), p))
+        files.write_with(paths[1], lambda p: pacsv.write_csv(summary, str(p)))
+        files.write_bytes(paths[2], summary_markdown(summary, prep).encode("utf-8"))
+        for name, fig in figs.items():
+            files.write_with(out / name, lambda p, f=fig: save_png(f, p))
+            paths.append(out / name)
+    return paths

@@ -1,0 +1,180 @@
+"""Run an evaluation's jobs, in parallel over worker processes, in a fixed result order.
+
+Every job builds its own config, fleet and policy from the job alone (the policy is
+reset with the job's seed at the start of the day), so a job's metrics do not
+depend on which worker runs it or on what that worker ran before. Results are put
+back in job order, so ``--workers 1`` and ``--workers 2`` give the same rows
+(except the wall-time columns).
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import multiprocessing as mp
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..config import PlannerConfig, override
+from ..data.dates import format_days
+from ..data.reader import read_lade
+from ..data.table import LadeTable
+from ..errors import InputError, MaropsError, RunError
+from ..policies.base import Policy
+from ..sim.jobs import METHODS, Scenario, default_policy_path, load_fleet, load_scenario, replay
+from ..sim.jobs import method_policy as _method_policy
+from .settings import Job, Setting, check_settings, plan_jobs, split_days
+
+OnResult = Callable[[int, int, Job], None]
+
+
+@dataclass
+class Prepared:
+    """Everything a run needs: the data read once, depots per segmentation, the jobs."""
+
+    source: LadeTable  # the whole file (its report and identity)
+    cfg: PlannerConfig
+    methods: list[str]
+    days: list[dt.date]
+    settings: list[Setting]
+    repeats: int
+    jobs: list[Job]
+    scenarios: dict[tuple[str, int], Scenario]  # (segmentation, depots) -> test-day scenario
+    policy: Path | None  # the trained actor, when a learned method runs
+
+
+def _learned(method: str) -> bool:
+    return METHODS[method][1] == "learned"
+
+
+def check_methods(methods: Sequence[str], policy: Path | None) -> Path | None:
+    """Fail with one line naming what is missing; return the actor path if one is needed."""
+    if not methods:
+        raise InputError("--methods lists no method")
+    for m in methods:
+        if m not in METHODS:
+            raise InputError(f"unknown method {m!r}: this build has {', '.join(METHODS)}")
+    if not any(_learned(m) for m in methods):
+        return None
+    path = policy or default_policy_path()
+    if path is None:
+        need = ", ".join(m for m in methods if _learned(m))
+        raise InputError(
+            f"method {need} needs the trained actor policies/marops-basic.pt, which is not "
+            "shipped: pass --policy PATH.pt, set MAROPS_POLICY, or leave it out of --methods"
+        )
+    if not Path(path).is_file():
+        raise InputError("trained actor not found", file=path)
+    return Path(path)
+
+
+def method_policy(method: str, actor: Path | None, seed: int) -> Policy:
+    """The method's policy, with ``actor`` for the learned methods."""
+    spec = f"torchscript:{actor}" if actor is not None and _learned(method) else None
+    return _method_policy(method, spec, seed)
+
+
+def prepare(
+    data: str | Path,
+    cfg: PlannerConfig,
+    methods: Sequence[str],
+    settings: Sequence[Setting],
+    *,
+    days: Sequence[dt.date] | None = None,
+    split: str = "test",
+    repeats: int = 1,
+    policy: Path | None = None,
+) -> Prepared:
+    """Read ``data`` once, choose the days, segment the other days once per segmentation.
+
+    ``days`` replays those dates; otherwise ``split`` picks the held-out (last 20 %)
+    or training dates. Depots come from every day not replayed (``load_scenario``).
+    """
+    methods = list(dict.fromkeys(methods))
+    actor = check_methods(methods, policy)
+    check_settings(cfg, settings, methods)
+    if repeats < 1:
+        raise InputError(f"--repeats expects at least 1, got {repeats}")
+    table = read_lade(data, cfg.data)
+    chosen = list(days) if days else split_days(table.days(), split)
+    if not chosen:
+        raise InputError(f"no days to evaluate (the file has {format_days(table.days())})")
+    on_days = np.isin(table.delivery_day, np.array(chosen, dtype="datetime64[D]"))
+    test_table = table.subset(on_days)  # workers need only the replayed days' rows
+    scenarios: dict[tuple[str, int], Scenario] = {}
+    for key in sorted({(METHODS[m][0], s.depots_n) for m in methods for s in settings}):
+        seg_cfg = override(cfg, segment__method=key[0], segment__n_depots=key[1])
+        scn = load_scenario(data, seg_cfg, replay_days=chosen, table=table)
+        scenarios[key] = Scenario(test_table, scn.frame, scn.depots, seg_cfg, scn.history_days)
+    jobs = plan_jobs(len(settings), methods, chosen, repeats, cfg.sim.seed)
+    return Prepared(table, cfg, methods, chosen, list(settings), repeats, jobs, scenarios, actor)
+
+
+# Per-process state of a worker (set once by the pool initializer).
+_CTX: dict[str, Any] = {}
+
+
+def _init(prep: Prepared) -> None:
+    _CTX.clear()
+    _CTX["prep"] = prep
+    _CTX["policies"] = {}
+
+
+def run_job(job: Job) -> dict[str, Any]:
+    """Replay one job's day; the metrics record of ``day_metrics``."""
+    prep: Prepared = _CTX["prep"]
+    setting = prep.settings[job.setting]
+    cfg = setting.config(prep.cfg, job.method, job.seed)
+    base = prep.scenarios[(METHODS[job.method][0], setting.depots_n)]
+    scn = Scenario(base.table, base.frame, base.depots, cfg, base.history_days)
+    key = (job.method, job.seed)
+    if key not in _CTX["policies"]:
+        _CTX["policies"][key] = method_policy(job.method, prep.policy, job.seed)
+    fleet = load_fleet(None, base.depots, setting.drones)
+    _, _, metrics = replay(scn, job.day, fleet, _CTX["policies"][key], job.method)
+    return metrics
+
+
+def _run_safe(job: Job) -> tuple[int, dict[str, Any] | None, str | None, int]:
+    # Library errors cross the process boundary as text, then are raised again as one line.
+    try:
+        return job.index, run_job(job), None, 0
+    except MaropsError as exc:
+        return job.index, None, str(exc), exc.exit_code
+
+
+def run(
+    prep: Prepared, workers: int = 2, on_result: OnResult | None = None
+) -> list[dict[str, Any]]:
+    """Metrics of every job, in job order, computed by ``workers`` processes."""
+    if workers < 1:
+        raise InputError(f"--workers expects at least 1, got {workers}")
+    total = len(prep.jobs)
+    results: list[dict[str, Any] | None] = [None] * total
+    workers = min(workers, total)
+    if workers == 1:
+        _init(prep)
+        outcomes: Any = map(_run_safe, prep.jobs)
+        pool = None
+    else:
+        # spawn: a fresh interpreter per worker, so no solver or Arrow thread state is
+        # inherited half-initialised from the parent (fork is unsafe with threads).
+        # Workers get only the replayed days' rows, not the whole file.
+        slim = replace(prep, source=next(iter(prep.scenarios.values())).table)
+        pool = mp.get_context("spawn").Pool(workers, initializer=_init, initargs=(slim,))
+        outcomes = pool.imap_unordered(_run_safe, prep.jobs, chunksize=1)
+    try:
+        for done, (index, metrics, error, code) in enumerate(outcomes, start=1):
+            if error is not None:
+                raise (InputError(error) if code == 2 else RunError(error))
+            results[index] = metrics
+            if on_result is not None:
+                on_result(done, total, prep.jobs[index])
+    finally:
+        if pool is not None:
+            pool.terminate()
+            pool.join()
+    return [r for r in results if r is not None]

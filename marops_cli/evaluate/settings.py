@@ -1,0 +1,143 @@
+"""What an evaluation runs: settings of a sweep, held-out days, and the job list.
+
+A *setting* is one value of each sweepable flag (α, drones, coverage, number of
+depots). A *job* is one replayed day of one method under one setting and repeat;
+its index fixes its place in the results, whichever worker runs it.
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import itertools
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import asdict, dataclass
+from typing import Any, TypeVar
+
+from ..config import PlannerConfig, override
+from ..errors import InputError
+from ..sim.jobs import METHODS
+
+# Flag name -> (config field, label for tables and plots).
+SWEEP_FLAGS: dict[str, tuple[str, str]] = {
+    "alpha": ("plan__alpha", "trade-off weight α"),
+    "drones": ("sim__drones", "number of drones"),
+    "coverage": ("plan__coverage", "flying coverage density"),
+    "depots_n": ("segment__n_depots", "number of service areas"),
+}
+TEST_FRACTION = 0.2  # SPEC §6: 80 % / 20 % split by date
+
+T = TypeVar("T", int, float)
+
+
+@dataclass(frozen=True)
+class Setting:
+    """One point of a sweep."""
+
+    alpha: float
+    drones: int
+    coverage: float
+    depots_n: int
+
+    def columns(self) -> dict[str, Any]:
+        """The setting as result columns."""
+        return asdict(self)
+
+    def config(self, base: PlannerConfig, method: str, seed: int) -> PlannerConfig:
+        """``base`` with this setting, the method's segmentation and ``seed`` applied."""
+        fields = {cfg_field: getattr(self, flag) for flag, (cfg_field, _) in SWEEP_FLAGS.items()}
+        return override(base, segment__method=METHODS[method][0], sim__seed=seed, **fields)
+
+
+@dataclass(frozen=True)
+class Job:
+    """One day of one method under one setting and repeat."""
+
+    index: int
+    setting: int  # index into the settings list
+    method: str
+    repeat: int
+    seed: int
+    day: dt.date
+
+
+def parse_values(text: str | None, kind: Callable[[str], T], flag: str) -> list[T] | None:
+    """``"0.2,0.5,0.8"`` -> ``[0.2, 0.5, 0.8]`` (None stays None: use the config's value)."""
+    if text is None:
+        return None
+    values: list[T] = []
+    for item in str(text).split(","):
+        try:
+            values.append(kind(item.strip()))
+        except ValueError:
+            what = "whole numbers" if kind is int else "numbers"
+            raise InputError(f"{flag} expects {what} separated by commas, got {text!r}") from None
+    return list(dict.fromkeys(values))
+
+
+def expand_settings(
+    cfg: PlannerConfig,
+    *,
+    alpha: Sequence[float] | None = None,
+    drones: Sequence[int] | None = None,
+    coverage: Sequence[float] | None = None,
+    depots_n: Sequence[int] | None = None,
+) -> list[Setting]:
+    """Every combination of the given values (a flag left out keeps the config's value).
+
+    The order is fixed (α slowest, depots fastest) so results always line up the same.
+    """
+    axes = (
+        list(alpha) if alpha else [cfg.plan.alpha],
+        list(drones) if drones else [cfg.sim.drones],
+        list(coverage) if coverage else [cfg.plan.coverage],
+        list(depots_n) if depots_n else [cfg.segment.n_depots],
+    )
+    return [Setting(float(a), int(u), float(c), int(n)) for a, u, c, n in itertools.product(*axes)]
+
+
+def swept_flags(settings: Sequence[Setting]) -> list[str]:
+    """The flags that take more than one value, in :data:`SWEEP_FLAGS` order."""
+    return [f for f in SWEEP_FLAGS if len({getattr(s, f) for s in settings}) > 1]
+
+
+def check_settings(cfg: PlannerConfig, settings: Sequence[Setting], methods: Sequence[str]) -> None:
+    """Validate every setting × method config up front, so no worker fails half-way."""
+    for s in settings:
+        for m in methods:
+            try:
+                s.config(cfg, m, cfg.sim.seed)
+            except InputError as exc:
+                raise InputError(f"method {m} with {_describe(s)}: {exc}") from None
+
+
+def _describe(s: Setting) -> str:
+    return f"alpha={s.alpha:g}, drones={s.drones}, coverage={s.coverage:g}, depots={s.depots_n}"
+
+
+def split_days(days: Sequence[dt.date], split: str) -> list[dt.date]:
+    """The last 20 % of the file's dates (``test``) or the first 80 % (``train``)."""
+    days = sorted(days)
+    if split not in ("test", "train"):
+        raise InputError(f"--split expects test or train, got {split!r}")
+    if len(days) < 2:
+        raise InputError(f"--split needs at least 2 days in the file, it has {len(days)}")
+    # Half rounds up, and each side keeps at least one day.
+    n_test = min(len(days) - 1, max(1, math.floor(TEST_FRACTION * len(days) + 0.5)))
+    return days[-n_test:] if split == "test" else days[:-n_test]
+
+
+def plan_jobs(
+    n_settings: int,
+    methods: Sequence[str],
+    days: Sequence[dt.date],
+    repeats: int,
+    seed: int,
+) -> list[Job]:
+    """Jobs ordered setting, method, repeat, day; repeat ``r`` runs with seed ``seed + r``."""
+    if repeats < 1:
+        raise InputError(f"--repeats expects at least 1, got {repeats}")
+    jobs: list[Job] = []
+    for s, m, r, d in itertools.product(range(n_settings), methods, range(repeats), days):
+        jobs.append(Job(len(jobs), s, m, r, seed + r, d))
+    return jobs

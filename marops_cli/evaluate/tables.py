@@ -1,0 +1,159 @@
+"""The results table (one row per day × method × setting × repeat) and its summary.
+
+Combined cost (SPEC §8, paper Table III) is computed over the methods of one
+setting *on the means*: with Ē_m and D̄_m a method's mean energy and delay over
+its days and repeats,
+
+    combined_cost_m = ( Ē_m / max_k Ē_k  +  D̄_m / max_k D̄_k ) / 2.
+
+Each row carries its own share, ( E / max_k Ē_k + D / max_k D̄_k ) / 2, so that the
+mean of a method's rows is exactly its combined cost and the spread of the rows
+gives its standard deviation.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+import pyarrow as pa
+
+from ..sim.jobs import METHODS
+from .runner import Prepared
+
+SETTING_COLUMNS = ("setting", "alpha", "drones", "coverage", "depots_n", "n_actions")
+KEY_COLUMNS = (*SETTING_COLUMNS, "segmentation", "method", "repeat", "seed", "day")
+# Summarised metrics, in the order of the summary's columns.
+SUMMARY_METRICS = (
+    "mean_energy_kj",
+    "avg_delay_h",
+    "combined_cost",
+    "delay_unfairness",
+    "runtime_s",
+    "avg_early_h",
+    "co2_g",
+    "delivered",
+    "undelivered",
+    "requests",
+    "battery_frac_mean",
+    "battery_frac_max",
+    "solver_fallbacks",
+)
+DEPOT_LOAD_PREFIX = "depot_load_kg_"
+
+
+def combined_cost(energy: Sequence[float], delay: Sequence[float]) -> np.ndarray:
+    """Combined cost of each method from its mean energy and mean delay (SPEC §8).
+
+    A metric whose maximum over the methods is 0 contributes 0 (nothing to normalise).
+    """
+    e = np.asarray(energy, dtype=np.float64)
+    d = np.asarray(delay, dtype=np.float64)
+    return (_share(e, e.max(initial=0.0)) + _share(d, d.max(initial=0.0))) / 2.0
+
+
+def _share(values: np.ndarray, top: float) -> np.ndarray:
+    return values / top if top > 0 else np.zeros_like(values)
+
+
+def flatten(metrics: dict[str, Any], prefix: str = "") -> dict[str, Any]:
+    """Nested metric records as flat columns: ``solver.calls`` -> ``solver_calls``."""
+    flat: dict[str, Any] = {}
+    for key, value in metrics.items():
+        if isinstance(value, dict):
+            flat.update(flatten(value, f"{prefix}{key}_"))
+        else:
+            flat[f"{prefix}{key}"] = value
+    return flat
+
+
+def results_table(prep: Prepared, metrics: Sequence[dict[str, Any]]) -> pa.Table:
+    """One row per job: setting columns, repeat, seed, then every day metric flattened."""
+    rows: list[dict[str, Any]] = []
+    for job, m in zip(prep.jobs, metrics, strict=True):
+        s = prep.settings[job.setting]
+        row: dict[str, Any] = {"setting": job.setting, **s.columns()}
+        row["n_actions"] = prep.cfg.segment.n_actions
+        row["segmentation"] = METHODS[job.method][0]
+        row.update(method=job.method, repeat=job.repeat, seed=job.seed, day=job.day.isoformat())
+        rest = {k: v for k, v in m.items() if k not in ("day", "method", "drones")}
+        row.update(flatten(rest))
+        rows.append(row)
+    columns = _column_order(rows)
+    data = {c: [r.get(c) for r in rows] for c in columns}
+    table = pa.table({c: _array(c, v) for c, v in data.items()})
+    return _with_combined_cost(table)
+
+
+def _column_order(rows: Sequence[dict[str, Any]]) -> list[str]:
+    seen = dict.fromkeys(c for r in rows for c in r)
+    loads = sorted(
+        (c for c in seen if c.startswith(DEPOT_LOAD_PREFIX)),
+        key=lambda c: int(c.removeprefix(DEPOT_LOAD_PREFIX)),
+    )
+    # Depot loads last and by depot id, so a sweep over the number of depots lines up.
+    return [c for c in seen if not c.startswith(DEPOT_LOAD_PREFIX)] + loads
+
+
+def _array(name: str, values: list[Any]) -> pa.Array:
+    if name.startswith(DEPOT_LOAD_PREFIX) or any(isinstance(v, float) for v in values):
+        return pa.array([None if v is None else float(v) for v in values], type=pa.float64())
+    return pa.array(values)
+
+
+def _with_combined_cost(table: pa.Table) -> pa.Table:
+    setting = table.column("setting").to_numpy()
+    method = np.asarray(table.column("method").to_pylist(), dtype=object)
+    energy = table.column("mean_energy_kj").to_numpy().astype(np.float64)
+    delay = table.column("avg_delay_h").to_numpy().astype(np.float64)
+    cost = np.zeros(table.num_rows)
+    for s in np.unique(setting):
+        in_s = setting == s
+        names = list(dict.fromkeys(method[in_s]))
+        e_top = max(float(energy[in_s & (method == m)].mean()) for m in names)
+        d_top = max(float(delay[in_s & (method == m)].mean()) for m in names)
+        cost[in_s] = (_share(energy[in_s], e_top) + _share(delay[in_s], d_top)) / 2.0
+    at = table.schema.get_field_index("avg_delay_h") + 1
+    return table.add_column(at, "combined_cost", pa.array(cost, type=pa.float64()))
+
+
+def mean_std(values: np.ndarray) -> tuple[float, float]:
+    """Mean and sample standard deviation (ddof 1; 0 for a single value)."""
+    v = np.asarray(values, dtype=np.float64)
+    return float(v.mean()), float(v.std(ddof=1)) if v.size > 1 else 0.0
+
+
+def summarize(results: pa.Table) -> pa.Table:
+    """Mean and std of each metric per setting and method (methods in first-seen order)."""
+    cols = {c: results.column(c).to_pylist() for c in (*SETTING_COLUMNS, "segmentation", "method")}
+    setting = np.asarray(cols["setting"])
+    method = np.asarray(cols["method"], dtype=object)
+    metrics = [m for m in SUMMARY_METRICS if m in results.column_names]
+    values = {m: results.column(m).to_numpy().astype(np.float64) for m in metrics}
+    out: dict[str, list[Any]] = {c: [] for c in (*SETTING_COLUMNS, "segmentation", "method")}
+    out["n"] = []
+    for m in metrics:
+        out[f"{m}_mean"], out[f"{m}_std"] = [], []
+    for s in sorted(set(setting.tolist())):
+        for name in dict.fromkeys(method[setting == s]):
+            rows = np.flatnonzero((setting == s) & (method == name))
+            for c in (*SETTING_COLUMNS, "segmentation", "method"):
+                out[c].append(cols[c][rows[0]])
+            out["n"].append(int(rows.size))
+            for m in metrics:
+                mean, std = mean_std(values[m][rows])
+                out[f"{m}_mean"].append(mean)
+                out[f"{m}_std"].append(std)
+    return pa.table(out)
+
+
+def depot_loads(results: pa.Table, where: np.ndarray) -> np.ndarray:
+    """Mean parcel weight (kg) picked up at each depot over the rows in ``where``."""
+    cols = [c for c in results.column_names if c.startswith(DEPOT_LOAD_PREFIX)]
+    loads = np.column_stack(
+        [results.column(c).to_numpy(zero_copy_only=False).astype(np.float64) for c in cols]
+    )
+    sub = loads[where]
+    keep = ~np.all(np.isnan(sub), axis=0)  # depots that exist in this setting
+    return np.nanmean(sub[:, keep], axis=0) if sub.size else np.zeros(0)

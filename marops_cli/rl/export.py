@@ -1,0 +1,59 @@
+"""The trained actor as a self-describing artifact: TorchScript file + JSON sidecar (SPEC §6).
+
+``X.pt`` holds ``forward(obs, hidden) -> (logits, hidden)`` and loads with plain
+``torch.jit.load``; ``X.json`` says how to feed it (observation version, number
+of actions, hidden size) and how it was made (data hash, command, seed, config,
+held-out metrics), so anyone can check or re-train it.
+"""
+
+from __future__ import annotations
+
+import io
+from pathlib import Path
+from typing import Any
+
+import torch
+
+from ..io.atomic import output_set
+from ..policies.observation import OBS_VERSION
+from .networks import Actor
+
+ARTIFACT_FORMAT = "marops-actor/1"
+
+
+def script_actor(actor: Actor) -> torch.jit.ScriptModule:
+    """A TorchScript copy of the actor (CPU, eval mode); the training object is untouched."""
+    clone = Actor(actor.encoder.in_features, actor.head.out_features, actor.hidden_size)
+    clone.load_state_dict(actor.state_dict())
+    clone.eval()
+    return torch.jit.script(clone)
+
+
+def actor_bytes(actor: Actor) -> bytes:
+    buf = io.BytesIO()
+    torch.jit.save(script_actor(actor), buf)
+    return buf.getvalue()
+
+
+def write_actor(actor: Actor, path: str | Path, sidecar: dict[str, Any]) -> dict[str, Any]:
+    """Write ``path`` (TorchScript) and its ``.json`` sidecar together, atomically.
+
+    The sidecar gets the fields the loader requires (``obs_version``, ``n_actions``,
+    ``hidden_size``) on top of ``sidecar``; returns the document written.
+    """
+    path = Path(path)
+    doc = {
+        "format": ARTIFACT_FORMAT,
+        "obs_version": OBS_VERSION,
+        "obs_dim": actor.encoder.in_features,
+        "n_logits": actor.head.out_features,
+        "hidden_size": actor.hidden_size,
+        "torch": torch.__version__,
+        **sidecar,
+    }
+    if "n_actions" not in doc:
+        doc["n_actions"] = actor.head.out_features
+    with output_set() as files:
+        files.write_bytes(path, actor_bytes(actor))
+        files.write_json(path.with_suffix(".json"), doc)
+    return doc

@@ -1,0 +1,221 @@
+"""Rollouts and evaluations, in worker processes, deterministic whatever the scheduling.
+
+Every task carries everything that decides its outcome (actor weights, day,
+seed), each worker runs torch single-threaded, and results come back in task
+order: one worker or many, the same run gives the same numbers.
+"""
+
+from __future__ import annotations
+
+import multiprocessing as mp
+from dataclasses import dataclass
+from typing import Any, Literal
+
+import numpy as np
+import torch
+from torch.distributions import Categorical
+
+from ..config import PlannerConfig
+from ..data.table import DayRequests
+from ..energy import EnergyModel
+from ..policies.base import WindowView
+from ..policies.direct import SlotSelector
+from ..policies.observation import observe
+from ..policies.registry import make_policy
+from ..segment.depots import Depots
+from ..sim.metrics import day_metrics
+from ..sim.replay import replay_day
+from ..sim.state import default_fleet
+from .config import TrainConfig
+from .env import DeliveryEnv
+from .networks import Actor
+from .ppo import MASKED_LOGIT
+
+EVAL_KEYS = (
+    "mean_energy_kj",
+    "avg_delay_h",
+    "delivered",
+    "undelivered",
+    "delay_unfairness",
+    "avg_early_h",
+)
+
+
+def derive_seed(*parts: int) -> int:
+    """A 32-bit seed from a tuple of integers (e.g. run seed, stream, episode)."""
+    return int(np.random.SeedSequence([int(p) for p in parts]).generate_state(1)[0])
+
+
+@dataclass
+class Episode:
+    """One day of one sampled rollout: arrays are ``(T, U, ...)``."""
+
+    obs: np.ndarray
+    actions: np.ndarray
+    logp: np.ndarray
+    mask: np.ndarray
+    rewards: np.ndarray
+    energy_kj: float
+    delay_h: float
+
+
+@dataclass
+class WorkerContext:
+    """What every worker holds: the scenario and the days, sent once at start-up."""
+
+    depots: Depots
+    cfg: PlannerConfig
+    tcfg: TrainConfig
+    train_days: list[DayRequests]
+    eval_days: list[DayRequests]
+
+
+def make_actor(env: DeliveryEnv, tcfg: TrainConfig) -> Actor:
+    return Actor(env.obs_dim, env.n_logits, tcfg.hidden_size)
+
+
+def run_episode(env: DeliveryEnv, actor: Actor, day: DayRequests, seed: int) -> Episode:
+    """Sample the actor's actions for a whole day (Alg. 3, inner loop)."""
+    gen = torch.Generator().manual_seed(seed)
+    obs = env.reset(day)
+    h = torch.zeros(env.n_drones, actor.hidden_size)
+    rec: dict[str, list[np.ndarray]] = {
+        k: [] for k in ("obs", "actions", "logp", "mask", "rewards")
+    }
+    energy = delay = 0.0
+    while obs is not None:
+        mask = env.action_mask()
+        with torch.no_grad():
+            logits, h = actor(torch.from_numpy(obs), h)
+            dist = Categorical(logits=logits.masked_fill(~torch.from_numpy(mask), MASKED_LOGIT))
+            a = torch.multinomial(dist.probs, 1, generator=gen).squeeze(-1)
+            logp = dist.log_prob(a)
+        rec["obs"].append(obs)
+        rec["mask"].append(mask)
+        rec["actions"].append(a.numpy())
+        rec["logp"].append(logp.numpy())
+        obs, r, info = env.step(a.numpy())
+        rec["rewards"].append(r)
+        energy += float(info["energy_kj"].sum())
+        delay += float(info["late_h"])
+    return Episode(
+        obs=np.stack(rec["obs"]).astype(np.float32),
+        actions=np.stack(rec["actions"]).astype(np.int64),
+        logp=np.stack(rec["logp"]).astype(np.float32),
+        mask=np.stack(rec["mask"]),
+        rewards=np.stack(rec["rewards"]).astype(np.float64),
+        energy_kj=energy,
+        delay_h=delay,
+    )
+
+
+class ActorPolicy:
+    """An in-memory actor as a :class:`~marops_cli.policies.base.Policy` (arg-max actions),
+    so evaluation replays days exactly as ``replay-day`` does with the exported file."""
+
+    scope: Literal["range", "global"] = "range"
+
+    def __init__(self, actor: Actor, n_slots: int = 1, name: str = "actor") -> None:
+        self.actor = actor
+        self.n_slots = n_slots
+        self.name = name
+        self.selector = SlotSelector(n_slots) if n_slots > 1 else None
+        self._h: torch.Tensor | None = None
+
+    def reset(self, seed: int) -> None:
+        self._h = None
+
+    def act(self, view: WindowView) -> np.ndarray:
+        obs = torch.from_numpy(observe(view))
+        if self._h is None:
+            self._h = torch.zeros(obs.shape[0], self.actor.hidden_size)
+        with torch.no_grad():
+            logits, self._h = self.actor(obs, self._h)
+        mask = torch.from_numpy(np.repeat(view.action_mask(), self.n_slots, axis=1))
+        joint = torch.argmax(logits.masked_fill(~mask, MASKED_LOGIT), dim=1).numpy()
+        if self.selector is not None:
+            self.selector.slots = joint % self.n_slots
+        return (joint // self.n_slots).astype(np.int64)
+
+
+def evaluate_day(
+    policy: Any, day: DayRequests, depots: Depots, cfg: PlannerConfig, method: str
+) -> dict[str, Any]:
+    """Replay ``day`` with ``policy`` and keep the metrics training reports."""
+    model = EnergyModel(cfg.energy)
+    fleet = default_fleet(depots, cfg.sim.drones)
+    res = replay_day(
+        day,
+        depots,
+        fleet,
+        policy,
+        cfg,
+        method=method,
+        model=model,
+        selector=getattr(policy, "selector", None),
+    )
+    m = day_metrics(res, model)
+    return {"day": m["day"], "method": method, **{k: m[k] for k in EVAL_KEYS}}
+
+
+_CTX: WorkerContext | None = None
+_ENV: DeliveryEnv | None = None
+
+
+def _init(ctx: WorkerContext) -> None:
+    global _CTX, _ENV
+    torch.set_num_threads(1)  # one process per core; threads would only add noise
+    torch.use_deterministic_algorithms(True)
+    _CTX = ctx
+    _ENV = DeliveryEnv(ctx.depots, ctx.cfg, ctx.tcfg)
+
+
+def _work(task: tuple[Any, ...]) -> Any:
+    assert _CTX is not None and _ENV is not None
+    kind = task[0]
+    if kind == "baseline":
+        _, name, i = task
+        pol = make_policy(name, _CTX.cfg.sim.seed)
+        return evaluate_day(pol, _CTX.eval_days[i], _CTX.depots, _CTX.cfg, name)
+    actor = make_actor(_ENV, _CTX.tcfg)
+    actor.load_state_dict(task[1])
+    actor.eval()
+    if kind == "train":
+        _, _, i, seed = task
+        return run_episode(_ENV, actor, _CTX.train_days[i], seed)
+    _, _, i = task
+    pol = ActorPolicy(actor, _ENV.n_slots, name=_CTX.tcfg.method)
+    return evaluate_day(pol, _CTX.eval_days[i], _CTX.depots, _CTX.cfg, _CTX.tcfg.method)
+
+
+class Workers:
+    """A pool of rollout processes ('spawn': safe with torch), or the caller itself
+    when ``n == 1``. Use as a context manager."""
+
+    def __init__(self, ctx: WorkerContext, n: int) -> None:
+        self.n = n
+        self._pool = None
+        if n > 1:
+            self._pool = mp.get_context("spawn").Pool(n, initializer=_init, initargs=(ctx,))
+        else:
+            _init(ctx)
+
+    def map(self, tasks: list[tuple[Any, ...]]) -> list[Any]:
+        """Run ``tasks`` and return their results in task order."""
+        if self._pool is None:
+            return [_work(t) for t in tasks]
+        return self._pool.map(_work, tasks, chunksize=1)
+
+    def close(self) -> None:
+        if self._pool is not None:
+            self._pool.close()
+            self._pool.join()
+            self._pool = None
+
+    def __enter__(self) -> Workers:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        if self._pool is not None and exc[0] is not None:
+            self._pool.terminate()
+        self.close()

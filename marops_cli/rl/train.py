@@ -1,0 +1,311 @@
+"""MAPPO training of the flight-range actor (paper Alg. 3), resumable and deterministic.
+
+Episodes are training days; each PPO update gathers ``episodes_per_update`` of
+them from the worker pool. Every random stream derives from ``(seed, stream,
+index)``, so a run resumed from its checkpoint ends with the same weights as one
+that never stopped, whatever the number of workers.
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import os
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+
+from .. import __version__
+from ..config import PlannerConfig
+from ..data.prepare import prepare_day
+from ..data.reader import read_lade
+from ..data.table import DayRequests
+from ..errors import InputError
+from ..io.meta import file_sha256
+from ..sim.jobs import load_scenario
+from .config import TrainConfig
+from .env import DeliveryEnv
+from .evaluate import summarise
+from .export import write_actor
+from .networks import Actor, Critic
+from .ppo import make_batch, ppo_update
+from .rollout import Episode, WorkerContext, Workers, derive_seed
+
+BASELINES = ("random", "greedy")  # compared with on held-out days (ops-random, greedy)
+_STREAM_DAYS, _STREAM_EPISODE, _STREAM_UPDATE = 1, 2, 3
+Event = dict[str, Any]
+
+
+def split_days(days: list[dt.date], train: list[dt.date] | None = None) -> tuple[list, list]:
+    """(training days, held-out days): the given ones and the rest, else the first
+    80 % of the file's dates and the last 20 % (SPEC §6; at least one of each when
+    the file has two days or more)."""
+    days = sorted(days)
+    if train is not None:
+        missing = [d.isoformat() for d in train if d not in set(days)]
+        if missing:
+            raise InputError(f"training days not in the file: {', '.join(missing[:5])}")
+        return sorted(train), [d for d in days if d not in set(train)]
+    if len(days) < 2:
+        return days, []
+    n = min(len(days) - 1, max(1, round(0.8 * len(days))))
+    return days[:n], days[n:]
+
+
+@dataclass
+class TrainData:
+    """The scenario a run trains on: depots from the training days, prepared days."""
+
+    ctx: WorkerContext
+    train_dates: list[dt.date]
+    eval_dates: list[dt.date]
+    sha256: str
+    name: str
+
+
+def load_training_data(
+    data: str | Path, cfg: PlannerConfig, tcfg: TrainConfig, train: list[dt.date] | None = None
+) -> TrainData:
+    """Read ``data``, split it by date, segment on the training days, prepare every day."""
+    table = read_lade(data, cfg.data)
+    train_dates, eval_dates = split_days(table.days(), train)
+    scn = load_scenario(data, cfg, replay_days=eval_dates, table=table)
+
+    def prep(dates: list[dt.date]) -> tuple[list[dt.date], list[DayRequests]]:
+        pairs = [(d, prepare_day(table, scn.frame, d, cfg.data)) for d in dates]
+        pairs = [(d, r) for d, r in pairs if len(r) > 0]  # a day with no request teaches nothing
+        return [d for d, _ in pairs], [r for _, r in pairs]
+
+    train_dates, train_reqs = prep(train_dates)
+    eval_dates, eval_reqs = prep(eval_dates)
+    if not train_reqs:
+        raise InputError("no training day has requests in the study area", file=str(data))
+    ctx = WorkerContext(scn.depots, cfg, tcfg, train_reqs, eval_reqs)
+    return TrainData(ctx, train_dates, eval_dates, file_sha256(data), Path(data).name)
+
+
+def _fingerprint(td: TrainData) -> dict[str, Any]:
+    """What a checkpoint must share with the run that resumes it."""
+    keep = td.ctx.tcfg.model_dump(exclude={"episodes", "workers", "eval_every", "checkpoint_every"})
+    return {
+        "data_sha256": td.sha256,
+        "train_days": [d.isoformat() for d in td.train_dates],
+        "planner": td.ctx.cfg.model_dump(mode="json", exclude={"sim": {"policy"}}),
+        "train": keep,
+    }
+
+
+def _stack(eps: list[Episode], name: str) -> np.ndarray:
+    """``(T, E, U, ...)``: episodes side by side, windows first."""
+    return np.stack([getattr(ep, name) for ep in eps], axis=1)
+
+
+class Trainer:
+    """Actor, critic, optimiser and progress of one run; :meth:`run` trains to the end."""
+
+    def __init__(self, td: TrainData, out: Path, on_event: Callable[[Event], None] | None = None):
+        self.td, self.tcfg, self.out = td, td.ctx.tcfg, Path(out)
+        self.ckpt = self.out.with_suffix(".ckpt")
+        self.emit = on_event or (lambda e: None)
+        torch.manual_seed(self.tcfg.seed)
+        env = DeliveryEnv(td.ctx.depots, td.ctx.cfg, self.tcfg)
+        self.n_actions, self.n_slots = env.n_dest, env.n_slots
+        self.actor = Actor(env.obs_dim, env.n_logits, self.tcfg.hidden_size)
+        self.critic = Critic(env.obs_dim, self.tcfg.critic_hidden)
+        params = [*self.actor.parameters(), *self.critic.parameters()]
+        self.optimizer = torch.optim.Adam(params, lr=self.tcfg.lr, eps=1e-5)
+        self.episode = self.update = 0
+        self.elapsed_s = 0.0
+        self.history: list[dict[str, float]] = []
+        self.evals: list[dict[str, Any]] = []
+        self.baselines: list[dict[str, Any]] = []
+
+    # -- checkpoints -----------------------------------------------------------------
+    def save_checkpoint(self) -> None:
+        """Write ``NAME.ckpt`` atomically (temporary file, then rename)."""
+        state = {
+            "format": "marops-train-ckpt/1",
+            "fingerprint": _fingerprint(self.td),
+            "episode": self.episode,
+            "update": self.update,
+            "elapsed_s": self.elapsed_s,
+            "actor": self.actor.state_dict(),
+            "critic": self.critic.state_dict(),
+            "optimizer": self.optimizer.state_dict(),
+            "history": self.history,
+            "evals": self.evals,
+            "baselines": self.baselines,
+        }
+        tmp = self.ckpt.with_name(f".{self.ckpt.name}.{os.getpid()}.tmp")
+        self.ckpt.parent.mkdir(parents=True, exist_ok=True)
+        torch.save(state, tmp)
+        os.replace(tmp, self.ckpt)
+
+    def load_checkpoint(self) -> bool:
+        """Resume from ``NAME.ckpt`` when there is one; refuse one made differently."""
+        if not self.ckpt.is_file():
+            return False
+        try:
+            state = torch.load(self.ckpt, map_location="cpu", weights_only=True)
+        except Exception as exc:  # a torn or foreign file: say which, never guess
+            raise InputError(
+                f"unreadable checkpoint ({exc}); pass --no-resume", file=self.ckpt
+            ) from exc
+        if state.get("fingerprint") != _fingerprint(self.td):
+            raise InputError(
+                "checkpoint was made with other data or settings; pass --no-resume to start over",
+                file=self.ckpt,
+            )
+        self.actor.load_state_dict(state["actor"])
+        self.critic.load_state_dict(state["critic"])
+        self.optimizer.load_state_dict(state["optimizer"])
+        self.episode, self.update = int(state["episode"]), int(state["update"])
+        self.elapsed_s = float(state["elapsed_s"])
+        self.history, self.evals = list(state["history"]), list(state["evals"])
+        self.baselines = list(state["baselines"])
+        return True
+
+    # -- one update --------------------------------------------------------------------
+    def _day_of(self, episode: int) -> int:
+        """Training days in a fresh shuffled order per pass (epoch) over them."""
+        n = len(self.td.ctx.train_days)
+        perm = np.random.default_rng(
+            derive_seed(self.tcfg.seed, _STREAM_DAYS, episode // n)
+        ).permutation(n)
+        return int(perm[episode % n])
+
+    def _update(self, workers: Workers) -> dict[str, float]:
+        n = min(self.tcfg.episodes_per_update, self.tcfg.episodes - self.episode)
+        state = {k: v.clone() for k, v in self.actor.state_dict().items()}
+        tasks = [
+            ("train", state, self._day_of(e), derive_seed(self.tcfg.seed, _STREAM_EPISODE, e))
+            for e in range(self.episode, self.episode + n)
+        ]
+        eps: list[Episode] = workers.map(tasks)
+        arrays = [_stack(eps, k) for k in ("obs", "actions", "logp", "mask", "rewards")]
+        batch = make_batch(*arrays, self.critic, self.tcfg)
+        if self.tcfg.anneal_lr:
+            frac = 1.0 - self.episode / self.tcfg.episodes
+            for g in self.optimizer.param_groups:
+                g["lr"] = self.tcfg.lr * max(frac, 0.02)
+        gen = torch.Generator().manual_seed(
+            derive_seed(self.tcfg.seed, _STREAM_UPDATE, self.update)
+        )
+        stats = ppo_update(self.actor, self.critic, self.optimizer, batch, self.tcfg, gen)
+        self.episode += n
+        self.update += 1
+        stats.update(
+            episode=self.episode,
+            reward=float(np.mean([ep.rewards.sum(axis=0).mean() for ep in eps])),
+            delay_h=float(np.mean([ep.delay_h for ep in eps])),
+            energy_kj=float(np.mean([ep.energy_kj for ep in eps])),
+        )
+        self.history.append(stats)
+        return stats
+
+    def evaluate(self, workers: Workers) -> dict[str, Any] | None:
+        """Arg-max actor on the held-out days, with the baselines' numbers beside it."""
+        n_eval = len(self.td.ctx.eval_days)
+        if n_eval == 0:
+            return None
+        if not self.baselines:
+            self.baselines = workers.map(
+                [("baseline", b, i) for b in BASELINES for i in range(n_eval)]
+            )
+        state = {k: v.clone() for k, v in self.actor.state_dict().items()}
+        rows = workers.map([("eval", state, i) for i in range(n_eval)])
+        ev = {"episode": self.episode, **summarise(rows, self.baselines)}
+        self.evals.append(ev)
+        return ev
+
+    def run(self, resume: bool) -> None:
+        resumed = resume and self.load_checkpoint()
+        t = self.tcfg
+        torch.set_num_threads(
+            1
+        )  # the same arithmetic as the workers: results do not depend on them
+        torch.use_deterministic_algorithms(True)
+        self.emit(
+            {
+                "kind": "start",
+                "episode": self.episode,
+                "episodes": t.episodes,
+                "resumed": resumed,
+                "train_days": len(self.td.train_dates),
+                "eval_days": len(self.td.eval_dates),
+            }
+        )
+        with Workers(self.td.ctx, t.workers) as workers:
+            while self.episode < t.episodes:
+                t0 = time.perf_counter()
+                before = self.episode
+                stats = self._update(workers)
+                self.elapsed_s += time.perf_counter() - t0
+                self.emit({"kind": "update", **stats})
+                done = self.episode >= t.episodes
+                if done or self.episode // t.eval_every > before // t.eval_every:
+                    t0 = time.perf_counter()
+                    ev = self.evaluate(workers)
+                    self.elapsed_s += time.perf_counter() - t0
+                    if ev is not None:
+                        self.emit({"kind": "eval", **ev})
+                if done or self.episode // t.checkpoint_every > before // t.checkpoint_every:
+                    self.save_checkpoint()
+            if not self.evals or self.evals[-1]["episode"] != self.episode:
+                ev = self.evaluate(workers)
+                if ev is not None:
+                    self.emit({"kind": "eval", **ev})
+
+    def export(self, command: str | None) -> dict[str, Any]:
+        """Write the TorchScript actor and its sidecar (SPEC §6)."""
+        t, cfg = self.tcfg, self.td.ctx.cfg
+        side: dict[str, Any] = {
+            "method": t.method,
+            "n_actions": self.n_actions,
+            "alpha": cfg.plan.alpha,
+            "seed": t.seed,
+            "episodes": self.episode,
+            "command": command,
+            "training_time_s": round(self.elapsed_s, 1),
+            "marops": __version__,
+            "data": {
+                "file": self.td.name,
+                "sha256": self.td.sha256,
+                "train_days": [d.isoformat() for d in self.td.train_dates],
+                "heldout_days": [d.isoformat() for d in self.td.eval_dates],
+            },
+            "reward": "eq. (10): -(1-alpha)*s(D_u/delay_scale_h) - alpha*s(E_u/energy_scale_kj), "
+            "s(x) = 2*sigmoid(ln3*x) - 1 (marops_cli/rl/env.py)",
+            "train_config": t.model_dump(mode="json"),
+            "planner_config": cfg.model_dump(mode="json"),
+            "heldout": self.evals[-1] if self.evals else None,
+            "learning_curve": [
+                {k: round(float(h[k]), 4) for k in ("episode", "reward", "delay_h", "energy_kj")}
+                for h in self.history
+            ],
+        }
+        if t.method == "mappo":
+            side["plan_slots"] = t.plan_slots
+        return write_actor(self.actor, self.out, side)
+
+
+def train(
+    data: str | Path,
+    cfg: PlannerConfig,
+    tcfg: TrainConfig,
+    out: str | Path,
+    *,
+    train_days: list[dt.date] | None = None,
+    resume: bool = True,
+    command: str | None = None,
+    on_event: Callable[[Event], None] | None = None,
+) -> dict[str, Any]:
+    """Train on ``data``; write ``out``, its ``.json`` and ``.ckpt``; return the sidecar."""
+    td = load_training_data(data, cfg, tcfg, train_days)
+    trainer = Trainer(td, Path(out), on_event)
+    trainer.run(resume)
+    return trainer.export(command)

@@ -1,0 +1,253 @@
+"""``marops plan-window`` on the bundled example: files, types, metadata, options, and
+the same result as the library call."""
+
+from __future__ import annotations
+
+import datetime as dt
+import hashlib
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pyarrow as pa
+import pyarrow.parquet as pq
+import pytest
+from numpy.testing import assert_allclose
+from typer.testing import CliRunner
+
+from marops_cli import __version__
+from marops_cli.cli.app import app
+from marops_cli.config import PlannerConfig
+from marops_cli.energy import EnergyModel
+from marops_cli.io.tables import build_tables
+from marops_cli.sim.jobs import load_fleet, load_scenario, method_policy, plan_one_window
+
+runner = CliRunner()
+DAY = dt.date(2022, 8, 11)
+WINDOW = 5
+
+# OUTPUTS.md, column by column. Parquet has no second-resolution timestamp (only milli-,
+# micro- and nanoseconds), so a timestamp[s] column is stored and read back as
+# timestamp[ms]; the values stay whole seconds and carry no zone (local time).
+STOPS_COLUMNS = [
+    ("day", pa.string()),
+    ("window", pa.int32()),
+    ("window_start", pa.timestamp("ms")),
+    ("drone", pa.int32()),
+    ("seq", pa.int32()),
+    ("kind", pa.string()),
+    ("depot", pa.int32()),
+    ("order_id", pa.string()),
+    ("x_m", pa.float64()),
+    ("y_m", pa.float64()),
+    ("lng", pa.float64()),
+    ("lat", pa.float64()),
+    ("arrive_s", pa.float64()),
+    ("leg_m", pa.float64()),
+    ("leg_j", pa.float64()),
+    ("payload_kg", pa.float64()),
+    ("weight_kg", pa.float64()),
+    ("due_window", pa.int32()),
+    ("delay_h", pa.float64()),
+    ("method", pa.string()),
+]
+ROUTES_COLUMNS = [
+    ("day", pa.string()),
+    ("window", pa.int32()),
+    ("window_start", pa.timestamp("ms")),
+    ("drone", pa.int32()),
+    ("start_depot", pa.int32()),
+    ("end_depot", pa.int32()),
+    ("n_parcels", pa.int32()),
+    ("payload_kg", pa.float64()),
+    ("distance_m", pa.float64()),
+    ("energy_j", pa.float64()),
+    ("battery_frac", pa.float64()),
+    ("action", pa.int32()),
+    ("method", pa.string()),
+]
+
+
+@pytest.fixture(scope="module")
+def depots_file(example_csv: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    out = tmp_path_factory.mktemp("seg") / "depots.json"
+    res = runner.invoke(
+        app, ["segment", str(example_csv), "--days", "0801..0810", "--out", str(out)]
+    )
+    assert res.exit_code == 0, res.output
+    return out
+
+
+def plan(example_csv: Path, depots_file: Path, out: Path, *extra: str) -> Path:
+    args = ["plan-window", str(example_csv), "--depots", str(depots_file)]
+    args += ["--date", "0811", "--window", str(WINDOW), "--out", str(out), *extra]
+    res = runner.invoke(app, args)
+    assert res.exit_code == 0, res.output
+    return out
+
+
+def routes_path(out: Path) -> Path:
+    return out.with_name(out.name.removesuffix(".parquet") + ".routes.parquet")
+
+
+def records(table: pa.Table) -> list[dict[str, Any]]:
+    """Rows as the JSON output writes them (timestamps as ISO text)."""
+    rows = table.to_pylist()
+    for row in rows:
+        for k, v in row.items():
+            if isinstance(v, dt.datetime):
+                row[k] = v.isoformat()
+    return rows
+
+
+def meta_of(path: Path) -> dict[str, Any]:
+    raw = pq.read_schema(path).metadata
+    assert raw is not None and b"marops" in raw
+    return json.loads(raw[b"marops"])
+
+
+@pytest.fixture(scope="module")
+def parquet_out(example_csv, depots_file, tmp_path_factory) -> Path:
+    return plan(example_csv, depots_file, tmp_path_factory.mktemp("pq") / "w5.parquet")
+
+
+def test_parquet_writes_stops_and_routes_with_the_documented_columns(parquet_out):
+    stops = pq.read_table(parquet_out)
+    routes = pq.read_table(routes_path(parquet_out))
+    assert [(f.name, f.type) for f in stops.schema] == STOPS_COLUMNS
+    assert [(f.name, f.type) for f in routes.schema] == ROUTES_COLUMNS
+    # local time, no zone
+    col = pq.ParquetFile(parquet_out).schema_arrow.field("window_start")
+    assert col.type.tz is None
+    assert sorted(p.name for p in parquet_out.parent.iterdir()) == [
+        "w5.parquet",
+        "w5.routes.parquet",
+    ], "no temporaries left behind"
+
+    st, rt = stops.to_pydict(), routes.to_pydict()
+    assert rt["drone"] == list(range(8))  # one row per drone (default fleet: 8)
+    assert set(rt["window"]) == {WINDOW} and set(st["window"]) == {WINDOW}
+    assert set(st["day"]) == {"2022-08-11"} and set(rt["method"]) == {"greedy"}
+    assert set(rt["window_start"]) == {dt.datetime(2022, 8, 11, 11, 30)}  # 09:00 + 5 × 30 min
+    assert sum(rt["n_parcels"]) > 0
+    # nulls where OUTPUTS.md says so
+    for i, kind in enumerate(st["kind"]):
+        depot_row = kind in ("start", "end")
+        assert (st["depot"][i] is None) == (not depot_row)
+        for name in ("order_id", "weight_kg", "due_window", "delay_h"):
+            assert (st[name][i] is None) == depot_row, (name, i)
+    # the stops add up to their route
+    for u in rt["drone"]:
+        rows = [i for i, d in enumerate(st["drone"]) if d == u]
+        assert [st["seq"][i] for i in rows] == list(range(len(rows)))
+        assert len(rows) == rt["n_parcels"][u] + 2
+        assert st["depot"][rows[0]] == rt["start_depot"][u]
+        assert st["depot"][rows[-1]] == rt["end_depot"][u]
+        assert_allclose(sum(st["leg_j"][i] for i in rows), rt["energy_j"][u], rtol=1e-12)
+        assert_allclose(sum(st["leg_m"][i] for i in rows), rt["distance_m"][u], rtol=1e-12)
+        assert st["payload_kg"][rows[0]] == pytest.approx(rt["payload_kg"][u])
+        assert rt["battery_frac"][u] == pytest.approx(rt["energy_j"][u] / 225_000.0)
+
+
+def test_parquet_metadata(parquet_out, example_csv: Path):
+    meta = meta_of(parquet_out)
+    assert meta_of(routes_path(parquet_out)) == meta
+    assert meta["version"] == __version__
+    assert meta["config"] == PlannerConfig().model_dump(mode="json")
+    data = example_csv.read_bytes()
+    assert meta["input"] == {
+        "name": "shanghai_synth.csv",
+        "size": len(data),
+        "sha256": hashlib.sha256(data).hexdigest(),
+    }
+    assert meta["method"] == "greedy"
+    assert meta["seed"] == 0
+    assert meta["policy"] == {"name": "greedy"}
+    assert (meta["day"], meta["window"]) == ("2022-08-11", WINDOW)
+    assert meta["solver"]["status"] == "optimal" and meta["solver"]["fallback"] is False
+    assert "created" not in meta  # run times stay out of route files (byte-identical reruns)
+
+
+def test_json_holds_meta_stops_routes_equal_to_the_parquet(
+    example_csv, depots_file, parquet_out, tmp_path
+):
+    out = plan(example_csv, depots_file, tmp_path / "w5.json")
+    assert [p.name for p in tmp_path.iterdir()] == ["w5.json"]
+    doc = json.loads(out.read_text(encoding="utf-8"))
+    assert list(doc) == ["meta", "stops", "routes"]
+    assert doc["meta"] == meta_of(parquet_out)
+    assert doc["stops"] == records(pq.read_table(parquet_out))
+    assert doc["routes"] == records(pq.read_table(routes_path(parquet_out)))
+    assert doc["routes"][0]["window_start"] == "2022-08-11T11:30:00"
+
+
+def test_same_call_same_bytes(example_csv, depots_file, parquet_out, tmp_path):
+    again = plan(example_csv, depots_file, tmp_path / "w5.parquet")
+    assert again.read_bytes() == parquet_out.read_bytes()
+    assert routes_path(again).read_bytes() == routes_path(parquet_out).read_bytes()
+    a = plan(example_csv, depots_file, tmp_path / "a.json").read_bytes()
+    b = plan(example_csv, depots_file, tmp_path / "b.json").read_bytes()
+    assert a == b
+
+
+@pytest.mark.parametrize(
+    "doc",
+    [[3, 3, 12], {"drones": [{"depot": 3}, {"depot": 3}, {"depot": 12}]}],
+    ids=["list", "dict"],
+)
+def test_fleet_file_puts_drones_where_asked(example_csv, depots_file, tmp_path, doc):
+    fleet = tmp_path / "fleet.json"
+    fleet.write_text(json.dumps(doc))
+    out = plan(example_csv, depots_file, tmp_path / "f.parquet", "--fleet", str(fleet))
+    rt = pq.read_table(routes_path(out)).to_pydict()
+    assert rt["drone"] == [0, 1, 2]
+    assert rt["start_depot"] == [3, 3, 12]
+    st = pq.read_table(out).to_pydict()
+    starts = [
+        (d, dep)
+        for d, k, dep in zip(st["drone"], st["kind"], st["depot"], strict=True)
+        if k == "start"
+    ]
+    assert starts == [(0, 3), (1, 3), (2, 12)]
+
+
+def test_delivered_orders_are_not_planned_again(example_csv, depots_file, parquet_out, tmp_path):
+    def customers(path: Path) -> list[str]:
+        st = pq.read_table(path, columns=["kind", "order_id"]).to_pydict()
+        return [o for k, o in zip(st["kind"], st["order_id"], strict=True) if k == "customer"]
+
+    first = customers(parquet_out)
+    assert first
+    out = plan(example_csv, depots_file, tmp_path / "w5b.parquet", "--delivered", str(parquet_out))
+    second = customers(out)
+    assert second, "other pending orders are planned instead"
+    assert not set(first) & set(second)
+
+
+def test_cli_equals_library_call(example_csv, depots_file, parquet_out):
+    cfg = PlannerConfig()
+    scn = load_scenario(example_csv, cfg, depots_path=depots_file, replay_days=[DAY])
+    fleet = load_fleet(None, scn.depots, cfg.sim.drones)
+    plan_, reqs = plan_one_window(scn, DAY, WINDOW, fleet, method_policy("greedy", None, 0))
+
+    rt = pq.read_table(routes_path(parquet_out)).to_pydict()
+    st = pq.read_table(parquet_out).to_pydict()
+    assert [r.start for r in plan_.routes] == rt["start_depot"]
+    assert [r.end for r in plan_.routes] == rt["end_depot"]
+    assert [r.action for r in plan_.routes] == rt["action"]
+    assert [len(r.stops) for r in plan_.routes] == rt["n_parcels"]
+    assert_allclose([r.energy_j for r in plan_.routes], rt["energy_j"], rtol=1e-12)
+    assert_allclose([r.payload_kg for r in plan_.routes], rt["payload_kg"], rtol=1e-12)
+    for r in plan_.routes:
+        ids = [
+            o
+            for d, k, o in zip(st["drone"], st["kind"], st["order_id"], strict=True)
+            if d == r.drone and k == "customer"
+        ]
+        assert ids == [str(reqs.order_id[i]) for i in r.stops]  # same orders, same visiting order
+    # and the whole tables, value for value
+    stops, routes = build_tables(reqs, scn.depots, [plan_], EnergyModel(cfg.energy), "greedy")
+    assert records(stops) == records(pq.read_table(parquet_out))
+    assert records(routes) == records(pq.read_table(routes_path(parquet_out)))
+    assert np.array_equal(fleet, rt["start_depot"])

@@ -1,0 +1,116 @@
+"""``marops evaluate`` end to end on the bundled example (2 held-out days, 2 methods, 2 α)."""
+
+from __future__ import annotations
+
+import csv
+import json
+from pathlib import Path
+
+import numpy as np
+import pyarrow.parquet as pq
+import pytest
+from numpy.testing import assert_allclose
+from typer.testing import CliRunner
+
+from marops_cli.cli.app import app
+from marops_cli.config import PlannerConfig
+from marops_cli.evaluate import evaluate, expand_settings, prepare
+
+runner = CliRunner()
+METHODS = ["ops-random", "greedy"]
+ALPHAS = [0.3, 0.7]
+WALL_TIME = {"runtime_s", "solver_solve_s"}  # the only columns that may differ between runs
+
+
+@pytest.fixture(scope="module")
+def run_dir(example_csv: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    out = tmp_path_factory.mktemp("evaluate")
+    args = ["evaluate", str(example_csv), "--methods", ",".join(METHODS), "--split", "test"]
+    args += ["--alpha", ",".join(map(str, ALPHAS)), "--workers", "2", "--out", str(out)]
+    res = runner.invoke(app, args)
+    assert res.exit_code == 0, res.output
+    assert "Combined cost" in res.stdout  # the Table III print
+    return out
+
+
+def test_files_and_metadata(run_dir: Path) -> None:
+    names = {p.name for p in run_dir.iterdir()}
+    assert {"results.parquet", "summary.csv", "summary.md", "alpha.png", "unfairness.png"} <= names
+    assert "drones.png" not in names  # only swept flags get a figure
+    assert not [n for n in names if n.endswith(".tmp")]
+    table = pq.read_table(run_dir / "results.parquet")
+    meta = json.loads(table.schema.metadata[b"marops"])
+    assert meta["command"] == "evaluate"
+    assert meta["methods"] == METHODS
+    assert meta["days"] == ["2022-08-11", "2022-08-12"]  # last 20 % of 12 days
+    assert meta["input"]["name"] == "shanghai_synth.csv"
+    assert meta["swept"] == ["alpha"]
+
+
+def test_one_row_per_day_method_setting_repeat(run_dir: Path) -> None:
+    rows = pq.read_table(run_dir / "results.parquet").to_pylist()
+    assert len(rows) == len(ALPHAS) * len(METHODS) * 2
+    keys = {(r["alpha"], r["method"], r["day"], r["repeat"]) for r in rows}
+    assert len(keys) == len(rows)
+    for r in rows:
+        assert r["drones"] == 8 and r["depots_n"] == 16 and r["seed"] == 0
+        assert r["delivered"] + r["undelivered"] == r["requests"]
+        assert sum(v for k, v in r.items() if k.startswith("depot_load_kg_")) > 0
+        assert r["runtime_s"] < 5.0
+
+
+def _summary_csv(path: Path) -> list[dict[str, str]]:
+    with path.open(newline="") as fh:
+        return list(csv.DictReader(fh))
+
+
+def test_results_recompute_to_summary(run_dir: Path) -> None:
+    res = pq.read_table(run_dir / "results.parquet").to_pydict()
+    summary = _summary_csv(run_dir / "summary.csv")
+    assert len(summary) == len(ALPHAS) * len(METHODS)
+    setting = np.array(res["setting"])
+    method = np.array(res["method"])
+    for s in set(setting.tolist()):
+        # Combined cost from scratch: method means, normalised by the largest mean.
+        means = {
+            m: [
+                np.mean(np.array(res[k])[(setting == s) & (method == m)])
+                for k in ("mean_energy_kj", "avg_delay_h")
+            ]
+            for m in METHODS
+        }
+        top_e = max(v[0] for v in means.values())
+        top_d = max(v[1] for v in means.values())
+        for m in METHODS:
+            row = next(r for r in summary if int(r["setting"]) == s and r["method"] == m)
+            sel = (setting == s) & (method == m)
+            assert int(row["n"]) == sel.sum()
+            for k in ("mean_energy_kj", "avg_delay_h", "delay_unfairness", "delivered"):
+                v = np.array(res[k], dtype=float)[sel]
+                assert_allclose(float(row[f"{k}_mean"]), v.mean(), rtol=1e-12)
+                assert_allclose(float(row[f"{k}_std"]), v.std(ddof=1), rtol=1e-12)
+            cost = (means[m][0] / top_e + means[m][1] / top_d) / 2
+            assert_allclose(float(row["combined_cost_mean"]), cost, rtol=1e-12)
+            per_row = np.array(res["combined_cost"])[sel]
+            assert_allclose(float(row["combined_cost_std"]), per_row.std(ddof=1), rtol=1e-12)
+
+
+def test_workers_do_not_change_results(example_csv: Path, run_dir: Path) -> None:
+    cfg = PlannerConfig()
+    prep = prepare(example_csv, cfg, METHODS, expand_settings(cfg, alpha=ALPHAS), split="test")
+    one = evaluate(prep, workers=1).results
+    two = pq.read_table(run_dir / "results.parquet")
+    keep = [c for c in one.column_names if c not in WALL_TIME]
+    assert one.column_names == two.column_names
+    assert one.select(keep).to_pylist() == two.select(keep).to_pylist()
+
+
+def test_alpha_trades_energy_for_delay(run_dir: Path) -> None:
+    # The issue's acceptance on the α sweep, per method: more α, less energy, more delay.
+    summary = _summary_csv(run_dir / "summary.csv")
+    for m in METHODS:
+        rows = sorted((r for r in summary if r["method"] == m), key=lambda r: float(r["alpha"]))
+        energy = [float(r["mean_energy_kj_mean"]) for r in rows]
+        delay = [float(r["avg_delay_h_mean"]) for r in rows]
+        assert energy[0] > energy[-1], (m, energy)
+        assert delay[0] < delay[-1], (m, delay)

@@ -1,0 +1,183 @@
+"""Stops and routes tables (OUTPUTS.md) from a hand-made window, and their writers."""
+
+from __future__ import annotations
+
+import datetime as dt
+import json
+from pathlib import Path
+
+import numpy as np
+import pyarrow.parquet as pq
+import pytest
+from numpy.testing import assert_allclose
+
+from marops_cli.data.frame import Frame
+from marops_cli.data.table import DayRequests
+from marops_cli.energy import EnergyModel
+from marops_cli.io import output_set
+from marops_cli.io.tables import (
+    ROUTES_SCHEMA,
+    STOPS_SCHEMA,
+    build_tables,
+    table_records,
+    write_route_files,
+)
+from marops_cli.plans.select import SelectionResult
+from marops_cli.plans.window import DroneRoute, WindowPlan
+from marops_cli.segment.depots import Depots, nearest_candidates
+
+FRAME = Frame(121.47, 31.23, 10.0)
+DEPOT_XY = np.array([[0.0, 0.0], [2000.0, 0.0]])
+ORDER_XY = np.array([[0, 1000], [2000, 1000], [750, 1000], [-750, 0], [500, -1000]], float)
+WEIGHT = np.array([2.0, 1.5, 1.0, 0.5, 1.0])
+DUE_W = np.array([1, 2, 2, 0, 5], dtype=np.int32)
+T = 4
+
+
+@pytest.fixture(scope="module")
+def model() -> EnergyModel:
+    return EnergyModel()
+
+
+@pytest.fixture(scope="module")
+def depots() -> Depots:
+    return Depots("kmeans", FRAME, DEPOT_XY, np.array([3, 2]), nearest_candidates(DEPOT_XY, 2))
+
+
+@pytest.fixture(scope="module")
+def day() -> DayRequests:
+    lng, lat = FRAME.to_lnglat(ORDER_XY[:, 0], ORDER_XY[:, 1])
+    return DayRequests(
+        day=dt.date(2022, 8, 11),
+        frame=FRAME,
+        service_start_s=9 * 3600,
+        window_s=1800.0,
+        n_windows=16,
+        order_id=np.array(["o40", "o41", "o42", "o43", "o44"], dtype=object),
+        x_m=ORDER_XY[:, 0],
+        y_m=ORDER_XY[:, 1],
+        lng=lng,
+        lat=lat,
+        weight_kg=WEIGHT,
+        visible_w=np.zeros(5, dtype=np.int32),
+        due_w=DUE_W,
+        due_s=DUE_W * 1800.0 + 900.0,
+        accept_s=np.zeros(5),
+    )
+
+
+@pytest.fixture(scope="module")
+def plan(model) -> WindowPlan:
+    """Drone 0: depot 0 -> order 0 (2.0 kg) -> order 3 (0.5 kg) -> depot 0.
+    Drone 1 stays at depot 1 with nothing to carry."""
+    legs_m = np.array([1000.0, 1250.0, 750.0])
+    legs_j = model.leg_energy_j(legs_m, [2.5, 0.5, 0.0])
+    routes = [
+        DroneRoute(0, 0, 0, 0, (0, 3), legs_m, legs_j, 2.5),
+        DroneRoute(1, 1, 1, 0, (), np.zeros(1), np.zeros(1), 0.0),
+    ]
+    sel = SelectionResult(np.array([3, 0]), 1.0, "optimal", False, 0.0, 0.0)
+    return WindowPlan(T, routes, sel, n_candidates=5)
+
+
+@pytest.fixture(scope="module")
+def tables(day, depots, plan, model):
+    return build_tables(day, depots, [plan], model, "marops")
+
+
+def test_schemas_are_the_documented_ones(tables):
+    stops, routes = tables
+    assert stops.schema.equals(STOPS_SCHEMA) and routes.schema.equals(ROUTES_SCHEMA)
+    assert stops.schema.names[:8] == [
+        "day",
+        "window",
+        "window_start",
+        "drone",
+        "seq",
+        "kind",
+        "depot",
+        "order_id",
+    ]
+    assert str(stops.schema.field("window_start").type) == "timestamp[s]"
+
+
+def test_stops_hand_values(tables, model):
+    st = tables[0].to_pydict()
+    assert st["drone"] == [0, 0, 0, 0, 1, 1]
+    assert st["seq"] == [0, 1, 2, 3, 0, 1]
+    assert st["kind"] == ["start", "customer", "customer", "end", "start", "end"]
+    assert st["depot"] == [0, None, None, 0, 1, 1]
+    assert st["order_id"] == [None, "o40", "o43", None, None, None]
+    assert set(st["day"]) == {"2022-08-11"} and set(st["window"]) == {T}
+    assert set(st["window_start"]) == {dt.datetime(2022, 8, 11, 11, 0)}  # 09:00 + 4 × 30 min
+    assert st["x_m"] == [0.0, 0.0, -750.0, 0.0, 2000.0, 2000.0]
+    assert st["y_m"] == [0.0, 1000.0, 0.0, 0.0, 0.0, 0.0]
+    lng, lat = FRAME.to_lnglat(np.array([0.0, 2000.0]), np.zeros(2))
+    assert st["lng"][0] == lng[0] and st["lat"][5] == lat[1]
+    # 10 m/s: 1000 m -> 100 s, +1250 m -> 225 s, +750 m -> 300 s
+    assert_allclose(st["arrive_s"], [0, 100, 225, 300, 0, 0])
+    assert_allclose(st["leg_m"], [0, 1000, 1250, 750, 0, 0])
+    assert_allclose(
+        st["leg_j"][1:4], [1000 * 29.426, 1250 * 18.091, 750 * 15.991], rtol=1e-4
+    )  # ENERGY.md kJ/km at 2.5, 0.5, 0 kg
+    # parcels on board when leaving each node (eq. 6)
+    assert_allclose(st["payload_kg"], [2.5, 0.5, 0.0, 0.0, 0.0, 0.0])
+    assert st["weight_kg"] == [None, 2.0, 0.5, None, None, None]
+    assert st["due_window"] == [None, 1, 0, None, None, None]
+    assert st["delay_h"] == [None, 1.5, 2.0, None, None, None]  # (4 - t_i) × 0.5 h
+    assert set(st["method"]) == {"marops"}
+
+
+def test_routes_hand_values(tables, plan):
+    rt = tables[1].to_pydict()
+    assert rt["drone"] == [0, 1]
+    assert (rt["start_depot"], rt["end_depot"], rt["action"]) == ([0, 1], [0, 1], [0, 0])
+    assert rt["n_parcels"] == [2, 0]
+    assert rt["payload_kg"] == [2.5, 0.0]
+    assert_allclose(rt["distance_m"], [3000.0, 0.0])
+    e0 = plan.routes[0].energy_j
+    assert_allclose(rt["energy_j"], [e0, 0.0])
+    assert_allclose(rt["battery_frac"], [e0 / 225_000.0, 0.0])
+    assert_allclose(e0, 64_033.0, rtol=1e-4)
+
+
+def test_records_are_json_ready(tables):
+    rows = table_records(tables[1])
+    assert rows[0]["window_start"] == "2022-08-11T11:00:00"
+    json.dumps(rows, allow_nan=False)
+
+
+def test_write_route_files(tables, tmp_path: Path):
+    stops, routes = tables
+    meta = {"package": "marops", "method": "marops", "seed": 0}
+    with output_set() as files:
+        written = write_route_files(files, tmp_path / "x.parquet", stops, routes, meta)
+    assert written == [tmp_path / "x.parquet", tmp_path / "x.routes.parquet"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["x.parquet", "x.routes.parquet"]
+    for path, table in zip(written, tables, strict=True):
+        back = pq.read_table(path)
+        assert json.loads(back.schema.metadata[b"marops"]) == meta
+        assert back.to_pydict() == table.to_pydict()
+
+    with output_set() as files:
+        (one,) = write_route_files(files, tmp_path / "x.json", stops, routes, meta)
+    doc = json.loads(one.read_text(encoding="utf-8"))
+    assert doc == {"meta": meta, "stops": table_records(stops), "routes": table_records(routes)}
+
+    first = (tmp_path / "x.parquet").read_bytes()
+    with output_set() as files:
+        write_route_files(files, tmp_path / "x.parquet", stops, routes, meta)
+    assert (tmp_path / "x.parquet").read_bytes() == first  # same tables, same bytes
+
+
+def test_write_route_files_bad_suffix_leaves_nothing(tables, tmp_path: Path):
+    with pytest.raises(ValueError, match="parquet or .json"), output_set() as files:
+        write_route_files(files, tmp_path / "x.csv", *tables, {})
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_an_error_midway_leaves_no_file(tables, tmp_path: Path):
+    with pytest.raises(RuntimeError), output_set() as files:
+        write_route_files(files, tmp_path / "x.parquet", *tables, {})
+        raise RuntimeError("disk full")
+    assert list(tmp_path.iterdir()) == []

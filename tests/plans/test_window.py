@@ -1,0 +1,405 @@
+"""One window of planning: a hand-checked instance and invariants on random ones."""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from numpy.testing import assert_allclose
+
+from marops_cli.config import EnergyConfig, PlanConfig
+from marops_cli.data.frame import Frame
+from marops_cli.energy import EnergyModel, reference_power_w
+from marops_cli.errors import RunError
+from marops_cli.plans import GreedySelector, MilpSelector, Selector
+from marops_cli.plans.ranges import range_table
+from marops_cli.plans.window import DroneRoute, check_routes, plan_window
+from marops_cli.policies.base import WindowView
+from marops_cli.segment.depots import Depots, nearest_candidates
+
+FRAME = Frame(121.47, 31.23, 10.0)
+WINDOW_H = 0.5
+
+# ENERGY.md's per-km table is given to 5 significant figures (±0.0005 kJ/km, at worst
+# 3e-5 relative at 15.991 kJ/km), so hand sums from it agree with the model to 1e-4.
+HAND_RTOL = 1e-4
+# kJ/km with the payload on board (ENERGY.md)
+KJ_PER_KM = {0.0: 15.991, 0.5: 18.091, 1.0: 20.499, 1.5: 23.199, 2.0: 26.179, 2.5: 29.426}
+
+
+# ---------------------------------------------------------------------------------------
+# The hand-checked instance: 2 depots, 2 drones, 5 orders, t = 4, half-hour windows.
+#
+#   depot 0 (0, 0), depot 1 (2000, 0); candidates [[0, 1], [1, 0]].
+#   drone 0 at depot 0, action 0 (come back to 0); drone 1 at depot 1, action 1 (fly to 0).
+#   With 2 depots every flight range holds both areas, so both drones see all 5 orders.
+#
+#   order  xy             kg   due  delay h  v = 1 + delay   day index
+#   A      (0, 1000)      2.0  1    1.5      2.5             40
+#   B      (2000, 1000)   1.5  2    1.0      2.0             41
+#   C      (750, 1000)    1.0  2    1.0      2.0             42
+#   D      (-750, 0)      0.5  0    2.0      3.0             43
+#   E      (500, -1000)   1.0  5    0.0      1.0             44
+#
+# Which orders: 6 kg for 2 × 2.5 kg, so at least 1 kg stays behind. α = 0.2 makes
+# λ = 4 × 168.75 kJ = 675 kJ per unit of v, more than two full batteries (337.5 kJ):
+# the served set maximises Σ v first. Leaving E alone behind (v = 1) is the only way to
+# lose less than 2; A..D weigh 5.0 kg and split into 2.5 + 2.5 only as {A, D} + {B, C}.
+# Which drone: drone 0 with {A, D} and drone 1 with {B, C} (below) cost 139.07 kJ; the
+# swap costs > 200 kJ (drone 0 → B alone is 2236 m at 2.5 kg = 65.8 kJ).
+#
+# Visiting order and energy (kJ/km from ENERGY.md, 3-4-5 triangles):
+#   drone 0: 0 → A → D → 0:  1000 m @ 2.5 kg + 1250 m @ 0.5 kg + 750 m @ 0 kg
+#            = 29.426 + 22.61375 + 11.99325 = 64.0330 kJ
+#            (D first, same 3000 m: 750 @ 2.5 + 1250 @ 2.0 + 1000 @ 0 = 70.7845 kJ;
+#             the paper's nearest-neighbour order takes D first, 750 m < 1000 m)
+#   drone 1: 1 → B → C → 0:  1000 m @ 2.5 kg + 1250 m @ 1.0 kg + 1250 m @ 0 kg
+#            = 29.426 + 25.62375 + 19.98875 = 75.0385 kJ
+# ---------------------------------------------------------------------------------------
+DEPOT_XY = np.array([[0.0, 0.0], [2000.0, 0.0]])
+ORDER_XY = np.array([[0, 1000], [2000, 1000], [750, 1000], [-750, 0], [500, -1000]], float)
+WEIGHT = np.array([2.0, 1.5, 1.0, 0.5, 1.0])
+DUE_W = np.array([1, 2, 2, 0, 5])
+DAY_IDX = np.array([40, 41, 42, 43, 44])
+A, B, C, D, E = DAY_IDX
+
+
+def kj(*legs: tuple[float, float]) -> float:
+    """Energy in J of (metres, kg on board) legs from ENERGY.md's per-km table."""
+    return sum(m / 1000 * KJ_PER_KM[kg] for m, kg in legs) * 1000
+
+
+def hand_view() -> WindowView:
+    depots = Depots("kmeans", FRAME, DEPOT_XY, np.array([3, 2]), nearest_candidates(DEPOT_XY, 2))
+    t = 4
+    return WindowView(
+        t=t,
+        n_windows=16,
+        window_h=WINDOW_H,
+        depots=depots,
+        ranges=range_table(depots, 0.25),
+        drone_depot=np.array([0, 1]),
+        pending_idx=DAY_IDX,
+        pending_xy=ORDER_XY,
+        pending_area=depots.assign(ORDER_XY[:, 0], ORDER_XY[:, 1]),
+        pending_delay_h=np.maximum(0, t - DUE_W) * WINDOW_H,
+        pending_due_w=DUE_W,
+        pending_due_s=DUE_W * 1800.0 + 900.0,
+        pending_weight=WEIGHT,
+    )
+
+
+@pytest.fixture(scope="module")
+def model() -> EnergyModel:
+    return EnergyModel()
+
+
+def test_hand_instance_fixture_is_what_the_comment_says():
+    view = hand_view()
+    assert view.depots.candidates.tolist() == [[0, 1], [1, 0]]
+    assert view.ranges.all()  # 2 depots: every range is the whole map
+    assert_allclose(view.pending_delay_h, [1.5, 1.0, 1.0, 2.0, 0.0])
+    assert view.pending_area.tolist() == [0, 1, 0, 0, 0]
+
+
+@pytest.mark.parametrize("backend", ["cvxpy", "highs"])
+def test_hand_instance_exact_order(model, backend):
+    cfg = PlanConfig(alpha=0.2)
+    plan = plan_window(hand_view(), np.array([0, 1]), model, cfg, MilpSelector(backend=backend))
+    r0, r1 = plan.routes
+    assert plan.selection.status == "optimal" and not plan.selection.fallback
+    assert plan.n_candidates == 5
+
+    assert (r0.drone, r0.start, r0.action, r0.end) == (0, 0, 0, 0)
+    assert r0.stops == (A, D)  # heavy A first, although D is nearer
+    assert_allclose(r0.legs_m, [1000, 1250, 750], rtol=1e-12)
+    assert_allclose(r0.legs_j, [kj((1000, 2.5)), kj((1250, 0.5)), kj((750, 0.0))], rtol=HAND_RTOL)
+    assert_allclose(r0.energy_j, 64_033.0, rtol=HAND_RTOL)
+    assert r0.payload_kg == pytest.approx(2.5)
+
+    assert (r1.drone, r1.start, r1.action, r1.end) == (1, 1, 1, 0)
+    assert r1.stops == (B, C)
+    assert_allclose(r1.legs_m, [1000, 1250, 1250], rtol=1e-12)
+    assert_allclose(r1.legs_j, [kj((1000, 2.5)), kj((1250, 1.0)), kj((1250, 0.0))], rtol=HAND_RTOL)
+    assert_allclose(r1.energy_j, 75_038.5, rtol=HAND_RTOL)
+    assert r1.payload_kg == pytest.approx(2.5)
+
+    # objective: energy flown + λ · v_E for E left behind (λ = 4 × 168 750 J)
+    assert_allclose(plan.selection.objective, 64_033.0 + 75_038.5 + 675_000.0, rtol=HAND_RTOL)
+
+
+def test_hand_instance_greedy_order_is_the_papers(model):
+    cfg = PlanConfig(alpha=0.2, ordering="greedy")
+    plan = plan_window(hand_view(), np.array([0, 1]), model, cfg, MilpSelector())
+    r0, r1 = plan.routes
+    assert r0.stops == (D, A)  # nearest first: 750 m < 1000 m
+    assert_allclose(r0.energy_j, kj((750, 2.5), (1250, 2.0), (1000, 0.0)), rtol=HAND_RTOL)
+    assert_allclose(r0.energy_j, 70_784.5, rtol=HAND_RTOL)
+    assert r1.stops == (B, C)  # the nearest is also the best here
+    assert_allclose(r1.energy_j, 75_038.5, rtol=HAND_RTOL)
+
+
+def test_hand_instance_global_scope_lands_at_the_nearest_depot(model):
+    """OPS-global: plans are ordered for a round trip, then land at the depot nearest the
+    last customer. Drone 1's last customer C is 1250 m from depot 0 and 1601 m from depot
+    1, so it lands at 0: the same routes as in range scope; actions are ignored."""
+    cfg = PlanConfig(alpha=0.2)
+    plan = plan_window(hand_view(), np.array([1, 0]), model, cfg, MilpSelector(), "global")
+    r0, r1 = plan.routes
+    assert (r0.start, r0.end, r0.action, r0.stops) == (0, 0, 0, (A, D))
+    assert (r1.start, r1.end, r1.action, r1.stops) == (1, 0, 0, (B, C))
+    assert_allclose([r0.energy_j, r1.energy_j], [64_033.0, 75_038.5], rtol=HAND_RTOL)
+
+
+def test_hand_instance_selection_is_the_brute_force_optimum(model):
+    """Every way to give each drone an ordered subset: none beats the hand answer."""
+    view = hand_view()
+    lam = 4 * model.usable_j
+    v = 1.0 + view.pending_delay_h
+    ends = [0, 0]
+    best = np.inf
+    for owner in itertools.product([-1, 0, 1], repeat=5):
+        total = lam * v[[j for j in range(5) if owner[j] == -1]].sum()
+        for u in (0, 1):
+            mine = [j for j in range(5) if owner[j] == u]
+            if WEIGHT[mine].sum() > 2.5 + 1e-9:
+                total = np.inf
+                break
+            start = DEPOT_XY[u]
+            total += min(
+                model.route_energy(
+                    np.vstack([start, ORDER_XY[list(p)].reshape(-1, 2), DEPOT_XY[ends[u]]]),
+                    WEIGHT[list(p)],
+                )[1].sum()
+                for p in itertools.permutations(mine)
+            )
+        best = min(best, total)
+    plan = plan_window(view, np.array([0, 1]), model, PlanConfig(alpha=0.2), MilpSelector())
+    assert_allclose(plan.selection.objective, best, rtol=1e-9)
+
+
+def _without_requests(view: WindowView) -> WindowView:
+    for name in ("idx", "xy", "area", "delay_h", "due_w", "due_s", "weight"):
+        arr = getattr(view, f"pending_{name}")
+        setattr(view, f"pending_{name}", arr[:0])
+    return view
+
+
+@pytest.mark.parametrize("scope", ["range", "global"])
+def test_no_pending_requests(model, scope):
+    """Nothing to deliver: drones fly their action's transfer (range) or stay (global)."""
+    plan = plan_window(
+        _without_requests(hand_view()), np.array([0, 1]), model, PlanConfig(), MilpSelector(), scope
+    )
+    assert plan.n_candidates == 0
+    assert [r.stops for r in plan.routes] == [(), ()]
+    ends = [0, 0] if scope == "range" else [0, 1]
+    assert [r.end for r in plan.routes] == ends
+    assert plan.routes[0].energy_j == 0.0  # stays put: a row with energy 0 (OUTPUTS.md)
+    transfer = kj((2000, 0.0)) if scope == "range" else 0.0
+    assert_allclose(plan.routes[1].energy_j, transfer, rtol=HAND_RTOL)
+
+
+def test_destination_out_of_reach_stays_and_plans_in_the_stay_range(model):
+    """Depots 12 km apart, beyond the 10.55 km an empty drone flies on 168.75 kJ. The drone
+    asked to cross stays (action 0) and takes its candidates from the range of staying
+    (its own area), not from the range of the flight it cannot make."""
+    xy = np.array([[0.0, 0.0], [12_000.0, 0.0]])
+    depots = Depots("kmeans", FRAME, xy, np.array([1, 1]), nearest_candidates(xy, 2))
+    ranges = np.zeros((2, 2, 2), dtype=bool)
+    ranges[:, 0] = np.eye(2, dtype=bool)  # staying: the own area only
+    ranges[:, 1] = True  # crossing: both areas
+    req_xy = np.array([[11_000.0, 0.0], [0.0, 1000.0]])  # area 1 (late), area 0 (on time)
+    view = WindowView(
+        t=3,
+        n_windows=16,
+        window_h=WINDOW_H,
+        depots=depots,
+        ranges=ranges,
+        drone_depot=np.array([0]),
+        pending_idx=np.array([7, 9]),
+        pending_xy=req_xy,
+        pending_area=depots.assign(req_xy[:, 0], req_xy[:, 1]),
+        pending_delay_h=np.array([1.5, 0.0]),
+        pending_due_w=np.array([0, 3]),
+        pending_due_s=np.array([900.0, 6300.0]),
+        pending_weight=np.array([1.0, 1.0]),
+    )
+    assert view.pending_area.tolist() == [1, 0]
+    plan = plan_window(view, np.array([1]), model, PlanConfig(max_parcels=1), MilpSelector())
+    (r,) = plan.routes
+    assert (r.action, r.end, r.stops) == (0, 0, (9,))
+    assert_allclose(r.energy_j, kj((1000, 1.0), (1000, 0.0)), rtol=HAND_RTOL)
+
+
+def test_check_routes_rejects_broken_routes(model):
+    def route(drone, stops, kg, joules):
+        legs = np.full(len(stops) + 1, joules / (len(stops) + 1))
+        return DroneRoute(drone, 0, 0, 0, stops, legs, legs, kg)
+
+    check_routes([route(0, (1, 2), 2.5, 100_000.0), route(1, (3,), 0.1, 1.0)], model)
+    with pytest.raises(RunError, match="payload"):
+        check_routes([route(0, (1,), 2.6, 1.0)], model)
+    with pytest.raises(RunError, match="usable battery"):
+        check_routes([route(0, (1,), 1.0, model.usable_j + 1.0)], model)
+    with pytest.raises(RunError, match="twice"):
+        check_routes([route(0, (1,), 1.0, 1.0), route(1, (1,), 1.0, 1.0)], model)
+
+
+# ---------------------------------------------------------------------------------------
+# Random instances
+# ---------------------------------------------------------------------------------------
+_REF_CFG = EnergyConfig()
+_REF_POWER: dict[float, float] = {}
+
+
+def reference_energy_j(legs_m: np.ndarray, weights: np.ndarray) -> float:
+    """Route energy with the exact (root-finding) power model, no lookup table."""
+    on_board = np.append(np.cumsum(weights[::-1])[::-1], 0.0)  # eq. (6)
+    total = 0.0
+    for d, w in zip(legs_m, on_board, strict=True):
+        key = round(float(w), 9)
+        if key not in _REF_POWER:
+            _REF_POWER[key] = reference_power_w(key, _REF_CFG)
+        total += _REF_POWER[key] * float(d) / _REF_CFG.speed_ms
+    return total
+
+
+@st.composite
+def instances(draw):
+    """A random window: depots in a square (sometimes too big to cross on one battery),
+    drones at random depots with random actions, random pending requests."""
+    seed = draw(st.integers(0, 2**32 - 1))
+    n_dep = draw(st.integers(2, 6))
+    n_drones = draw(st.integers(1, 4))
+    n_req = draw(st.integers(0, 30))
+    side_m = draw(st.sampled_from([1500.0, 5000.0, 14000.0]))
+    n_actions = draw(st.integers(1, 4))
+    coverage = draw(st.sampled_from([0.1, 0.25, 0.5, 1.0]))
+    m_hat = draw(st.integers(1, 6))
+    scope = draw(st.sampled_from(["range", "global"]))
+    ordering = draw(st.sampled_from(["exact", "greedy"]))
+    selector = draw(st.sampled_from(["cvxpy", "highs", "greedy"]))
+    # few distinct due times: many ties on (delay, due time), broken by distance
+    coarse_due = draw(st.booleans())
+    rng = np.random.default_rng(seed)
+    xy = rng.uniform(0, side_m, (n_dep, 2))
+    depots = Depots(
+        "kmeans", FRAME, xy, np.zeros(n_dep, np.int64), nearest_candidates(xy, n_actions)
+    )
+    t = int(rng.integers(0, 16))
+    req_xy = rng.uniform(0, side_m, (n_req, 2))
+    due_w = rng.integers(0, 2 if coarse_due else 16, n_req)
+    view = WindowView(
+        t=t,
+        n_windows=16,
+        window_h=WINDOW_H,
+        depots=depots,
+        ranges=range_table(depots, coverage),
+        drone_depot=rng.integers(0, n_dep, n_drones),
+        pending_idx=np.sort(rng.choice(1000, n_req, replace=False)),
+        pending_xy=req_xy,
+        pending_area=depots.assign(req_xy[:, 0], req_xy[:, 1]),
+        pending_delay_h=np.maximum(0, t - due_w) * WINDOW_H,
+        pending_due_w=due_w,
+        pending_due_s=due_w * 1800.0
+        + (np.full(n_req, 900.0) if coarse_due else rng.uniform(0, 1800, n_req)),
+        pending_weight=rng.uniform(0.1, 2.5, n_req),
+    )
+    actions = rng.integers(0, depots.candidates.shape[1], n_drones)
+    cfg = PlanConfig(max_parcels=m_hat, ordering=ordering, alpha=float(rng.uniform(0.1, 1.0)))
+    return view, actions, cfg, scope, selector
+
+
+def _selector(name: str) -> Selector:
+    return GreedySelector() if name == "greedy" else MilpSelector(backend=name)
+
+
+def expected_candidates(view: WindowView, u: int, action: int, m_hat: int, scope: str) -> list:
+    """Ĉ_u by SPEC §4 / §7, written independently of the planner (pending positions)."""
+    s = int(view.drone_depot[u])
+    sxy = view.depots.xy[s]
+    dist = np.hypot(*(view.pending_xy - sxy).T)
+    if scope == "range":
+        inside = [
+            p for p in range(view.pending_idx.size) if view.ranges[s, action][view.pending_area[p]]
+        ]
+        key = lambda p: (-view.pending_delay_h[p], view.pending_due_s[p], dist[p], p)  # noqa: E731
+        return sorted(inside, key=key)[:m_hat]
+    pool = sorted(
+        range(view.pending_idx.size),
+        key=lambda p: (-view.pending_delay_h[p], view.pending_due_s[p], p),
+    )[: view.n_drones * m_hat]
+    return sorted(pool, key=lambda p: (dist[p], p))[:m_hat]
+
+
+@settings(max_examples=60, deadline=None)
+@given(instances())
+def test_window_invariants(model, inst):
+    view, actions, cfg, scope, sel_name = inst
+    plan = plan_window(view, actions, model, cfg, _selector(sel_name), scope)
+    dep = view.depots
+    pos = {int(i): p for p, i in enumerate(view.pending_idx)}  # day index -> pending position
+    assert plan.t == view.t
+    assert [r.drone for r in plan.routes] == list(range(view.n_drones))
+    assert not plan.selection.fallback
+
+    served: list[int] = []
+    energy_total = 0.0
+    candidates: set[int] = set()
+    for u, r in enumerate(plan.routes):
+        s = int(view.drone_depot[u])
+        p = [pos[i] for i in r.stops]
+        w = view.pending_weight[p]
+        served += list(r.stops)
+        energy_total += r.energy_j
+
+        # starts at its depot, ends where the rule says
+        assert r.start == s
+        if scope == "range":
+            assert r.end == dep.candidates[s, r.action]
+            if r.action != actions[u]:  # only to stay, when the destination is out of reach
+                assert r.action == 0
+                far = dep.xy[dep.candidates[s, actions[u]]] - dep.xy[s]
+                assert np.hypot(*far) * model.energy_per_m(0.0) > model.usable_j
+        else:
+            assert r.action == 0
+            if p:
+                d = np.hypot(*(dep.xy - view.pending_xy[p[-1]]).T)
+                assert r.end == int(np.argmin(d))
+            else:
+                assert r.end == s
+
+        # the drone's requests are among its candidates (and so inside its flight range)
+        cand = expected_candidates(view, u, r.action, cfg.max_parcels, scope)
+        candidates.update(cand)
+        assert set(p) <= set(cand)
+        assert len(p) <= cfg.max_parcels
+        if scope == "range":
+            assert all(view.ranges[s, r.action][view.pending_area[q]] for q in p)
+
+        # payload and battery
+        assert r.payload_kg == pytest.approx(w.sum(), abs=1e-12)
+        assert r.payload_kg <= model.max_payload_kg + 1e-9
+        assert r.energy_j <= model.usable_j + 1e-6
+
+        # legs: the geometry of start -> stops -> end, and they sum to the route
+        pts = np.vstack([dep.xy[r.start], view.pending_xy[p].reshape(-1, 2), dep.xy[r.end]])
+        assert len(r.legs_m) == len(r.legs_j) == len(p) + 1
+        assert_allclose(r.legs_m, np.hypot(*np.diff(pts, axis=0).T), rtol=1e-12, atol=1e-9)
+        assert_allclose(r.legs_j.sum(), r.energy_j, rtol=1e-12, atol=1e-9)
+        assert_allclose(r.legs_m.sum(), r.distance_m, rtol=1e-12, atol=1e-9)
+        # the exact (root-finding) power model agrees within 0.1 %
+        assert_allclose(r.energy_j, reference_energy_j(r.legs_m, w), rtol=1e-3, atol=1e-6)
+
+    assert len(served) == len(set(served)), "an order is served twice"
+    assert plan.n_candidates == len(candidates)
+    # objective = energy flown + λ Σ v over the candidates left behind
+    lam = (1 - cfg.alpha) / cfg.alpha * model.usable_j
+    left = [c for c in candidates if int(view.pending_idx[c]) not in set(served)]
+    expect = energy_total + lam * sum(1.0 + view.pending_delay_h[c] for c in left)
+    assert_allclose(plan.selection.objective, expect, rtol=1e-9, atol=1e-6)
+    assert set(plan.timings) >= {"candidates", "plans", "build", "solve", "total"}
