@@ -24,6 +24,7 @@ import argparse
 import cProfile
 import datetime as dt
 import io
+import os
 import pstats
 import statistics
 import sys
@@ -192,6 +193,8 @@ def main() -> None:
     args = ap.parse_args()
     cfg = PlannerConfig()
     names = args.scenarios.split(",")
+    load = ", ".join(f"{x:.2f}" for x in os.getloadavg())
+    print(f"{os.cpu_count()} CPUs, load average {load} (other work skews the figures)")
     if "basic" in names:
         bench("basic", basic_view(args.data, cfg), cfg, args.repeats, args.profile)
     if "large" in names:

@@ -158,7 +158,11 @@ class SimConfig(_Stage):
     """Day replay (SPEC §5)."""
 
     drones: int = Field(8, ge=1, description="fleet size")
-    policy: str = Field("stay", description="flight-range policy name or torchscript:PATH")
+    policy: str | None = Field(
+        None,
+        description="flight-range policy (stay, random, greedy, global, torchscript:PATH); "
+        "None = the method's own",
+    )
     seed: int = Field(0, description="seed for random policies")
 
 

@@ -74,11 +74,12 @@ def plan_window(
         plan__strict_cover=strict_cover or None,
         sim__drones=drones,
         sim__seed=seed,
+        sim__policy=policy,
     )
     day = parse_day(date, cfg.data.year)
     scn = load_scenario(data, cfg, depots_path=depots, replay_days=[day])
     fleet_arr = load_fleet(fleet, scn.depots, cfg.sim.drones)
-    pol = method_policy(method, policy, cfg.sim.seed)
+    pol = method_policy(method, cfg.sim.policy, cfg.sim.seed)
     done = delivered_orders(delivered) if delivered is not None else None
     plan, reqs = plan_one_window(scn, day, window, fleet_arr, pol, done)
     model = EnergyModel(cfg.energy)

@@ -96,11 +96,12 @@ def replay_day(
         plan__ordering=ordering,
         sim__drones=drones,
         sim__seed=seed,
+        sim__policy=policy,
     )
     days = [parse_day(date, cfg.data.year)] if date else parse_days(dates or "", cfg.data.year)
     scn = load_scenario(data, cfg, depots_path=depots, replay_days=days)
     print_drop_report(scn.table.report, data.name)
-    pol = method_policy(method, policy, cfg.sim.seed)
+    pol = method_policy(method, cfg.sim.policy, cfg.sim.seed)
     fleet = load_fleet(None, scn.depots, cfg.sim.drones)
     policy_id = getattr(pol, "path", pol.name)
     all_metrics: list[dict[str, Any]] = []

@@ -41,7 +41,9 @@ class OutputSet:
         writer(self.path_for(final))
 
     def commit(self) -> None:
+        mode = 0o666 & ~_umask()  # mkstemp makes 0600; outputs are shared like any file
         for tmp, final in self._pending:
+            os.chmod(tmp, mode)
             os.replace(tmp, final)
         self._pending.clear()
 
@@ -65,6 +67,12 @@ def output_set() -> Iterator[OutputSet]:
     except OSError as exc:
         out.discard()
         raise RunError(f"could not write outputs: {exc}") from exc
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
 
 
 def dumps_json(doc: Any) -> str:

@@ -93,7 +93,8 @@ def _range_plans(
     # Drones at the same depot taking the same action have the same candidates and plans.
     done: dict[tuple[int, int], tuple[PlanSet, int, int]] = {}
     for u, s0 in enumerate(view.drone_depot):
-        key = s, a = int(s0), int(acts[u])
+        s, a = int(s0), int(acts[u])
+        key = (s, a)
         if key in done:
             ps, dest, a = done[key]
             plan_sets.append(ps)

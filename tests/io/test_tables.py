@@ -181,3 +181,18 @@ def test_an_error_midway_leaves_no_file(tables, tmp_path: Path):
         write_route_files(files, tmp_path / "x.parquet", *tables, {})
         raise RuntimeError("disk full")
     assert list(tmp_path.iterdir()) == []
+
+
+def test_outputs_get_umask_permissions_not_mkstemp_0600(tmp_path) -> None:
+    import os
+
+    from marops_cli.io import output_set
+
+    old = os.umask(0o022)
+    try:
+        with output_set() as files:
+            files.write_json(tmp_path / "m.json", {"a": 1})
+    finally:
+        os.umask(old)
+    assert (tmp_path / "m.json").stat().st_mode & 0o777 == 0o644
+    assert [p.name for p in tmp_path.iterdir()] == ["m.json"]
