@@ -148,6 +148,11 @@ class PlanConfig(_Stage):
     coverage: float = Field(0.25, gt=0, le=1, description="share of service areas in a range")
     max_parcels: int = Field(5, ge=1, le=12, description="M-hat: candidates per drone")
     ordering: Literal["exact", "greedy"] = Field("exact", description="visiting order")
+    candidates: Literal["draft", "top"] = Field(
+        "top",
+        description="how drones pick candidates: draft (take turns claiming the most delayed "
+        "unclaimed request in range, then top up) or top (paper: each its own M-hat most delayed)",
+    )
     alpha: float = Field(0.5, gt=0, le=1, description="trade-off weight: energy vs delay")
     solver: Literal["highs", "greedy"] = Field("highs", description="plan selection solver")
     time_limit_s: float = Field(2.0, gt=0, description="solver time limit per window")

@@ -20,7 +20,7 @@ from ..config import PlanConfig
 from ..energy import EnergyModel
 from ..errors import RunError
 from ..policies.base import WindowView
-from .plans import NoFeasiblePlanError, PlanSet, build_plans
+from .plans import PlanSet, build_plans
 from .ranges import pick_candidates
 from .select import SelectionProblem, SelectionResult, Selector
 
@@ -79,53 +79,115 @@ def _range_candidates(
     )
 
 
+def _reachable_actions(view: WindowView, actions: np.ndarray, model: EnergyModel) -> np.ndarray:
+    """Actions whose destination the empty drone cannot reach become 0 (stay)."""
+    dep = view.depots
+    acts = np.asarray(actions, dtype=np.int64).copy()
+    for u, s in enumerate(view.drone_depot):
+        d = int(dep.candidates[int(s), acts[u]])
+        flight = float(np.hypot(*(dep.xy[d] - dep.xy[int(s)])))
+        # The same test build_plans applies to the empty plan, so it never raises.
+        if float(model.leg_energy_j(flight, 0.0)) > model.usable_j:
+            acts[u] = 0
+    return acts
+
+
+def _drafted_candidates(
+    view: WindowView, rank: np.ndarray, rank_area: np.ndarray, acts: np.ndarray, m_hat: int
+) -> list[np.ndarray]:
+    """Candidates by draft: drones take turns (snake order) claiming the most delayed
+    unclaimed request in their range, M̂ rounds; a drone left short tops up with requests
+    others claimed, so the selection can still arbitrate between them.
+
+    Each drone's preference order is :func:`pick_candidates`' (delay, due time, distance
+    to its depot, index); only the head of its range that the draft can reach is sorted.
+    """
+    n_u = view.n_drones
+    head = m_hat * n_u + m_hat
+    prefs = []
+    for u in range(n_u):
+        s = int(view.drone_depot[u])
+        inside = rank[view.ranges[s, acts[u]][rank_area]]
+        if inside.size > head:  # keep ties with the last of the head (full tie-break)
+            last, rest = inside[head - 1], inside[head:]
+            tie = (view.pending_delay_h[rest] == view.pending_delay_h[last]) & (
+                view.pending_due_s[rest] == view.pending_due_s[last]
+            )
+            inside = inside[: head + (tie.size if tie.all() else int(np.argmin(tie)))]
+        dist = np.hypot(*(view.pending_xy[inside] - view.depots.xy[s]).T)
+        prefs.append(
+            pick_candidates(
+                inside, view.pending_delay_h[inside], view.pending_due_s[inside], dist, head
+            )
+        )
+    return draft(prefs, view.pending_idx.size, m_hat)
+
+
+def draft(prefs: list[np.ndarray], n_items: int, m_hat: int) -> list[np.ndarray]:
+    """Snake draft: in M̂ rounds (forward, then backward order) each drone claims its most
+    preferred unclaimed item; then a drone left short tops up, in its own order, with
+    items others claimed. ``prefs[u]`` lists drone u's items, most preferred first."""
+    n_u = len(prefs)
+    claimed = np.zeros(n_items, dtype=bool)
+    picks: list[list[int]] = [[] for _ in range(n_u)]
+    ptr = [0] * n_u
+    for rnd in range(m_hat):
+        for u in range(n_u) if rnd % 2 == 0 else range(n_u - 1, -1, -1):
+            pref = prefs[u]
+            while ptr[u] < pref.size and claimed[pref[ptr[u]]]:
+                ptr[u] += 1
+            if ptr[u] < pref.size:
+                picks[u].append(int(pref[ptr[u]]))
+                claimed[pref[ptr[u]]] = True
+    out = []
+    for u in range(n_u):
+        mine = picks[u]
+        if len(mine) < m_hat:
+            taken = set(mine)
+            mine = mine + [int(i) for i in prefs[u] if int(i) not in taken][: m_hat - len(mine)]
+        out.append(np.array(mine, dtype=np.int64))
+    return out
+
+
 def _range_plans(
     view: WindowView, actions: np.ndarray, model: EnergyModel, cfg: PlanConfig
 ) -> tuple[list[PlanSet], np.ndarray, np.ndarray, float]:
     dep = view.depots
-    plan_sets: list[PlanSet] = []
-    ends = np.zeros(view.n_drones, dtype=np.int64)
-    acts = np.asarray(actions, dtype=np.int64).copy()
+    acts = _reachable_actions(view, actions, model)
     t0 = time.perf_counter()
     rank = np.lexsort((view.pending_due_s, -view.pending_delay_h))
     rank_area = view.pending_area[rank]
+    if cfg.candidates == "draft":
+        cands = _drafted_candidates(view, rank, rank_area, acts, cfg.max_parcels)
+    else:
+        # Drones at the same depot taking the same action have the same candidates.
+        by_key: dict[tuple[int, int], np.ndarray] = {}
+        cands = []
+        for u, s in enumerate(view.drone_depot):
+            key = (int(s), int(acts[u]))
+            if key not in by_key:
+                by_key[key] = _range_candidates(view, rank, rank_area, *key, cfg.max_parcels)
+            cands.append(by_key[key])
     t_cand = time.perf_counter() - t0
-    # Drones at the same depot taking the same action have the same candidates and plans.
-    done: dict[tuple[int, int], tuple[PlanSet, int, int]] = {}
+    plan_sets: list[PlanSet] = []
+    ends = np.zeros(view.n_drones, dtype=np.int64)
+    done: dict[tuple[int, int, bytes], PlanSet] = {}  # identical inputs, identical plans
     for u, s0 in enumerate(view.drone_depot):
-        s, a = int(s0), int(acts[u])
-        key = (s, a)
-        if key in done:
-            ps, dest, a = done[key]
-            plan_sets.append(ps)
-            ends[u], acts[u] = dest, a
-            continue
-        while True:
-            t0 = time.perf_counter()
-            cand = _range_candidates(view, rank, rank_area, s, a, cfg.max_parcels)
-            t_cand += time.perf_counter() - t0
-            dest = int(dep.candidates[s, a])
-            try:
-                ps = build_plans(
-                    dep.xy[s],
-                    dep.xy[dest],
-                    view.pending_xy[cand],
-                    view.pending_weight[cand],
-                    model,
-                    cfg,
-                    request_ids=cand,
-                )
-                break
-            except NoFeasiblePlanError:
-                # The destination is out of battery range: the drone stays (action 0,
-                # candidate 0 is the start itself), and its candidates come from the
-                # flight range of staying, so the route lies in the range it reports.
-                if a == 0:
-                    raise
-                a = 0
-        done[key] = ps, dest, a
-        plan_sets.append(ps)
-        ends[u], acts[u] = dest, a
+        s, cand = int(s0), cands[u]
+        dest = int(dep.candidates[s, acts[u]])
+        key = (s, dest, cand.tobytes())
+        if key not in done:
+            done[key] = build_plans(
+                dep.xy[s],
+                dep.xy[dest],
+                view.pending_xy[cand],
+                view.pending_weight[cand],
+                model,
+                cfg,
+                request_ids=cand,
+            )
+        plan_sets.append(done[key])
+        ends[u] = dest
     return plan_sets, ends, acts, t_cand
 
 
@@ -146,21 +208,25 @@ def _global_plans(
     d_pool = np.hypot(pxy[:, None, 0] - dep.xy[None, :, 0], pxy[:, None, 1] - dep.xy[None, :, 1])
     near = np.argmin(d_pool, axis=1)
     d_near = d_pool[np.arange(pool.size), near]
-    t_cand = time.perf_counter() - t0
     e0 = float(model.energy_per_m(0.0))
+    # Each drone's pool positions, nearest its depot first (ties to the lower index).
+    nearest = {int(s): np.lexsort((pool, d_pool[:, int(s)])) for s in set(view.drone_depot)}
+    drafted = None
+    if cfg.candidates == "draft":
+        drafted = draft([nearest[int(s)] for s in view.drone_depot], pool.size, cfg.max_parcels)
+    t_cand = time.perf_counter() - t0
     plan_sets, plan_ends = [], []
-    done: dict[int, tuple[PlanSet, np.ndarray]] = {}  # drones at one depot plan alike
-    for s0 in view.drone_depot:
+    done: dict[tuple[int, bytes], tuple[PlanSet, np.ndarray]] = {}  # same inputs, same plans
+    for u, s0 in enumerate(view.drone_depot):
         s = int(s0)
-        if s in done:
-            plan_sets.append(done[s][0])
-            plan_ends.append(done[s][1])
+        sel = nearest[s][: cfg.max_parcels] if drafted is None else drafted[u]
+        key = (s, sel.tobytes())
+        if key in done:
+            plan_sets.append(done[key][0])
+            plan_ends.append(done[key][1])
             continue
-        t0 = time.perf_counter()
         d = d_pool[:, s]
-        sel = np.lexsort((pool, d))[: cfg.max_parcels]  # positions in the pool
         cand = pool[sel]
-        t_cand += time.perf_counter() - t0
         ps = build_plans(
             dep.xy[s],
             dep.xy[s],
@@ -181,11 +247,11 @@ def _global_plans(
             ends[has] = near[last]
             distance[has] += d_near[last] - d[last]
             energy[has] += e0 * (d_near[last] - d[last])
-        done[s] = (
+        done[key] = (
             PlanSet(ps.request_ids, ps.members, ps.order, energy, distance, ps.weight_kg),
             ends,
         )
-        plan_sets.append(done[s][0])
+        plan_sets.append(done[key][0])
         plan_ends.append(ends)
     return plan_sets, plan_ends, t_cand
 

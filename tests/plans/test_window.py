@@ -283,6 +283,7 @@ def instances(draw):
     scope = draw(st.sampled_from(["range", "global"]))
     ordering = draw(st.sampled_from(["exact", "greedy"]))
     selector = draw(st.sampled_from(["cvxpy", "highs", "greedy"]))
+    mode = draw(st.sampled_from(["top", "draft"]))
     # few distinct due times: many ties on (delay, due time), broken by distance
     coarse_due = draw(st.booleans())
     rng = np.random.default_rng(seed)
@@ -310,7 +311,12 @@ def instances(draw):
         pending_weight=rng.uniform(0.1, 2.5, n_req),
     )
     actions = rng.integers(0, depots.candidates.shape[1], n_drones)
-    cfg = PlanConfig(max_parcels=m_hat, ordering=ordering, alpha=float(rng.uniform(0.1, 1.0)))
+    cfg = PlanConfig(
+        max_parcels=m_hat,
+        ordering=ordering,
+        alpha=float(rng.uniform(0.1, 1.0)),
+        candidates=mode,
+    )
     return view, actions, cfg, scope, selector
 
 
@@ -318,8 +324,8 @@ def _selector(name: str) -> Selector:
     return GreedySelector() if name == "greedy" else MilpSelector(backend=name)
 
 
-def expected_candidates(view: WindowView, u: int, action: int, m_hat: int, scope: str) -> list:
-    """Ĉ_u by SPEC §4 / §7, written independently of the planner (pending positions)."""
+def preferences(view: WindowView, u: int, action: int, m_hat: int, scope: str) -> list:
+    """Drone u's requests in order of preference (pending positions), SPEC §4 / §7."""
     s = int(view.drone_depot[u])
     sxy = view.depots.xy[s]
     dist = np.hypot(*(view.pending_xy - sxy).T)
@@ -328,12 +334,32 @@ def expected_candidates(view: WindowView, u: int, action: int, m_hat: int, scope
             p for p in range(view.pending_idx.size) if view.ranges[s, action][view.pending_area[p]]
         ]
         key = lambda p: (-view.pending_delay_h[p], view.pending_due_s[p], dist[p], p)  # noqa: E731
-        return sorted(inside, key=key)[:m_hat]
+        return sorted(inside, key=key)
     pool = sorted(
         range(view.pending_idx.size),
         key=lambda p: (-view.pending_delay_h[p], view.pending_due_s[p], p),
     )[: view.n_drones * m_hat]
-    return sorted(pool, key=lambda p: (dist[p], p))[:m_hat]
+    return sorted(pool, key=lambda p: (dist[p], p))
+
+
+def expected_candidates(view: WindowView, acts: list, m_hat: int, scope: str, mode: str) -> list:
+    """Every drone's Ĉ_u, written independently of the planner."""
+    prefs = [preferences(view, u, a, m_hat, scope) for u, a in enumerate(acts)]
+    if mode == "top":
+        return [p[:m_hat] for p in prefs]
+    picks: list[list] = [[] for _ in prefs]
+    claimed: set = set()
+    for rnd in range(m_hat):  # snake draft
+        order = list(range(len(prefs)))
+        for u in order if rnd % 2 == 0 else order[::-1]:
+            free = [q for q in prefs[u] if q not in claimed]
+            if free:
+                picks[u].append(free[0])
+                claimed.add(free[0])
+    return [
+        mine + [q for q in pref if q not in mine][: m_hat - len(mine)]
+        for mine, pref in zip(picks, prefs, strict=True)
+    ]
 
 
 @settings(max_examples=60, deadline=None)
@@ -350,6 +376,8 @@ def test_window_invariants(model, inst):
     served: list[int] = []
     energy_total = 0.0
     candidates: set[int] = set()
+    acts = [r.action for r in plan.routes]
+    expected = expected_candidates(view, acts, cfg.max_parcels, scope, cfg.candidates)
     for u, r in enumerate(plan.routes):
         s = int(view.drone_depot[u])
         p = [pos[i] for i in r.stops]
@@ -374,7 +402,7 @@ def test_window_invariants(model, inst):
                 assert r.end == s
 
         # the drone's requests are among its candidates (and so inside its flight range)
-        cand = expected_candidates(view, u, r.action, cfg.max_parcels, scope)
+        cand = expected[u]
         candidates.update(cand)
         assert set(p) <= set(cand)
         assert len(p) <= cfg.max_parcels
@@ -403,3 +431,17 @@ def test_window_invariants(model, inst):
     expect = energy_total + lam * sum(1.0 + view.pending_delay_h[c] for c in left)
     assert_allclose(plan.selection.objective, expect, rtol=1e-9, atol=1e-6)
     assert set(plan.timings) >= {"candidates", "plans", "build", "solve", "total"}
+
+
+def test_draft_by_hand() -> None:
+    """Two drones want the same three requests most: they alternate, snake order."""
+    from marops_cli.plans.window import draft
+
+    prefs = [np.array([0, 1, 2, 3]), np.array([0, 1, 2, 4])]
+    got = draft(prefs, 5, 2)
+    # round 1: drone 0 takes 0, drone 1 takes 1; round 2 (backwards): drone 1 takes 2,
+    # drone 0 takes 3.
+    assert [g.tolist() for g in got] == [[0, 3], [1, 2]]
+    # A drone whose range holds only claimed requests tops up with them.
+    got = draft([np.array([0, 1]), np.array([0])], 2, 2)
+    assert [g.tolist() for g in got] == [[0, 1], [0]]
