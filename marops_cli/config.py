@@ -149,7 +149,7 @@ class PlanConfig(_Stage):
     max_parcels: int = Field(5, ge=1, le=12, description="M-hat: candidates per drone")
     ordering: Literal["exact", "greedy"] = Field("exact", description="visiting order")
     candidates: Literal["draft", "top"] = Field(
-        "top",
+        "draft",
         description="how drones pick candidates: draft (take turns claiming the most delayed "
         "unclaimed request in range, then top up) or top (paper: each its own M-hat most delayed)",
     )
