@@ -13,6 +13,7 @@ from .plan_window_cmd import plan_window
 from .replay_cmd import replay_day
 from .segment_cmd import segment
 from .synth_cmd import synth
+from .train_cmd import train
 
 app = typer.Typer(
     name="marops",
@@ -48,6 +49,7 @@ app.command("synth")(synth)
 app.command("segment")(segment)
 app.command("plan-window")(plan_window)
 app.command("replay-day")(replay_day)
+app.command("train")(train)
 app.command("evaluate")(evaluate)
 
 

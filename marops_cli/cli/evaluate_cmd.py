@@ -40,7 +40,7 @@ def evaluate(
             help="test: the last 20 % of the file's dates; train: the rest (default test).",
         ),
     ] = None,
-    repeats: Annotated[int, typer.Option("--repeats", help="Runs per day (seed + r).")] = 1,
+    repeats: Annotated[int, typer.Option("--repeats", min=1, help="Runs per day (seed + r).")] = 1,
     drones: Annotated[str | None, typer.Option("--drones", help="Fleet sizes: 4,8,16 [8].")] = None,
     alpha: Annotated[
         str | None, typer.Option("--alpha", help="Trade-off weights: 0.2,0.5,0.8 [0.5].")
@@ -51,12 +51,18 @@ def evaluate(
     depots_n: Annotated[
         str | None, typer.Option("--depots-n", help="Numbers of service areas: 8,16,32 [16].")
     ] = None,
-    workers: Annotated[int, typer.Option("--workers", help="Worker processes.")] = 2,
+    workers: Annotated[int, typer.Option("--workers", min=1, help="Worker processes.")] = 2,
     policy: Annotated[
         Path | None,
         typer.Option(
             "--policy",
-            help="Trained actor (.pt) for the learned methods (default: the shipped one).",
+            help="Trained actor (.pt) for marops and squares (default: the shipped one).",
+        ),
+    ] = None,
+    mappo_policy: Annotated[
+        Path | None,
+        typer.Option(
+            "--mappo-policy", help="Trained MAPPO actor (.pt) (default: the shipped one)."
         ),
     ] = None,
     plots: Annotated[bool, typer.Option("--plots/--no-plots", help="Draw the figures.")] = True,
@@ -81,7 +87,8 @@ def evaluate(
     days = parse_days(dates, cfg.data.year) if dates else None
     if days and split:
         raise InputError("give at most one of --dates or --split")
-    chosen = _methods(methods, policy)
+    actors = {k: v for k, v in (("learned", policy), ("direct", mappo_policy)) if v is not None}
+    chosen = _methods(methods, actors)
     prep = prepare(
         data,
         cfg,
@@ -90,7 +97,7 @@ def evaluate(
         days=days,
         split=split or "test",
         repeats=repeats,
-        policy=policy,
+        actors=actors,
     )
     print_drop_report(prep.source.report, data.name)
     console.print(
@@ -103,7 +110,7 @@ def evaluate(
     console.print(f"wrote {', '.join(str(p) for p in paths)}")
 
 
-def _methods(text: str | None, policy: Path | None) -> list[str]:
+def _methods(text: str | None, actors: dict[str, Path]) -> list[str]:
     """The listed methods, or every one this build can run (learned ones need an actor)."""
     from ..evaluate import check_methods
     from ..sim.jobs import METHODS
@@ -113,7 +120,7 @@ def _methods(text: str | None, policy: Path | None) -> list[str]:
     chosen = []
     for m in METHODS:
         try:
-            check_methods([m], policy)
+            check_methods([m], actors)
         except InputError:
             continue  # the default list skips what cannot run; a listed method errors
         if m != "stay":

@@ -6,7 +6,8 @@ repeat), ``evaluate`` runs them over worker processes, ``write_outputs`` writes
 """
 
 from .evaluation import Evaluation, evaluate
-from .report import markdown_table, summary_markdown, table3, write_outputs
+from .paper import PAPER_NAMES, TABLE3, paper_table
+from .report import markdown_table, summary_markdown, sweep_table, table3, write_outputs
 from .runner import Prepared, check_methods, prepare, run
 from .settings import (
     SWEEP_FLAGS,
@@ -21,7 +22,9 @@ from .settings import (
 from .tables import combined_cost, results_table, summarize
 
 __all__ = [
+    "PAPER_NAMES",
     "SWEEP_FLAGS",
+    "TABLE3",
     "Evaluation",
     "Job",
     "Prepared",
@@ -31,6 +34,7 @@ __all__ = [
     "evaluate",
     "expand_settings",
     "markdown_table",
+    "paper_table",
     "parse_values",
     "plan_jobs",
     "prepare",
@@ -39,6 +43,7 @@ __all__ = [
     "split_days",
     "summarize",
     "summary_markdown",
+    "sweep_table",
     "swept_flags",
     "table3",
     "write_outputs",

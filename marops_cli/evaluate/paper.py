@@ -5,6 +5,10 @@ Values are mean and standard deviation over the paper's 40 runs (SPEC §9).
 
 from __future__ import annotations
 
+import pyarrow as pa
+
+from .report import TABLE_ROWS, mean_pm_std
+
 # Our method name -> the paper's column.
 PAPER_NAMES: dict[str, str] = {
     "ops-global": "OPS-global",
@@ -59,3 +63,28 @@ TABLE3: dict[str, dict[str, tuple[float, float]]] = {
         "marops": (0.17, 0.06),
     },
 }
+
+
+def paper_table(summary: pa.Table, setting: int = 0) -> str:
+    """Markdown: Table III beside ours, a paper and an ours column per method of the paper.
+
+    Methods of ours that the paper lacks (greedy, stay) follow as ours-only columns.
+    """
+    rows = {r["method"]: r for r in summary.to_pylist() if r["setting"] == setting}
+    extra = [m for m in rows if m not in PAPER_NAMES]
+    head = ["metric"]
+    for m, name in PAPER_NAMES.items():
+        head += [f"{name} paper", f"{m} ours"]
+    head += [f"{m} ours" for m in extra]
+    lines = ["| " + " | ".join(head) + " |", "|---" * len(head) + "|"]
+    for key, label, fmt in TABLE_ROWS:
+        if key not in TABLE3:
+            continue
+        cells = [label]
+        for m in PAPER_NAMES:
+            mean, std = TABLE3[key][m]
+            cells.append(f"{fmt.format(mean)} ± {fmt.format(std)}")
+            cells.append(mean_pm_std(rows[m], key, fmt) if m in rows else "not run")
+        cells += [mean_pm_std(rows[m], key, fmt) for m in extra]
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines)

@@ -70,12 +70,16 @@ def sweep_figure(
 ) -> Figure:
     """Metrics against the swept ``flag``, one line per method."""
     panels = PANELS[flag]
-    fig = Figure(figsize=(4.2 * len(panels), 3.6), dpi=100, layout="constrained")
-    axes = fig.subplots(1, len(panels), squeeze=False)[0]
+    ncols = min(3, len(panels))
+    nrows = -(-len(panels) // ncols)
+    fig = Figure(figsize=(4.2 * ncols, 3.4 * nrows), dpi=100, layout="constrained")
+    axes = fig.subplots(nrows, ncols, squeeze=False).ravel()
+    for ax in axes[len(panels) :]:
+        ax.set_visible(False)
     rows = _slice(summary, flag, held)
     x_all = summary.column(flag).to_numpy().astype(float)
     method = np.asarray(summary.column("method").to_pylist(), dtype=object)
-    for ax, (metric, label) in zip(axes, panels, strict=True):
+    for ax, (metric, label) in zip(axes, panels, strict=False):
         if metric == "depot_load":
             _depot_panel(fig, ax, results, flag, methods[0], held)
             continue

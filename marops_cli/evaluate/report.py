@@ -8,7 +8,7 @@ from typing import Any
 import pyarrow as pa
 import pyarrow.csv as pacsv
 
-from ..io import output_set, run_meta
+from ..io import file_sha256, output_set, run_meta
 from ..io.tables import with_meta, write_parquet
 from .plots import base_values, save_png, sweep_figure, unfairness_figure
 from .runner import Prepared
@@ -46,12 +46,17 @@ def _rows_of(summary: pa.Table, setting: int) -> list[dict[str, Any]]:
     return [r for r in summary.to_pylist() if r["setting"] == setting]
 
 
+def mean_pm_std(row: dict[str, Any], key: str, fmt: str = "{:.2f}") -> str:
+    """``"0.88 ± 0.10"`` from a summary row's ``key_mean`` and ``key_std``."""
+    return f"{fmt.format(row[f'{key}_mean'])} ± {fmt.format(row[f'{key}_std'])}"
+
+
 def table3(summary: pa.Table, setting: int) -> tuple[list[str], list[tuple[str, list[str]]]]:
     """(methods, [(metric label, ["mean ± std" per method])]) for one setting."""
     rows = _rows_of(summary, setting)
     methods = [r["method"] for r in rows]
     body = [
-        (label, [f"{fmt.format(r[f'{k}_mean'])} ± {fmt.format(r[f'{k}_std'])}" for r in rows])
+        (label, [mean_pm_std(r, k, fmt) for r in rows])
         for k, label, fmt in TABLE_ROWS
         if f"{k}_mean" in summary.column_names
     ]
@@ -63,6 +68,25 @@ def markdown_table(summary: pa.Table, setting: int) -> str:
     methods, body = table3(summary, setting)
     lines = ["| metric | " + " | ".join(methods) + " |", "|---" * (len(methods) + 1) + "|"]
     lines += [f"| {label} | " + " | ".join(cells) + " |" for label, cells in body]
+    return "\n".join(lines)
+
+
+def sweep_table(summary: pa.Table, flag: str) -> str:
+    """Markdown: one row per value of ``flag``, one column per method.
+
+    Cells: mean energy kJ / average delay h / combined cost.
+    """
+    rows = summary.to_pylist()
+    methods = list(dict.fromkeys(r["method"] for r in rows))
+    lines = [f"| {flag} | " + " | ".join(methods) + " |", "|---" * (len(methods) + 1) + "|"]
+    for v in sorted({r[flag] for r in rows}):
+        at = {r["method"]: r for r in rows if r[flag] == v}
+        cells = [
+            f"{at[m]['mean_energy_kj_mean']:.0f} / {at[m]['avg_delay_h_mean']:.2f} / "
+            f"{at[m]['combined_cost_mean']:.2f}"
+            for m in methods
+        ]
+        lines.append(f"| {v:g} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
 
 
@@ -99,7 +123,7 @@ def evaluation_meta(prep: Prepared) -> dict[str, Any]:
         command="evaluate",
         config=prep.cfg,
         source=prep.source.source,
-        policy=prep.policy,
+        policy=next(iter(prep.actor_files.values()), None),
         method=",".join(prep.methods),
         seed=prep.cfg.sim.seed,
         extra={
@@ -109,6 +133,9 @@ def evaluation_meta(prep: Prepared) -> dict[str, Any]:
             "settings": [s.columns() for s in prep.settings],
             "swept": swept_flags(prep.settings),
             "combined_cost": COMBINED_COST_RULE,
+            "actors": {
+                m: {"name": p.name, "sha256": file_sha256(p)} for m, p in prep.actor_files.items()
+            },
         },
     )
 

@@ -24,7 +24,7 @@ from ..data.reader import read_lade
 from ..data.table import LadeTable
 from ..errors import InputError, MaropsError, RunError
 from ..policies.base import Policy
-from ..sim.jobs import METHODS, Scenario, default_policy_path, load_fleet, load_scenario, replay
+from ..sim.jobs import METHODS, Scenario, load_fleet, load_scenario, replay
 from ..sim.jobs import method_policy as _method_policy
 from .settings import Job, Setting, check_settings, plan_jobs, split_days
 
@@ -43,38 +43,49 @@ class Prepared:
     repeats: int
     jobs: list[Job]
     scenarios: dict[tuple[str, int], Scenario]  # (segmentation, depots) -> test-day scenario
-    policy: Path | None  # the trained actor, when a learned method runs
+    actors: dict[str, Path]  # policy kind -> trained actor given on the command line
+    actor_files: dict[str, Path]  # method -> the trained actor it runs
 
 
-def _learned(method: str) -> bool:
-    return METHODS[method][1] == "learned"
+# Policy kinds of METHODS that load a trained actor -> the evaluate flag that overrides it.
+ACTOR_FLAGS = {"learned": "--policy", "direct": "--mappo-policy"}
 
 
-def check_methods(methods: Sequence[str], policy: Path | None) -> Path | None:
-    """Fail with one line naming what is missing; return the actor path if one is needed."""
+def method_policy(method: str, actors: dict[str, Path], seed: int) -> Policy:
+    """The method's policy; ``actors`` overrides the shipped actor per policy kind."""
+    kind = METHODS[method][1]
+    spec = f"torchscript:{actors[kind]}" if kind in actors else None
+    return _method_policy(method, spec, seed)
+
+
+def check_methods(methods: Sequence[str], actors: dict[str, Path] | None = None) -> dict[str, Path]:
+    """Load every method's policy once; fail with one line naming what is missing.
+
+    Returns the trained actor file of each method that runs one.
+    """
     if not methods:
         raise InputError("--methods lists no method")
     for m in methods:
         if m not in METHODS:
             raise InputError(f"unknown method {m!r}: this build has {', '.join(METHODS)}")
-    if not any(_learned(m) for m in methods):
-        return None
-    path = policy or default_policy_path()
-    if path is None:
-        need = ", ".join(m for m in methods if _learned(m))
-        raise InputError(
-            f"method {need} needs the trained actor policies/marops-basic.pt, which is not "
-            "shipped: pass --policy PATH.pt, set MAROPS_POLICY, or leave it out of --methods"
-        )
-    if not Path(path).is_file():
-        raise InputError("trained actor not found", file=path)
-    return Path(path)
-
-
-def method_policy(method: str, actor: Path | None, seed: int) -> Policy:
-    """The method's policy, with ``actor`` for the learned methods."""
-    spec = f"torchscript:{actor}" if actor is not None and _learned(method) else None
-    return _method_policy(method, spec, seed)
+    for kind, path in (actors or {}).items():
+        if any(METHODS[m][1] == kind for m in methods) and not Path(path).is_file():
+            raise InputError(f"trained actor not found ({ACTOR_FLAGS[kind]})", file=path)
+    files: dict[str, Path] = {}
+    for m in methods:
+        try:
+            pol = method_policy(m, actors or {}, 0)
+        except InputError as exc:
+            flag = ACTOR_FLAGS.get(METHODS[m][1])
+            if flag is None:
+                raise
+            raise InputError(
+                f"{exc}; for evaluate: {flag} PATH.pt, or leave {m} out of --methods"
+            ) from None
+        path = getattr(pol, "path", None)
+        if path is not None:
+            files[m] = Path(path)
+    return files
 
 
 def prepare(
@@ -86,7 +97,7 @@ def prepare(
     days: Sequence[dt.date] | None = None,
     split: str = "test",
     repeats: int = 1,
-    policy: Path | None = None,
+    actors: dict[str, Path] | None = None,
 ) -> Prepared:
     """Read ``data`` once, choose the days, segment the other days once per segmentation.
 
@@ -94,7 +105,8 @@ def prepare(
     or training dates. Depots come from every day not replayed (``load_scenario``).
     """
     methods = list(dict.fromkeys(methods))
-    actor = check_methods(methods, policy)
+    actors = {k: Path(v) for k, v in (actors or {}).items()}
+    actor_files = check_methods(methods, actors)  # fails here, not in a worker
     check_settings(cfg, settings, methods)
     if repeats < 1:
         raise InputError(f"--repeats expects at least 1, got {repeats}")
@@ -110,7 +122,9 @@ def prepare(
         scn = load_scenario(data, seg_cfg, replay_days=chosen, table=table)
         scenarios[key] = Scenario(test_table, scn.frame, scn.depots, seg_cfg, scn.history_days)
     jobs = plan_jobs(len(settings), methods, chosen, repeats, cfg.sim.seed)
-    return Prepared(table, cfg, methods, chosen, list(settings), repeats, jobs, scenarios, actor)
+    return Prepared(
+        table, cfg, methods, chosen, list(settings), repeats, jobs, scenarios, actors, actor_files
+    )
 
 
 # Per-process state of a worker (set once by the pool initializer).
@@ -132,7 +146,7 @@ def run_job(job: Job) -> dict[str, Any]:
     scn = Scenario(base.table, base.frame, base.depots, cfg, base.history_days)
     key = (job.method, job.seed)
     if key not in _CTX["policies"]:
-        _CTX["policies"][key] = method_policy(job.method, prep.policy, job.seed)
+        _CTX["policies"][key] = method_policy(job.method, prep.actors, job.seed)
     fleet = load_fleet(None, base.depots, setting.drones)
     _, _, metrics = replay(scn, job.day, fleet, _CTX["policies"][key], job.method)
     return metrics

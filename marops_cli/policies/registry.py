@@ -23,8 +23,12 @@ def make_policy(spec: str, seed: int = 0) -> Policy:
         return GlobalPolicy()
     path = spec.removeprefix("torchscript:")
     if spec.startswith("torchscript:") or path.endswith(".pt"):
-        from .torchscript import TorchScriptPolicy
+        from .torchscript import TorchScriptPolicy, read_sidecar
 
+        if "plan_slots" in read_sidecar(path):  # a MAPPO actor: destination x plan slot
+            from .direct import DirectPolicy
+
+            return DirectPolicy(Path(path))
         return TorchScriptPolicy(Path(path))
     raise InputError(
         f"unknown policy {spec!r}: expected one of {', '.join(SIMPLE)}, "

@@ -1,1 +1,36 @@
-"""rl"""
+"""Learning the flight range: multi-agent PPO with a shared recurrent actor (paper §IV-B,
+§IV-D, Alg. 3; SPEC §6).
+
+``env`` turns a day of the simulator into a multi-agent episode with the reward of
+eq. (10); ``networks`` holds the GRU actor and the centralised critic; ``ppo`` the
+GAE, the clipped loss and one update; ``rollout`` runs episodes in worker
+processes; ``train`` is the resumable loop; ``export`` writes the TorchScript
+actor and its sidecar. Nothing here is imported when a trained actor is used.
+"""
+
+from .config import TrainConfig
+from .env import DeliveryEnv, reward, squash
+from .evaluate import combined_costs, method_table
+from .export import write_actor
+from .networks import Actor, Critic
+from .ppo import gae, ppo_loss, ppo_update
+from .train import Trainer, load_training_data, split_days, train
+
+__all__ = [
+    "Actor",
+    "Critic",
+    "DeliveryEnv",
+    "TrainConfig",
+    "Trainer",
+    "combined_costs",
+    "gae",
+    "load_training_data",
+    "method_table",
+    "ppo_loss",
+    "ppo_update",
+    "reward",
+    "split_days",
+    "squash",
+    "train",
+    "write_actor",
+]

@@ -39,7 +39,7 @@ class TrainConfig(BaseModel):
     vf_coef: float = Field(0.5, ge=0, description="weight of the critic loss")
     max_grad_norm: float = Field(0.5, gt=0, description="global gradient-norm clip")
     norm_adv: bool = Field(True, description="normalise advantages per minibatch")
-    reward_scope: Literal["team", "observed"] = Field(
+    reward_scope: Literal["team", "credit", "observed"] = Field(
         "team",
         description="whose delay enters eq. (10): the whole map's (team) or u's observed areas",
     )

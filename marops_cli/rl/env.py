@@ -130,8 +130,12 @@ class DeliveryEnv:
         energy_kj = np.array([r.energy_j for r in plan.routes]) / 1000.0
         starts = view.drone_depot.copy()
         st.apply(plan, self.model.speed_ms)
-        delay_h, late_h = self._delay_added(starts)
-        e_u = energy_kj if self.tcfg.energy_scope == "own" else np.full_like(energy_kj, energy_kj.mean())
+        delay_h, late_h = self._delay_added(starts, self._spared_h(plan.routes))
+        e_u = (
+            energy_kj
+            if self.tcfg.energy_scope == "own"
+            else np.full_like(energy_kj, energy_kj.mean())
+        )
         r = reward(delay_h, e_u, self.cfg.plan.alpha, self.tcfg)
         self.t += 1
         obs = None
@@ -140,15 +144,32 @@ class DeliveryEnv:
             obs = observe(self.view)
         return obs, r, {"energy_kj": energy_kj, "delay_h": delay_h, "late_h": np.array(late_h)}
 
-    def _delay_added(self, starts: np.ndarray) -> tuple[np.ndarray, float]:
+    def _spared_h(self, routes: list) -> np.ndarray:
+        """Delay each drone's deliveries spared: a request left undelivered would count
+        until the day's end (SPEC §5), so delivering it in window t spares
+        window length × (T − max(t, t_i))."""
+        st = self.state
+        assert st is not None
+        n_w, wh = st.day.n_windows, st.day.window_hours
+        return np.array(
+            [wh * (n_w - np.maximum(self.t, st.day.due_w[list(r.stops)])).sum() for r in routes],
+            dtype=np.float64,
+        )
+
+    def _delay_added(self, starts: np.ndarray, spared: np.ndarray) -> tuple[np.ndarray, float]:
         """(D_u(t) per drone, the whole map's added delay): window length × requests
         due by t and still undelivered after window t."""
         st = self.state
         assert st is not None
         late = (st.day.due_w <= self.t) & (st.delivered_w < 0)
-        total = st.day.window_hours * float(late.sum())
+        wh = st.day.window_hours
+        total = wh * float(late.sum())
         if self.tcfg.reward_scope == "team":
             return np.full(self.n_drones, total / self.n_drones), total
+        if self.tcfg.reward_scope == "credit":
+            # The fleet's delay, split by credit: the mean share, less what u's deliveries
+            # spared beyond the fleet's mean (so the shares still sum to the total).
+            return total / self.n_drones - (spared - spared.mean()), total
         per_area = np.bincount(st.area[late], minlength=len(self.depots)).astype(np.float64)
         seen = st.ranges[starts].any(axis=1)  # (U, N): union of u's candidate ranges
         return st.day.window_hours * (seen * per_area[None, :]).sum(axis=1), total

@@ -40,17 +40,23 @@ METHODS: dict[str, tuple[str, str]] = {
     "ops-random": ("kmeans", "random"),
     "greedy": ("kmeans", "greedy"),
     "squares": ("squares", "learned"),
+    "mappo": ("kmeans", "direct"),  # learned policy picks plans directly (policies/direct.py)
     "stay": ("kmeans", "stay"),
 }
 DEFAULT_POLICY_NAME = "marops-basic.pt"
+DEFAULT_MAPPO_NAME = "mappo-basic.pt"
 
 
-def default_policy_path() -> Path | None:
-    """The shipped actor: ``$MAROPS_POLICY``, else ``policies/marops-basic.pt`` in the tree."""
+def default_policy_path(name: str = DEFAULT_POLICY_NAME) -> Path | None:
+    """The shipped actor: ``$MAROPS_POLICY``, else ``policies/marops-basic.pt`` in the tree.
+
+    ``name`` picks another shipped actor (``mappo-basic.pt``, which ``$MAROPS_POLICY``
+    does not replace).
+    """
     env = os.environ.get("MAROPS_POLICY")
-    if env:
+    if env and name == DEFAULT_POLICY_NAME:
         return Path(env)
-    here = Path(__file__).resolve().parents[2] / "policies" / DEFAULT_POLICY_NAME
+    here = Path(__file__).resolve().parents[2] / "policies" / name
     return here if here.is_file() else None
 
 
@@ -66,6 +72,15 @@ def method_policy(method: str, policy: str | None, seed: int) -> Policy:
                 f"method {method!r} needs a trained actor: none is shipped at "
                 f"policies/{DEFAULT_POLICY_NAME}; pass --policy PATH.pt or a baseline "
                 "(stay, random, greedy)"
+            )
+        spec = f"torchscript:{path}"
+    if spec == "direct":
+        path = default_policy_path(DEFAULT_MAPPO_NAME)
+        if path is None:
+            raise InputError(
+                f"method {method!r} needs a trained MAPPO actor: none is shipped at "
+                f"policies/{DEFAULT_MAPPO_NAME}; pass --policy PATH.pt "
+                "(made by marops train --method mappo)"
             )
         spec = f"torchscript:{path}"
     return make_policy(spec, seed)
@@ -184,9 +199,9 @@ def plan_one_window(
     policy.reset(cfg.sim.seed)
     model = EnergyModel(cfg.energy)
     view = state.view(window)
-    plan = plan_window(
-        view, policy.act(view), model, cfg.plan, make_selector(cfg.plan), scope=policy.scope
-    )
+    actions = policy.act(view)
+    selector = getattr(policy, "selector", None) or make_selector(cfg.plan)  # mappo flies its own
+    plan = plan_window(view, actions, model, cfg.plan, selector, scope=policy.scope)
     return plan, reqs
 
 

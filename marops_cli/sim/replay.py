@@ -41,7 +41,8 @@ def replay_day(
 ) -> DayResult:
     """Plan every window of ``day``; ``on_window`` is called after each (for progress)."""
     model = model or EnergyModel(cfg.energy)
-    selector = selector or make_selector(cfg.plan)
+    # A policy that picks plans itself (the MAPPO baseline) carries its own selector.
+    selector = selector or getattr(policy, "selector", None) or make_selector(cfg.plan)
     state = DayState(day, depots, drone_depot, cfg.plan.coverage)
     policy.reset(cfg.sim.seed)
     plans: list[WindowPlan] = []

@@ -43,7 +43,14 @@ def test_learned_method_without_actor_names_what_is_missing(
     monkeypatch.setenv("MAROPS_POLICY", str(tmp_path / "missing.pt"))
     out = tmp_path / "out"
     args = ["evaluate", str(example_csv), "--methods", "marops,greedy", "--out", str(out)]
-    _fails(args, out, "missing.pt")
+    _fails(args, out, "missing", "--policy")
+
+
+def test_mappo_without_actor_names_its_flag(example_csv: Path, tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    args = ["evaluate", str(example_csv), "--methods", "mappo", "--out", str(out)]
+    args += ["--mappo-policy", str(tmp_path / "none.pt")]
+    _fails(args, out, "none.pt", "--mappo-policy")
 
 
 def test_dates_and_split_exclusive(example_csv: Path, tmp_path: Path) -> None:

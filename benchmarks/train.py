@@ -1,0 +1,89 @@
+"""Held-out comparison of the shipped actors with the baselines (not a test; prints a table).
+
+Replays every evaluation day with every method (8 drones, 16 depots by default)
+and prints mean ± std over days. Combined cost (SPEC §8) is computed per day
+over the methods compared in this run (mean of energy / max energy and delay /
+max delay), then averaged over days.
+
+Depots come from the file's first ``--history`` days; the remaining days are
+evaluated, so neither the depots nor the actors (trained on another file) ever
+saw them. The table in ``policies/README.md`` was made with::
+
+    marops synth --days 14 --seed 23 --start 2022-09-01 --out /tmp/heldout.csv
+    python benchmarks/train.py --data /tmp/heldout.csv --history 4 --markdown
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from marops_cli.config import PlannerConfig, override  # noqa: E402
+from marops_cli.data.reader import read_lade  # noqa: E402
+from marops_cli.rl.evaluate import method_table  # noqa: E402
+from marops_cli.sim.jobs import METHODS, load_fleet, load_scenario, method_policy, replay  # noqa: E402
+
+DEFAULT_METHODS = "marops,squares,mappo,ops-random,greedy,ops-global,stay"
+COLUMNS = (
+    ("mean_energy_kj", "energy kJ/drone", "{:.1f} ± {:.1f}"),
+    ("avg_delay_h", "avg delay h", "{:.3f} ± {:.3f}"),
+    ("combined_cost", "combined cost", "{:.3f} ± {:.3f}"),
+    ("delay_unfairness", "unfairness", "{:.3f} ± {:.3f}"),
+    ("avg_early_h", "early h", "{:.3f} ± {:.3f}"),
+    ("delivered", "delivered", "{:.0f} ± {:.0f}"),
+)
+
+
+def run(args: argparse.Namespace) -> dict[str, dict[str, tuple[float, float]]]:
+    base = PlannerConfig()
+    table = read_lade(args.data, base.data)
+    days = table.days()[args.history :]
+    methods = [m.strip() for m in args.methods.split(",") if m.strip()]
+    rows = []
+    for m in methods:
+        cfg = override(
+            base, segment__method=METHODS[m][0], segment__n_depots=args.depots_n,
+            sim__drones=args.drones, plan__alpha=args.alpha,
+        )
+        scn = load_scenario(args.data, cfg, replay_days=days, table=table)
+        fleet = load_fleet(None, scn.depots, cfg.sim.drones)
+        pol = method_policy(m, args.policy if METHODS[m][1] == "learned" else None, cfg.sim.seed)
+        t0 = time.perf_counter()
+        for day in days:
+            _, _, metrics = replay(scn, day, fleet, pol, m)
+            rows.append(metrics)
+        print(f"{m}: {len(days)} days in {time.perf_counter() - t0:.1f} s", file=sys.stderr)
+    return method_table(rows)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--data", required=True, help="LaDe-shaped CSV (e.g. marops synth --seed 23)")
+    ap.add_argument("--history", type=int, default=4, help="first days used only for depots")
+    ap.add_argument("--methods", default=DEFAULT_METHODS)
+    ap.add_argument("--drones", type=int, default=8)
+    ap.add_argument("--depots-n", type=int, default=16)
+    ap.add_argument("--alpha", type=float, default=0.5)
+    ap.add_argument("--policy", default=None, help="actor for marops/squares [the shipped one]")
+    ap.add_argument("--markdown", action="store_true", help="print a Markdown table")
+    args = ap.parse_args()
+    table = run(args)
+    head = ["method", *[c[1] for c in COLUMNS]]
+    lines = [[m, *[fmt.format(*t[k]) for k, _, fmt in COLUMNS]] for m, t in table.items()]
+    if args.markdown:
+        print("| " + " | ".join(head) + " |")
+        print("|" + "---|" * len(head))
+        for ln in lines:
+            print("| " + " | ".join(ln) + " |")
+    else:
+        widths = [max(len(r[i]) for r in [head, *lines]) for i in range(len(head))]
+        for r in [head, *lines]:
+            print("  ".join(c.ljust(w) for c, w in zip(r, widths, strict=True)))
+
+
+if __name__ == "__main__":
+    main()

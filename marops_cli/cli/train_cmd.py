@@ -1,0 +1,146 @@
+"""``marops train``: learn the flight-range actor with MAPPO (paper Alg. 3) and export it."""
+
+from __future__ import annotations
+
+import shlex
+import sys
+import time
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+from pydantic import ValidationError
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.table import Table
+
+from ..data.dates import parse_days
+from ..errors import InputError
+from . import options as o
+from .common import console, guarded, is_terminal, make_config, require_input
+from .common import out as out_console
+
+
+def _eval_line(ev: dict[str, Any]) -> str:
+    parts = [
+        f"{m} {v['mean_energy_kj']:.0f} kJ {v['avg_delay_h']:.2f} h cost {v['combined_cost']:.3f}"
+        for m, v in ev["methods"].items()
+    ]
+    return f"episode {ev['episode']}: held-out " + "; ".join(parts)
+
+
+class _Reporter:
+    """Progress bar on a terminal, plain log lines otherwise (cron, CI)."""
+
+    def __init__(self, every: int) -> None:
+        self.every = every
+        self.progress: Progress | None = None
+        self.task: Any = None
+        self.t0 = time.perf_counter()
+
+    def __call__(self, e: dict[str, Any]) -> None:
+        kind = e["kind"]
+        if kind == "start":
+            what = "resuming at" if e["resumed"] else "starting at"
+            console.print(
+                f"training on {e['train_days']} days, held out {e['eval_days']}; "
+                f"{what} episode {e['episode']} of {e['episodes']}"
+            )
+            if is_terminal():
+                self.progress = Progress(
+                    TextColumn("episodes"),
+                    BarColumn(),
+                    MofNCompleteColumn(),
+                    TextColumn("reward {task.fields[reward]}"),
+                    TimeElapsedColumn(),
+                    console=console,
+                    transient=True,
+                )
+                self.task = self.progress.add_task(
+                    "train", total=e["episodes"], completed=e["episode"], reward="-"
+                )
+                self.progress.start()
+        elif kind == "update":
+            line = (
+                f"episode {e['episode']}: reward {e['reward']:.3f}, "
+                f"day delay {e['delay_h']:.0f} h, "
+                f"energy {e['energy_kj']:.0f} kJ, entropy {e['entropy']:.3f}"
+            )
+            if self.progress is not None:
+                self.progress.update(self.task, completed=e["episode"], reward=f"{e['reward']:.3f}")
+            elif e["episode"] % self.every < 8 or e["episode"] <= 8:
+                typer.echo(f"[{time.perf_counter() - self.t0:7.0f}s] {line}", err=True)
+        elif kind == "eval":
+            console.print(_eval_line(e))
+
+    def close(self) -> None:
+        if self.progress is not None:
+            self.progress.stop()
+
+
+@guarded
+def train(
+    data: Annotated[Path, typer.Argument(help="LaDe delivery export (CSV or Parquet).")],
+    out: Annotated[Path, typer.Option("--out", help="Actor to write: policies/NAME.pt (+ .json).")],
+    days: Annotated[
+        str | None,
+        typer.Option("--days", help="Training days (0801..0824); the rest held out [first 80 %]."),
+    ] = None,
+    episodes: Annotated[int, typer.Option("--episodes", help="Training episodes (days).")] = 2000,
+    method: Annotated[
+        str, typer.Option("--method", help="marops (destinations) or mappo (plans directly).")
+    ] = "marops",
+    workers: Annotated[int, typer.Option("--workers", help="Rollout processes.")] = 2,
+    resume: Annotated[
+        bool, typer.Option("--resume/--no-resume", help="Continue from NAME.ckpt if present.")
+    ] = True,
+    alpha: o.Alpha = None,
+    drones: o.Drones = None,
+    depots_n: Annotated[int | None, typer.Option("--depots-n", help="Depots [16].")] = None,
+    seed: Annotated[int, typer.Option("--seed", help="Training seed; same seed, same actor.")] = 0,
+    year: o.Year = None,
+    config: o.Config = None,
+) -> None:
+    """Train the flight-range actor (MAPPO) on training days; write TorchScript + sidecar."""
+    from ..rl.config import TrainConfig  # deferred: torch loads only for this command
+    from ..rl.train import train as run_training
+
+    require_input(data)
+    if out.suffix != ".pt":
+        raise InputError("--out must name a .pt file (the sidecar goes beside it)", file=out)
+    cfg = make_config(
+        config, data__year=year, plan__alpha=alpha, sim__drones=drones, segment__n_depots=depots_n
+    )
+    try:
+        tcfg = TrainConfig(method=method, episodes=episodes, seed=seed, workers=workers)  # type: ignore[arg-type]
+    except ValidationError as exc:
+        err = exc.errors()[0]
+        raise InputError(f"invalid option --{err['loc'][0]}: {err['msg']}") from None
+    train_days = parse_days(days, cfg.data.year) if days else None
+    command = "marops " + shlex.join(sys.argv[1:]) if sys.argv else None
+    rep = _Reporter(tcfg.checkpoint_every)
+    try:
+        side = run_training(
+            data,
+            cfg,
+            tcfg,
+            out,
+            train_days=train_days,
+            resume=resume,
+            command=command,
+            on_event=rep,
+        )
+    finally:
+        rep.close()
+    console.print(f"wrote {out} and {out.with_suffix('.json')} ({side['training_time_s']:.0f} s)")
+    if side.get("heldout"):
+        t = Table(title="held-out days (mean over days)", title_justify="left")
+        for col in ("method", "energy kJ/drone", "delay h", "combined cost"):
+            t.add_column(col, justify="left" if col == "method" else "right")
+        for m, v in side["heldout"]["methods"].items():
+            t.add_row(
+                m,
+                f"{v['mean_energy_kj']:.1f}",
+                f"{v['avg_delay_h']:.3f}",
+                f"{v['combined_cost']:.3f}",
+            )
+        out_console.print(t)

@@ -1,0 +1,49 @@
+"""The shipped actors: one actor, any layout (squares, 32 depots), without retraining."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from marops_cli.cli.app import app
+from marops_cli.policies.observation import OBS_VERSION
+from marops_cli.sim.jobs import DEFAULT_MAPPO_NAME, default_policy_path
+
+runner = CliRunner()
+POLICIES = Path(__file__).resolve().parents[2] / "policies"
+
+
+def _replay(example_csv: Path, out: Path, *extra: str) -> dict:
+    res = runner.invoke(
+        app, ["replay-day", str(example_csv), "--date", "0811", "--out", str(out), *extra]
+    )
+    assert res.exit_code == 0, res.output
+    return json.loads((out / "metrics.json").read_text())["days"][0]
+
+
+def test_shipped_sidecars_match_this_build() -> None:
+    for name in ("marops-basic", "mappo-basic"):
+        doc = json.loads((POLICIES / f"{name}.json").read_text())
+        assert doc["obs_version"] == OBS_VERSION and doc["n_actions"] == 4
+        assert doc["command"].startswith("marops train") and len(doc["data"]["sha256"]) == 64
+    assert default_policy_path() == POLICIES / "marops-basic.pt"
+    assert default_policy_path(DEFAULT_MAPPO_NAME) == POLICIES / "mappo-basic.pt"
+
+
+@pytest.mark.parametrize(
+    "extra",
+    [
+        ["--method", "marops"],
+        ["--method", "squares"],  # the same actor on a 4 x 4 grid of squares
+        ["--method", "marops", "--depots-n", "32"],  # and on twice as many areas
+        ["--method", "mappo"],  # the MAPPO baseline picks plans itself
+    ],
+    ids=["marops", "squares", "depots32", "mappo"],
+)
+def test_actor_runs_on_any_layout(example_csv: Path, tmp_path: Path, extra: list[str]) -> None:
+    m = _replay(example_csv, tmp_path, *extra)
+    assert m["delivered"] > 0 and m["mean_energy_kj"] > 0
+    assert m["solver"]["fallbacks"] == 0
