@@ -8,6 +8,7 @@ Loading needs torch only: no training code is imported.
 from __future__ import annotations
 
 import json
+import warnings
 from pathlib import Path
 from typing import Any, Literal
 
@@ -59,7 +60,10 @@ class TorchScriptPolicy:
             raise InputError("policy file not found", file=self.path)
         self.sidecar = read_sidecar(self.path)
         try:
-            self._module = torch.jit.load(str(self.path), map_location="cpu")
+            with warnings.catch_warnings():
+                # torch 2.13 marks TorchScript deprecated; the format is our artifact contract.
+                warnings.simplefilter("ignore", DeprecationWarning)
+                self._module = torch.jit.load(str(self.path), map_location="cpu")
         except (RuntimeError, ValueError) as exc:
             raise InputError(f"not a TorchScript module ({exc})", file=self.path) from exc
         self._module.eval()
