@@ -7,7 +7,6 @@ Loading needs torch only: no training code is imported.
 
 from __future__ import annotations
 
-import json
 import warnings
 from pathlib import Path
 from typing import Any, Literal
@@ -15,6 +14,7 @@ from typing import Any, Literal
 import numpy as np
 
 from ..errors import InputError
+from ..io.jsonfile import read_json
 from .base import WindowView
 from .observation import OBS_VERSION, obs_dim, observe
 
@@ -26,14 +26,7 @@ def sidecar_path(model_path: str | Path) -> Path:
 
 def read_sidecar(model_path: str | Path) -> dict[str, Any]:
     side = sidecar_path(model_path)
-    try:
-        doc = json.loads(side.read_text(encoding="utf-8"))
-    except FileNotFoundError as exc:
-        raise InputError(
-            "policy sidecar not found (expected beside the .pt file)", file=side
-        ) from exc
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise InputError(f"policy sidecar is not JSON ({exc})", file=side) from exc
+    doc = read_json(side, "policy sidecar beside the .pt file")
     for key in ("obs_version", "n_actions", "hidden_size"):
         if key not in doc:
             raise InputError("policy sidecar lacks a field", file=side, column=key)

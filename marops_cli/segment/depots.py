@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -113,11 +112,6 @@ class Depots:
 
     @classmethod
     def load(cls, path: str | Path) -> Depots:
-        p = Path(path)
-        try:
-            doc = json.loads(p.read_text(encoding="utf-8"))
-        except FileNotFoundError as exc:
-            raise InputError("depots file not found", file=p) from exc
-        except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-            raise InputError(f"not a JSON file ({exc})", file=p) from exc
-        return cls.from_dict(doc, source=str(p))
+        from ..io.jsonfile import read_json
+
+        return cls.from_dict(read_json(path, "depots file"), source=str(path))

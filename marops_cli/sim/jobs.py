@@ -22,6 +22,7 @@ from ..data.reader import read_lade
 from ..data.table import DayRequests, LadeTable
 from ..energy import EnergyModel
 from ..errors import InputError
+from ..io.jsonfile import read_json
 from ..plans.select import make_selector
 from ..plans.window import WindowPlan, plan_window
 from ..policies.base import Policy
@@ -136,15 +137,8 @@ def load_fleet(path: str | Path | None, depots: Depots, n_drones: int) -> np.nda
     else drones spread over the busiest depots."""
     if path is None:
         return default_fleet(depots, n_drones)
-    import json
-
     p = Path(path)
-    try:
-        doc = json.loads(p.read_text(encoding="utf-8"))
-    except FileNotFoundError as exc:
-        raise InputError("fleet file not found", file=p) from exc
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise InputError(f"not a JSON file ({exc})", file=p) from exc
+    doc = read_json(p, "fleet file")
     items = doc.get("drones", []) if isinstance(doc, dict) else doc
     try:
         fleet = np.array(

@@ -138,7 +138,7 @@ def test_torchscript_actor_mismatches_are_input_errors(tmp_path: Path) -> None:
     with pytest.raises(InputError, match="observation version"):
         TorchScriptPolicy(_export(tmp_path, version=OBS_VERSION + 7))
     (tmp_path / "tiny.json").unlink()
-    with pytest.raises(InputError, match="sidecar not found"):
+    with pytest.raises(InputError, match="sidecar beside the .pt file not found"):
         TorchScriptPolicy(tmp_path / "tiny.pt")
     with pytest.raises(InputError, match="unknown policy"):
         make_policy("clever")
