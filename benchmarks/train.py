@@ -46,8 +46,11 @@ def run(args: argparse.Namespace) -> dict[str, dict[str, tuple[float, float]]]:
     rows = []
     for m in methods:
         cfg = override(
-            base, segment__method=METHODS[m][0], segment__n_depots=args.depots_n,
-            sim__drones=args.drones, plan__alpha=args.alpha,
+            base,
+            segment__method=METHODS[m][0],
+            segment__n_depots=args.depots_n,
+            sim__drones=args.drones,
+            plan__alpha=args.alpha,
         )
         scn = load_scenario(args.data, cfg, replay_days=days, table=table)
         fleet = load_fleet(None, scn.depots, cfg.sim.drones)

@@ -83,7 +83,10 @@ def train(
     out: Annotated[Path, typer.Option("--out", help="Actor to write: policies/NAME.pt (+ .json).")],
     days: Annotated[
         str | None,
-        typer.Option("--days", help="Training days (0801..0824); the rest held out [first 80 %]."),
+        typer.Option(
+            "--days",
+            help="Training days (0801..0824); the rest are held out (default: first 80 %).",
+        ),
     ] = None,
     episodes: Annotated[int, typer.Option("--episodes", help="Training episodes (days).")] = 2000,
     method: Annotated[
@@ -97,6 +100,10 @@ def train(
     drones: o.Drones = None,
     depots_n: Annotated[int | None, typer.Option("--depots-n", help="Depots [16].")] = None,
     seed: Annotated[int, typer.Option("--seed", help="Training seed; same seed, same actor.")] = 0,
+    data_origin: Annotated[
+        str | None,
+        typer.Option("--data-origin", help="How DATA was made (e.g. the marops synth command)."),
+    ] = None,
     year: o.Year = None,
     config: o.Config = None,
 ) -> None:
@@ -127,6 +134,7 @@ def train(
             train_days=train_days,
             resume=resume,
             command=command,
+            data_origin=data_origin,
             on_event=rep,
         )
     finally:

@@ -110,6 +110,6 @@ def observe(view: WindowView, m_hat: int = M_HAT) -> np.ndarray:
         g[2] = _lg(area_delay[s])
         g[3] = _lg(area_count.sum())
         g[4] = _lg(view.pending_delay_h.sum())
-        g[5] = _lg(np.count_nonzero(view.drone_depot[:u] == s))
+        g[5] = _lg(float(np.count_nonzero(view.drone_depot[:u] == s)))
         g[6] = view.n_drones / max(1, n)
     return out

@@ -9,12 +9,13 @@ actor and its sidecar. Nothing here is imported when a trained actor is used.
 """
 
 from .config import TrainConfig
+from .data import load_training_data, split_days
 from .env import DeliveryEnv, reward, squash
 from .evaluate import combined_costs, method_table
 from .export import write_actor
 from .networks import Actor, Critic
 from .ppo import gae, ppo_loss, ppo_update
-from .train import Trainer, load_training_data, split_days, train
+from .train import Trainer, train
 
 __all__ = [
     "Actor",

@@ -39,19 +39,15 @@ class TrainConfig(BaseModel):
     vf_coef: float = Field(0.5, ge=0, description="weight of the critic loss")
     max_grad_norm: float = Field(0.5, gt=0, description="global gradient-norm clip")
     norm_adv: bool = Field(True, description="normalise advantages per minibatch")
-    reward_scope: Literal["team", "credit", "observed"] = Field(
-        "team",
-        description="whose delay enters eq. (10): the whole map's (team) or u's observed areas",
+    reward_scope: Literal["credit", "team", "observed"] = Field(
+        "credit",
+        description="D_u of eq. (10): map delay split by what u spared, evenly, or u's areas",
     )
-    energy_scope: Literal["team", "own"] = Field(
-        "team", description="whose energy enters eq. (10): the fleet's mean (team) or u's own"
+    energy_scope: Literal["own", "team"] = Field(
+        "own", description="E_u of eq. (10): u's own flight energy or the fleet's mean"
     )
-    delay_scale_h: float = Field(
-        12.0, gt=0, description="delay (h) per drone at which the delay term is half saturated"
-    )
-    energy_scale_kj: float = Field(
-        50.0, gt=0, description="flight energy (kJ) at which the energy term is half saturated"
-    )
+    delay_scale_h: float = Field(20.0, gt=0, description="s_D: D_u (h) at which σ̃ reaches 0.5")
+    energy_scale_kj: float = Field(500.0, gt=0, description="s_E: E_u (kJ) at which σ̃ reaches 0.5")
     plan_slots: int = Field(4, ge=2, description="mappo: plan slots per destination (last = empty)")
     eval_every: int = Field(200, ge=1, description="episodes between held-out evaluations")
     checkpoint_every: int = Field(40, ge=1, description="episodes between checkpoints")

@@ -9,21 +9,38 @@ Reward (eq. (10)), per drone u and window t::
 
     r_u(t) = −(1 − α) · σ̃(D_u(t) / s_D) − α · σ̃(E_u(t) / s_E)
 
-* ``E_u(t)``: energy of u's flight in window t (kJ).
-* ``D_u(t)``: delay of the requests u observes, counted as the delay they add in
-  this window: window length × the requests that are due by t and still
-  undelivered after it. Summed over a day this is exactly the delivery delay
-  of SPEC §5, so the return measures the metric the policy is judged on.
-  ``reward_scope="observed"`` takes the requests in the union of u's candidate
-  flight ranges (the paper's O_u(t), what u's observation describes);
-  ``"team"`` (default) takes the whole map divided by the fleet size. Decision:
-  a local delay term pays a drone for leaving busy areas (its neighbourhood gets
-  quieter, not the city), so by default the fleet shares one delay objective
-  and the centralised critic does the credit assignment; energy stays per drone.
-* ``σ̃(x) = 2·sigmoid(ln 3 · x) − 1`` maps [0, ∞) onto [0, 1) and equals 0.5 at
-  x = 1: the scales ``s_D`` (delay per drone, h) and ``s_E`` (kJ) are typical
-  values on the basic scenario, so neither term sits in the flat tail of the
-  sigmoid (``TrainConfig.delay_scale_h``, ``energy_scale_kj``).
+* ``E_u(t)``: energy of u's flight in window t (kJ); ``energy_scope="team"``
+  gives every drone the fleet's mean instead.
+* ``D_u(t)``: the delay u answers for, built from the delay the map adds in
+  window t: window length × the requests due by t and still undelivered after
+  it. Summed over a day this is exactly the delivery delay of SPEC §5, so the
+  return measures the metric the policy is judged on. Three readings of the
+  paper's "requests u observes" (``TrainConfig.reward_scope``):
+
+  - ``observed``: the requests in the union of u's candidate flight ranges (the
+    paper's O_u(t), what u's observation describes). It pays a drone for
+    leaving busy areas: its neighbourhood gets quieter, the city does not.
+  - ``team``: the whole map's delay split evenly (D_u = total / U). Aligned,
+    but a drone's own deliveries move its reward by 1/U: training drifts to
+    idle drones, whose saved energy is the only signal it can attribute.
+  - ``credit`` (default): the even split, less what u's deliveries spared
+    beyond the fleet's mean, D_u = total / U − (S_u − mean S). A request left
+    undelivered counts until the day's end (SPEC §5), so delivering it in
+    window t spares S = window length × (T − max(t, t_i)). The shares still sum
+    to the map's total, so the fleet's objective is unchanged; each drone now
+    sees its own part of it, as it sees its own energy.
+
+* ``σ̃(x) = 2·sigmoid(ln 3 · x) − 1`` is 0 at 0, 0.5 at 1 and odd (a credit
+  share below 0 earns a bonus). It is concave for x > 0, so scales at typical
+  values would reward uneven days (Jensen) and flatten the late-day backlog
+  that separates good policies from bad.
+  The defaults sit above the largest per-window values on the basic scenario
+  (99 % of D_u within −5..15 h; E_u ≤ 168.75 kJ, the usable battery), where σ̃
+  keeps at least three quarters of its slope at 0: s_D = 20 h, s_E = 500 kJ.
+  Their ratio is the exchange rate of the return: 1 h of fleet delay counts as
+  s_E / s_D = 25 kJ of fleet energy, near the combined cost's own rate (1 % of a
+  basic day's delay, ~6.6 h, against 1 % of its energy, ~140 kJ: 21 kJ/h),
+  tilted slightly towards delay.
 """
 
 from __future__ import annotations

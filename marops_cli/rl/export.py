@@ -9,6 +9,7 @@ held-out metrics), so anyone can check or re-train it.
 from __future__ import annotations
 
 import io
+import warnings
 from pathlib import Path
 from typing import Any
 
@@ -26,12 +27,17 @@ def script_actor(actor: Actor) -> torch.jit.ScriptModule:
     clone = Actor(actor.encoder.in_features, actor.head.out_features, actor.hidden_size)
     clone.load_state_dict(actor.state_dict())
     clone.eval()
-    return torch.jit.script(clone)
+    with warnings.catch_warnings():
+        # torch 2.13 deprecates TorchScript, but SPEC §6 names it as the artifact format.
+        warnings.simplefilter("ignore", DeprecationWarning)
+        return torch.jit.script(clone)
 
 
 def actor_bytes(actor: Actor) -> bytes:
     buf = io.BytesIO()
-    torch.jit.save(script_actor(actor), buf)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DeprecationWarning)
+        torch.jit.save(script_actor(actor), buf)
     return buf.getvalue()
 
 

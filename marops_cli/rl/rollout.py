@@ -77,7 +77,7 @@ def make_actor(env: DeliveryEnv, tcfg: TrainConfig) -> Actor:
 def run_episode(env: DeliveryEnv, actor: Actor, day: DayRequests, seed: int) -> Episode:
     """Sample the actor's actions for a whole day (Alg. 3, inner loop)."""
     gen = torch.Generator().manual_seed(seed)
-    obs = env.reset(day)
+    obs: np.ndarray | None = env.reset(day)
     h = torch.zeros(env.n_drones, actor.hidden_size)
     rec: dict[str, list[np.ndarray]] = {
         k: [] for k in ("obs", "actions", "logp", "mask", "rewards")

@@ -12,7 +12,6 @@ import datetime as dt
 import os
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -21,82 +20,21 @@ import torch
 
 from .. import __version__
 from ..config import PlannerConfig
-from ..data.prepare import prepare_day
-from ..data.reader import read_lade
-from ..data.table import DayRequests
 from ..errors import InputError
-from ..io.meta import file_sha256
-from ..sim.jobs import load_scenario
 from .config import TrainConfig
+from .data import TrainData, fingerprint, load_training_data, split_days
 from .env import DeliveryEnv
 from .evaluate import summarise
 from .export import write_actor
 from .networks import Actor, Critic
 from .ppo import make_batch, ppo_update
-from .rollout import Episode, WorkerContext, Workers, derive_seed
+from .rollout import Episode, Workers, derive_seed
+
+__all__ = ["Trainer", "load_training_data", "split_days", "train"]
 
 BASELINES = ("random", "greedy")  # compared with on held-out days (ops-random, greedy)
 _STREAM_DAYS, _STREAM_EPISODE, _STREAM_UPDATE = 1, 2, 3
 Event = dict[str, Any]
-
-
-def split_days(days: list[dt.date], train: list[dt.date] | None = None) -> tuple[list, list]:
-    """(training days, held-out days): the given ones and the rest, else the first
-    80 % of the file's dates and the last 20 % (SPEC §6; at least one of each when
-    the file has two days or more)."""
-    days = sorted(days)
-    if train is not None:
-        missing = [d.isoformat() for d in train if d not in set(days)]
-        if missing:
-            raise InputError(f"training days not in the file: {', '.join(missing[:5])}")
-        return sorted(train), [d for d in days if d not in set(train)]
-    if len(days) < 2:
-        return days, []
-    n = min(len(days) - 1, max(1, round(0.8 * len(days))))
-    return days[:n], days[n:]
-
-
-@dataclass
-class TrainData:
-    """The scenario a run trains on: depots from the training days, prepared days."""
-
-    ctx: WorkerContext
-    train_dates: list[dt.date]
-    eval_dates: list[dt.date]
-    sha256: str
-    name: str
-
-
-def load_training_data(
-    data: str | Path, cfg: PlannerConfig, tcfg: TrainConfig, train: list[dt.date] | None = None
-) -> TrainData:
-    """Read ``data``, split it by date, segment on the training days, prepare every day."""
-    table = read_lade(data, cfg.data)
-    train_dates, eval_dates = split_days(table.days(), train)
-    scn = load_scenario(data, cfg, replay_days=eval_dates, table=table)
-
-    def prep(dates: list[dt.date]) -> tuple[list[dt.date], list[DayRequests]]:
-        pairs = [(d, prepare_day(table, scn.frame, d, cfg.data)) for d in dates]
-        pairs = [(d, r) for d, r in pairs if len(r) > 0]  # a day with no request teaches nothing
-        return [d for d, _ in pairs], [r for _, r in pairs]
-
-    train_dates, train_reqs = prep(train_dates)
-    eval_dates, eval_reqs = prep(eval_dates)
-    if not train_reqs:
-        raise InputError("no training day has requests in the study area", file=str(data))
-    ctx = WorkerContext(scn.depots, cfg, tcfg, train_reqs, eval_reqs)
-    return TrainData(ctx, train_dates, eval_dates, file_sha256(data), Path(data).name)
-
-
-def _fingerprint(td: TrainData) -> dict[str, Any]:
-    """What a checkpoint must share with the run that resumes it."""
-    keep = td.ctx.tcfg.model_dump(exclude={"episodes", "workers", "eval_every", "checkpoint_every"})
-    return {
-        "data_sha256": td.sha256,
-        "train_days": [d.isoformat() for d in td.train_dates],
-        "planner": td.ctx.cfg.model_dump(mode="json", exclude={"sim": {"policy"}}),
-        "train": keep,
-    }
 
 
 def _stack(eps: list[Episode], name: str) -> np.ndarray:
@@ -129,7 +67,7 @@ class Trainer:
         """Write ``NAME.ckpt`` atomically (temporary file, then rename)."""
         state = {
             "format": "marops-train-ckpt/1",
-            "fingerprint": _fingerprint(self.td),
+            "fingerprint": fingerprint(self.td),
             "episode": self.episode,
             "update": self.update,
             "elapsed_s": self.elapsed_s,
@@ -155,7 +93,7 @@ class Trainer:
             raise InputError(
                 f"unreadable checkpoint ({exc}); pass --no-resume", file=self.ckpt
             ) from exc
-        if state.get("fingerprint") != _fingerprint(self.td):
+        if state.get("fingerprint") != fingerprint(self.td):
             raise InputError(
                 "checkpoint was made with other data or settings; pass --no-resume to start over",
                 file=self.ckpt,
@@ -186,8 +124,10 @@ class Trainer:
             for e in range(self.episode, self.episode + n)
         ]
         eps: list[Episode] = workers.map(tasks)
-        arrays = [_stack(eps, k) for k in ("obs", "actions", "logp", "mask", "rewards")]
-        batch = make_batch(*arrays, self.critic, self.tcfg)
+        obs, actions, logp, mask, rewards = (
+            _stack(eps, k) for k in ("obs", "actions", "logp", "mask", "rewards")
+        )
+        batch = make_batch(obs, actions, logp, mask, rewards, self.critic, self.tcfg)
         if self.tcfg.anneal_lr:
             frac = 1.0 - self.episode / self.tcfg.episodes
             for g in self.optimizer.param_groups:
@@ -225,9 +165,8 @@ class Trainer:
     def run(self, resume: bool) -> None:
         resumed = resume and self.load_checkpoint()
         t = self.tcfg
-        torch.set_num_threads(
-            1
-        )  # the same arithmetic as the workers: results do not depend on them
+        # One thread, as in the workers: the same arithmetic whatever --workers says.
+        torch.set_num_threads(1)
         torch.use_deterministic_algorithms(True)
         self.emit(
             {
@@ -260,7 +199,7 @@ class Trainer:
                 if ev is not None:
                     self.emit({"kind": "eval", **ev})
 
-    def export(self, command: str | None) -> dict[str, Any]:
+    def export(self, command: str | None, data_origin: str | None = None) -> dict[str, Any]:
         """Write the TorchScript actor and its sidecar (SPEC §6)."""
         t, cfg = self.tcfg, self.td.ctx.cfg
         side: dict[str, Any] = {
@@ -277,6 +216,7 @@ class Trainer:
                 "sha256": self.td.sha256,
                 "train_days": [d.isoformat() for d in self.td.train_dates],
                 "heldout_days": [d.isoformat() for d in self.td.eval_dates],
+                "origin": data_origin,
             },
             "reward": "eq. (10): -(1-alpha)*s(D_u/delay_scale_h) - alpha*s(E_u/energy_scale_kj), "
             "s(x) = 2*sigmoid(ln3*x) - 1 (marops_cli/rl/env.py)",
@@ -302,10 +242,14 @@ def train(
     train_days: list[dt.date] | None = None,
     resume: bool = True,
     command: str | None = None,
+    data_origin: str | None = None,
     on_event: Callable[[Event], None] | None = None,
 ) -> dict[str, Any]:
-    """Train on ``data``; write ``out``, its ``.json`` and ``.ckpt``; return the sidecar."""
+    """Train on ``data``; write ``out``, its ``.json`` and ``.ckpt``; return the sidecar.
+
+    ``command`` and ``data_origin`` (how ``data`` was made) go into the sidecar as given.
+    """
     td = load_training_data(data, cfg, tcfg, train_days)
     trainer = Trainer(td, Path(out), on_event)
     trainer.run(resume)
-    return trainer.export(command)
+    return trainer.export(command, data_origin)

@@ -32,7 +32,12 @@ def small_cfg() -> PlannerConfig:
 def quick(**fields: object) -> TrainConfig:
     """A few episodes, two per update, one worker, small minibatches."""
     base: dict[str, object] = {
-        "episodes": 4, "episodes_per_update": 2, "workers": 1, "minibatch": 16,
-        "update_epochs": 2, "eval_every": 4, "checkpoint_every": 2,
+        "episodes": 4,
+        "episodes_per_update": 2,
+        "workers": 1,
+        "minibatch": 16,
+        "update_epochs": 2,
+        "eval_every": 4,
+        "checkpoint_every": 2,
     }
     return TrainConfig(**{**base, **fields})  # type: ignore[arg-type]

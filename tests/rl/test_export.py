@@ -8,12 +8,16 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
 import torch
 
 from marops_cli.policies.observation import obs_dim
 from marops_cli.policies.torchscript import TorchScriptPolicy
 from marops_cli.rl.export import write_actor
 from marops_cli.rl.networks import Actor
+
+# torch 2.13 deprecates TorchScript; SPEC §6 names it as the artifact format.
+pytestmark = pytest.mark.filterwarnings("ignore:`torch.jit:DeprecationWarning")
 
 
 def _actor(seed: int = 3) -> Actor:

@@ -29,6 +29,7 @@ def test_shipped_sidecars_match_this_build() -> None:
         doc = json.loads((POLICIES / f"{name}.json").read_text())
         assert doc["obs_version"] == OBS_VERSION and doc["n_actions"] == 4
         assert doc["command"].startswith("marops train") and len(doc["data"]["sha256"]) == 64
+        assert doc["data"]["origin"].startswith("marops synth") and doc["episodes"] == 2000
     assert default_policy_path() == POLICIES / "marops-basic.pt"
     assert default_policy_path(DEFAULT_MAPPO_NAME) == POLICIES / "mappo-basic.pt"
 

@@ -22,21 +22,44 @@ from marops_cli.sim.metrics import gini
 
 runner = CliRunner()
 DAY = "2022-08-11"
-METHODS = ["stay", "ops-random", "greedy", "ops-global"]
+METHODS = ["stay", "ops-random", "greedy", "ops-global", "marops", "squares", "mappo"]
+SEGMENTATION = {"squares": "squares"}  # the rest replay on k-means depots
 
 
 @pytest.fixture(scope="module")
-def depots_file(example_csv: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
-    out = tmp_path_factory.mktemp("seg") / "depots.json"
-    res = runner.invoke(
-        app, ["segment", str(example_csv), "--days", "0801..0810", "--out", str(out)]
-    )
-    assert res.exit_code == 0, res.output
+def depots_files(example_csv: Path, tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+    out = {}
+    for seg in ("kmeans", "squares"):
+        path = tmp_path_factory.mktemp("seg") / f"{seg}.json"
+        res = runner.invoke(
+            app,
+            [
+                "segment",
+                str(example_csv),
+                "--days",
+                "0801..0810",
+                "--method",
+                seg,
+                "--out",
+                str(path),
+            ],
+        )
+        assert res.exit_code == 0, res.output
+        out[seg] = path
     return out
 
 
 @pytest.fixture(scope="module")
-def replays(example_csv: Path, depots_file: Path, tmp_path_factory: pytest.TempPathFactory):
+def depots_file(depots_files: dict[str, Path]) -> Path:
+    return depots_files["kmeans"]
+
+
+def _depots_of(depots_files: dict[str, Path], method: str) -> Path:
+    return depots_files[SEGMENTATION.get(method, "kmeans")]
+
+
+@pytest.fixture(scope="module")
+def replays(example_csv: Path, depots_files, tmp_path_factory: pytest.TempPathFactory):
     outs = {}
     for method in METHODS:
         out = tmp_path_factory.mktemp(method)
@@ -48,7 +71,7 @@ def replays(example_csv: Path, depots_file: Path, tmp_path_factory: pytest.TempP
                 "--date",
                 "0811",
                 "--depots",
-                str(depots_file),
+                str(_depots_of(depots_files, method)),
                 "--method",
                 method,
                 "--out",
@@ -74,7 +97,8 @@ def _reference_energy(leg_m: np.ndarray, payload: np.ndarray) -> np.ndarray:
 
 
 @pytest.mark.parametrize("method", METHODS)
-def test_every_window_respects_the_rules(replays, depots_file: Path, method: str) -> None:
+def test_every_window_respects_the_rules(replays, depots_files, method: str) -> None:
+    depots_file = _depots_of(depots_files, method)
     st = pq.read_table(replays[method] / "stops.parquet").to_pydict()
     rt = pq.read_table(replays[method] / "routes.parquet").to_pydict()
     depots = json.loads(depots_file.read_text())
@@ -112,15 +136,18 @@ def test_every_window_respects_the_rules(replays, depots_file: Path, method: str
 
 
 @pytest.fixture(scope="module")
-def day_requests(example_csv: Path, depots_file: Path):
-    dep = Depots.load(depots_file)
+def day_requests(example_csv: Path, depots_files):
     table = read_lade(example_csv, DataConfig())
-    return dep, prepare_day(table, dep.frame, dt.date(2022, 8, 11), DataConfig())
+    out = {}
+    for seg, path in depots_files.items():
+        dep = Depots.load(path)
+        out[seg] = dep, prepare_day(table, dep.frame, dt.date(2022, 8, 11), DataConfig())
+    return out
 
 
 @pytest.mark.parametrize("method", METHODS)
 def test_day_accounting_and_metrics_recompute(replays, day_requests, method: str) -> None:
-    dep, day = day_requests
+    dep, day = day_requests[SEGMENTATION.get(method, "kmeans")]
     st = pq.read_table(replays[method] / "stops.parquet").to_pydict()
     rt = pq.read_table(replays[method] / "routes.parquet").to_pydict()
     m = json.loads((replays[method] / "metrics.json").read_text())["days"][0]

@@ -1,0 +1,77 @@
+"""``marops train`` on the command line: thin over the library, its actor replays a day."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from marops_cli.cli.app import app
+
+runner = CliRunner()
+pytestmark = pytest.mark.filterwarnings("ignore:`torch.jit:DeprecationWarning")
+
+
+def test_train_then_replay(tiny_csv: Path, tmp_path: Path) -> None:
+    out = tmp_path / "cli.pt"
+    res = runner.invoke(
+        app,
+        [
+            "train",
+            str(tiny_csv),
+            "--episodes",
+            "2",
+            "--workers",
+            "1",
+            "--drones",
+            "4",
+            "--depots-n",
+            "8",
+            "--data-origin",
+            "tiny synth",
+            "--out",
+            str(out),
+        ],
+    )
+    assert res.exit_code == 0, res.output
+    doc = json.loads(out.with_suffix(".json").read_text())
+    assert doc["episodes"] == 2 and doc["data"]["origin"] == "tiny synth"
+    assert doc["planner_config"]["sim"]["drones"] == 4
+    assert "held-out" in res.output  # the table of the last evaluation
+    day = doc["data"]["heldout_days"][0]
+    res = runner.invoke(
+        app,
+        [
+            "replay-day",
+            str(tiny_csv),
+            "--date",
+            day,
+            "--policy",
+            str(out),
+            "--drones",
+            "4",
+            "--depots-n",
+            "8",
+            "--out",
+            str(tmp_path / "replay"),
+        ],
+    )
+    assert res.exit_code == 0, res.output
+
+
+def test_train_refuses_a_foreign_checkpoint(tiny_csv: Path, tmp_path: Path) -> None:
+    out = tmp_path / "x.pt"
+    out.with_suffix(".ckpt").write_bytes(b"not a checkpoint")
+    res = runner.invoke(app, ["train", str(tiny_csv), "--episodes", "2", "--out", str(out)])
+    assert res.exit_code != 0 and "--no-resume" in res.output
+
+
+def test_train_rejects_bad_options(tiny_csv: Path, tmp_path: Path) -> None:
+    res = runner.invoke(app, ["train", str(tiny_csv), "--out", str(tmp_path / "x.onnx")])
+    assert res.exit_code != 0 and ".pt" in res.output
+    res = runner.invoke(
+        app, ["train", str(tiny_csv), "--method", "dqn", "--out", str(tmp_path / "x.pt")]
+    )
+    assert res.exit_code != 0 and "method" in res.output
