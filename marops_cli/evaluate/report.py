@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -152,6 +153,10 @@ def write_outputs(
         files.write_with(paths[1], lambda p: pacsv.write_csv(summary, str(p)))
         files.write_bytes(paths[2], summary_markdown(summary, prep).encode("utf-8"))
         for name, fig in figs.items():
-            files.write_with(out / name, lambda p, f=fig: save_png(f, p))
+            files.write_with(out / name, partial(_save_to, fig))
             paths.append(out / name)
     return paths
+
+
+def _save_to(fig: Any, path: Path) -> None:
+    save_png(fig, path)

@@ -82,9 +82,9 @@ def check_methods(methods: Sequence[str], actors: dict[str, Path] | None = None)
             raise InputError(
                 f"{exc}; for evaluate: {flag} PATH.pt, or leave {m} out of --methods"
             ) from None
-        path = getattr(pol, "path", None)
-        if path is not None:
-            files[m] = Path(path)
+        found = getattr(pol, "path", None)
+        if found is not None:
+            files[m] = Path(found)
     return files
 
 

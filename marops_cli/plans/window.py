@@ -164,10 +164,10 @@ def _range_plans(
         by_key: dict[tuple[int, int], np.ndarray] = {}
         cands = []
         for u, s in enumerate(view.drone_depot):
-            key = (int(s), int(acts[u]))
-            if key not in by_key:
-                by_key[key] = _range_candidates(view, rank, rank_area, *key, cfg.max_parcels)
-            cands.append(by_key[key])
+            sa = (int(s), int(acts[u]))
+            if sa not in by_key:
+                by_key[sa] = _range_candidates(view, rank, rank_area, *sa, cfg.max_parcels)
+            cands.append(by_key[sa])
     t_cand = time.perf_counter() - t0
     plan_sets: list[PlanSet] = []
     ends = np.zeros(view.n_drones, dtype=np.int64)
