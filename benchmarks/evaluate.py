@@ -51,7 +51,7 @@ RUNS: dict[str, tuple[dict[str, list], int]] = {
     "alpha": ({"alpha": [0.2, 0.5, 0.6, 0.7, 0.8, 0.9, 1.0]}, 2),
     "drones": ({"drones": [4, 8, 12, 16, 20]}, 2),
     "coverage": ({"coverage": [0.25, 0.5, 0.75, 1.0]}, 2),
-    "areas": ({"depots_n": [8, 16, 32]}, 2),
+    "areas": ({"depots_n": [9, 16, 36]}, 2),  # square numbers, so squares runs too
 }
 FLAG_OF = {"alpha": "alpha", "drones": "drones", "coverage": "coverage", "areas": "depots_n"}
 
@@ -82,8 +82,13 @@ def shape_checks(summary: pa.Table) -> list[str]:
             f"- **OPS-global has the lowest delay** (paper 0.67 h): "
             f"{'reproduces' if low == 'ops-global' else 'does not reproduce'}, "
             f"{d['ops-global']:.2f} h against {other if low == 'ops-global' else low} "
-            f"{d[other if low == 'ops-global' else low]:.2f} h. Searching the whole map, it "
-            "always serves the latest parcels first."
+            f"{d[other if low == 'ops-global' else low]:.2f} h. "
+            + (
+                "Searching the whole map, it serves the latest parcels first."
+                if low == "ops-global"
+                else "With drafted candidates (docs/decisions.md) the range methods no longer "
+                "waste drones on the same requests, which closes most of the gap the paper saw."
+            )
         )
         high = max(mean["mean_energy_kj"], key=mean["mean_energy_kj"].get)
         out.append(
@@ -111,18 +116,32 @@ def shape_checks(summary: pa.Table) -> list[str]:
             f"({u['ops-random']:.2f} vs {u['ops-global']:.2f}), with a smaller gap: every area of "
             "the synthetic city has late parcels, so delay is spread over all areas anyway."
         )
+        early = e["ops-random"] > 2 * e["ops-global"]
         out.append(
-            f"- **OPS-random arrives early** (paper 0.52 h vs 0.03 h): does not reproduce "
-            f"({e['ops-random']:.2f} h vs {e['ops-global']:.2f} h). With about "
-            f"{rows['ops-random']['requests_mean']:.0f} requests a day for 8 drones, parcels are "
-            "served late, so almost none arrives before its due time."
+            f"- **OPS-random arrives early** (paper 0.52 h vs 0.03 h): "
+            f"{'reproduces' if early else 'does not reproduce'} "
+            f"({e['ops-random']:.2f} h vs {e['ops-global']:.2f} h). "
+            + (
+                "A random range often holds requests not yet due, while OPS-global's pool is "
+                "the most overdue ones."
+                if early
+                else f"With about {rows['ops-random']['requests_mean']:.0f} requests a day for "
+                "8 drones, parcels are served late, so almost none arrives before its due time."
+            )
         )
     for m in ("marops", "squares", "mappo"):
         if m not in rows:
             out.append(f"- **{PAPER_NAMES[m]}**: not run, the trained actor is not shipped yet.")
     if "marops" in rows:
         best = min(mean["combined_cost"], key=mean["combined_cost"].get)
-        out.append(f"- **MAR-OPS has the lowest combined cost**: lowest is {best}.")
+        cc = mean["combined_cost"]
+        out.append(
+            f"- **MAR-OPS has the lowest combined cost** (paper 0.48): "
+            f"{'reproduces' if best == 'marops' else 'does not reproduce'}; marops "
+            f"{cc['marops']:.2f}, lowest {best} {cc[best]:.2f}. The shipped actor was trained "
+            "on one synthetic city; here it gathers too many drones in the busiest areas "
+            "(see the closing note of issue 5): a known limitation, not hidden."
+        )
     return out
 
 
