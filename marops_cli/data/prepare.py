@@ -48,7 +48,8 @@ def parcel_weights(order_ids: Iterable[object], cfg: DataConfig | None = None) -
     return np.clip(w, cfg.weight_min_kg, cfg.weight_max_kg)
 
 
-def _check_days_in_file(table: LadeTable, days: Iterable[dt.date]) -> None:
+def check_days_in_file(table: LadeTable, days: Iterable[dt.date]) -> None:
+    """Raise :class:`InputError` naming the first of ``days`` the file has no request due on."""
     have = table.days()
     present = set(have)
     for day in days:
@@ -56,6 +57,7 @@ def _check_days_in_file(table: LadeTable, days: Iterable[dt.date]) -> None:
             raise InputError(
                 f"date {day.isoformat()} not in the file (it has {format_days(have)})",
                 file=table.source.path,
+                column="delivery_time",
             )
 
 
@@ -77,7 +79,7 @@ def study_frame(
         lng, lat = table.lng, table.lat
     else:
         days = list(days)
-        _check_days_in_file(table, days)
+        check_days_in_file(table, days)
         mask = _on_days(table, days)
         lng, lat = table.lng[mask], table.lat[mask]
     if lng.size == 0:
@@ -105,7 +107,7 @@ def prepare_day(
     cfg = cfg if cfg is not None else DataConfig()
     on_day = _on_days(table, [day])
     if not on_day.any():
-        _check_days_in_file(table, [day])  # raises, naming the days the file has
+        check_days_in_file(table, [day])  # raises, naming the days the file has
     start = (np.datetime64(day, "D").astype(np.int64)) * _DAY_S + cfg.service_start_s
     due = (table.delivery_s - start).astype(np.float64)
     x, y = frame.to_xy(table.lng, table.lat)

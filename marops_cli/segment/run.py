@@ -10,7 +10,7 @@ import numpy as np
 
 from ..config import PlannerConfig
 from ..data.frame import Frame
-from ..data.prepare import study_frame
+from ..data.prepare import check_days_in_file, study_frame
 from ..data.reader import read_lade
 from ..data.table import LadeTable
 from ..errors import InputError
@@ -32,14 +32,7 @@ def history_points(
     """Customer locations of the history days that fall inside the study square."""
     all_days = table.days()
     if days:
-        missing = [d for d in days if d not in set(all_days)]
-        if missing:
-            raise InputError(
-                f"date {missing[0].isoformat()} not in the file "
-                f"(it has {all_days[0].isoformat()}..{all_days[-1].isoformat()})",
-                file=table.source.path,
-                column="delivery_time",
-            )
+        check_days_in_file(table, days)
         mask = np.isin(table.delivery_day, np.array(days, dtype="datetime64[D]"))
     else:
         days = all_days

@@ -15,9 +15,8 @@ import numpy as np
 import pyarrow.parquet as pq
 
 from ..config import PlannerConfig
-from ..data.dates import format_days
 from ..data.frame import Frame
-from ..data.prepare import prepare_day, study_frame
+from ..data.prepare import check_days_in_file, prepare_day, study_frame
 from ..data.reader import read_lade
 from ..data.table import DayRequests, LadeTable
 from ..energy import EnergyModel
@@ -112,14 +111,8 @@ def load_scenario(
     that leaves none), so the depots never see the demand they are judged on.
     """
     table = table if table is not None else read_lade(data, cfg.data)
+    check_days_in_file(table, replay_days)
     all_days = table.days()
-    missing = [d for d in replay_days if d not in set(all_days)]
-    if missing:
-        raise InputError(
-            f"date {missing[0].isoformat()} not in the file (it has {format_days(all_days)})",
-            file=table.source.path,
-            column="delivery_time",
-        )
     history = [d for d in all_days if d not in set(replay_days)] or all_days
     if depots_path is not None:
         depots = Depots.load(depots_path)
