@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
+from typer.testing import CliRunner
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "shanghai_synth.csv"
 
@@ -13,3 +15,26 @@ EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "shanghai_synth.csv
 def example_csv() -> Path:
     assert EXAMPLE.is_file(), "examples/shanghai_synth.csv is part of the repository"
     return EXAMPLE
+
+
+def _fails_cleanly(args: list[str], out_dir: Path, *needles: str) -> str:
+    """Run ``marops ARGS``: exit 2, one line on stderr holding every needle, no traceback,
+    and nothing new under ``out_dir``. Returns the line."""
+    from marops_cli.cli.app import app
+
+    before = set(out_dir.rglob("*"))
+    res = CliRunner().invoke(app, args)
+    assert res.exit_code == 2, res.output
+    err = res.stderr.strip()
+    assert len(err.splitlines()) == 1, err
+    assert "Traceback" not in res.output
+    for n in needles:
+        assert n in err, (n, err)
+    assert set(out_dir.rglob("*")) == before, "something was written"
+    return err
+
+
+@pytest.fixture
+def fails_cleanly() -> Callable[..., str]:
+    """The bad-input contract of OUTPUTS.md as one check (see :func:`_fails_cleanly`)."""
+    return _fails_cleanly

@@ -5,11 +5,6 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-from typer.testing import CliRunner
-
-from marops_cli.cli.app import app
-
-runner = CliRunner()
 
 HEADER = (
     "order_id,region_id,city,courier_id,lng,lat,aoi_id,aoi_type,accept_time,accept_gps_time,"
@@ -35,22 +30,9 @@ def _write(tmp_path: Path, lines: list[str], name: str = "lade.csv") -> Path:
     return p
 
 
-def _fails_cleanly(args: list[str], out_dir: Path, *needles: str) -> str:
-    before = set(out_dir.rglob("*"))
-    res = runner.invoke(app, args)
-    assert res.exit_code == 2, res.output
-    err = res.stderr.strip()
-    assert len(err.splitlines()) == 1, err
-    assert "Traceback" not in res.output
-    for n in needles:
-        assert n in err, (n, err)
-    assert set(out_dir.rglob("*")) == before, "something was written"
-    return err
-
-
-def test_missing_column(tmp_path: Path) -> None:
+def test_missing_column(tmp_path: Path, fails_cleanly) -> None:
     data = _write(tmp_path, [HEADER.replace(",lat,", ",latitude,"), _row(1)])
-    _fails_cleanly(
+    fails_cleanly(
         ["segment", str(data), "--depots", "1", "--out", str(tmp_path / "d.json")],
         tmp_path,
         "lade.csv",
@@ -59,9 +41,9 @@ def test_missing_column(tmp_path: Path) -> None:
     )
 
 
-def test_unparseable_time_names_row_and_column(tmp_path: Path) -> None:
+def test_unparseable_time_names_row_and_column(tmp_path: Path, fails_cleanly) -> None:
     data = _write(tmp_path, [HEADER, _row(1), _row(2, dlv="08-20 25:99:00"), _row(3)])
-    _fails_cleanly(
+    fails_cleanly(
         ["segment", str(data), "--depots", "1", "--out", str(tmp_path / "d.json")],
         tmp_path,
         "lade.csv",
@@ -70,21 +52,21 @@ def test_unparseable_time_names_row_and_column(tmp_path: Path) -> None:
     )
 
 
-def test_not_a_lade_file(tmp_path: Path) -> None:
+def test_not_a_lade_file(tmp_path: Path, fails_cleanly) -> None:
     data = _write(tmp_path, ["hello,world", "1,2"], "notes.csv")
-    _fails_cleanly(["segment", str(data), "--out", str(tmp_path / "d.json")], tmp_path, "notes.csv")
+    fails_cleanly(["segment", str(data), "--out", str(tmp_path / "d.json")], tmp_path, "notes.csv")
 
 
-def test_missing_file(tmp_path: Path) -> None:
-    _fails_cleanly(
+def test_missing_file(tmp_path: Path, fails_cleanly) -> None:
+    fails_cleanly(
         ["segment", str(tmp_path / "nope.csv"), "--out", str(tmp_path / "d.json")],
         tmp_path,
         "nope.csv",
     )
 
 
-def test_date_not_in_file(example_csv: Path, tmp_path: Path) -> None:
-    _fails_cleanly(
+def test_date_not_in_file(example_csv: Path, tmp_path: Path, fails_cleanly) -> None:
+    fails_cleanly(
         [
             "replay-day",
             str(example_csv),
@@ -101,8 +83,8 @@ def test_date_not_in_file(example_csv: Path, tmp_path: Path) -> None:
     )
 
 
-def test_empty_study_area(example_csv: Path, tmp_path: Path) -> None:
-    _fails_cleanly(
+def test_empty_study_area(example_csv: Path, tmp_path: Path, fails_cleanly) -> None:
+    fails_cleanly(
         ["segment", str(example_csv), "--center", "100.0,10.0", "--out", str(tmp_path / "d.json")],
         tmp_path,
         "shanghai_synth.csv",
@@ -110,10 +92,10 @@ def test_empty_study_area(example_csv: Path, tmp_path: Path) -> None:
     )
 
 
-def test_strict_turns_a_dropped_row_into_an_error(tmp_path: Path) -> None:
+def test_strict_turns_a_dropped_row_into_an_error(tmp_path: Path, fails_cleanly) -> None:
     rows = [HEADER] + [_row(i, lng=f"121.4{i}") for i in range(1, 6)] + [_row(9, lng="0", lat="0")]
     data = _write(tmp_path, rows)
-    _fails_cleanly(
+    fails_cleanly(
         ["segment", str(data), "--depots", "1", "--strict", "--out", str(tmp_path / "d.json")],
         tmp_path,
         "lade.csv",
@@ -121,8 +103,8 @@ def test_strict_turns_a_dropped_row_into_an_error(tmp_path: Path) -> None:
     )
 
 
-def test_bad_option_values(example_csv: Path, tmp_path: Path) -> None:
-    _fails_cleanly(
+def test_bad_option_values(example_csv: Path, tmp_path: Path, fails_cleanly) -> None:
+    fails_cleanly(
         [
             "replay-day",
             str(example_csv),
@@ -136,7 +118,7 @@ def test_bad_option_values(example_csv: Path, tmp_path: Path) -> None:
         tmp_path,
         "alpha",
     )
-    _fails_cleanly(
+    fails_cleanly(
         [
             "replay-day",
             str(example_csv),
@@ -150,7 +132,7 @@ def test_bad_option_values(example_csv: Path, tmp_path: Path) -> None:
         tmp_path,
         "fastest",
     )
-    _fails_cleanly(
+    fails_cleanly(
         ["segment", str(example_csv), "--center", "east", "--out", str(tmp_path / "d.json")],
         tmp_path,
         "--center",
@@ -158,10 +140,10 @@ def test_bad_option_values(example_csv: Path, tmp_path: Path) -> None:
 
 
 @pytest.mark.parametrize("content", ["{bad", '{"frame": {}}'])
-def test_bad_depots_file(example_csv: Path, tmp_path: Path, content: str) -> None:
+def test_bad_depots_file(example_csv: Path, tmp_path: Path, content: str, fails_cleanly) -> None:
     dep = tmp_path / "depots.json"
     dep.write_text(content)
-    _fails_cleanly(
+    fails_cleanly(
         [
             "plan-window",
             str(example_csv),
