@@ -102,24 +102,11 @@ def _drafted_candidates(
     Each drone's preference order is :func:`pick_candidates`' (delay, due time, distance
     to its depot, index); only the head of its range that the draft can reach is sorted.
     """
-    n_u = view.n_drones
-    head = m_hat * n_u + m_hat
-    prefs = []
-    for u in range(n_u):
-        s = int(view.drone_depot[u])
-        inside = rank[view.ranges[s, acts[u]][rank_area]]
-        if inside.size > head:  # keep ties with the last of the head (full tie-break)
-            last, rest = inside[head - 1], inside[head:]
-            tie = (view.pending_delay_h[rest] == view.pending_delay_h[last]) & (
-                view.pending_due_s[rest] == view.pending_due_s[last]
-            )
-            inside = inside[: head + (tie.size if tie.all() else int(np.argmin(tie)))]
-        dist = np.hypot(*(view.pending_xy[inside] - view.depots.xy[s]).T)
-        prefs.append(
-            pick_candidates(
-                inside, view.pending_delay_h[inside], view.pending_due_s[inside], dist, head
-            )
-        )
+    head = m_hat * (view.n_drones + 1)  # the most any drone can reach in the draft
+    prefs = [
+        _range_candidates(view, rank, rank_area, int(s), int(a), head)
+        for s, a in zip(view.drone_depot, acts, strict=True)
+    ]
     return draft(prefs, view.pending_idx.size, m_hat)
 
 
