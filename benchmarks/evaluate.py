@@ -57,9 +57,9 @@ FLAG_OF = {"alpha": "alpha", "drones": "drones", "coverage": "coverage", "areas"
 
 
 def available_methods() -> list[str]:
-    """The paper's methods, greedy and stay, as far as this build can run them."""
+    """The paper's methods, greedy, stay and myopic, as far as this build can run them."""
     chosen = []
-    for m in ["marops", "ops-global", "ops-random", "mappo", "squares", "greedy", "stay"]:
+    for m in ["marops", "ops-global", "ops-random", "mappo", "squares", "greedy", "stay", "myopic"]:
         try:
             check_methods([m], None)
         except InputError as exc:

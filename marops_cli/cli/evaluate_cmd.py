@@ -27,7 +27,8 @@ def evaluate(
         typer.Option(
             "--methods",
             help="Methods to compare, comma-separated: marops, ops-global, ops-random, mappo, "
-            "squares, greedy, stay (SPEC §7) (default: every one this build can run but stay).",
+            "squares, greedy, stay, myopic (SPEC §7) (default: every one this build can run "
+            "but the references stay and myopic).",
         ),
     ] = None,
     dates: Annotated[
@@ -123,7 +124,7 @@ def _methods(text: str | None, actors: dict[str, Path]) -> list[str]:
             check_methods([m], actors)
         except InputError:
             continue  # the default list skips what cannot run; a listed method errors
-        if m != "stay":
+        if m not in ("stay", "myopic"):
             chosen.append(m)
     return chosen
 

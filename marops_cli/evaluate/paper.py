@@ -68,7 +68,7 @@ TABLE3: dict[str, dict[str, tuple[float, float]]] = {
 def paper_table(summary: pa.Table, setting: int = 0) -> str:
     """Markdown: Table III beside ours, a paper and an ours column per method of the paper.
 
-    Methods of ours that the paper lacks (greedy, stay) follow as ours-only columns.
+    Methods of ours that the paper lacks (greedy, stay, myopic) follow as ours-only columns.
     """
     rows = {r["method"]: r for r in summary.to_pylist() if r["setting"] == setting}
     extra = [m for m in rows if m not in PAPER_NAMES]

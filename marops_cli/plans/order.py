@@ -207,3 +207,48 @@ def best_order(
     """Visiting order (candidate positions) of the route through all the candidates."""
     orders = subset_orders(start_xy, end_xy, customers_xy, weights_kg, model, method)
     return orders.route(orders.order.shape[0] - 1)
+
+
+def subset_energies(
+    start_xy: ArrayLike,
+    end_xy: ArrayLike,
+    customers_xy: ArrayLike,
+    weights_kg: ArrayLike,
+    model: EnergyModel,
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_]]:
+    """Exact route energy of every subset, for a batch of drones at once.
+
+    ``start_xy``/``end_xy`` are ``(B, 2)``, ``customers_xy`` ``(B, n, 2)``, ``weights_kg``
+    ``(B, n)``; a drone with fewer candidates pads with ``inf`` weights (subsets that
+    hold a pad are infeasible). Returns ``(energy (B, 2**n), weight (B, 2**n), members
+    (2**n, n))``: the energy of the best visiting order (the same backward dynamic
+    program as :func:`subset_orders`, without the orders), ``inf`` over the payload.
+    One numpy pass per subset size for the whole batch, so a policy can price every
+    action of a drone in one call.
+    """
+    xy = np.asarray(customers_xy, dtype=np.float64)
+    w = np.asarray(weights_kg, dtype=np.float64)
+    b, n = w.shape
+    s = np.asarray(start_xy, dtype=np.float64).reshape(b, 1, 2)
+    e = np.asarray(end_xy, dtype=np.float64).reshape(b, 1, 2)
+    pts = np.concatenate([np.where(np.isfinite(xy), xy, s), s, e], axis=1)  # (B, n + 2, 2)
+    diff = pts[:, :, None, :] - pts[:, None, :, :]
+    d = np.hypot(diff[..., 0], diff[..., 1])
+    bits, layers = _subsets(n)
+    size = 1 << n
+    total = np.where(np.isfinite(w), w, 0.0) @ bits.T  # (B, 2**n)
+    pad = ~np.isfinite(w)
+    over = (total > model.max_payload_kg + 1e-9) | (pad.astype(np.int64) @ bits.T > 0)
+    e_mask = model.energy_per_m(np.minimum(total, model.max_payload_kg))
+    pow2 = np.int64(1) << np.arange(n, dtype=np.int64)
+    cols = np.arange(n)
+    f = np.empty((b, size, n + 1))
+    f[:, 0] = d[:, : n + 1, n + 1] * float(model.energy_per_m(0.0))
+    leg = d[:, : n + 1, :n]  # (B, from i, to j)
+    for masks in layers[1:]:
+        tail = np.where(bits[masks], f[:, masks[:, None] ^ pow2, cols], np.inf)  # (B, m, n)
+        cand = e_mask[:, masks, None, None] * leg[:, None] + tail[:, :, None, :]
+        f[:, masks] = cand.min(axis=3)
+    energy = f[:, :, n].copy()
+    energy[over] = np.inf
+    return energy, total, bits

@@ -1,7 +1,7 @@
 """Flight-range policies: the protocol, baselines, observation and TorchScript loader."""
 
 from .base import Policy, WindowView
-from .baselines import GlobalPolicy, GreedyPolicy, RandomPolicy, StayPolicy
+from .baselines import GlobalPolicy, GreedyPolicy, MyopicPolicy, RandomPolicy, StayPolicy
 from .observation import OBS_VERSION, obs_dim, observe
 from .registry import make_policy
 
@@ -9,6 +9,7 @@ __all__ = [
     "OBS_VERSION",
     "GlobalPolicy",
     "GreedyPolicy",
+    "MyopicPolicy",
     "Policy",
     "RandomPolicy",
     "StayPolicy",

@@ -3,11 +3,14 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Literal, Protocol, runtime_checkable
+from typing import TYPE_CHECKING, Literal, Protocol, runtime_checkable
 
 import numpy as np
 
 from ..segment.depots import Depots
+
+if TYPE_CHECKING:
+    from ..config import PlannerConfig
 
 
 @dataclass
@@ -60,3 +63,12 @@ class Policy(Protocol):
     def act(self, view: WindowView) -> np.ndarray:
         """Action index (0 = stay) for every drone, shape ``(U,)``."""
         ...
+
+
+def start_day(policy: Policy, cfg: PlannerConfig, seed: int) -> None:
+    """Hand a policy the run's planner settings, if it plans ahead (``configure``), and
+    start its day (``reset``)."""
+    configure = getattr(policy, "configure", None)
+    if configure is not None:
+        configure(cfg)
+    policy.reset(seed)

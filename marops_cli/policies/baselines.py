@@ -1,12 +1,15 @@
-"""Policies that need no training: stay, random, greedy, global (SPEC §7)."""
+"""Policies that need no training: stay, random, greedy, global (SPEC §7), myopic."""
 
 from __future__ import annotations
 
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 
 from .base import WindowView
+
+if TYPE_CHECKING:
+    from ..config import PlannerConfig
 
 
 class StayPolicy:
@@ -92,3 +95,42 @@ class GlobalPolicy:
 
     def act(self, view: WindowView) -> np.ndarray:
         return np.zeros(view.n_drones, dtype=np.int64)
+
+
+class MyopicPolicy:
+    """One-window best response: drones in turn take the destination whose best plan is
+    worth most now (λ Σ v − E, as the selection counts it), given what the drones before
+    them claimed (:class:`~marops_cli.policies.observation.SequentialObserver`).
+
+    It looks one window ahead only; the learned actor starts from it and learns when
+    repositioning pays later ("slower is faster").
+    """
+
+    name = "myopic"
+    scope: Literal["range", "global"] = "range"
+
+    def __init__(self) -> None:
+        from ..config import PlannerConfig
+
+        self.configure(PlannerConfig())
+
+    def configure(self, cfg: PlannerConfig) -> None:
+        """Use the run's energy model and planning settings (α, M̂, payload)."""
+        from ..energy import EnergyModel
+
+        self._model, self._plan = EnergyModel(cfg.energy), cfg.plan
+
+    def reset(self, seed: int) -> None:
+        pass
+
+    def act(self, view: WindowView) -> np.ndarray:
+        from .observation import best_value_action, observe_and_choose
+
+        mask = view.action_mask()
+        return observe_and_choose(
+            view,
+            lambda u, obs: best_value_action(obs, mask[u]),
+            3,
+            model=self._model,
+            plan=self._plan,
+        )[1]

@@ -7,24 +7,40 @@ city centre alike (a linear scale saturates the tanh units in one or the other).
 
 Version history: 1 = six linear features per action; 2 = adds what the planner
 would actually get for each action (its M̂ candidates' delay, count and detour),
-how crowded the range is with other drones, and the map-wide overdue load.
+how crowded the range is with other drones, and the map-wide overdue load;
+3 = drones observe one after another (:class:`SequentialObserver`): requests the
+best plans of the drones before have claimed are gone from every feature, and
+each action also shows its best plan's net value and energy and how many drones
+before already fly to its destination. Version 2 stays for actors trained on it.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 
+from ..config import PlanConfig
+from ..energy import EnergyModel
+from ..plans.order import subset_energies
 from ..plans.ranges import pick_candidates
 from .base import WindowView
 
-OBS_VERSION = 2
-PER_ACTION = 10  # features per action candidate
+OBS_VERSION = 3  # what ``marops train`` writes for the flight-range actor
+OBS_VERSIONS = (2, 3)  # what the loaders read
+PER_ACTION = 10  # features per action candidate, version 2
+PER_ACTION_V3 = 13  # version 3: 10 as in version 2, then value, energy, drones heading there
+VALUE = 10  # index, within an action's block (version 3), of the best plan's net value
 GLOBAL = 7  # time, own area (2), map (2), drones sharing my depot, fleet density
 M_HAT = 5  # candidates per drone the features assume (PlanConfig.max_parcels default)
 
+Chooser = Callable[[np.ndarray, np.ndarray], np.ndarray]
+"""``choose(drones (k,), obs (k, D)) -> actions (k,)``: a policy's decision for some drones."""
 
-def obs_dim(n_actions: int) -> int:
-    return n_actions * PER_ACTION + GLOBAL
+
+def obs_dim(n_actions: int, version: int = OBS_VERSION) -> int:
+    per = PER_ACTION if version == 2 else PER_ACTION_V3
+    return n_actions * per + GLOBAL
 
 
 def _lg(x: float | np.ndarray) -> float | np.ndarray:
@@ -86,7 +102,7 @@ def observe(view: WindowView, m_hat: int = M_HAT) -> np.ndarray:
     neigh_delay = area_delay[dep.candidates[:, 1:]].sum(axis=1) if a > 1 else np.zeros(n)
     drones_at = np.bincount(view.drone_depot, minlength=n).astype(np.float64)
 
-    out = np.zeros((view.n_drones, obs_dim(a)), dtype=np.float32)
+    out = np.zeros((view.n_drones, obs_dim(a, 2)), dtype=np.float32)
     for u, s in enumerate(view.drone_depot):
         s = int(s)
         for k in range(a):
@@ -113,3 +129,173 @@ def observe(view: WindowView, m_hat: int = M_HAT) -> np.ndarray:
         g[5] = _lg(float(np.count_nonzero(view.drone_depot[:u] == s)))
         g[6] = view.n_drones / max(1, n)
     return out
+
+
+class SequentialObserver:
+    """Observation version 3 of one window: drones observe and choose one after another.
+
+    Drone u sees the pending requests less those claimed by the drones before it: a
+    drone that chose action a claims the requests of its best plan for a (what the
+    planner will most likely fly), so the next drone at the same depot sees what is
+    left rather than the same crowd of overdue parcels. Per action candidate a of
+    drone u (start s, destination d, range R), on the unclaimed requests:
+
+    0–9. as version 2 (:func:`observe`), counts and delays of unclaimed requests
+    10. the best plan's net value, (λ Σ v_c − E) / usable battery, over every
+        feasible plan of the M̂ requests the planner would take in R (exact order,
+        payload and battery as the planner); v_c = 1 + delay (h), λ = ((1 − α)/α) ·
+        usable battery as in the selection. −1 when d is out of reach.
+    11. that plan's energy / usable battery
+    12. log1p drones before u that chose d as destination
+
+    Then the 7 global features of version 2 (own area and map on unclaimed requests).
+    """
+
+    def __init__(
+        self,
+        view: WindowView,
+        model: EnergyModel | None = None,
+        plan: PlanConfig | None = None,
+        alpha: float | None = None,
+    ) -> None:
+        self.view = view
+        self.model = model or EnergyModel()
+        self.plan = plan or PlanConfig()
+        a = self.plan.alpha if alpha is None else alpha
+        self.lam = (1.0 - a) / a * self.model.usable_j
+        dep = view.depots
+        self.n_depots, self.n_actions = dep.candidates.shape
+        self.claimed = np.zeros(view.pending_idx.size, dtype=bool)
+        self.heading = np.zeros(self.n_depots)  # drones before that chose each destination
+        self.drones_at = np.bincount(view.drone_depot, minlength=self.n_depots).astype(float)
+        self.rank = np.lexsort((view.pending_due_s, -view.pending_delay_h))
+        self.due_now = (view.pending_due_w <= view.t).astype(np.float64)
+        self._best: dict[int, np.ndarray] = {}  # action -> requests of the best plan (drone u)
+        self._u = -1
+
+    @property
+    def dim(self) -> int:
+        return obs_dim(self.n_actions, 3)
+
+    def _best_plans(
+        self, s: int, dests: list[int], cands: list[np.ndarray]
+    ) -> list[tuple[float, float, np.ndarray]]:
+        """(net value, energy, request positions) of the best plan s → cand → d of each
+        action, priced in one batched dynamic program (:func:`subset_energies`)."""
+        v, m = self.view, self.model
+        n = max(1, max(c.size for c in cands))
+        b = len(cands)
+        xy = np.full((b, n, 2), np.nan)
+        w = np.full((b, n), np.inf)
+        val = np.zeros((b, n))
+        for i, c in enumerate(cands):
+            xy[i, : c.size], w[i, : c.size] = v.pending_xy[c], v.pending_weight[c]
+            val[i, : c.size] = 1.0 + v.pending_delay_h[c]
+        xy_s = np.repeat(v.depots.xy[s][None, :], b, axis=0)
+        energy, _, bits = subset_energies(xy_s, v.depots.xy[dests], xy, w, m)
+        net = self.lam * (val @ bits.T) - energy
+        net[energy > m.usable_j] = -np.inf
+        out = []
+        for i, c in enumerate(cands):
+            if not np.isfinite(net[i, 0]):  # even the empty flight s -> d is out of reach
+                out.append((-m.usable_j, m.usable_j, c[:0]))
+                continue
+            k = int(np.argmax(net[i]))
+            out.append((float(net[i, k]), float(energy[i, k]), c[bits[k, : c.size]]))
+        return out
+
+    def row(self, u: int) -> np.ndarray:
+        """Drone u's observation, given what the drones before it claimed."""
+        from ..plans.window import _range_candidates  # deferred: plans.window imports policies
+
+        v, dep, m_hat = self.view, self.view.depots, self.plan.max_parcels
+        s, n, a = int(v.drone_depot[u]), self.n_depots, self.n_actions
+        free = ~self.claimed
+        area = v.pending_area
+        area_count = np.bincount(area, weights=free.astype(float), minlength=n)
+        area_delay = np.bincount(area, weights=v.pending_delay_h * free, minlength=n)
+        area_due = np.bincount(area, weights=self.due_now * free, minlength=n)
+        neigh = area_delay[dep.candidates[:, 1:]].sum(axis=1) if a > 1 else np.zeros(n)
+        rank = self.rank[free[self.rank]]
+        rank_area = area[rank]
+        out = np.zeros(self.dim, dtype=np.float32)
+        dests = [int(dep.candidates[s, k]) for k in range(a)]
+        cands = [_range_candidates(v, rank, rank_area, s, k, m_hat) for k in range(a)]
+        best = self._best_plans(s, dests, cands)
+        self._best, self._u = {k: best[k][2] for k in range(a)}, u
+        for k in range(a):
+            d, cand = dests[k], cands[k]
+            rng = v.ranges[s, k]
+            net, energy, _ = best[k]
+            f = out[k * PER_ACTION_V3 : (k + 1) * PER_ACTION_V3]
+            f[0] = np.hypot(*(dep.xy[d] - dep.xy[s])) / 1000.0
+            f[1] = _lg(area_count[rng].sum())
+            f[2] = _lg(area_delay[rng].sum())
+            f[3] = _lg(area_due[rng].sum())
+            f[4] = _lg(neigh[d])
+            f[5] = 1.0
+            f[6] = _lg(self.drones_at[rng].sum() - 1.0)
+            if cand.size:
+                pxy = v.pending_xy[cand]
+                detour = (
+                    np.hypot(*(pxy - dep.xy[s]).T)
+                    + np.hypot(*(pxy - dep.xy[d]).T)
+                    - np.hypot(*(dep.xy[d] - dep.xy[s]))
+                )
+                f[7] = _lg(v.pending_delay_h[cand].sum())
+                f[8] = cand.size / m_hat
+                f[9] = detour.mean() / 1000.0
+            f[VALUE] = net / self.model.usable_j
+            f[VALUE + 1] = energy / self.model.usable_j
+            f[VALUE + 2] = _lg(self.heading[d])
+        g = out[a * PER_ACTION_V3 :]
+        g[0] = v.t / max(1, v.n_windows)
+        g[1] = _lg(area_count[s])
+        g[2] = _lg(area_delay[s])
+        g[3] = _lg(area_count.sum())
+        g[4] = _lg(float((v.pending_delay_h * free).sum()))
+        g[5] = _lg(float(np.count_nonzero(v.drone_depot[:u] == s)))
+        g[6] = v.n_drones / max(1, n)
+        return out
+
+    def commit(self, u: int, action: int) -> None:
+        """Drone u (the one last observed) chose ``action``: claim its best plan."""
+        assert u == self._u, "commit the drone last observed"
+        self.claimed[self._best[int(action)]] = True
+        self.heading[int(self.view.depots.candidates[int(self.view.drone_depot[u]), action])] += 1
+
+
+def observe_and_choose(
+    view: WindowView,
+    choose: Chooser,
+    version: int = OBS_VERSION,
+    *,
+    model: EnergyModel | None = None,
+    plan: PlanConfig | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """``(obs (U, D), actions (U,))`` of one window.
+
+    Version 2: every drone observes the same window, one call of ``choose`` for all.
+    Version 3: drone by drone, in index order, each call for one drone
+    (:class:`SequentialObserver`).
+    """
+    if version == 2:
+        obs = observe(view)
+        return obs, np.asarray(choose(np.arange(view.n_drones), obs), dtype=np.int64)
+    seq = SequentialObserver(view, model, plan)
+    obs = np.zeros((view.n_drones, seq.dim), dtype=np.float32)
+    actions = np.zeros(view.n_drones, dtype=np.int64)
+    for u in range(view.n_drones):
+        obs[u] = seq.row(u)
+        actions[u] = int(np.asarray(choose(np.array([u]), obs[u : u + 1])).reshape(-1)[0])
+        seq.commit(u, int(actions[u]))
+    return obs, actions
+
+
+def best_value_action(obs: np.ndarray, mask: np.ndarray) -> np.ndarray:
+    """Per row of version-3 observations, the valid action whose best plan is worth most
+    (ties to the lower index): the one-window best response, ``myopic``'s choice."""
+    n_act = mask.shape[1]
+    value = obs[:, [k * PER_ACTION_V3 + VALUE for k in range(n_act)]].astype(np.float64)
+    value[~mask] = -np.inf
+    return np.argmax(value, axis=1).astype(np.int64)

@@ -6,13 +6,14 @@ from pathlib import Path
 
 from ..errors import InputError
 from .base import Policy
-from .baselines import GlobalPolicy, GreedyPolicy, RandomPolicy, StayPolicy
+from .baselines import GlobalPolicy, GreedyPolicy, MyopicPolicy, RandomPolicy, StayPolicy
 
-SIMPLE = ("stay", "random", "greedy", "global")
+SIMPLE = ("stay", "random", "greedy", "global", "myopic")
 
 
 def make_policy(spec: str, seed: int = 0) -> Policy:
-    """``stay``, ``random``, ``greedy``, ``global``, ``torchscript:PATH`` or a ``.pt`` path."""
+    """``stay``, ``random``, ``greedy``, ``global``, ``myopic``, ``torchscript:PATH`` or a
+    ``.pt`` path."""
     if spec == "stay":
         return StayPolicy()
     if spec == "random":
@@ -21,6 +22,8 @@ def make_policy(spec: str, seed: int = 0) -> Policy:
         return GreedyPolicy()
     if spec == "global":
         return GlobalPolicy()
+    if spec == "myopic":
+        return MyopicPolicy()
     path = spec.removeprefix("torchscript:")
     if spec.startswith("torchscript:") or path.endswith(".pt"):
         from .torchscript import TorchScriptPolicy, read_sidecar

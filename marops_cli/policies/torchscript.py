@@ -16,7 +16,7 @@ import numpy as np
 from ..errors import InputError
 from ..io.jsonfile import read_json
 from .base import WindowView
-from .observation import OBS_VERSION, obs_dim, observe
+from .observation import OBS_VERSION, OBS_VERSIONS, obs_dim, observe, observe_and_choose
 
 
 def sidecar_path(model_path: str | Path) -> Path:
@@ -30,10 +30,11 @@ def read_sidecar(model_path: str | Path) -> dict[str, Any]:
     for key in ("obs_version", "n_actions", "hidden_size"):
         if key not in doc:
             raise InputError("policy sidecar lacks a field", file=side, column=key)
-    if int(doc["obs_version"]) != OBS_VERSION:
+    if int(doc["obs_version"]) not in OBS_VERSIONS:
         raise InputError(
             f"policy was trained on observation version {doc['obs_version']}, "
-            f"this marops builds version {OBS_VERSION}; retrain it",
+            f"this marops reads versions {', '.join(map(str, OBS_VERSIONS))} "
+            f"(it trains version {OBS_VERSION}); retrain it",
             file=side,
             column="obs_version",
         )
@@ -41,7 +42,12 @@ def read_sidecar(model_path: str | Path) -> dict[str, Any]:
 
 
 class TorchScriptPolicy:
-    """Greedy (arg-max) actions of a recurrent TorchScript actor."""
+    """Greedy (arg-max) actions of a recurrent TorchScript actor.
+
+    Observation version 2: all drones at once. Version 3: drone by drone, each seeing
+    what the drones before it claimed (:class:`~.observation.SequentialObserver`),
+    priced with the run's planner settings (:meth:`configure`).
+    """
 
     scope: Literal["range", "global"] = "range"
 
@@ -63,14 +69,22 @@ class TorchScriptPolicy:
         self._torch = torch
         self.n_actions = int(self.sidecar["n_actions"])
         self.hidden_size = int(self.sidecar["hidden_size"])
+        self.obs_version = int(self.sidecar["obs_version"])
         self.name = f"torchscript:{self.path.name}"
         self._hidden: Any = None
+        self._model: Any = None
+        self._plan: Any = None
+
+    def configure(self, cfg: Any) -> None:
+        """Price version-3 observations with the run's energy model and plan settings."""
+        from ..energy import EnergyModel
+
+        self._model, self._plan = EnergyModel(cfg.energy), cfg.plan
 
     def reset(self, seed: int) -> None:
         self._hidden = None
 
-    def logits(self, view: WindowView) -> np.ndarray:
-        torch = self._torch
+    def _check_actions(self, view: WindowView) -> None:
         a = view.depots.candidates.shape[1]
         if a != self.n_actions:
             raise InputError(
@@ -78,13 +92,27 @@ class TorchScriptPolicy:
                 f"the depots offer {a}; segment with --actions {self.n_actions}",
                 file=self.path,
             )
-        obs = observe(view)
-        assert obs.shape[1] == obs_dim(a)
-        if self._hidden is None or self._hidden.shape[0] != obs.shape[0]:
-            self._hidden = torch.zeros((obs.shape[0], self.hidden_size), dtype=torch.float32)
+        if self._hidden is None or self._hidden.shape[0] != view.n_drones:
+            self._hidden = self._torch.zeros(
+                (view.n_drones, self.hidden_size), dtype=self._torch.float32
+            )
+
+    def _forward(self, drones: np.ndarray, obs: np.ndarray) -> np.ndarray:
+        """Logits of ``drones`` from their observations; advances their hidden states."""
+        torch = self._torch
+        idx = torch.from_numpy(np.asarray(drones, dtype=np.int64))
         with torch.no_grad():
-            out, self._hidden = self._module(torch.from_numpy(obs), self._hidden)
-        logits = out.numpy().astype(np.float64)
+            out, h = self._module(torch.from_numpy(obs), self._hidden[idx])
+        self._hidden[idx] = h
+        return out.numpy().astype(np.float64)
+
+    def logits(self, view: WindowView) -> np.ndarray:
+        """Version-2 logits of every drone (the MAPPO actor's slot logits included)."""
+        assert self.obs_version == 2, "version-3 actors choose drone by drone (act)"
+        self._check_actions(view)
+        obs = observe(view)
+        assert obs.shape[1] == obs_dim(self.n_actions, 2)
+        logits = self._forward(np.arange(view.n_drones), obs)
         logits[~self.mask(view)] = -np.inf
         return logits
 
@@ -93,4 +121,14 @@ class TorchScriptPolicy:
         return view.action_mask()
 
     def act(self, view: WindowView) -> np.ndarray:
-        return np.argmax(self.logits(view), axis=1).astype(np.int64)
+        if self.obs_version == 2:
+            return np.argmax(self.logits(view), axis=1).astype(np.int64)
+        self._check_actions(view)
+        mask = self.mask(view)
+
+        def choose(drones: np.ndarray, obs: np.ndarray) -> np.ndarray:
+            logits = self._forward(drones, obs)
+            logits[~mask[drones]] = -np.inf
+            return np.argmax(logits, axis=1)
+
+        return observe_and_choose(view, choose, 3, model=self._model, plan=self._plan)[1]

@@ -48,6 +48,23 @@ class TrainConfig(BaseModel):
     )
     delay_scale_h: float = Field(20.0, gt=0, description="s_D: D_u (h) at which σ̃ reaches 0.5")
     energy_scale_kj: float = Field(500.0, gt=0, description="s_E: E_u (kJ) at which σ̃ reaches 0.5")
+    bc_coef: float = Field(
+        1.0,
+        ge=0,
+        description="weight of the imitation term: cross-entropy against the one-window "
+        "best response (myopic) on the visited states; marops only",
+    )
+    bc_anneal: float = Field(
+        0.5,
+        ge=0,
+        le=1,
+        description="fraction of the episodes over which the imitation weight falls to 0",
+    )
+    keep_best: bool = Field(
+        True,
+        description="export the actor of the held-out evaluation with the lowest combined "
+        "cost (early stopping) instead of the last one",
+    )
     plan_slots: int = Field(4, ge=2, description="mappo: plan slots per destination (last = empty)")
     eval_every: int = Field(200, ge=1, description="episodes between held-out evaluations")
     checkpoint_every: int = Field(40, ge=1, description="episodes between checkpoints")

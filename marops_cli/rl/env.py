@@ -1,9 +1,11 @@
 """The multi-agent training environment: one step = one window, one agent per drone.
 
-Each drone observes :func:`~marops_cli.policies.observation.observe` of the window
-view and picks an action (a destination for MAR-OPS, destination × plan slot for
-the MAPPO baseline); the window planner flies the plans; each drone gets the
-reward of eq. (10).
+Each drone observes the window and picks an action (a destination for MAR-OPS,
+destination × plan slot for the MAPPO baseline); the window planner flies the
+plans; each drone gets the reward of eq. (10). MAR-OPS drones observe version 3
+(:class:`~marops_cli.policies.observation.SequentialObserver`: one after another,
+each seeing what the drones before claimed), the MAPPO baseline version 2 (all at
+once, as the paper's).
 
 Reward (eq. (10)), per drone u and window t::
 
@@ -56,7 +58,7 @@ from ..plans.select import MilpSelector, Selector, make_selector
 from ..plans.window import plan_window
 from ..policies.base import WindowView
 from ..policies.direct import SlotSelector
-from ..policies.observation import obs_dim, observe
+from ..policies.observation import Chooser, obs_dim, observe_and_choose
 from ..segment.depots import Depots
 from ..sim.state import DayState, default_fleet
 from .config import TrainConfig
@@ -101,6 +103,7 @@ class DeliveryEnv:
         self.direct = tcfg.method == "mappo"
         self.n_slots = tcfg.plan_slots if self.direct else 1
         self.selector: Selector = SlotSelector(self.n_slots) if self.direct else _fast_selector(cfg)
+        self.obs_version = 2 if self.direct else 3
         self.state: DayState | None = None
         self.view: WindowView | None = None
         self.t = 0
@@ -111,15 +114,22 @@ class DeliveryEnv:
 
     @property
     def obs_dim(self) -> int:
-        return obs_dim(self.n_dest)
+        return obs_dim(self.n_dest, self.obs_version)
 
-    def reset(self, day: DayRequests, fleet: np.ndarray | None = None) -> np.ndarray:
+    def reset(self, day: DayRequests, fleet: np.ndarray | None = None) -> None:
         """Start ``day`` with drones at ``fleet`` (default: the busiest depots)."""
         fleet = default_fleet(self.depots, self.n_drones) if fleet is None else fleet
         self.state = DayState(day, self.depots, fleet, self.cfg.plan.coverage)
         self.t = 0
         self.view = self.state.view(0)
-        return observe(self.view)
+
+    def observe(self, choose: Chooser) -> tuple[np.ndarray, np.ndarray]:
+        """``(obs (U, D), actions (U,))`` of the current window, ``choose`` deciding
+        (:func:`~marops_cli.policies.observation.observe_and_choose`)."""
+        assert self.view is not None and not self.done
+        return observe_and_choose(
+            self.view, choose, self.obs_version, model=self.model, plan=self.cfg.plan
+        )
 
     @property
     def done(self) -> bool:
@@ -130,12 +140,10 @@ class DeliveryEnv:
         assert self.view is not None
         return np.repeat(self.view.action_mask(), self.n_slots, axis=1)
 
-    def step(
-        self, actions: np.ndarray
-    ) -> tuple[np.ndarray | None, np.ndarray, dict[str, np.ndarray]]:
-        """Fly window t with ``actions``; returns (next obs or None at the day's end,
-        rewards ``(U,)``, info: each drone's ``energy_kj`` and ``delay_h`` (D_u), and
-        ``late_h``, the delay the whole map added in this window)."""
+    def step(self, actions: np.ndarray) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+        """Fly window t with ``actions``; returns (rewards ``(U,)``, info: each drone's
+        ``energy_kj`` and ``delay_h`` (D_u), and ``late_h``, the delay the whole map
+        added in this window). :attr:`done` says when the day is over."""
         assert self.state is not None and self.view is not None and not self.done
         st, view = self.state, self.view
         actions = np.asarray(actions, dtype=np.int64)
@@ -155,11 +163,9 @@ class DeliveryEnv:
         )
         r = reward(delay_h, e_u, self.cfg.plan.alpha, self.tcfg)
         self.t += 1
-        obs = None
         if not self.done:
             self.view = st.view(self.t)
-            obs = observe(self.view)
-        return obs, r, {"energy_kj": energy_kj, "delay_h": delay_h, "late_h": np.array(late_h)}
+        return r, {"energy_kj": energy_kj, "delay_h": delay_h, "late_h": np.array(late_h)}
 
     def _spared_h(self, routes: list) -> np.ndarray:
         """Delay each drone's deliveries spared: a request left undelivered would count

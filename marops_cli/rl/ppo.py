@@ -77,6 +77,7 @@ class Batch:
     mask: torch.Tensor  # (T, E, U, L)
     advantages: torch.Tensor  # (T, E, U)
     returns: torch.Tensor  # (T, E, U)
+    teacher: torch.Tensor | None = None  # (T, E, U) imitation targets, -1 for none
 
 
 def make_batch(
@@ -87,6 +88,7 @@ def make_batch(
     rewards: np.ndarray,
     critic: Critic,
     tcfg: TrainConfig,
+    teacher: np.ndarray | None = None,
 ) -> Batch:
     """Evaluate the critic on the rollouts and compute GAE (arrays are ``(T, E, U, ...)``)."""
     obs_t = torch.from_numpy(obs)
@@ -100,6 +102,7 @@ def make_batch(
         mask=torch.from_numpy(mask),
         advantages=torch.from_numpy(adv.astype(np.float32)),
         returns=torch.from_numpy(ret.astype(np.float32)),
+        teacher=None if teacher is None else torch.from_numpy(teacher.astype(np.int64)),
     )
 
 
@@ -110,18 +113,23 @@ def ppo_update(
     batch: Batch,
     tcfg: TrainConfig,
     generator: torch.Generator,
+    bc_coef: float = 0.0,
 ) -> dict[str, float]:
     """``update_epochs`` passes of minibatch SGD; returns the mean of each loss term.
 
     The GRU is unrolled over whole days for every minibatch (so hidden states are
     exact and gradients flow through time); the loss averages over a random
-    minibatch of H transitions (paper: H = 64).
+    minibatch of H transitions (paper: H = 64). With ``bc_coef > 0`` and imitation
+    targets in the batch, the loss adds ``bc_coef`` × the cross-entropy of the
+    actor against them (an imitation term on the states PPO itself visits).
     """
     t_, e_, u_, d_ = batch.obs.shape
     n = t_ * e_ * u_
     seq_obs = batch.obs.reshape(t_, e_ * u_, d_)
     critic_in = fleet_input(batch.obs).reshape(n, -1)
     actions, old_logp = batch.actions.reshape(n), batch.logp.reshape(n)
+    teacher = batch.teacher.reshape(n) if batch.teacher is not None else None
+    use_bc = bc_coef > 0 and teacher is not None and bool((teacher >= 0).any())
     mask, adv_all, ret_all = (
         batch.mask.reshape(n, -1),
         batch.advantages.reshape(n),
@@ -134,6 +142,7 @@ def ppo_update(
         "entropy": 0.0,
         "approx_kl": 0.0,
         "clipfrac": 0.0,
+        "bc_loss": 0.0,
     }
     steps = 0
     for _ in range(tcfg.update_epochs):
@@ -156,8 +165,17 @@ def ppo_update(
                 tcfg.vf_coef,
                 tcfg.ent_coef,
             )
+            loss = terms["loss"]
+            if use_bc:
+                assert teacher is not None
+                tgt = teacher[idx]
+                has = tgt >= 0
+                if bool(has.any()):
+                    bc = -dist.log_prob(tgt.clamp(min=0))[has].mean()
+                    loss = loss + bc_coef * bc
+                    sums["bc_loss"] += float(bc.detach())
             optimizer.zero_grad()
-            terms["loss"].backward()
+            loss.backward()
             nn.utils.clip_grad_norm_(params, tcfg.max_grad_norm)
             optimizer.step()
             with torch.no_grad():

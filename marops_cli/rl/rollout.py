@@ -20,7 +20,7 @@ from ..data.table import DayRequests
 from ..energy import EnergyModel
 from ..policies.base import WindowView
 from ..policies.direct import SlotSelector
-from ..policies.observation import observe
+from ..policies.observation import best_value_action, observe_and_choose
 from ..policies.registry import make_policy
 from ..segment.depots import Depots
 from ..sim.metrics import day_metrics
@@ -55,6 +55,9 @@ class Episode:
     logp: np.ndarray
     mask: np.ndarray
     rewards: np.ndarray
+    teacher: np.ndarray
+    """``(T, U)`` the one-window best response (``myopic``) on each observation (version
+    3), the target of the imitation term; -1 where there is none (version 2)."""
     energy_kj: float
     delay_h: float
 
@@ -77,24 +80,39 @@ def make_actor(env: DeliveryEnv, tcfg: TrainConfig) -> Actor:
 def run_episode(env: DeliveryEnv, actor: Actor, day: DayRequests, seed: int) -> Episode:
     """Sample the actor's actions for a whole day (Alg. 3, inner loop)."""
     gen = torch.Generator().manual_seed(seed)
-    obs: np.ndarray | None = env.reset(day)
+    env.reset(day)
     h = torch.zeros(env.n_drones, actor.hidden_size)
     rec: dict[str, list[np.ndarray]] = {
-        k: [] for k in ("obs", "actions", "logp", "mask", "rewards")
+        k: [] for k in ("obs", "actions", "logp", "mask", "rewards", "teacher")
     }
     energy = delay = 0.0
-    while obs is not None:
+    while not env.done:
         mask = env.action_mask()
-        with torch.no_grad():
-            logits, h = actor(torch.from_numpy(obs), h)
-            dist = Categorical(logits=logits.masked_fill(~torch.from_numpy(mask), MASKED_LOGIT))
-            a = torch.multinomial(dist.probs, 1, generator=gen).squeeze(-1)
-            logp = dist.log_prob(a)
+        logp = np.zeros(env.n_drones, dtype=np.float32)
+
+        def choose(
+            drones: np.ndarray, obs: np.ndarray, mask: np.ndarray = mask, logp: np.ndarray = logp
+        ) -> np.ndarray:
+            idx = torch.from_numpy(drones)
+            with torch.no_grad():
+                logits, h[idx] = actor(torch.from_numpy(obs), h[idx])
+                m = torch.from_numpy(mask[drones])
+                dist = Categorical(logits=logits.masked_fill(~m, MASKED_LOGIT))
+                a = torch.multinomial(dist.probs, 1, generator=gen).squeeze(-1)
+                logp[drones] = dist.log_prob(a).numpy()
+            return a.numpy()
+
+        obs, actions = env.observe(choose)
         rec["obs"].append(obs)
         rec["mask"].append(mask)
-        rec["actions"].append(a.numpy())
-        rec["logp"].append(logp.numpy())
-        obs, r, info = env.step(a.numpy())
+        rec["actions"].append(actions)
+        rec["logp"].append(logp)
+        rec["teacher"].append(
+            best_value_action(obs, mask)
+            if env.obs_version == 3
+            else np.full(env.n_drones, -1, dtype=np.int64)
+        )
+        r, info = env.step(actions)
         rec["rewards"].append(r)
         energy += float(info["energy_kj"].sum())
         delay += float(info["late_h"])
@@ -104,6 +122,7 @@ def run_episode(env: DeliveryEnv, actor: Actor, day: DayRequests, seed: int) -> 
         logp=np.stack(rec["logp"]).astype(np.float32),
         mask=np.stack(rec["mask"]),
         rewards=np.stack(rec["rewards"]).astype(np.float64),
+        teacher=np.stack(rec["teacher"]).astype(np.int64),
         energy_kj=energy,
         delay_h=delay,
     )
@@ -115,8 +134,18 @@ class ActorPolicy:
 
     scope: Literal["range", "global"] = "range"
 
-    def __init__(self, actor: Actor, n_slots: int = 1, name: str = "actor") -> None:
+    def __init__(
+        self,
+        actor: Actor,
+        n_slots: int = 1,
+        name: str = "actor",
+        version: int = 3,
+        cfg: PlannerConfig | None = None,
+    ) -> None:
         self.actor = actor
+        self.version = version
+        self.model = EnergyModel(cfg.energy) if cfg is not None else None
+        self.plan = cfg.plan if cfg is not None else None
         self.n_slots = n_slots
         self.name = name
         self.selector = SlotSelector(n_slots) if n_slots > 1 else None
@@ -126,13 +155,19 @@ class ActorPolicy:
         self._h = None
 
     def act(self, view: WindowView) -> np.ndarray:
-        obs = torch.from_numpy(observe(view))
         if self._h is None:
-            self._h = torch.zeros(obs.shape[0], self.actor.hidden_size)
-        with torch.no_grad():
-            logits, self._h = self.actor(obs, self._h)
-        mask = torch.from_numpy(np.repeat(view.action_mask(), self.n_slots, axis=1))
-        joint = torch.argmax(logits.masked_fill(~mask, MASKED_LOGIT), dim=1).numpy()
+            self._h = torch.zeros(view.n_drones, self.actor.hidden_size)
+        h = self._h
+        mask = np.repeat(view.action_mask(), self.n_slots, axis=1)
+
+        def choose(drones: np.ndarray, obs: np.ndarray) -> np.ndarray:
+            idx = torch.from_numpy(drones)
+            with torch.no_grad():
+                logits, h[idx] = self.actor(torch.from_numpy(obs), h[idx])
+            m = torch.from_numpy(mask[drones])
+            return torch.argmax(logits.masked_fill(~m, MASKED_LOGIT), dim=1).numpy()
+
+        _, joint = observe_and_choose(view, choose, self.version, model=self.model, plan=self.plan)
         if self.selector is not None:
             self.selector.slots = joint % self.n_slots
         return (joint // self.n_slots).astype(np.int64)
@@ -184,7 +219,9 @@ def _work(task: tuple[Any, ...]) -> Any:
         _, _, i, seed = task
         return run_episode(_ENV, actor, _CTX.train_days[i], seed)
     _, _, i = task
-    pol = ActorPolicy(actor, _ENV.n_slots, name=_CTX.tcfg.method)
+    pol = ActorPolicy(
+        actor, _ENV.n_slots, name=_CTX.tcfg.method, version=_ENV.obs_version, cfg=_CTX.cfg
+    )
     return evaluate_day(pol, _CTX.eval_days[i], _CTX.depots, _CTX.cfg, _CTX.tcfg.method)
 
 

@@ -32,7 +32,7 @@ from .rollout import Episode, Workers, derive_seed
 
 __all__ = ["Trainer", "load_training_data", "split_days", "train"]
 
-BASELINES = ("random", "greedy")  # compared with on held-out days (ops-random, greedy)
+BASELINES = ("random", "greedy", "myopic")  # compared with on held-out days (ops-random, ...)
 _STREAM_DAYS, _STREAM_EPISODE, _STREAM_UPDATE = 1, 2, 3
 Event = dict[str, Any]
 
@@ -52,6 +52,7 @@ class Trainer:
         torch.manual_seed(self.tcfg.seed)
         env = DeliveryEnv(td.ctx.depots, td.ctx.cfg, self.tcfg)
         self.n_actions, self.n_slots = env.n_dest, env.n_slots
+        self.obs_version = env.obs_version
         self.actor = Actor(env.obs_dim, env.n_logits, self.tcfg.hidden_size)
         self.critic = Critic(env.obs_dim, self.tcfg.critic_hidden)
         params = [*self.actor.parameters(), *self.critic.parameters()]
@@ -61,6 +62,7 @@ class Trainer:
         self.history: list[dict[str, float]] = []
         self.evals: list[dict[str, Any]] = []
         self.baselines: list[dict[str, Any]] = []
+        self.best: dict[str, Any] | None = None  # {"episode", "combined_cost", "actor"}
 
     # -- checkpoints -----------------------------------------------------------------
     def save_checkpoint(self) -> None:
@@ -77,6 +79,7 @@ class Trainer:
             "history": self.history,
             "evals": self.evals,
             "baselines": self.baselines,
+            "best": self.best,
         }
         tmp = self.ckpt.with_name(f".{self.ckpt.name}.{os.getpid()}.tmp")
         self.ckpt.parent.mkdir(parents=True, exist_ok=True)
@@ -105,6 +108,7 @@ class Trainer:
         self.elapsed_s = float(state["elapsed_s"])
         self.history, self.evals = list(state["history"]), list(state["evals"])
         self.baselines = list(state["baselines"])
+        self.best = state.get("best")
         return True
 
     # -- one update --------------------------------------------------------------------
@@ -127,7 +131,8 @@ class Trainer:
         obs, actions, logp, mask, rewards = (
             _stack(eps, k) for k in ("obs", "actions", "logp", "mask", "rewards")
         )
-        batch = make_batch(obs, actions, logp, mask, rewards, self.critic, self.tcfg)
+        teacher = _stack(eps, "teacher")
+        batch = make_batch(obs, actions, logp, mask, rewards, self.critic, self.tcfg, teacher)
         if self.tcfg.anneal_lr:
             frac = 1.0 - self.episode / self.tcfg.episodes
             for g in self.optimizer.param_groups:
@@ -135,7 +140,9 @@ class Trainer:
         gen = torch.Generator().manual_seed(
             derive_seed(self.tcfg.seed, _STREAM_UPDATE, self.update)
         )
-        stats = ppo_update(self.actor, self.critic, self.optimizer, batch, self.tcfg, gen)
+        stats = ppo_update(
+            self.actor, self.critic, self.optimizer, batch, self.tcfg, gen, self.bc_weight()
+        )
         self.episode += n
         self.update += 1
         stats.update(
@@ -146,6 +153,15 @@ class Trainer:
         )
         self.history.append(stats)
         return stats
+
+    def bc_weight(self) -> float:
+        """Weight of the imitation term now: ``bc_coef`` falling linearly to 0 at
+        ``bc_anneal`` of the run (MAPPO has no target: 0)."""
+        t = self.tcfg
+        span = t.bc_anneal * t.episodes
+        if self.obs_version != 3 or span <= 0:
+            return 0.0
+        return t.bc_coef * max(0.0, 1.0 - self.episode / span)
 
     def evaluate(self, workers: Workers) -> dict[str, Any] | None:
         """Arg-max actor on the held-out days, with the baselines' numbers beside it."""
@@ -160,6 +176,9 @@ class Trainer:
         rows = workers.map([("eval", state, i) for i in range(n_eval)])
         ev = {"episode": self.episode, **summarise(rows, self.baselines)}
         self.evals.append(ev)
+        cc = float(ev["methods"][self.tcfg.method]["combined_cost"])
+        if self.best is None or cc < self.best["combined_cost"]:
+            self.best = {"episode": self.episode, "combined_cost": cc, "actor": state}
         return ev
 
     def run(self, resume: bool) -> None:
@@ -202,8 +221,13 @@ class Trainer:
     def export(self, command: str | None, data_origin: str | None = None) -> dict[str, Any]:
         """Write the TorchScript actor and its sidecar (SPEC §6)."""
         t, cfg = self.tcfg, self.td.ctx.cfg
+        chosen = self.evals[-1] if self.evals else None
+        if t.keep_best and self.best is not None:
+            self.actor.load_state_dict(self.best["actor"])
+            chosen = next(e for e in self.evals if e["episode"] == self.best["episode"])
         side: dict[str, Any] = {
             "method": t.method,
+            "obs_version": self.obs_version,
             "n_actions": self.n_actions,
             "alpha": cfg.plan.alpha,
             "seed": t.seed,
@@ -222,7 +246,15 @@ class Trainer:
             "s(x) = 2*sigmoid(ln3*x) - 1 (marops_cli/rl/env.py)",
             "train_config": t.model_dump(mode="json"),
             "planner_config": cfg.model_dump(mode="json"),
-            "heldout": self.evals[-1] if self.evals else None,
+            "heldout": chosen,
+            "exported_episode": chosen["episode"] if chosen else self.episode,
+            "evaluations": [
+                {
+                    "episode": e["episode"],
+                    **{m: v["combined_cost"] for m, v in e["methods"].items()},
+                }
+                for e in self.evals
+            ],
             "learning_curve": [
                 {k: round(float(h[k]), 4) for k in ("episode", "reward", "delay_h", "energy_kj")}
                 for h in self.history

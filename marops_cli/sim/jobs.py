@@ -24,7 +24,7 @@ from ..errors import InputError
 from ..io.jsonfile import read_json
 from ..plans.select import make_selector
 from ..plans.window import WindowPlan, plan_window
-from ..policies.base import Policy
+from ..policies.base import Policy, start_day
 from ..policies.registry import make_policy
 from ..segment.depots import Depots
 from ..segment.methods import segment_points
@@ -42,6 +42,7 @@ METHODS: dict[str, tuple[str, str]] = {
     "squares": ("squares", "learned"),
     "mappo": ("kmeans", "direct"),  # learned policy picks plans directly (policies/direct.py)
     "stay": ("kmeans", "stay"),
+    "myopic": ("kmeans", "myopic"),  # one-window best response, the actor's imitation target
 }
 DEFAULT_POLICY_NAME = "marops-basic.pt"
 DEFAULT_MAPPO_NAME = "mappo-basic.pt"
@@ -183,7 +184,7 @@ def plan_one_window(
     if delivered:
         done = np.isin(reqs.order_id.astype(str), np.array(sorted(delivered), dtype=str))
         state.delivered_w[done] = max(0, window - 1)
-    policy.reset(cfg.sim.seed)
+    start_day(policy, cfg, cfg.sim.seed)
     model = EnergyModel(cfg.energy)
     view = state.view(window)
     actions = policy.act(view)

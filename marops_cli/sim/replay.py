@@ -13,7 +13,7 @@ from ..data.table import DayRequests
 from ..energy import EnergyModel
 from ..plans.select import Selector, make_selector
 from ..plans.window import WindowPlan, plan_window
-from ..policies.base import Policy
+from ..policies.base import Policy, start_day
 from ..segment.depots import Depots
 from .state import DayState
 
@@ -44,7 +44,7 @@ def replay_day(
     # A policy that picks plans itself (the MAPPO baseline) carries its own selector.
     selector = selector or getattr(policy, "selector", None) or make_selector(cfg.plan)
     state = DayState(day, depots, drone_depot, cfg.plan.coverage)
-    policy.reset(cfg.sim.seed)
+    start_day(policy, cfg, cfg.sim.seed)
     plans: list[WindowPlan] = []
     t0 = time.perf_counter()
     for t in range(day.n_windows):

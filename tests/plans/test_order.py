@@ -135,3 +135,35 @@ def test_twelve_candidates_run_and_more_are_refused(model):
         subset_orders(START, END, np.zeros((3, 2)), [0.1, 0.2], model)
     with pytest.raises(ValueError, match="ordering"):
         subset_orders(START, END, np.zeros((2, 2)), [0.1, 0.2], model, "random")  # type: ignore[arg-type]
+
+
+def test_batched_subset_energies_match_brute_force(model: EnergyModel) -> None:
+    """subset_energies (a batch of drones, padded) = the best permutation of each subset."""
+    from marops_cli.plans.order import subset_energies
+
+    rng = np.random.default_rng(7)
+    sizes = [4, 2, 0, 3]
+    n = max(sizes)
+    xy = np.full((len(sizes), n, 2), np.nan)
+    w = np.full((len(sizes), n), np.inf)
+    starts = rng.uniform(-800, 800, (len(sizes), 2))
+    ends = rng.uniform(-800, 800, (len(sizes), 2))
+    for b, k in enumerate(sizes):
+        xy[b, :k] = rng.uniform(-1500, 1500, (k, 2))
+        w[b, :k] = rng.uniform(0.1, 1.2, k)
+    energy, weight, bits = subset_energies(starts, ends, xy, w, model)
+    assert energy.shape == weight.shape == (len(sizes), 1 << n)
+    for b, k in enumerate(sizes):
+        for mask in range(1 << n):
+            members = np.flatnonzero(bits[mask])
+            if members.size and members.max() >= k:  # holds a pad: never a plan
+                assert energy[b, mask] == np.inf
+                continue
+            if w[b, members].sum() > model.max_payload_kg:
+                assert energy[b, mask] == np.inf
+                continue
+            best = min(
+                _route_j(model, xy[b], w[b], perm, starts[b], ends[b])
+                for perm in itertools.permutations(members.tolist())
+            )
+            assert energy[b, mask] == pytest.approx(best, rel=1e-9)

@@ -16,6 +16,7 @@ from marops_cli.policies import (
     OBS_VERSION,
     GlobalPolicy,
     GreedyPolicy,
+    MyopicPolicy,
     RandomPolicy,
     StayPolicy,
     WindowView,
@@ -23,6 +24,7 @@ from marops_cli.policies import (
     obs_dim,
     observe,
 )
+from marops_cli.policies.observation import PER_ACTION_V3, VALUE, SequentialObserver
 from marops_cli.policies.torchscript import TorchScriptPolicy
 from marops_cli.segment.depots import Depots, nearest_candidates
 
@@ -84,9 +86,12 @@ def test_greedy_flies_towards_late_work() -> None:
 
 def test_observation_is_layout_independent_in_shape() -> None:
     view = _view([1.0, 0.0], [(4000.0, 0.0), (10.0, 10.0)], [0, 2])
-    obs = observe(view)
-    assert obs.shape == (2, obs_dim(3)) and obs.dtype == np.float32
+    obs = observe(view)  # version 2
+    assert obs.shape == (2, obs_dim(3, 2)) and obs.dtype == np.float32
     assert np.isfinite(obs).all()
+    seq = SequentialObserver(view)  # version 3
+    row = seq.row(0)
+    assert row.shape == (obs_dim(3, 3),) == (3 * PER_ACTION_V3 + 7,) and np.isfinite(row).all()
 
 
 class _TinyActor(torch.nn.Module):
@@ -102,9 +107,9 @@ class _TinyActor(torch.nn.Module):
         return self.head(h), h
 
 
-def _export(tmp_path: Path, n_actions: int = 3, version: int = OBS_VERSION) -> Path:
+def _export(tmp_path: Path, n_actions: int = 3, version: int = 2) -> Path:
     torch.manual_seed(0)
-    actor = torch.jit.script(_TinyActor(obs_dim(n_actions), n_actions, 8))
+    actor = torch.jit.script(_TinyActor(obs_dim(n_actions, version), n_actions, 8))
     path = tmp_path / "tiny.pt"
     actor.save(str(path))
     side = {"obs_version": version, "n_actions": n_actions, "hidden_size": 8}
@@ -142,3 +147,91 @@ def test_torchscript_actor_mismatches_are_input_errors(tmp_path: Path) -> None:
         TorchScriptPolicy(tmp_path / "tiny.pt")
     with pytest.raises(InputError, match="unknown policy"):
         make_policy("clever")
+
+
+def test_sequential_observation_claims_what_earlier_drones_take() -> None:
+    """Two drones at depot 0, one late parcel beside it: the first drone's best plan
+    claims it, so the second sees nothing left to serve there (version 3)."""
+    view = _view([2.0], [(100.0, 0.0)], [0, 0])
+    seq = SequentialObserver(view)
+    first = seq.row(0)
+    stay = slice(0, PER_ACTION_V3)
+    assert first[stay][1] == pytest.approx(np.log1p(1.0))  # one pending request in range
+    assert first[stay][VALUE] > 0  # worth flying: λ·(1 + 2 h) exceeds its energy
+    seq.commit(0, 0)
+    second = seq.row(1)
+    assert second[stay][1] == 0.0 and second[stay][VALUE] == 0.0  # nothing left: stay idle
+    assert second[stay][VALUE + 2] == pytest.approx(np.log1p(1.0))  # one drone went there
+    assert second[-2] == pytest.approx(np.log1p(1.0))  # one co-located drone before it
+
+
+def test_plan_value_feature_is_the_best_plan_of_build_plans() -> None:
+    """Feature VALUE of each action = max over build_plans' plans of λ Σ v − E (hand rule)."""
+    from marops_cli.config import PlanConfig
+    from marops_cli.energy import EnergyModel
+    from marops_cli.plans.plans import build_plans
+
+    view = _view(
+        [1.5, 0.5, 3.0, 0.0], [(900.0, 200.0), (2500.0, -300.0), (3900.0, 0.0), (50.0, 0.0)], [0]
+    )
+    model, plan = EnergyModel(), PlanConfig()
+    seq = SequentialObserver(view, model, plan)
+    row = seq.row(0)
+    lam = (1 - plan.alpha) / plan.alpha * model.usable_j
+    for k in range(3):
+        d = int(view.depots.candidates[0, k])
+        inside = np.flatnonzero(view.ranges[0, k][view.pending_area])
+        ps = build_plans(
+            view.depots.xy[0],
+            view.depots.xy[d],
+            view.pending_xy[inside],
+            view.pending_weight[inside],
+            model,
+            plan,
+            request_ids=inside,
+        )
+        net = lam * (ps.members @ (1 + view.pending_delay_h[inside])) - ps.energy_j
+        best = int(np.argmax(net))
+        f = row[k * PER_ACTION_V3 : (k + 1) * PER_ACTION_V3]
+        assert f[VALUE] == pytest.approx(net[best] / model.usable_j, rel=1e-5)
+        assert f[VALUE + 1] == pytest.approx(ps.energy_j[best] / model.usable_j, rel=1e-5)
+
+
+def test_myopic_takes_the_best_plan_and_spreads_drones() -> None:
+    # Late parcels at depot 2 (4 km) and at depot 0; two drones at depot 0.
+    view = _view([3.0, 3.0], [(4000.0, 100.0), (100.0, 0.0)], [0, 0])
+    acts = MyopicPolicy().act(view)
+    dest = view.depots.candidates[0, acts].tolist()
+    assert dest[0] == 2  # its range 0 -> 2 holds both: one flight serves 2 x (1 + 3 h)
+    assert dest[1] == 0  # nothing left for the second: flying empty only costs energy
+    # With a third late parcel only reachable through depot 1's side, the second drone
+    # no longer idles: it takes what the first one left.
+    view = _view(
+        [3.0, 3.0, 3.0, 3.0, 3.0, 3.0],
+        [
+            (4000.0, 100.0),
+            (100.0, 0.0),
+            (3900.0, 0.0),
+            (3800.0, 50.0),
+            (3700.0, 0.0),
+            (3950.0, -50.0),
+        ],
+        [0, 0],
+    )
+    acts = MyopicPolicy().act(view)
+    assert view.depots.candidates[0, acts].tolist() == [2, 2]  # 6 parcels > M̂ = 5
+
+
+def test_version3_actor_chooses_drone_by_drone(tmp_path: Path) -> None:
+    path = _export(tmp_path, version=3)
+    view = _view([1.0, 0.5], [(4000.0, 0.0), (2000.0, 50.0)], [0, 0, 2])
+    pol = make_policy(f"torchscript:{path}")
+    acts = pol.act(view)
+    # The same choices by hand: observe drone by drone, arg-max of the module's logits.
+    module = torch.jit.load(str(path))
+    seq, h, want = SequentialObserver(view), torch.zeros(3, 8), []
+    for u in range(3):
+        logits, h[u : u + 1] = module(torch.from_numpy(seq.row(u)[None, :]), h[u : u + 1])
+        want.append(int(logits.argmax()))
+        seq.commit(u, want[-1])
+    assert acts.tolist() == want

@@ -40,12 +40,15 @@ def test_episode_adds_up_to_the_day_delay(tiny_csv: Path, small_cfg: PlannerConf
         td = load_training_data(tiny_csv, small_cfg, tcfg)
         env = DeliveryEnv(td.ctx.depots, small_cfg, tcfg)
         day = td.ctx.train_days[0]
-        obs = env.reset(day)
-        assert obs.shape == (4, env.obs_dim) and env.action_mask().shape == (4, 4)
+        env.reset(day)
         rng = np.random.default_rng(0)
         total, steps = 0.0, 0
-        while obs is not None:
-            obs, r, info = env.step(rng.integers(0, env.n_logits, size=4))
+        while not env.done:
+            obs, acts = env.observe(
+                lambda u, o, n=env.n_logits, g=rng: g.integers(0, n, size=len(u))
+            )
+            assert obs.shape == (4, env.obs_dim) and env.action_mask().shape == (4, 4)
+            r, info = env.step(acts)
             assert r.shape == (4,) and np.all(r <= 0) and np.all(r > -1)
             total += float(info["late_h"])
             steps += 1

@@ -38,7 +38,7 @@ def test_smoke_writes_actor_sidecar_checkpoint(
         assert key in doc
     assert doc["n_actions"] == 4 and doc["hidden_size"] == 64 and doc["episodes"] == 4
     assert len(doc["data"]["sha256"]) == 64 and doc["data"]["heldout_days"]
-    assert set(doc["heldout"]["methods"]) == {"marops", "random", "greedy"}
+    assert set(doc["heldout"]["methods"]) == {"marops", "random", "greedy", "myopic"}
     kinds = [e["kind"] for e in events]
     assert kinds[0] == "start" and kinds.count("update") == 2 and "eval" in kinds
 
