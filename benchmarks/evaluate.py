@@ -134,13 +134,23 @@ def shape_checks(summary: pa.Table) -> list[str]:
             out.append(f"- **{PAPER_NAMES[m]}**: not run, the trained actor is not shipped yet.")
     if "marops" in rows:
         best = min(mean["combined_cost"], key=mean["combined_cost"].get)
-        cc = mean["combined_cost"]
+        cc, e, d = mean["combined_cost"], mean["mean_energy_kj"], mean["avg_delay_h"]
+        why = (
+            ""
+            if best == "marops"
+            else f" marops has the lower delay ({d['marops']:.2f} h against {d[best]:.2f} h) "
+            f"but spends more energy ({e['marops']:.0f} kJ against {e[best]:.0f} kJ): a "
+            "flight-range drone always ends at its chosen depot, an ops-global drone at the "
+            "depot nearest its last customer, and the actor learned little repositioning "
+            "beyond its one-window teacher (policies/README.md, known limitations)."
+        )
+        rivals = {m: v for m, v in cc.items() if m in PAPER_NAMES and m != "marops"}
+        beaten = sorted(m for m, v in rivals.items() if v > cc["marops"])
         out.append(
             f"- **MAR-OPS has the lowest combined cost** (paper 0.48): "
             f"{'reproduces' if best == 'marops' else 'does not reproduce'}; marops "
-            f"{cc['marops']:.2f}, lowest {best} {cc[best]:.2f}. The shipped actor was trained "
-            "on one synthetic city; here it gathers too many drones in the busiest areas "
-            "(see the closing note of issue 5): a known limitation, not hidden."
+            f"{cc['marops']:.2f}, lowest {best} {cc[best]:.2f}; marops is below "
+            f"{', '.join(beaten) or 'none of the paper methods'}.{why}"
         )
     return out
 

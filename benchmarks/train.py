@@ -27,7 +27,7 @@ from marops_cli.data.reader import read_lade  # noqa: E402
 from marops_cli.rl.evaluate import method_table  # noqa: E402
 from marops_cli.sim.jobs import METHODS, load_fleet, load_scenario, method_policy, replay  # noqa: E402
 
-DEFAULT_METHODS = "marops,squares,mappo,ops-random,greedy,ops-global,stay"
+DEFAULT_METHODS = "marops,squares,mappo,ops-random,greedy,ops-global,stay,myopic"
 COLUMNS = (
     ("mean_energy_kj", "energy kJ/drone", "{:.1f} ± {:.1f}"),
     ("avg_delay_h", "avg delay h", "{:.3f} ± {:.3f}"),
