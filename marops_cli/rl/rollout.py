@@ -15,7 +15,7 @@ import numpy as np
 import torch
 from torch.distributions import Categorical
 
-from ..config import PlannerConfig
+from ..config import PlanConfig, PlannerConfig
 from ..data.table import DayRequests
 from ..energy import EnergyModel
 from ..policies.base import WindowView
@@ -140,16 +140,19 @@ class ActorPolicy:
         n_slots: int = 1,
         name: str = "actor",
         version: int = 3,
-        cfg: PlannerConfig | None = None,
     ) -> None:
         self.actor = actor
         self.version = version
-        self.model = EnergyModel(cfg.energy) if cfg is not None else None
-        self.plan = cfg.plan if cfg is not None else None
+        self.model: EnergyModel | None = None
+        self.plan: PlanConfig | None = None
         self.n_slots = n_slots
         self.name = name
         self.selector = SlotSelector(n_slots) if n_slots > 1 else None
         self._h: torch.Tensor | None = None
+
+    def configure(self, cfg: PlannerConfig) -> None:
+        """Price version-3 observations with the run's planner settings (``start_day``)."""
+        self.model, self.plan = EnergyModel(cfg.energy), cfg.plan
 
     def reset(self, seed: int) -> None:
         self._h = None
@@ -219,9 +222,7 @@ def _work(task: tuple[Any, ...]) -> Any:
         _, _, i, seed = task
         return run_episode(_ENV, actor, _CTX.train_days[i], seed)
     _, _, i = task
-    pol = ActorPolicy(
-        actor, _ENV.n_slots, name=_CTX.tcfg.method, version=_ENV.obs_version, cfg=_CTX.cfg
-    )
+    pol = ActorPolicy(actor, _ENV.n_slots, name=_CTX.tcfg.method, version=_ENV.obs_version)
     return evaluate_day(pol, _CTX.eval_days[i], _CTX.depots, _CTX.cfg, _CTX.tcfg.method)
 
 
