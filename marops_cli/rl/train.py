@@ -11,7 +11,8 @@ from __future__ import annotations
 import datetime as dt
 import os
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -184,9 +185,6 @@ class Trainer:
     def run(self, resume: bool) -> None:
         resumed = resume and self.load_checkpoint()
         t = self.tcfg
-        # One thread, as in the workers: the same arithmetic whatever --workers says.
-        torch.set_num_threads(1)
-        torch.use_deterministic_algorithms(True)
         self.emit(
             {
                 "kind": "start",
@@ -282,6 +280,22 @@ def train(
     ``command`` and ``data_origin`` (how ``data`` was made) go into the sidecar as given.
     """
     td = load_training_data(data, cfg, tcfg, train_days)
-    trainer = Trainer(td, Path(out), on_event)
-    trainer.run(resume)
-    return trainer.export(command, data_origin)
+    with _one_thread():
+        trainer = Trainer(td, Path(out), on_event)
+        trainer.run(resume)
+        return trainer.export(command, data_origin)
+
+
+@contextmanager
+def _one_thread() -> Iterator[None]:
+    """One deterministic thread, as in the workers, for the networks' initialisation (its
+    QR factorisation depends on the thread count) and every update, so the arithmetic is
+    the same whatever ``--workers`` says and whatever ran before in this process."""
+    threads, strict = torch.get_num_threads(), torch.are_deterministic_algorithms_enabled()
+    torch.set_num_threads(1)
+    torch.use_deterministic_algorithms(True)
+    try:
+        yield
+    finally:
+        torch.set_num_threads(threads)
+        torch.use_deterministic_algorithms(strict)
