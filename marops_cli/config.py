@@ -153,6 +153,11 @@ class PlanConfig(_Stage):
         description="how drones pick candidates: draft (take turns claiming the most delayed "
         "unclaimed request in range, then top up) or top (paper: each its own M-hat most delayed)",
     )
+    ties: Literal["nearest", "due"] = Field(
+        "nearest",
+        description="order among equally delayed requests: nearest (nearer the drone's depot "
+        "first, then earlier due) or due (SPEC: earlier due first, then nearer)",
+    )
     alpha: float = Field(0.5, gt=0, le=1, description="trade-off weight: energy vs delay")
     solver: Literal["highs", "greedy"] = Field("highs", description="plan selection solver")
     time_limit_s: float = Field(2.0, gt=0, description="solver time limit per window")

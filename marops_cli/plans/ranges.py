@@ -2,9 +2,13 @@
 
 from __future__ import annotations
 
+from typing import Literal
+
 import numpy as np
 
 from ..segment.depots import Depots
+
+Ties = Literal["nearest", "due"]
 
 
 def range_size(n_depots: int, coverage: float) -> int:
@@ -52,14 +56,14 @@ def pick_candidates(
     due_s: np.ndarray,
     dist_to_start: np.ndarray,
     m_hat: int,
+    ties: Ties = "nearest",
 ) -> np.ndarray:
-    """The ``m_hat`` requests of ``idx`` with the highest delay.
+    """The ``m_hat`` requests of ``idx`` with the highest delay, most delayed first.
 
-    Ties: earlier due time, then nearer the start depot, then lower index (so the
-    choice never depends on array order). All arrays are aligned with ``idx``.
+    Delay counts whole windows, so many requests tie on it. Ties ``"nearest"``: nearer
+    the start depot, then earlier due time; ``"due"`` (SPEC §4): earlier due time, then
+    nearer. Then the lower index, so the choice never depends on array order. All
+    arrays are aligned with ``idx``.
     """
-    if idx.size <= m_hat:
-        order = np.lexsort((idx, dist_to_start, due_s, -delay))
-        return idx[order]
-    order = np.lexsort((idx, dist_to_start, due_s, -delay))[:m_hat]
-    return idx[order]
+    keys = (dist_to_start, due_s) if ties == "due" else (due_s, dist_to_start)
+    return idx[np.lexsort((idx, *keys, -delay))[:m_hat]]

@@ -63,19 +63,20 @@ def _range_candidates(
 
     ``rank`` lists the pending requests by delay (highest first), then due time, and
     ``rank_area`` their areas, so only the head of the drone's range needs the full
-    sort of :func:`pick_candidates` (with its distance tie-break): the first ``m_hat``
-    requests and any tied with the last of them on delay and due time.
+    sort of :func:`pick_candidates` (with its distance tie-breaks): the first ``m_hat``
+    requests and any tied with the last of them (on delay, and on due time when
+    ``view.ties`` is ``"due"``).
     """
     inside = rank[view.ranges[s, a][rank_area]]
     if inside.size > m_hat:
         last, rest = inside[m_hat - 1], inside[m_hat:]
-        tie = (view.pending_delay_h[rest] == view.pending_delay_h[last]) & (
-            view.pending_due_s[rest] == view.pending_due_s[last]
-        )
+        tie = view.pending_delay_h[rest] == view.pending_delay_h[last]
+        if view.ties == "due":
+            tie &= view.pending_due_s[rest] == view.pending_due_s[last]
         inside = inside[: m_hat + (tie.size if tie.all() else int(np.argmin(tie)))]
     dist = np.hypot(*(view.pending_xy[inside] - view.depots.xy[s]).T)
     return pick_candidates(
-        inside, view.pending_delay_h[inside], view.pending_due_s[inside], dist, m_hat
+        inside, view.pending_delay_h[inside], view.pending_due_s[inside], dist, m_hat, view.ties
     )
 
 
@@ -99,8 +100,9 @@ def _drafted_candidates(
     unclaimed request in their range, M̂ rounds; a drone left short tops up with requests
     others claimed, so the selection can still arbitrate between them.
 
-    Each drone's preference order is :func:`pick_candidates`' (delay, due time, distance
-    to its depot, index); only the head of its range that the draft can reach is sorted.
+    Each drone's preference order is :func:`pick_candidates`' (delay, then distance to
+    its depot and due time as ``view.ties`` orders them, then index); only the head of
+    its range that the draft can reach is sorted.
     """
     head = m_hat * (view.n_drones + 1)  # the most any drone can reach in the draft
     prefs = [

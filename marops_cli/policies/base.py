@@ -7,6 +7,7 @@ from typing import TYPE_CHECKING, Literal, Protocol, runtime_checkable
 
 import numpy as np
 
+from ..plans.ranges import Ties
 from ..segment.depots import Depots
 
 if TYPE_CHECKING:
@@ -34,6 +35,7 @@ class WindowView:
     pending_due_w: np.ndarray  # (P,)
     pending_due_s: np.ndarray  # (P,) due time, seconds from service start
     pending_weight: np.ndarray  # (P,)
+    ties: Ties = "nearest"  # candidate order among equally delayed requests (PlanConfig.ties)
 
     @property
     def n_drones(self) -> int:

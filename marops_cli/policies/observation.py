@@ -64,6 +64,7 @@ def _candidate_features(
         view.pending_due_s[inside],
         dist_s,
         m_hat,
+        view.ties,
     )
     detour = dist_s[cand] + np.hypot(*(pxy[cand] - xy_d).T) - np.hypot(*(xy_d - xy_s))
     return float(view.pending_delay_h[inside][cand].sum()), float(cand.size), float(detour.mean())

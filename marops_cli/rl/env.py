@@ -119,7 +119,7 @@ class DeliveryEnv:
     def reset(self, day: DayRequests, fleet: np.ndarray | None = None) -> None:
         """Start ``day`` with drones at ``fleet`` (default: the busiest depots)."""
         fleet = default_fleet(self.depots, self.n_drones) if fleet is None else fleet
-        self.state = DayState(day, self.depots, fleet, self.cfg.plan.coverage)
+        self.state = DayState(day, self.depots, fleet, self.cfg.plan.coverage, self.cfg.plan.ties)
         self.t = 0
         self.view = self.state.view(0)
 

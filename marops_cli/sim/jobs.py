@@ -180,7 +180,7 @@ def plan_one_window(
     reqs = prepare_day(scn.table, scn.frame, day, cfg.data)
     if not 0 <= window < reqs.n_windows:
         raise InputError(f"--window {window} is outside 0..{reqs.n_windows - 1}")
-    state = DayState(reqs, scn.depots, fleet, cfg.plan.coverage)
+    state = DayState(reqs, scn.depots, fleet, cfg.plan.coverage, cfg.plan.ties)
     if delivered:
         done = np.isin(reqs.order_id.astype(str), np.array(sorted(delivered), dtype=str))
         state.delivered_w[done] = max(0, window - 1)

@@ -43,7 +43,7 @@ def replay_day(
     model = model or EnergyModel(cfg.energy)
     # A policy that picks plans itself (the MAPPO baseline) carries its own selector.
     selector = selector or getattr(policy, "selector", None) or make_selector(cfg.plan)
-    state = DayState(day, depots, drone_depot, cfg.plan.coverage)
+    state = DayState(day, depots, drone_depot, cfg.plan.coverage, cfg.plan.ties)
     start_day(policy, cfg, cfg.sim.seed)
     plans: list[WindowPlan] = []
     t0 = time.perf_counter()

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..data.table import DayRequests
-from ..plans.ranges import delays_h, range_table
+from ..plans.ranges import Ties, delays_h, range_table
 from ..plans.window import WindowPlan
 from ..policies.base import WindowView
 from ..segment.depots import Depots
@@ -24,7 +24,12 @@ class DayState:
     """
 
     def __init__(
-        self, day: DayRequests, depots: Depots, drone_depot: np.ndarray, coverage: float
+        self,
+        day: DayRequests,
+        depots: Depots,
+        drone_depot: np.ndarray,
+        coverage: float,
+        ties: Ties = "nearest",
     ) -> None:
         self.day = day
         self.depots = depots
@@ -32,6 +37,7 @@ class DayState:
         self.xy = np.column_stack([day.x_m, day.y_m])
         self.drone_depot = np.asarray(drone_depot, dtype=np.int64).copy()
         self.ranges = range_table(depots, coverage)
+        self.ties: Ties = ties
         self.delivered_w = np.full(len(day), -1, dtype=np.int64)
         self.arrive_s = np.full(len(day), np.nan)  # seconds from the delivering window's start
 
@@ -55,6 +61,7 @@ class DayState:
             pending_due_w=self.day.due_w[idx],
             pending_due_s=self.day.due_s[idx],
             pending_weight=self.day.weight_kg[idx],
+            ties=self.ties,
         )
 
     def apply(self, plan: WindowPlan, speed_ms: float) -> None:

@@ -15,7 +15,7 @@ from marops_cli.data.frame import Frame
 from marops_cli.energy import EnergyModel, reference_power_w
 from marops_cli.errors import RunError
 from marops_cli.plans import GreedySelector, MilpSelector, Selector
-from marops_cli.plans.ranges import range_table
+from marops_cli.plans.ranges import pick_candidates, range_table
 from marops_cli.plans.window import DroneRoute, check_routes, plan_window
 from marops_cli.policies.base import WindowView
 from marops_cli.segment.depots import Depots, nearest_candidates
@@ -284,6 +284,7 @@ def instances(draw):
     ordering = draw(st.sampled_from(["exact", "greedy"]))
     selector = draw(st.sampled_from(["cvxpy", "highs", "greedy"]))
     mode = draw(st.sampled_from(["top", "draft"]))
+    ties = draw(st.sampled_from(["nearest", "due"]))
     # few distinct due times: many ties on (delay, due time), broken by distance
     coarse_due = draw(st.booleans())
     rng = np.random.default_rng(seed)
@@ -309,6 +310,7 @@ def instances(draw):
         pending_due_s=due_w * 1800.0
         + (np.full(n_req, 900.0) if coarse_due else rng.uniform(0, 1800, n_req)),
         pending_weight=rng.uniform(0.1, 2.5, n_req),
+        ties=ties,
     )
     actions = rng.integers(0, depots.candidates.shape[1], n_drones)
     cfg = PlanConfig(
@@ -316,6 +318,7 @@ def instances(draw):
         ordering=ordering,
         alpha=float(rng.uniform(0.1, 1.0)),
         candidates=mode,
+        ties=ties,
     )
     return view, actions, cfg, scope, selector
 
@@ -325,7 +328,8 @@ def _selector(name: str) -> Selector:
 
 
 def preferences(view: WindowView, u: int, action: int, m_hat: int, scope: str) -> list:
-    """Drone u's requests in order of preference (pending positions), SPEC §4 / §7."""
+    """Drone u's requests in order of preference (pending positions), SPEC §4 / §7,
+    with equally delayed requests ordered as ``view.ties`` says."""
     s = int(view.drone_depot[u])
     sxy = view.depots.xy[s]
     dist = np.hypot(*(view.pending_xy - sxy).T)
@@ -333,8 +337,11 @@ def preferences(view: WindowView, u: int, action: int, m_hat: int, scope: str) -
         inside = [
             p for p in range(view.pending_idx.size) if view.ranges[s, action][view.pending_area[p]]
         ]
-        key = lambda p: (-view.pending_delay_h[p], view.pending_due_s[p], dist[p], p)  # noqa: E731
-        return sorted(inside, key=key)
+        # equally delayed: nearer first, then earlier due ("nearest"), or the reverse ("due")
+        near, due = dist, view.pending_due_s
+        if view.ties == "due":
+            near, due = due, near
+        return sorted(inside, key=lambda p: (-view.pending_delay_h[p], near[p], due[p], p))
     pool = sorted(
         range(view.pending_idx.size),
         key=lambda p: (-view.pending_delay_h[p], view.pending_due_s[p], p),
@@ -445,3 +452,17 @@ def test_draft_by_hand() -> None:
     # A drone whose range holds only claimed requests tops up with them.
     got = draft([np.array([0, 1]), np.array([0])], 2, 2)
     assert [g.tolist() for g in got] == [[0, 1], [0]]
+
+
+def test_candidate_ties_by_hand() -> None:
+    # Delay counts whole windows, so 10, 11 and 12 tie on it; 13 is the most delayed.
+    idx = np.array([10, 11, 12, 13])
+    delay = np.array([1.0, 1.0, 1.0, 2.0])
+    due_s = np.array([100.0, 200.0, 300.0, 50.0])
+    dist = np.array([900.0, 300.0, 300.0, 5000.0])
+    # nearest: 11 and 12 are nearer than 10; between them 11 is due first
+    assert pick_candidates(idx, delay, due_s, dist, 3, "nearest").tolist() == [13, 11, 12]
+    # due (SPEC §4's literal rule): 10 and 11 are due first, whatever the distance
+    assert pick_candidates(idx, delay, due_s, dist, 3, "due").tolist() == [13, 10, 11]
+    # fewer requests than M̂: all of them, still in order
+    assert pick_candidates(idx, delay, due_s, dist, 9, "nearest").tolist() == [13, 11, 12, 10]
