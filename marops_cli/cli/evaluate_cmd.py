@@ -20,7 +20,7 @@ if TYPE_CHECKING:
 
 @guarded
 def evaluate(
-    data: Annotated[Path, typer.Argument(help="LaDe delivery export (CSV or Parquet).")],
+    data: o.Data,
     out: Annotated[Path, typer.Option("--out", help="Output folder.")],
     methods: Annotated[
         str | None,

@@ -7,6 +7,7 @@ from typing import Annotated
 
 import typer
 
+Data = Annotated[Path, typer.Argument(help="LaDe delivery export (CSV or Parquet).")]
 Config = Annotated[
     Path | None, typer.Option("--config", help="Planner config TOML; flags override it.")
 ]

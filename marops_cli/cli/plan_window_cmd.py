@@ -19,7 +19,7 @@ if TYPE_CHECKING:
 
 @guarded
 def plan_window(
-    data: Annotated[Path, typer.Argument(help="LaDe delivery export (CSV or Parquet).")],
+    data: o.Data,
     depots: Annotated[Path, typer.Option("--depots", help="depots.json from marops segment.")],
     date: Annotated[str, typer.Option("--date", help="Day to plan: 820, 0820 or 2022-08-20.")],
     window: Annotated[int, typer.Option("--window", help="0-based window index in the day.")],

@@ -36,7 +36,7 @@ METRIC_COLUMNS = (
 
 @guarded
 def replay_day(
-    data: Annotated[Path, typer.Argument(help="LaDe delivery export (CSV or Parquet).")],
+    data: o.Data,
     out: Annotated[Path, typer.Option("--out", help="Output folder.")],
     date: Annotated[
         str | None, typer.Option("--date", help="One day to replay: 820, 0820 or 2022-08-20.")

@@ -8,6 +8,7 @@ from typing import Annotated
 import typer
 from rich.table import Table
 
+from . import options as o
 from .common import (
     console,
     guarded,
@@ -23,7 +24,7 @@ from .common import (
 
 @guarded
 def segment(
-    data: Annotated[Path, typer.Argument(help="LaDe delivery export (CSV or Parquet).")],
+    data: o.Data,
     out: Annotated[Path, typer.Option("--out", help="Where to write depots.json.")],
     depots: Annotated[
         int | None, typer.Option("--depots", help="Number of depots / service areas [16].")

@@ -79,7 +79,7 @@ class _Reporter:
 
 @guarded
 def train(
-    data: Annotated[Path, typer.Argument(help="LaDe delivery export (CSV or Parquet).")],
+    data: o.Data,
     out: Annotated[Path, typer.Option("--out", help="Actor to write: policies/NAME.pt (+ .json).")],
     days: Annotated[
         str | None,
