@@ -22,6 +22,9 @@ app = typer.Typer(
     no_args_is_help=True,
     add_completion=False,
     pretty_exceptions_enable=False,
+    # Help texts give defaults as "[kmeans]": rich markup would take them for style tags
+    # and drop them; markdown keeps them and the rich panels.
+    rich_markup_mode="markdown",
 )
 
 

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import re
+
 import typer
 from typer.testing import CliRunner
 
@@ -33,6 +35,19 @@ def test_every_command_and_option_has_help() -> None:
         result = runner.invoke(app, [name, "--help"])
         assert result.exit_code == 0, name
         assert "Usage" in result.output
+
+
+def test_bracketed_defaults_survive_rendering() -> None:
+    # "[kmeans]" is how help texts give a default; rich markup would read it as a style
+    # tag and drop it from the rendered help.
+    seen = 0
+    for name, cmd in _commands().items():
+        output = runner.invoke(app, [name, "--help"]).output
+        for param in cmd.params:
+            for default in re.findall(r"\[[^\]\s]+\]", param.help or ""):
+                assert default in output, (name, param.opts, default)
+                seen += 1
+    assert seen > 10  # kmeans, marops, exact, 16, 8, ...
 
 
 def test_version() -> None:
