@@ -47,17 +47,11 @@ def _lg(x: float | np.ndarray) -> float | np.ndarray:
     return np.log1p(np.maximum(x, 0.0))
 
 
-def _candidate_features(
-    view: WindowView, s: int, d: int, rng: np.ndarray, m_hat: int
-) -> tuple[float, float, float]:
-    """Summed delay (h), count and mean detour (km) of the M̂ requests the planner
-    would pick in range ``rng`` (same rule as :func:`pick_candidates`)."""
+def _planner_candidates(view: WindowView, s: int, rng: np.ndarray, m_hat: int) -> np.ndarray:
+    """Pending positions of the M̂ requests the planner would pick in range ``rng`` for a
+    drone at depot ``s`` (same rule as :func:`pick_candidates`)."""
     inside = np.flatnonzero(rng[view.pending_area])
-    if inside.size == 0:
-        return 0.0, 0.0, 0.0
-    xy_s, xy_d = view.depots.xy[s], view.depots.xy[d]
-    pxy = view.pending_xy[inside]
-    dist_s = np.hypot(*(pxy - xy_s).T)
+    dist_s = np.hypot(*(view.pending_xy[inside] - view.depots.xy[s]).T)
     cand = pick_candidates(
         np.arange(inside.size),
         view.pending_delay_h[inside],
@@ -66,8 +60,39 @@ def _candidate_features(
         m_hat,
         view.ties,
     )
-    detour = dist_s[cand] + np.hypot(*(pxy[cand] - xy_d).T) - np.hypot(*(xy_d - xy_s))
-    return float(view.pending_delay_h[inside][cand].sum()), float(cand.size), float(detour.mean())
+    return inside[cand]
+
+
+def _range_features(
+    f: np.ndarray,
+    view: WindowView,
+    s: int,
+    d: int,
+    rng: np.ndarray,
+    area: tuple[np.ndarray, np.ndarray, np.ndarray],
+    neigh: np.ndarray,
+    drones_at: np.ndarray,
+    cand: np.ndarray,
+    m_hat: int,
+) -> None:
+    """Write features 0-9 of the action s -> d with flight range ``rng`` into ``f`` (both
+    versions): ``area`` holds the pending count, delay and due-now count per area,
+    ``cand`` the pending positions of the range's M̂ candidates."""
+    xy_s, xy_d = view.depots.xy[s], view.depots.xy[d]
+    count, delay, due = area
+    f[0] = np.hypot(*(xy_d - xy_s)) / 1000.0
+    f[1] = _lg(count[rng].sum())
+    f[2] = _lg(delay[rng].sum())
+    f[3] = _lg(due[rng].sum())
+    f[4] = _lg(neigh[d])
+    f[5] = 1.0
+    f[6] = _lg(drones_at[rng].sum() - 1.0)  # minus u itself: s is always in R
+    if cand.size:
+        pxy = view.pending_xy[cand]
+        detour = np.hypot(*(pxy - xy_s).T) + np.hypot(*(pxy - xy_d).T) - np.hypot(*(xy_d - xy_s))
+        f[7] = _lg(view.pending_delay_h[cand].sum())
+        f[8] = cand.size / m_hat
+        f[9] = detour.mean() / 1000.0
 
 
 def observe(view: WindowView, m_hat: int = M_HAT) -> np.ndarray:
@@ -109,18 +134,18 @@ def observe(view: WindowView, m_hat: int = M_HAT) -> np.ndarray:
         for k in range(a):
             d = int(dep.candidates[s, k])
             rng = view.ranges[s, k]
-            cand_delay, cand_n, detour = _candidate_features(view, s, d, rng, m_hat)
-            f = out[u, k * PER_ACTION : (k + 1) * PER_ACTION]
-            f[0] = np.hypot(*(dep.xy[d] - dep.xy[s])) / 1000.0
-            f[1] = _lg(area_count[rng].sum())
-            f[2] = _lg(area_delay[rng].sum())
-            f[3] = _lg(area_due[rng].sum())
-            f[4] = _lg(neigh_delay[d])
-            f[5] = 1.0
-            f[6] = _lg(drones_at[rng].sum() - 1.0)  # minus u itself: s is always in R
-            f[7] = _lg(cand_delay)
-            f[8] = cand_n / m_hat
-            f[9] = detour / 1000.0
+            _range_features(
+                out[u, k * PER_ACTION : (k + 1) * PER_ACTION],
+                view,
+                s,
+                d,
+                rng,
+                (area_count, area_delay, area_due),
+                neigh_delay,
+                drones_at,
+                _planner_candidates(view, s, rng, m_hat),
+                m_hat,
+            )
         g = out[u, a * PER_ACTION :]
         g[0] = view.t / max(1, view.n_windows)
         g[1] = _lg(area_count[s])
@@ -217,6 +242,7 @@ class SequentialObserver:
         area_delay = np.bincount(area, weights=v.pending_delay_h * free, minlength=n)
         area_due = np.bincount(area, weights=self.due_now * free, minlength=n)
         neigh = area_delay[dep.candidates[:, 1:]].sum(axis=1) if a > 1 else np.zeros(n)
+        areas = (area_count, area_delay, area_due)
         rank = self.rank[free[self.rank]]
         rank_area = area[rank]
         out = np.zeros(self.dim, dtype=np.float32)
@@ -225,27 +251,12 @@ class SequentialObserver:
         best = self._best_plans(s, dests, cands)
         self._best, self._u = {k: best[k][2] for k in range(a)}, u
         for k in range(a):
-            d, cand = dests[k], cands[k]
-            rng = v.ranges[s, k]
+            d = dests[k]
             net, energy, _ = best[k]
             f = out[k * PER_ACTION_V3 : (k + 1) * PER_ACTION_V3]
-            f[0] = np.hypot(*(dep.xy[d] - dep.xy[s])) / 1000.0
-            f[1] = _lg(area_count[rng].sum())
-            f[2] = _lg(area_delay[rng].sum())
-            f[3] = _lg(area_due[rng].sum())
-            f[4] = _lg(neigh[d])
-            f[5] = 1.0
-            f[6] = _lg(self.drones_at[rng].sum() - 1.0)
-            if cand.size:
-                pxy = v.pending_xy[cand]
-                detour = (
-                    np.hypot(*(pxy - dep.xy[s]).T)
-                    + np.hypot(*(pxy - dep.xy[d]).T)
-                    - np.hypot(*(dep.xy[d] - dep.xy[s]))
-                )
-                f[7] = _lg(v.pending_delay_h[cand].sum())
-                f[8] = cand.size / m_hat
-                f[9] = detour.mean() / 1000.0
+            _range_features(
+                f, v, s, d, v.ranges[s, k], areas, neigh, self.drones_at, cands[k], m_hat
+            )
             f[VALUE] = net / self.model.usable_j
             f[VALUE + 1] = energy / self.model.usable_j
             f[VALUE + 2] = _lg(self.heading[d])
