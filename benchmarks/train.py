@@ -1,7 +1,7 @@
 """Held-out comparison of the shipped actors with the baselines (not a test; prints a table).
 
 Replays every evaluation day with every method (8 drones, 16 depots by default)
-and prints mean ± std over days. Combined cost (SPEC §8) is computed per day
+and prints mean ± std over days. Combined cost (docs/method.md §8) is computed per day
 over the methods compared in this run (mean of energy / max energy and delay /
 max delay), then averaged over days.
 

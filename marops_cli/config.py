@@ -33,7 +33,7 @@ def _parse_hhmm(value: str) -> int:
 
 
 class DataConfig(_Stage):
-    """Reading a LaDe export and preparing days (SPEC §1)."""
+    """Reading a LaDe export and preparing days (docs/method.md §1)."""
 
     year: int = Field(2022, ge=1970, le=2100, description="year of the MM-DD times")
     size_km: float = Field(10.0, gt=0, le=200, description="side of the study-area square")
@@ -99,7 +99,7 @@ class DataConfig(_Stage):
 
 
 class SegmentConfig(_Stage):
-    """Depots and service areas (SPEC §2)."""
+    """Depots and service areas (docs/method.md §2)."""
 
     method: Literal["kmeans", "squares"] = Field("kmeans", description="segmentation method")
     n_depots: int = Field(16, ge=1, le=4096, description="number of depots / service areas")
@@ -143,10 +143,47 @@ class EnergyConfig(_Stage):
 
 
 class PlanConfig(_Stage):
-    """Flight range, candidate plans and plan selection (SPEC §4)."""
+    """Flight range, candidate plans and plan selection (docs/method.md)."""
 
     coverage: float = Field(0.25, gt=0, le=1, description="share of service areas in a range")
-    max_parcels: int = Field(5, ge=1, le=12, description="M-hat: candidates per drone")
+    planner: Literal["pool", "subsets"] = Field(
+        "pool",
+        description="candidate plans: pool (many constructed and improved routes per drone) "
+        "or subsets (the paper: every subset of the M-hat most delayed requests)",
+    )
+    range: Literal["reach", "areas"] = Field(
+        "reach",
+        description="requests a flight-range drone may serve with the pool planner: reach "
+        "(any it can serve and still land within the battery) or areas (the paper's range: "
+        "start, destination and the areas nearest their midpoint)",
+    )
+    landing: Literal["destination", "nearest"] = Field(
+        "destination",
+        description="where a flight-range route lands: the action's destination depot, or the "
+        "depot nearest its last customer (pool planner)",
+    )
+    pool_candidates: int = Field(
+        80, ge=1, le=500, description="pool planner: requests considered per drone"
+    )
+    pool_iterations: int = Field(
+        40, ge=0, le=100_000, description="pool planner: ruin-and-recreate steps per window"
+    )
+    pool_urgency: float = Field(
+        1.0,
+        ge=0,
+        le=48,
+        description="pool planner: a request already due counts this many windows of delay "
+        "more when routes are built and selected (postponing it one window adds one; 0 = off)",
+    )
+    pyvrp_iterations: int = Field(
+        0,
+        ge=0,
+        description="pool planner: iterations of PyVRP per window whose routes join the pool "
+        "(0 = off; needs the pyvrp extra; an iteration count keeps results machine-independent)",
+    )
+    max_parcels: int = Field(
+        5, ge=1, le=12, description="M-hat: candidates per drone (subsets planner)"
+    )
     ordering: Literal["exact", "greedy"] = Field("exact", description="visiting order")
     candidates: Literal["draft", "top"] = Field(
         "draft",
@@ -156,7 +193,7 @@ class PlanConfig(_Stage):
     ties: Literal["nearest", "due"] = Field(
         "nearest",
         description="order among equally delayed requests: nearest (nearer the drone's depot "
-        "first, then earlier due) or due (SPEC: earlier due first, then nearer)",
+        "first, then earlier due) or due (the paper: earlier due first, then nearer)",
     )
     alpha: float = Field(0.5, gt=0, le=1, description="trade-off weight: energy vs delay")
     solver: Literal["highs", "greedy"] = Field("highs", description="plan selection solver")
@@ -165,7 +202,7 @@ class PlanConfig(_Stage):
 
 
 class SimConfig(_Stage):
-    """Day replay (SPEC §5)."""
+    """Day replay (docs/method.md §5)."""
 
     drones: int = Field(8, ge=1, description="fleet size")
     policy: str | None = Field(

@@ -1,4 +1,4 @@
-"""The drone energy model (SPEC §3, paper eqs. 4–9, after Stolaroff et al. 2018).
+"""The drone energy model (docs/method.md §3, paper eqs. 4–9, after Stolaroff et al. 2018).
 
 Power depends on the payload on board only, so :class:`EnergyModel` solves the
 induced-velocity equation once on a fine payload grid and interpolates linearly

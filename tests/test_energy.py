@@ -1,4 +1,4 @@
-"""Energy model (SPEC §3) against the reference values of ENERGY.md."""
+"""Energy model (docs/method.md §3) against the reference values of ENERGY.md."""
 
 from __future__ import annotations
 

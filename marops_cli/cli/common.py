@@ -76,7 +76,7 @@ def require_input(path: Path) -> None:
 
 
 def print_drop_report(report: DropReport, name: str) -> None:
-    """Tell the user which rows were dropped and why (SPEC §1)."""
+    """Tell the user which rows were dropped and why (docs/method.md §1)."""
     if report.n_dropped == 0:
         console.print(f"{name}: {report.total:,} rows read, none dropped")
         return

@@ -27,8 +27,8 @@ def evaluate(
         typer.Option(
             "--methods",
             help="Methods to compare, comma-separated: marops, ops-global, ops-random, mappo, "
-            "squares, greedy, stay, myopic (SPEC §7) (default: every one this build can run "
-            "but the references stay and myopic).",
+            "squares, greedy, stay, myopic (docs/method.md §7) (default: every one this build "
+            "can run but the references stay and myopic).",
         ),
     ] = None,
     dates: Annotated[

@@ -99,6 +99,7 @@ def plan_window(
                 "fallback": plan.selection.fallback,
                 "objective": plan.selection.objective,
             },
+            "objective": plan.score.as_dict() if plan.score else None,
         },
         stamp=False,
     )
@@ -127,3 +128,9 @@ def _summary(plan, model: EnergyModel, when: str) -> None:  # type: ignore[no-un
             f"{100 * r.energy_j / model.cfg.battery_j:.1f}",
         )
     out_console.print(t)
+    if plan.score is not None:  # the window objective (docs/method.md)
+        sc = plan.score
+        out_console.print(
+            f"window objective: J {sc.J / 1e6:.3f} MJ, G {sc.G / 1e6:.3f} MJ "
+            f"(served {sc.served} of {sc.pending} pending, energy {sc.energy_j / 1e3:.1f} kJ)"
+        )

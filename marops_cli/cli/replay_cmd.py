@@ -29,6 +29,8 @@ METRIC_COLUMNS = (
     ("avg_early_h", "early h", "{:.3f}"),
     ("delivered", "delivered", "{}"),
     ("undelivered", "undelivered", "{}"),
+    ("objective_j_mj", "J MJ", "{:.2f}"),
+    ("objective_g_mj", "G MJ", "{:.2f}"),
     ("co2_g", "CO2 g", "{:.1f}"),
     ("runtime_s", "runtime s", "{:.3f}"),
 )
@@ -58,7 +60,7 @@ def replay_day(
     drones: o.Drones = None,
     method: Annotated[
         str,
-        typer.Option("--method", help=f"One of {METHOD_NAMES} (SPEC §7) [marops]."),
+        typer.Option("--method", help=f"One of {METHOD_NAMES} (docs/method.md §7) [marops]."),
     ] = "marops",
     policy: o.Policy = None,
     alpha: o.Alpha = None,
@@ -202,7 +204,7 @@ def _replay_one(
 
 
 def _print_metrics(rows: list[dict[str, Any]]) -> None:
-    t = Table(title="day metrics (SPEC §8)", title_justify="left")
+    t = Table(title="day metrics (docs/method.md §8)", title_justify="left")
     t.add_column("day")
     t.add_column("method")
     for _, label, _ in METRIC_COLUMNS:

@@ -1,4 +1,4 @@
-"""Dates and times in LaDe's formats (SPEC §1).
+"""Dates and times in LaDe's formats (docs/method.md §1).
 
 A day on the command line is ``820``, ``0820``, ``08-20``, ``20220820`` or
 ``2022-08-20``; several are given as ``0820,0821`` or as an inclusive range

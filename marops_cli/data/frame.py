@@ -1,4 +1,4 @@
-"""The study area's metric frame: a local equirectangular projection (SPEC §1).
+"""The study area's metric frame: a local equirectangular projection (docs/method.md §1).
 
 Around the study area's centre, x points east and y north, in metres. Over a
 10 km square the scale error of this projection stays under 0.05 % at LaDe's

@@ -1,4 +1,4 @@
-"""From a read export to planning input: study area, windows and weights (SPEC §1).
+"""From a read export to planning input: study area, windows and weights (docs/method.md §1).
 
 - :func:`study_frame` places the study area: ``cfg.center`` if set, else the
   densest ``size_km`` square of the chosen days' customers.

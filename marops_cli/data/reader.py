@@ -1,4 +1,4 @@
-"""Read and validate a LaDe-D delivery export, CSV or Parquet (SPEC §1).
+"""Read and validate a LaDe-D delivery export, CSV or Parquet (docs/method.md §1).
 
 :func:`read_lade` returns the kept rows as a :class:`LadeTable` and accounts for
 every other row in its :class:`DropReport`. What is an error and what is dropped:

@@ -1,4 +1,4 @@
-"""Synthetic LaDe-D delivery exports that a reader cannot tell from a real one (SPEC §1).
+"""Synthetic LaDe-D delivery exports that a reader cannot tell from a real one (docs/method.md §1).
 
 The city is a square of ``extent_km`` around its centre. A few dense downtown
 hubs hold many small, busy AOIs; the rest of the city holds sparse, larger AOIs.

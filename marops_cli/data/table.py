@@ -9,7 +9,7 @@ import numpy as np
 
 from .frame import Frame
 
-# Columns of a LaDe-D delivery export, in file order (SPEC §1).
+# Columns of a LaDe-D delivery export, in file order (docs/method.md §1).
 LADE_COLUMNS: tuple[str, ...] = (
     "order_id",
     "region_id",

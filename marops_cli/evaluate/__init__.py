@@ -1,4 +1,4 @@
-"""Method comparison, sweeps and plots (paper §V, SPEC §7–9).
+"""Method comparison, sweeps and plots (paper §V, docs/method.md §7–9).
 
 ``prepare`` reads the data once and lists the jobs (day × method × setting ×
 repeat), ``evaluate`` runs them over worker processes, ``write_outputs`` writes

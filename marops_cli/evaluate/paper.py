@@ -1,6 +1,6 @@
 """The paper's Table III (basic scenario: 16 areas, 8 drones, 4 actions), for comparison.
 
-Values are mean and standard deviation over the paper's 40 runs (SPEC §9).
+Values are mean and standard deviation over the paper's 40 runs (docs/method.md §9).
 """
 
 from __future__ import annotations

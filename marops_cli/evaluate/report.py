@@ -26,6 +26,9 @@ TABLE_ROWS = (
     ("co2_g", "CO2 per day (g)", "{:.0f}"),
     ("delivered", "Delivered per day", "{:.1f}"),
     ("undelivered", "Undelivered per day", "{:.1f}"),
+    ("delivered_share", "Delivered share", "{:.3f}"),
+    ("objective_j_mj", "Day objective J (MJ)", "{:.2f}"),
+    ("objective_g_mj", "Day objective G (MJ)", "{:.2f}"),
     ("battery_frac_mean", "Battery used per flight", "{:.2f}"),
 )
 COMBINED_COST_RULE = (

@@ -25,7 +25,7 @@ SWEEP_FLAGS: dict[str, tuple[str, str]] = {
     "coverage": ("plan__coverage", "flying coverage density"),
     "depots_n": ("segment__n_depots", "number of service areas"),
 }
-TEST_FRACTION = 0.2  # SPEC §6: 80 % / 20 % split by date
+TEST_FRACTION = 0.2  # docs/method.md §6: 80 % / 20 % split by date
 
 T = TypeVar("T", int, float)
 

@@ -1,6 +1,6 @@
 """The results table (one row per day × method × setting × repeat) and its summary.
 
-Combined cost (SPEC §8, paper Table III) is computed over the methods of one
+Combined cost (docs/method.md §8, paper Table III) is computed over the methods of one
 setting *on the means*: with Ē_m and D̄_m a method's mean energy and delay over
 its days and repeats,
 
@@ -36,6 +36,9 @@ SUMMARY_METRICS = (
     "delivered",
     "undelivered",
     "requests",
+    "delivered_share",
+    "objective_j_mj",
+    "objective_g_mj",
     "battery_frac_mean",
     "battery_frac_max",
     "solver_fallbacks",
@@ -44,7 +47,7 @@ DEPOT_LOAD_PREFIX = "depot_load_kg_"
 
 
 def combined_cost(energy: Sequence[float], delay: Sequence[float]) -> np.ndarray:
-    """Combined cost of each method from its mean energy and mean delay (SPEC §8).
+    """Combined cost of each method from its mean energy and mean delay (docs/method.md §8).
 
     A metric whose maximum over the methods is 0 contributes 0 (nothing to normalise).
     """

@@ -1,4 +1,4 @@
-"""Candidate plans, their visiting order and the selection program (SPEC §4)."""
+"""Candidate plans, their visiting order and the selection program (docs/method.md §4)."""
 
 from .order import MAX_STOPS, SubsetOrders, best_order, subset_orders
 from .plans import NoFeasiblePlanError, PlanSet, SelectionProblem, build_plans

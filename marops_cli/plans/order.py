@@ -1,4 +1,4 @@
-"""Visiting order of every subset of a drone's candidates (SPEC §4).
+"""Visiting order of every subset of a drone's candidates (docs/method.md §4).
 
 A subset of the ``n`` candidates is a bitmask (bit ``j`` = candidate ``j``). Both
 methods work on all ``2**n`` subsets at once, vectorised over masks:

@@ -1,4 +1,4 @@
-"""Candidate plans (SPEC §4, paper Alg. 2 lines 4–12) and their table across drones.
+"""Candidate plans (docs/method.md §4, paper Alg. 2 lines 4–12) and their table across drones.
 
 A plan is a subset of the drone's candidates that fits the payload limit, flown
 start → its customers (in the chosen visiting order) → end. The empty plan (fly
@@ -51,7 +51,7 @@ class PlanSet:
     """``(n,)`` the drone's candidate requests."""
     members: NDArray[np.bool_]
     """``(K, n)`` plan ``k`` serves candidate ``j``."""
-    order: NDArray[np.int8]
+    order: NDArray[np.int8] | NDArray[np.int16]
     """``(K, n)`` candidate positions in visiting order, padded with -1."""
     energy_j: NDArray[np.float64]
     """``(K,)`` route energy (eqs. (4)–(9))."""

@@ -1,4 +1,4 @@
-"""Flight ranges and each drone's candidate requests Ĉ_u (SPEC §4, paper Alg. 2 line 2)."""
+"""Flight ranges and each drone's candidate requests Ĉ_u (docs/method.md §4.1, Alg. 2 line 2)."""
 
 from __future__ import annotations
 
@@ -61,7 +61,7 @@ def pick_candidates(
     """The ``m_hat`` requests of ``idx`` with the highest delay, most delayed first.
 
     Delay counts whole windows, so many requests tie on it. Ties ``"nearest"``: nearer
-    the start depot, then earlier due time; ``"due"`` (SPEC §4): earlier due time, then
+    the start depot, then earlier due time; ``"due"`` (docs/method.md §4): earlier due time, then
     nearer. Then the lower index, so the choice never depends on array order. All
     arrays are aligned with ``idx``.
     """

@@ -1,4 +1,4 @@
-"""Plan selection across drones (SPEC §4, paper Alg. 2 lines 13–16).
+"""Plan selection across drones (docs/method.md §4, paper Alg. 2 lines 13–16).
 
 x_uk = 1 if drone u flies plan k; each drone flies exactly one plan; each request is
 served at most once. Minimise Σ E_uk x_uk + λ Σ_c v_c (1 − y_c) with

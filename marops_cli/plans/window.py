@@ -1,6 +1,6 @@
 """One window of planning (paper Alg. 2, improved): ranges -> candidates -> plans -> selection.
 
-Two scopes (SPEC §7):
+Two scopes (docs/method.md §7):
 
 * ``range``: each drone's action picks its destination; its candidates are the
   M̂ most delayed pending requests inside its flight range.
@@ -20,7 +20,9 @@ from ..config import PlanConfig
 from ..energy import EnergyModel
 from ..errors import RunError
 from ..policies.base import WindowView
+from .objective import WindowScore, lam_j, score_routes
 from .plans import PlanSet, build_plans
+from .pool import DroneTask, build_pool, finish_route
 from .ranges import pick_candidates
 from .select import SelectionProblem, SelectionResult, Selector
 
@@ -54,6 +56,8 @@ class WindowPlan:
     selection: SelectionResult
     n_candidates: int
     timings: dict[str, float] = field(default_factory=dict)
+    score: WindowScore | None = None
+    """The window objective J and G of ``routes`` (docs/method.md)."""
 
 
 def _range_candidates(
@@ -245,6 +249,125 @@ def _global_plans(
     return plan_sets, plan_ends, t_cand
 
 
+def _pool_tasks(view: WindowView, acts: np.ndarray, cfg: PlanConfig, scope: str) -> list[DroneTask]:
+    """Each drone's start, end (-1: nearest depot to its last customer) and allowed requests."""
+    dep = view.depots
+    everything = np.arange(view.pending_idx.size, dtype=np.int64)
+    tasks = []
+    for u, s0 in enumerate(view.drone_depot):
+        s = int(s0)
+        if scope == "global":
+            tasks.append(DroneTask(s, -1, everything))
+            continue
+        a = int(acts[u])
+        dest = int(dep.candidates[s, a])
+        if cfg.range == "areas":
+            allowed = np.flatnonzero(view.ranges[s, a][view.pending_area]).astype(np.int64)
+        else:  # the battery alone bounds what the drone can serve on its way
+            allowed = everything
+        tasks.append(DroneTask(s, dest if cfg.landing == "destination" else -1, allowed))
+    return tasks
+
+
+def _pool_plans(
+    view: WindowView, acts: np.ndarray, model: EnergyModel, cfg: PlanConfig, scope: str
+) -> tuple[list[PlanSet], list[np.ndarray], float]:
+    """Route-pool plan sets (docs/method.md, "Route pool") and each plan's end depot."""
+    dep = view.depots
+    t0 = time.perf_counter()
+    tasks = _pool_tasks(view, acts, cfg, scope)
+    lam = lam_j(cfg.alpha, model.usable_j)
+    prize = lam * (1.0 + view.pending_delay_h)
+    # Routes are built for the prize plus the urgency bonus (docs/method.md).
+    due = view.pending_due_w <= view.t
+    search = prize + lam * cfg.pool_urgency * view.window_h * due if cfg.pool_urgency else prize
+    res = build_pool(
+        dep.xy,
+        view.pending_xy,
+        view.pending_weight,
+        search,
+        tasks,
+        model,
+        n_candidates=cfg.pool_candidates,
+        iterations=cfg.pool_iterations,
+        seed=view.t,
+    )
+    routes = [dict(zip(r, e, strict=True)) for r, e in zip(res.routes, res.energy_j, strict=True)]
+    if cfg.pyvrp_iterations > 0:
+        _add_pyvrp_routes(view, tasks, lam, model, cfg.pyvrp_iterations, routes)
+    t_cand = time.perf_counter() - t0
+    plan_sets, plan_ends = [], []
+    for u, task in enumerate(tasks):
+        empty_end = task.start if task.end < 0 else task.end
+        flight = float(np.hypot(*(dep.xy[empty_end] - dep.xy[task.start])))
+        keys = list(routes[u])
+        ids = np.unique(np.array([i for k in keys for i in k], dtype=np.int64))
+        n_k = len(keys) + 1
+        members = np.zeros((n_k, ids.size), dtype=bool)
+        order = np.full((n_k, max(ids.size, 1)), -1, dtype=np.int16)
+        energy = np.empty(n_k)
+        energy[0] = float(model.leg_energy_j(flight, 0.0))
+        for k, key in enumerate(keys, start=1):
+            col = np.searchsorted(ids, np.array(key, dtype=np.int64))
+            members[k, col] = True
+            order[k, : col.size] = col
+            energy[k] = routes[u][key]
+        weight = members @ view.pending_weight[ids] if ids.size else np.zeros(n_k)
+        # Distances are recomputed for the chosen routes; the table needs energies only.
+        plan_sets.append(PlanSet(ids, members, order, energy, np.zeros(n_k), weight))
+        plan_ends.append(np.full(n_k, task.end, dtype=np.int64))
+    return plan_sets, plan_ends, t_cand
+
+
+def _add_pyvrp_routes(
+    view: WindowView,
+    tasks: list[DroneTask],
+    lam: float,
+    model: EnergyModel,
+    iterations: int,
+    routes: list[dict[tuple[int, ...], float]],
+) -> None:
+    """PyVRP's routes for the window as extra columns (each re-costed exactly)."""
+    from .pyvrp_routes import solve_window
+
+    n = view.pending_idx.size
+    allowed = np.zeros((len(tasks), n), dtype=bool)
+    for u, t in enumerate(tasks):
+        allowed[u, t.allowed] = True
+    ends = np.array([t.end for t in tasks], dtype=np.int64)
+    peer = solve_window(
+        view.depots.xy,
+        np.array([t.start for t in tasks], dtype=np.int64),
+        view.pending_xy,
+        view.pending_weight,
+        1.0 + view.pending_delay_h,
+        lam,
+        model,
+        drone_end=None if np.all(ends < 0) else np.where(ends < 0, view.drone_depot, ends),
+        allowed=None if allowed.all() else allowed,
+        iterations=iterations,
+        seed=view.t,
+    )
+    for s, stops in zip(peer.start, peer.stops, strict=True):
+        for u, t in enumerate(tasks):
+            if t.start != int(s) or not allowed[u, stops].all():
+                continue
+            e = _route_energy_j(view, t, stops, model)
+            w = float(view.pending_weight[stops].sum())
+            if e <= model.usable_j and w <= model.max_payload_kg + 1e-9:
+                routes[u].setdefault(tuple(int(i) for i in stops), e)
+
+
+def _route_energy_j(
+    view: WindowView, task: DroneTask, stops: np.ndarray, model: EnergyModel
+) -> float:
+    dep = view.depots
+    xy = view.pending_xy[stops]
+    end = task.end if task.end >= 0 else int(np.hypot(*(dep.xy - xy[-1]).T).argmin())
+    pts = np.vstack([dep.xy[task.start], xy, dep.xy[end]])
+    return float(model.route_energy(pts, view.pending_weight[stops])[1].sum())
+
+
 def plan_window(
     view: WindowView,
     actions: np.ndarray,
@@ -257,15 +380,26 @@ def plan_window(
     battery and the one-visit rule (checked before returning)."""
     t_start = time.perf_counter()
     acts = np.asarray(actions, dtype=np.int64)
+    pool = cfg.planner == "pool"
     if scope == "global":
-        plan_sets, plan_ends, t_cand = _global_plans(view, model, cfg)
         acts = np.zeros(view.n_drones, dtype=np.int64)
+        if pool:
+            plan_sets, plan_ends, t_cand = _pool_plans(view, acts, model, cfg, scope)
+        else:
+            plan_sets, plan_ends, t_cand = _global_plans(view, model, cfg)
+    elif pool:
+        acts = _reachable_actions(view, acts, model)
+        plan_sets, plan_ends, t_cand = _pool_plans(view, acts, model, cfg, scope)
     else:
         plan_sets, ends, acts, t_cand = _range_plans(view, acts, model, cfg)
         plan_ends = [np.full(ps.n_plans, ends[u]) for u, ps in enumerate(plan_sets)]
     t_plans = time.perf_counter() - t_start - t_cand
     t0 = time.perf_counter()
     delay = {int(i): float(view.pending_delay_h[i]) for ps in plan_sets for i in ps.request_ids}
+    if pool and cfg.pool_urgency:  # the urgency bonus (docs/method.md §4.4)
+        for i in delay:
+            if view.pending_due_w[i] <= view.t:
+                delay[i] += cfg.pool_urgency * view.window_h
     problem = SelectionProblem.from_plan_sets(
         plan_sets, delay, alpha=cfg.alpha, energy_ref_j=model.usable_j
     )
@@ -276,6 +410,21 @@ def plan_window(
         k = int(sel.chosen[u])
         start, end = int(view.drone_depot[u]), int(plan_ends[u][k])
         stops_pos = ps.route(k)
+        if pool and stops_pos:  # the energy-minimal order (and landing) of the chosen route
+            xy = view.pending_xy[list(stops_pos)]
+            fixed = None if end < 0 else view.depots.xy[end]
+            order, near = finish_route(
+                view.depots.xy[start],
+                fixed,
+                view.depots.xy,
+                xy,
+                view.pending_weight[list(stops_pos)],
+                model,
+            )
+            stops_pos = tuple(stops_pos[i] for i in order)
+            end = near if end < 0 else end
+        elif end < 0:
+            end = start
         pts = np.vstack(
             [
                 view.depots.xy[start],
@@ -311,6 +460,12 @@ def plan_window(
         },
     )
     check_routes(plan.routes, model)
+    plan.score = score_routes(
+        view.pending_idx,
+        view.pending_delay_h,
+        [(r.stops, r.energy_j) for r in plan.routes],
+        lam_j(cfg.alpha, model.usable_j),
+    )
     return plan
 
 

@@ -1,4 +1,4 @@
-"""Policies that need no training: stay, random, greedy, global (SPEC §7), myopic."""
+"""Policies that need no training: stay, random, greedy, global (docs/method.md §7), myopic."""
 
 from __future__ import annotations
 

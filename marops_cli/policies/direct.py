@@ -1,4 +1,4 @@
-"""The MAPPO baseline (SPEC §7): a learned policy picks each drone's plan directly.
+"""The MAPPO baseline (docs/method.md §7): a learned policy picks each drone's plan directly.
 
 Action space: destination × plan slot, ``a = dest · S + slot`` with ``S`` plan
 slots (default 4). The destination works as in MAR-OPS (it sets the flight

@@ -1,4 +1,4 @@
-"""The layout-independent observation of a drone (SPEC §6), versioned.
+"""The layout-independent observation of a drone (docs/method.md §6), versioned.
 
 One block of features per action candidate, so a trained actor works on any
 segmentation with the same number of actions. Distances are in km; counts and

@@ -1,4 +1,4 @@
-"""A trained actor exported as TorchScript, with its JSON sidecar (SPEC §6).
+"""A trained actor exported as TorchScript, with its JSON sidecar (docs/method.md §6).
 
 The module's contract is ``forward(obs, hidden) -> (logits, hidden)`` with
 ``obs`` of shape ``(U, obs_dim)`` and ``hidden`` of shape ``(U, hidden_size)``.

@@ -1,5 +1,5 @@
 """Learning the flight range: multi-agent PPO with a shared recurrent actor (paper §IV-B,
-§IV-D, Alg. 3; SPEC §6).
+§IV-D, Alg. 3; docs/method.md §6).
 
 ``env`` turns a day of the simulator into a multi-agent episode with the reward of
 eq. (10); ``networks`` holds the GRU actor and the centralised critic; ``ppo`` the

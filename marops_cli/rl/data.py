@@ -20,7 +20,7 @@ from .rollout import WorkerContext
 
 def split_days(days: list[dt.date], train: list[dt.date] | None = None) -> tuple[list, list]:
     """(training days, held-out days): the given ones and the rest, else the first
-    80 % of the file's dates and the last 20 % (SPEC §6; at least one of each when
+    80 % of the file's dates and the last 20 % (docs/method.md §6; at least one of each when
     the file has two days or more)."""
     days = sorted(days)
     if train is not None:

@@ -15,7 +15,7 @@ Reward (eq. (10)), per drone u and window t::
   gives every drone the fleet's mean instead.
 * ``D_u(t)``: the delay u answers for, built from the delay the map adds in
   window t: window length × the requests due by t and still undelivered after
-  it. Summed over a day this is exactly the delivery delay of SPEC §5, so the
+  it. Summed over a day this is exactly the delivery delay of docs/method.md §5, so the
   return measures the metric the policy is judged on. Three readings of the
   paper's "requests u observes" (``TrainConfig.reward_scope``):
 
@@ -27,7 +27,7 @@ Reward (eq. (10)), per drone u and window t::
     idle drones, whose saved energy is the only signal it can attribute.
   - ``credit`` (default): the even split, less what u's deliveries spared
     beyond the fleet's mean, D_u = total / U − (S_u − mean S). A request left
-    undelivered counts until the day's end (SPEC §5), so delivering it in
+    undelivered counts until the day's end (docs/method.md §5), so delivering it in
     window t spares S = window length × (T − max(t, t_i)). The shares still sum
     to the map's total, so the fleet's objective is unchanged; each drone now
     sees its own part of it, as it sees its own energy.
@@ -169,7 +169,7 @@ class DeliveryEnv:
 
     def _spared_h(self, routes: list) -> np.ndarray:
         """Delay each drone's deliveries spared: a request left undelivered would count
-        until the day's end (SPEC §5), so delivering it in window t spares
+        until the day's end (docs/method.md §5), so delivering it in window t spares
         window length × (T − max(t, t_i))."""
         st = self.state
         assert st is not None

@@ -1,4 +1,4 @@
-"""Held-out comparison of methods: per-day metrics -> mean ± std and combined cost (SPEC §8).
+"""Held-out comparison of methods: day metrics -> mean ± std, combined cost (docs/method.md §8).
 
 Combined cost is computed per day over the methods compared that day: the mean
 of energy / max energy and delay / max delay (the paper's Table III), then

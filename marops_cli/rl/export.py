@@ -1,4 +1,4 @@
-"""The trained actor as a self-describing artifact: TorchScript file + JSON sidecar (SPEC §6).
+"""The trained actor as a self-describing artifact: TorchScript + JSON sidecar (docs/method.md §6).
 
 ``X.pt`` holds ``forward(obs, hidden) -> (logits, hidden)`` and loads with plain
 ``torch.jit.load``; ``X.json`` says how to feed it (observation version, number
@@ -28,7 +28,7 @@ def script_actor(actor: Actor) -> torch.jit.ScriptModule:
     clone.load_state_dict(actor.state_dict())
     clone.eval()
     with warnings.catch_warnings():
-        # torch 2.13 deprecates TorchScript, but SPEC §6 names it as the artifact format.
+        # torch 2.13 deprecates TorchScript, but docs/method.md §6 names it as the artifact format.
         warnings.simplefilter("ignore", DeprecationWarning)
         return torch.jit.script(clone)
 

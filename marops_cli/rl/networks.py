@@ -2,7 +2,7 @@
 
 * :class:`Actor`: shared by every drone (parameter sharing). obs → Linear(64) →
   tanh → GRUCell(64) → Linear → logits. Its ``forward(obs, hidden) -> (logits,
-  hidden)`` is exactly the TorchScript contract the CLI loads (SPEC §6).
+  hidden)`` is exactly the TorchScript contract the CLI loads (docs/method.md §6).
 * :class:`Critic`: centralised. It sees drone u's observation and the mean and
   max of every drone's observation (the fleet's state, whatever its size) and
   returns V_u. Feed-forward: the fleet summary plus time of day describes the

@@ -1,7 +1,7 @@
 """PPO pieces in the open (cleanrl style): GAE, the clipped loss term by term, one update.
 
 The paper's §IV-D equations, cited by their LaTeX labels (the paper numbers them
-after the reward, SPEC's eq. (10)): ``eq:advantage`` (here GAE, which is that
+after the reward, the paper's eq. (10)): ``eq:advantage`` (here GAE, which is that
 one-step advantage at λ = 0), ``eq:prob`` (the ratio), ``eq:clip_obj`` (the
 clipped surrogate), ``eq:actor`` and ``eq:critic`` (the two losses).
 """

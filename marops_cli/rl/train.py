@@ -217,7 +217,7 @@ class Trainer:
                     self.emit({"kind": "eval", **ev})
 
     def export(self, command: str | None, data_origin: str | None = None) -> dict[str, Any]:
-        """Write the TorchScript actor and its sidecar (SPEC §6)."""
+        """Write the TorchScript actor and its sidecar (docs/method.md §6)."""
         t, cfg = self.tcfg, self.td.ctx.cfg
         chosen = self.evals[-1] if self.evals else None
         if t.keep_best and self.best is not None:

@@ -1,4 +1,4 @@
-"""Depots, service areas and action candidates (SPEC §2)."""
+"""Depots, service areas and action candidates (docs/method.md §2)."""
 
 from .areas import area_polygons, areas_geojson
 from .depots import Depots, nearest_candidates

@@ -1,4 +1,4 @@
-"""Depots, their service areas and action candidates (SPEC §2, paper Alg. 1)."""
+"""Depots, their service areas and action candidates (docs/method.md §2, paper Alg. 1)."""
 
 from __future__ import annotations
 

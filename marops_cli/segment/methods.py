@@ -1,4 +1,4 @@
-"""Segmentation methods: k-means (paper Alg. 1) and the squares baseline (SPEC §2)."""
+"""Segmentation methods: k-means (paper Alg. 1) and the squares baseline (docs/method.md §2)."""
 
 from __future__ import annotations
 

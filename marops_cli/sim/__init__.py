@@ -1,4 +1,4 @@
-"""Day simulation: state, replay loop, metrics (SPEC §5, §8)."""
+"""Day simulation: state, replay loop, metrics (docs/method.md §5, §8)."""
 
 from .metrics import day_metrics, gini
 from .replay import DayResult, replay_day

@@ -1,6 +1,6 @@
 """The analyst's jobs as library calls: load a scenario, plan one window, replay a day.
 
-A *method* (SPEC §7) is a segmentation, a flight-range policy and a planning scope.
+A *method* (docs/method.md §7) is a segmentation, a flight-range policy and a planning scope.
 """
 
 from __future__ import annotations
@@ -33,7 +33,7 @@ from .metrics import day_metrics
 from .replay import DayResult, replay_day
 from .state import DayState, default_fleet
 
-# method -> (segmentation, policy); "learned" is the shipped actor (SPEC §7).
+# method -> (segmentation, policy); "learned" is the shipped actor (docs/method.md §7).
 METHODS: dict[str, tuple[str, str]] = {
     "marops": ("kmeans", "learned"),
     "ops-global": ("kmeans", "global"),
@@ -175,7 +175,7 @@ def plan_one_window(
     policy: Policy,
     delivered: set[str] | None = None,
 ) -> tuple[WindowPlan, DayRequests]:
-    """Plan window ``window`` of ``day`` with drones at ``fleet`` (SPEC §4)."""
+    """Plan window ``window`` of ``day`` with drones at ``fleet`` (docs/method.md §4)."""
     cfg = scn.cfg
     reqs = prepare_day(scn.table, scn.frame, day, cfg.data)
     if not 0 <= window < reqs.n_windows:

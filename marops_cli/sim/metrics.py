@@ -1,4 +1,4 @@
-"""Per-day metrics of SPEC §8 (paper §V-B)."""
+"""Per-day metrics of docs/method.md §8 (paper §V-B)."""
 
 from __future__ import annotations
 
@@ -31,7 +31,7 @@ def day_metrics(res: DayResult, model: EnergyModel) -> dict[str, Any]:
     flown = energy[energy > 0]
     delay = st.delivery_delay_h()
     delivered = st.delivered_w >= 0
-    # Early arrival: due time minus arrival time, both from service start (SPEC §5).
+    # Early arrival: due time minus arrival time, both from service start (docs/method.md §5).
     arrival_s = st.delivered_w[delivered] * day.window_s + st.arrive_s[delivered]
     early_h = np.maximum(0.0, day.due_s[delivered] - arrival_s) / 3600.0
     # Delay unfairness over the service areas that had requests that day.
@@ -43,6 +43,7 @@ def day_metrics(res: DayResult, model: EnergyModel) -> dict[str, Any]:
         load[r.start] += r.payload_kg
     total_j = float(energy.sum())
     sel = [p.selection for p in res.plans]
+    scores = [p.score for p in res.plans if p.score is not None]
     return {
         "day": day.day.isoformat(),
         "method": res.method,
@@ -60,6 +61,10 @@ def day_metrics(res: DayResult, model: EnergyModel) -> dict[str, Any]:
         "battery_frac_max": float(flown.max() / model.cfg.battery_j) if flown.size else 0.0,
         "energy_kj": total_j / 1000.0,
         "drones": res.n_drones,
+        # The day objective: the windows' J and G summed (docs/method.md), in MJ.
+        "objective_j_mj": sum(s.J for s in scores) / 1e6,
+        "objective_g_mj": sum(s.G for s in scores) / 1e6,
+        "delivered_share": float(delivered.mean()) if delivered.size else 1.0,
         "solver": {
             "calls": len(sel),
             "fallbacks": int(sum(s.fallback for s in sel)),

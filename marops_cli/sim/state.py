@@ -76,6 +76,6 @@ class DayState:
             self.drone_depot[r.drone] = r.end
 
     def delivery_delay_h(self) -> np.ndarray:
-        """Delivery delay of every request (SPEC §5); undelivered count to the day's end."""
+        """Delivery delay of each request (docs/method.md §5); undelivered count to the end."""
         t_end = np.where(self.delivered_w >= 0, self.delivered_w, self.day.n_windows)
         return np.maximum(0, t_end - self.day.due_w) * self.day.window_hours

@@ -1,4 +1,4 @@
-"""Combined cost (SPEC §8) against the paper's Table III, and flattening of day metrics."""
+"""Combined cost (docs/method.md §8) against the paper's Table III; flattening day metrics."""
 
 from __future__ import annotations
 
@@ -23,7 +23,7 @@ def test_table_values_are_the_papers() -> None:
 
 
 def test_spec_worked_example() -> None:
-    # SPEC §8: MAR-OPS 669.1/1768 and 0.88/1.46 -> 0.49.
+    # docs/method.md §8: MAR-OPS 669.1/1768 and 0.88/1.46 -> 0.49.
     assert round(float(combined_cost(ENERGY_KJ, DELAY_H)[4]), 2) == 0.49
 
 

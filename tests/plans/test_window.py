@@ -15,8 +15,10 @@ from marops_cli.data.frame import Frame
 from marops_cli.energy import EnergyModel, reference_power_w
 from marops_cli.errors import RunError
 from marops_cli.plans import GreedySelector, MilpSelector, Selector
+from marops_cli.plans.objective import lam_j, score_routes
+from marops_cli.plans.pool import build_pool
 from marops_cli.plans.ranges import pick_candidates, range_table
-from marops_cli.plans.window import DroneRoute, check_routes, plan_window
+from marops_cli.plans.window import DroneRoute, _pool_tasks, check_routes, plan_window
 from marops_cli.policies.base import WindowView
 from marops_cli.segment.depots import Depots, nearest_candidates
 
@@ -107,7 +109,7 @@ def test_hand_instance_fixture_is_what_the_comment_says():
 
 @pytest.mark.parametrize("backend", ["cvxpy", "highs"])
 def test_hand_instance_exact_order(model, backend):
-    cfg = PlanConfig(alpha=0.2)
+    cfg = PlanConfig(alpha=0.2, planner="subsets")
     plan = plan_window(hand_view(), np.array([0, 1]), model, cfg, MilpSelector(backend=backend))
     r0, r1 = plan.routes
     assert plan.selection.status == "optimal" and not plan.selection.fallback
@@ -132,7 +134,7 @@ def test_hand_instance_exact_order(model, backend):
 
 
 def test_hand_instance_greedy_order_is_the_papers(model):
-    cfg = PlanConfig(alpha=0.2, ordering="greedy")
+    cfg = PlanConfig(alpha=0.2, ordering="greedy", planner="subsets")
     plan = plan_window(hand_view(), np.array([0, 1]), model, cfg, MilpSelector())
     r0, r1 = plan.routes
     assert r0.stops == (D, A)  # nearest first: 750 m < 1000 m
@@ -146,7 +148,7 @@ def test_hand_instance_global_scope_lands_at_the_nearest_depot(model):
     """OPS-global: plans are ordered for a round trip, then land at the depot nearest the
     last customer. Drone 1's last customer C is 1250 m from depot 0 and 1601 m from depot
     1, so it lands at 0: the same routes as in range scope; actions are ignored."""
-    cfg = PlanConfig(alpha=0.2)
+    cfg = PlanConfig(alpha=0.2, planner="subsets")
     plan = plan_window(hand_view(), np.array([1, 0]), model, cfg, MilpSelector(), "global")
     r0, r1 = plan.routes
     assert (r0.start, r0.end, r0.action, r0.stops) == (0, 0, 0, (A, D))
@@ -177,7 +179,9 @@ def test_hand_instance_selection_is_the_brute_force_optimum(model):
                 for p in itertools.permutations(mine)
             )
         best = min(best, total)
-    plan = plan_window(view, np.array([0, 1]), model, PlanConfig(alpha=0.2), MilpSelector())
+    plan = plan_window(
+        view, np.array([0, 1]), model, PlanConfig(alpha=0.2, planner="subsets"), MilpSelector()
+    )
     assert_allclose(plan.selection.objective, best, rtol=1e-9)
 
 
@@ -229,7 +233,9 @@ def test_destination_out_of_reach_stays_and_plans_in_the_stay_range(model):
         pending_weight=np.array([1.0, 1.0]),
     )
     assert view.pending_area.tolist() == [1, 0]
-    plan = plan_window(view, np.array([1]), model, PlanConfig(max_parcels=1), MilpSelector())
+    plan = plan_window(
+        view, np.array([1]), model, PlanConfig(max_parcels=1, planner="subsets"), MilpSelector()
+    )
     (r,) = plan.routes
     assert (r.action, r.end, r.stops) == (0, 0, (9,))
     assert_allclose(r.energy_j, kj((1000, 1.0), (1000, 0.0)), rtol=HAND_RTOL)
@@ -314,6 +320,7 @@ def instances(draw):
     )
     actions = rng.integers(0, depots.candidates.shape[1], n_drones)
     cfg = PlanConfig(
+        planner="subsets",
         max_parcels=m_hat,
         ordering=ordering,
         alpha=float(rng.uniform(0.1, 1.0)),
@@ -328,7 +335,7 @@ def _selector(name: str) -> Selector:
 
 
 def preferences(view: WindowView, u: int, action: int, m_hat: int, scope: str) -> list:
-    """Drone u's requests in order of preference (pending positions), SPEC §4 / §7,
+    """Drone u's requests in order of preference (pending positions), docs/method.md §4 / §7,
     with equally delayed requests ordered as ``view.ties`` says."""
     s = int(view.drone_depot[u])
     sxy = view.depots.xy[s]
@@ -462,7 +469,191 @@ def test_candidate_ties_by_hand() -> None:
     dist = np.array([900.0, 300.0, 300.0, 5000.0])
     # nearest: 11 and 12 are nearer than 10; between them 11 is due first
     assert pick_candidates(idx, delay, due_s, dist, 3, "nearest").tolist() == [13, 11, 12]
-    # due (SPEC §4's literal rule): 10 and 11 are due first, whatever the distance
+    # due (docs/method.md §4's literal rule): 10 and 11 are due first, whatever the distance
     assert pick_candidates(idx, delay, due_s, dist, 3, "due").tolist() == [13, 10, 11]
     # fewer requests than M̂: all of them, still in order
     assert pick_candidates(idx, delay, due_s, dist, 9, "nearest").tolist() == [13, 11, 12, 10]
+
+
+# ---------------------------------------------------------------------------------------
+# The route pool (the default planner)
+# ---------------------------------------------------------------------------------------
+
+
+def test_pool_finds_the_hand_optimum(model):
+    """On the hand instance the pool reaches the brute-force optimum: the same routes,
+    order and energies as the hand answer above."""
+    plan = plan_window(hand_view(), np.array([0, 1]), model, PlanConfig(alpha=0.2), MilpSelector())
+    r0, r1 = plan.routes
+    assert (r0.start, r0.end, r0.stops) == (0, 0, (A, D))
+    assert (r1.start, r1.end, r1.stops) == (1, 0, (B, C))
+    assert_allclose([r0.energy_j, r1.energy_j], [64_033.0, 75_038.5], rtol=HAND_RTOL)
+    score = score_routes(
+        hand_view().pending_idx,
+        hand_view().pending_delay_h,
+        [(r.stops, r.energy_j) for r in plan.routes],
+        lam_j(0.2, model.usable_j),
+    )
+    assert_allclose(score.J, 64_033.0 + 75_038.5 + 675_000.0, rtol=HAND_RTOL)
+
+
+def test_pool_landing_nearest_by_hand(model):
+    """Landing nearest the last customer: drone 1 ends its {B, C} route at depot 0 (C is
+    1250 m from depot 0, 1601 m from depot 1) whatever its action says."""
+    cfg = PlanConfig(alpha=0.2, landing="nearest")
+    plan = plan_window(hand_view(), np.array([0, 0]), model, cfg, MilpSelector())
+    assert [(r.stops, r.end) for r in plan.routes] == [((A, D), 0), ((B, C), 0)]
+
+
+@st.composite
+def pool_instances(draw):
+    """Random windows for the pool: heavy parcels near the payload limit, tiny
+    batteries, a single depot, many drones."""
+    seed = draw(st.integers(0, 2**32 - 1))
+    n_dep = draw(st.integers(1, 6))
+    n_drones = draw(st.sampled_from([1, 2, 3, 8, 20]))
+    n_req = draw(st.integers(0, 60))
+    side_m = draw(st.sampled_from([1500.0, 5000.0, 14000.0]))
+    weights = draw(st.sampled_from(["uniform", "heavy", "light"]))
+    battery = draw(st.sampled_from([225_000.0, 60_000.0, 12_000.0]))
+    rng = np.random.default_rng(seed)
+    xy = rng.uniform(0, side_m, (n_dep, 2))
+    n_actions = draw(st.integers(1, 4))
+    depots = Depots(
+        "kmeans", FRAME, xy, np.zeros(n_dep, np.int64), nearest_candidates(xy, n_actions)
+    )
+    t = int(rng.integers(0, 16))
+    one_spot = draw(st.booleans())
+    req_xy = (
+        np.repeat(rng.uniform(0, side_m, (1, 2)), n_req, axis=0)
+        if one_spot
+        else rng.uniform(0, side_m, (n_req, 2))
+    )
+    low, high = {"uniform": (0.1, 2.5), "heavy": (2.2, 2.5), "light": (0.05, 0.3)}[weights]
+    due_w = rng.integers(0, 16, n_req)
+    view = WindowView(
+        t=t,
+        n_windows=16,
+        window_h=WINDOW_H,
+        depots=depots,
+        ranges=range_table(depots, draw(st.sampled_from([0.25, 1.0]))),
+        drone_depot=rng.integers(0, n_dep, n_drones),
+        pending_idx=np.sort(rng.choice(1000, n_req, replace=False)),
+        pending_xy=req_xy,
+        pending_area=depots.assign(req_xy[:, 0], req_xy[:, 1]),
+        pending_delay_h=np.maximum(0, t - due_w) * WINDOW_H,
+        pending_due_w=due_w,
+        pending_due_s=due_w * 1800.0 + 900.0,
+        pending_weight=rng.uniform(low, high, n_req),
+    )
+    actions = rng.integers(0, depots.candidates.shape[1], n_drones)
+    cfg = PlanConfig(
+        alpha=float(rng.uniform(0.1, 1.0)),
+        landing=draw(st.sampled_from(["destination", "nearest"])),
+        range=draw(st.sampled_from(["reach", "areas"])),
+        pool_candidates=draw(st.sampled_from([3, 10, 80])),
+        pool_iterations=draw(st.sampled_from([0, 5, 40])),
+        pool_urgency=draw(st.sampled_from([0.0, 1.0])),
+    )
+    scope = draw(st.sampled_from(["range", "global"]))
+    selector = draw(st.sampled_from(["cvxpy", "highs", "greedy"]))
+    return view, actions, cfg, scope, selector, EnergyModel(EnergyConfig(battery_j=battery))
+
+
+@pytest.mark.parametrize("urgency", [0.0, 1.0])
+def test_pool_urgency_prefers_the_request_already_due(model, urgency):
+    """One drone, two 2.0 kg parcels (only one fits), neither delayed yet: P at (-900, 0)
+    is due in two windows, Q at (0, -1000) is due now. Without the bonus the drone takes P,
+    100 m nearer (2 x 100 m at 2.0 kg and empty cost about 4.2 kJ less); with one window of
+    urgency Q is worth λ · 0.5 h more (84.4 kJ at α 0.5) and wins."""
+    view = hand_view()
+    view.drone_depot = np.array([0])
+    view.pending_idx = np.array([7, 8])
+    view.pending_xy = np.array([[-900.0, 0.0], [0.0, -1000.0]])
+    view.pending_area = np.array([0, 0])
+    view.pending_delay_h = np.zeros(2)
+    view.pending_due_w = np.array([view.t + 2, view.t])
+    view.pending_due_s = view.pending_due_w * 1800.0
+    view.pending_weight = np.array([2.0, 2.0])
+    cfg = PlanConfig(alpha=0.5, pool_urgency=urgency)
+    (r,) = plan_window(view, np.array([0]), model, cfg, MilpSelector()).routes
+    assert r.stops == ((7,) if urgency == 0 else (8,))
+    assert (r.start, r.end) == (0, 0)
+    legs = [(900.0, 2.0), (900.0, 0.0)] if urgency == 0 else [(1000.0, 2.0), (1000.0, 0.0)]
+    assert_allclose(r.energy_j, kj(*legs), rtol=HAND_RTOL)
+
+
+@settings(max_examples=80, deadline=None)
+@given(pool_instances())
+def test_pool_routes_never_break_payload_battery_or_one_visit(inst):
+    view, actions, cfg, scope, sel_name, model = inst
+    plan = plan_window(view, actions, model, cfg, _selector(sel_name), scope)
+    dep = view.depots
+    pos = {int(i): p for p, i in enumerate(view.pending_idx)}
+    assert [r.drone for r in plan.routes] == list(range(view.n_drones))
+    served: list[int] = []
+    for u, r in enumerate(plan.routes):
+        s = int(view.drone_depot[u])
+        p = [pos[i] for i in r.stops]  # every stop is a pending request
+        served += list(r.stops)
+        assert r.start == s
+        if scope == "range" and cfg.landing == "destination":
+            assert r.end == dep.candidates[s, r.action]
+        elif p:  # lands at the depot nearest the last customer
+            d = np.hypot(*(dep.xy - view.pending_xy[p[-1]]).T)
+            assert d[r.end] == pytest.approx(d.min(), abs=1e-9)
+        else:  # nothing to deliver and free to land: it stays
+            assert r.end == s
+        if scope == "range" and cfg.range == "areas":
+            assert all(view.ranges[s, r.action][view.pending_area[q]] for q in p)
+        w = view.pending_weight[p]
+        assert r.payload_kg == pytest.approx(w.sum(), abs=1e-12)
+        assert r.payload_kg <= model.max_payload_kg + 1e-9
+        assert r.energy_j <= model.usable_j + 1e-6
+        pts = np.vstack([dep.xy[r.start], view.pending_xy[p].reshape(-1, 2), dep.xy[r.end]])
+        legs_m, legs_j = model.route_energy(pts, w)
+        assert_allclose(r.legs_m, legs_m, rtol=1e-12, atol=1e-9)
+        assert_allclose(r.legs_j, legs_j, rtol=1e-12, atol=1e-9)
+    assert len(served) == len(set(served)), "an order is served twice"
+    # The selection over the pool is never worse than the best single conflict-free
+    # solution the pool was built from (re-ordering for energy only adds to G).
+    lam = lam_j(cfg.alpha, model.usable_j)
+    score = score_routes(
+        view.pending_idx, view.pending_delay_h, [(r.stops, r.energy_j) for r in plan.routes], lam
+    )
+    # (the pool's best is scored with the urgency bonus when there is one, G without)
+    if sel_name != "greedy" and cfg.pool_urgency == 0:
+        acts = np.array([r.action for r in plan.routes])
+        best = build_pool(
+            dep.xy,
+            view.pending_xy,
+            view.pending_weight,
+            lam * (1.0 + view.pending_delay_h),
+            _pool_tasks(view, acts, cfg, scope),
+            model,
+            n_candidates=cfg.pool_candidates,
+            iterations=cfg.pool_iterations,
+            seed=view.t,
+        ).best_g
+        assert best - 1e-6 * max(1.0, abs(best)) <= score.G
+
+
+@pytest.mark.parametrize("scope", ["range", "global"])
+def test_pool_is_deterministic(model, scope):
+    rng = np.random.default_rng(5)
+    view = hand_view()
+    n = 40
+    view.pending_xy = rng.uniform(-1000, 3000, (n, 2))
+    view.pending_idx = np.arange(n)
+    view.pending_area = view.depots.assign(view.pending_xy[:, 0], view.pending_xy[:, 1])
+    view.pending_delay_h = rng.integers(0, 4, n) * WINDOW_H
+    view.pending_due_w = np.zeros(n, dtype=np.int64)
+    view.pending_due_s = np.zeros(n)
+    view.pending_weight = rng.uniform(0.1, 1.0, n)
+    plans = [
+        plan_window(view, np.array([0, 1]), model, PlanConfig(), MilpSelector(), scope)
+        for _ in range(2)
+    ]
+    a, b = ([(r.stops, r.end, r.energy_j) for r in p.routes] for p in plans)
+    assert a == b
+    assert sum(len(s) for s, _, _ in a) > 4  # a real plan, not two empty routes

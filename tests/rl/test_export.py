@@ -16,7 +16,7 @@ from marops_cli.policies.torchscript import TorchScriptPolicy
 from marops_cli.rl.export import write_actor
 from marops_cli.rl.networks import Actor
 
-# torch 2.13 deprecates TorchScript; SPEC §6 names it as the artifact format.
+# torch 2.13 deprecates TorchScript; docs/method.md §6 names it as the artifact format.
 pytestmark = pytest.mark.filterwarnings("ignore:`torch.jit:DeprecationWarning")
 
 

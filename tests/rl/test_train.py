@@ -13,7 +13,7 @@ from marops_cli.rl.train import train
 
 from .conftest import quick
 
-# torch 2.13 deprecates TorchScript; SPEC §6 names it as the artifact format.
+# torch 2.13 deprecates TorchScript; docs/method.md §6 names it as the artifact format.
 pytestmark = pytest.mark.filterwarnings("ignore:`torch.jit:DeprecationWarning")
 
 

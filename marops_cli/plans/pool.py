@@ -1,0 +1,439 @@
+"""Route pool: many good, feasible routes per drone for the selection program.
+
+docs/method.md, "Route pool", explains the method; in short, for one window:
+
+1. **Candidates.** Each drone may serve the pending requests it is allowed to (its
+   flight range, or the whole map) that it can reach alone within the battery; the
+   ``pool_candidates`` best by *value density* (prize over the share of payload and
+   battery one visit uses) are kept.
+2. **Construction.** Parallel best insertion over all drones at once with the exact
+   payload-aware energy (eq. (6): every leg before the new stop carries its parcel
+   too): the (drone, request, position) with the best score is inserted, as long as
+   payload and battery allow and the prize λ·v exceeds the extra energy. Scores:
+   ``gain`` (prize − extra energy) and ``density`` (gain per share of payload and
+   battery used). Each construction is a complete, conflict-free plan of the window.
+3. **Improvement.** Ruin and recreate (large neighbourhood search) from the best
+   construction: remove a few stops from one or two routes and re-insert greedily;
+   keep the result when G grows. Deterministic: the random stream is seeded.
+4. **Pool.** Every route any of these solutions gave a drone is a column; the
+   selection program then picks one per drone, each request at most once, so its
+   result is never worse than the best single solution.
+
+Routes are stored in insertion order with their exact energy; the chosen ones are
+re-ordered for energy by the exact subset dynamic program afterwards
+(:func:`finish_route`), which only lowers energy.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..energy import EnergyModel
+from .order import MAX_STOPS, _distances, _evaluate, _exact, _subsets
+
+__all__ = ["DroneTask", "PoolResult", "RoutePool", "build_pool", "finish_route", "nearest_depot_m"]
+
+_E_TOL_J = 1e-6  # margin under the usable battery for incremental energies
+SCORES = ("weight", "density", "gain")
+_EXACT_MAX = 10  # exact re-ordering up to this many stops (2**10 subsets)
+
+
+def nearest_depot_m(xy: NDArray[np.float64], depots_xy: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Distance from each point to its nearest depot, in chunks (no points x depots matrix)."""
+    out = np.empty(xy.shape[0])
+    step = max(1, 2_000_000 // max(depots_xy.shape[0], 1))
+    for i in range(0, xy.shape[0], step):
+        p = xy[i : i + step]
+        out[i : i + step] = np.hypot(
+            p[:, None, 0] - depots_xy[None, :, 0], p[:, None, 1] - depots_xy[None, :, 1]
+        ).min(axis=1)
+    return out
+
+
+@dataclass(frozen=True)
+class DroneTask:
+    """What one drone may do in the window."""
+
+    start: int
+    """Start depot id."""
+    end: int
+    """Fixed end depot id, or -1: land at the depot nearest the last customer."""
+    allowed: NDArray[np.int64]
+    """Positions (in the window's pending arrays) of the requests it may serve."""
+
+
+@dataclass
+class _Drone:
+    """A drone's candidates and its route under construction."""
+
+    start_xy: NDArray[np.float64]
+    cand: NDArray[np.int64]  # positions
+    cand_xy: NDArray[np.float64]
+    cand_w: NDArray[np.float64]
+    dmat: NDArray[np.float64]  # (m, m + 1) distances candidate -> candidate, or -> start
+    cand_end: NDArray[np.float64]  # energy of the empty last leg from each candidate
+    start_end: float  # ... and from the start (the empty route)
+    stops: list[int] = field(default_factory=list)  # indices into cand
+    energy: float = 0.0
+    weight: float = 0.0
+    # cached best insertion per candidate
+    score: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
+    slot: NDArray[np.int64] = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    d_e: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
+
+
+@dataclass(frozen=True)
+class PoolResult:
+    """Each drone's distinct routes (positions in insertion order) with their energy."""
+
+    routes: list[list[tuple[int, ...]]]
+    energy_j: list[list[float]]
+    best_g: float
+    """G of the best single conflict-free solution found (the selection does at least as well)."""
+
+
+class RoutePool:
+    """Builds the route pool of one window (module docstring)."""
+
+    def __init__(
+        self,
+        depots_xy: NDArray[np.float64],
+        req_xy: NDArray[np.float64],
+        req_weight: NDArray[np.float64],
+        prize: NDArray[np.float64],
+        tasks: list[DroneTask],
+        model: EnergyModel,
+        n_candidates: int = 80,
+    ) -> None:
+        self.model = model
+        self.grid, self.table = model.grid_kg, model.table_j_per_m
+        self.cap, self.usable = model.max_payload_kg, model.usable_j - _E_TOL_J
+        self.e0 = float(model.energy_per_m(0.0))
+        self.w = np.asarray(req_weight, dtype=np.float64)
+        self.prize = np.asarray(prize, dtype=np.float64)
+        self.xy = np.asarray(req_xy, dtype=np.float64)
+        self.depots_xy = np.asarray(depots_xy, dtype=np.float64)
+        self.tasks = tasks
+        self._near_end: NDArray[np.float64] | None = None
+        scored = [self._score_alone(t) for t in tasks]
+        # Each request's "home" drone: the one it suits best (highest value density; ties
+        # to the lower drone). A drone keeps its ``n_candidates`` best requests and also
+        # the requests it is home to (up to as many again), so every request some drone
+        # can serve is a candidate of at least one drone, however far or heavy it is.
+        best = np.full(self.w.size, -np.inf)
+        home = np.full(self.w.size, -1, dtype=np.int64)
+        for u, (pos, density, _) in enumerate(scored):
+            better = density > best[pos]
+            best[pos[better]] = density[better]
+            home[pos[better]] = u
+        self.drones = [
+            self._drone(t, sc, home, u, n_candidates)
+            for u, (t, sc) in enumerate(zip(tasks, scored, strict=True))
+        ]
+        self._can = np.zeros((len(tasks), self.w.size), dtype=bool)  # drone may serve request
+        for u, dr in enumerate(self.drones):
+            self._can[u, dr.cand] = True
+
+    def _e(self, load: NDArray[np.float64] | float) -> NDArray[np.float64]:
+        """Energy per metre with ``load`` kg on board (the model's own table, unchecked)."""
+        return np.asarray(np.interp(load, self.grid, self.table))
+
+    def _end_energy(self, xy: NDArray[np.float64], end: int) -> NDArray[np.float64]:
+        """Energy of the empty last leg from each point to the drone's end."""
+        if end >= 0:
+            return np.hypot(*(xy - self.depots_xy[end]).T) * self.e0
+        return nearest_depot_m(xy, self.depots_xy) * self.e0
+
+    def _score_alone(
+        self, task: DroneTask
+    ) -> tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.float64]]:
+        """The requests a drone can serve alone at a profit: positions, density, last leg."""
+        s_xy = self.depots_xy[task.start]
+        pos = np.asarray(task.allowed, dtype=np.int64)
+        xy = self.xy[pos]
+        if task.end >= 0:
+            end_e = self._end_energy(xy, task.end)
+        else:
+            if self._near_end is None:  # once for every drone that lands freely
+                self._near_end = self._end_energy(self.xy, -1)
+            end_e = self._near_end[pos]
+        start_end = float(self._end_energy(s_xy[None, :], task.end)[0])
+        w = self.w[pos]
+        # Alone: start -> request with its parcel -> end empty.
+        alone = np.hypot(*(xy - s_xy).T) * self._e(np.minimum(w, self.cap)) + end_e
+        gain = self.prize[pos] - (alone - start_end)
+        use = w / self.cap + np.maximum(alone - start_end, 0.0) / self.usable
+        density = gain / np.maximum(use, 1e-9)
+        keep = np.flatnonzero((w <= self.cap + 1e-9) & (alone <= self.usable) & (gain > 0))
+        return pos[keep], density[keep], end_e[keep]
+
+    def _drone(
+        self,
+        task: DroneTask,
+        scored: tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.float64]],
+        home: NDArray[np.int64],
+        u: int,
+        n_candidates: int,
+    ) -> _Drone:
+        s_xy = self.depots_xy[task.start]
+        pos, density, end_e = scored
+        start_end = float(self._end_energy(s_xy[None, :], task.end)[0])
+        # Best density first; ties to the lower position, so array order never matters.
+        rank = np.lexsort((pos, -density))
+        top = rank[:n_candidates]
+        rest = rank[n_candidates:]
+        extra = rest[home[pos[rest]] == u][:n_candidates]
+        keep = np.concatenate([top, extra])
+        keep = keep[np.argsort(pos[keep], kind="stable")]  # by position (searchsorted)
+        cxy = self.xy[pos[keep]]
+        nodes = np.vstack([cxy, s_xy[None, :]])
+        dmat = np.hypot(cxy[:, None, 0] - nodes[None, :, 0], cxy[:, None, 1] - nodes[None, :, 1])
+        return _Drone(
+            s_xy,
+            pos[keep],
+            cxy,
+            self.w[pos[keep]],
+            dmat,
+            end_e[keep],
+            start_end,
+            energy=start_end,
+        )
+
+    # -- insertion -----------------------------------------------------------------------
+
+    def _insertion(self, dr: _Drone) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+        """Least extra energy to insert each candidate into the route, and where."""
+        k = len(dr.stops)
+        m = dr.cand.size
+        if m == 0:
+            return np.zeros(0), np.zeros(0, dtype=np.int64)
+        nodes = np.array([m, *dr.stops])  # columns of dmat: the start, then the stops
+        wq = dr.cand_w
+        load = np.zeros(k + 1)  # L_i leaving node i, i = 0..k
+        if k:
+            load[:k] = np.cumsum(wq[dr.stops][::-1])[::-1]
+        dq = dr.dmat[:, nodes]  # (m, k + 1): node i -> q
+        e_l = self._e(load)
+        e_lq = self._e(np.minimum(load[None, :] + wq[:, None], self.cap))  # (m, k + 1)
+        d_e = np.empty((m, k + 1))
+        if k:
+            legs = dr.dmat[dr.stops, nodes[:-1]]  # (k,): node i -> node i + 1
+            extra = legs[None, :] * (e_lq[:, :k] - e_l[None, :k])
+            prefix = np.concatenate([np.zeros((m, 1)), np.cumsum(extra, axis=1)], axis=1)
+            d_next = dq[:, 1:]  # q -> node i + 1, for slots i < k
+            d_e[:, :k] = (
+                prefix[:, :k]
+                + dq[:, :k] * e_lq[:, :k]
+                + d_next * e_l[None, :k]
+                - legs[None, :] * e_l[None, :k]
+            )
+            last_end = dr.cand_end[dr.stops[-1]]
+        else:
+            prefix = np.zeros((m, 1))
+            last_end = dr.start_end
+        d_e[:, k] = prefix[:, k] + dq[:, k] * e_lq[:, k] + dr.cand_end - last_end
+        slot = d_e.argmin(axis=1)
+        return d_e[np.arange(m), slot], slot
+
+    def _refresh(self, u: int, score_kind: str, free: NDArray[np.bool_]) -> None:
+        dr = self.drones[u]
+        d_e, slot = self._insertion(dr)
+        gain = self.prize[dr.cand] - d_e
+        feas = (
+            free[dr.cand]
+            & (dr.weight + dr.cand_w <= self.cap + 1e-9)
+            & (dr.energy + d_e <= self.usable)
+            & (gain > 0)
+        )
+        if score_kind == "density":
+            use = dr.cand_w / self.cap + np.maximum(d_e, 0.0) / self.usable
+            score = gain / np.maximum(use, 1e-9)
+        elif score_kind == "weight":
+            score = gain / np.maximum(dr.cand_w, 1e-9)
+        else:
+            score = gain
+        dr.score = np.where(feas, score, -np.inf)
+        dr.slot, dr.d_e = slot, d_e
+
+    def _insert(self, u: int, j: int) -> None:
+        dr = self.drones[u]
+        dr.stops.insert(int(dr.slot[j]), j)
+        dr.energy += float(dr.d_e[j])
+        dr.weight += float(self.w[dr.cand[j]])
+
+    def _fill(self, users: list[int], score_kind: str, free: NDArray[np.bool_]) -> None:
+        """Greedy insertion into the routes of ``users`` until nothing profitable fits."""
+        for u in users:
+            self._refresh(u, score_kind, free)
+        best = np.array(
+            [
+                self.drones[u].score.max(initial=-np.inf) if self.drones[u].cand.size else -np.inf
+                for u in users
+            ]
+        )
+        while best.size and np.isfinite(best.max()):
+            i = int(best.argmax())  # ties to the first drone
+            u = users[i]
+            dr = self.drones[u]
+            j = int(dr.score.argmax())
+            q = int(dr.cand[j])
+            self._insert(u, j)
+            free[q] = False
+            self._refresh(u, score_kind, free)
+            best[i] = dr.score.max(initial=-np.inf)
+            for i2, u2 in enumerate(users):
+                d2 = self.drones[u2]
+                if u2 != u and d2.cand.size:
+                    hit = np.searchsorted(d2.cand, q)
+                    if hit < d2.cand.size and d2.cand[hit] == q and np.isfinite(d2.score[hit]):
+                        d2.score[hit] = -np.inf
+                        best[i2] = d2.score.max(initial=-np.inf)
+
+    # -- solutions -----------------------------------------------------------------------
+
+    def _reset(self) -> NDArray[np.bool_]:
+        for dr in self.drones:
+            dr.stops, dr.energy, dr.weight = [], dr.start_end, 0.0
+        return np.ones(self.w.size, dtype=bool)
+
+    def _g(self) -> float:
+        """G of the current routes: prizes served less every drone's energy."""
+        return float(sum(self.prize[dr.cand[dr.stops]].sum() - dr.energy for dr in self.drones))
+
+    def _snapshot(self) -> list[tuple[list[int], float, float]]:
+        return [(list(dr.stops), dr.energy, dr.weight) for dr in self.drones]
+
+    def _restore(self, snap: list[tuple[list[int], float, float]]) -> NDArray[np.bool_]:
+        free = np.ones(self.w.size, dtype=bool)
+        for dr, (stops, e, w) in zip(self.drones, snap, strict=True):
+            dr.stops, dr.energy, dr.weight = list(stops), e, w
+            free[dr.cand[stops]] = False
+        return free
+
+    def _remove(self, u: int, drop: list[int]) -> None:
+        """Remove stops (indices into the route) and recompute energy exactly."""
+        dr = self.drones[u]
+        gone = set(drop)
+        dr.stops = [j for i, j in enumerate(dr.stops) if i not in gone]
+        dr.energy = self._route_energy(dr)
+        dr.weight = float(self.w[dr.cand[dr.stops]].sum())
+
+    def _route_energy(self, dr: _Drone) -> float:
+        if not dr.stops:
+            return dr.start_end
+        pts = np.vstack([dr.start_xy[None, :], dr.cand_xy[dr.stops]])
+        ws = self.w[dr.cand[dr.stops]]
+        load = np.cumsum(ws[::-1])[::-1]
+        legs = np.hypot(*np.diff(pts, axis=0).T)
+        return float((legs * self._e(np.minimum(load, self.cap))).sum()) + float(
+            dr.cand_end[dr.stops[-1]]
+        )
+
+    def _record(self, pool: list[dict[tuple[int, ...], float]]) -> None:
+        for u, dr in enumerate(self.drones):
+            key = tuple(int(dr.cand[j]) for j in dr.stops)
+            if key and key not in pool[u]:
+                pool[u][key] = dr.energy
+
+    def build(self, iterations: int = 40, seed: int = 0) -> PoolResult:
+        """Constructions with every score, then ``iterations`` ruin-and-recreate steps."""
+        n_u = len(self.drones)
+        pool: list[dict[tuple[int, ...], float]] = [{} for _ in range(n_u)]
+        users = [u for u in range(n_u) if self.drones[u].cand.size]
+        best_g, best_snap, best_kind = -np.inf, self._snapshot(), SCORES[0]
+        for kind in SCORES:
+            free = self._reset()
+            self._fill(users, kind, free)
+            self._record(pool)
+            g = self._g()
+            if g > best_g + 1e-9:
+                best_g, best_snap, best_kind = g, self._snapshot(), kind
+        rng = np.random.default_rng(seed)
+        current = best_snap
+        for it in range(iterations if users else 0):
+            free = self._restore(current)
+            busy = [u for u in users if self.drones[u].stops]
+            if not busy:
+                break
+            u = busy[int(rng.integers(len(busy)))]
+            dr = self.drones[u]
+            n_drop = int(rng.integers(1, min(3, len(dr.stops)) + 1))
+            drop = sorted(rng.choice(len(dr.stops), n_drop, replace=False).tolist())
+            freed = dr.cand[[dr.stops[j] for j in drop]]
+            free[freed] = True
+            self._remove(u, drop)
+            # Another drone that could serve what was freed may take it (a relocation).
+            touched = [u]
+            could: NDArray[np.bool_] = np.asarray(self._can[:, freed].any(axis=1))
+            could[u] = False
+            others = [v for v in users if could[v]] or [v for v in users if v != u]
+            if others:
+                touched.append(others[int(rng.integers(len(others)))])
+            self._fill(touched, SCORES[it % len(SCORES)] if it % 4 == 3 else best_kind, free)
+            self._record(pool)
+            g = self._g()
+            if g > best_g + 1e-9:
+                best_g, current = g, self._snapshot()
+        routes = [list(p.keys()) for p in pool]
+        energy = [list(p.values()) for p in pool]
+        return PoolResult(routes, energy, float(best_g))
+
+
+def build_pool(
+    depots_xy: NDArray[np.float64],
+    req_xy: NDArray[np.float64],
+    req_weight: NDArray[np.float64],
+    prize: NDArray[np.float64],
+    tasks: list[DroneTask],
+    model: EnergyModel,
+    *,
+    n_candidates: int = 80,
+    iterations: int = 40,
+    seed: int = 0,
+) -> PoolResult:
+    """The route pool of one window (module docstring)."""
+    pool = RoutePool(depots_xy, req_xy, req_weight, prize, tasks, model, n_candidates)
+    return pool.build(iterations, seed)
+
+
+def finish_route(
+    start_xy: NDArray[np.float64],
+    end_xy: NDArray[np.float64] | None,
+    depots_xy: NDArray[np.float64],
+    stops_xy: NDArray[np.float64],
+    weights: NDArray[np.float64],
+    model: EnergyModel,
+) -> tuple[NDArray[np.int64], int]:
+    """The energy-minimal visiting order of a route and its end depot.
+
+    ``end_xy`` None lands at the depot nearest the last customer (the order and the
+    landing are optimised together). Exact (subset dynamic program) up to
+    ``_EXACT_MAX`` stops; longer routes keep their order. Returns (order, end depot
+    index into ``depots_xy``, or -1 when ``end_xy`` was given).
+    """
+    n = weights.size
+    if n == 0:
+        return np.zeros(0, dtype=np.int64), -1
+    if 1 < n <= min(_EXACT_MAX, MAX_STOPS):
+        d = _distances(start_xy, start_xy if end_xy is None else end_xy, stops_xy)
+        if end_xy is None:
+            d[:n, n + 1] = nearest_depot_m(stops_xy, depots_xy)
+        bits, _ = _subsets(n)
+        total = bits @ weights
+        cap = model.max_payload_kg
+        e_mask = model.energy_per_m(np.minimum(total, cap))
+        order_all = _exact(d, e_mask, float(model.energy_per_m(0.0)), n)
+        order = order_all[-1].astype(np.int64)
+        # Never worse than the given order (the table is exact, this guards rounding).
+        full = np.array([[*order], [*range(n)]], dtype=np.int8)
+        _, e = _evaluate(full, d, weights, np.full(2, total[-1]), model, n)
+        if e[1] < e[0]:
+            order = np.arange(n)
+    else:
+        order = np.arange(n)
+    last = stops_xy[order[-1]]
+    end = int(np.hypot(*(depots_xy - last).T).argmin()) if end_xy is None else -1
+    return order, end
