@@ -362,13 +362,13 @@ def write_page(doc: Path, results: dict[str, pa.Table]) -> None:
             "paper, mean over days):",
             "",
             "| method | Δ delivered per day | Δ average delay h | Δ energy kJ per drone "
-            "| Δ day objective G MJ |",
+            "| Δ day objective J MJ |",
             "|---|---|---|---|---|",
         ]
         a, b = results["pool"].to_pydict(), results["basic"].to_pydict()
         for m in methods:
             rows = []
-            for k in ("delivered", "avg_delay_h", "mean_energy_kj", "objective_g_mj"):
+            for k in ("delivered", "avg_delay_h", "mean_energy_kj", "objective_j_mj"):
                 pa_ = {
                     d: v for d, v, mm in zip(a["day"], a[k], a["method"], strict=True) if mm == m
                 }
@@ -380,6 +380,13 @@ def write_page(doc: Path, results: dict[str, pa.Table]) -> None:
             lines.append(
                 f"| {m} | {rows[0]:+.1f} | {rows[1]:+.3f} | {rows[2]:+.1f} | {rows[3]:+.2f} |"
             )
+        lines += [
+            "",
+            "J charges every request left waiting in every window, so it is the day objective to "
+            "compare planners by; Σ G over a day is not: a planner that leaves requests waiting "
+            "lets their delay, hence the value of serving them later, grow. `mappo` picks among "
+            "the paper's subset plans whatever the planner setting (its actor ranks them).",
+        ]
     for name in ("alpha", "drones", "coverage", "areas"):
         if name not in summaries:
             continue

@@ -11,6 +11,7 @@ saw them. The table in ``policies/README.md`` was made with::
 
     marops synth --days 14 --seed 23 --start 2022-09-01 --out /tmp/heldout.csv
     python benchmarks/train.py --data /tmp/heldout.csv --history 4 --markdown
+    python benchmarks/train.py --data /tmp/heldout.csv --history 4 --markdown --planner subsets
 """
 
 from __future__ import annotations
@@ -35,6 +36,9 @@ COLUMNS = (
     ("delay_unfairness", "unfairness", "{:.3f} ± {:.3f}"),
     ("avg_early_h", "early h", "{:.3f} ± {:.3f}"),
     ("delivered", "delivered", "{:.0f} ± {:.0f}"),
+    ("delivered_share", "delivered share", "{:.3f} ± {:.3f}"),
+    ("objective_j_mj", "day J MJ", "{:.1f} ± {:.1f}"),
+    ("objective_g_mj", "day G MJ", "{:.1f} ± {:.1f}"),
 )
 
 
@@ -51,6 +55,7 @@ def run(args: argparse.Namespace) -> dict[str, dict[str, tuple[float, float]]]:
             segment__n_depots=args.depots_n,
             sim__drones=args.drones,
             plan__alpha=args.alpha,
+            plan__planner=args.planner,
         )
         scn = load_scenario(args.data, cfg, replay_days=days, table=table)
         fleet = load_fleet(None, scn.depots, cfg.sim.drones)
@@ -71,6 +76,9 @@ def main() -> None:
     ap.add_argument("--drones", type=int, default=8)
     ap.add_argument("--depots-n", type=int, default=16)
     ap.add_argument("--alpha", type=float, default=0.5)
+    ap.add_argument(
+        "--planner", default="pool", choices=["pool", "subsets"], help="[plan] planner [pool]"
+    )
     ap.add_argument("--policy", default=None, help="actor for marops/squares [the shipped one]")
     ap.add_argument("--markdown", action="store_true", help="print a Markdown table")
     args = ap.parse_args()

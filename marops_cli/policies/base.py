@@ -11,7 +11,7 @@ from ..plans.ranges import Ties
 from ..segment.depots import Depots
 
 if TYPE_CHECKING:
-    from ..config import PlannerConfig
+    from ..config import PlanConfig, PlannerConfig
 
 
 @dataclass
@@ -74,3 +74,12 @@ def start_day(policy: Policy, cfg: PlannerConfig, seed: int) -> None:
     if configure is not None:
         configure(cfg)
     policy.reset(seed)
+
+
+def plan_config(policy: object, plan: PlanConfig) -> PlanConfig:
+    """The plan settings ``policy`` flies with: a policy that picks plans itself (the MAPPO
+    baseline, trained on the paper's subsets) names its ``planner``; others use ``plan``."""
+    planner = getattr(policy, "planner", None)
+    if planner is None or planner == plan.planner:
+        return plan
+    return plan.model_copy(update={"planner": planner})

@@ -96,6 +96,7 @@ class DirectPolicy(TorchScriptPolicy):
     """
 
     scope: Literal["range", "global"] = "range"
+    planner = "subsets"  # its plan slots rank the paper's subset plans (docs/method.md §4.5)
 
     def __init__(self, path: str | Path) -> None:
         super().__init__(path)

@@ -103,6 +103,10 @@ class DeliveryEnv:
         self.direct = tcfg.method == "mappo"
         self.n_slots = tcfg.plan_slots if self.direct else 1
         self.selector: Selector = SlotSelector(self.n_slots) if self.direct else _fast_selector(cfg)
+        # MAPPO's plan slots rank the paper's subset plans (policies/direct.py).
+        self.plan_cfg = (
+            cfg.plan.model_copy(update={"planner": "subsets"}) if self.direct else cfg.plan
+        )
         self.obs_version = 2 if self.direct else 3
         self.state: DayState | None = None
         self.view: WindowView | None = None
@@ -151,7 +155,7 @@ class DeliveryEnv:
             assert isinstance(self.selector, SlotSelector)
             self.selector.slots = actions % self.n_slots
         dest = actions // self.n_slots
-        plan = plan_window(view, dest, self.model, self.cfg.plan, self.selector)
+        plan = plan_window(view, dest, self.model, self.plan_cfg, self.selector)
         energy_kj = np.array([r.energy_j for r in plan.routes]) / 1000.0
         starts = view.drone_depot.copy()
         st.apply(plan, self.model.speed_ms)

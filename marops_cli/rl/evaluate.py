@@ -19,6 +19,9 @@ TABLE_KEYS = (
     "delay_unfairness",
     "avg_early_h",
     "delivered",
+    "delivered_share",
+    "objective_j_mj",
+    "objective_g_mj",
 )
 
 

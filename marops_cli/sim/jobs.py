@@ -24,7 +24,7 @@ from ..errors import InputError
 from ..io.jsonfile import read_json
 from ..plans.select import make_selector
 from ..plans.window import WindowPlan, plan_window
-from ..policies.base import Policy, start_day
+from ..policies.base import Policy, plan_config, start_day
 from ..policies.registry import make_policy
 from ..segment.depots import Depots
 from ..segment.methods import segment_points
@@ -189,7 +189,8 @@ def plan_one_window(
     view = state.view(window)
     actions = policy.act(view)
     selector = getattr(policy, "selector", None) or make_selector(cfg.plan)  # mappo flies its own
-    plan = plan_window(view, actions, model, cfg.plan, selector, scope=policy.scope)
+    plan_cfg = plan_config(policy, cfg.plan)
+    plan = plan_window(view, actions, model, plan_cfg, selector, scope=policy.scope)
     return plan, reqs
 
 

@@ -13,7 +13,7 @@ from ..data.table import DayRequests
 from ..energy import EnergyModel
 from ..plans.select import Selector, make_selector
 from ..plans.window import WindowPlan, plan_window
-from ..policies.base import Policy, start_day
+from ..policies.base import Policy, plan_config, start_day
 from ..segment.depots import Depots
 from .state import DayState
 
@@ -43,6 +43,7 @@ def replay_day(
     model = model or EnergyModel(cfg.energy)
     # A policy that picks plans itself (the MAPPO baseline) carries its own selector.
     selector = selector or getattr(policy, "selector", None) or make_selector(cfg.plan)
+    plan_cfg = plan_config(policy, cfg.plan)
     state = DayState(day, depots, drone_depot, cfg.plan.coverage, cfg.plan.ties)
     start_day(policy, cfg, cfg.sim.seed)
     plans: list[WindowPlan] = []
@@ -50,7 +51,7 @@ def replay_day(
     for t in range(day.n_windows):
         view = state.view(t)
         actions = policy.act(view)
-        plan = plan_window(view, actions, model, cfg.plan, selector, scope=policy.scope)
+        plan = plan_window(view, actions, model, plan_cfg, selector, scope=policy.scope)
         state.apply(plan, model.speed_ms)
         plans.append(plan)
         if on_window is not None:

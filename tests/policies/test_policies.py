@@ -235,3 +235,18 @@ def test_version3_actor_chooses_drone_by_drone(tmp_path: Path) -> None:
         want.append(int(logits.argmax()))
         seq.commit(u, want[-1])
     assert acts.tolist() == want
+
+
+def test_mappo_flies_the_paper_planner_whatever_the_setting():
+    """The MAPPO actor's plan slots rank the paper's subset plans, so it keeps that
+    planner under the route pool default; flight-range policies keep the setting."""
+    from marops_cli.config import PlanConfig
+    from marops_cli.policies.base import plan_config
+    from marops_cli.sim.jobs import method_policy
+
+    plan = PlanConfig()
+    assert plan.planner == "pool"
+    mappo = method_policy("mappo", None, 0)
+    assert plan_config(mappo, plan).planner == "subsets"
+    assert plan_config(mappo, plan).model_copy(update={"planner": "pool"}) == plan
+    assert plan_config(StayPolicy(), plan) is plan
