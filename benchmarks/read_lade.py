@@ -16,7 +16,7 @@ import os
 import sys
 
 # Run as a script, this folder comes first on sys.path, where a sibling module may
-# shadow the standard library (benchmarks/select.py hides `select`, which
+# shadow the standard library (a module named select.py would hide `select`, which
 # subprocess imports). The script needs nothing from its own folder.
 if sys.path and os.path.abspath(sys.path[0]) == os.path.dirname(os.path.abspath(__file__)):
     sys.path.pop(0)

@@ -120,7 +120,7 @@ class SegmentConfig(_Stage):
 
 
 class EnergyConfig(_Stage):
-    """Drone parameters (ENERGY.md)."""
+    """Drone parameters (docs/method.md §3)."""
 
     body_kg: float = Field(2.0, gt=0)
     battery_kg: float = Field(1.0, gt=0)

@@ -1,4 +1,4 @@
-"""Errors that reach the user as one line and an exit code (OUTPUTS.md)."""
+"""Errors that reach the user as one line and an exit code (docs/outputs.md)."""
 
 from __future__ import annotations
 

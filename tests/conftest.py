@@ -36,5 +36,5 @@ def _fails_cleanly(args: list[str], out_dir: Path, *needles: str) -> str:
 
 @pytest.fixture
 def fails_cleanly() -> Callable[..., str]:
-    """The bad-input contract of OUTPUTS.md as one check (see :func:`_fails_cleanly`)."""
+    """The bad-input contract of docs/outputs.md as one check (see :func:`_fails_cleanly`)."""
     return _fails_cleanly

@@ -1,4 +1,4 @@
-"""Energy model (docs/method.md §3) against the reference values of ENERGY.md."""
+"""Energy model (docs/method.md §3) against the reference values of docs/method.md §3."""
 
 from __future__ import annotations
 
@@ -11,9 +11,9 @@ from numpy.testing import assert_allclose
 from marops_cli.config import EnergyConfig
 from marops_cli.energy import EnergyModel, power_curve_w, reference_power_w
 
-REF_RTOL = 1e-3  # ENERGY.md: "tests reproduce these to 0.1 %"
+REF_RTOL = 1e-3  # docs/method.md §3: "tests reproduce these to 0.1 %"
 
-# payload kg, power W, energy kJ/km (ENERGY.md)
+# payload kg, power W, energy kJ/km (docs/method.md §3)
 REFERENCE = [
     (0.0, 159.91, 15.991),
     (0.5, 180.91, 18.091),
@@ -53,7 +53,7 @@ def test_induced_velocity_equation_holds():
     d = 0.5 * cfg.air_density * cfg.speed_ms**2 * cfg.cda_m2
     theta = math.atan(d / w)
     thrust = w * (1 + math.tan(theta))
-    assert_allclose(thrust, w + d, rtol=1e-12)  # ENERGY.md: T = W (1 + tan θ) = W + D
+    assert_allclose(thrust, w + d, rtol=1e-12)  # docs/method.md §3: T = W (1 + tan θ) = W + D
     v_hat = reference_power_w(p) * cfg.efficiency / thrust - cfg.speed_ms * math.sin(theta)
     v = cfg.speed_ms
     rhs = (
@@ -99,7 +99,7 @@ def test_order_example_of_energy_md(model):
 def test_usable_battery_and_range(model):
     assert model.usable_j == pytest.approx(168_750.0)
     assert model.speed_ms == 10.0
-    # ENERGY.md: "about 10.6 km empty and 5.7 km fully loaded"
+    # docs/method.md §3: "about 10.6 km empty and 5.7 km fully loaded"
     assert_allclose(model.max_range_m(0.0), 10_600, rtol=0.01)
     assert_allclose(model.max_range_m(2.5), 5_700, rtol=0.01)
 

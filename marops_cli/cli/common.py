@@ -26,7 +26,7 @@ F = TypeVar("F", bound=Callable[..., Any])
 
 
 def guarded(fn: F) -> F:
-    """Turn library errors into one line on stderr and the exit code of OUTPUTS.md."""
+    """Turn library errors into one line on stderr and the exit code of docs/outputs.md."""
 
     @functools.wraps(fn)
     def wrapper(*args: Any, **kwargs: Any) -> Any:

@@ -30,7 +30,10 @@ def segment(
         int | None, typer.Option("--depots", help="Number of depots / service areas [16].")
     ] = None,
     method: Annotated[
-        str | None, typer.Option("--method", help="kmeans (paper Alg. 1) or squares [kmeans].")
+        str | None,
+        typer.Option(
+            "--method", help="kmeans (k-means areas, docs/method.md §2) or squares [kmeans]."
+        ),
     ] = None,
     size_km: Annotated[
         float | None, typer.Option("--size-km", help="Side of the study-area square in km [10].")

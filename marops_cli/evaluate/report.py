@@ -122,7 +122,7 @@ def figures(summary: pa.Table, results: pa.Table, prep: Prepared) -> dict[str, A
 
 
 def evaluation_meta(prep: Prepared) -> dict[str, Any]:
-    """The ``marops`` metadata of an evaluation's files (OUTPUTS.md)."""
+    """The ``marops`` metadata of an evaluation's files (docs/outputs.md)."""
     return run_meta(
         command="evaluate",
         config=prep.cfg,

@@ -1,4 +1,4 @@
-"""Outputs that are complete or absent (OUTPUTS.md): write to temporaries, rename at the end."""
+"""Outputs complete or absent (docs/outputs.md): write to temporaries, rename at the end."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The ``marops`` metadata block carried by every output file (OUTPUTS.md)."""
+"""The ``marops`` metadata block carried by every output file (docs/outputs.md)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Stops and routes tables of OUTPUTS.md, built from planned windows."""
+"""Stops and routes tables of docs/outputs.md, built from planned windows."""
 
 from __future__ import annotations
 

@@ -43,7 +43,7 @@ __all__ = [
 ]
 
 _MIP_REL_GAP = 1e-7  # HiGHS' default 1e-4 of the objective is too loose to be "optimal"
-_CANON_BACKEND = "CPP"  # measured faster than "SCIPY" on these models (benchmarks/select.py)
+_CANON_BACKEND = "CPP"  # measured faster than "SCIPY" on these models (benchmarks/selection.py)
 
 
 @dataclass(frozen=True)

@@ -66,7 +66,7 @@ class Depots:
         )
 
     def to_dict(self, meta: dict[str, Any]) -> dict[str, Any]:
-        """The ``depots.json`` document of OUTPUTS.md."""
+        """The ``depots.json`` document of docs/outputs.md."""
         lng, lat = self.lnglat()
         return {
             "meta": meta,

@@ -9,6 +9,7 @@ import datetime as dt
 import os
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from importlib import resources
 from pathlib import Path
 
 import numpy as np
@@ -49,7 +50,8 @@ DEFAULT_MAPPO_NAME = "mappo-basic.pt"
 
 
 def default_policy_path(name: str = DEFAULT_POLICY_NAME) -> Path | None:
-    """The shipped actor: ``$MAROPS_POLICY``, else ``policies/marops-basic.pt`` in the tree.
+    """The shipped actor: ``$MAROPS_POLICY``, else ``marops-basic.pt`` of the installed
+    package data (``policies/`` in the source tree, ``marops_cli.shipped`` once installed).
 
     ``name`` picks another shipped actor (``mappo-basic.pt``, which ``$MAROPS_POLICY``
     does not replace).
@@ -57,8 +59,12 @@ def default_policy_path(name: str = DEFAULT_POLICY_NAME) -> Path | None:
     env = os.environ.get("MAROPS_POLICY")
     if env and name == DEFAULT_POLICY_NAME:
         return Path(env)
-    here = Path(__file__).resolve().parents[2] / "policies" / name
-    return here if here.is_file() else None
+    try:
+        found = resources.files("marops_cli.shipped") / name
+    except ModuleNotFoundError:  # an install without the package data
+        return None
+    path = Path(str(found))
+    return path if path.is_file() else None
 
 
 def method_policy(method: str, policy: str | None, seed: int) -> Policy:

@@ -23,7 +23,7 @@ def gini(values: np.ndarray) -> float:
 
 
 def day_metrics(res: DayResult, model: EnergyModel) -> dict[str, Any]:
-    """The ``metrics.json`` record of one replayed day (OUTPUTS.md)."""
+    """The ``metrics.json`` record of one replayed day (docs/outputs.md)."""
     st = res.state
     day = st.day
     routes = [r for p in res.plans for r in p.routes]

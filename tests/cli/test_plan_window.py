@@ -27,7 +27,7 @@ runner = CliRunner()
 DAY = dt.date(2022, 8, 11)
 WINDOW = 5
 
-# OUTPUTS.md, column by column. Parquet has no second-resolution timestamp (only milli-,
+# docs/outputs.md, column by column. Parquet has no second-resolution timestamp (only milli-,
 # micro- and nanoseconds), so a timestamp[s] column is stored and read back as
 # timestamp[ms]; the values stay whole seconds and carry no zone (local time).
 STOPS_COLUMNS = [
@@ -131,7 +131,7 @@ def test_parquet_writes_stops_and_routes_with_the_documented_columns(parquet_out
     assert set(st["day"]) == {"2022-08-11"} and set(rt["method"]) == {"greedy"}
     assert set(rt["window_start"]) == {dt.datetime(2022, 8, 11, 11, 30)}  # 09:00 + 5 × 30 min
     assert sum(rt["n_parcels"]) > 0
-    # nulls where OUTPUTS.md says so
+    # nulls where docs/outputs.md says so
     for i, kind in enumerate(st["kind"]):
         depot_row = kind in ("start", "end")
         assert (st["depot"][i] is None) == (not depot_row)

@@ -1,4 +1,4 @@
-"""Stops and routes tables (OUTPUTS.md) from a hand-made window, and their writers."""
+"""Stops and routes tables (docs/outputs.md) from a hand-made window, and their writers."""
 
 from __future__ import annotations
 
@@ -119,7 +119,7 @@ def test_stops_hand_values(tables, model):
     assert_allclose(st["leg_m"], [0, 1000, 1250, 750, 0, 0])
     assert_allclose(
         st["leg_j"][1:4], [1000 * 29.426, 1250 * 18.091, 750 * 15.991], rtol=1e-4
-    )  # ENERGY.md kJ/km at 2.5, 0.5, 0 kg
+    )  # docs/method.md §3 kJ/km at 2.5, 0.5, 0 kg
     # parcels on board when leaving each node (eq. 6)
     assert_allclose(st["payload_kg"], [2.5, 0.5, 0.0, 0.0, 0.0, 0.0])
     assert st["weight_kg"] == [None, 2.0, 0.5, None, None, None]

@@ -25,10 +25,10 @@ from marops_cli.segment.depots import Depots, nearest_candidates
 FRAME = Frame(121.47, 31.23, 10.0)
 WINDOW_H = 0.5
 
-# ENERGY.md's per-km table is given to 5 significant figures (±0.0005 kJ/km, at worst
+# docs/method.md §3's per-km table is given to 5 significant figures (±0.0005 kJ/km, at worst
 # 3e-5 relative at 15.991 kJ/km), so hand sums from it agree with the model to 1e-4.
 HAND_RTOL = 1e-4
-# kJ/km with the payload on board (ENERGY.md)
+# kJ/km with the payload on board (docs/method.md §3)
 KJ_PER_KM = {0.0: 15.991, 0.5: 18.091, 1.0: 20.499, 1.5: 23.199, 2.0: 26.179, 2.5: 29.426}
 
 
@@ -53,7 +53,7 @@ KJ_PER_KM = {0.0: 15.991, 0.5: 18.091, 1.0: 20.499, 1.5: 23.199, 2.0: 26.179, 2.
 # Which drone: drone 0 with {A, D} and drone 1 with {B, C} (below) cost 139.07 kJ; the
 # swap costs > 200 kJ (drone 0 → B alone is 2236 m at 2.5 kg = 65.8 kJ).
 #
-# Visiting order and energy (kJ/km from ENERGY.md, 3-4-5 triangles):
+# Visiting order and energy (kJ/km from docs/method.md §3, 3-4-5 triangles):
 #   drone 0: 0 → A → D → 0:  1000 m @ 2.5 kg + 1250 m @ 0.5 kg + 750 m @ 0 kg
 #            = 29.426 + 22.61375 + 11.99325 = 64.0330 kJ
 #            (D first, same 3000 m: 750 @ 2.5 + 1250 @ 2.0 + 1000 @ 0 = 70.7845 kJ;
@@ -70,7 +70,7 @@ A, B, C, D, E = DAY_IDX
 
 
 def kj(*legs: tuple[float, float]) -> float:
-    """Energy in J of (metres, kg on board) legs from ENERGY.md's per-km table."""
+    """Energy in J of (metres, kg on board) legs from docs/method.md §3's per-km table."""
     return sum(m / 1000 * KJ_PER_KM[kg] for m, kg in legs) * 1000
 
 
@@ -202,7 +202,7 @@ def test_no_pending_requests(model, scope):
     assert [r.stops for r in plan.routes] == [(), ()]
     ends = [0, 0] if scope == "range" else [0, 1]
     assert [r.end for r in plan.routes] == ends
-    assert plan.routes[0].energy_j == 0.0  # stays put: a row with energy 0 (OUTPUTS.md)
+    assert plan.routes[0].energy_j == 0.0  # stays put: a row with energy 0 (docs/outputs.md)
     transfer = kj((2000, 0.0)) if scope == "range" else 0.0
     assert_allclose(plan.routes[1].energy_j, transfer, rtol=HAND_RTOL)
 
