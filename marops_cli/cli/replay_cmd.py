@@ -13,6 +13,7 @@ from rich.table import Table
 
 from ..errors import InputError
 from ..io import output_set, run_meta
+from ..io.meta import file_sha256
 from . import options as o
 from .common import console, guarded, is_terminal, make_config, print_drop_report, require_input
 from .common import out as out_console
@@ -106,24 +107,96 @@ def replay_day(
     pol = method_policy(method, cfg.sim.policy, cfg.sim.seed)
     fleet = load_fleet(None, scn.depots, cfg.sim.drones)
     policy_id = getattr(pol, "path", pol.name)
+    identity = _identity(scn, cfg, method, policy_id, depots, fmt)
+    # A day folder that is complete is kept only if it was made with these settings;
+    # every day is checked before anything is replayed or written.
+    keep: dict[dt.date, list[dict[str, Any]]] = {}
+    for day in days:
+        done = (out if date else out / day.isoformat()) / "metrics.json"
+        if done.is_file() and not force:
+            keep[day] = _matching_days(done, identity)
     all_metrics: list[dict[str, Any]] = []
     for day in days:
         folder = out if date else out / day.isoformat()
-        done = folder / "metrics.json"
-        if done.is_file() and not force:
-            prior = json.loads(done.read_text(encoding="utf-8"))["days"]
+        if day in keep:
             console.print(
-                f"{day.isoformat()}: output exists in {folder}, skipped (--force replays)"
+                f"{day.isoformat()}: output with the same settings exists in {folder}, "
+                "skipped (--force replays)"
             )
-            all_metrics.extend(prior)
+            all_metrics.extend(keep[day])
             continue
-        metrics = _replay_one(scn, day, fleet, pol, method, folder, fmt, plot, policy_id)
+        metrics = _replay_one(scn, day, fleet, pol, method, folder, fmt, plot, policy_id, identity)
         all_metrics.append(metrics)
     if dates:
         meta = run_meta(command="replay-day", config=cfg, source=scn.table.source, method=method)
         with output_set() as files:
             files.write_json(out / "metrics.json", {"meta": meta, "days": all_metrics})
     _print_metrics(all_metrics)
+
+
+def _identity(
+    scn: Scenario, cfg: Any, method: str, policy_id: Any, depots: Path | None, fmt: str
+) -> dict[str, Any]:
+    """What makes a replayed day what it is: version, config, input, depots, policy,
+    method, seed and format. Recorded in every day's metrics.json under ``settings``."""
+    meta = run_meta(
+        command="replay-day",
+        config=cfg,
+        source=scn.table.source,
+        policy=policy_id,
+        method=method,
+        seed=cfg.sim.seed,
+        stamp=False,
+    )
+    meta["frame"] = {
+        "center_lng": scn.frame.center_lng,
+        "center_lat": scn.frame.center_lat,
+        "size_km": scn.frame.size_km,
+    }
+    if depots is not None:
+        meta["depots_file"] = {"name": depots.name, "sha256": file_sha256(depots)}
+    meta["format"] = fmt
+    meta.pop("command", None)
+    return meta
+
+
+def _flatten(doc: Any, prefix: str = "") -> dict[str, Any]:
+    if not isinstance(doc, dict):
+        return {prefix: doc}
+    out: dict[str, Any] = {}
+    for k, v in doc.items():
+        out.update(_flatten(v, f"{prefix}.{k}" if prefix else str(k)))
+    return out
+
+
+def _matching_days(done: Path, identity: dict[str, Any]) -> list[dict[str, Any]]:
+    """The day records of ``done`` if it was made with ``identity``; else a clear error."""
+    try:
+        doc = json.loads(done.read_text(encoding="utf-8"))
+        prior = doc["meta"].get("settings")
+        days = doc["days"]
+    except (OSError, ValueError, KeyError, TypeError, AttributeError) as exc:
+        raise InputError(
+            f"unreadable earlier output ({exc}); pass --force to replay or choose another --out",
+            file=done,
+        ) from exc
+    if prior is None:
+        raise InputError(
+            "earlier output without recorded settings; pass --force to replay or choose "
+            "another --out",
+            file=done,
+        )
+    old, new = _flatten(prior), _flatten(identity)
+    diff = [k for k in sorted(set(old) | set(new)) if old.get(k) != new.get(k)]
+    if diff:
+        shown = "; ".join(f"{k}: {old.get(k)!r} here, {new.get(k)!r} now" for k in diff[:3])
+        more = f" (+{len(diff) - 3} more)" if len(diff) > 3 else ""
+        raise InputError(
+            f"holds a replay made with other settings ({shown}{more}); pass --force to "
+            "replay it or choose another --out",
+            file=done,
+        )
+    return list(days)
 
 
 def _replay_one(
@@ -136,6 +209,7 @@ def _replay_one(
     fmt: str,
     plot: bool,
     policy_id: Any,
+    identity: dict[str, Any],
 ) -> dict[str, Any]:
     from ..energy import EnergyModel
     from ..io.tables import build_tables, table_records, with_meta, write_parquet
@@ -177,7 +251,8 @@ def _replay_one(
         policy=policy_id,
         method=method,
         seed=cfg.sim.seed,
-        extra={"day": day.isoformat()},
+        extra={"day": day.isoformat(), "frame": identity["frame"]}
+        | ({"depots_file": identity["depots_file"]} if "depots_file" in identity else {}),
         stamp=False,
     )
     with output_set() as files:
@@ -198,7 +273,7 @@ def _replay_one(
 
             files.write_with(folder / "routes.png", lambda p: plot_day(res, reqs, p))
         # metrics.json is renamed last: its presence means the day is complete.
-        stamped = dict(meta, **run_meta(command="replay-day"))
+        stamped = dict(meta, **run_meta(command="replay-day"), settings=identity)
         files.write_json(folder / "metrics.json", {"meta": stamped, "days": [metrics]})
     return metrics
 

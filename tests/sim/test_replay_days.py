@@ -58,6 +58,32 @@ def test_dates_layout_and_resume(example_csv: Path, tmp_path: Path) -> None:
     assert day1.stat().st_mtime_ns != mtime
 
 
+def test_rerun_with_other_settings_is_refused_and_changes_nothing(
+    example_csv: Path, tmp_path: Path
+) -> None:
+    """A folder replayed with one setting is not silently reused for another: exit 2,
+    a line naming the day's file and what differs, every file left as it was."""
+    out = tmp_path / "week"
+    _replay(example_csv, out)
+    before = {p: p.read_bytes() for p in sorted(out.rglob("*")) if p.is_file()}
+    args = ["replay-day", str(example_csv), "--dates", "0811..0812", "--out", str(out)]
+    res = runner.invoke(app, [*args, "--method", "greedy", "--alpha", "0.9"])
+    assert res.exit_code == 2
+    assert "2022-08-11/metrics.json" in res.output
+    assert "config.plan.alpha: 0.5 here, 0.9 now" in res.output
+    assert "--force" in res.output
+    assert {p: p.read_bytes() for p in sorted(out.rglob("*")) if p.is_file()} == before
+    # Another method with the same settings otherwise: refused as well.
+    res = runner.invoke(app, [*args, "--method", "stay"])
+    assert res.exit_code == 2 and "method: 'greedy' here, 'stay' now" in res.output
+    # The same settings again: kept and skipped, the days' numbers unchanged.
+    res = runner.invoke(app, [*args, "--method", "greedy"])
+    assert res.exit_code == 0 and res.output.count("skipped") == 2
+    days = json.loads((out / "2022-08-11" / "metrics.json").read_text())
+    assert days["meta"]["settings"]["method"] == "greedy"
+    assert days["meta"]["settings"]["frame"]["size_km"] == 10.0
+
+
 def test_json_format_matches_parquet(example_csv: Path, tmp_path: Path) -> None:
     for fmt in ("parquet", "json"):
         res = runner.invoke(
