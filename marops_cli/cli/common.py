@@ -89,6 +89,38 @@ def print_drop_report(report: DropReport, name: str) -> None:
     )
 
 
+def print_day_scope(reqs: Any, cfg: Any) -> None:
+    """Say how many of the day's orders are planned and what the study area and the
+    service hours left out (docs/method.md §1)."""
+    left = []
+    if reqs.outside_area:
+        left.append(f"{reqs.outside_area:,} outside the {cfg.data.size_km:g} km study area")
+    if reqs.outside_hours:
+        left.append(
+            f"{reqs.outside_hours:,} due outside service hours "
+            f"{cfg.data.service_start}-{cfg.data.service_end}"
+        )
+    tail = f", {sum((reqs.outside_area, reqs.outside_hours)):,} left out ({'; '.join(left)})"
+    console.print(
+        f"{reqs.day.isoformat()}: {reqs.orders_due:,} orders due, {len(reqs):,} planned"
+        + (tail if left else "")
+    )
+
+
+UNDELIVERED_WARN = 0.10
+
+
+def warn_undelivered(metrics: dict[str, Any], drones: int) -> None:
+    """Warn when more than 10 % of a day's requests stayed undelivered."""
+    share = metrics["undelivered"] / max(metrics["requests"], 1)
+    if share > UNDELIVERED_WARN:
+        console.print(
+            f"warning: {metrics['day']}: {metrics['undelivered']:,} of {metrics['requests']:,} "
+            f"requests ({share:.0%}) stayed undelivered with {drones} "
+            + ("drone" if drones == 1 else "drones")
+        )
+
+
 def kv_table(title: str, rows: list[tuple[str, str]]) -> Table:
     t = Table(title=title, show_header=False, title_justify="left")
     t.add_column("key", style="bold")

@@ -10,7 +10,14 @@ from rich.table import Table
 
 from ..errors import InputError
 from . import options as o
-from .common import console, guarded, make_config, require_input
+from .common import (
+    console,
+    guarded,
+    make_config,
+    print_day_scope,
+    print_drop_report,
+    require_input,
+)
 from .common import out as out_console
 
 if TYPE_CHECKING:
@@ -78,10 +85,12 @@ def plan_window(
     )
     day = parse_day(date, cfg.data.year)
     scn = load_scenario(data, cfg, depots_path=depots, replay_days=[day])
+    print_drop_report(scn.table.report, data.name)
     fleet_arr = load_fleet(fleet, scn.depots, cfg.sim.drones)
     pol = method_policy(method, cfg.sim.policy, cfg.sim.seed)
     done = delivered_orders(delivered) if delivered is not None else None
     plan, reqs = plan_one_window(scn, day, window, fleet_arr, pol, done)
+    print_day_scope(reqs, cfg)
     model = EnergyModel(cfg.energy)
     stops, routes = build_tables(reqs, scn.depots, [plan], model, method)
     meta = run_meta(

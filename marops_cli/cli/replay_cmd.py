@@ -15,7 +15,16 @@ from ..errors import InputError
 from ..io import output_set, run_meta
 from ..io.meta import file_sha256
 from . import options as o
-from .common import console, guarded, is_terminal, make_config, print_drop_report, require_input
+from .common import (
+    console,
+    guarded,
+    is_terminal,
+    make_config,
+    print_day_scope,
+    print_drop_report,
+    require_input,
+    warn_undelivered,
+)
 from .common import out as out_console
 
 if TYPE_CHECKING:
@@ -242,6 +251,8 @@ def _replay_one(
             )
 
         res, reqs, metrics = replay(scn, day, fleet, pol, method, on_window=log)
+    print_day_scope(reqs, cfg)
+    warn_undelivered(metrics, cfg.sim.drones)
     model = EnergyModel(cfg.energy)
     stops, routes = build_tables(reqs, scn.depots, res.plans, model, method)
     meta = run_meta(

@@ -111,7 +111,8 @@ def prepare_day(
     start = (np.datetime64(day, "D").astype(np.int64)) * _DAY_S + cfg.service_start_s
     due = (table.delivery_s - start).astype(np.float64)
     x, y = frame.to_xy(table.lng, table.lat)
-    mask = on_day & frame.contains(x, y) & (due >= 0) & (due < cfg.span_s)
+    inside = on_day & frame.contains(x, y)
+    mask = inside & (due >= 0) & (due < cfg.span_s)
     if not mask.any():
         raise InputError(
             f"no requests on {day.isoformat()} inside the study area "
@@ -146,6 +147,8 @@ def prepare_day(
         due_w=due_w[order],
         due_s=due[order],
         accept_s=accept[order],
+        outside_area=int((on_day & ~inside).sum()),
+        outside_hours=int((inside & ~mask).sum()),
     )
 
 

@@ -141,6 +141,13 @@ class DayRequests:
     due_w: np.ndarray  # int32
     due_s: np.ndarray  # float64
     accept_s: np.ndarray  # float64 (negative when accepted before service start)
+    outside_area: int = 0  # orders due that day left out: outside the study square
+    outside_hours: int = 0  # ... inside it but due outside service hours
+
+    @property
+    def orders_due(self) -> int:
+        """Orders of the file due that day (after bad rows were dropped)."""
+        return len(self) + self.outside_area + self.outside_hours
 
     def __len__(self) -> int:
         return int(self.order_id.shape[0])

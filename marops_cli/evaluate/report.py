@@ -6,6 +6,7 @@ from functools import partial
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pyarrow as pa
 import pyarrow.csv as pacsv
 
@@ -51,8 +52,11 @@ def _rows_of(summary: pa.Table, setting: int) -> list[dict[str, Any]]:
 
 
 def mean_pm_std(row: dict[str, Any], key: str, fmt: str = "{:.2f}") -> str:
-    """``"0.88 ± 0.10"`` from a summary row's ``key_mean`` and ``key_std``."""
-    return f"{fmt.format(row[f'{key}_mean'])} ± {fmt.format(row[f'{key}_std'])}"
+    """``"0.88 ± 0.10"`` from a summary row's ``key_mean`` and ``key_std`` (``± n/a``
+    where the std is missing: a single day or repeat)."""
+    std = row[f"{key}_std"]
+    spread = "n/a" if std is None or not np.isfinite(std) else fmt.format(std)
+    return f"{fmt.format(row[f'{key}_mean'])} ± {spread}"
 
 
 def table3(summary: pa.Table, setting: int) -> tuple[list[str], list[tuple[str, list[str]]]]:

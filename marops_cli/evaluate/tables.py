@@ -122,9 +122,10 @@ def _with_combined_cost(table: pa.Table) -> pa.Table:
 
 
 def mean_std(values: np.ndarray) -> tuple[float, float]:
-    """Mean and sample standard deviation (ddof 1; 0 for a single value)."""
+    """Mean and sample standard deviation (ddof 1; NaN, shown as n/a, for a single value:
+    one day has no spread to report)."""
     v = np.asarray(values, dtype=np.float64)
-    return float(v.mean()), float(v.std(ddof=1)) if v.size > 1 else 0.0
+    return float(v.mean()), float(v.std(ddof=1)) if v.size > 1 else float("nan")
 
 
 def summarize(results: pa.Table) -> pa.Table:

@@ -56,6 +56,10 @@ def day_metrics(res: DayResult, model: EnergyModel) -> dict[str, Any]:
         "delivered": int(delivered.sum()),
         "undelivered": int((~delivered).sum()),
         "requests": int(len(day)),
+        # Orders due that day that were not planned: outside the study area or hours.
+        "orders_due": day.orders_due,
+        "outside_area": day.outside_area,
+        "outside_hours": day.outside_hours,
         "depot_load_kg": {str(i): round(float(load[i]), 6) for i in range(n_areas)},
         "battery_frac_mean": float(flown.mean() / model.cfg.battery_j) if flown.size else 0.0,
         "battery_frac_max": float(flown.max() / model.cfg.battery_j) if flown.size else 0.0,

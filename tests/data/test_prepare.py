@@ -171,3 +171,24 @@ def test_parcel_weights_same_in_another_process() -> None:
 
 def test_parcel_weights_accepts_ints_as_text() -> None:
     np.testing.assert_array_equal(parcel_weights([1001, 1002]), parcel_weights(["1001", "1002"]))
+
+
+def test_left_out_orders_add_up_to_the_files_rows(example_csv):
+    """Every row of the file is accounted for: dropped as bad, or due on a day and then
+    planned, outside the study area or outside service hours."""
+    from marops_cli.config import DataConfig
+    from marops_cli.data.prepare import prepare_day, study_frame
+    from marops_cli.data.reader import read_lade
+
+    cfg = DataConfig(size_km=4.0)  # a small square, so the area leaves many out
+    table = read_lade(example_csv, cfg)
+    frame = study_frame(table, cfg, table.days())
+    counted, area, hours = 0, 0, 0
+    for day in table.days():
+        reqs = prepare_day(table, frame, day, cfg)
+        assert reqs.orders_due == len(reqs) + reqs.outside_area + reqs.outside_hours
+        counted += reqs.orders_due
+        area += reqs.outside_area
+        hours += reqs.outside_hours
+    assert counted + table.report.n_dropped == table.report.total
+    assert area > 0 and hours > 0

@@ -55,4 +55,9 @@ def test_flatten_nested_metrics() -> None:
 
 def test_mean_std_is_sample_std() -> None:
     assert mean_std(np.array([1.0, 3.0])) == (2.0, float(np.sqrt(2.0)))
-    assert mean_std(np.array([4.0])) == (4.0, 0.0)
+    mean, std = mean_std(np.array([4.0]))
+    assert mean == 4.0 and np.isnan(std)  # one day: no spread (shown as n/a)
+    from marops_cli.evaluate.report import mean_pm_std
+
+    assert mean_pm_std({"x_mean": 4.0, "x_std": std}, "x") == "4.00 ± n/a"
+    assert mean_pm_std({"x_mean": 4.0, "x_std": 0.5}, "x") == "4.00 ± 0.50"

@@ -110,3 +110,21 @@ def test_json_format_matches_parquet(example_csv: Path, tmp_path: Path) -> None:
     assert [r["leg_j"] for r in doc["stops"]] == [r["leg_j"] for r in table]
     routes = json.loads((tmp_path / "json" / "routes.json").read_text())["routes"]
     assert len(routes) == 8 * 16
+
+
+def test_says_what_was_left_out_and_warns_when_much_stays_undelivered(
+    example_csv: Path, tmp_path: Path
+) -> None:
+    args = ["replay-day", str(example_csv), "--date", "0811", "--method", "stay"]
+    res = runner.invoke(app, [*args, "--drones", "1", "--out", str(tmp_path / "one")])
+    assert res.exit_code == 0, res.output
+    day = json.loads((tmp_path / "one" / "metrics.json").read_text())["days"][0]
+    assert day["orders_due"] == day["requests"] + day["outside_area"] + day["outside_hours"]
+    assert f"{day['orders_due']:,} orders due, {day['requests']:,} planned" in res.output
+    assert f"{day['outside_area']:,} outside the 10 km study area" in res.output
+    assert day["undelivered"] > 0.1 * day["requests"]
+    assert "warning: 2022-08-11:" in res.output
+    assert "stayed undelivered with 1 drone\n" in res.output
+    res = runner.invoke(app, [*args, "--drones", "16", "--out", str(tmp_path / "many")])
+    day = json.loads((tmp_path / "many" / "metrics.json").read_text())["days"][0]
+    assert (day["undelivered"] > 0.1 * day["requests"]) == ("warning:" in res.output)
