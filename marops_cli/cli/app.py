@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import sys
 from typing import Annotated
 
 import typer
+import typer.core
 
 from .. import __version__
-from .common import STATE
+from .common import PLAIN, STATE
 from .evaluate_cmd import evaluate
 from .plan_window_cmd import plan_window
 from .replay_cmd import replay_day
@@ -45,7 +47,7 @@ def _root(
     ] = False,
 ) -> None:
     """Operations planner for drone last-mile delivery."""
-    STATE["debug"] = debug
+    STATE.update(debug=debug, quiet=False, json=False)
 
 
 app.command("synth")(synth)
@@ -57,4 +59,24 @@ app.command("evaluate")(evaluate)
 
 
 def main() -> None:
-    app()
+    """The console script: every error is one plain line on stderr (docs/outputs.md)."""
+    if PLAIN:  # help and messages as plain text for logs and pipes
+        typer.core.HAS_RICH = False
+    try:
+        code = app(standalone_mode=False)
+    except typer.Abort:
+        typer.echo("marops: interrupted", err=True)
+        sys.exit(130)
+    except Exception as exc:  # usage errors (unknown option, bad value, missing argument)
+        message = getattr(exc, "format_message", None)
+        if message is None:
+            raise
+        if type(exc).__name__ == "NoArgsIsHelpError":  # bare `marops CMD`: its help
+            typer.echo(message(), err=True)
+            sys.exit(2)
+        ctx = getattr(exc, "ctx", None)
+        hint = f" (see '{ctx.command_path} --help')" if ctx is not None else ""
+        text = " ".join(str(message()).split())
+        typer.echo(f"marops: error: {text}{hint}", err=True)
+        sys.exit(int(getattr(exc, "exit_code", 2)))
+    sys.exit(code if isinstance(code, int) else 0)

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import functools
+import json
+import os
 import sys
 from collections.abc import Callable
 from pathlib import Path
@@ -16,11 +18,66 @@ from ..config import PlannerConfig, load_config, override
 from ..data.table import DropReport
 from ..errors import InputError, MaropsError
 
-console = Console(stderr=True, highlight=False, width=None if sys.stderr.isatty() else 140)
+
+def plain_output() -> bool:
+    """Plain text for machines and logs: when stdout or stderr is not a terminal, when
+    ``NO_COLOR`` is set, ``TERM=dumb``, or ``MAROPS_PLAIN=1``."""
+    env = os.environ
+    if env.get("MAROPS_PLAIN", "") not in ("", "0"):
+        return True
+    if "NO_COLOR" in env or env.get("TERM") == "dumb":
+        return True
+    return not (sys.stdout.isatty() and sys.stderr.isatty())
+
+
+PLAIN = plain_output()
+# In plain mode nothing wraps (lines stay whole in a log) and tables have no box drawing.
+_WIDE = 1_000
+console = Console(
+    stderr=True, highlight=False, width=_WIDE if PLAIN else None, soft_wrap=PLAIN, no_color=PLAIN
+)
 """Messages and progress (stderr)."""
-out = Console(highlight=False, width=None if sys.stdout.isatty() else 140)
+out = Console(highlight=False, width=_WIDE if PLAIN else None, soft_wrap=PLAIN, no_color=PLAIN)
 """Result tables (stdout), so a cron job's log keeps them whole."""
-STATE: dict[str, bool] = {"debug": False}
+STATE: dict[str, bool] = {"debug": False, "quiet": False, "json": False}
+
+
+def set_output(quiet: bool = False, as_json: bool = False) -> None:
+    """Apply a command's ``--quiet`` and ``--json`` (every invocation sets both)."""
+    STATE["quiet"], STATE["json"] = bool(quiet), bool(as_json)
+
+
+def info(message: str) -> None:
+    """A progress or status line on stderr; silent with ``--quiet`` or ``--json``."""
+    if not (STATE["quiet"] or STATE["json"]):
+        console.print(message)
+
+
+def warn(message: str) -> None:
+    """A warning on stderr (shown with ``--quiet`` and ``--json`` too)."""
+    console.print(f"warning: {message}")
+
+
+def emit_json(doc: Any) -> None:
+    """The run's summary as one JSON document on stdout (``--json``)."""
+    sys.stdout.write(json.dumps(doc, indent=2, sort_keys=False, default=str) + "\n")
+    sys.stdout.flush()
+
+
+def table(title: str, **kwargs: Any) -> Table:
+    """A result table: rich boxes in a terminal, plain aligned columns otherwise."""
+    if PLAIN:
+        kwargs.setdefault("box", None)
+        kwargs.setdefault("show_edge", False)
+        kwargs.setdefault("pad_edge", False)
+    return Table(title=title, title_justify="left", **kwargs)
+
+
+def show_table(t: Table) -> None:
+    """Print a result table on stdout unless ``--json`` replaces it."""
+    if not STATE["json"]:
+        out.print(t)
+
 
 F = TypeVar("F", bound=Callable[..., Any])
 
@@ -78,12 +135,12 @@ def require_input(path: Path) -> None:
 def print_drop_report(report: DropReport, name: str) -> None:
     """Tell the user which rows were dropped and why (docs/method.md §1)."""
     if report.n_dropped == 0:
-        console.print(f"{name}: {report.total:,} rows read, none dropped")
+        info(f"{name}: {report.total:,} rows read, none dropped")
         return
     parts = ", ".join(
         f"{n:,} {reason.replace('_', ' ')}" for reason, n in report.dropped.items() if n
     )
-    console.print(
+    info(
         f"{name}: {report.total:,} rows read, {report.kept:,} kept, "
         f"{report.n_dropped:,} dropped ({parts}); --strict makes these errors"
     )
@@ -101,7 +158,7 @@ def print_day_scope(reqs: Any, cfg: Any) -> None:
             f"{cfg.data.service_start}-{cfg.data.service_end}"
         )
     tail = f", {sum((reqs.outside_area, reqs.outside_hours)):,} left out ({'; '.join(left)})"
-    console.print(
+    info(
         f"{reqs.day.isoformat()}: {reqs.orders_due:,} orders due, {len(reqs):,} planned"
         + (tail if left else "")
     )
@@ -114,15 +171,15 @@ def warn_undelivered(metrics: dict[str, Any], drones: int) -> None:
     """Warn when more than 10 % of a day's requests stayed undelivered."""
     share = metrics["undelivered"] / max(metrics["requests"], 1)
     if share > UNDELIVERED_WARN:
-        console.print(
-            f"warning: {metrics['day']}: {metrics['undelivered']:,} of {metrics['requests']:,} "
+        warn(
+            f"{metrics['day']}: {metrics['undelivered']:,} of {metrics['requests']:,} "
             f"requests ({share:.0%}) stayed undelivered with {drones} "
             + ("drone" if drones == 1 else "drones")
         )
 
 
 def kv_table(title: str, rows: list[tuple[str, str]]) -> Table:
-    t = Table(title=title, show_header=False, title_justify="left")
+    t = table(title, show_header=False)
     t.add_column("key", style="bold")
     t.add_column("value")
     for k, v in rows:

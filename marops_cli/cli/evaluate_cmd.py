@@ -6,13 +6,24 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Annotated
 
 import typer
-from rich.table import Table
 
 from ..data.dates import parse_days
 from ..errors import InputError
 from . import options as o
-from .common import console, guarded, is_terminal, make_config, print_drop_report, require_input
-from .common import out as out_console
+from .common import (
+    STATE,
+    console,
+    emit_json,
+    guarded,
+    info,
+    is_terminal,
+    make_config,
+    print_drop_report,
+    require_input,
+    set_output,
+    show_table,
+    table,
+)
 
 if TYPE_CHECKING:
     from ..evaluate import Evaluation, Job, Prepared
@@ -50,7 +61,7 @@ def evaluate(
         str | None, typer.Option("--coverage", help="Flying coverage densities: 0.25,0.5 [0.25].")
     ] = None,
     depots_n: Annotated[
-        str | None, typer.Option("--depots-n", help="Numbers of service areas: 8,16,32 [16].")
+        str | None, typer.Option("--n-depots", help="Numbers of service areas: 8,16,32 [16].")
     ] = None,
     workers: Annotated[int, typer.Option("--workers", min=1, help="Worker processes.")] = 2,
     policy: Annotated[
@@ -71,8 +82,11 @@ def evaluate(
     year: o.Year = None,
     strict: o.Strict = False,
     config: o.Config = None,
+    quiet: o.Quiet = False,
+    as_json: o.Json = False,
 ) -> None:
     """Compare methods on held-out days (paper Table III); sweep flags given several values."""
+    set_output(quiet, as_json)
     # The library (pyarrow, matplotlib, the planner) loads here, so `marops --help` stays fast.
     from ..evaluate import expand_settings, parse_values, prepare, write_outputs
 
@@ -83,7 +97,7 @@ def evaluate(
         alpha=parse_values(alpha, float, "--alpha"),
         drones=parse_values(drones, int, "--drones"),
         coverage=parse_values(coverage, float, "--coverage"),
-        depots_n=parse_values(depots_n, int, "--depots-n"),
+        depots_n=parse_values(depots_n, int, "--n-depots"),
     )
     days = parse_days(dates, cfg.data.year) if dates else None
     if days and split:
@@ -101,14 +115,23 @@ def evaluate(
         actors=actors,
     )
     print_drop_report(prep.source.report, data.name)
-    console.print(
+    info(
         f"evaluate: {len(prep.methods)} methods x {len(settings)} settings x "
         f"{len(prep.days)} days x {repeats} repeats = {len(prep.jobs)} replays, {workers} workers"
     )
     ev = _run(prep, workers)
     paths = write_outputs(out, prep, ev.results, ev.summary, plots=plots)
     _print_tables(ev)
-    console.print(f"wrote {', '.join(str(p) for p in paths)}")
+    info(f"wrote {', '.join(str(p) for p in paths)}")
+    if STATE["json"]:
+        emit_json(
+            {
+                "command": "evaluate",
+                "files": [str(p) for p in paths],
+                "days": [d.isoformat() for d in prep.days],
+                "summary": ev.summary.to_pylist(),
+            }
+        )
 
 
 def _methods(text: str | None, actors: dict[str, Path]) -> list[str]:
@@ -142,15 +165,14 @@ def _run(prep: Prepared, workers: int) -> Evaluation:
 
     from ..evaluate import evaluate as run_evaluation
 
-    if not is_terminal():
+    if not is_terminal() or STATE["quiet"] or STATE["json"]:
 
         def log(done: int, total: int, job: Job) -> None:
             s = prep.settings[job.setting]
-            typer.echo(
+            info(
                 f"evaluate {done}/{total}: {job.day.isoformat()} {job.method} alpha={s.alpha:g} "
                 f"drones={s.drones} coverage={s.coverage:g} depots={s.depots_n} "
-                f"repeat {job.repeat}",
-                err=True,
+                f"repeat {job.repeat}"
             )
 
         return run_evaluation(prep, workers, log)
@@ -176,10 +198,10 @@ def _print_tables(ev: Evaluation) -> None:
 
     for s in sorted(set(ev.summary.column("setting").to_pylist())):
         methods, body = table3(ev.summary, s)
-        t = Table(title=setting_title(ev.summary, s), title_justify="left")
+        t = table(setting_title(ev.summary, s))
         t.add_column("metric")
         for m in methods:
             t.add_column(m, justify="right")
         for label, cells in body:
             t.add_row(label, *cells)
-        out_console.print(t)
+        show_table(t)

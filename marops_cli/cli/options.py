@@ -7,21 +7,33 @@ from typing import Annotated
 
 import typer
 
+# Every method (marops_cli.sim.jobs.METHODS; tests/cli check the two agree).
+METHOD_NAMES = "marops, ops-global, ops-random, greedy, squares, mappo, stay, myopic"
 Data = Annotated[Path, typer.Argument(help="LaDe delivery export (CSV or Parquet).")]
 Config = Annotated[
-    Path | None, typer.Option("--config", help="Planner config TOML; flags override it.")
+    Path | None,
+    typer.Option(
+        "--config", envvar="MAROPS_CONFIG", help="Planner config TOML; flags override it."
+    ),
 ]
-Year = Annotated[int | None, typer.Option("--year", help="Year of the MM-DD times [2022].")]
+Year = Annotated[
+    int | None,
+    typer.Option("--year", envvar="MAROPS_YEAR", help="Year of the MM-DD times [2022]."),
+]
 Strict = Annotated[
     bool, typer.Option("--strict", help="Make any bad row an error instead of dropping it.")
 ]
 Alpha = Annotated[
     float | None,
     typer.Option(
-        "--alpha", help="Trade-off weight in (0, 1]: higher saves energy, lower delay [0.5]."
+        "--alpha",
+        envvar="MAROPS_ALPHA",
+        help="Trade-off weight in (0, 1]: higher saves energy, lower delay [0.5].",
     ),
 ]
-Drones = Annotated[int | None, typer.Option("--drones", help="Fleet size [8].")]
+Drones = Annotated[
+    int | None, typer.Option("--drones", envvar="MAROPS_DRONES", help="Fleet size [8].")
+]
 Policy = Annotated[
     str | None,
     typer.Option(
@@ -30,7 +42,10 @@ Policy = Annotated[
         "(torchscript:PATH or PATH.pt) [the method's own].",
     ),
 ]
-Seed = Annotated[int | None, typer.Option("--seed", help="Seed for random policies [0].")]
+Seed = Annotated[
+    int | None,
+    typer.Option("--seed", envvar="MAROPS_SEED", help="Seed for random policies [0]."),
+]
 Ordering = Annotated[
     str | None,
     typer.Option(
@@ -40,4 +55,18 @@ Ordering = Annotated[
 StrictCover = Annotated[
     bool,
     typer.Option("--strict-cover", help="The paper's exact cover of all candidates when feasible."),
+]
+Quiet = Annotated[
+    bool,
+    typer.Option(
+        "--quiet", "-q", envvar="MAROPS_QUIET", help="Only warnings and errors on stderr."
+    ),
+]
+Json = Annotated[
+    bool,
+    typer.Option(
+        "--json",
+        envvar="MAROPS_JSON",
+        help="Print the run's summary as one JSON document on stdout (no tables, no progress).",
+    ),
 ]

@@ -6,17 +6,21 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Annotated
 
 import typer
-from rich.table import Table
 
 from ..errors import InputError
 from . import options as o
 from .common import (
-    console,
+    STATE,
+    emit_json,
     guarded,
+    info,
     make_config,
     print_day_scope,
     print_drop_report,
     require_input,
+    set_output,
+    show_table,
+    table,
 )
 from .common import out as out_console
 
@@ -46,8 +50,9 @@ def plan_window(
     ] = None,
     policy: o.Policy = None,
     method: Annotated[
-        str, typer.Option("--method", help="Method name recorded in the output and its policy.")
-    ] = "greedy",
+        str,
+        typer.Option("--method", help=f"One of {o.METHOD_NAMES} (docs/method.md §7) [marops]."),
+    ] = "marops",
     alpha: o.Alpha = None,
     ordering: o.Ordering = None,
     strict_cover: o.StrictCover = False,
@@ -55,8 +60,11 @@ def plan_window(
     year: o.Year = None,
     strict: o.Strict = False,
     config: o.Config = None,
+    quiet: o.Quiet = False,
+    as_json: o.Json = False,
 ) -> None:
     """Plan one time window: flight ranges, candidate plans, optimal plan selection."""
+    set_output(quiet, as_json)
     from ..data.dates import parse_day
     from ..energy import EnergyModel
     from ..io import output_set, run_meta
@@ -115,15 +123,38 @@ def plan_window(
     with output_set() as files:
         written = write_route_files(files, out, stops, routes, meta)
     _summary(plan, model, reqs.window_start(window).strftime("%Y-%m-%d %H:%M"))
-    console.print("wrote " + ", ".join(str(p) for p in written))
+    info("wrote " + ", ".join(str(p) for p in written))
+    if STATE["json"]:
+        emit_json(
+            {
+                "command": "plan-window",
+                "day": day.isoformat(),
+                "window": window,
+                "files": [str(p) for p in written],
+                "solver": meta["solver"],
+                "objective": meta["objective"],
+                "routes": [
+                    {
+                        "drone": r.drone,
+                        "start_depot": r.start,
+                        "end_depot": r.end,
+                        "action": r.action,
+                        "order_ids": [str(reqs.order_id[i]) for i in r.stops],
+                        "payload_kg": r.payload_kg,
+                        "distance_m": r.distance_m,
+                        "energy_j": r.energy_j,
+                    }
+                    for r in plan.routes
+                ],
+            }
+        )
 
 
 def _summary(plan, model: EnergyModel, when: str) -> None:  # type: ignore[no-untyped-def]
-    t = Table(
-        title=f"window {plan.t} ({when}): {plan.n_candidates} candidate requests, "
+    t = table(
+        f"window {plan.t} ({when}): {plan.n_candidates} candidate requests, "
         f"solver {plan.selection.status}"
-        + (" (greedy fallback)" if plan.selection.fallback else ""),
-        title_justify="left",
+        + (" (greedy fallback)" if plan.selection.fallback else "")
     )
     for col in ("drone", "from → to", "parcels", "km", "kJ", "battery %"):
         t.add_column(col, justify="right")
@@ -136,8 +167,8 @@ def _summary(plan, model: EnergyModel, when: str) -> None:  # type: ignore[no-un
             f"{r.energy_j / 1000:.1f}",
             f"{100 * r.energy_j / model.cfg.battery_j:.1f}",
         )
-    out_console.print(t)
-    if plan.score is not None:  # the window objective (docs/method.md)
+    show_table(t)
+    if plan.score is not None and not STATE["json"]:  # the window objective (docs/method.md)
         sc = plan.score
         out_console.print(
             f"window objective: J {sc.J / 1e6:.3f} MJ, G {sc.G / 1e6:.3f} MJ "

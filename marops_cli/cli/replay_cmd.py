@@ -9,28 +9,31 @@ from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
-from rich.table import Table
 
 from ..errors import InputError
 from ..io import output_set, run_meta
 from ..io.meta import file_sha256
 from . import options as o
 from .common import (
+    STATE,
     console,
+    emit_json,
     guarded,
+    info,
     is_terminal,
     make_config,
     print_day_scope,
     print_drop_report,
     require_input,
+    set_output,
+    show_table,
+    table,
     warn_undelivered,
 )
-from .common import out as out_console
 
 if TYPE_CHECKING:
     from ..sim.jobs import Scenario
 
-METHOD_NAMES = "marops, ops-global, ops-random, greedy, squares, mappo, stay"
 
 METRIC_COLUMNS = (
     ("mean_energy_kj", "energy kJ/drone", "{:.1f}"),
@@ -61,7 +64,7 @@ def replay_day(
         Path | None, typer.Option("--depots", help="depots.json [segment the other days].")
     ] = None,
     depots_n: Annotated[
-        int | None, typer.Option("--depots-n", help="Depots when segmenting here [16].")
+        int | None, typer.Option("--n-depots", help="Depots when segmenting here [16].")
     ] = None,
     segment: Annotated[
         str | None,
@@ -70,7 +73,7 @@ def replay_day(
     drones: o.Drones = None,
     method: Annotated[
         str,
-        typer.Option("--method", help=f"One of {METHOD_NAMES} (docs/method.md §7) [marops]."),
+        typer.Option("--method", help=f"One of {o.METHOD_NAMES} (docs/method.md §7) [marops]."),
     ] = "marops",
     policy: o.Policy = None,
     alpha: o.Alpha = None,
@@ -86,8 +89,11 @@ def replay_day(
     year: o.Year = None,
     strict: o.Strict = False,
     config: o.Config = None,
+    quiet: o.Quiet = False,
+    as_json: o.Json = False,
 ) -> None:
     """Replay whole days window by window; write stops, routes and the paper's metrics."""
+    set_output(quiet, as_json)
     from ..data.dates import parse_day, parse_days
     from ..sim.jobs import METHODS, load_fleet, load_scenario, method_policy
 
@@ -128,7 +134,7 @@ def replay_day(
     for day in days:
         folder = out if date else out / day.isoformat()
         if day in keep:
-            console.print(
+            info(
                 f"{day.isoformat()}: output with the same settings exists in {folder}, "
                 "skipped (--force replays)"
             )
@@ -141,6 +147,15 @@ def replay_day(
         with output_set() as files:
             files.write_json(out / "metrics.json", {"meta": meta, "days": all_metrics})
     _print_metrics(all_metrics)
+    if STATE["json"]:
+        emit_json(
+            {
+                "command": "replay-day",
+                "out": str(out),
+                "metrics": str(out / "metrics.json"),
+                "days": all_metrics,
+            }
+        )
 
 
 def _identity(
@@ -226,7 +241,7 @@ def _replay_one(
 
     cfg = scn.cfg
     n_windows = cfg.data.n_windows
-    if is_terminal():
+    if is_terminal() and not (STATE["quiet"] or STATE["json"]):
         progress = Progress(
             TextColumn(f"{day.isoformat()} {method}"),
             BarColumn(),
@@ -244,10 +259,9 @@ def _replay_one(
 
         def log(p: Any) -> None:
             served = sum(len(r.stops) for r in p.routes)
-            typer.echo(
-                f"{day.isoformat()} {method} window {p.t + 1}/{n_windows}: "
-                f"{served} delivered, {p.n_candidates} candidates, solver {p.selection.status}",
-                err=True,
+            info(
+                f"{day.isoformat()} {method} window {p.t} of 0..{n_windows - 1}: "
+                f"{served} delivered, {p.n_candidates} candidates, solver {p.selection.status}"
             )
 
         res, reqs, metrics = replay(scn, day, fleet, pol, method, on_window=log)
@@ -290,11 +304,11 @@ def _replay_one(
 
 
 def _print_metrics(rows: list[dict[str, Any]]) -> None:
-    t = Table(title="day metrics (docs/method.md §8)", title_justify="left")
-    t.add_column("day")
-    t.add_column("method")
+    t = table("day metrics (docs/method.md §8)")
+    t.add_column("day", no_wrap=True, min_width=10)
+    t.add_column("method", no_wrap=True)
     for _, label, _ in METRIC_COLUMNS:
         t.add_column(label, justify="right")
     for m in rows:
         t.add_row(m["day"], m["method"], *[f.format(m[k]) for k, _, f in METRIC_COLUMNS])
-    out_console.print(t)
+    show_table(t)

@@ -6,19 +6,22 @@ from pathlib import Path
 from typing import Annotated
 
 import typer
-from rich.table import Table
 
 from . import options as o
 from .common import (
+    PLAIN,
+    STATE,
     console,
+    emit_json,
     guarded,
+    info,
     make_config,
     parse_center,
     print_drop_report,
     require_input,
-)
-from .common import (
-    out as out_console,
+    set_output,
+    show_table,
+    table,
 )
 
 
@@ -26,8 +29,8 @@ from .common import (
 def segment(
     data: o.Data,
     out: Annotated[Path, typer.Option("--out", help="Where to write depots.json.")],
-    depots: Annotated[
-        int | None, typer.Option("--depots", help="Number of depots / service areas [16].")
+    n_depots: Annotated[
+        int | None, typer.Option("--n-depots", help="Number of depots / service areas [16].")
     ] = None,
     method: Annotated[
         str | None,
@@ -42,32 +45,29 @@ def segment(
         str | None,
         typer.Option("--center", help="Study-area centre LNG,LAT [the densest square]."),
     ] = None,
-    days: Annotated[
+    dates: Annotated[
         str | None,
-        typer.Option("--days", help="History days, e.g. 0801..0824 or 801,802 [all days]."),
+        typer.Option("--dates", help="History days, e.g. 0801..0824 or 801,802 [all days]."),
     ] = None,
     actions: Annotated[
         int | None,
         typer.Option("--actions", help="Action candidates per depot, itself included [4]."),
     ] = None,
     seed: Annotated[int | None, typer.Option("--seed", help="k-means random seed [0].")] = None,
-    year: Annotated[
-        int | None, typer.Option("--year", help="Year of the MM-DD times in the file [2022].")
-    ] = None,
-    strict: Annotated[
-        bool, typer.Option("--strict", help="Make any bad row an error instead of dropping it.")
-    ] = False,
+    year: o.Year = None,
+    strict: o.Strict = False,
     geojson: Annotated[
         Path | None, typer.Option("--geojson", help="Also write depots and areas as GeoJSON.")
     ] = None,
     plot: Annotated[
         Path | None, typer.Option("--plot", help="Also draw a PNG map of customers and areas.")
     ] = None,
-    config: Annotated[
-        Path | None, typer.Option("--config", help="Planner config TOML; flags override it.")
-    ] = None,
+    config: o.Config = None,
+    quiet: o.Quiet = False,
+    as_json: o.Json = False,
 ) -> None:
     """Cluster a LaDe export into depots and service areas (k-means or squares)."""
+    set_output(quiet, as_json)
     from ..data.dates import parse_days
     from ..io import output_set, run_meta
     from ..segment import areas_geojson
@@ -81,14 +81,17 @@ def segment(
         data__size_km=size_km,
         data__center=parse_center(center),
         data__strict=strict or None,
-        segment__n_depots=depots,
+        segment__n_depots=n_depots,
         segment__method=method,
         segment__n_actions=actions,
         segment__seed=seed,
     )
-    day_list = parse_days(days, cfg.data.year) if days else None
-    with console.status("segmenting…"):
+    day_list = parse_days(dates, cfg.data.year) if dates else None
+    if PLAIN or STATE["quiet"] or STATE["json"]:
         res = segment_file(data, cfg, day_list)
+    else:
+        with console.status("segmenting…"):
+            res = segment_file(data, cfg, day_list)
     print_drop_report(res.table.report, data.name)
     meta = run_meta(
         command="segment",
@@ -113,15 +116,30 @@ def segment(
             )
             files.write_with(plot, lambda p: plot_depots(res.depots, res.history_xy, p, title))
     _print_summary(res)
-    console.print(f"wrote {out}" + "".join(f", {p}" for p in (geojson, plot) if p is not None))
+    written = [out, *(p for p in (geojson, plot) if p is not None)]
+    info("wrote " + ", ".join(str(p) for p in written))
+    if STATE["json"]:
+        emit_json(
+            {
+                "command": "segment",
+                "files": [str(p) for p in written],
+                "method": cfg.segment.method,
+                "frame": {
+                    "center_lng": res.depots.frame.center_lng,
+                    "center_lat": res.depots.frame.center_lat,
+                    "size_km": res.depots.frame.size_km,
+                },
+                "history_days": [d.isoformat() for d in res.days],
+                "depots": len(res.depots),
+            }
+        )
 
 
 def _print_summary(res) -> None:  # type: ignore[no-untyped-def]
     f = res.depots.frame
-    t = Table(
-        title=f"{len(res.depots)} depots around ({f.center_lng:.5f}, {f.center_lat:.5f}), "
-        f"{f.size_km:g} km square",
-        title_justify="left",
+    t = table(
+        f"{len(res.depots)} depots around ({f.center_lng:.5f}, {f.center_lat:.5f}), "
+        f"{f.size_km:g} km square"
     )
     for col in ("depot", "x km", "y km", "history", "candidates"):
         t.add_column(col, justify="right" if col != "candidates" else "left")
@@ -129,4 +147,4 @@ def _print_summary(res) -> None:  # type: ignore[no-untyped-def]
         x, y = res.depots.xy[i] / 1000.0
         cands = " ".join(str(c) for c in res.depots.candidates[i])
         t.add_row(str(i), f"{x:.2f}", f"{y:.2f}", f"{res.depots.n_history[i]:,}", cands)
-    out_console.print(t)
+    show_table(t)

@@ -10,7 +10,7 @@ import typer
 from pydantic import ValidationError
 
 from ..errors import InputError
-from .common import console, guarded
+from .common import guarded, info
 
 
 @guarded
@@ -46,4 +46,4 @@ def synth(
         raise InputError(f"invalid option {err['loc'][0]}: {err['msg']}") from None
     table = generate(cfg)
     path = write(table, out, fmt)  # type: ignore[arg-type]
-    console.print(f"wrote {path} ({table.num_rows:,} rows, {days} days from {first.isoformat()})")
+    info(f"wrote {path} ({table.num_rows:,} rows, {days} days from {first.isoformat()})")

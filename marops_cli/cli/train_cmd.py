@@ -11,13 +11,11 @@ from typing import Annotated, Any
 import typer
 from pydantic import ValidationError
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
-from rich.table import Table
 
 from ..data.dates import parse_days
 from ..errors import InputError
 from . import options as o
-from .common import console, guarded, is_terminal, make_config, require_input
-from .common import out as out_console
+from .common import console, guarded, is_terminal, make_config, require_input, show_table, table
 
 
 def _eval_line(ev: dict[str, Any]) -> str:
@@ -98,7 +96,7 @@ def train(
     ] = True,
     alpha: o.Alpha = None,
     drones: o.Drones = None,
-    depots_n: Annotated[int | None, typer.Option("--depots-n", help="Depots [16].")] = None,
+    depots_n: Annotated[int | None, typer.Option("--n-depots", help="Depots [16].")] = None,
     seed: Annotated[int, typer.Option("--seed", help="Training seed; same seed, same actor.")] = 0,
     data_origin: Annotated[
         str | None,
@@ -141,7 +139,7 @@ def train(
         rep.close()
     console.print(f"wrote {out} and {out.with_suffix('.json')} ({side['training_time_s']:.0f} s)")
     if side.get("heldout"):
-        t = Table(title="held-out days (mean over days)", title_justify="left")
+        t = table("held-out days (mean over days)")
         for col in ("method", "energy kJ/drone", "delay h", "combined cost"):
             t.add_column(col, justify="left" if col == "method" else "right")
         for m, v in side["heldout"]["methods"].items():
@@ -151,4 +149,4 @@ def train(
                 f"{v['avg_delay_h']:.3f}",
                 f"{v['combined_cost']:.3f}",
             )
-        out_console.print(t)
+        show_table(t)

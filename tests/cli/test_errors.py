@@ -33,7 +33,7 @@ def _write(tmp_path: Path, lines: list[str], name: str = "lade.csv") -> Path:
 def test_missing_column(tmp_path: Path, fails_cleanly) -> None:
     data = _write(tmp_path, [HEADER.replace(",lat,", ",latitude,"), _row(1)])
     fails_cleanly(
-        ["segment", str(data), "--depots", "1", "--out", str(tmp_path / "d.json")],
+        ["segment", str(data), "--n-depots", "1", "--out", str(tmp_path / "d.json")],
         tmp_path,
         "lade.csv",
         "row 1",
@@ -44,7 +44,7 @@ def test_missing_column(tmp_path: Path, fails_cleanly) -> None:
 def test_unparseable_time_names_row_and_column(tmp_path: Path, fails_cleanly) -> None:
     data = _write(tmp_path, [HEADER, _row(1), _row(2, dlv="08-20 25:99:00"), _row(3)])
     fails_cleanly(
-        ["segment", str(data), "--depots", "1", "--out", str(tmp_path / "d.json")],
+        ["segment", str(data), "--n-depots", "1", "--out", str(tmp_path / "d.json")],
         tmp_path,
         "lade.csv",
         "row 3",
@@ -96,7 +96,7 @@ def test_strict_turns_a_dropped_row_into_an_error(tmp_path: Path, fails_cleanly)
     rows = [HEADER] + [_row(i, lng=f"121.4{i}") for i in range(1, 6)] + [_row(9, lng="0", lat="0")]
     data = _write(tmp_path, rows)
     fails_cleanly(
-        ["segment", str(data), "--depots", "1", "--strict", "--out", str(tmp_path / "d.json")],
+        ["segment", str(data), "--n-depots", "1", "--strict", "--out", str(tmp_path / "d.json")],
         tmp_path,
         "lade.csv",
         "row 7",

@@ -73,14 +73,14 @@ ROUTES_COLUMNS = [
 def depots_file(example_csv: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
     out = tmp_path_factory.mktemp("seg") / "depots.json"
     res = runner.invoke(
-        app, ["segment", str(example_csv), "--days", "0801..0810", "--out", str(out)]
+        app, ["segment", str(example_csv), "--dates", "0801..0810", "--out", str(out)]
     )
     assert res.exit_code == 0, res.output
     return out
 
 
 def plan(example_csv: Path, depots_file: Path, out: Path, *extra: str) -> Path:
-    args = ["plan-window", str(example_csv), "--depots", str(depots_file)]
+    args = ["plan-window", str(example_csv), "--depots", str(depots_file), "--method", "greedy"]
     args += ["--date", "0811", "--window", str(WINDOW), "--out", str(out), *extra]
     res = runner.invoke(app, args)
     assert res.exit_code == 0, res.output

@@ -72,7 +72,7 @@ def test_segment_cli_equals_library(example_csv: Path, tmp_path: Path) -> None:
         [
             "segment",
             str(example_csv),
-            "--days",
+            "--dates",
             "0801..0810",
             "--seed",
             "2",

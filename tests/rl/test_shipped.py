@@ -42,7 +42,7 @@ def test_shipped_sidecars_match_this_build() -> None:
     [
         ["--method", "marops"],
         ["--method", "squares"],  # the same actor on a 4 x 4 grid of squares
-        ["--method", "marops", "--depots-n", "32"],  # and on twice as many areas
+        ["--method", "marops", "--n-depots", "32"],  # and on twice as many areas
         ["--method", "mappo"],  # the MAPPO baseline picks plans itself
     ],
     ids=["marops", "squares", "depots32", "mappo"],

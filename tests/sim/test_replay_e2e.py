@@ -36,7 +36,7 @@ def depots_files(example_csv: Path, tmp_path_factory: pytest.TempPathFactory) ->
             [
                 "segment",
                 str(example_csv),
-                "--days",
+                "--dates",
                 "0801..0810",
                 "--method",
                 seg,

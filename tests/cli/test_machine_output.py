@@ -1,0 +1,91 @@
+"""Output for cron jobs and pipes: plain lines, no box drawing, --json, one-line errors."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+BOX = set("─│┃━┏┓┗┛┡┩╭╮╰╯┌┐└┘├┤┬┴┼═║")
+
+
+def run(args: list[str], cwd: Path, **env: str) -> subprocess.CompletedProcess[str]:
+    """The console script as cron runs it: no terminal, a bare environment, no stdin."""
+    base = {"PATH": os.environ.get("PATH", "/usr/bin:/bin"), "HOME": str(cwd)}
+    code = "from marops_cli.cli.app import main; main()"
+    return subprocess.run(
+        [sys.executable, "-c", code, *args],
+        cwd=cwd,
+        env=base | env,
+        stdin=subprocess.DEVNULL,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+
+
+@pytest.fixture(scope="module")
+def cron_run(example_csv: Path, tmp_path_factory: pytest.TempPathFactory):
+    cwd = tmp_path_factory.mktemp("cron")
+    args = ["replay-day", str(example_csv), "--date", "0811", "--method", "stay"]
+    table = run([*args, "--out", "table"], cwd)
+    as_json = run([*args, "--out", "json", "--json"], cwd)
+    return cwd, table, as_json
+
+
+def test_plain_tables_and_whole_lines_without_a_terminal(cron_run) -> None:
+    _, res, _ = cron_run
+    assert res.returncode == 0, res.stderr
+    assert not BOX & set(res.stdout + res.stderr)
+    # the drop report is one line however long, never wrapped mid sentence
+    report = [ln for ln in res.stderr.splitlines() if "rows read" in ln]
+    assert len(report) == 1 and report[0].endswith("--strict makes these errors")
+    lines = [ln.split() for ln in res.stdout.splitlines()]
+    assert ["day", "method", "energy"] in [ln[:3] for ln in lines]  # the header, whole
+    assert ["2022-08-11", "stay"] in [ln[:2] for ln in lines]  # a row: columns, not cells
+    assert "\x1b[" not in res.stdout + res.stderr  # no colour codes
+
+
+def test_json_prints_the_summary_on_stdout_only(cron_run) -> None:
+    cwd, table, res = cron_run
+    assert res.returncode == 0, res.stderr
+    doc = json.loads(res.stdout)
+    assert doc["command"] == "replay-day" and doc["out"] == "json"
+    (day,) = doc["days"]
+    written = json.loads((cwd / "json" / "metrics.json").read_text())["days"][0]
+    assert day == written
+    assert "window" not in res.stderr  # no progress lines
+    assert table.stdout.count(str(day["delivered"])) >= 1
+
+
+@pytest.mark.parametrize(
+    ("args", "needle"),
+    [
+        (["replay-day", "--bogus"], "No such option: --bogus"),
+        (["replay-day"], "Missing argument"),
+        (["segment", "x.csv", "--out", "d.json", "--n-depots", "many"], "--n-depots"),
+    ],
+)
+def test_usage_errors_are_one_plain_line(tmp_path: Path, args: list[str], needle: str) -> None:
+    res = run(args, tmp_path)
+    assert res.returncode == 2
+    lines = res.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("marops: error: ") and needle in lines[0]
+    assert not BOX & set(res.stderr)
+
+
+def test_quiet_keeps_warnings_only(example_csv: Path, tmp_path: Path) -> None:
+    args = ["replay-day", str(example_csv), "--date", "0811", "--method", "stay"]
+    res = run([*args, "--drones", "1", "--out", "o", "--quiet"], tmp_path)
+    assert res.returncode == 0, res.stderr
+    assert res.stderr.strip().splitlines() == [
+        ln for ln in res.stderr.strip().splitlines() if ln.startswith("warning: ")
+    ]
+    assert "stayed undelivered" in res.stderr
+    # settings from the environment (MAROPS_*): the same run, its fleet size from MAROPS_DRONES
+    env = run([*args, "--out", "e", "--json"], tmp_path, MAROPS_DRONES="1")
+    assert json.loads(env.stdout)["days"][0]["drones"] == 1
