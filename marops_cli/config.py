@@ -50,10 +50,26 @@ class DataConfig(_Stage):
         None, gt=0, description="number of windows over service hours (sets the length)"
     )
     strict: bool = Field(False, description="treat any dropped row as an error")
+    tz: str = Field(
+        "Asia/Shanghai", description="time zone of the file's local times (LaDe: Shanghai)"
+    )
     weight_median_kg: float = Field(0.5, gt=0)
     weight_sigma: float = Field(0.6, ge=0)
     weight_min_kg: float = Field(0.1, gt=0)
     weight_max_kg: float = Field(2.5, gt=0)
+
+    @field_validator("tz")
+    @classmethod
+    def _check_tz(cls, v: str) -> str:
+        from zoneinfo import ZoneInfo, ZoneInfoNotFoundError
+
+        try:
+            ZoneInfo(v)
+        except (ZoneInfoNotFoundError, ValueError):
+            raise ValueError(
+                f"unknown time zone {v!r} (an IANA name, e.g. Asia/Shanghai)"
+            ) from None
+        return v
 
     @field_validator("service_start", "service_end")
     @classmethod

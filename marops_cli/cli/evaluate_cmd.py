@@ -77,7 +77,9 @@ def evaluate(
             "--mappo-policy", help="Trained MAPPO actor (.pt) (default: the shipped one)."
         ),
     ] = None,
-    plots: Annotated[bool, typer.Option("--plots/--no-plots", help="Draw the figures.")] = True,
+    plots: Annotated[
+        bool, typer.Option("--plot/--no-plot", help="Draw the figures (PNG) into --out.")
+    ] = True,
     seed: o.Seed = None,
     year: o.Year = None,
     strict: o.Strict = False,

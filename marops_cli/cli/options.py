@@ -70,3 +70,14 @@ Json = Annotated[
         help="Print the run's summary as one JSON document on stdout (no tables, no progress).",
     ),
 ]
+Tz = Annotated[
+    str | None,
+    typer.Option(
+        "--tz", envvar="MAROPS_TZ", help="Time zone of the data's local times [Asia/Shanghai]."
+    ),
+]
+Geojson = Annotated[
+    bool,
+    typer.Option("--geojson", help="Also write routes.geojson: one LineString per route."),
+]
+Format = Annotated[str, typer.Option("--format", help="Route files: parquet or json [parquet].")]

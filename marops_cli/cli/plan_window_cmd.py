@@ -35,7 +35,10 @@ def plan_window(
     date: Annotated[str, typer.Option("--date", help="Day to plan: 820, 0820 or 2022-08-20.")],
     window: Annotated[int, typer.Option("--window", help="0-based window index in the day.")],
     out: Annotated[
-        Path, typer.Option("--out", help="routes.parquet (+ .routes.parquet) or routes.json.")
+        Path,
+        typer.Option(
+            "--out", help="Output folder: stops.parquet and routes.parquet (or .json files)."
+        ),
     ],
     fleet: Annotated[
         Path | None,
@@ -45,7 +48,8 @@ def plan_window(
     delivered: Annotated[
         Path | None,
         typer.Option(
-            "--delivered", help="Earlier stops Parquet: its orders are not planned again."
+            "--delivered",
+            help="Earlier stops.parquet (or its folder): its orders are not planned again.",
         ),
     ] = None,
     policy: o.Policy = None,
@@ -60,6 +64,9 @@ def plan_window(
     year: o.Year = None,
     strict: o.Strict = False,
     config: o.Config = None,
+    fmt: o.Format = "parquet",
+    geojson: o.Geojson = False,
+    tz: o.Tz = None,
     quiet: o.Quiet = False,
     as_json: o.Json = False,
 ) -> None:
@@ -68,6 +75,7 @@ def plan_window(
     from ..data.dates import parse_day
     from ..energy import EnergyModel
     from ..io import output_set, run_meta
+    from ..io.meta import file_sha256
     from ..io.tables import build_tables, write_route_files
     from ..sim.jobs import (
         delivered_orders,
@@ -78,12 +86,19 @@ def plan_window(
     )
 
     require_input(data)
-    if out.suffix not in (".parquet", ".json"):
-        raise InputError(f"--out must end in .parquet or .json, got {out.name}")
+    if out.suffix in (".parquet", ".json"):
+        raise InputError(
+            f"--out is a folder (it gets stops.{fmt} and routes.{fmt}), not a file: {out.name}"
+        )
+    if out.exists() and not out.is_dir():
+        raise InputError("--out must be a folder; this is a file", file=out)
+    if fmt not in ("parquet", "json"):
+        raise InputError(f"--format expects parquet or json, got {fmt!r}")
     cfg = make_config(
         config,
         data__year=year,
         data__strict=strict or None,
+        data__tz=tz,
         plan__alpha=alpha,
         plan__ordering=ordering,
         plan__strict_cover=strict_cover or None,
@@ -100,7 +115,7 @@ def plan_window(
     plan, reqs = plan_one_window(scn, day, window, fleet_arr, pol, done)
     print_day_scope(reqs, cfg)
     model = EnergyModel(cfg.energy)
-    stops, routes = build_tables(reqs, scn.depots, [plan], model, method)
+    stops, routes = build_tables(reqs, scn.depots, [plan], model, method, cfg.data.tz)
     meta = run_meta(
         command="plan-window",
         config=cfg,
@@ -117,11 +132,17 @@ def plan_window(
                 "objective": plan.selection.objective,
             },
             "objective": plan.score.as_dict() if plan.score else None,
+            "frame": {
+                "center_lng": scn.frame.center_lng,
+                "center_lat": scn.frame.center_lat,
+                "size_km": scn.frame.size_km,
+            },
+            "depots_file": {"name": depots.name, "sha256": file_sha256(depots)},
         },
         stamp=False,
     )
     with output_set() as files:
-        written = write_route_files(files, out, stops, routes, meta)
+        written = write_route_files(files, out, stops, routes, meta, fmt, geojson)
     _summary(plan, model, reqs.window_start(window).strftime("%Y-%m-%d %H:%M"))
     info("wrote " + ", ".join(str(p) for p in written))
     if STATE["json"]:

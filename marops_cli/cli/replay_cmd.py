@@ -79,7 +79,9 @@ def replay_day(
     alpha: o.Alpha = None,
     ordering: o.Ordering = None,
     seed: o.Seed = None,
-    fmt: Annotated[str, typer.Option("--format", help="parquet or json route files.")] = "parquet",
+    fmt: o.Format = "parquet",
+    geojson: o.Geojson = False,
+    tz: o.Tz = None,
     plot: Annotated[
         bool, typer.Option("--plot", help="Draw each day's windows, areas and routes (PNG).")
     ] = False,
@@ -108,6 +110,7 @@ def replay_day(
         config,
         data__year=year,
         data__strict=strict or None,
+        data__tz=tz,
         segment__n_depots=depots_n,
         segment__method=segment or METHODS[method][0],
         plan__alpha=alpha,
@@ -140,12 +143,17 @@ def replay_day(
             )
             all_metrics.extend(keep[day])
             continue
-        metrics = _replay_one(scn, day, fleet, pol, method, folder, fmt, plot, policy_id, identity)
+        metrics = _replay_one(
+            scn, day, fleet, pol, method, folder, (fmt, plot, geojson), policy_id, identity
+        )
         all_metrics.append(metrics)
     if dates:
         meta = run_meta(command="replay-day", config=cfg, source=scn.table.source, method=method)
         with output_set() as files:
-            files.write_json(out / "metrics.json", {"meta": meta, "days": all_metrics})
+            files.write_json(
+                out / "metrics.json",
+                {"meta": meta, "days": all_metrics, "total": aggregate_days(all_metrics)},
+            )
     _print_metrics(all_metrics)
     if STATE["json"]:
         emit_json(
@@ -156,6 +164,32 @@ def replay_day(
                 "days": all_metrics,
             }
         )
+
+
+def aggregate_days(days: list[dict[str, Any]]) -> dict[str, Any]:
+    """Totals over several days: counts and energy summed, delays weighted by requests
+    (docs/outputs.md, "Day metrics")."""
+    req = sum(d["requests"] for d in days)
+    delivered = sum(d["delivered"] for d in days)
+    total: dict[str, Any] = {"days": len(days)}
+    for k in (
+        "requests",
+        "delivered",
+        "undelivered",
+        "orders_due",
+        "outside_area",
+        "outside_hours",
+        "energy_kj",
+        "co2_g",
+        "objective_j_mj",
+        "objective_g_mj",
+        "runtime_s",
+    ):
+        total[k] = sum(d.get(k, 0) for d in days)
+    total["delivered_share"] = delivered / req if req else 1.0
+    total["avg_delay_h"] = sum(d["avg_delay_h"] * d["requests"] for d in days) / req if req else 0.0
+    total["mean_energy_kj"] = sum(d["mean_energy_kj"] for d in days) / len(days) if days else 0.0
+    return total
 
 
 def _identity(
@@ -230,13 +264,14 @@ def _replay_one(
     pol: Any,
     method: str,
     folder: Path,
-    fmt: str,
-    plot: bool,
+    files_wanted: tuple[str, bool, bool],
     policy_id: Any,
     identity: dict[str, Any],
 ) -> dict[str, Any]:
     from ..energy import EnergyModel
-    from ..io.tables import build_tables, table_records, with_meta, write_parquet
+    from ..io.tables import build_tables, write_route_files
+
+    fmt, plot, geojson = files_wanted
     from ..sim.jobs import replay
 
     cfg = scn.cfg
@@ -268,7 +303,7 @@ def _replay_one(
     print_day_scope(reqs, cfg)
     warn_undelivered(metrics, cfg.sim.drones)
     model = EnergyModel(cfg.energy)
-    stops, routes = build_tables(reqs, scn.depots, res.plans, model, method)
+    stops, routes = build_tables(reqs, scn.depots, res.plans, model, method, cfg.data.tz)
     meta = run_meta(
         command="replay-day",
         config=cfg,
@@ -281,18 +316,7 @@ def _replay_one(
         stamp=False,
     )
     with output_set() as files:
-        if fmt == "parquet":
-            files.write_with(
-                folder / "stops.parquet", lambda p: write_parquet(with_meta(stops, meta), p)
-            )
-            files.write_with(
-                folder / "routes.parquet", lambda p: write_parquet(with_meta(routes, meta), p)
-            )
-        else:
-            files.write_json(folder / "stops.json", {"meta": meta, "stops": table_records(stops)})
-            files.write_json(
-                folder / "routes.json", {"meta": meta, "routes": table_records(routes)}
-            )
+        write_route_files(files, folder, stops, routes, meta, fmt, geojson)
         if plot:
             from ..sim.plot import plot_day
 

@@ -7,6 +7,7 @@ from typing import Annotated
 
 import typer
 
+from ..errors import InputError
 from . import options as o
 from .common import (
     PLAIN,
@@ -57,11 +58,13 @@ def segment(
     year: o.Year = None,
     strict: o.Strict = False,
     geojson: Annotated[
-        Path | None, typer.Option("--geojson", help="Also write depots and areas as GeoJSON.")
-    ] = None,
+        bool,
+        typer.Option("--geojson", help="Also write depots and areas as GeoJSON beside --out."),
+    ] = False,
     plot: Annotated[
-        Path | None, typer.Option("--plot", help="Also draw a PNG map of customers and areas.")
-    ] = None,
+        bool,
+        typer.Option("--plot", help="Also draw a PNG map of customers and areas beside --out."),
+    ] = False,
     config: o.Config = None,
     quiet: o.Quiet = False,
     as_json: o.Json = False,
@@ -75,6 +78,9 @@ def segment(
     from ..segment.run import segment_file
 
     require_input(data)
+    if out.suffix != ".json":
+        raise InputError(f"--out names the depots file, e.g. depots.json; got {out.name}")
+    gj_path, png_path = out.with_suffix(".geojson"), out.with_suffix(".png")
     cfg = make_config(
         config,
         data__year=year,
@@ -107,16 +113,16 @@ def segment(
     )
     with output_set() as files:
         files.write_json(out, res.depots.to_dict(meta))
-        if geojson is not None:
-            files.write_json(geojson, areas_geojson(res.depots, meta))
-        if plot is not None:
+        if geojson:
+            files.write_json(gj_path, areas_geojson(res.depots, meta))
+        if plot:
             title = (
                 f"{cfg.segment.method}: {len(res.depots)} depots, "
                 f"{res.history_xy.shape[0]:,} history requests, {len(res.days)} days"
             )
-            files.write_with(plot, lambda p: plot_depots(res.depots, res.history_xy, p, title))
+            files.write_with(png_path, lambda p: plot_depots(res.depots, res.history_xy, p, title))
     _print_summary(res)
-    written = [out, *(p for p in (geojson, plot) if p is not None)]
+    written = [out, *(p for p, want in ((gj_path, geojson), (png_path, plot)) if want)]
     info("wrote " + ", ".join(str(p) for p in written))
     if STATE["json"]:
         emit_json(

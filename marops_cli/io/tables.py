@@ -7,6 +7,7 @@ import json
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
+from zoneinfo import ZoneInfo
 
 import numpy as np
 import pyarrow as pa
@@ -17,48 +18,61 @@ from ..energy import EnergyModel
 from ..plans.window import WindowPlan
 from ..segment.depots import Depots
 
-STOPS_SCHEMA = pa.schema(
-    [
-        ("day", pa.string()),
-        ("window", pa.int32()),
-        ("window_start", pa.timestamp("s")),
-        ("drone", pa.int32()),
-        ("seq", pa.int32()),
-        ("kind", pa.string()),
-        ("depot", pa.int32()),
-        ("order_id", pa.string()),
-        ("x_m", pa.float64()),
-        ("y_m", pa.float64()),
-        ("lng", pa.float64()),
-        ("lat", pa.float64()),
-        ("arrive_s", pa.float64()),
-        ("leg_m", pa.float64()),
-        ("leg_j", pa.float64()),
-        ("payload_kg", pa.float64()),
-        ("weight_kg", pa.float64()),
-        ("due_window", pa.int32()),
-        ("delay_h", pa.float64()),
-        ("method", pa.string()),
-    ]
-)
+DEFAULT_TZ = "Asia/Shanghai"  # LaDe's times are Shanghai local time
 
-ROUTES_SCHEMA = pa.schema(
-    [
-        ("day", pa.string()),
-        ("window", pa.int32()),
-        ("window_start", pa.timestamp("s")),
-        ("drone", pa.int32()),
-        ("start_depot", pa.int32()),
-        ("end_depot", pa.int32()),
-        ("n_parcels", pa.int32()),
-        ("payload_kg", pa.float64()),
-        ("distance_m", pa.float64()),
-        ("energy_j", pa.float64()),
-        ("battery_frac", pa.float64()),
-        ("action", pa.int32()),
-        ("method", pa.string()),
-    ]
-)
+
+def stops_schema(tz: str = DEFAULT_TZ) -> pa.Schema:
+    """The stops table (docs/outputs.md); timestamps are local times of zone ``tz``."""
+    return pa.schema(
+        [
+            ("day", pa.date32()),
+            ("window", pa.int32()),
+            ("window_start", pa.timestamp("s", tz=tz)),
+            ("drone", pa.int32()),
+            ("seq", pa.int32()),
+            ("kind", pa.string()),
+            ("depot", pa.int32()),
+            ("order_id", pa.string()),
+            ("x_m", pa.float64()),
+            ("y_m", pa.float64()),
+            ("lng", pa.float64()),
+            ("lat", pa.float64()),
+            ("arrive_s", pa.float64()),
+            ("arrive_time", pa.timestamp("s", tz=tz)),
+            ("leg_m", pa.float64()),
+            ("leg_j", pa.float64()),
+            ("payload_kg", pa.float64()),
+            ("weight_kg", pa.float64()),
+            ("due_window", pa.int32()),
+            ("delay_h", pa.float64()),
+            ("method", pa.string()),
+        ]
+    )
+
+
+def routes_schema(tz: str = DEFAULT_TZ) -> pa.Schema:
+    """The routes table (docs/outputs.md)."""
+    return pa.schema(
+        [
+            ("day", pa.date32()),
+            ("window", pa.int32()),
+            ("window_start", pa.timestamp("s", tz=tz)),
+            ("drone", pa.int32()),
+            ("start_depot", pa.int32()),
+            ("end_depot", pa.int32()),
+            ("n_parcels", pa.int32()),
+            ("payload_kg", pa.float64()),
+            ("distance_m", pa.float64()),
+            ("energy_j", pa.float64()),
+            ("battery_frac", pa.float64()),
+            ("action", pa.int32()),
+            ("method", pa.string()),
+        ]
+    )
+
+
+STOPS_SCHEMA = stops_schema()
+ROUTES_SCHEMA = routes_schema()
 
 
 def build_tables(
@@ -67,14 +81,17 @@ def build_tables(
     plans: Sequence[WindowPlan],
     model: EnergyModel,
     method: str,
+    tz: str = DEFAULT_TZ,
 ) -> tuple[pa.Table, pa.Table]:
-    """(stops, routes) for the given windows of one day."""
-    stops: dict[str, list[Any]] = {f.name: [] for f in STOPS_SCHEMA}
-    routes: dict[str, list[Any]] = {f.name: [] for f in ROUTES_SCHEMA}
+    """(stops, routes) for the given windows of one day; times are local to ``tz``."""
+    s_schema, r_schema = stops_schema(tz), routes_schema(tz)
+    stops: dict[str, list[Any]] = {f.name: [] for f in s_schema}
+    routes: dict[str, list[Any]] = {f.name: [] for f in r_schema}
     dlng, dlat = depots.lnglat()
-    day_s = day.day.isoformat()
+    zone = ZoneInfo(tz)
+    day_s = day.day
     for plan in plans:
-        ws = day.window_start(plan.t)
+        ws = day.window_start(plan.t).replace(tzinfo=zone)
         for r in plan.routes:
             n = len(r.stops)
             nodes = [("start", r.start, None)] + [("customer", None, i) for i in r.stops]
@@ -113,6 +130,8 @@ def build_tables(
                     stops["due_window"].append(int(day.due_w[i]))
                     stops["delay_h"].append(max(0, plan.t - int(day.due_w[i])) * day.window_hours)
                 stops["arrive_s"].append(float(arrive[seq]))
+                # whole seconds, like window_start (arrive_s keeps the fraction)
+                stops["arrive_time"].append(ws + dt.timedelta(seconds=int(arrive[seq])))
                 stops["leg_m"].append(float(leg_m[seq]))
                 stops["leg_j"].append(float(leg_j[seq]))
                 stops["payload_kg"].append(float(on_board[seq]))
@@ -131,8 +150,8 @@ def build_tables(
             routes["action"].append(r.action)
             routes["method"].append(method)
     return (
-        pa.Table.from_pydict(stops, schema=STOPS_SCHEMA),
-        pa.Table.from_pydict(routes, schema=ROUTES_SCHEMA),
+        pa.Table.from_pydict(stops, schema=s_schema),
+        pa.Table.from_pydict(routes, schema=r_schema),
     )
 
 
@@ -146,27 +165,68 @@ def write_parquet(table: pa.Table, path: str | Path) -> None:
 
 
 def table_records(table: pa.Table) -> list[dict[str, Any]]:
-    """JSON-ready rows (timestamps as ISO strings)."""
+    """JSON-ready rows (timestamps and dates as ISO text, with the zone's offset)."""
     rows = table.to_pylist()
+    zones = {
+        f.name: ZoneInfo(f.type.tz)
+        for f in table.schema
+        if pa.types.is_timestamp(f.type) and f.type.tz is not None
+    }
     for row in rows:
         for k, v in row.items():
             if isinstance(v, dt.datetime):
+                row[k] = (v.astimezone(zones[k]) if k in zones else v).isoformat()
+            elif isinstance(v, dt.date):
                 row[k] = v.isoformat()
     return rows
 
 
-def write_route_files(
-    files: Any, out: Path, stops: pa.Table, routes: pa.Table, meta: dict[str, Any]
-) -> list[Path]:
-    """``X.parquet`` (stops) + ``X.routes.parquet``, or one ``X.json`` with meta/stops/routes."""
-    if out.suffix == ".json":
-        files.write_json(
-            out, {"meta": meta, "stops": table_records(stops), "routes": table_records(routes)}
+def routes_geojson(stops: pa.Table, routes: pa.Table, meta: dict[str, Any]) -> dict[str, Any]:
+    """A GeoJSON FeatureCollection: one LineString per route in lng/lat (start depot,
+    customers, end depot) with the route's columns as properties (docs/outputs.md)."""
+    st = stops.select(["day", "window", "drone", "seq", "lng", "lat"]).to_pylist()
+    path: dict[tuple[Any, int, int], list[tuple[int, list[float]]]] = {}
+    for r in st:
+        path.setdefault((r["day"], r["window"], r["drone"]), []).append(
+            (r["seq"], [r["lng"], r["lat"]])
         )
-        return [out]
-    if out.suffix != ".parquet":
-        raise ValueError(f"expected --out to end in .parquet or .json, got {out.name}")
-    routes_path = out.with_name(out.name.removesuffix(".parquet") + ".routes.parquet")
-    files.write_with(out, lambda p: write_parquet(with_meta(stops, meta), p))
-    files.write_with(routes_path, lambda p: write_parquet(with_meta(routes, meta), p))
-    return [out, routes_path]
+    features = []
+    for props in table_records(routes):
+        key = (dt.date.fromisoformat(props["day"]), props["window"], props["drone"])
+        coords = [c for _, c in sorted(path[key])]
+        features.append(
+            {
+                "type": "Feature",
+                "geometry": {"type": "LineString", "coordinates": coords},
+                "properties": props,
+            }
+        )
+    return {"type": "FeatureCollection", "marops": meta, "features": features}
+
+
+def write_route_files(
+    files: Any,
+    folder: Path,
+    stops: pa.Table,
+    routes: pa.Table,
+    meta: dict[str, Any],
+    fmt: str = "parquet",
+    geojson: bool = False,
+) -> list[Path]:
+    """``folder/stops.parquet`` and ``folder/routes.parquet`` (``fmt = "json"``:
+    ``stops.json`` and ``routes.json`` with the metadata under ``meta``), and with
+    ``geojson`` ``folder/routes.geojson``. Returns the paths written."""
+    if fmt == "parquet":
+        paths = [folder / "stops.parquet", folder / "routes.parquet"]
+        files.write_with(paths[0], lambda p: write_parquet(with_meta(stops, meta), p))
+        files.write_with(paths[1], lambda p: write_parquet(with_meta(routes, meta), p))
+    elif fmt == "json":
+        paths = [folder / "stops.json", folder / "routes.json"]
+        files.write_json(paths[0], {"meta": meta, "stops": table_records(stops)})
+        files.write_json(paths[1], {"meta": meta, "routes": table_records(routes)})
+    else:
+        raise ValueError(f"expected format parquet or json, got {fmt!r}")
+    if geojson:
+        paths.append(folder / "routes.geojson")
+        files.write_json(paths[-1], routes_geojson(stops, routes, meta))
+    return paths

@@ -160,8 +160,11 @@ def load_fleet(path: str | Path | None, depots: Depots, n_drones: int) -> np.nda
 
 
 def delivered_orders(path: str | Path) -> set[str]:
-    """Order ids already delivered according to an earlier stops Parquet file."""
+    """Order ids already delivered according to an earlier stops Parquet file (or the
+    ``stops.parquet`` of an output folder)."""
     p = Path(path)
+    if p.is_dir():
+        p = p / "stops.parquet"
     try:
         table = pq.read_table(p, columns=["kind", "order_id"])
     except FileNotFoundError as exc:

@@ -154,7 +154,7 @@ def test_bad_depots_file(example_csv: Path, tmp_path: Path, content: str, fails_
             "--window",
             "3",
             "--out",
-            str(tmp_path / "w.parquet"),
+            str(tmp_path / "w"),
         ],
         tmp_path,
         "depots.json",

@@ -8,6 +8,7 @@ import hashlib
 import json
 from pathlib import Path
 from typing import Any
+from zoneinfo import ZoneInfo
 
 import numpy as np
 import pyarrow as pa
@@ -29,11 +30,13 @@ WINDOW = 5
 
 # docs/outputs.md, column by column. Parquet has no second-resolution timestamp (only milli-,
 # micro- and nanoseconds), so a timestamp[s] column is stored and read back as
-# timestamp[ms]; the values stay whole seconds and carry no zone (local time).
+# timestamp[ms]; the values stay whole seconds, local times of the data's zone.
+TS = pa.timestamp("ms", tz="Asia/Shanghai")
+SHANGHAI = ZoneInfo("Asia/Shanghai")
 STOPS_COLUMNS = [
-    ("day", pa.string()),
+    ("day", pa.date32()),
     ("window", pa.int32()),
-    ("window_start", pa.timestamp("ms")),
+    ("window_start", TS),
     ("drone", pa.int32()),
     ("seq", pa.int32()),
     ("kind", pa.string()),
@@ -44,6 +47,7 @@ STOPS_COLUMNS = [
     ("lng", pa.float64()),
     ("lat", pa.float64()),
     ("arrive_s", pa.float64()),
+    ("arrive_time", TS),
     ("leg_m", pa.float64()),
     ("leg_j", pa.float64()),
     ("payload_kg", pa.float64()),
@@ -53,9 +57,9 @@ STOPS_COLUMNS = [
     ("method", pa.string()),
 ]
 ROUTES_COLUMNS = [
-    ("day", pa.string()),
+    ("day", pa.date32()),
     ("window", pa.int32()),
-    ("window_start", pa.timestamp("ms")),
+    ("window_start", TS),
     ("drone", pa.int32()),
     ("start_depot", pa.int32()),
     ("end_depot", pa.int32()),
@@ -88,15 +92,21 @@ def plan(example_csv: Path, depots_file: Path, out: Path, *extra: str) -> Path:
 
 
 def routes_path(out: Path) -> Path:
-    return out.with_name(out.name.removesuffix(".parquet") + ".routes.parquet")
+    return out / "routes.parquet"
+
+
+def stops_path(out: Path) -> Path:
+    return out / "stops.parquet"
 
 
 def records(table: pa.Table) -> list[dict[str, Any]]:
-    """Rows as the JSON output writes them (timestamps as ISO text)."""
+    """Rows as the JSON output writes them (times as ISO text in the data's zone)."""
     rows = table.to_pylist()
     for row in rows:
         for k, v in row.items():
             if isinstance(v, dt.datetime):
+                row[k] = v.astimezone(SHANGHAI).isoformat()
+            elif isinstance(v, dt.date):
                 row[k] = v.isoformat()
     return rows
 
@@ -109,27 +119,27 @@ def meta_of(path: Path) -> dict[str, Any]:
 
 @pytest.fixture(scope="module")
 def parquet_out(example_csv, depots_file, tmp_path_factory) -> Path:
-    return plan(example_csv, depots_file, tmp_path_factory.mktemp("pq") / "w5.parquet")
+    return plan(example_csv, depots_file, tmp_path_factory.mktemp("pq") / "w5")
 
 
 def test_parquet_writes_stops_and_routes_with_the_documented_columns(parquet_out):
-    stops = pq.read_table(parquet_out)
+    stops = pq.read_table(stops_path(parquet_out))
     routes = pq.read_table(routes_path(parquet_out))
     assert [(f.name, f.type) for f in stops.schema] == STOPS_COLUMNS
     assert [(f.name, f.type) for f in routes.schema] == ROUTES_COLUMNS
-    # local time, no zone
-    col = pq.ParquetFile(parquet_out).schema_arrow.field("window_start")
-    assert col.type.tz is None
-    assert sorted(p.name for p in parquet_out.parent.iterdir()) == [
-        "w5.parquet",
-        "w5.routes.parquet",
+    assert sorted(p.name for p in parquet_out.iterdir()) == [
+        "routes.parquet",
+        "stops.parquet",
     ], "no temporaries left behind"
 
     st, rt = stops.to_pydict(), routes.to_pydict()
     assert rt["drone"] == list(range(8))  # one row per drone (default fleet: 8)
     assert set(rt["window"]) == {WINDOW} and set(st["window"]) == {WINDOW}
-    assert set(st["day"]) == {"2022-08-11"} and set(rt["method"]) == {"greedy"}
-    assert set(rt["window_start"]) == {dt.datetime(2022, 8, 11, 11, 30)}  # 09:00 + 5 × 30 min
+    assert set(st["day"]) == {DAY} and set(rt["method"]) == {"greedy"}
+    ws = dt.datetime(2022, 8, 11, 11, 30, tzinfo=SHANGHAI)  # 09:00 + 5 × 30 min, local
+    assert set(rt["window_start"]) == {ws}
+    for a_s, a_t in zip(st["arrive_s"], st["arrive_time"], strict=True):
+        assert a_t == ws + dt.timedelta(seconds=int(a_s))
     assert sum(rt["n_parcels"]) > 0
     # nulls where docs/outputs.md says so
     for i, kind in enumerate(st["kind"]):
@@ -151,7 +161,7 @@ def test_parquet_writes_stops_and_routes_with_the_documented_columns(parquet_out
 
 
 def test_parquet_metadata(parquet_out, example_csv: Path):
-    meta = meta_of(parquet_out)
+    meta = meta_of(stops_path(parquet_out))
     assert meta_of(routes_path(parquet_out)) == meta
     assert meta["version"] == __version__
     assert meta["config"] == PlannerConfig().model_dump(mode="json")
@@ -172,23 +182,38 @@ def test_parquet_metadata(parquet_out, example_csv: Path):
 def test_json_holds_meta_stops_routes_equal_to_the_parquet(
     example_csv, depots_file, parquet_out, tmp_path
 ):
-    out = plan(example_csv, depots_file, tmp_path / "w5.json")
-    assert [p.name for p in tmp_path.iterdir()] == ["w5.json"]
-    doc = json.loads(out.read_text(encoding="utf-8"))
-    assert list(doc) == ["meta", "stops", "routes"]
-    assert doc["meta"] == meta_of(parquet_out)
-    assert doc["stops"] == records(pq.read_table(parquet_out))
-    assert doc["routes"] == records(pq.read_table(routes_path(parquet_out)))
-    assert doc["routes"][0]["window_start"] == "2022-08-11T11:30:00"
+    out = plan(example_csv, depots_file, tmp_path / "w5", "--format", "json", "--geojson")
+    assert sorted(p.name for p in out.iterdir()) == ["routes.geojson", "routes.json", "stops.json"]
+    stops = json.loads((out / "stops.json").read_text(encoding="utf-8"))
+    routes = json.loads((out / "routes.json").read_text(encoding="utf-8"))
+    assert list(stops) == ["meta", "stops"] and list(routes) == ["meta", "routes"]
+    assert stops["meta"] == routes["meta"] == meta_of(stops_path(parquet_out))
+    assert stops["stops"] == records(pq.read_table(stops_path(parquet_out)))
+    assert routes["routes"] == records(pq.read_table(routes_path(parquet_out)))
+    assert routes["routes"][0]["window_start"] == "2022-08-11T11:30:00+08:00"
+    # routes.geojson: one LineString per route in lng/lat, its length the route's distance
+    from marops_cli.data.frame import Frame
+
+    gj = json.loads((out / "routes.geojson").read_text(encoding="utf-8"))
+    frame = Frame(**stops["meta"]["frame"])
+    assert len(gj["features"]) == len(routes["routes"])
+    for feat, row in zip(gj["features"], routes["routes"], strict=True):
+        assert feat["geometry"]["type"] == "LineString"
+        lng, lat = np.array(feat["geometry"]["coordinates"]).T
+        assert len(lng) == row["n_parcels"] + 2
+        x, y = frame.to_xy(lng, lat)
+        length = float(np.hypot(np.diff(x), np.diff(y)).sum())
+        assert length == pytest.approx(row["distance_m"], rel=0.01, abs=1e-6)
+        assert feat["properties"]["energy_j"] == row["energy_j"]
 
 
 def test_same_call_same_bytes(example_csv, depots_file, parquet_out, tmp_path):
-    again = plan(example_csv, depots_file, tmp_path / "w5.parquet")
-    assert again.read_bytes() == parquet_out.read_bytes()
+    again = plan(example_csv, depots_file, tmp_path / "w5")
+    assert stops_path(again).read_bytes() == stops_path(parquet_out).read_bytes()
     assert routes_path(again).read_bytes() == routes_path(parquet_out).read_bytes()
-    a = plan(example_csv, depots_file, tmp_path / "a.json").read_bytes()
-    b = plan(example_csv, depots_file, tmp_path / "b.json").read_bytes()
-    assert a == b
+    a = plan(example_csv, depots_file, tmp_path / "a", "--format", "json")
+    b = plan(example_csv, depots_file, tmp_path / "b", "--format", "json")
+    assert (a / "stops.json").read_bytes() == (b / "stops.json").read_bytes()
 
 
 @pytest.mark.parametrize(
@@ -199,11 +224,11 @@ def test_same_call_same_bytes(example_csv, depots_file, parquet_out, tmp_path):
 def test_fleet_file_puts_drones_where_asked(example_csv, depots_file, tmp_path, doc):
     fleet = tmp_path / "fleet.json"
     fleet.write_text(json.dumps(doc))
-    out = plan(example_csv, depots_file, tmp_path / "f.parquet", "--fleet", str(fleet))
+    out = plan(example_csv, depots_file, tmp_path / "f", "--fleet", str(fleet))
     rt = pq.read_table(routes_path(out)).to_pydict()
     assert rt["drone"] == [0, 1, 2]
     assert rt["start_depot"] == [3, 3, 12]
-    st = pq.read_table(out).to_pydict()
+    st = pq.read_table(stops_path(out)).to_pydict()
     starts = [
         (d, dep)
         for d, k, dep in zip(st["drone"], st["kind"], st["depot"], strict=True)
@@ -217,10 +242,10 @@ def test_delivered_orders_are_not_planned_again(example_csv, depots_file, parque
         st = pq.read_table(path, columns=["kind", "order_id"]).to_pydict()
         return [o for k, o in zip(st["kind"], st["order_id"], strict=True) if k == "customer"]
 
-    first = customers(parquet_out)
+    first = customers(stops_path(parquet_out))
     assert first
-    out = plan(example_csv, depots_file, tmp_path / "w5b.parquet", "--delivered", str(parquet_out))
-    second = customers(out)
+    out = plan(example_csv, depots_file, tmp_path / "w5b", "--delivered", str(parquet_out))
+    second = customers(stops_path(out))
     assert second, "other pending orders are planned instead"
     assert not set(first) & set(second)
 
@@ -232,7 +257,7 @@ def test_cli_equals_library_call(example_csv, depots_file, parquet_out):
     plan_, reqs = plan_one_window(scn, DAY, WINDOW, fleet, method_policy("greedy", None, 0))
 
     rt = pq.read_table(routes_path(parquet_out)).to_pydict()
-    st = pq.read_table(parquet_out).to_pydict()
+    st = pq.read_table(stops_path(parquet_out)).to_pydict()
     assert [r.start for r in plan_.routes] == rt["start_depot"]
     assert [r.end for r in plan_.routes] == rt["end_depot"]
     assert [r.action for r in plan_.routes] == rt["action"]
@@ -248,6 +273,6 @@ def test_cli_equals_library_call(example_csv, depots_file, parquet_out):
         assert ids == [str(reqs.order_id[i]) for i in r.stops]  # same orders, same visiting order
     # and the whole tables, value for value
     stops, routes = build_tables(reqs, scn.depots, [plan_], EnergyModel(cfg.energy), "greedy")
-    assert records(stops) == records(pq.read_table(parquet_out))
+    assert records(stops) == records(pq.read_table(stops_path(parquet_out)))
     assert records(routes) == records(pq.read_table(routes_path(parquet_out)))
     assert np.array_equal(fleet, rt["start_depot"])

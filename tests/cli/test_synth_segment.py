@@ -65,8 +65,8 @@ def test_synth_parquet_reads_like_csv(tmp_path: Path) -> None:
 
 def test_segment_cli_equals_library(example_csv: Path, tmp_path: Path) -> None:
     out = tmp_path / "depots.json"
-    gj = tmp_path / "areas.geojson"
-    png = tmp_path / "map.png"
+    gj = tmp_path / "depots.geojson"  # beside --out
+    png = tmp_path / "depots.png"
     res = runner.invoke(
         app,
         [
@@ -79,9 +79,7 @@ def test_segment_cli_equals_library(example_csv: Path, tmp_path: Path) -> None:
             "--out",
             str(out),
             "--geojson",
-            str(gj),
             "--plot",
-            str(png),
         ],
     )
     assert res.exit_code == 0, res.output

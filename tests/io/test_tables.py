@@ -5,6 +5,7 @@ from __future__ import annotations
 import datetime as dt
 import json
 from pathlib import Path
+from zoneinfo import ZoneInfo
 
 import numpy as np
 import pyarrow.parquet as pq
@@ -19,6 +20,7 @@ from marops_cli.io.tables import (
     ROUTES_SCHEMA,
     STOPS_SCHEMA,
     build_tables,
+    routes_geojson,
     table_records,
     write_route_files,
 )
@@ -32,6 +34,7 @@ ORDER_XY = np.array([[0, 1000], [2000, 1000], [750, 1000], [-750, 0], [500, -100
 WEIGHT = np.array([2.0, 1.5, 1.0, 0.5, 1.0])
 DUE_W = np.array([1, 2, 2, 0, 5], dtype=np.int32)
 T = 4
+SHANGHAI = ZoneInfo("Asia/Shanghai")
 
 
 @pytest.fixture(scope="module")
@@ -98,7 +101,10 @@ def test_schemas_are_the_documented_ones(tables):
         "depot",
         "order_id",
     ]
-    assert str(stops.schema.field("window_start").type) == "timestamp[s]"
+    # local times of the data's zone (LaDe: Shanghai), whole seconds
+    assert str(stops.schema.field("window_start").type) == "timestamp[s, tz=Asia/Shanghai]"
+    assert str(stops.schema.field("arrive_time").type) == "timestamp[s, tz=Asia/Shanghai]"
+    assert str(stops.schema.field("day").type) == "date32[day]"
 
 
 def test_stops_hand_values(tables, model):
@@ -108,14 +114,17 @@ def test_stops_hand_values(tables, model):
     assert st["kind"] == ["start", "customer", "customer", "end", "start", "end"]
     assert st["depot"] == [0, None, None, 0, 1, 1]
     assert st["order_id"] == [None, "o40", "o43", None, None, None]
-    assert set(st["day"]) == {"2022-08-11"} and set(st["window"]) == {T}
-    assert set(st["window_start"]) == {dt.datetime(2022, 8, 11, 11, 0)}  # 09:00 + 4 × 30 min
+    assert set(st["day"]) == {dt.date(2022, 8, 11)} and set(st["window"]) == {T}
+    ws = dt.datetime(2022, 8, 11, 11, 0, tzinfo=SHANGHAI)  # 09:00 + 4 × 30 min, local
+    assert set(st["window_start"]) == {ws}
+    assert ws == dt.datetime(2022, 8, 11, 3, 0, tzinfo=dt.UTC)
     assert st["x_m"] == [0.0, 0.0, -750.0, 0.0, 2000.0, 2000.0]
     assert st["y_m"] == [0.0, 1000.0, 0.0, 0.0, 0.0, 0.0]
     lng, lat = FRAME.to_lnglat(np.array([0.0, 2000.0]), np.zeros(2))
     assert st["lng"][0] == lng[0] and st["lat"][5] == lat[1]
     # 10 m/s: 1000 m -> 100 s, +1250 m -> 225 s, +750 m -> 300 s
     assert_allclose(st["arrive_s"], [0, 100, 225, 300, 0, 0])
+    assert st["arrive_time"] == [ws + dt.timedelta(seconds=s) for s in (0, 100, 225, 300, 0, 0)]
     assert_allclose(st["leg_m"], [0, 1000, 1250, 750, 0, 0])
     assert_allclose(
         st["leg_j"][1:4], [1000 * 29.426, 1250 * 18.091, 750 * 15.991], rtol=1e-4
@@ -143,7 +152,8 @@ def test_routes_hand_values(tables, plan):
 
 def test_records_are_json_ready(tables):
     rows = table_records(tables[1])
-    assert rows[0]["window_start"] == "2022-08-11T11:00:00"
+    assert rows[0]["window_start"] == "2022-08-11T11:00:00+08:00"
+    assert rows[0]["day"] == "2022-08-11"
     json.dumps(rows, allow_nan=False)
 
 
@@ -151,34 +161,55 @@ def test_write_route_files(tables, tmp_path: Path):
     stops, routes = tables
     meta = {"package": "marops", "method": "marops", "seed": 0}
     with output_set() as files:
-        written = write_route_files(files, tmp_path / "x.parquet", stops, routes, meta)
-    assert written == [tmp_path / "x.parquet", tmp_path / "x.routes.parquet"]
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["x.parquet", "x.routes.parquet"]
+        written = write_route_files(files, tmp_path / "pq", stops, routes, meta)
+    assert written == [tmp_path / "pq" / "stops.parquet", tmp_path / "pq" / "routes.parquet"]
+    assert sorted(p.name for p in (tmp_path / "pq").iterdir()) == [
+        "routes.parquet",
+        "stops.parquet",
+    ]
     for path, table in zip(written, tables, strict=True):
         back = pq.read_table(path)
         assert json.loads(back.schema.metadata[b"marops"]) == meta
         assert back.to_pydict() == table.to_pydict()
 
     with output_set() as files:
-        (one,) = write_route_files(files, tmp_path / "x.json", stops, routes, meta)
-    doc = json.loads(one.read_text(encoding="utf-8"))
-    assert doc == {"meta": meta, "stops": table_records(stops), "routes": table_records(routes)}
+        paths = write_route_files(files, tmp_path / "js", stops, routes, meta, "json", True)
+    assert [p.name for p in paths] == ["stops.json", "routes.json", "routes.geojson"]
+    assert json.loads(paths[0].read_text()) == {"meta": meta, "stops": table_records(stops)}
+    assert json.loads(paths[1].read_text()) == {"meta": meta, "routes": table_records(routes)}
 
-    first = (tmp_path / "x.parquet").read_bytes()
+    first = written[0].read_bytes()
     with output_set() as files:
-        write_route_files(files, tmp_path / "x.parquet", stops, routes, meta)
-    assert (tmp_path / "x.parquet").read_bytes() == first  # same tables, same bytes
+        write_route_files(files, tmp_path / "pq", stops, routes, meta)
+    assert written[0].read_bytes() == first  # same tables, same bytes
 
 
-def test_write_route_files_bad_suffix_leaves_nothing(tables, tmp_path: Path):
-    with pytest.raises(ValueError, match="parquet or .json"), output_set() as files:
-        write_route_files(files, tmp_path / "x.csv", *tables, {})
+def test_routes_geojson_by_hand(tables):
+    """Drone 0 flies depot 0 -> o40 -> o43 -> depot 0: a closed LineString of 4 points
+    whose length in metres (local frame) is the route's distance_m; drone 1 stays."""
+    stops, routes = tables
+    doc = routes_geojson(stops, routes, {"method": "marops"})
+    assert doc["type"] == "FeatureCollection" and len(doc["features"]) == 2
+    line = doc["features"][0]["geometry"]
+    assert line["type"] == "LineString" and len(line["coordinates"]) == 4
+    lng, lat = np.array(line["coordinates"]).T
+    x, y = FRAME.to_xy(lng, lat)
+    assert_allclose(np.hypot(np.diff(x), np.diff(y)).sum(), 3000.0, rtol=1e-9)
+    props = doc["features"][0]["properties"]
+    assert (props["drone"], props["n_parcels"], props["window"]) == (0, 2, T)
+    assert props["energy_j"] == routes.column("energy_j")[0].as_py()
+    json.dumps(doc, allow_nan=False)
+
+
+def test_write_route_files_bad_format_leaves_nothing(tables, tmp_path: Path):
+    with pytest.raises(ValueError, match="parquet or json"), output_set() as files:
+        write_route_files(files, tmp_path, *tables, {}, "csv")
     assert list(tmp_path.iterdir()) == []
 
 
 def test_an_error_midway_leaves_no_file(tables, tmp_path: Path):
     with pytest.raises(RuntimeError), output_set() as files:
-        write_route_files(files, tmp_path / "x.parquet", *tables, {})
+        write_route_files(files, tmp_path, *tables, {})
         raise RuntimeError("disk full")
     assert list(tmp_path.iterdir()) == []
 

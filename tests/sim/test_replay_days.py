@@ -43,6 +43,13 @@ def test_dates_layout_and_resume(example_csv: Path, tmp_path: Path) -> None:
         }
     top = json.loads((out / "metrics.json").read_text())
     assert [d["day"] for d in top["days"]] == ["2022-08-11", "2022-08-12"]
+    # the aggregate over the days: counts add up, delay is per request
+    total, days = top["total"], top["days"]
+    assert total["days"] == 2
+    assert total["delivered"] == sum(d["delivered"] for d in days)
+    assert total["requests"] == total["delivered"] + total["undelivered"]
+    expect = sum(d["avg_delay_h"] * d["requests"] for d in days) / total["requests"]
+    assert abs(total["avg_delay_h"] - expect) < 1e-12
     # A killed run left day 2 unfinished: only day 2 is replayed, day 1 is kept as it was.
     day1 = out / "2022-08-11" / "stops.parquet"
     mtime = day1.stat().st_mtime_ns
