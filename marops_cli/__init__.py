@@ -7,4 +7,6 @@ try:
 except PackageNotFoundError:  # running from a source tree without installation
     __version__ = "0.0.0+local"
 
-__all__ = ["__version__"]
+from .api import evaluate, plan_window, read_lade, replay_day, segment  # noqa: E402
+
+__all__ = ["__version__", "evaluate", "plan_window", "read_lade", "replay_day", "segment"]

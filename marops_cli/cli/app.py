@@ -27,6 +27,7 @@ app = typer.Typer(
     # Help texts give defaults as "[kmeans]": rich markup would take them for style tags
     # and drop them; markdown keeps them and the rich panels.
     rich_markup_mode="markdown",
+    context_settings={"help_option_names": ["-h", "--help"]},
 )
 
 
@@ -47,7 +48,7 @@ def _root(
     ] = False,
 ) -> None:
     """Operations planner for drone last-mile delivery."""
-    STATE.update(debug=debug, quiet=False, json=False)
+    STATE.update(debug=debug, quiet=False, json=False, silent=False)
 
 
 app.command("synth")(synth)

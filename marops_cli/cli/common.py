@@ -39,7 +39,8 @@ console = Console(
 """Messages and progress (stderr)."""
 out = Console(highlight=False, width=_WIDE if PLAIN else None, soft_wrap=PLAIN, no_color=PLAIN)
 """Result tables (stdout), so a cron job's log keeps them whole."""
-STATE: dict[str, bool] = {"debug": False, "quiet": False, "json": False}
+STATE: dict[str, bool] = {"debug": False, "quiet": False, "json": False, "silent": False}
+"""``silent``: the Python API runs a command; nothing is printed, warnings are warnings."""
 
 
 def set_output(quiet: bool = False, as_json: bool = False) -> None:
@@ -49,12 +50,17 @@ def set_output(quiet: bool = False, as_json: bool = False) -> None:
 
 def info(message: str) -> None:
     """A progress or status line on stderr; silent with ``--quiet`` or ``--json``."""
-    if not (STATE["quiet"] or STATE["json"]):
+    if not (STATE["quiet"] or STATE["json"] or STATE["silent"]):
         console.print(message)
 
 
 def warn(message: str) -> None:
     """A warning on stderr (shown with ``--quiet`` and ``--json`` too)."""
+    if STATE["silent"]:
+        import warnings
+
+        warnings.warn(message, stacklevel=2)
+        return
     console.print(f"warning: {message}")
 
 
@@ -75,7 +81,7 @@ def table(title: str, **kwargs: Any) -> Table:
 
 def show_table(t: Table) -> None:
     """Print a result table on stdout unless ``--json`` replaces it."""
-    if not STATE["json"]:
+    if not (STATE["json"] or STATE["silent"]):
         out.print(t)
 
 

@@ -60,7 +60,7 @@ def evaluate(
     coverage: Annotated[
         str | None, typer.Option("--coverage", help="Flying coverage densities: 0.25,0.5 [0.25].")
     ] = None,
-    depots_n: Annotated[
+    n_depots: Annotated[
         str | None, typer.Option("--n-depots", help="Numbers of service areas: 8,16,32 [16].")
     ] = None,
     workers: Annotated[int, typer.Option("--workers", min=1, help="Worker processes.")] = 2,
@@ -99,7 +99,7 @@ def evaluate(
         alpha=parse_values(alpha, float, "--alpha"),
         drones=parse_values(drones, int, "--drones"),
         coverage=parse_values(coverage, float, "--coverage"),
-        depots_n=parse_values(depots_n, int, "--n-depots"),
+        depots_n=parse_values(n_depots, int, "--n-depots"),
     )
     days = parse_days(dates, cfg.data.year) if dates else None
     if days and split:

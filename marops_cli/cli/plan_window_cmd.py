@@ -189,7 +189,7 @@ def _summary(plan, model: EnergyModel, when: str) -> None:  # type: ignore[no-un
             f"{100 * r.energy_j / model.cfg.battery_j:.1f}",
         )
     show_table(t)
-    if plan.score is not None and not STATE["json"]:  # the window objective (docs/method.md)
+    if plan.score is not None and not (STATE["json"] or STATE["silent"]):  # docs/method.md §4.2
         sc = plan.score
         out_console.print(
             f"window objective: J {sc.J / 1e6:.3f} MJ, G {sc.G / 1e6:.3f} MJ "

@@ -63,7 +63,7 @@ def replay_day(
     depots: Annotated[
         Path | None, typer.Option("--depots", help="depots.json [segment the other days].")
     ] = None,
-    depots_n: Annotated[
+    n_depots: Annotated[
         int | None, typer.Option("--n-depots", help="Depots when segmenting here [16].")
     ] = None,
     segment: Annotated[
@@ -111,7 +111,7 @@ def replay_day(
         data__year=year,
         data__strict=strict or None,
         data__tz=tz,
-        segment__n_depots=depots_n,
+        segment__n_depots=n_depots,
         segment__method=segment or METHODS[method][0],
         plan__alpha=alpha,
         plan__ordering=ordering,

@@ -96,7 +96,7 @@ def train(
     ] = True,
     alpha: o.Alpha = None,
     drones: o.Drones = None,
-    depots_n: Annotated[int | None, typer.Option("--n-depots", help="Depots [16].")] = None,
+    n_depots: Annotated[int | None, typer.Option("--n-depots", help="Depots [16].")] = None,
     seed: Annotated[int, typer.Option("--seed", help="Training seed; same seed, same actor.")] = 0,
     data_origin: Annotated[
         str | None,
@@ -113,7 +113,7 @@ def train(
     if out.suffix != ".pt":
         raise InputError("--out must name a .pt file (the sidecar goes beside it)", file=out)
     cfg = make_config(
-        config, data__year=year, plan__alpha=alpha, sim__drones=drones, segment__n_depots=depots_n
+        config, data__year=year, plan__alpha=alpha, sim__drones=drones, segment__n_depots=n_depots
     )
     try:
         tcfg = TrainConfig(method=method, episodes=episodes, seed=seed, workers=workers)  # type: ignore[arg-type]

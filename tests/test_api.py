@@ -1,0 +1,57 @@
+"""The Python API runs the commands: the same files, the tables read back, raised errors."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pyarrow.parquet as pq
+import pytest
+from typer.testing import CliRunner
+
+import marops_cli as marops
+from marops_cli.cli.app import app
+from marops_cli.errors import InputError
+
+
+def test_api_runs_what_the_cli_runs(example_csv: Path, tmp_path: Path, capsys) -> None:
+    rows = marops.read_lade(example_csv)
+    report = json.loads(rows.schema.metadata[b"marops"])["drop_report"]
+    assert rows.num_rows == report["kept"] and report["total"] == report["kept"] + sum(
+        report["dropped"].values()
+    )
+    depots = marops.segment(example_csv, out=tmp_path / "depots.json", dates="0801..0810")
+    assert len(depots["depots"]) == 16 and (tmp_path / "depots.json").is_file()
+
+    day = marops.replay_day(
+        example_csv, "0811", out=tmp_path / "api", depots=tmp_path / "depots.json", method="stay"
+    )
+    res = CliRunner().invoke(
+        app,
+        ["replay-day", str(example_csv), "--date", "0811", "--method", "stay"]
+        + ["--depots", str(tmp_path / "depots.json"), "--out", str(tmp_path / "cli")],
+    )
+    assert res.exit_code == 0, res.output
+    for name in ("stops.parquet", "routes.parquet"):  # byte for byte the CLI's files
+        assert (tmp_path / "api" / name).read_bytes() == (tmp_path / "cli" / name).read_bytes()
+    cli_metrics = json.loads((tmp_path / "cli" / "metrics.json").read_text())["days"][0]
+    timing = ("runtime_s", "solver")  # wall times differ run to run
+    assert {k: v for k, v in day.metrics.items() if k not in timing} == {
+        k: v for k, v in cli_metrics.items() if k not in timing
+    }
+    assert day.routes.equals(pq.read_table(tmp_path / "cli" / "routes.parquet"))
+    assert day.folder == tmp_path / "api"
+
+    window = marops.plan_window(example_csv, tmp_path / "depots.json", "0811", 5)
+    assert window.folder is None  # a temporary folder, gone
+    assert set(window.routes.column("window").to_pylist()) == {5}
+    assert window.metrics["objective"]["G"] > 0
+    captured = capsys.readouterr()
+    assert captured.out == ""  # nothing printed by the API
+
+
+def test_api_raises_input_errors(example_csv: Path, tmp_path: Path) -> None:
+    with pytest.raises(InputError, match="not in the file|no requests|0101"):
+        marops.replay_day(example_csv, "0101", out=tmp_path / "x")
+    with pytest.raises(InputError, match="file not found"):
+        marops.replay_day(tmp_path / "missing.csv", "0811")
