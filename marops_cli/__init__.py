@@ -7,6 +7,9 @@ try:
 except PackageNotFoundError:  # running from a source tree without installation
     __version__ = "0.0.0+local"
 
-from .api import evaluate, plan_window, read_lade, replay_day, segment  # noqa: E402
+# The Python API (``from marops_cli import api``): the commands as functions. They are
+# not re-exported here because ``marops_cli.segment`` and ``marops_cli.evaluate`` are
+# subpackages, whose import would shadow functions of those names.
+from . import api  # noqa: E402
 
-__all__ = ["__version__", "evaluate", "plan_window", "read_lade", "replay_day", "segment"]
+__all__ = ["__version__", "api"]

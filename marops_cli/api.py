@@ -8,7 +8,7 @@ as keyword arguments (``drones=16``, ``alpha=0.2``, ``config="planner.toml"``); 
 are raised as :class:`marops_cli.errors.InputError` (bad input) or
 :class:`marops_cli.errors.MaropsError`, never printed.
 
-    import marops_cli as marops
+    from marops_cli import api as marops
 
     depots = marops.segment("lade.csv", out="out/depots.json", dates="0801..0810")
     day = marops.replay_day("lade.csv", "0811", out="out/0811", depots="out/depots.json")

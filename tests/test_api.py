@@ -9,7 +9,8 @@ import pyarrow.parquet as pq
 import pytest
 from typer.testing import CliRunner
 
-import marops_cli as marops
+import marops_cli.segment  # noqa: F401  (a subpackage must not shadow the API's segment)
+from marops_cli import api as marops
 from marops_cli.cli.app import app
 from marops_cli.errors import InputError
 
