@@ -2,8 +2,9 @@
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated
+from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 
@@ -93,6 +94,7 @@ def evaluate(
     from ..evaluate import expand_settings, parse_values, prepare, write_outputs
 
     require_input(data)
+    _check_out(out)  # before any computing
     cfg = make_config(config, data__year=year, data__strict=strict or None, sim__seed=seed)
     settings = expand_settings(
         cfg,
@@ -121,8 +123,23 @@ def evaluate(
         f"evaluate: {len(prep.methods)} methods x {len(settings)} settings x "
         f"{len(prep.days)} days x {repeats} repeats = {len(prep.jobs)} replays, {workers} workers"
     )
-    ev = _run(prep, workers)
+    from ..evaluate.runner import Journal, run_identity
+
+    journal = Journal(out / JOURNAL, run_identity(prep))
+    try:
+        ev = _run(prep, workers, journal)
+    except KeyboardInterrupt:
+        kept = max(0, len(journal.path.read_text(encoding="utf-8").splitlines()) - 1)
+        typer.echo(
+            f"marops: interrupted; {kept} of {len(prep.jobs)} replays are kept in "
+            f"{journal.path}: run the same command again to resume",
+            err=True,
+        )
+        raise typer.Exit(130) from None
+    if journal.done:
+        info(f"resumed: {len(journal.done)} of {len(prep.jobs)} replays from {journal.path}")
     paths = write_outputs(out, prep, ev.results, ev.summary, plots=plots)
+    journal.remove()  # the outputs are complete
     _print_tables(ev)
     info(f"wrote {', '.join(str(p) for p in paths)}")
     if STATE["json"]:
@@ -134,6 +151,24 @@ def evaluate(
                 "summary": ev.summary.to_pylist(),
             }
         )
+
+
+JOURNAL = "evaluate.partial.jsonl"
+"""Finished replays of an unfinished evaluation, in its --out folder (removed at the end)."""
+
+
+def _check_out(out: Path) -> None:
+    """--out must be a folder this user can write (or create), found out before anything
+    runs and without writing anything."""
+    if out.exists() and not out.is_dir():
+        raise InputError("--out must be a folder; this is a file", file=out)
+    probe = out.absolute()
+    while not probe.exists():  # the nearest existing folder must let us create the rest
+        probe = probe.parent
+    if not probe.is_dir():
+        raise InputError(f"--out cannot be created: {probe} is a file", file=out)
+    if not os.access(probe, os.W_OK | os.X_OK):
+        raise InputError(f"--out is not writable ({probe})", file=out)
 
 
 def _methods(text: str | None, actors: dict[str, Path]) -> list[str]:
@@ -154,7 +189,7 @@ def _methods(text: str | None, actors: dict[str, Path]) -> list[str]:
     return chosen
 
 
-def _run(prep: Prepared, workers: int) -> Evaluation:
+def _run(prep: Prepared, workers: int, journal: Any = None) -> Evaluation:
     """Run the jobs with a progress bar on a terminal, one log line per replay otherwise."""
     from rich.progress import (
         BarColumn,
@@ -177,7 +212,7 @@ def _run(prep: Prepared, workers: int) -> Evaluation:
                 f"repeat {job.repeat}"
             )
 
-        return run_evaluation(prep, workers, log)
+        return run_evaluation(prep, workers, log, journal)
     progress = Progress(
         TextColumn("evaluate"),
         BarColumn(),
@@ -190,7 +225,10 @@ def _run(prep: Prepared, workers: int) -> Evaluation:
     task = progress.add_task("replays", total=len(prep.jobs))
     with progress:
         return run_evaluation(
-            prep, workers, lambda done, total, job: progress.update(task, completed=done)
+            prep,
+            workers,
+            lambda done, total, job: progress.update(task, completed=done),
+            journal,
         )
 
 

@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import pyarrow as pa
 
-from .runner import OnResult, Prepared, run
+from .runner import Journal, OnResult, Prepared, run
 from .tables import results_table, summarize
 
 
@@ -19,7 +19,12 @@ class Evaluation:
     summary: pa.Table
 
 
-def evaluate(prep: Prepared, workers: int = 2, on_result: OnResult | None = None) -> Evaluation:
+def evaluate(
+    prep: Prepared,
+    workers: int = 2,
+    on_result: OnResult | None = None,
+    journal: Journal | None = None,
+) -> Evaluation:
     """Run every job of ``prep`` on ``workers`` processes and summarise the rows."""
-    results = results_table(prep, run(prep, workers, on_result))
+    results = results_table(prep, run(prep, workers, on_result, journal))
     return Evaluation(prep, results, summarize(results))

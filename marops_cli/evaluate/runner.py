@@ -10,7 +10,11 @@ back in job order, so ``--workers 1`` and ``--workers 2`` give the same rows
 from __future__ import annotations
 
 import datetime as dt
+import hashlib
+import json
 import multiprocessing as mp
+import os
+import signal
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -132,6 +136,10 @@ _CTX: dict[str, Any] = {}
 
 
 def _init(prep: Prepared) -> None:
+    # Ctrl-C reaches the whole process group: the parent stops the pool and keeps what
+    # finished; workers ignore it, so no worker prints a traceback.
+    if mp.current_process().name != "MainProcess":
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
     _CTX.clear()
     _CTX["prep"] = prep
     _CTX["policies"] = {}
@@ -160,18 +168,103 @@ def _run_safe(job: Job) -> tuple[int, dict[str, Any] | None, str | None, int]:
         return job.index, None, str(exc), exc.exit_code
 
 
+def run_identity(prep: Prepared) -> str:
+    """A digest of everything that decides an evaluation's rows: input, config, methods,
+    settings, days, repeats and actors. A journal is resumed only under the same one."""
+    doc = {
+        "input": prep.source.source.to_dict(),
+        "config": prep.cfg.model_dump(mode="json"),
+        "methods": prep.methods,
+        "settings": [s.columns() for s in prep.settings],
+        "days": [d.isoformat() for d in prep.days],
+        "repeats": prep.repeats,
+        "actors": {m: _sha256(p) for m, p in sorted(prep.actor_files.items())},
+    }
+    return hashlib.sha256(json.dumps(doc, sort_keys=True, default=str).encode()).hexdigest()
+
+
+def _sha256(path: Path) -> str:
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
+def _job_key(job: Job) -> list[Any]:
+    return [job.index, job.setting, job.method, job.repeat, job.seed, job.day.isoformat()]
+
+
+class Journal:
+    """Finished jobs, one JSON line each, so an interrupted evaluation resumes.
+
+    The first line records the run identity; a journal made by another run is an
+    error (the caller names it), never silently mixed in.
+    """
+
+    def __init__(self, path: Path, identity: str) -> None:
+        self.path = path
+        self.identity = identity
+        self.done: dict[int, dict[str, Any]] = {}
+
+    def open(self, jobs: Sequence[Job]) -> None:
+        """Load the jobs an earlier run of the same evaluation finished, then append."""
+        if self.path.is_file():
+            lines = self.path.read_text(encoding="utf-8").splitlines()
+            try:
+                head = json.loads(lines[0]) if lines else {}
+            except ValueError:
+                head = {}
+            if head.get("identity") != self.identity:
+                raise InputError(
+                    "holds an unfinished evaluation with other settings; delete it or "
+                    "choose another --out",
+                    file=self.path,
+                )
+            for line in lines[1:]:
+                try:
+                    rec = json.loads(line)
+                except ValueError:  # a line cut short by the interruption
+                    continue
+                i = int(rec["key"][0])
+                if 0 <= i < len(jobs) and rec["key"] == _job_key(jobs[i]):
+                    self.done[i] = rec["metrics"]
+        else:
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+            self.path.write_text(json.dumps({"identity": self.identity}) + "\n", "utf-8")
+
+    def add(self, job: Job, metrics: dict[str, Any]) -> None:
+        line = json.dumps({"key": _job_key(job), "metrics": metrics}, default=str)
+        with open(self.path, "a", encoding="utf-8") as fh:
+            fh.write(line + "\n")
+            fh.flush()
+            os.fsync(fh.fileno())
+
+    def remove(self) -> None:
+        self.path.unlink(missing_ok=True)
+
+
 def run(
-    prep: Prepared, workers: int = 2, on_result: OnResult | None = None
+    prep: Prepared,
+    workers: int = 2,
+    on_result: OnResult | None = None,
+    journal: Journal | None = None,
 ) -> list[dict[str, Any]]:
-    """Metrics of every job, in job order, computed by ``workers`` processes."""
+    """Metrics of every job, in job order, computed by ``workers`` processes; with a
+    ``journal``, jobs it holds are not run again and each finished job is added."""
     if workers < 1:
         raise InputError(f"--workers expects at least 1, got {workers}")
     total = len(prep.jobs)
     results: list[dict[str, Any] | None] = [None] * total
-    workers = min(workers, total)
-    if workers == 1:
+    if journal is not None:
+        journal.open(prep.jobs)
+        for i, metrics in journal.done.items():
+            results[i] = metrics
+    todo = [job for job in prep.jobs if results[job.index] is None]
+    done0 = total - len(todo)
+    workers = max(1, min(workers, len(todo)))
+    if not todo:
+        outcomes: Any = iter(())
+        pool = None
+    elif workers == 1:
         _init(prep)
-        outcomes: Any = map(_run_safe, prep.jobs)
+        outcomes = map(_run_safe, todo)
         pool = None
     else:
         # spawn: a fresh interpreter per worker, so no solver or Arrow thread state is
@@ -179,12 +272,14 @@ def run(
         # Workers get only the replayed days' rows, not the whole file.
         slim = replace(prep, source=next(iter(prep.scenarios.values())).table)
         pool = mp.get_context("spawn").Pool(workers, initializer=_init, initargs=(slim,))
-        outcomes = pool.imap_unordered(_run_safe, prep.jobs, chunksize=1)
+        outcomes = pool.imap_unordered(_run_safe, todo, chunksize=1)
     try:
-        for done, (index, metrics, error, code) in enumerate(outcomes, start=1):
+        for done, (index, metrics, error, code) in enumerate(outcomes, start=done0 + 1):
             if error is not None:
                 raise (InputError(error) if code == 2 else RunError(error))
             results[index] = metrics
+            if journal is not None and metrics is not None:
+                journal.add(prep.jobs[index], metrics)
             if on_result is not None:
                 on_result(done, total, prep.jobs[index])
     finally:
