@@ -89,3 +89,23 @@ def test_quiet_keeps_warnings_only(example_csv: Path, tmp_path: Path) -> None:
     # settings from the environment (MAROPS_*): the same run, its fleet size from MAROPS_DRONES
     env = run([*args, "--out", "e", "--json"], tmp_path, MAROPS_DRONES="1")
     assert json.loads(env.stdout)["days"][0]["drones"] == 1
+
+
+def test_help_lists_every_method_and_one_vocabulary() -> None:
+    """Every method is named in help; --depots is a file and counts are --n-depots."""
+    from typer.testing import CliRunner
+
+    from marops_cli.cli.app import app
+    from marops_cli.cli.options import METHOD_NAMES
+    from marops_cli.sim.jobs import METHODS
+
+    assert METHOD_NAMES.split(", ") == list(METHODS)
+    runner = CliRunner()
+    for cmd in ("replay-day", "plan-window"):
+        text = " ".join(runner.invoke(app, [cmd, "-h"]).output.split())
+        assert "myopic" in text and "[marops]" in text
+    for cmd in ("segment", "replay-day", "evaluate", "train"):
+        text = runner.invoke(app, [cmd, "--help"]).output
+        assert "--depots-n" not in text
+        if cmd != "evaluate" and cmd != "train":
+            assert "--n-depots" in text
