@@ -131,6 +131,20 @@ def make_config(config: Path | None, **overrides: Any) -> PlannerConfig:
     return override(load_config(config), **overrides)
 
 
+def refuse_overwriting_inputs(outputs: list[Path], **inputs: Path | None) -> None:
+    """Stop before any work when an output would replace an input file (``--out DATA``)."""
+    seen = {}
+    for flag, path in inputs.items():
+        if path is not None and Path(path).exists():
+            seen[Path(path).resolve()] = flag.replace("_", "-")
+    for out_path in outputs:
+        hit = seen.get(Path(out_path).resolve())
+        if hit is not None:
+            raise InputError(
+                f"would overwrite the input given as {hit}; choose another --out", file=out_path
+            )
+
+
 def require_input(path: Path) -> None:
     if not path.exists():
         raise InputError("file not found", file=path)

@@ -20,6 +20,7 @@ from .common import (
     is_terminal,
     make_config,
     print_drop_report,
+    refuse_overwriting_inputs,
     require_input,
     set_output,
     show_table,
@@ -95,6 +96,13 @@ def evaluate(
 
     require_input(data)
     _check_out(out)  # before any computing
+    refuse_overwriting_inputs(
+        [out / n for n in ("results.parquet", "summary.csv", "summary.md", JOURNAL)],
+        data=data,
+        config=config,
+        policy=policy,
+        mappo_policy=mappo_policy,
+    )
     cfg = make_config(config, data__year=year, data__strict=strict or None, sim__seed=seed)
     settings = expand_settings(
         cfg,

@@ -17,6 +17,7 @@ from .common import (
     make_config,
     print_day_scope,
     print_drop_report,
+    refuse_overwriting_inputs,
     require_input,
     set_output,
     show_table,
@@ -94,6 +95,14 @@ def plan_window(
         raise InputError("--out must be a folder; this is a file", file=out)
     if fmt not in ("parquet", "json"):
         raise InputError(f"--format expects parquet or json, got {fmt!r}")
+    refuse_overwriting_inputs(
+        [out / f"stops.{fmt}", out / f"routes.{fmt}", out / "routes.geojson"],
+        data=data,
+        depots=depots,
+        fleet=fleet,
+        delivered=delivered,
+        config=config,
+    )
     cfg = make_config(
         config,
         data__year=year,

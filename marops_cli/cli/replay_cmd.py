@@ -24,6 +24,7 @@ from .common import (
     make_config,
     print_day_scope,
     print_drop_report,
+    refuse_overwriting_inputs,
     require_input,
     set_output,
     show_table,
@@ -120,6 +121,13 @@ def replay_day(
         sim__policy=policy,
     )
     days = [parse_day(date, cfg.data.year)] if date else parse_days(dates or "", cfg.data.year)
+    if out.exists() and not out.is_dir():
+        raise InputError("--out must be a folder; this is a file", file=out)
+    names = (f"stops.{fmt}", f"routes.{fmt}", "metrics.json", "routes.png", "routes.geojson")
+    folders = [out] if date else [out, *(out / d.isoformat() for d in days)]
+    refuse_overwriting_inputs(
+        [f / n for f in folders for n in names], data=data, depots=depots, config=config
+    )
     scn = load_scenario(data, cfg, depots_path=depots, replay_days=days)
     print_drop_report(scn.table.report, data.name)
     pol = method_policy(method, cfg.sim.policy, cfg.sim.seed)

@@ -19,6 +19,7 @@ from .common import (
     make_config,
     parse_center,
     print_drop_report,
+    refuse_overwriting_inputs,
     require_input,
     set_output,
     show_table,
@@ -81,6 +82,7 @@ def segment(
     if out.suffix != ".json":
         raise InputError(f"--out names the depots file, e.g. depots.json; got {out.name}")
     gj_path, png_path = out.with_suffix(".geojson"), out.with_suffix(".png")
+    refuse_overwriting_inputs([out, gj_path, png_path], data=data, config=config)
     cfg = make_config(
         config,
         data__year=year,

@@ -15,7 +15,16 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 from ..data.dates import parse_days
 from ..errors import InputError
 from . import options as o
-from .common import console, guarded, is_terminal, make_config, require_input, show_table, table
+from .common import (
+    console,
+    guarded,
+    is_terminal,
+    make_config,
+    refuse_overwriting_inputs,
+    require_input,
+    show_table,
+    table,
+)
 
 
 def _eval_line(ev: dict[str, Any]) -> str:
@@ -112,6 +121,9 @@ def train(
     require_input(data)
     if out.suffix != ".pt":
         raise InputError("--out must name a .pt file (the sidecar goes beside it)", file=out)
+    refuse_overwriting_inputs(
+        [out, out.with_suffix(".json"), out.with_suffix(".ckpt")], data=data, config=config
+    )
     cfg = make_config(
         config, data__year=year, plan__alpha=alpha, sim__drones=drones, segment__n_depots=n_depots
     )

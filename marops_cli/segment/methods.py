@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 from sklearn.cluster import KMeans
+from threadpoolctl import threadpool_limits
 
 from ..config import SegmentConfig
 from ..data.frame import Frame
@@ -20,8 +21,13 @@ def kmeans_depots(x: np.ndarray, y: np.ndarray, frame: Frame, cfg: SegmentConfig
             f"fewer than the {cfg.n_depots} depots asked for"
         )
     km = KMeans(n_clusters=cfg.n_depots, n_init=cfg.n_init, random_state=cfg.seed)
-    km.fit(pts)
-    centers = km.cluster_centers_
+    # One thread: k-means' OpenMP reductions sum in an order that depends on the thread
+    # count, which moved the centroids' last bits (and so the routes) between machines.
+    with threadpool_limits(limits=1):
+        km.fit(pts)
+    # Millimetres, as depots.json stores them: a replay that segments in memory and one
+    # that reads the depots file plan on the very same depots.
+    centers = np.round(km.cluster_centers_, 3)
     # Order depots south-west to north-east so ids read naturally on a map and do
     # not depend on k-means' internal label order.
     order = np.lexsort((centers[:, 0], np.round(centers[:, 1], 3)))

@@ -1,0 +1,82 @@
+"""No command overwrites one of its inputs: exit 2, one line, the input unchanged."""
+
+from __future__ import annotations
+
+import hashlib
+import shutil
+from pathlib import Path
+
+import pytest
+
+
+def _sha(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+@pytest.fixture
+def inputs(example_csv: Path, tmp_path: Path, depots_json: Path) -> dict[str, Path]:
+    data = tmp_path / "data.csv"
+    shutil.copy(example_csv, data)
+    cfg = tmp_path / "planner.json"  # a config with an unusual name
+    cfg.write_text("[plan]\nalpha = 0.5\n")
+    day = tmp_path / "day"
+    day.mkdir()
+    depots = day / "metrics.json"  # a depots file where replay-day writes its metrics
+    shutil.copy(depots_json, depots)
+    return {"data": data, "config": cfg, "depots": depots}
+
+
+@pytest.fixture(scope="module")
+def depots_json(example_csv: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    from typer.testing import CliRunner
+
+    from marops_cli.cli.app import app
+
+    out = tmp_path_factory.mktemp("dep") / "depots.json"
+    res = CliRunner().invoke(app, ["segment", str(example_csv), "--out", str(out)])
+    assert res.exit_code == 0, res.output
+    return out
+
+
+CASES = {
+    "segment --out DATA": lambda p: ["segment", str(p["data"]), "--out", str(p["data"])],
+    "segment --out CONFIG": lambda p: [
+        "segment",
+        str(p["data"]),
+        "--out",
+        str(p["config"]),
+        "--config",
+        str(p["config"]),
+    ],
+    "plan-window --out DATA": lambda p: [
+        "plan-window",
+        str(p["data"]),
+        "--depots",
+        str(p["depots"]),
+        "--date",
+        "0811",
+        "--window",
+        "3",
+        "--out",
+        str(p["data"]),
+    ],
+    "replay-day over its depots file": lambda p: [
+        "replay-day",
+        str(p["data"]),
+        "--date",
+        "0811",
+        "--depots",
+        str(p["depots"]),
+        "--out",
+        str(p["depots"].parent),
+    ],
+    "train --out DATA": lambda p: ["train", str(p["data"]), "--out", str(p["data"])],
+}
+
+
+@pytest.mark.parametrize("case", list(CASES))
+def test_an_input_is_never_overwritten(inputs, case: str, fails_cleanly) -> None:
+    before = {k: _sha(v) for k, v in inputs.items()}
+    args = CASES[case](inputs)
+    fails_cleanly(args, inputs["data"].parent)
+    assert {k: _sha(v) for k, v in inputs.items()} == before
