@@ -113,17 +113,23 @@ def _string_bytes(arr: pa.Array) -> tuple[np.ndarray, np.ndarray, np.ndarray, np
     return data, offsets[:-1], np.diff(offsets), isnull
 
 
-def parse_times(column: pa.ChunkedArray | pa.Array, year: int) -> tuple[np.ndarray, np.ndarray]:
+def parse_times(
+    column: pa.ChunkedArray | pa.Array, year: int, tz: str = "Asia/Shanghai"
+) -> tuple[np.ndarray, np.ndarray]:
     """A column of ``MM-DD HH:MM:SS`` / ``YYYY-MM-DD HH:MM:SS`` strings -> (seconds, status).
 
     Seconds are naive local time since 1970-01-01 (int64, 0 where not OK);
     status is :data:`TIME_OK`, :data:`TIME_EMPTY` (null or blank) or
     :data:`TIME_BAD` per row. Parsing is strict: ``02-30`` or ``24:00:00`` is bad
     (pyarrow's strptime would roll the first over to March). A timestamp column
-    (from Parquet) is taken as it is.
+    (from Parquet) is taken as it is when it has no zone, and as the wall-clock time
+    in ``tz`` (the data's zone) when it has one, so a zone-aware export reads like the
+    CSV of the same rows.
     """
     arr = column.combine_chunks() if isinstance(column, pa.ChunkedArray) else column
     if pa.types.is_timestamp(arr.type):
+        if arr.type.tz is not None:
+            arr = pc.local_timestamp(arr.cast(pa.timestamp(arr.type.unit, tz=tz)))
         secs = pc.cast(arr, pa.timestamp("s")).cast(pa.int64())
         empty = secs.is_null().to_numpy(zero_copy_only=False)
         return secs.fill_null(0).to_numpy(), np.where(empty, TIME_EMPTY, TIME_OK).astype(np.int8)

@@ -229,7 +229,7 @@ def _check_errors(table: pa.Table, path: Path, cfg: DataConfig) -> dict[str, np.
     out: dict[str, np.ndarray] = {}
     bad: list[tuple[int, str, str]] = []  # (index, column, message)
     for name in ("accept_time", "delivery_time"):
-        secs, status = parse_times(table[name], cfg.year)
+        secs, status = parse_times(table[name], cfg.year, cfg.tz)
         out[name], out[name + "_status"] = secs, status
         if (i := _first(status == TIME_BAD)) is not None:
             value = table[name][i].as_py()
