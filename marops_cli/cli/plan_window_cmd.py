@@ -116,10 +116,10 @@ def plan_window(
         sim__policy=policy,
     )
     day = parse_day(date, cfg.data.year)
+    pol = method_policy(method, cfg.sim.policy, cfg.sim.seed)
     scn = load_scenario(data, cfg, depots_path=depots, replay_days=[day])
     print_drop_report(scn.table.report, data.name)
     fleet_arr = load_fleet(fleet, scn.depots, cfg.sim.drones)
-    pol = method_policy(method, cfg.sim.policy, cfg.sim.seed)
     done = delivered_orders(delivered) if delivered is not None else None
     plan, reqs = plan_one_window(scn, day, window, fleet_arr, pol, done)
     print_day_scope(reqs, cfg)

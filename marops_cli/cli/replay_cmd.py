@@ -128,9 +128,9 @@ def replay_day(
     refuse_overwriting_inputs(
         [f / n for f in folders for n in names], data=data, depots=depots, config=config
     )
+    pol = method_policy(method, cfg.sim.policy, cfg.sim.seed)  # a bad actor file stops here
     scn = load_scenario(data, cfg, depots_path=depots, replay_days=days)
     print_drop_report(scn.table.report, data.name)
-    pol = method_policy(method, cfg.sim.policy, cfg.sim.seed)
     fleet = load_fleet(None, scn.depots, cfg.sim.drones)
     policy_id = getattr(pol, "path", pol.name)
     identity = _identity(scn, cfg, method, policy_id, depots, fmt)

@@ -13,7 +13,7 @@ from typing import Any, Literal
 
 import numpy as np
 
-from ..errors import InputError
+from ..errors import InputError, RunError
 from ..io.jsonfile import read_json
 from .base import WindowView
 from .observation import OBS_VERSION, OBS_VERSIONS, obs_dim, observe, observe_and_choose
@@ -27,9 +27,17 @@ def sidecar_path(model_path: str | Path) -> Path:
 def read_sidecar(model_path: str | Path) -> dict[str, Any]:
     side = sidecar_path(model_path)
     doc = read_json(side, "policy sidecar beside the .pt file")
+    if not isinstance(doc, dict):
+        raise InputError("policy sidecar must be a JSON object", file=side)
     for key in ("obs_version", "n_actions", "hidden_size"):
         if key not in doc:
             raise InputError("policy sidecar lacks a field", file=side, column=key)
+    for key in ("obs_version", "n_actions", "hidden_size", "obs_dim", "n_logits", "plan_slots"):
+        value = doc.get(key)
+        if key in doc and (isinstance(value, bool) or not isinstance(value, int) or value < 1):
+            raise InputError(
+                f"expected a positive whole number, got {value!r}", file=side, column=key
+            )
     if int(doc["obs_version"]) not in OBS_VERSIONS:
         raise InputError(
             f"policy was trained on observation version {doc['obs_version']}, "
@@ -70,10 +78,55 @@ class TorchScriptPolicy:
         self.n_actions = int(self.sidecar["n_actions"])
         self.hidden_size = int(self.sidecar["hidden_size"])
         self.obs_version = int(self.sidecar["obs_version"])
+        self._probe()
         self.name = f"torchscript:{self.path.name}"
         self._hidden: Any = None
         self._model: Any = None
         self._plan: Any = None
+
+    def _probe(self) -> None:
+        """One call with the shapes the sidecar promises: ``forward(obs (2, obs_dim),
+        hidden (2, hidden_size)) -> (logits (2, n_logits), hidden (2, hidden_size))``."""
+        torch = self._torch
+        side = self.sidecar
+        slots = int(side.get("plan_slots", 1))
+        width = int(side.get("obs_dim", obs_dim(self.n_actions, self.obs_version)))
+        n_logits = int(side.get("n_logits", self.n_actions * slots))
+        expect = (
+            f"forward(obs ({width} features), hidden ({self.hidden_size})) -> "
+            f"(logits ({n_logits}), hidden ({self.hidden_size}))"
+        )
+        try:
+            with torch.no_grad():
+                out = self._module(
+                    torch.zeros((2, width), dtype=torch.float32),
+                    torch.zeros((2, self.hidden_size), dtype=torch.float32),
+                )
+        except Exception as exc:  # any failure of a foreign module is a bad policy file
+            first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+            raise InputError(
+                f"the actor does not run as {expect}: {first}", file=self.path
+            ) from None
+        ok = (
+            isinstance(out, tuple)
+            and len(out) == 2
+            and all(isinstance(t, torch.Tensor) for t in out)
+            and tuple(out[0].shape) == (2, n_logits)
+            and tuple(out[1].shape) == (2, self.hidden_size)
+        )
+        if not ok:
+            got = (
+                tuple(tuple(t.shape) for t in out if isinstance(t, torch.Tensor))
+                if isinstance(out, tuple)
+                else type(out).__name__
+            )
+            raise InputError(f"the actor returns {got}, expected {expect}", file=self.path)
+        if n_logits != self.n_actions * slots:
+            raise InputError(
+                f"the sidecar's n_logits {n_logits} is not n_actions × plan_slots "
+                f"({self.n_actions} × {slots})",
+                file=sidecar_path(self.path),
+            )
 
     def configure(self, cfg: Any) -> None:
         """Price version-3 observations with the run's energy model and plan settings."""
@@ -104,7 +157,10 @@ class TorchScriptPolicy:
         with torch.no_grad():
             out, h = self._module(torch.from_numpy(obs), self._hidden[idx])
         self._hidden[idx] = h
-        return out.numpy().astype(np.float64)
+        logits = out.numpy().astype(np.float64)
+        if not np.isfinite(logits).all():
+            raise RunError(f"{self.path}: the actor returned NaN or infinite logits")
+        return logits
 
     def logits(self, view: WindowView) -> np.ndarray:
         """Version-2 logits of every drone (the MAPPO actor's slot logits included)."""

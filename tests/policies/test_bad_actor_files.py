@@ -1,0 +1,69 @@
+"""Actor files of another model are one-line errors naming the file (exit 2), found by
+one probe call before any planning; an actor that outputs NaN stops the run."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+import torch
+
+SIDE = {"obs_version": 3, "n_actions": 4, "hidden_size": 8, "obs_dim": 59, "n_logits": 4}
+
+
+class OneArg(torch.nn.Module):
+    def forward(self, obs: torch.Tensor) -> torch.Tensor:
+        return obs[:, :4]
+
+
+class Shaped(torch.nn.Module):
+    def __init__(self, width: int, hidden: int, fill: float = 0.0) -> None:
+        super().__init__()
+        self.width, self.hidden, self.fill = width, hidden, fill
+
+    def forward(self, obs: torch.Tensor, h: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        n = obs.shape[0]
+        return torch.full((n, self.width), self.fill), torch.zeros((n, self.hidden))
+
+
+def _actor(tmp_path: Path, module: torch.nn.Module, **side: object) -> Path:
+    path = tmp_path / "actor.pt"
+    torch.jit.save(torch.jit.script(module), str(path))
+    path.with_suffix(".json").write_text(json.dumps({**SIDE, **side}))
+    return path
+
+
+CASES = {
+    "forward takes one input": (lambda: OneArg(), {}, "does not run as forward(obs (59"),
+    "wrong output width": (lambda: Shaped(7, 8), {}, "expected forward"),
+    "other hidden size": (lambda: Shaped(4, 16), {}, "hidden (8)"),
+    "non-numeric observation version": (lambda: Shaped(4, 8), {"obs_version": "three"}, "3"),
+    "hidden size zero": (lambda: Shaped(4, 8), {"hidden_size": 0}, "hidden_size"),
+}
+
+
+@pytest.mark.parametrize("case", list(CASES))
+def test_bad_actor_file_is_one_line(example_csv: Path, tmp_path: Path, case, fails_cleanly):
+    make, side, needle = CASES[case]
+    path = _actor(tmp_path, make(), **side)
+    args = ["replay-day", str(example_csv), "--date", "0811", "--method", "marops"]
+    args += ["--policy", str(path), "--out", str(tmp_path / "out")]
+    line = fails_cleanly(args, tmp_path, "actor.")
+    if case == "non-numeric observation version":
+        assert "obs_version" in line and "'three'" in line
+    else:
+        assert needle in line, line
+
+
+def test_an_actor_that_outputs_nan_stops_the_run(example_csv: Path, tmp_path: Path) -> None:
+    from typer.testing import CliRunner
+
+    from marops_cli.cli.app import app
+
+    path = _actor(tmp_path, Shaped(4, 8, float("nan")))
+    args = ["replay-day", str(example_csv), "--date", "0811", "--method", "marops"]
+    res = CliRunner().invoke(app, [*args, "--policy", str(path), "--out", str(tmp_path / "o")])
+    assert res.exit_code == 1
+    assert "actor.pt: the actor returned NaN or infinite logits" in res.stderr
+    assert not (tmp_path / "o").exists()
