@@ -243,6 +243,8 @@ def _validation_message(exc: ValidationError) -> str:
     err = exc.errors()[0]
     loc = ".".join(str(p) for p in err["loc"])
     msg = str(err["msg"]).removeprefix("Value error, ")
+    if "input" in err and not isinstance(err["input"], dict | list):
+        msg = f"{msg}, got {err['input']!r}"
     return f"{loc}: {msg}" if loc else msg
 
 
@@ -251,10 +253,14 @@ def load_config(path: str | Path | None) -> PlannerConfig:
     if path is None:
         return PlannerConfig()
     p = Path(path)
+    if p.is_dir():
+        raise InputError("is a folder, expected a TOML config file", file=p)
     try:
         raw = tomllib.loads(p.read_text(encoding="utf-8"))
     except FileNotFoundError as exc:
         raise InputError("config file not found", file=p) from exc
+    except OSError as exc:
+        raise InputError(f"cannot read the config ({exc.strerror})", file=p) from exc
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
         raise InputError(f"not a valid TOML file ({exc})", file=p) from exc
     try:

@@ -49,3 +49,10 @@ class RunError(MaropsError):
     """The run failed for a reason other than the input (exit code 1)."""
 
     exit_code = 1
+
+
+def naming(exc: InputError, file: str | Path) -> InputError:
+    """``exc`` naming ``file`` when it named no file (an error about the data's content)."""
+    if exc.file is not None:
+        return exc
+    return InputError(exc.message, file=file, row=exc.row, column=exc.column)

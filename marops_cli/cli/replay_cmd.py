@@ -98,6 +98,7 @@ def replay_day(
     """Replay whole days window by window; write stops, routes and the paper's metrics."""
     set_output(quiet, as_json)
     from ..data.dates import parse_day, parse_days
+    from ..data.prepare import prepare_day
     from ..sim.jobs import METHODS, load_fleet, load_scenario, method_policy
 
     require_input(data)
@@ -130,6 +131,8 @@ def replay_day(
     )
     pol = method_policy(method, cfg.sim.policy, cfg.sim.seed)  # a bad actor file stops here
     scn = load_scenario(data, cfg, depots_path=depots, replay_days=days)
+    for day in days:  # every day has requests to plan, before anything is said or written
+        prepare_day(scn.table, scn.frame, day, cfg.data)
     print_drop_report(scn.table.report, data.name)
     fleet = load_fleet(None, scn.depots, cfg.sim.drones)
     policy_id = getattr(pol, "path", pol.name)

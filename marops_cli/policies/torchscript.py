@@ -25,6 +25,8 @@ def sidecar_path(model_path: str | Path) -> Path:
 
 
 def read_sidecar(model_path: str | Path) -> dict[str, Any]:
+    if not Path(model_path).is_file():
+        raise InputError("policy file not found", file=model_path)
     side = sidecar_path(model_path)
     doc = read_json(side, "policy sidecar beside the .pt file")
     if not isinstance(doc, dict):

@@ -104,6 +104,19 @@ class Depots:
             ) from exc
         if xy.shape[0] == 0:
             raise InputError("the depots file lists no depots", file=source)
+        bad = np.flatnonzero(~np.isfinite(xy).all(axis=1))
+        if bad.size:
+            raise InputError(
+                f"depot {int(bad[0])} has no finite position (x_m, y_m)",
+                file=source,
+                column="depots",
+            )
+        if not all(np.isfinite([frame.center_lng, frame.center_lat, frame.size_km])) or not (
+            -180 <= frame.center_lng <= 180 and -90 <= frame.center_lat <= 90 and frame.size_km > 0
+        ):
+            raise InputError(
+                "the study frame is not a valid centre and size", file=source, column="frame"
+            )
         if cand.ndim != 2 or cand.min() < 0 or cand.max() >= xy.shape[0]:
             raise InputError("candidates refer to unknown depots", file=source, column="candidates")
         if not np.array_equal(cand[:, 0], np.arange(xy.shape[0])):

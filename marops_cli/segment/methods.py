@@ -20,6 +20,12 @@ def kmeans_depots(x: np.ndarray, y: np.ndarray, frame: Frame, cfg: SegmentConfig
             f"only {pts.shape[0]} history requests in the study area, "
             f"fewer than the {cfg.n_depots} depots asked for"
         )
+    distinct = np.unique(pts, axis=0).shape[0]
+    if distinct < cfg.n_depots:
+        raise InputError(
+            f"only {distinct} distinct history locations in the study area, fewer than the "
+            f"{cfg.n_depots} depots asked for (--n-depots)"
+        )
     km = KMeans(n_clusters=cfg.n_depots, n_init=cfg.n_init, random_state=cfg.seed)
     # One thread: k-means' OpenMP reductions sum in an order that depends on the thread
     # count, which moved the centroids' last bits (and so the routes) between machines.

@@ -13,7 +13,7 @@ from ..data.frame import Frame
 from ..data.prepare import check_days_in_file, study_frame
 from ..data.reader import read_lade
 from ..data.table import LadeTable
-from ..errors import InputError
+from ..errors import InputError, naming
 from .depots import Depots
 from .methods import segment_points
 
@@ -53,5 +53,8 @@ def segment_file(
     table = read_lade(path, cfg.data)
     frame = study_frame(table, cfg.data, days or None)
     pts, used_days = history_points(table, frame, days)
-    depots = segment_points(pts[:, 0], pts[:, 1], frame, cfg.segment)
+    try:
+        depots = segment_points(pts[:, 0], pts[:, 1], frame, cfg.segment)
+    except InputError as exc:
+        raise naming(exc, table.source.path) from None
     return SegmentResult(depots, table, used_days, pts)

@@ -21,7 +21,7 @@ from ..data.prepare import check_days_in_file, prepare_day, study_frame
 from ..data.reader import read_lade
 from ..data.table import DayRequests, LadeTable
 from ..energy import EnergyModel
-from ..errors import InputError
+from ..errors import InputError, naming
 from ..io.jsonfile import read_json
 from ..plans.select import make_selector
 from ..plans.window import WindowPlan, plan_window
@@ -128,7 +128,10 @@ def load_scenario(
         return Scenario(table, depots.frame, depots, cfg, history)
     frame = study_frame(table, cfg.data, history)
     pts, _ = history_points(table, frame, history)
-    depots = segment_points(pts[:, 0], pts[:, 1], frame, cfg.segment)
+    try:
+        depots = segment_points(pts[:, 0], pts[:, 1], frame, cfg.segment)
+    except InputError as exc:
+        raise naming(exc, table.source.path) from None
     return Scenario(table, frame, depots, cfg, history)
 
 
