@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import signal
 import sys
 from typing import Annotated
 
@@ -59,10 +60,18 @@ app.command("train")(train)
 app.command("evaluate")(evaluate)
 
 
+def _terminate(signum: int, frame: object) -> None:
+    """SIGTERM unwinds like Ctrl-C (temporaries removed, one line, exit 143)."""
+    from ..io.atomic import Terminated
+
+    raise Terminated()
+
+
 def main() -> None:
     """The console script: every error is one plain line on stderr (docs/outputs.md)."""
     if PLAIN:  # help and messages as plain text for logs and pipes
         typer.core.HAS_RICH = False
+    signal.signal(signal.SIGTERM, _terminate)
     try:
         code = app(standalone_mode=False)
     except typer.Abort:

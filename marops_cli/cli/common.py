@@ -105,9 +105,12 @@ def guarded(fn: F) -> F:
                 raise
             typer.echo(f"marops: error: {exc}", err=True)
             raise typer.Exit(1) from None
-        except KeyboardInterrupt:
-            typer.echo("marops: interrupted", err=True)
-            raise typer.Exit(130) from None
+        except KeyboardInterrupt as exc:  # Ctrl-C, or SIGTERM (Terminated)
+            from ..io.atomic import Terminated
+
+            term = isinstance(exc, Terminated)
+            typer.echo("marops: terminated" if term else "marops: interrupted", err=True)
+            raise typer.Exit(143 if term else 130) from None
 
     return wrapper  # type: ignore[return-value]
 
@@ -188,7 +191,14 @@ UNDELIVERED_WARN = 0.10
 
 
 def warn_undelivered(metrics: dict[str, Any], drones: int) -> None:
-    """Warn when more than 10 % of a day's requests stayed undelivered."""
+    """Warn when more than 10 % of a day's requests stayed undelivered, and about
+    requests no drone can serve at all (too heavy, too far)."""
+    heavy, far = metrics.get("unservable_heavy", 0), metrics.get("unservable_far", 0)
+    if heavy or far:
+        warn(
+            f"{metrics['day']}: {heavy:,} parcels heavier than the payload limit and {far:,} "
+            "requests beyond any drone's reach from the nearest depot cannot be served"
+        )
     share = metrics["undelivered"] / max(metrics["requests"], 1)
     if share > UNDELIVERED_WARN:
         warn(

@@ -132,22 +132,27 @@ def evaluate(
         f"{len(prep.days)} days x {repeats} repeats = {len(prep.jobs)} replays, {workers} workers"
     )
     from ..evaluate.runner import Journal, run_identity
+    from ..io.atomic import folder_lock
 
-    journal = Journal(out / JOURNAL, run_identity(prep))
-    try:
-        ev = _run(prep, workers, journal)
-    except KeyboardInterrupt:
-        kept = max(0, len(journal.path.read_text(encoding="utf-8").splitlines()) - 1)
-        typer.echo(
-            f"marops: interrupted; {kept} of {len(prep.jobs)} replays are kept in "
-            f"{journal.path}: run the same command again to resume",
-            err=True,
-        )
-        raise typer.Exit(130) from None
-    if journal.done:
-        info(f"resumed: {len(journal.done)} of {len(prep.jobs)} replays from {journal.path}")
-    paths = write_outputs(out, prep, ev.results, ev.summary, plots=plots)
-    journal.remove()  # the outputs are complete
+    with folder_lock(out):  # one run at a time in a folder; stale temporaries go
+        journal = Journal(out / JOURNAL, run_identity(prep))
+        try:
+            ev = _run(prep, workers, journal)
+        except KeyboardInterrupt as exc:  # Ctrl-C or SIGTERM
+            from ..io.atomic import Terminated
+
+            kept = max(0, len(journal.path.read_text(encoding="utf-8").splitlines()) - 1)
+            how = "terminated" if isinstance(exc, Terminated) else "interrupted"
+            typer.echo(
+                f"marops: {how}; {kept} of {len(prep.jobs)} replays are kept in "
+                f"{journal.path}: run the same command again to resume",
+                err=True,
+            )
+            raise typer.Exit(143 if isinstance(exc, Terminated) else 130) from None
+        if journal.done:
+            info(f"resumed: {len(journal.done)} of {len(prep.jobs)} replays from {journal.path}")
+        paths = write_outputs(out, prep, ev.results, ev.summary, plots=plots)
+        journal.remove()  # the outputs are complete
     _print_tables(ev)
     info(f"wrote {', '.join(str(p) for p in paths)}")
     if STATE["json"]:

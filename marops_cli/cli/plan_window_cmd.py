@@ -75,7 +75,7 @@ def plan_window(
     set_output(quiet, as_json)
     from ..data.dates import parse_day
     from ..energy import EnergyModel
-    from ..io import output_set, run_meta
+    from ..io import folder_lock, output_set, run_meta
     from ..io.meta import file_sha256
     from ..io.tables import build_tables, write_route_files
     from ..sim.jobs import (
@@ -154,7 +154,7 @@ def plan_window(
         },
         stamp=False,
     )
-    with output_set() as files:
+    with folder_lock(out), output_set() as files:
         written = write_route_files(files, out, stops, routes, meta, fmt, geojson)
     _summary(plan, model, reqs.window_start(window).strftime("%Y-%m-%d %H:%M"))
     info("wrote " + ", ".join(str(p) for p in written))

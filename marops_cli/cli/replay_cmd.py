@@ -11,7 +11,7 @@ import typer
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
 from ..errors import InputError
-from ..io import output_set, run_meta
+from ..io import folder_lock, output_set, run_meta
 from ..io.meta import file_sha256
 from . import options as o
 from .common import (
@@ -144,27 +144,30 @@ def replay_day(
         done = (out if date else out / day.isoformat()) / "metrics.json"
         if done.is_file() and not force:
             keep[day] = _matching_days(done, identity)
-    all_metrics: list[dict[str, Any]] = []
-    for day in days:
-        folder = out if date else out / day.isoformat()
-        if day in keep:
-            info(
-                f"{day.isoformat()}: output with the same settings exists in {folder}, "
-                "skipped (--force replays)"
+    with folder_lock(out):  # one run at a time in a folder; stale temporaries go
+        all_metrics: list[dict[str, Any]] = []
+        for day in days:
+            folder = out if date else out / day.isoformat()
+            if day in keep:
+                info(
+                    f"{day.isoformat()}: output with the same settings exists in {folder}, "
+                    "skipped (--force replays)"
+                )
+                all_metrics.extend(keep[day])
+                continue
+            metrics = _replay_one(
+                scn, day, fleet, pol, method, folder, (fmt, plot, geojson), policy_id, identity
             )
-            all_metrics.extend(keep[day])
-            continue
-        metrics = _replay_one(
-            scn, day, fleet, pol, method, folder, (fmt, plot, geojson), policy_id, identity
-        )
-        all_metrics.append(metrics)
-    if dates:
-        meta = run_meta(command="replay-day", config=cfg, source=scn.table.source, method=method)
-        with output_set() as files:
-            files.write_json(
-                out / "metrics.json",
-                {"meta": meta, "days": all_metrics, "total": aggregate_days(all_metrics)},
+            all_metrics.append(metrics)
+        if dates:
+            meta = run_meta(
+                command="replay-day", config=cfg, source=scn.table.source, method=method
             )
+            with output_set() as files:
+                files.write_json(
+                    out / "metrics.json",
+                    {"meta": meta, "days": all_metrics, "total": aggregate_days(all_metrics)},
+                )
     _print_metrics(all_metrics)
     if STATE["json"]:
         emit_json(

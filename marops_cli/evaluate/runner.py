@@ -15,6 +15,7 @@ import json
 import multiprocessing as mp
 import os
 import signal
+import sys
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -135,11 +136,27 @@ def prepare(
 _CTX: dict[str, Any] = {}
 
 
+def _die_with_parent() -> None:
+    """A worker whose parent is killed (kill -9) is killed too, not left running (Linux)."""
+    if not sys.platform.startswith("linux"):
+        return
+    import ctypes
+
+    try:
+        libc = ctypes.CDLL("libc.so.6", use_errno=True)
+        libc.prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
+    except (OSError, AttributeError):
+        pass
+    if os.getppid() == 1:  # the parent died before the call
+        os._exit(1)
+
+
 def _init(prep: Prepared) -> None:
     # Ctrl-C reaches the whole process group: the parent stops the pool and keeps what
     # finished; workers ignore it, so no worker prints a traceback.
     if mp.current_process().name != "MainProcess":
         signal.signal(signal.SIGINT, signal.SIG_IGN)
+        _die_with_parent()
     _CTX.clear()
     _CTX["prep"] = prep
     _CTX["policies"] = {}

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import os
+import signal
 import tempfile
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -42,10 +43,20 @@ class OutputSet:
 
     def commit(self) -> None:
         mode = 0o666 & ~_umask()  # mkstemp makes 0600; outputs are shared like any file
-        for tmp, final in self._pending:
-            os.chmod(tmp, mode)
-            os.replace(tmp, final)
-        self._pending.clear()
+        # Ctrl-C or SIGTERM waits until every file of the set is in place (the renames
+        # take microseconds), so a stopped run never leaves half a set.
+        stop = {signal.SIGINT, signal.SIGTERM}
+        blocked = hasattr(signal, "pthread_sigmask")
+        if blocked:
+            old = signal.pthread_sigmask(signal.SIG_BLOCK, stop)
+        try:
+            for tmp, final in self._pending:
+                os.chmod(tmp, mode)
+                os.replace(tmp, final)
+            self._pending.clear()
+        finally:
+            if blocked:
+                signal.pthread_sigmask(signal.SIG_SETMASK, old)
 
     def discard(self) -> None:
         for tmp, _ in self._pending:
@@ -78,3 +89,51 @@ def _umask() -> int:
 def dumps_json(doc: Any) -> str:
     """Stable JSON text: sorted keys would reorder tables, so keep insertion order."""
     return json.dumps(doc, indent=2, ensure_ascii=False, allow_nan=False) + "\n"
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised where the program runs so temporaries are removed on the way out."""
+
+
+@contextmanager
+def folder_lock(folder: str | Path) -> Iterator[None]:
+    """Hold ``folder`` for this run: a second run into it stops with a clear message
+    instead of redoing the work; temporaries a killed run left there are removed."""
+    import fcntl
+
+    folder = Path(folder)
+    created = not folder.exists()
+    folder.mkdir(parents=True, exist_ok=True)
+    lock = folder / ".marops.lock"
+    fh = open(lock, "a+")  # noqa: SIM115 (held for the whole run)
+    try:
+        try:
+            fcntl.flock(fh.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            fh.seek(0)
+            holder = fh.read().strip() or "another process"
+            raise RunError(
+                f"{folder}: another marops run ({holder}) is writing here; wait for it to "
+                "finish or choose another --out"
+            ) from None
+        fh.seek(0)
+        fh.truncate()
+        fh.write(f"pid {os.getpid()}")
+        fh.flush()
+        remove_stale_temporaries(folder)
+        yield
+    finally:
+        lock.unlink(missing_ok=True)
+        fh.close()
+        if created and not any(folder.iterdir()):  # a failed run leaves no empty folder
+            folder.rmdir()
+
+
+def remove_stale_temporaries(folder: Path) -> int:
+    """Remove ``.NAME.XXXXXXXX.tmp`` files that a killed run left under ``folder``."""
+    n = 0
+    for tmp in folder.rglob(".*.tmp"):
+        if tmp.is_file():
+            tmp.unlink(missing_ok=True)
+            n += 1
+    return n

@@ -22,6 +22,19 @@ def gini(values: np.ndarray) -> float:
     return float((n + 1 - 2 * (cum / cum[-1]).sum()) / n)
 
 
+def unservable(day: Any, depots_xy: np.ndarray, model: EnergyModel) -> tuple[int, int]:
+    """Requests no drone can ever serve: (heavier than the payload limit, too far: even
+    alone, from the nearest depot and back to the nearest depot, over the usable battery)."""
+    from ..plans.pool import nearest_depot_m
+
+    heavy = day.weight_kg > model.max_payload_kg + 1e-9
+    d = nearest_depot_m(np.column_stack([day.x_m, day.y_m]), depots_xy)
+    w = np.minimum(day.weight_kg, model.max_payload_kg)
+    alone = d * np.interp(w, model.grid_kg, model.table_j_per_m) + d * model.energy_per_m(0.0)
+    far = ~heavy & (alone > model.usable_j)
+    return int(heavy.sum()), int(far.sum())
+
+
 def day_metrics(res: DayResult, model: EnergyModel) -> dict[str, Any]:
     """The ``metrics.json`` record of one replayed day (docs/outputs.md)."""
     st = res.state
@@ -60,6 +73,14 @@ def day_metrics(res: DayResult, model: EnergyModel) -> dict[str, Any]:
         "orders_due": day.orders_due,
         "outside_area": day.outside_area,
         "outside_hours": day.outside_hours,
+        # ... and planned requests no drone can serve at all (docs/outputs.md)
+        **dict(
+            zip(
+                ("unservable_heavy", "unservable_far"),
+                unservable(day, st.depots.xy, model),
+                strict=True,
+            )
+        ),
         "depot_load_kg": {str(i): round(float(load[i]), 6) for i in range(n_areas)},
         "battery_frac_mean": float(flown.mean() / model.cfg.battery_j) if flown.size else 0.0,
         "battery_frac_max": float(flown.max() / model.cfg.battery_j) if flown.size else 0.0,
