@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import signal
 import sys
+import warnings
 from typing import Annotated
 
 import typer
@@ -67,11 +68,25 @@ def _terminate(signum: int, frame: object) -> None:
     raise Terminated()
 
 
+def _one_line_warning(
+    message: Warning | str,
+    category: type[Warning],
+    filename: str,
+    lineno: int,
+    file: object = None,
+    line: str | None = None,
+) -> None:
+    """Library warnings (scikit-learn, cvxpy, torch) as our own one-line messages."""
+    text = " ".join(str(message).split())
+    typer.echo(f"warning: {text}", err=True)
+
+
 def main() -> None:
     """The console script: every error is one plain line on stderr (docs/outputs.md)."""
     if PLAIN:  # help and messages as plain text for logs and pipes
         typer.core.HAS_RICH = False
     signal.signal(signal.SIGTERM, _terminate)
+    warnings.showwarning = _one_line_warning
     try:
         code = app(standalone_mode=False)
     except typer.Abort:

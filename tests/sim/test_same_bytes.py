@@ -33,7 +33,7 @@ def _replay(example_csv: Path, cwd: Path, threads: int, method: str) -> dict[str
 
 
 @pytest.mark.parametrize("method", ["stay", "marops"])
-def test_replay_bytes_do_not_depend_on_threads_or_folder(
+def test_replay_bytes_do_not_depend_on_threads_or_folders(
     example_csv: Path, tmp_path: Path, method: str
 ) -> None:
     """k-means' centroids used to move in their last bits with OMP_NUM_THREADS."""
@@ -43,3 +43,41 @@ def test_replay_bytes_do_not_depend_on_threads_or_folder(
         cwd.mkdir(parents=True)
         runs.append(_replay(example_csv, cwd, threads, method))
     assert runs[0] == runs[1] == runs[2]
+
+
+def test_every_method_and_evaluate_same_on_1_and_4_threads(example_csv: Path, tmp_path: Path):
+    """Every method's route files, and evaluate's rows (less its wall times), are the
+    same with one thread and with four, run from different folders."""
+    import pyarrow.parquet as pq
+
+    from marops_cli.sim.jobs import METHODS
+
+    for method in METHODS:
+        a = _replay(example_csv, _fresh(tmp_path / f"{method}1" / "x"), 1, method)
+        b = _replay(example_csv, _fresh(tmp_path / f"{method}4"), 4, method)
+        assert a == b, method
+    rows = []
+    for threads in (1, 4):
+        cwd = _fresh(tmp_path / f"ev{threads}")
+        env = dict(os.environ, OMP_NUM_THREADS=str(threads), OPENBLAS_NUM_THREADS=str(threads))
+        args = ["evaluate", str(example_csv), "--methods", "stay,greedy,marops", "--dates"]
+        args += ["0811", "--workers", "2", "--no-plot", "--out", "ev", "-q"]
+        code = "from marops_cli.cli.app import main; main()"
+        res = subprocess.run(
+            [sys.executable, "-c", code, *args],
+            cwd=cwd,
+            env=env,
+            capture_output=True,
+            text=True,
+            timeout=300,
+        )
+        assert res.returncode == 0, res.stderr
+        table = pq.read_table(cwd / "ev" / "results.parquet")
+        keep = [c for c in table.column_names if c not in ("runtime_s", "solver_solve_s")]
+        rows.append(table.select(keep).replace_schema_metadata(None))
+    assert rows[0].equals(rows[1])
+
+
+def _fresh(path: Path) -> Path:
+    path.mkdir(parents=True)
+    return path
