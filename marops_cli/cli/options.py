@@ -80,4 +80,7 @@ Geojson = Annotated[
     bool,
     typer.Option("--geojson", help="Also write routes.geojson: one LineString per route."),
 ]
-Format = Annotated[str, typer.Option("--format", help="Route files: parquet or json [parquet].")]
+Format = Annotated[
+    str,
+    typer.Option("--format", help="Route files: parquet or json [parquet].", show_default=False),
+]

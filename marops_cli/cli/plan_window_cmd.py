@@ -56,7 +56,11 @@ def plan_window(
     policy: o.Policy = None,
     method: Annotated[
         str,
-        typer.Option("--method", help=f"One of {o.METHOD_NAMES} (docs/method.md §7) [marops]."),
+        typer.Option(
+            "--method",
+            help=f"One of {o.METHOD_NAMES} (docs/method.md §7) [marops].",
+            show_default=False,
+        ),
     ] = "marops",
     alpha: o.Alpha = None,
     ordering: o.Ordering = None,

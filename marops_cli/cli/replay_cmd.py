@@ -74,7 +74,11 @@ def replay_day(
     drones: o.Drones = None,
     method: Annotated[
         str,
-        typer.Option("--method", help=f"One of {o.METHOD_NAMES} (docs/method.md §7) [marops]."),
+        typer.Option(
+            "--method",
+            help=f"One of {o.METHOD_NAMES} (docs/method.md §7) [marops].",
+            show_default=False,
+        ),
     ] = "marops",
     policy: o.Policy = None,
     alpha: o.Alpha = None,

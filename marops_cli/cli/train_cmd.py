@@ -91,7 +91,7 @@ def train(
     days: Annotated[
         str | None,
         typer.Option(
-            "--days",
+            "--dates",
             help="Training days (0801..0824); the rest are held out (default: first 80 %).",
         ),
     ] = None,
