@@ -25,6 +25,7 @@ from .common import (
     set_output,
     show_table,
     table,
+    warn,
 )
 
 if TYPE_CHECKING:
@@ -79,6 +80,14 @@ def evaluate(
             "--mappo-policy", help="Trained MAPPO actor (.pt) (default: the shipped one)."
         ),
     ] = None,
+    against: Annotated[
+        str | None,
+        typer.Option(
+            "--against",
+            help="Reference method: each method's per-day difference to it, with a bootstrap "
+            "95 % CI, into paired.csv and a table.",
+        ),
+    ] = None,
     plots: Annotated[
         bool, typer.Option("--plot/--no-plot", help="Draw the figures (PNG) into --out.")
     ] = True,
@@ -116,6 +125,10 @@ def evaluate(
         raise InputError("give at most one of --dates or --split")
     actors = {k: v for k, v in (("learned", policy), ("direct", mappo_policy)) if v is not None}
     chosen = _methods(methods, actors)
+    if against is not None and against not in chosen:
+        raise InputError(
+            f"--against {against!r} is not among the methods compared ({', '.join(chosen)})"
+        )
     prep = prepare(
         data,
         cfg,
@@ -152,8 +165,11 @@ def evaluate(
         if journal.done:
             info(f"resumed: {len(journal.done)} of {len(prep.jobs)} replays from {journal.path}")
         paths = write_outputs(out, prep, ev.results, ev.summary, plots=plots)
+        paired = _paired(ev, against, out, paths)
         journal.remove()  # the outputs are complete
     _print_tables(ev)
+    if paired is not None:
+        _print_paired(paired, len(prep.days))
     info(f"wrote {', '.join(str(p) for p in paths)}")
     if STATE["json"]:
         emit_json(
@@ -162,8 +178,53 @@ def evaluate(
                 "files": [str(p) for p in paths],
                 "days": [d.isoformat() for d in prep.days],
                 "summary": ev.summary.to_pylist(),
+                "paired": paired.to_pylist() if paired is not None else None,
             }
         )
+
+
+def _paired(ev: Evaluation, against: str | None, out: Path, paths: list[Path]) -> Any:
+    """``paired.csv``: every method against ``against``, day by day (None without one)."""
+    if against is None:
+        return None
+    import pyarrow.csv as pacsv
+
+    from ..evaluate.paired import paired_table
+    from ..io import output_set
+
+    table = paired_table(ev.results, against)
+    with output_set() as files:
+        files.write_with(out / "paired.csv", lambda p: pacsv.write_csv(table, str(p)))
+    paths.append(out / "paired.csv")
+    return table
+
+
+def _print_paired(paired: Any, n_days: int) -> None:
+    from ..evaluate.paired import MIN_DAYS, verdict
+
+    rows = paired.to_pylist()
+    if not rows:
+        return
+    if n_days < MIN_DAYS:
+        warn(
+            f"only {n_days} days back the paired comparison (fewer than {MIN_DAYS}): "
+            "the intervals are wide and the verdicts fragile"
+        )
+    t = table(f"paired against {rows[0]['against']}: per-day difference, bootstrap 95 % CI")
+    for col in ("setting", "method", "metric", "days", "mean diff", "95 % CI", "days better", ""):
+        t.add_column(col, justify="left" if col in ("method", "metric", "") else "right")
+    for r in rows:
+        t.add_row(
+            str(r["setting"]),
+            r["method"],
+            r["metric"],
+            str(r["days"]),
+            f"{r['mean_diff']:+.4g}",
+            f"[{r['ci_low']:+.4g}, {r['ci_high']:+.4g}]",
+            f"{r['days_better']}/{r['days']}",
+            verdict(r),
+        )
+    show_table(t)
 
 
 JOURNAL = "evaluate.partial.jsonl"

@@ -1,0 +1,96 @@
+"""Paired comparisons against a reference method (``evaluate --against``).
+
+For each setting and method, the per-day difference method − reference of each metric
+(same day, same repeat), its mean and a bootstrap 95 % confidence interval (resampling
+days with replacement, a fixed seed, so the interval is reproducible), and how many
+days the method was better. A comparison backed by fewer than :data:`MIN_DAYS` days
+is flagged: the combined cost alone can be won by delivering less, so the day
+objective J (which charges every request left waiting) and the delivered share come
+first (docs/method.md §8).
+"""
+
+from __future__ import annotations
+
+from collections import defaultdict
+from typing import Any
+
+import numpy as np
+import pyarrow as pa
+
+from ..errors import InputError
+
+# metric -> True when lower is better
+PAIRED_METRICS: dict[str, bool] = {
+    "objective_j_mj": True,
+    "delivered_share": False,
+    "avg_delay_h": True,
+    "mean_energy_kj": True,
+    "combined_cost": True,
+}
+MIN_DAYS = 10
+N_BOOT = 2000
+SEED = 20221  # fixed: the same rows give the same interval everywhere
+
+
+def bootstrap_ci(diff: np.ndarray, n_boot: int = N_BOOT, seed: int = SEED) -> tuple[float, float]:
+    """95 % percentile interval of the mean of ``diff`` over days resampled with replacement."""
+    d = np.asarray(diff, dtype=np.float64)
+    if d.size == 0:
+        return float("nan"), float("nan")
+    if d.size == 1:
+        return float(d[0]), float(d[0])
+    rng = np.random.default_rng(seed)
+    means = d[rng.integers(0, d.size, (n_boot, d.size))].mean(axis=1)
+    lo, hi = np.quantile(means, [0.025, 0.975])
+    return float(lo), float(hi)
+
+
+def paired_table(results: pa.Table, against: str) -> pa.Table:
+    """One row per setting × method × metric: days, mean difference, CI, days better."""
+    rows = results.to_pylist()
+    methods = list(dict.fromkeys(r["method"] for r in rows))
+    if against not in methods:
+        raise InputError(
+            f"--against {against!r} is not among the methods compared ({', '.join(methods)})"
+        )
+    by: dict[tuple[int, str], dict[tuple[str, int], dict[str, Any]]] = defaultdict(dict)
+    for r in rows:
+        by[(r["setting"], r["method"])][(r["day"], r["repeat"])] = r
+    out: dict[str, list[Any]] = defaultdict(list)
+    for (setting, method), days in by.items():
+        if method == against:
+            continue
+        ref = by[(setting, against)]
+        keys = sorted(k for k in days if k in ref)
+        for metric, lower in PAIRED_METRICS.items():
+            pairs = [
+                (days[k][metric], ref[k][metric])
+                for k in keys
+                if days[k].get(metric) is not None and ref[k].get(metric) is not None
+            ]
+            diff = np.array([a - b for a, b in pairs], dtype=np.float64)
+            lo, hi = bootstrap_ci(diff)
+            better = int(((diff < 0) if lower else (diff > 0)).sum())
+            out["setting"].append(setting)
+            out["method"].append(method)
+            out["against"].append(against)
+            out["metric"].append(metric)
+            out["days"].append(int(diff.size))
+            out["mean_diff"].append(float(diff.mean()) if diff.size else float("nan"))
+            out["ci_low"].append(lo)
+            out["ci_high"].append(hi)
+            out["days_better"].append(better)
+            out["lower_is_better"].append(lower)
+            out["few_days"].append(bool(diff.size < MIN_DAYS))
+    return pa.table(dict(out))
+
+
+def verdict(row: dict[str, Any]) -> str:
+    """``better`` / ``worse`` when the CI excludes zero, else ``no difference``."""
+    lo, hi = row["ci_low"], row["ci_high"]
+    if not (np.isfinite(lo) and np.isfinite(hi)) or row["days"] < 2:
+        return "n/a"
+    if lo > 0 or hi < 0:
+        good = (hi < 0) if row["lower_is_better"] else (lo > 0)
+        return "better" if good else "worse"
+    return "no difference"

@@ -1,0 +1,80 @@
+"""Paired comparisons against a reference method, by hand and through the CLI."""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+import numpy as np
+import pyarrow as pa
+import pytest
+from typer.testing import CliRunner
+
+from marops_cli.cli.app import app
+from marops_cli.evaluate.paired import bootstrap_ci, paired_table, verdict
+
+
+def test_bootstrap_ci_by_hand() -> None:
+    assert bootstrap_ci(np.array([0.3, 0.3, 0.3])) == pytest.approx((0.3, 0.3))  # no spread
+    assert bootstrap_ci(np.array([2.0])) == (2.0, 2.0)
+    lo, hi = bootstrap_ci(np.array([-1.0, 0.0, 1.0, 2.0]))
+    assert -1.0 <= lo < 0.5 < hi <= 2.0  # around the mean 0.5, inside the data's range
+    assert bootstrap_ci(np.array([-1.0, 0.0, 1.0, 2.0])) == (lo, hi)  # seeded: reproducible
+
+
+def _results(j_a: list[float], j_b: list[float]) -> pa.Table:
+    rows = []
+    for method, js in (("ref", j_a), ("new", j_b)):
+        for d, j in enumerate(js):
+            rows.append(
+                {
+                    "setting": 0,
+                    "method": method,
+                    "day": f"2022-08-{11 + d}",
+                    "repeat": 0,
+                    "objective_j_mj": j,
+                    "delivered_share": 0.9,
+                    "avg_delay_h": 0.5,
+                    "mean_energy_kj": 1000.0,
+                    "combined_cost": 0.5,
+                }
+            )
+    return pa.Table.from_pylist(rows)
+
+
+def test_paired_table_by_hand() -> None:
+    """new − ref on J: -10, -20, +3 → mean -9, two days better, a zero-crossing CI."""
+    table = paired_table(_results([100.0, 200.0, 50.0], [90.0, 180.0, 53.0]), "ref")
+    row = next(r for r in table.to_pylist() if r["metric"] == "objective_j_mj")
+    assert (row["method"], row["days"], row["days_better"]) == ("new", 3, 2)
+    assert row["mean_diff"] == pytest.approx(-9.0)
+    assert row["ci_low"] < 0 < row["ci_high"] and verdict(row) == "no difference"
+    assert row["few_days"] is True
+    same = next(r for r in table.to_pylist() if r["metric"] == "delivered_share")
+    assert same["mean_diff"] == 0 and (same["ci_low"], same["ci_high"]) == (0, 0)
+    # a difference on every day of one sign is a verdict
+    worse = paired_table(_results([100.0] * 12, [110.0 + i for i in range(12)]), "ref")
+    row = next(r for r in worse.to_pylist() if r["metric"] == "objective_j_mj")
+    assert verdict(row) == "worse" and row["few_days"] is False
+
+
+def test_evaluate_against_writes_paired_csv_and_warns_on_few_days(
+    example_csv: Path, tmp_path: Path
+) -> None:
+    out = tmp_path / "ev"
+    args = ["evaluate", str(example_csv), "--methods", "stay,greedy", "--dates", "0811..0812"]
+    res = CliRunner().invoke(app, [*args, "--against", "stay", "--no-plot", "--out", str(out)])
+    assert res.exit_code == 0, res.output
+    rows = list(csv.DictReader((out / "paired.csv").open()))
+    assert {r["method"] for r in rows} == {"greedy"} and {r["against"] for r in rows} == {"stay"}
+    assert {r["metric"] for r in rows} >= {"objective_j_mj", "delivered_share", "avg_delay_h"}
+    assert all(r["days"] == "2" for r in rows)
+    assert "warning: only 2 days back the paired comparison" in res.stderr
+    assert "paired against stay" in res.stdout
+
+
+def test_against_a_method_not_compared_fails_before_any_work(
+    example_csv: Path, tmp_path: Path, fails_cleanly
+) -> None:
+    args = ["evaluate", str(example_csv), "--methods", "stay,greedy", "--against", "myopic"]
+    fails_cleanly([*args, "--out", str(tmp_path / "ev")], tmp_path, "--against 'myopic'")
