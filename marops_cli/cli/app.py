@@ -51,6 +51,9 @@ def _root(
 ) -> None:
     """Operations planner for drone last-mile delivery."""
     STATE.update(debug=debug, quiet=False, json=False, silent=False)
+    from ..io.atomic import allow_replacing_foreign
+
+    allow_replacing_foreign(False)  # each command decides (--force)
 
 
 app.command("synth")(synth)

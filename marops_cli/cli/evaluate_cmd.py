@@ -10,6 +10,7 @@ import typer
 
 from ..data.dates import parse_days
 from ..errors import InputError
+from ..io.atomic import allow_replacing_foreign
 from . import options as o
 from .common import (
     STATE,
@@ -94,12 +95,14 @@ def evaluate(
     seed: o.Seed = None,
     year: o.Year = None,
     strict: o.Strict = False,
+    force: o.Force = False,
     config: o.Config = None,
     quiet: o.Quiet = False,
     as_json: o.Json = False,
 ) -> None:
     """Compare methods on held-out days (paper Table III); sweep flags given several values."""
     set_output(quiet, as_json)
+    allow_replacing_foreign(force)
     # The library (pyarrow, matplotlib, the planner) loads here, so `marops --help` stays fast.
     from ..evaluate import expand_settings, parse_values, prepare, write_outputs
 

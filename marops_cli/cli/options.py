@@ -84,3 +84,7 @@ Format = Annotated[
     str,
     typer.Option("--format", help="Route files: parquet or json [parquet].", show_default=False),
 ]
+Force = Annotated[
+    bool,
+    typer.Option("--force", help="Replace existing output files, even ones marops did not write."),
+]

@@ -8,6 +8,7 @@ from typing import TYPE_CHECKING, Annotated
 import typer
 
 from ..errors import InputError
+from ..io.atomic import allow_replacing_foreign
 from . import options as o
 from .common import (
     STATE,
@@ -68,6 +69,7 @@ def plan_window(
     seed: o.Seed = None,
     year: o.Year = None,
     strict: o.Strict = False,
+    force: o.Force = False,
     config: o.Config = None,
     fmt: o.Format = "parquet",
     geojson: o.Geojson = False,
@@ -77,6 +79,7 @@ def plan_window(
 ) -> None:
     """Plan one time window: flight ranges, candidate plans, optimal plan selection."""
     set_output(quiet, as_json)
+    allow_replacing_foreign(force)
     from ..data.dates import parse_day
     from ..energy import EnergyModel
     from ..io import folder_lock, output_set, run_meta

@@ -12,6 +12,7 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 
 from ..errors import InputError
 from ..io import folder_lock, output_set, run_meta
+from ..io.atomic import allow_replacing_foreign
 from ..io.meta import file_sha256
 from . import options as o
 from .common import (
@@ -91,7 +92,11 @@ def replay_day(
         bool, typer.Option("--plot", help="Draw each day's windows, areas and routes (PNG).")
     ] = False,
     force: Annotated[
-        bool, typer.Option("--force", help="Replay days whose output already exists.")
+        bool,
+        typer.Option(
+            "--force",
+            help="Replay days whose output already exists; replace files marops did not write.",
+        ),
     ] = False,
     year: o.Year = None,
     strict: o.Strict = False,
@@ -101,6 +106,7 @@ def replay_day(
 ) -> None:
     """Replay whole days window by window; write stops, routes and the paper's metrics."""
     set_output(quiet, as_json)
+    allow_replacing_foreign(force)
     from ..data.dates import parse_day, parse_days
     from ..data.prepare import prepare_day
     from ..sim.jobs import METHODS, load_fleet, load_scenario, method_policy

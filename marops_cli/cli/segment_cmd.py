@@ -8,6 +8,7 @@ from typing import Annotated
 import typer
 
 from ..errors import InputError
+from ..io.atomic import allow_replacing_foreign
 from . import options as o
 from .common import (
     PLAIN,
@@ -66,12 +67,14 @@ def segment(
         bool,
         typer.Option("--plot", help="Also draw a PNG map of customers and areas beside --out."),
     ] = False,
+    force: o.Force = False,
     config: o.Config = None,
     quiet: o.Quiet = False,
     as_json: o.Json = False,
 ) -> None:
     """Cluster a LaDe export into depots and service areas (k-means or squares)."""
     set_output(quiet, as_json)
+    allow_replacing_foreign(force)
     from ..data.dates import parse_days
     from ..io import output_set, run_meta
     from ..segment import areas_geojson

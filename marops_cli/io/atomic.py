@@ -8,10 +8,54 @@ import signal
 import tempfile
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
+from contextvars import ContextVar
 from pathlib import Path
 from typing import Any
 
-from ..errors import RunError
+from ..errors import InputError, RunError
+
+_REPLACE_FOREIGN: ContextVar[bool] = ContextVar("replace_foreign", default=False)
+
+
+@contextmanager
+def replacing_foreign_files(allowed: bool) -> Iterator[None]:
+    """Within: outputs may replace existing files marops did not write (``--force``)."""
+    token = _REPLACE_FOREIGN.set(allowed)
+    try:
+        yield
+    finally:
+        _REPLACE_FOREIGN.reset(token)
+
+
+def allow_replacing_foreign(allowed: bool) -> None:
+    """For the rest of this command: may outputs replace files marops did not write?"""
+    _REPLACE_FOREIGN.set(allowed)
+
+
+def written_by_marops(path: Path) -> bool:
+    """An existing file is ours: Parquet with ``marops`` metadata, JSON or GeoJSON with a
+    marops ``meta``/``marops`` member, or a figure, summary or journal we name."""
+    suffix = path.suffix.lower()
+    try:
+        if suffix == ".parquet":
+            import pyarrow.parquet as pq
+
+            meta = pq.read_schema(path).metadata or {}
+            return b"marops" in meta
+        if suffix in (".json", ".geojson"):
+            doc = json.loads(path.read_text(encoding="utf-8"))
+            if not isinstance(doc, dict):
+                return False
+            head = doc.get("meta") or doc.get("marops") or {}
+            return (
+                isinstance(head, dict)
+                and head.get("package") == "marops"
+                or ("depots" in doc and "frame" in doc)
+            )
+    except (OSError, ValueError):
+        return False
+    # figures, summaries, journals and actor files: named by the command, so ours
+    return suffix in (".png", ".csv", ".md", ".jsonl", ".pt", ".ckpt")
 
 
 class OutputSet:
@@ -26,6 +70,10 @@ class OutputSet:
 
     def path_for(self, final: str | Path) -> Path:
         final = Path(final)
+        if final.is_file() and not _REPLACE_FOREIGN.get() and not written_by_marops(final):
+            raise InputError(
+                "exists and was not written by marops; pass --force to replace it", file=final
+            )
         final.parent.mkdir(parents=True, exist_ok=True)
         fd, tmp = tempfile.mkstemp(prefix=f".{final.name}.", suffix=".tmp", dir=final.parent)
         os.close(fd)

@@ -80,3 +80,22 @@ def test_an_input_is_never_overwritten(inputs, case: str, fails_cleanly) -> None
     args = CASES[case](inputs)
     fails_cleanly(args, inputs["data"].parent)
     assert {k: _sha(v) for k, v in inputs.items()} == before
+
+
+def test_a_file_marops_did_not_write_is_replaced_only_with_force(
+    example_csv: Path, tmp_path: Path
+) -> None:
+    from typer.testing import CliRunner
+
+    from marops_cli.cli.app import app
+
+    out = tmp_path / "depots.json"
+    out.write_text('{"notes": "an analyst\'s own file"}')
+    args = ["segment", str(example_csv), "--out", str(out)]
+    res = CliRunner().invoke(app, args)
+    assert res.exit_code == 2
+    assert "depots.json: exists and was not written by marops; pass --force" in res.stderr
+    assert out.read_text() == '{"notes": "an analyst\'s own file"}'
+    assert not list(tmp_path.glob(".*.tmp"))
+    assert CliRunner().invoke(app, [*args, "--force"]).exit_code == 0
+    assert CliRunner().invoke(app, args).exit_code == 0  # now ours: replaced freely
