@@ -7,9 +7,9 @@ try:
 except PackageNotFoundError:  # running from a source tree without installation
     __version__ = "0.0.0+local"
 
-# The Python API (``from marops_cli import api``): the commands as functions. They are
+# The Python API is ``from marops_cli import api``: the commands as functions. They are
 # not re-exported here because ``marops_cli.segment`` and ``marops_cli.evaluate`` are
-# subpackages, whose import would shadow functions of those names.
-from . import api  # noqa: E402
-
-__all__ = ["__version__", "api"]
+# subpackages, whose import would shadow functions of those names; nor is ``api``
+# imported here, so that the stages below it can read ``__version__`` (imports run
+# one way, pyproject's import-linter contract).
+__all__ = ["__version__"]

@@ -19,12 +19,12 @@ import numpy as np
 from ..config import PlanConfig
 from ..energy import EnergyModel
 from ..errors import RunError
-from ..policies.base import WindowView
 from .objective import WindowScore, lam_j, score_routes
 from .plans import PlanSet, build_plans
 from .pool import DroneTask, build_pool, finish_route
 from .ranges import pick_candidates
 from .select import SelectionProblem, SelectionResult, Selector
+from .view import WindowView
 
 
 @dataclass
@@ -60,7 +60,7 @@ class WindowPlan:
     """The window objective J and G of ``routes`` (docs/method.md)."""
 
 
-def _range_candidates(
+def range_candidates(
     view: WindowView, rank: np.ndarray, rank_area: np.ndarray, s: int, a: int, m_hat: int
 ) -> np.ndarray:
     """Ĉ_u of a drone at depot ``s`` taking action ``a``: pending positions in its range.
@@ -110,7 +110,7 @@ def _drafted_candidates(
     """
     head = m_hat * (view.n_drones + 1)  # the most any drone can reach in the draft
     prefs = [
-        _range_candidates(view, rank, rank_area, int(s), int(a), head)
+        range_candidates(view, rank, rank_area, int(s), int(a), head)
         for s, a in zip(view.drone_depot, acts, strict=True)
     ]
     return draft(prefs, view.pending_idx.size, m_hat)
@@ -159,7 +159,7 @@ def _range_plans(
         for u, s in enumerate(view.drone_depot):
             sa = (int(s), int(acts[u]))
             if sa not in by_key:
-                by_key[sa] = _range_candidates(view, rank, rank_area, *sa, cfg.max_parcels)
+                by_key[sa] = range_candidates(view, rank, rank_area, *sa, cfg.max_parcels)
             cands.append(by_key[sa])
     t_cand = time.perf_counter() - t0
     plan_sets: list[PlanSet] = []

@@ -24,6 +24,7 @@ from ..config import PlanConfig
 from ..energy import EnergyModel
 from ..plans.order import subset_energies
 from ..plans.ranges import pick_candidates
+from ..plans.window import range_candidates
 from .base import WindowView
 
 OBS_VERSION = 3  # what ``marops train`` writes for the flight-range actor
@@ -232,7 +233,6 @@ class SequentialObserver:
 
     def row(self, u: int) -> np.ndarray:
         """Drone u's observation, given what the drones before it claimed."""
-        from ..plans.window import _range_candidates  # deferred: plans.window imports policies
 
         v, dep, m_hat = self.view, self.view.depots, self.plan.max_parcels
         s, n, a = int(v.drone_depot[u]), self.n_depots, self.n_actions
@@ -247,7 +247,7 @@ class SequentialObserver:
         rank_area = area[rank]
         out = np.zeros(self.dim, dtype=np.float32)
         dests = [int(dep.candidates[s, k]) for k in range(a)]
-        cands = [_range_candidates(v, rank, rank_area, s, k, m_hat) for k in range(a)]
+        cands = [range_candidates(v, rank, rank_area, s, k, m_hat) for k in range(a)]
         best = self._best_plans(s, dests, cands)
         self._best, self._u = {k: best[k][2] for k in range(a)}, u
         for k in range(a):

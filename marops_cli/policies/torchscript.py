@@ -13,8 +13,8 @@ from typing import Any, Literal
 
 import numpy as np
 
+from ..data.jsonfile import read_json
 from ..errors import InputError, RunError
-from ..io.jsonfile import read_json
 from .base import WindowView
 from .observation import OBS_VERSION, OBS_VERSIONS, obs_dim, observe, observe_and_choose
 

@@ -125,6 +125,6 @@ class Depots:
 
     @classmethod
     def load(cls, path: str | Path) -> Depots:
-        from ..io.jsonfile import read_json
+        from ..data.jsonfile import read_json
 
         return cls.from_dict(read_json(path, "depots file"), source=str(path))

@@ -17,12 +17,12 @@ import pyarrow.parquet as pq
 
 from ..config import PlannerConfig
 from ..data.frame import Frame
+from ..data.jsonfile import read_json
 from ..data.prepare import check_days_in_file, prepare_day, study_frame
 from ..data.reader import read_lade
 from ..data.table import DayRequests, LadeTable
 from ..energy import EnergyModel
 from ..errors import InputError, naming
-from ..io.jsonfile import read_json
 from ..plans.select import make_selector
 from ..plans.window import WindowPlan, plan_window
 from ..policies.base import Policy, plan_config, start_day

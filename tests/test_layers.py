@@ -1,0 +1,19 @@
+"""Imports run one way: api > cli > evaluate, rl > sim > io > policies > plans > segment >
+data (pyproject's import-linter contract), function-level imports included."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def test_import_layers_are_kept() -> None:
+    lint = Path(sys.executable).parent / "lint-imports"
+    res = subprocess.run(
+        [str(lint), "--no-cache"], cwd=ROOT, capture_output=True, text=True, timeout=300
+    )
+    assert res.returncode == 0, res.stdout[-3000:] + res.stderr[-2000:]
+    assert "1 kept, 0 broken" in res.stdout
