@@ -11,6 +11,7 @@ import typer
 from ..data.dates import parse_days
 from ..errors import InputError
 from ..io.atomic import allow_replacing_foreign
+from ..methods import reference_names
 from . import options as o
 from .common import (
     STATE,
@@ -41,9 +42,8 @@ def evaluate(
         str | None,
         typer.Option(
             "--methods",
-            help="Methods to compare, comma-separated: marops, ops-global, ops-random, mappo, "
-            "squares, greedy, stay, myopic (docs/method.md §7) (default: every one this build "
-            "can run but the references stay and myopic).",
+            help=f"Methods to compare, comma-separated: {o.METHOD_NAMES} (docs/method.md §7) "
+            f"(default: every one this build can run but the references {reference_names()}).",
         ),
     ] = None,
     dates: Annotated[
@@ -251,7 +251,7 @@ def _check_out(out: Path) -> None:
 def _methods(text: str | None, actors: dict[str, Path]) -> list[str]:
     """The listed methods, or every one this build can run (learned ones need an actor)."""
     from ..evaluate import check_methods
-    from ..sim.jobs import METHODS
+    from ..methods import METHODS, method
 
     if text is not None:
         return [m.strip() for m in text.split(",") if m.strip()]
@@ -261,7 +261,7 @@ def _methods(text: str | None, actors: dict[str, Path]) -> list[str]:
             check_methods([m], actors)
         except InputError:
             continue  # the default list skips what cannot run; a listed method errors
-        if m not in ("stay", "myopic"):
+        if method(m).in_default_evaluation:  # the references (stay, myopic) are asked for
             chosen.append(m)
     return chosen
 

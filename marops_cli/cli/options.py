@@ -7,8 +7,9 @@ from typing import Annotated
 
 import typer
 
-# Every method (marops_cli.sim.jobs.METHODS; tests/cli check the two agree).
-METHOD_NAMES = "marops, ops-global, ops-random, greedy, squares, mappo, stay, myopic"
+from ..methods import method_names
+
+METHOD_NAMES = method_names()  # every registered method (marops_cli/methods.py)
 Data = Annotated[Path, typer.Argument(help="LaDe delivery export (CSV or Parquet).")]
 Config = Annotated[
     Path | None,

@@ -17,7 +17,7 @@ import os
 import signal
 import sys
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -28,6 +28,8 @@ from ..data.dates import format_days
 from ..data.reader import read_lade
 from ..data.table import LadeTable
 from ..errors import InputError, MaropsError, RunError
+from ..methods import Method, register
+from ..methods import method as method_spec
 from ..policies.base import Policy
 from ..sim.jobs import METHODS, Scenario, load_fleet, load_scenario, replay
 from ..sim.jobs import method_policy as _method_policy
@@ -50,6 +52,9 @@ class Prepared:
     scenarios: dict[tuple[str, int], Scenario]  # (segmentation, depots) -> test-day scenario
     actors: dict[str, Path]  # policy kind -> trained actor given on the command line
     actor_files: dict[str, Path]  # method -> the trained actor it runs
+    specs: dict[str, Method] = field(default_factory=dict)
+    """The methods' registry entries, so spawned workers know methods registered at run
+    time (marops_cli/methods.py)."""
 
 
 # Policy kinds of METHODS that load a trained actor -> the evaluate flag that overrides it.
@@ -127,8 +132,19 @@ def prepare(
         scn = load_scenario(data, seg_cfg, replay_days=chosen, table=table)
         scenarios[key] = Scenario(test_table, scn.frame, scn.depots, seg_cfg, scn.history_days)
     jobs = plan_jobs(len(settings), methods, chosen, repeats, cfg.sim.seed)
+    specs = {m: method_spec(m) for m in methods}
     return Prepared(
-        table, cfg, methods, chosen, list(settings), repeats, jobs, scenarios, actors, actor_files
+        table,
+        cfg,
+        methods,
+        chosen,
+        list(settings),
+        repeats,
+        jobs,
+        scenarios,
+        actors,
+        actor_files,
+        specs,
     )
 
 
@@ -157,6 +173,8 @@ def _init(prep: Prepared) -> None:
     if mp.current_process().name != "MainProcess":
         signal.signal(signal.SIGINT, signal.SIG_IGN)
         _die_with_parent()
+    for spec in prep.specs.values():  # methods registered in the parent at run time
+        register(spec)
     _CTX.clear()
     _CTX["prep"] = prep
     _CTX["policies"] = {}

@@ -23,6 +23,7 @@ from ..data.reader import read_lade
 from ..data.table import DayRequests, LadeTable
 from ..energy import EnergyModel
 from ..errors import InputError, naming
+from ..methods import METHODS as _METHODS
 from ..plans.select import make_selector
 from ..plans.window import WindowPlan, plan_window
 from ..policies.base import Policy, plan_config, start_day
@@ -34,17 +35,8 @@ from .metrics import day_metrics
 from .replay import DayResult, replay_day
 from .state import DayState, default_fleet
 
-# method -> (segmentation, policy); "learned" is the shipped actor (docs/method.md §7).
-METHODS: dict[str, tuple[str, str]] = {
-    "marops": ("kmeans", "learned"),
-    "ops-global": ("kmeans", "global"),
-    "ops-random": ("kmeans", "random"),
-    "greedy": ("kmeans", "greedy"),
-    "squares": ("squares", "learned"),
-    "mappo": ("kmeans", "direct"),  # learned policy picks plans directly (policies/direct.py)
-    "stay": ("kmeans", "stay"),
-    "myopic": ("kmeans", "myopic"),  # one-window best response, the actor's imitation target
-}
+# method -> (segmentation, policy), live over the registry (marops_cli/methods.py).
+METHODS = _METHODS
 DEFAULT_POLICY_NAME = "marops-basic.pt"
 DEFAULT_MAPPO_NAME = "mappo-basic.pt"
 

@@ -97,7 +97,7 @@ def test_help_lists_every_method_and_one_vocabulary() -> None:
 
     from marops_cli.cli.app import app
     from marops_cli.cli.options import METHOD_NAMES
-    from marops_cli.sim.jobs import METHODS
+    from marops_cli.methods import METHODS
 
     assert METHOD_NAMES.split(", ") == list(METHODS)
     runner = CliRunner()
@@ -109,3 +109,43 @@ def test_help_lists_every_method_and_one_vocabulary() -> None:
         assert "--depots-n" not in text
         if cmd != "evaluate" and cmd != "train":
             assert "--n-depots" in text
+
+
+def test_a_method_is_one_registry_entry(example_csv: Path, tmp_path: Path) -> None:
+    """Registering a toy method makes it valid in help, replay-day and evaluate."""
+    code = (
+        "from marops_cli.methods import Method, register; "
+        "register(Method('toy', 'squares', 'greedy', 'greedy on a square grid')); "
+        "from marops_cli.cli.app import main; main()"
+    )
+
+    def cli(*args: str) -> subprocess.CompletedProcess[str]:
+        return subprocess.run(
+            [sys.executable, "-c", code, *args], cwd=tmp_path, capture_output=True, text=True
+        )
+
+    assert "myopic, toy" in " ".join(cli("replay-day", "--help").stdout.split())
+    res = cli("replay-day", str(example_csv), "--date", "0811", "--method", "toy", "--out", "d")
+    assert res.returncode == 0, res.stderr
+    doc = json.loads((tmp_path / "d" / "metrics.json").read_text())
+    assert (
+        doc["days"][0]["method"] == "toy"
+        and doc["meta"]["config"]["segment"]["method"] == "squares"
+    )
+    res = cli("evaluate", str(example_csv), "--methods", "toy,stay", "--dates", "0811", "--no-plot")
+    assert res.returncode == 2 and "--out" in res.stderr  # (usage: --out is required)
+    res = cli(
+        "evaluate",
+        str(example_csv),
+        "--methods",
+        "toy,stay",
+        "--dates",
+        "0811",
+        "--no-plot",
+        "--out",
+        "ev",
+        "--json",
+        "-q",
+    )
+    assert res.returncode == 0, res.stderr
+    assert {r["method"] for r in json.loads(res.stdout)["summary"]} == {"toy", "stay"}
