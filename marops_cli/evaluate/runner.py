@@ -25,7 +25,7 @@ import numpy as np
 
 from ..config import PlannerConfig, override
 from ..data.dates import format_days
-from ..data.reader import read_lade
+from ..data.reader import read_lade, sha256_file
 from ..data.table import LadeTable
 from ..errors import InputError, MaropsError, RunError
 from ..methods import Method, register
@@ -213,13 +213,9 @@ def run_identity(prep: Prepared) -> str:
         "settings": [s.columns() for s in prep.settings],
         "days": [d.isoformat() for d in prep.days],
         "repeats": prep.repeats,
-        "actors": {m: _sha256(p) for m, p in sorted(prep.actor_files.items())},
+        "actors": {m: sha256_file(p) for m, p in sorted(prep.actor_files.items())},
     }
     return hashlib.sha256(json.dumps(doc, sort_keys=True, default=str).encode()).hexdigest()
-
-
-def _sha256(path: Path) -> str:
-    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
 
 
 def _job_key(job: Job) -> list[Any]:

@@ -3,21 +3,16 @@
 from __future__ import annotations
 
 import datetime as dt
-import hashlib
 from pathlib import Path
 from typing import Any
 
 from .. import __version__
 from ..config import PlannerConfig
+from ..data.reader import sha256_file
 from ..data.table import SourceInfo
 
-
-def file_sha256(path: str | Path) -> str:
-    h = hashlib.sha256()
-    with open(path, "rb") as fh:
-        for chunk in iter(lambda: fh.read(1 << 20), b""):
-            h.update(chunk)
-    return h.hexdigest()
+# One file hash for every file marops identifies (inputs, depots, actors).
+file_sha256 = sha256_file
 
 
 def run_meta(
