@@ -140,7 +140,7 @@ def plan_window(
         command="plan-window",
         config=cfg,
         source=scn.table.source,
-        policy=pol.path if hasattr(pol, "path") else pol.name,
+        policy=pol.identity,
         method=method,
         seed=cfg.sim.seed,
         extra={

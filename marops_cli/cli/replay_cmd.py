@@ -145,7 +145,7 @@ def replay_day(
         prepare_day(scn.table, scn.frame, day, cfg.data)
     print_drop_report(scn.table.report, data.name)
     fleet = load_fleet(None, scn.depots, cfg.sim.drones)
-    policy_id = getattr(pol, "path", pol.name)
+    policy_id = pol.identity
     identity = _identity(scn, cfg, method, policy_id, depots, fmt)
     # A day folder that is complete is kept only if it was made with these settings;
     # every day is checked before anything is replayed or written.

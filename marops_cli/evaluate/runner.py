@@ -92,9 +92,8 @@ def check_methods(methods: Sequence[str], actors: dict[str, Path] | None = None)
             raise InputError(
                 f"{exc}; for evaluate: {flag} PATH.pt, or leave {m} out of --methods"
             ) from None
-        found = getattr(pol, "path", None)
-        if found is not None:
-            files[m] = Path(found)
+        if isinstance(pol.identity, Path):  # a trained actor file
+            files[m] = pol.identity
     return files
 
 

@@ -6,13 +6,13 @@ from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 
-from .base import WindowView
+from .base import PolicyBase, WindowView
 
 if TYPE_CHECKING:
     from ..config import PlannerConfig
 
 
-class StayPolicy:
+class StayPolicy(PolicyBase):
     """Every drone comes back to the depot it left (action 0)."""
 
     name = "stay"
@@ -25,7 +25,7 @@ class StayPolicy:
         return np.zeros(view.n_drones, dtype=np.int64)
 
 
-class RandomPolicy:
+class RandomPolicy(PolicyBase):
     """A uniformly random candidate per drone (the paper's OPS-random), seeded."""
 
     name = "random"
@@ -45,7 +45,7 @@ class RandomPolicy:
         return out
 
 
-class GreedyPolicy:
+class GreedyPolicy(PolicyBase):
     """Fly towards the most waiting delay per metre (a cheap baseline an analyst tries first).
 
     Score of action a from depot s with destination d: (summed delay of the pending
@@ -84,7 +84,7 @@ class GreedyPolicy:
         return out
 
 
-class GlobalPolicy:
+class GlobalPolicy(PolicyBase):
     """Whole-map planning (OPS-global): no flight range; the planner picks destinations."""
 
     name = "global"
@@ -97,7 +97,7 @@ class GlobalPolicy:
         return np.zeros(view.n_drones, dtype=np.int64)
 
 
-class MyopicPolicy:
+class MyopicPolicy(PolicyBase):
     """One-window best response: drones in turn take the destination whose best plan is
     worth most now (λ Σ v − E, as the selection counts it), given what the drones before
     them claimed (:class:`~marops_cli.policies.observation.SequentialObserver`).

@@ -96,20 +96,21 @@ class DirectPolicy(TorchScriptPolicy):
     """
 
     scope: Literal["range", "global"] = "range"
-    planner = "subsets"  # its plan slots rank the paper's subset plans (docs/method.md §4.5)
+    planner: str | None = "subsets"  # its slots rank the paper's subset plans (method.md §4.5)
 
     def __init__(self, path: str | Path) -> None:
         super().__init__(path)
         if "plan_slots" not in self.sidecar:
             raise InputError("not a MAPPO actor: its sidecar has no plan_slots", file=self.path)
         self.n_slots = int(self.sidecar["plan_slots"])
-        self.selector = SlotSelector(self.n_slots)
+        self.slots = SlotSelector(self.n_slots)
+        self.selector = self.slots
         self.name = f"mappo:{self.path.name}"
 
     def act(self, view: WindowView) -> np.ndarray:
         logits = self.logits(view)
         joint = np.argmax(logits, axis=1).astype(np.int64)
-        self.selector.slots = joint % self.n_slots
+        self.slots.slots = joint % self.n_slots
         return joint // self.n_slots
 
     def mask(self, view: WindowView) -> np.ndarray:

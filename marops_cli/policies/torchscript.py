@@ -15,7 +15,7 @@ import numpy as np
 
 from ..data.jsonfile import read_json
 from ..errors import InputError, RunError
-from .base import WindowView
+from .base import PolicyBase, WindowView
 from .observation import OBS_VERSION, OBS_VERSIONS, obs_dim, observe, observe_and_choose
 
 
@@ -51,7 +51,7 @@ def read_sidecar(model_path: str | Path) -> dict[str, Any]:
     return doc
 
 
-class TorchScriptPolicy:
+class TorchScriptPolicy(PolicyBase):
     """Greedy (arg-max) actions of a recurrent TorchScript actor.
 
     Observation version 2: all drones at once. Version 3: drone by drone, each seeing
@@ -129,6 +129,10 @@ class TorchScriptPolicy:
                 f"({self.n_actions} × {slots})",
                 file=sidecar_path(self.path),
             )
+
+    @property
+    def identity(self) -> str | Path:
+        return self.path
 
     def configure(self, cfg: Any) -> None:
         """Price version-3 observations with the run's energy model and plan settings."""

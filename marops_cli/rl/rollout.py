@@ -18,7 +18,7 @@ from torch.distributions import Categorical
 from ..config import PlanConfig, PlannerConfig
 from ..data.table import DayRequests
 from ..energy import EnergyModel
-from ..policies.base import WindowView
+from ..policies.base import PolicyBase, WindowView
 from ..policies.direct import SlotSelector
 from ..policies.observation import best_value_action, observe_and_choose
 from ..policies.registry import make_policy
@@ -128,7 +128,7 @@ def run_episode(env: DeliveryEnv, actor: Actor, day: DayRequests, seed: int) -> 
     )
 
 
-class ActorPolicy:
+class ActorPolicy(PolicyBase):
     """An in-memory actor as a :class:`~marops_cli.policies.base.Policy` (arg-max actions),
     so evaluation replays days exactly as ``replay-day`` does with the exported file."""
 
@@ -147,7 +147,9 @@ class ActorPolicy:
         self.plan: PlanConfig | None = None
         self.n_slots = n_slots
         self.name = name
-        self.selector = SlotSelector(n_slots) if n_slots > 1 else None
+        self.slots = SlotSelector(n_slots) if n_slots > 1 else None
+        self.selector = self.slots
+        self.planner = "subsets" if n_slots > 1 else None  # MAPPO ranks the paper's plans
         self._h: torch.Tensor | None = None
 
     def configure(self, cfg: PlannerConfig) -> None:
@@ -171,8 +173,8 @@ class ActorPolicy:
             return torch.argmax(logits.masked_fill(~m, MASKED_LOGIT), dim=1).numpy()
 
         _, joint = observe_and_choose(view, choose, self.version, model=self.model, plan=self.plan)
-        if self.selector is not None:
-            self.selector.slots = joint % self.n_slots
+        if self.slots is not None:
+            self.slots.slots = joint % self.n_slots
         return (joint // self.n_slots).astype(np.int64)
 
 
@@ -190,7 +192,7 @@ def evaluate_day(
         cfg,
         method=method,
         model=model,
-        selector=getattr(policy, "selector", None),
+        selector=policy.selector,
     )
     m = day_metrics(res, model)
     return {"day": m["day"], "method": method, **{k: m[k] for k in EVAL_KEYS}}

@@ -192,7 +192,7 @@ def plan_one_window(
     model = EnergyModel(cfg.energy)
     view = state.view(window)
     actions = policy.act(view)
-    selector = getattr(policy, "selector", None) or make_selector(cfg.plan)  # mappo flies its own
+    selector = policy.selector or make_selector(cfg.plan)  # mappo flies its own
     plan_cfg = plan_config(policy, cfg.plan)
     plan = plan_window(view, actions, model, plan_cfg, selector, scope=policy.scope)
     return plan, reqs

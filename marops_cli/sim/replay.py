@@ -42,7 +42,7 @@ def replay_day(
     """Plan every window of ``day``; ``on_window`` is called after each (for progress)."""
     model = model or EnergyModel(cfg.energy)
     # A policy that picks plans itself (the MAPPO baseline) carries its own selector.
-    selector = selector or getattr(policy, "selector", None) or make_selector(cfg.plan)
+    selector = selector or policy.selector or make_selector(cfg.plan)
     plan_cfg = plan_config(policy, cfg.plan)
     state = DayState(day, depots, drone_depot, cfg.plan.coverage, cfg.plan.ties)
     start_day(policy, cfg, cfg.sim.seed)
