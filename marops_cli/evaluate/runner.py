@@ -172,6 +172,14 @@ def _init(prep: Prepared) -> None:
     if mp.current_process().name != "MainProcess":
         signal.signal(signal.SIGINT, signal.SIG_IGN)
         _die_with_parent()
+        # One thread per worker: the workers already fill the cores, and OpenMP/BLAS
+        # threads on top only oversubscribe them.
+        from threadpoolctl import threadpool_limits
+
+        threadpool_limits(limits=1)  # the libraries loaded so far (numpy's BLAS)
+        os.environ["OMP_NUM_THREADS"] = "1"  # and those loaded later (torch reads it)
+        if "torch" in sys.modules:
+            sys.modules["torch"].set_num_threads(1)
     for spec in prep.specs.values():  # methods registered in the parent at run time
         register(spec)
     _CTX.clear()

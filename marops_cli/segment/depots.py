@@ -56,8 +56,14 @@ class Depots:
         y = np.asarray(y, dtype=np.float64)
         if x.size == 0:
             return np.zeros(0, dtype=np.int64)
-        d2 = (x[:, None] - self.xy[None, :, 0]) ** 2 + (y[:, None] - self.xy[None, :, 1]) ** 2
-        return np.argmin(d2, axis=1).astype(np.int64)
+        out = np.empty(x.size, dtype=np.int64)
+        # In chunks: a city's million points never build a points x depots matrix at once.
+        step = max(1, 4_000_000 // max(self.xy.shape[0], 1))
+        for i in range(0, x.size, step):
+            px, py = x[i : i + step, None], y[i : i + step, None]
+            d2 = (px - self.xy[None, :, 0]) ** 2 + (py - self.xy[None, :, 1]) ** 2
+            out[i : i + step] = np.argmin(d2, axis=1)
+        return out
 
     def with_actions(self, n_actions: int) -> Depots:
         """The same depots with a different number of action candidates."""
