@@ -10,7 +10,14 @@ from typing import Annotated, Any
 
 import typer
 from pydantic import ValidationError
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.progress import (
+    BarColumn,
+    MofNCompleteColumn,
+    Progress,
+    TextColumn,
+    TimeElapsedColumn,
+    TimeRemainingColumn,
+)
 
 from ..data.dates import parse_days
 from ..errors import InputError
@@ -43,10 +50,21 @@ class _Reporter:
         self.progress: Progress | None = None
         self.task: Any = None
         self.t0 = time.perf_counter()
+        self.first = 0  # the episode this run started at (a resumed run starts later)
+        self.total = 0
+
+    def eta_s(self, episode: int) -> float | None:
+        """Seconds left at this run's pace so far (None before the first episode)."""
+        done = episode - self.first
+        if done <= 0:
+            return None
+        return (time.perf_counter() - self.t0) / done * max(0, self.total - episode)
 
     def __call__(self, e: dict[str, Any]) -> None:
         kind = e["kind"]
         if kind == "start":
+            self.first, self.total = int(e["episode"]), int(e["episodes"])
+            self.t0 = time.perf_counter()
             what = "resuming at" if e["resumed"] else "starting at"
             console.print(
                 f"training on {e['train_days']} days, held out {e['eval_days']}; "
@@ -59,6 +77,7 @@ class _Reporter:
                     MofNCompleteColumn(),
                     TextColumn("reward {task.fields[reward]}"),
                     TimeElapsedColumn(),
+                    TimeRemainingColumn(),
                     console=console,
                     transient=True,
                 )
@@ -75,7 +94,9 @@ class _Reporter:
             if self.progress is not None:
                 self.progress.update(self.task, completed=e["episode"], reward=f"{e['reward']:.3f}")
             elif e["episode"] % self.every < 8 or e["episode"] <= 8:
-                typer.echo(f"[{time.perf_counter() - self.t0:7.0f}s] {line}", err=True)
+                eta = self.eta_s(int(e["episode"]))
+                left = f", about {eta / 60:.1f} min left" if eta is not None else ""
+                typer.echo(f"[{time.perf_counter() - self.t0:7.0f}s] {line}{left}", err=True)
         elif kind == "eval":
             console.print(_eval_line(e))
 
