@@ -66,8 +66,20 @@ def warn(message: str) -> None:
 
 def emit_json(doc: Any) -> None:
     """The run's summary as one JSON document on stdout (``--json``)."""
-    sys.stdout.write(json.dumps(doc, indent=2, sort_keys=False, default=str) + "\n")
+    text = json.dumps(_finite(doc), indent=2, sort_keys=False, default=str, allow_nan=False)
+    sys.stdout.write(text + "\n")
     sys.stdout.flush()
+
+
+def _finite(doc: Any) -> Any:
+    """NaN and infinities as null: strict JSON readers (jq, JavaScript) reject them."""
+    if isinstance(doc, float):
+        return doc if doc == doc and abs(doc) != float("inf") else None
+    if isinstance(doc, dict):
+        return {k: _finite(v) for k, v in doc.items()}
+    if isinstance(doc, list | tuple):
+        return [_finite(v) for v in doc]
+    return doc
 
 
 def table(title: str, **kwargs: Any) -> Table:

@@ -17,6 +17,10 @@ matrix.
 
 from __future__ import annotations
 
+import contextlib
+import ctypes
+import os
+import sys
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -41,6 +45,31 @@ __all__ = [
     "make_selector",
     "solve_highs_direct",
 ]
+
+
+def _silence_highs_banner() -> None:
+    """HiGHS (1.16) prints a banner on stdout when its first solver object is made, which
+    would corrupt ``--json`` output and cron logs: make that first one with stdout
+    pointed at /dev/null. Later objects print nothing (their output_flag is off)."""
+    try:
+        sys.stdout.flush()
+        saved = os.dup(1)
+    except (OSError, ValueError, AttributeError):
+        highspy.Highs()  # no file descriptor 1 to protect
+        return
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    try:
+        os.dup2(devnull, 1)
+        highspy.Highs()
+        with contextlib.suppress(OSError, AttributeError):
+            ctypes.CDLL(None).fflush(None)  # what C++ buffered goes to /dev/null too
+    finally:
+        os.dup2(saved, 1)
+        os.close(saved)
+        os.close(devnull)
+
+
+_silence_highs_banner()
 
 _MIP_REL_GAP = 1e-7  # HiGHS' default 1e-4 of the objective is too loose to be "optimal"
 _CANON_BACKEND = "CPP"  # measured faster than "SCIPY" on these models (benchmarks/selection.py)

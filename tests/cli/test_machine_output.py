@@ -148,4 +148,10 @@ def test_a_method_is_one_registry_entry(example_csv: Path, tmp_path: Path) -> No
         "-q",
     )
     assert res.returncode == 0, res.stderr
-    assert {r["method"] for r in json.loads(res.stdout)["summary"]} == {"toy", "stay"}
+    doc = json.loads(res.stdout, parse_constant=_no_nan)  # strict JSON: no NaN literals
+    assert {r["method"] for r in doc["summary"]} == {"toy", "stay"}
+    assert doc["summary"][0]["avg_delay_h_std"] is None  # one day: no spread, null
+
+
+def _no_nan(token: str) -> None:
+    raise AssertionError(f"{token} is not JSON")
