@@ -124,13 +124,11 @@ def plan_window(
     )
     day = parse_day(date, cfg.data.year)
     pol = method_policy(method, cfg.sim.policy, cfg.sim.seed)
-    # Every input is checked before anything is said about the data: an error is the
-    # only line a failed run prints.
-    from ..segment.depots import Depots
-
-    fleet_arr = load_fleet(fleet, Depots.load(depots), cfg.sim.drones)
+    # Every input is checked before anything is said about the data (the drop report
+    # comes after the plan): an error is the only line a failed run prints.
     done = delivered_orders(delivered) if delivered is not None else None
     scn = load_scenario(data, cfg, depots_path=depots, replay_days=[day])
+    fleet_arr = load_fleet(fleet, scn.depots, cfg.sim.drones)
     plan, reqs = plan_one_window(scn, day, window, fleet_arr, pol, done)
     print_drop_report(scn.table.report, data.name)
     print_day_scope(reqs, cfg)

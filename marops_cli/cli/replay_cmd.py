@@ -145,8 +145,7 @@ def replay_day(
         prepare_day(scn.table, scn.frame, day, cfg.data)
     print_drop_report(scn.table.report, data.name)
     fleet = load_fleet(None, scn.depots, cfg.sim.drones)
-    policy_id = pol.identity
-    identity = _identity(scn, cfg, method, policy_id, depots, fmt)
+    identity = _identity(scn, cfg, method, pol.identity, depots, fmt)
     # A day folder that is complete is kept only if it was made with these settings;
     # every day is checked before anything is replayed or written.
     keep: dict[dt.date, list[dict[str, Any]]] = {}
@@ -166,7 +165,7 @@ def replay_day(
                 all_metrics.extend(keep[day])
                 continue
             metrics = _replay_one(
-                scn, day, fleet, pol, method, folder, (fmt, plot, geojson), policy_id, identity
+                scn, day, fleet, pol, method, folder, (fmt, plot, geojson), identity
             )
             all_metrics.append(metrics)
         if dates:
@@ -289,7 +288,6 @@ def _replay_one(
     method: str,
     folder: Path,
     files_wanted: tuple[str, bool, bool],
-    policy_id: Any,
     identity: dict[str, Any],
 ) -> dict[str, Any]:
     from ..energy import EnergyModel
@@ -328,17 +326,9 @@ def _replay_one(
     warn_undelivered(metrics, cfg.sim.drones)
     model = EnergyModel(cfg.energy)
     stops, routes = build_tables(reqs, scn.depots, res.plans, model, method, cfg.data.tz)
-    meta = run_meta(
-        command="replay-day",
-        config=cfg,
-        source=scn.table.source,
-        policy=policy_id,
-        method=method,
-        seed=cfg.sim.seed,
-        extra={"day": day.isoformat(), "frame": identity["frame"]}
-        | ({"depots_file": identity["depots_file"]} if "depots_file" in identity else {}),
-        stamp=False,
-    )
+    # The route files' metadata: the run's identity (less the file format) and the day.
+    meta = {k: v for k, v in identity.items() if k != "format"}
+    meta.update(command="replay-day", day=day.isoformat())
     with output_set() as files:
         write_route_files(files, folder, stops, routes, meta, fmt, geojson)
         if plot:
