@@ -12,6 +12,12 @@ saw them. The table in ``policies/README.md`` was made with::
     marops synth --days 14 --seed 23 --start 2022-09-01 --out /tmp/heldout.csv
     python benchmarks/train.py --data /tmp/heldout.csv --history 4 --markdown
     python benchmarks/train.py --data /tmp/heldout.csv --history 4 --markdown --planner subsets
+
+``--time-training N`` instead times ``marops train`` for N episodes on the basic
+scenario (8 drones, 16 areas, a 20-day ``marops synth --seed 11`` file, 2 workers;
+held-out evaluations every 200 episodes included) and prints the figure:
+
+    python benchmarks/train.py --time-training 2000
 """
 
 from __future__ import annotations
@@ -68,9 +74,39 @@ def run(args: argparse.Namespace) -> dict[str, dict[str, tuple[float, float]]]:
     return method_table(rows)
 
 
+def time_training(episodes: int, workers: int) -> None:
+    """Train the flight-range actor for ``episodes`` on the basic scenario; print the time."""
+    import json
+    import subprocess
+    import tempfile
+
+    tmp = Path(tempfile.mkdtemp(prefix="marops-train-time-"))
+    data = tmp / "train.csv"
+    exe = Path(sys.executable).with_name("marops")  # the venv's entry point
+    marops = [str(exe) if exe.exists() else "marops"]
+    subprocess.run(
+        [*marops, "synth", "--days", "20", "--seed", "11", "--out", str(data)], check=True
+    )
+    out = tmp / "a.pt"
+    cmd = [*marops, "train", str(data), "--episodes", str(episodes), "--workers", str(workers),
+           "--no-resume", "--out", str(out)]  # fmt: skip
+    t0 = time.perf_counter()
+    subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)
+    wall = time.perf_counter() - t0
+    side = json.loads(out.with_suffix(".json").read_text())
+    print(
+        f"marops train, {episodes} episodes, {workers} workers: {wall:.0f} s wall "
+        f"({wall / 60:.1f} min, {wall / episodes:.3f} s per episode); "
+        f"training_time_s {side['training_time_s']:.0f} s (rollouts, updates, evaluations)"
+    )
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--data", required=True, help="LaDe-shaped CSV (e.g. marops synth --seed 23)")
+    ap.add_argument("--time-training", type=int, default=0, metavar="N",
+                    help="time marops train for N episodes instead")  # fmt: skip
+    ap.add_argument("--workers", type=int, default=2, help="--time-training: rollout workers")
+    ap.add_argument("--data", help="LaDe-shaped CSV (e.g. marops synth --seed 23)")
     ap.add_argument("--history", type=int, default=4, help="first days used only for depots")
     ap.add_argument("--methods", default=DEFAULT_METHODS)
     ap.add_argument("--drones", type=int, default=8)
@@ -82,6 +118,11 @@ def main() -> None:
     ap.add_argument("--policy", default=None, help="actor for marops/squares [the shipped one]")
     ap.add_argument("--markdown", action="store_true", help="print a Markdown table")
     args = ap.parse_args()
+    if args.time_training:
+        time_training(args.time_training, args.workers)
+        return
+    if not args.data:
+        ap.error("--data is required (or --time-training N)")
     table = run(args)
     head = ["method", *[c[1] for c in COLUMNS]]
     lines = [[m, *[fmt.format(*t[k]) for k, _, fmt in COLUMNS]] for m, t in table.items()]

@@ -24,6 +24,13 @@ def synth(
     orders_per_day: Annotated[
         float | None, typer.Option("--orders-per-day", help="Mean city-wide orders per day [1800].")
     ] = None,
+    shape: Annotated[
+        str,
+        typer.Option(
+            "--shape",
+            help="City layout: hubs, river, corridor or polycentric (docs/method.md §1).",
+        ),
+    ] = "hubs",
     fmt: Annotated[
         str | None,
         typer.Option("--format", help="csv or parquet [from the file suffix, else csv]."),
@@ -36,7 +43,7 @@ def synth(
     if fmt not in (None, "csv", "parquet"):
         raise InputError(f"--format expects csv or parquet, got {fmt!r}")
     first: dt.date = parse_day(start, 2022)
-    fields: dict[str, object] = {"days": days, "seed": seed, "start": first}
+    fields: dict[str, object] = {"days": days, "seed": seed, "start": first, "shape": shape}
     if orders_per_day is not None:
         fields["orders_per_day"] = orders_per_day
     try:
@@ -46,4 +53,7 @@ def synth(
         raise InputError(f"invalid option {err['loc'][0]}: {err['msg']}") from None
     table = generate(cfg)
     path = write(table, out, fmt)  # type: ignore[arg-type]
-    info(f"wrote {path} ({table.num_rows:,} rows, {days} days from {first.isoformat()})")
+    info(
+        f"wrote {path} ({table.num_rows:,} rows, {days} days from {first.isoformat()}, "
+        f"{shape} city)"
+    )

@@ -21,6 +21,7 @@ from rich.progress import (
 
 from ..data.dates import parse_days
 from ..errors import InputError
+from ..io.atomic import allow_replacing_foreign, check_replaceable
 from . import options as o
 from .common import (
     console,
@@ -66,8 +67,10 @@ class _Reporter:
             self.first, self.total = int(e["episode"]), int(e["episodes"])
             self.t0 = time.perf_counter()
             what = "resuming at" if e["resumed"] else "starting at"
+            scn = int(e.get("scenarios", 1))
+            where = f" in {scn} scenarios ({e.get('files', 1)} files)" if scn > 1 else ""
             console.print(
-                f"training on {e['train_days']} days, held out {e['eval_days']}; "
+                f"training on {e['train_days']} days{where}, held out {e['eval_days']}; "
                 f"{what} episode {e['episode']} of {e['episodes']}"
             )
             if is_terminal():
@@ -105,9 +108,41 @@ class _Reporter:
             self.progress.stop()
 
 
+def _int_list(text: str | None, flag: str) -> list[int]:
+    """``"8,16"`` -> ``[8, 16]``; a clear error naming the flag otherwise."""
+    if text is None:
+        return []
+    try:
+        out = [int(x) for x in text.split(",") if x.strip()]
+    except ValueError:
+        msg = f"{flag} expects whole numbers separated by commas, got {text!r}"
+        raise InputError(msg) from None
+    if not out or min(out) < 1:
+        raise InputError(f"{flag} expects positive whole numbers, got {text!r}")
+    return out
+
+
+def _alpha_range(text: str | None) -> tuple[float, float] | None | str:
+    """``"0.1-0.9"`` or ``"0.1,0.9"`` -> (0.1, 0.9); ``"fixed"`` -> None; unset -> default."""
+    if text is None:
+        return "default"
+    if text.strip().lower() == "fixed":
+        return None
+    parts = text.replace(",", "-").split("-")
+    try:
+        lo, hi = (float(x) for x in parts)
+    except ValueError:
+        msg = f"--alpha-range expects LOW-HIGH (e.g. 0.1-0.9) or fixed, got {text!r}"
+        raise InputError(msg) from None
+    return lo, hi
+
+
 @guarded
 def train(
-    data: o.Data,
+    data: Annotated[
+        list[Path],
+        typer.Argument(help="LaDe delivery exports (CSV or Parquet); several: several cities."),
+    ],
     out: Annotated[Path, typer.Option("--out", help="Actor to write: policies/NAME.pt (+ .json).")],
     days: Annotated[
         str | None,
@@ -125,31 +160,71 @@ def train(
         bool, typer.Option("--resume/--no-resume", help="Continue from NAME.ckpt if present.")
     ] = True,
     alpha: o.Alpha = None,
-    drones: o.Drones = None,
-    n_depots: Annotated[int | None, typer.Option("--n-depots", help="Depots [16].")] = None,
+    drones: Annotated[
+        str | None,
+        typer.Option(
+            "--drones", envvar="MAROPS_DRONES", help="Fleet size, or sizes to train on (8,16) [8]."
+        ),
+    ] = None,
+    n_depots: Annotated[
+        str | None, typer.Option("--n-depots", help="Depots, or counts to train on (16,25) [16].")
+    ] = None,
+    alpha_range: Annotated[
+        str | None,
+        typer.Option(
+            "--alpha-range",
+            help="Episodes draw α from LOW-HIGH (the actor observes α) [0.1-0.9]; "
+            "'fixed': the --alpha only.",
+        ),
+    ] = None,
     seed: Annotated[int, typer.Option("--seed", help="Training seed; same seed, same actor.")] = 0,
+    eval_days: Annotated[
+        int,
+        typer.Option("--eval-days", help="Held-out days per scenario in each evaluation (0: all)."),
+    ] = 0,
     data_origin: Annotated[
         str | None,
         typer.Option("--data-origin", help="How DATA was made (e.g. the marops synth command)."),
     ] = None,
     year: o.Year = None,
     config: o.Config = None,
+    force: o.Force = False,
 ) -> None:
     """Train the flight-range actor (MAPPO) on training days; write TorchScript + sidecar."""
     from ..rl.config import TrainConfig  # deferred: torch loads only for this command
     from ..rl.train import train as run_training
 
-    require_input(data)
+    for path in data:
+        require_input(path)
     if out.suffix != ".pt":
         raise InputError("--out must name a .pt file (the sidecar goes beside it)", file=out)
-    refuse_overwriting_inputs(
-        [out, out.with_suffix(".json"), out.with_suffix(".ckpt")], data=data, config=config
-    )
+    for path in data:
+        refuse_overwriting_inputs(
+            [out, out.with_suffix(".json"), out.with_suffix(".ckpt")], data=path, config=config
+        )
+    allow_replacing_foreign(force)
+    check_replaceable([out, out.with_suffix(".json"), out.with_suffix(".curve.png")])
+    fleets, depot_counts = _int_list(drones, "--drones"), _int_list(n_depots, "--n-depots")
     cfg = make_config(
-        config, data__year=year, plan__alpha=alpha, sim__drones=drones, segment__n_depots=n_depots
+        config,
+        data__year=year,
+        plan__alpha=alpha,
+        sim__drones=fleets[0] if fleets else None,
+        segment__n_depots=depot_counts[0] if depot_counts else None,
     )
+    extra: dict[str, Any] = {}
+    ar = _alpha_range(alpha_range)
+    if ar != "default":
+        extra["alpha_range"] = ar
     try:
-        tcfg = TrainConfig(method=method, episodes=episodes, seed=seed, workers=workers)  # type: ignore[arg-type]
+        tcfg = TrainConfig(
+            method=method,  # type: ignore[arg-type]
+            episodes=episodes,
+            seed=seed,
+            workers=workers,
+            eval_days_per_scenario=eval_days,
+            **extra,
+        )
     except ValidationError as exc:
         err = exc.errors()[0]
         raise InputError(f"invalid option --{err['loc'][0]}: {err['msg']}") from None
@@ -163,6 +238,8 @@ def train(
             tcfg,
             out,
             train_days=train_days,
+            n_depots=depot_counts,
+            drones=fleets,
             resume=resume,
             command=command,
             data_origin=data_origin,

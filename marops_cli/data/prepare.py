@@ -152,6 +152,25 @@ def prepare_day(
     )
 
 
+def arrival_windows(
+    table: LadeTable, frame: Frame, days: Iterable[dt.date], cfg: DataConfig | None = None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(x, y, visible_w)`` of every request :func:`prepare_day` would keep on ``days``,
+    all days at once: where and in which window each became visible (the window of its
+    accept time, 0 when accepted before service start)."""
+    cfg = cfg if cfg is not None else DataConfig()
+    days = list(days)
+    on = _on_days(table, days)
+    start = table.delivery_day.astype("datetime64[D]").astype(np.int64) * _DAY_S
+    start = start + cfg.service_start_s
+    due = (table.delivery_s - start).astype(np.float64)
+    x, y = frame.to_xy(table.lng, table.lat)
+    keep = on & frame.contains(x, y) & (due >= 0) & (due < cfg.span_s)
+    due_w = _windows(due[keep], cfg.window_s, cfg.n_windows)
+    acc_w = _windows((table.accept_s - start).astype(np.float64)[keep], cfg.window_s, cfg.n_windows)
+    return x[keep], y[keep], np.minimum(acc_w, due_w)
+
+
 def prepare_days(
     table: LadeTable, days: Iterable[dt.date], cfg: DataConfig | None = None
 ) -> tuple[Frame, list[DayRequests]]:

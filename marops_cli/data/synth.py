@@ -9,6 +9,14 @@ packages were accepted the day before); every package is accepted 0.3–6 h
 before its delivery. Then the quirks of real exports are mixed in: bad
 coordinates, exact duplicate rows, and delivery before accept.
 
+``shape`` picks the city's layout (docs/method.md §1): ``hubs`` (the default above,
+one demand profile everywhere), ``river`` (a band without addresses through the
+centre; one bank busy in the morning, the other in the afternoon), ``corridor`` (a
+long thin city whose peak moves along its axis) and ``polycentric`` (six centres
+spread over the city, each with its own morning/afternoon mix). In the last three,
+every AOI has its own share of morning deliveries, so demand moves over the map
+during the day, as between business and residential districts.
+
 The shipped example ``examples/shanghai_synth.csv`` (12 days, 2022-08-01 ..
 2022-08-12) was made with the defaults::
 
@@ -49,6 +57,9 @@ class SynthConfig(BaseModel):
     seed: int = Field(7, ge=0, description="seed of numpy.random.default_rng")
     start: dt.date = Field(dt.date(2022, 8, 1), description="first delivery day")
     city: str = Field("Shanghai", description="value of the city column")
+    shape: Literal["hubs", "river", "corridor", "polycentric"] = Field(
+        "hubs", description="city layout and how demand moves over it during the day"
+    )
     center_lng: float = Field(121.47, ge=-180, le=180, description="city centre longitude")
     center_lat: float = Field(31.23, ge=-80, le=80, description="city centre latitude")
     extent_km: float = Field(30.0, gt=0, le=200, description="side of the city square")
@@ -106,6 +117,9 @@ def _city(cfg: SynthConfig, rng: np.random.Generator) -> dict[str, np.ndarray]:
     xy = np.clip(np.vstack([dense_xy, sparse_xy]), -half, half)
     n = xy.shape[0]
     dense = np.arange(n) < cfg.n_dense_aois
+    morning = np.full(n, cfg.peak_shares[0] / max(sum(cfg.peak_shares), 1e-12))
+    if cfg.shape != "hubs":  # its own random stream: the default city keeps its bytes
+        xy, morning = _shape(cfg, np.random.default_rng([cfg.seed, 1]), xy, dense, hub_of)
     # Small busy compounds downtown, larger quiet neighbourhoods elsewhere.
     r_lo, r_hi = (
         np.where(dense, np.log(80), np.log(200)),
@@ -133,17 +147,72 @@ def _city(cfg: SynthConfig, rng: np.random.Generator) -> dict[str, np.ndarray]:
     return {
         "xy": xy, "radius": radius, "weight": weight, "aoi_id": aoi_id, "aoi_type": aoi_type,
         "region_idx": region_idx, "region_id": region_id, "n_couriers": n_couriers,
-        "first_courier": first, "courier_ids": courier_ids,
+        "first_courier": first, "courier_ids": courier_ids, "morning": morning,
     }  # fmt: skip
 
 
-def _delivery_hours(cfg: SynthConfig, rng: np.random.Generator, n: int) -> np.ndarray:
+def _shape(
+    cfg: SynthConfig,
+    rng: np.random.Generator,
+    xy: np.ndarray,
+    dense: np.ndarray,
+    hub_of: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
+    """AOI positions moved into ``cfg.shape``'s layout, and each AOI's morning share of
+    its peak-hour deliveries."""
+    half = cfg.extent_km * 500.0
+    n = xy.shape[0]
+    if cfg.shape == "river":
+        # A band 1.5 km wide at a random angle through the centre holds no address; AOIs
+        # in it move to the nearer bank. One bank works mornings, the other afternoons.
+        ang = rng.uniform(0, np.pi)
+        normal = np.array([-np.sin(ang), np.cos(ang)])
+        off = xy @ normal
+        side = np.where(off >= 0, 1.0, -1.0)
+        inside = np.abs(off) < 750.0
+        xy = xy + np.where(inside, (750.0 - np.abs(off)) * side, 0.0)[:, None] * normal
+        morning = np.where(side > 0, 0.8, 0.2) + rng.normal(0, 0.05, n)
+    elif cfg.shape == "corridor":
+        # A city 3.5 times longer than wide along a random axis; mornings at one end.
+        ang = rng.uniform(0, np.pi)
+        u = np.array([np.cos(ang), np.sin(ang)])
+        v = np.array([-u[1], u[0]])
+        along, across = xy @ u, 0.3 * (xy @ v)
+        xy = along[:, None] * u + across[:, None] * v
+        morning = 0.5 + 0.35 * along / half + rng.normal(0, 0.05, n)
+    else:  # polycentric: six centres over the whole city, each with its own rhythm
+        k = 6
+        centres = rng.uniform(-0.7 * half, 0.7 * half, (k, 2))
+        mix = rng.uniform(0.15, 0.85, k)
+        who = np.asarray(rng.integers(0, k, size=n), dtype=np.int64)
+        who[dense] = hub_of % k
+        sigma = np.where(dense, cfg.hub_sigma_km * 1000.0, 0.35 * half)
+        xy = centres[who] + rng.normal(0, 1, (n, 2)) * sigma[:, None]
+        morning = mix[who] + rng.normal(0, 0.05, n)
+    return np.clip(xy, -half, half), np.clip(morning, 0.05, 0.95)
+
+
+def _delivery_hours(
+    cfg: SynthConfig, rng: np.random.Generator, n: int, morning: np.ndarray | None = None
+) -> np.ndarray:
     """Hour of day of each delivery: two normal peaks over an even background, plus a
-    few night drops outside ``day_span_h`` (lockers), which were accepted the day before."""
+    few night drops outside ``day_span_h`` (lockers), which were accepted the day before.
+    ``morning`` (per delivery) splits the peak deliveries between the two peaks; None
+    keeps ``peak_shares``."""
     lo, hi = cfg.day_span_h
     p = np.array([*cfg.peak_shares, 0.0, cfg.night_share])
     p[2] = max(0.0, 1.0 - p.sum())
-    comp = rng.choice(4, n, p=p / p.sum())
+    if morning is None:
+        comp = rng.choice(4, n, p=p / p.sum())
+    else:
+        peak = p[0] + p[1]
+        cum = (
+            np.column_stack(
+                [peak * morning, np.full(n, peak), np.full(n, peak + p[2]), np.full(n, p.sum())]
+            )
+            / p.sum()
+        )
+        comp = np.minimum((rng.random(n)[:, None] >= cum).sum(axis=1), 3)
     mu = np.array(cfg.peak_hours)[np.minimum(comp, 1)]
     sd = np.array(cfg.peak_sd_h)[np.minimum(comp, 1)]
     hours = np.where(comp < 2, rng.normal(mu, sd), rng.uniform(lo, hi, n))
@@ -191,7 +260,9 @@ def generate(cfg: SynthConfig | None = None) -> pa.Table:
     ]
 
     midnight = (day0 + day).astype("datetime64[s]").astype(np.int64)
-    delivery_s = midnight + np.round(_delivery_hours(cfg, rng, n) * 3600).astype(np.int64)
+    morning = None if cfg.shape == "hubs" else city["morning"][aoi]
+    hours = _delivery_hours(cfg, rng, n, morning)
+    delivery_s = midnight + np.round(hours * 3600).astype(np.int64)
     lo, hi = (h * 3600 for h in cfg.accept_lead_h)
     lead = lo + (hi - lo) * rng.beta(1.5, 3.0, n)
     accept_s = delivery_s - np.clip(np.round(lead), np.ceil(lo), np.floor(hi)).astype(np.int64)

@@ -51,11 +51,22 @@ def written_by_marops(path: Path) -> bool:
                 isinstance(head, dict)
                 and head.get("package") == "marops"
                 or ("depots" in doc and "frame" in doc)
+                or str(doc.get("format", "")).startswith("marops-")  # an actor's sidecar
             )
     except (OSError, ValueError):
         return False
     # figures, summaries, journals and actor files: named by the command, so ours
     return suffix in (".png", ".csv", ".md", ".jsonl", ".pt", ".ckpt")
+
+
+def check_replaceable(paths: list[Path]) -> None:
+    """Before any work: refuse, as writing would, to replace a file marops did not write
+    (unless ``--force``), so a long run cannot fail at its last step."""
+    for final in paths:
+        if final.is_file() and not _REPLACE_FOREIGN.get() and not written_by_marops(final):
+            raise InputError(
+                "exists and was not written by marops; pass --force to replace it", file=final
+            )
 
 
 class OutputSet:

@@ -215,6 +215,7 @@ def subset_energies(
     customers_xy: ArrayLike,
     weights_kg: ArrayLike,
     model: EnergyModel,
+    free_end_m: ArrayLike | None = None,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_]]:
     """Exact route energy of every subset, for a batch of drones at once.
 
@@ -225,6 +226,10 @@ def subset_energies(
     program as :func:`subset_orders`, without the orders), ``inf`` over the payload.
     One numpy pass per subset size for the whole batch, so a policy can price every
     action of a drone in one call.
+
+    ``free_end_m`` ``(B, n)``: the route has no fixed end; after its last customer i it
+    flies ``free_end_m[b, i]`` metres empty (to the depot nearest i), and the empty route
+    stays at the start (``end_xy`` is then ignored).
     """
     xy = np.asarray(customers_xy, dtype=np.float64)
     w = np.asarray(weights_kg, dtype=np.float64)
@@ -244,6 +249,10 @@ def subset_energies(
     cols = np.arange(n)
     f = np.empty((b, size, n + 1))
     f[:, 0] = d[:, : n + 1, n + 1] * float(model.energy_per_m(0.0))
+    if free_end_m is not None:
+        free = np.asarray(free_end_m, dtype=np.float64).reshape(b, n)
+        f[:, 0, :n] = np.where(np.isfinite(free), free, 0.0) * float(model.energy_per_m(0.0))
+        f[:, 0, n] = 0.0
     leg = d[:, : n + 1, :n]  # (B, from i, to j)
     for masks in layers[1:]:
         tail = np.where(bits[masks], f[:, masks[:, None] ^ pow2, cols], np.inf)  # (B, m, n)

@@ -13,7 +13,12 @@ import numpy as np
 from ..segment.depots import Depots
 from .ranges import Ties
 
-__all__ = ["WindowView"]
+__all__ = ["FREE", "WindowView"]
+
+FREE = -1
+"""The action "no destination" (docs/method.md §4.1): with the route pool the drone lands
+at the depot nearest its last customer (an idle drone stays); the paper's planner flies
+it as action 0."""
 
 
 @dataclass
@@ -38,6 +43,7 @@ class WindowView:
     pending_due_s: np.ndarray  # (P,) due time, seconds from service start
     pending_weight: np.ndarray  # (P,)
     ties: Ties = "nearest"  # candidate order among equally delayed requests (PlanConfig.ties)
+    pending_visible_w: np.ndarray | None = None  # (P,) window each became visible; None: unknown
 
     @property
     def n_drones(self) -> int:

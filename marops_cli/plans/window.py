@@ -24,7 +24,7 @@ from .plans import PlanSet, build_plans
 from .pool import DroneTask, build_pool, finish_route
 from .ranges import pick_candidates
 from .select import SelectionProblem, SelectionResult, Selector
-from .view import WindowView
+from .view import FREE, WindowView
 
 
 @dataclass
@@ -85,10 +85,13 @@ def range_candidates(
 
 
 def _reachable_actions(view: WindowView, actions: np.ndarray, model: EnergyModel) -> np.ndarray:
-    """Actions whose destination the empty drone cannot reach become 0 (stay)."""
+    """Actions whose destination the empty drone cannot reach become 0 (stay); FREE stays
+    FREE (an idle free drone stays where it is)."""
     dep = view.depots
     acts = np.asarray(actions, dtype=np.int64).copy()
     for u, s in enumerate(view.drone_depot):
+        if acts[u] == FREE:
+            continue
         d = int(dep.candidates[int(s), acts[u]])
         flight = float(np.hypot(*(dep.xy[d] - dep.xy[int(s)])))
         # The same test build_plans applies to the empty plan, so it never raises.
@@ -260,12 +263,15 @@ def _pool_tasks(view: WindowView, acts: np.ndarray, cfg: PlanConfig, scope: str)
             tasks.append(DroneTask(s, -1, everything))
             continue
         a = int(acts[u])
+        free = a == FREE
+        a = 0 if free else a
         dest = int(dep.candidates[s, a])
         if cfg.range == "areas":
             allowed = np.flatnonzero(view.ranges[s, a][view.pending_area]).astype(np.int64)
         else:  # the battery alone bounds what the drone can serve on its way
             allowed = everything
-        tasks.append(DroneTask(s, dest if cfg.landing == "destination" else -1, allowed))
+        fixed = cfg.landing == "destination" and not free
+        tasks.append(DroneTask(s, dest if fixed else -1, allowed))
     return tasks
 
 
@@ -390,7 +396,8 @@ def plan_window(
     elif pool:
         acts = _reachable_actions(view, acts, model)
         plan_sets, plan_ends, t_cand = _pool_plans(view, acts, model, cfg, scope)
-    else:
+    else:  # the paper's planner has no free landing: FREE flies as stay
+        acts = np.where(acts == FREE, 0, acts)
         plan_sets, ends, acts, t_cand = _range_plans(view, acts, model, cfg)
         plan_ends = [np.full(ps.n_plans, ends[u]) for u, ps in enumerate(plan_sets)]
     t_plans = time.perf_counter() - t_start - t_cand

@@ -11,7 +11,11 @@ how crowded the range is with other drones, and the map-wide overdue load;
 3 = drones observe one after another (:class:`SequentialObserver`): requests the
 best plans of the drones before have claimed are gone from every feature, and
 each action also shows its best plan's net value and energy and how many drones
-before already fly to its destination. Version 2 stays for actors trained on it.
+before already fly to its destination; 4 = version 3 plus what anticipation needs
+(demand expected around each destination in the next windows from the history
+days' arrival profile, today's arrivals there against that profile, the fleet there
+after this window) and, as global inputs, α and the day's expected remaining
+arrivals. Versions 2 and 3 stay for actors trained on them.
 """
 
 from __future__ import annotations
@@ -24,24 +28,52 @@ from ..config import PlanConfig
 from ..energy import EnergyModel
 from ..plans.order import subset_energies
 from ..plans.ranges import pick_candidates
+from ..plans.view import FREE
 from ..plans.window import range_candidates
 from .base import WindowView
 
-OBS_VERSION = 3  # what ``marops train`` writes for the flight-range actor
-OBS_VERSIONS = (2, 3)  # what the loaders read
+OBS_VERSION = 4  # what ``marops train`` writes for the flight-range actor
+OBS_VERSIONS = (2, 3, 4)  # what the loaders read
 PER_ACTION = 10  # features per action candidate, version 2
 PER_ACTION_V3 = 13  # version 3: 10 as in version 2, then value, energy, drones heading there
-VALUE = 10  # index, within an action's block (version 3), of the best plan's net value
+PER_ACTION_V4 = 18  # version 4: 13 as in version 3, then 5 anticipation features
+VALUE = 10  # index, within an action's block (versions 3, 4), of the best plan's net value
 GLOBAL = 7  # time, own area (2), map (2), drones sharing my depot, fleet density
+GLOBAL_V4 = 9  # version 4: 7 as before, then α and the day's expected remaining arrivals
 M_HAT = 5  # candidates per drone the features assume (PlanConfig.max_parcels default)
 
 Chooser = Callable[[np.ndarray, np.ndarray], np.ndarray]
 """``choose(drones (k,), obs (k, D)) -> actions (k,)``: a policy's decision for some drones."""
 
 
+def per_action(version: int) -> int:
+    """Features per action candidate of observation ``version``."""
+    return {2: PER_ACTION, 3: PER_ACTION_V3}.get(version, PER_ACTION_V4)
+
+
+def n_choices(n_actions: int, version: int = OBS_VERSION) -> int:
+    """Choices of a flight-range actor: the depot's ``n_actions`` destinations, and from
+    version 4 on the free landing (:data:`~marops_cli.plans.view.FREE`), last."""
+    return n_actions + (1 if version >= 4 else 0)
+
+
 def obs_dim(n_actions: int, version: int = OBS_VERSION) -> int:
-    per = PER_ACTION if version == 2 else PER_ACTION_V3
-    return n_actions * per + GLOBAL
+    blocks = n_choices(n_actions, version)
+    return blocks * per_action(version) + (GLOBAL_V4 if version >= 4 else GLOBAL)
+
+
+def choice_mask(view: WindowView, version: int = OBS_VERSION) -> np.ndarray:
+    """``(U, n_choices)``: the view's action mask, plus the always-open free landing."""
+    mask = view.action_mask()
+    if version < 4:
+        return mask
+    return np.hstack([mask, np.ones((mask.shape[0], 1), dtype=bool)])
+
+
+def to_actions(choices: np.ndarray, n_actions: int) -> np.ndarray:
+    """Choice indices -> planner actions: index ``n_actions`` (the free landing) is FREE."""
+    c = np.asarray(choices, dtype=np.int64)
+    return np.where(c == n_actions, FREE, c).astype(np.int64)
 
 
 def _lg(x: float | np.ndarray) -> float | np.ndarray:
@@ -176,6 +208,24 @@ class SequentialObserver:
     12. log1p drones before u that chose d as destination
 
     Then the 7 global features of version 2 (own area and map on unclaimed requests).
+
+    Version 4 adds per action, with nb(d) = d's own candidate areas (d and its nearest
+    depots) and the history days' arrival profile (``depots.arrivals``, zeros when
+    unknown):
+
+    13. log1p requests expected to become visible in d's area next window
+    14. log1p requests expected in nb(d) over the next two windows
+    15. log1p requests that became visible in nb(d) this window (today's rate)
+    16. log((15's count + 1) / (expected this window in nb(d) + 1)): today against usual
+    17. log1p drones in nb(d) after this window: those before u by their chosen
+        destination, those after u (not yet decided) by their depot
+
+    and as global inputs α and the share of the day's expected arrivals still to come.
+
+    Version 4 also has one more block, last: the free landing (no destination; the
+    drone lands at the depot nearest its last customer). Its features are those of
+    staying (d = s), except the best plan's value and energy, priced with that free
+    end over the same candidates, and no drones heading there (12 = 0).
     """
 
     def __init__(
@@ -184,11 +234,14 @@ class SequentialObserver:
         model: EnergyModel | None = None,
         plan: PlanConfig | None = None,
         alpha: float | None = None,
+        version: int = 3,
     ) -> None:
         self.view = view
+        self.version = version
         self.model = model or EnergyModel()
         self.plan = plan or PlanConfig()
         a = self.plan.alpha if alpha is None else alpha
+        self.alpha = a
         self.lam = (1.0 - a) / a * self.model.usable_j
         dep = view.depots
         self.n_depots, self.n_actions = dep.candidates.shape
@@ -199,16 +252,43 @@ class SequentialObserver:
         self.due_now = (view.pending_due_w <= view.t).astype(np.float64)
         self._best: dict[int, np.ndarray] = {}  # action -> requests of the best plan (drone u)
         self._u = -1
+        self.dest = view.drone_depot.astype(np.int64).copy()  # chosen, or the depot if not yet
+        if version >= 4:
+            self._anticipation()
+            # Empty flight from each request to its nearest depot (its own area's).
+            self.near_m = np.hypot(*(view.pending_xy - dep.xy[view.pending_area]).T)
+
+    def _anticipation(self) -> None:
+        """Per-depot demand expectations of version 4 (from the window, not the drone)."""
+        v, n = self.view, self.n_depots
+        t, n_w = v.t, v.n_windows
+        prof = v.depots.arrivals
+        if prof is None or prof.shape != (n, n_w):
+            prof = np.zeros((n, n_w))
+        nb = v.depots.candidates  # (N, A): each depot's neighbourhood, itself first
+        nxt = prof[:, t + 1] if t + 1 < n_w else np.zeros(n)
+        nxt2 = prof[:, t + 1 : t + 3].sum(axis=1)
+        new = np.zeros(n, dtype=np.float64)
+        if v.pending_visible_w is not None:
+            is_new = (v.pending_visible_w == t).astype(np.float64)
+            new = np.bincount(v.pending_area, weights=is_new, minlength=n).astype(np.float64)
+        self.exp_next = nxt
+        self.exp_nb2 = nxt2[nb].sum(axis=1)
+        self.new_nb = new[nb].sum(axis=1)
+        self.today_vs_usual = np.log((self.new_nb + 1.0) / (prof[:, t][nb].sum(axis=1) + 1.0))
+        total = prof.sum()
+        self.remaining = float(prof[:, t + 1 :].sum() / total) if total > 0 else 1.0 - (t + 1) / n_w
 
     @property
     def dim(self) -> int:
-        return obs_dim(self.n_actions, 3)
+        return obs_dim(self.n_actions, self.version)
 
     def _best_plans(
-        self, s: int, dests: list[int], cands: list[np.ndarray]
+        self, s: int, dests: list[int], cands: list[np.ndarray], free: bool = False
     ) -> list[tuple[float, float, np.ndarray]]:
         """(net value, energy, request positions) of the best plan s → cand → d of each
-        action, priced in one batched dynamic program (:func:`subset_energies`)."""
+        action, priced in one batched dynamic program (:func:`subset_energies`); with
+        ``free``, the plans end at the depot nearest their last customer instead."""
         v, m = self.view, self.model
         n = max(1, max(c.size for c in cands))
         b = len(cands)
@@ -219,7 +299,12 @@ class SequentialObserver:
             xy[i, : c.size], w[i, : c.size] = v.pending_xy[c], v.pending_weight[c]
             val[i, : c.size] = 1.0 + v.pending_delay_h[c]
         xy_s = np.repeat(v.depots.xy[s][None, :], b, axis=0)
-        energy, _, bits = subset_energies(xy_s, v.depots.xy[dests], xy, w, m)
+        free_m = None
+        if free:
+            free_m = np.full((b, n), np.nan)
+            for i, c in enumerate(cands):
+                free_m[i, : c.size] = self.near_m[c]
+        energy, _, bits = subset_energies(xy_s, v.depots.xy[dests], xy, w, m, free_m)
         net = self.lam * (val @ bits.T) - energy
         net[energy > m.usable_j] = -np.inf
         out = []
@@ -246,21 +331,37 @@ class SequentialObserver:
         rank = self.rank[free[self.rank]]
         rank_area = area[rank]
         out = np.zeros(self.dim, dtype=np.float32)
+        per = per_action(self.version)
         dests = [int(dep.candidates[s, k]) for k in range(a)]
         cands = [range_candidates(v, rank, rank_area, s, k, m_hat) for k in range(a)]
         best = self._best_plans(s, dests, cands)
         self._best, self._u = {k: best[k][2] for k in range(a)}, u
-        for k in range(a):
-            d = dests[k]
+        blocks = list(range(a))
+        if self.version >= 4:
+            fleet_after = np.bincount(self.dest, minlength=n).astype(float)
+            fleet_after[s] -= 1.0  # u itself is counted where it goes, below
+            best.append(self._best_plans(s, [s], [cands[0]], free=True)[0])
+            self._best[a] = best[a][2]
+            blocks.append(a)
+        for k in blocks:
+            is_free = k == a
+            d = s if is_free else dests[k]
+            kr = 0 if is_free else k
             net, energy, _ = best[k]
-            f = out[k * PER_ACTION_V3 : (k + 1) * PER_ACTION_V3]
+            f = out[k * per : (k + 1) * per]
             _range_features(
-                f, v, s, d, v.ranges[s, k], areas, neigh, self.drones_at, cands[k], m_hat
+                f, v, s, d, v.ranges[s, kr], areas, neigh, self.drones_at, cands[kr], m_hat
             )
             f[VALUE] = net / self.model.usable_j
             f[VALUE + 1] = energy / self.model.usable_j
-            f[VALUE + 2] = _lg(self.heading[d])
-        g = out[a * PER_ACTION_V3 :]
+            f[VALUE + 2] = 0.0 if is_free else _lg(self.heading[d])
+            if self.version >= 4:
+                f[13] = _lg(self.exp_next[d])
+                f[14] = _lg(self.exp_nb2[d])
+                f[15] = _lg(self.new_nb[d])
+                f[16] = self.today_vs_usual[d]
+                f[17] = _lg(fleet_after[dep.candidates[d]].sum())
+        g = out[len(blocks) * per :]
         g[0] = v.t / max(1, v.n_windows)
         g[1] = _lg(area_count[s])
         g[2] = _lg(area_delay[s])
@@ -268,13 +369,23 @@ class SequentialObserver:
         g[4] = _lg(float((v.pending_delay_h * free).sum()))
         g[5] = _lg(float(np.count_nonzero(v.drone_depot[:u] == s)))
         g[6] = v.n_drones / max(1, n)
+        if self.version >= 4:
+            g[7] = self.alpha
+            g[8] = self.remaining
         return out
 
     def commit(self, u: int, action: int) -> None:
-        """Drone u (the one last observed) chose ``action``: claim its best plan."""
+        """Drone u (the one last observed) chose ``action`` (a choice index; version 4's
+        last is the free landing): claim its best plan."""
         assert u == self._u, "commit the drone last observed"
         self.claimed[self._best[int(action)]] = True
-        self.heading[int(self.view.depots.candidates[int(self.view.drone_depot[u]), action])] += 1
+        s = int(self.view.drone_depot[u])
+        if self.version >= 4 and action == self.n_actions:  # free: lands near s, most likely
+            self.dest[u] = s
+            return
+        d = int(self.view.depots.candidates[s, action])
+        self.heading[d] += 1
+        self.dest[u] = d
 
 
 def observe_and_choose(
@@ -288,13 +399,13 @@ def observe_and_choose(
     """``(obs (U, D), actions (U,))`` of one window.
 
     Version 2: every drone observes the same window, one call of ``choose`` for all.
-    Version 3: drone by drone, in index order, each call for one drone
+    Versions 3 and 4: drone by drone, in index order, each call for one drone
     (:class:`SequentialObserver`).
     """
     if version == 2:
         obs = observe(view)
         return obs, np.asarray(choose(np.arange(view.n_drones), obs), dtype=np.int64)
-    seq = SequentialObserver(view, model, plan)
+    seq = SequentialObserver(view, model, plan, version=version)
     obs = np.zeros((view.n_drones, seq.dim), dtype=np.float32)
     actions = np.zeros(view.n_drones, dtype=np.int64)
     for u in range(view.n_drones):
@@ -304,10 +415,11 @@ def observe_and_choose(
     return obs, actions
 
 
-def best_value_action(obs: np.ndarray, mask: np.ndarray) -> np.ndarray:
-    """Per row of version-3 observations, the valid action whose best plan is worth most
-    (ties to the lower index): the one-window best response, ``myopic``'s choice."""
+def best_value_action(obs: np.ndarray, mask: np.ndarray, version: int = 3) -> np.ndarray:
+    """Per row of version-3 (or 4) observations, the valid action whose best plan is worth
+    most (ties to the lower index): the one-window best response, ``myopic``'s choice."""
     n_act = mask.shape[1]
-    value = obs[:, [k * PER_ACTION_V3 + VALUE for k in range(n_act)]].astype(np.float64)
+    per = per_action(version)
+    value = obs[:, [k * per + VALUE for k in range(n_act)]].astype(np.float64)
     value[~mask] = -np.inf
     return np.argmax(value, axis=1).astype(np.int64)

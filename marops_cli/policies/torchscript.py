@@ -16,7 +16,16 @@ import numpy as np
 from ..data.jsonfile import read_json
 from ..errors import InputError, RunError
 from .base import PolicyBase, WindowView
-from .observation import OBS_VERSION, OBS_VERSIONS, obs_dim, observe, observe_and_choose
+from .observation import (
+    OBS_VERSION,
+    OBS_VERSIONS,
+    choice_mask,
+    n_choices,
+    obs_dim,
+    observe,
+    observe_and_choose,
+    to_actions,
+)
 
 
 def sidecar_path(model_path: str | Path) -> Path:
@@ -93,7 +102,8 @@ class TorchScriptPolicy(PolicyBase):
         side = self.sidecar
         slots = int(side.get("plan_slots", 1))
         width = int(side.get("obs_dim", obs_dim(self.n_actions, self.obs_version)))
-        n_logits = int(side.get("n_logits", self.n_actions * slots))
+        choices = n_choices(self.n_actions, self.obs_version)
+        n_logits = int(side.get("n_logits", choices * slots))
         expect = (
             f"forward(obs ({width} features), hidden ({self.hidden_size})) -> "
             f"(logits ({n_logits}), hidden ({self.hidden_size}))"
@@ -123,10 +133,11 @@ class TorchScriptPolicy(PolicyBase):
                 else type(out).__name__
             )
             raise InputError(f"the actor returns {got}, expected {expect}", file=self.path)
-        if n_logits != self.n_actions * slots:
+        if n_logits != choices * slots:
+            what = "n_actions + 1 (free landing)" if choices > self.n_actions else "n_actions"
             raise InputError(
-                f"the sidecar's n_logits {n_logits} is not n_actions × plan_slots "
-                f"({self.n_actions} × {slots})",
+                f"the sidecar's n_logits {n_logits} is not {what} × plan_slots "
+                f"({choices} × {slots})",
                 file=sidecar_path(self.path),
             )
 
@@ -135,7 +146,7 @@ class TorchScriptPolicy(PolicyBase):
         return self.path
 
     def configure(self, cfg: Any) -> None:
-        """Price version-3 observations with the run's energy model and plan settings."""
+        """Price version-3/4 observations with the run's energy model and plan settings."""
         from ..energy import EnergyModel
 
         self._model, self._plan = EnergyModel(cfg.energy), cfg.plan
@@ -179,8 +190,8 @@ class TorchScriptPolicy(PolicyBase):
         return logits
 
     def mask(self, view: WindowView) -> np.ndarray:
-        """``(U, n_logits)`` True where the action exists."""
-        return view.action_mask()
+        """``(U, n_logits)`` True where the choice exists (version 4: the free landing, last)."""
+        return choice_mask(view, self.obs_version)
 
     def act(self, view: WindowView) -> np.ndarray:
         if self.obs_version == 2:
@@ -193,4 +204,7 @@ class TorchScriptPolicy(PolicyBase):
             logits[~mask[drones]] = -np.inf
             return np.argmax(logits, axis=1)
 
-        return observe_and_choose(view, choose, 3, model=self._model, plan=self._plan)[1]
+        choices = observe_and_choose(
+            view, choose, self.obs_version, model=self._model, plan=self._plan
+        )[1]
+        return to_actions(choices, self.n_actions)

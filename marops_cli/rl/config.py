@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Literal
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, field_validator
 
 
 class TrainConfig(BaseModel):
@@ -31,11 +31,13 @@ class TrainConfig(BaseModel):
     gamma: float = Field(0.95, gt=0, le=1, description="discount factor γ (paper: 0.95)")
     gae_lambda: float = Field(0.95, ge=0, le=1, description="GAE λ (1 = Monte-Carlo returns)")
     clip: float = Field(0.2, gt=0, description="PPO clip ε of the surrogate (paper: 0.2)")
-    minibatch: int = Field(64, ge=1, description="transitions per minibatch, H (paper: 64)")
+    minibatch: int = Field(
+        64, ge=1, description="transitions per minibatch, H (paper: 64), as whole day sequences"
+    )
     update_epochs: int = Field(4, ge=1, description="passes over each batch per update")
     lr: float = Field(3e-4, gt=0, description="Adam learning rate of actor and critic")
     anneal_lr: bool = Field(True, description="decay the learning rate linearly to 0")
-    ent_coef: float = Field(0.01, ge=0, description="weight of the entropy bonus")
+    ent_coef: float = Field(0.03, ge=0, description="weight of the entropy bonus")
     vf_coef: float = Field(0.5, ge=0, description="weight of the critic loss")
     max_grad_norm: float = Field(0.5, gt=0, description="global gradient-norm clip")
     norm_adv: bool = Field(True, description="normalise advantages per minibatch")
@@ -54,8 +56,13 @@ class TrainConfig(BaseModel):
         description="weight of the imitation term: cross-entropy against the one-window "
         "best response (myopic) on the visited states; marops only",
     )
+    bc_teacher: Literal["myopic", "free"] = Field(
+        "free",
+        description="target of the imitation term: the one-window best response (myopic, "
+        "free landing included), or always the free landing (the whole-map rule)",
+    )
     bc_anneal: float = Field(
-        0.5,
+        0.1,
         ge=0,
         le=1,
         description="fraction of the episodes over which the imitation weight falls to 0",
@@ -65,6 +72,21 @@ class TrainConfig(BaseModel):
         description="export the actor of the held-out evaluation with the lowest combined "
         "cost (early stopping) instead of the last one",
     )
+    alpha_range: tuple[float, float] | None = Field(
+        (0.1, 0.9),
+        description="marops: each episode flies at an α drawn uniformly from this range (α is "
+        "an input of the actor, so one actor serves every α); None: the config's α only",
+    )
+    eval_days_per_scenario: int = Field(
+        0, ge=0, description="held-out days per scenario in training evaluations (0: all)"
+    )
     plan_slots: int = Field(4, ge=2, description="mappo: plan slots per destination (last = empty)")
     eval_every: int = Field(200, ge=1, description="episodes between held-out evaluations")
     checkpoint_every: int = Field(40, ge=1, description="episodes between checkpoints")
+
+    @field_validator("alpha_range")
+    @classmethod
+    def _alpha_range(cls, v: tuple[float, float] | None) -> tuple[float, float] | None:
+        if v is not None and not 0 < v[0] <= v[1] <= 1:
+            raise ValueError("expected 0 < low <= high <= 1")
+        return v

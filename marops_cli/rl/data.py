@@ -1,21 +1,28 @@
-"""Training data: the split by date, depots from the training days, prepared days."""
+"""Training data: the split by date, depots from the training days, prepared days.
+
+A run trains on one or several files (cities), each segmented into one or several
+area counts and flown with one or several fleet sizes: every combination is a
+training scenario (docs/method.md §6, generalisation).
+"""
 
 from __future__ import annotations
 
 import datetime as dt
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from ..config import PlannerConfig
+from ..config import PlannerConfig, override
+from ..data.frame import Frame
 from ..data.prepare import prepare_day
 from ..data.reader import read_lade
-from ..data.table import DayRequests
+from ..data.table import DayRequests, LadeTable
 from ..errors import InputError
 from ..io.meta import file_sha256
 from ..sim.jobs import load_scenario
 from .config import TrainConfig
-from .rollout import WorkerContext
+from .rollout import TrainScenario, WorkerContext
 
 
 def split_days(days: list[dt.date], train: list[dt.date] | None = None) -> tuple[list, list]:
@@ -34,44 +41,95 @@ def split_days(days: list[dt.date], train: list[dt.date] | None = None) -> tuple
     return days[:n], days[n:]
 
 
+def _prepared(
+    table: LadeTable, frame: Frame, dates: list[dt.date], cfg: PlannerConfig
+) -> tuple[list[dt.date], list[DayRequests]]:
+    """The days of ``dates`` that have requests in ``frame``, prepared."""
+    pairs = [(d, prepare_day(table, frame, d, cfg.data)) for d in dates]
+    pairs = [(d, r) for d, r in pairs if len(r) > 0]  # a day with no request teaches nothing
+    return [d for d, _ in pairs], [r for _, r in pairs]
+
+
 @dataclass
 class TrainData:
-    """The scenario a run trains on: depots from the training days, prepared days."""
+    """The scenarios a run trains on: depots from the training days, prepared days."""
 
     ctx: WorkerContext
-    train_dates: list[dt.date]
+    train_dates: list[dt.date]  # of the first file (the sidecar lists every file's)
     eval_dates: list[dt.date]
-    sha256: str
+    sha256: str  # of the first file
     name: str
+    files: list[dict[str, Any]]  # per file: name, sha256, train_days, heldout_days
 
 
 def load_training_data(
-    data: str | Path, cfg: PlannerConfig, tcfg: TrainConfig, train: list[dt.date] | None = None
+    data: str | Path | Sequence[str | Path],
+    cfg: PlannerConfig,
+    tcfg: TrainConfig,
+    train: list[dt.date] | None = None,
+    *,
+    n_depots: Sequence[int] = (),
+    drones: Sequence[int] = (),
 ) -> TrainData:
-    """Read ``data``, split it by date, segment on the training days, prepare every day."""
-    table = read_lade(data, cfg.data)
-    train_dates, eval_dates = split_days(table.days(), train)
-    scn = load_scenario(data, cfg, replay_days=eval_dates, table=table)
+    """Read every file of ``data``, split each by date, segment each on its training
+    days (once per area count of ``n_depots``, default the config's), prepare every day,
+    and make one scenario per (file, area count, fleet size of ``drones``)."""
+    paths = [Path(data)] if isinstance(data, (str, Path)) else [Path(p) for p in data]
+    if not paths:
+        raise InputError("no training data given")
+    depot_counts = list(n_depots) or [cfg.segment.n_depots]
+    fleets = list(drones) or [cfg.sim.drones]
+    scenarios: list[TrainScenario] = []
+    files: list[dict[str, Any]] = []
+    for fi, path in enumerate(paths):
+        table = read_lade(path, cfg.data)
+        train_dates, eval_dates = split_days(table.days(), train if fi == 0 else None)
 
-    def prep(dates: list[dt.date]) -> tuple[list[dt.date], list[DayRequests]]:
-        pairs = [(d, prepare_day(table, scn.frame, d, cfg.data)) for d in dates]
-        pairs = [(d, r) for d, r in pairs if len(r) > 0]  # a day with no request teaches nothing
-        return [d for d, _ in pairs], [r for _, r in pairs]
-
-    train_dates, train_reqs = prep(train_dates)
-    eval_dates, eval_reqs = prep(eval_dates)
-    if not train_reqs:
-        raise InputError("no training day has requests in the study area", file=str(data))
-    ctx = WorkerContext(scn.depots, cfg, tcfg, train_reqs, eval_reqs)
-    return TrainData(ctx, train_dates, eval_dates, file_sha256(data), Path(data).name)
+        for k, n in enumerate(depot_counts):
+            c = override(cfg, segment__n_depots=n)
+            scn = load_scenario(path, c, replay_days=eval_dates, table=table)
+            if k == 0:  # the study area and the days do not depend on the area count
+                tr_dates, tr_reqs = _prepared(table, scn.frame, train_dates, cfg)
+                ev_dates, ev_reqs = _prepared(table, scn.frame, eval_dates, cfg)
+                if not tr_reqs:
+                    raise InputError(
+                        "no training day has requests in the study area", file=str(path)
+                    )
+            for u in fleets:
+                name = f"{path.name}:{n}x{u}"
+                scenarios.append(
+                    TrainScenario(name, scn.depots, override(c, sim__drones=u), tr_reqs, ev_reqs)
+                )
+        files.append(
+            {
+                "file": path.name,
+                "sha256": file_sha256(path),
+                "train_days": [d.isoformat() for d in tr_dates],
+                "heldout_days": [d.isoformat() for d in ev_dates],
+            }
+        )
+    ctx = WorkerContext(scenarios, tcfg)
+    first = files[0]
+    return TrainData(
+        ctx,
+        [dt.date.fromisoformat(d) for d in first["train_days"]],
+        [dt.date.fromisoformat(d) for d in first["heldout_days"]],
+        first["sha256"],
+        first["file"],
+        files,
+    )
 
 
 def fingerprint(td: TrainData) -> dict[str, Any]:
     """What a checkpoint must share with the run that resumes it."""
     keep = td.ctx.tcfg.model_dump(exclude={"episodes", "workers", "eval_every", "checkpoint_every"})
-    return {
+    out: dict[str, Any] = {
         "data_sha256": td.sha256,
         "train_days": [d.isoformat() for d in td.train_dates],
-        "planner": td.ctx.cfg.model_dump(mode="json", exclude={"sim": {"policy"}}),
+        "planner": td.ctx.scenarios[0].cfg.model_dump(mode="json", exclude={"sim": {"policy"}}),
         "train": keep,
     }
+    if len(td.files) > 1 or len(td.ctx.scenarios) > 1:
+        out["files"] = [(f["sha256"], f["train_days"]) for f in td.files]
+        out["scenarios"] = [(s.name, len(s.depots), s.cfg.sim.drones) for s in td.ctx.scenarios]
+    return out

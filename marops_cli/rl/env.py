@@ -4,8 +4,10 @@ Each drone observes the window and picks an action (a destination for MAR-OPS,
 destination × plan slot for the MAPPO baseline); the window planner flies the
 plans; each drone gets the reward of eq. (10). MAR-OPS drones observe version 3
 (:class:`~marops_cli.policies.observation.SequentialObserver`: one after another,
-each seeing what the drones before claimed), the MAPPO baseline version 2 (all at
-once, as the paper's).
+each seeing what the drones before claimed, plus the anticipation features of
+version 4), the MAPPO baseline version 2 (all at once, as the paper's). An episode
+may be flown at its own trade-off α (``reset(alpha=...)``): the selection, the
+observation and the reward then all use it.
 
 Reward (eq. (10)), per drone u and window t::
 
@@ -58,7 +60,15 @@ from ..plans.select import MilpSelector, Selector, make_selector
 from ..plans.window import plan_window
 from ..policies.base import WindowView
 from ..policies.direct import SlotSelector
-from ..policies.observation import Chooser, obs_dim, observe_and_choose
+from ..policies.observation import (
+    OBS_VERSION,
+    Chooser,
+    choice_mask,
+    n_choices,
+    obs_dim,
+    observe_and_choose,
+    to_actions,
+)
 from ..segment.depots import Depots
 from ..sim.state import DayState, default_fleet
 from .config import TrainConfig
@@ -104,24 +114,35 @@ class DeliveryEnv:
         self.n_slots = tcfg.plan_slots if self.direct else 1
         self.selector: Selector = SlotSelector(self.n_slots) if self.direct else _fast_selector(cfg)
         # MAPPO's plan slots rank the paper's subset plans (policies/direct.py).
-        self.plan_cfg = (
+        self.base_plan = (
             cfg.plan.model_copy(update={"planner": "subsets"}) if self.direct else cfg.plan
         )
-        self.obs_version = 2 if self.direct else 3
+        self.plan_cfg = self.base_plan
+        self.alpha = cfg.plan.alpha
+        self.obs_version = 2 if self.direct else OBS_VERSION
         self.state: DayState | None = None
         self.view: WindowView | None = None
         self.t = 0
 
     @property
     def n_logits(self) -> int:
-        return self.n_dest * self.n_slots
+        return n_choices(self.n_dest, self.obs_version) * self.n_slots
 
     @property
     def obs_dim(self) -> int:
         return obs_dim(self.n_dest, self.obs_version)
 
-    def reset(self, day: DayRequests, fleet: np.ndarray | None = None) -> None:
-        """Start ``day`` with drones at ``fleet`` (default: the busiest depots)."""
+    def reset(
+        self, day: DayRequests, fleet: np.ndarray | None = None, alpha: float | None = None
+    ) -> None:
+        """Start ``day`` with drones at ``fleet`` (default: the busiest depots), at
+        trade-off ``alpha`` (default: the config's)."""
+        self.alpha = self.cfg.plan.alpha if alpha is None else float(alpha)
+        self.plan_cfg = (
+            self.base_plan
+            if self.alpha == self.base_plan.alpha
+            else self.base_plan.model_copy(update={"alpha": self.alpha})
+        )
         fleet = default_fleet(self.depots, self.n_drones) if fleet is None else fleet
         self.state = DayState(day, self.depots, fleet, self.cfg.plan.coverage, self.cfg.plan.ties)
         self.t = 0
@@ -132,7 +153,7 @@ class DeliveryEnv:
         (:func:`~marops_cli.policies.observation.observe_and_choose`)."""
         assert self.view is not None and not self.done
         return observe_and_choose(
-            self.view, choose, self.obs_version, model=self.model, plan=self.cfg.plan
+            self.view, choose, self.obs_version, model=self.model, plan=self.plan_cfg
         )
 
     @property
@@ -140,9 +161,9 @@ class DeliveryEnv:
         return self.state is None or self.t >= self.state.day.n_windows
 
     def action_mask(self) -> np.ndarray:
-        """``(U, n_logits)``: every slot of an existing destination."""
+        """``(U, n_logits)``: every slot of an existing destination (and the free landing)."""
         assert self.view is not None
-        return np.repeat(self.view.action_mask(), self.n_slots, axis=1)
+        return np.repeat(choice_mask(self.view, self.obs_version), self.n_slots, axis=1)
 
     def step(self, actions: np.ndarray) -> tuple[np.ndarray, dict[str, np.ndarray]]:
         """Fly window t with ``actions``; returns (rewards ``(U,)``, info: each drone's
@@ -154,7 +175,7 @@ class DeliveryEnv:
         if self.direct:
             assert isinstance(self.selector, SlotSelector)
             self.selector.slots = actions % self.n_slots
-        dest = actions // self.n_slots
+        dest = to_actions(actions // self.n_slots, self.n_dest)
         plan = plan_window(view, dest, self.model, self.plan_cfg, self.selector)
         energy_kj = np.array([r.energy_j for r in plan.routes]) / 1000.0
         starts = view.drone_depot.copy()
@@ -165,7 +186,7 @@ class DeliveryEnv:
             if self.tcfg.energy_scope == "own"
             else np.full_like(energy_kj, energy_kj.mean())
         )
-        r = reward(delay_h, e_u, self.cfg.plan.alpha, self.tcfg)
+        r = reward(delay_h, e_u, self.alpha, self.tcfg)
         self.t += 1
         if not self.done:
             self.view = st.view(self.t)

@@ -3,7 +3,8 @@
 ``X.pt`` holds ``forward(obs, hidden) -> (logits, hidden)`` and loads with plain
 ``torch.jit.load``; ``X.json`` says how to feed it (observation version, number
 of actions, hidden size) and how it was made (data hash, command, seed, config,
-held-out metrics), so anyone can check or re-train it.
+held-out metrics), so anyone can check or re-train it; ``X.curve.png`` draws the
+training curve.
 """
 
 from __future__ import annotations
@@ -57,9 +58,13 @@ def write_actor(actor: Actor, path: str | Path, sidecar: dict[str, Any]) -> dict
         "torch": torch.__version__,
         **sidecar,
     }
-    if "n_actions" not in doc:
-        doc["n_actions"] = actor.head.out_features
+    if "n_actions" not in doc:  # version 4 adds the free landing to the destinations
+        doc["n_actions"] = actor.head.out_features - (1 if int(doc["obs_version"]) >= 4 else 0)
     with output_set() as files:
         files.write_bytes(path, actor_bytes(actor))
         files.write_json(path.with_suffix(".json"), doc)
+        if doc.get("learning_curve"):
+            from .curve import curve_png
+
+            files.write_bytes(path.with_suffix(".curve.png"), curve_png(doc))
     return doc

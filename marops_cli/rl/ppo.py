@@ -117,24 +117,27 @@ def ppo_update(
 ) -> dict[str, float]:
     """``update_epochs`` passes of minibatch SGD; returns the mean of each loss term.
 
-    The GRU is unrolled over whole days for every minibatch (so hidden states are
-    exact and gradients flow through time); the loss averages over a random
-    minibatch of H transitions (paper: H = 64). With ``bc_coef > 0`` and imitation
-    targets in the batch, the loss adds ``bc_coef`` × the cross-entropy of the
-    actor against them (an imitation term on the states PPO itself visits).
+    A minibatch is a set of whole (episode, drone) sequences, about H transitions
+    (paper: H = 64) in all: the GRU is unrolled over those days only, from a zero
+    hidden state as in the rollout, so hidden states are exact, gradients flow through
+    time, and one epoch unrolls every sequence once. With ``bc_coef > 0`` and imitation
+    targets in the batch, the loss adds ``bc_coef`` × the cross-entropy of the actor
+    against them (an imitation term on the states PPO itself visits).
     """
     t_, e_, u_, d_ = batch.obs.shape
-    n = t_ * e_ * u_
-    seq_obs = batch.obs.reshape(t_, e_ * u_, d_)
-    critic_in = fleet_input(batch.obs).reshape(n, -1)
-    actions, old_logp = batch.actions.reshape(n), batch.logp.reshape(n)
-    teacher = batch.teacher.reshape(n) if batch.teacher is not None else None
+    n_seq = e_ * u_
+
+    def seq(x: torch.Tensor) -> torch.Tensor:
+        """``(T, E, U, ...)`` -> ``(T, E·U, ...)``: one column per (episode, drone)."""
+        return x.reshape(t_, n_seq, *x.shape[3:])
+
+    seq_obs = seq(batch.obs)
+    critic_in = seq(fleet_input(batch.obs))
+    actions, old_logp = seq(batch.actions), seq(batch.logp)
+    teacher = seq(batch.teacher) if batch.teacher is not None else None
     use_bc = bc_coef > 0 and teacher is not None and bool((teacher >= 0).any())
-    mask, adv_all, ret_all = (
-        batch.mask.reshape(n, -1),
-        batch.advantages.reshape(n),
-        batch.returns.reshape(n),
-    )
+    mask, adv_all, ret_all = seq(batch.mask), seq(batch.advantages), seq(batch.returns)
+    per_mb = max(1, tcfg.minibatch // max(1, t_))  # sequences per minibatch
     params = [*actor.parameters(), *critic.parameters()]
     sums: dict[str, float] = {
         "pg_loss": 0.0,
@@ -146,20 +149,21 @@ def ppo_update(
     }
     steps = 0
     for _ in range(tcfg.update_epochs):
-        perm = torch.randperm(n, generator=generator)
-        for start in range(0, n, tcfg.minibatch):
-            idx = perm[start : start + tcfg.minibatch]
-            logits = actor.unroll(seq_obs).reshape(n, -1)[idx]
-            dist = Categorical(logits=logits.masked_fill(~mask[idx], MASKED_LOGIT))
-            adv = adv_all[idx]
-            if tcfg.norm_adv and idx.numel() > 1:
+        perm = torch.randperm(n_seq, generator=generator)
+        for start in range(0, n_seq, per_mb):
+            cols = perm[start : start + per_mb]
+            logits = actor.unroll(seq_obs[:, cols]).reshape(-1, mask.shape[-1])
+            m = mask[:, cols].reshape(logits.shape)
+            dist = Categorical(logits=logits.masked_fill(~m, MASKED_LOGIT))
+            adv = adv_all[:, cols].reshape(-1)
+            if tcfg.norm_adv and adv.numel() > 1:
                 adv = (adv - adv.mean()) / (adv.std() + 1e-8)
             terms = ppo_loss(
-                dist.log_prob(actions[idx]),
-                old_logp[idx],
+                dist.log_prob(actions[:, cols].reshape(-1)),
+                old_logp[:, cols].reshape(-1),
                 adv,
-                critic.net(critic_in[idx]).squeeze(-1),
-                ret_all[idx],
+                critic.net(critic_in[:, cols]).reshape(-1),
+                ret_all[:, cols].reshape(-1),
                 dist.entropy(),
                 tcfg.clip,
                 tcfg.vf_coef,
@@ -168,7 +172,7 @@ def ppo_update(
             loss = terms["loss"]
             if use_bc:
                 assert teacher is not None
-                tgt = teacher[idx]
+                tgt = teacher[:, cols].reshape(-1)
                 has = tgt >= 0
                 if bool(has.any()):
                     bc = -dist.log_prob(tgt.clamp(min=0))[has].mean()

@@ -20,7 +20,12 @@ from ..data.table import DayRequests
 from ..energy import EnergyModel
 from ..policies.base import PolicyBase, WindowView
 from ..policies.direct import SlotSelector
-from ..policies.observation import best_value_action, observe_and_choose
+from ..policies.observation import (
+    best_value_action,
+    choice_mask,
+    observe_and_choose,
+    to_actions,
+)
 from ..policies.registry import make_policy
 from ..segment.depots import Depots
 from ..sim.metrics import day_metrics
@@ -56,31 +61,42 @@ class Episode:
     mask: np.ndarray
     rewards: np.ndarray
     teacher: np.ndarray
-    """``(T, U)`` the one-window best response (``myopic``) on each observation (version
-    3), the target of the imitation term; -1 where there is none (version 2)."""
+    """``(T, U)`` the one-window best response (``myopic``) on each observation (versions
+    3, 4), the target of the imitation term; -1 where there is none (version 2)."""
     energy_kj: float
     delay_h: float
 
 
 @dataclass
-class WorkerContext:
-    """What every worker holds: the scenario and the days, sent once at start-up."""
+class TrainScenario:
+    """One city (file) with one segmentation and fleet size: depots, settings, days."""
 
+    name: str
     depots: Depots
     cfg: PlannerConfig
-    tcfg: TrainConfig
     train_days: list[DayRequests]
     eval_days: list[DayRequests]
+
+
+@dataclass
+class WorkerContext:
+    """What every worker holds: the scenarios and their days, sent once at start-up."""
+
+    scenarios: list[TrainScenario]
+    tcfg: TrainConfig
 
 
 def make_actor(env: DeliveryEnv, tcfg: TrainConfig) -> Actor:
     return Actor(env.obs_dim, env.n_logits, tcfg.hidden_size)
 
 
-def run_episode(env: DeliveryEnv, actor: Actor, day: DayRequests, seed: int) -> Episode:
-    """Sample the actor's actions for a whole day (Alg. 3, inner loop)."""
+def run_episode(
+    env: DeliveryEnv, actor: Actor, day: DayRequests, seed: int, alpha: float | None = None
+) -> Episode:
+    """Sample the actor's actions for a whole day (Alg. 3, inner loop), at trade-off
+    ``alpha`` (default: the scenario's)."""
     gen = torch.Generator().manual_seed(seed)
-    env.reset(day)
+    env.reset(day, alpha=alpha)
     h = torch.zeros(env.n_drones, actor.hidden_size)
     rec: dict[str, list[np.ndarray]] = {
         k: [] for k in ("obs", "actions", "logp", "mask", "rewards", "teacher")
@@ -107,11 +123,7 @@ def run_episode(env: DeliveryEnv, actor: Actor, day: DayRequests, seed: int) -> 
         rec["mask"].append(mask)
         rec["actions"].append(actions)
         rec["logp"].append(logp)
-        rec["teacher"].append(
-            best_value_action(obs, mask)
-            if env.obs_version == 3
-            else np.full(env.n_drones, -1, dtype=np.int64)
-        )
+        rec["teacher"].append(_teacher(env, obs, mask))
         r, info = env.step(actions)
         rec["rewards"].append(r)
         energy += float(info["energy_kj"].sum())
@@ -128,6 +140,15 @@ def run_episode(env: DeliveryEnv, actor: Actor, day: DayRequests, seed: int) -> 
     )
 
 
+def _teacher(env: DeliveryEnv, obs: np.ndarray, mask: np.ndarray) -> np.ndarray:
+    """Imitation targets of one window (``TrainConfig.bc_teacher``); -1: none (version 2)."""
+    if env.obs_version < 3:
+        return np.full(env.n_drones, -1, dtype=np.int64)
+    if env.tcfg.bc_teacher == "free" and env.obs_version >= 4:
+        return np.full(env.n_drones, env.n_dest, dtype=np.int64)  # the last choice: free
+    return best_value_action(obs, mask, env.obs_version)
+
+
 class ActorPolicy(PolicyBase):
     """An in-memory actor as a :class:`~marops_cli.policies.base.Policy` (arg-max actions),
     so evaluation replays days exactly as ``replay-day`` does with the exported file."""
@@ -139,7 +160,7 @@ class ActorPolicy(PolicyBase):
         actor: Actor,
         n_slots: int = 1,
         name: str = "actor",
-        version: int = 3,
+        version: int = 4,
     ) -> None:
         self.actor = actor
         self.version = version
@@ -163,7 +184,7 @@ class ActorPolicy(PolicyBase):
         if self._h is None:
             self._h = torch.zeros(view.n_drones, self.actor.hidden_size)
         h = self._h
-        mask = np.repeat(view.action_mask(), self.n_slots, axis=1)
+        mask = np.repeat(choice_mask(view, self.version), self.n_slots, axis=1)
 
         def choose(drones: np.ndarray, obs: np.ndarray) -> np.ndarray:
             idx = torch.from_numpy(drones)
@@ -175,7 +196,7 @@ class ActorPolicy(PolicyBase):
         _, joint = observe_and_choose(view, choose, self.version, model=self.model, plan=self.plan)
         if self.slots is not None:
             self.slots.slots = joint % self.n_slots
-        return (joint // self.n_slots).astype(np.int64)
+        return to_actions(joint // self.n_slots, view.depots.n_actions)
 
 
 def evaluate_day(
@@ -199,33 +220,45 @@ def evaluate_day(
 
 
 _CTX: WorkerContext | None = None
-_ENV: DeliveryEnv | None = None
+_ENVS: list[DeliveryEnv] = []
 
 
 def _init(ctx: WorkerContext) -> None:
-    global _CTX, _ENV
+    global _CTX, _ENVS
     torch.set_num_threads(1)  # one process per core; threads would only add noise
     torch.use_deterministic_algorithms(True)
     _CTX = ctx
-    _ENV = DeliveryEnv(ctx.depots, ctx.cfg, ctx.tcfg)
+    _ENVS = [DeliveryEnv(s.depots, s.cfg, ctx.tcfg) for s in ctx.scenarios]
+
+
+def _day_key(scn: TrainScenario, row: dict[str, Any]) -> dict[str, Any]:
+    """A held-out row keyed by scenario and day when the run has several scenarios."""
+    assert _CTX is not None
+    if len(_CTX.scenarios) > 1:
+        row["day"] = f"{scn.name}:{row['day']}"
+    return row
 
 
 def _work(task: tuple[Any, ...]) -> Any:
-    assert _CTX is not None and _ENV is not None
-    kind = task[0]
+    """``("train", actor, scenario, day, seed, alpha)``, ``("eval", actor, scenario, day)``
+    or ``("baseline", name, scenario, day)``."""
+    assert _CTX is not None and _ENVS
+    kind, j = task[0], task[2]
+    scn, env = _CTX.scenarios[j], _ENVS[j]
     if kind == "baseline":
-        _, name, i = task
-        pol = make_policy(name, _CTX.cfg.sim.seed)
-        return evaluate_day(pol, _CTX.eval_days[i], _CTX.depots, _CTX.cfg, name)
-    actor = make_actor(_ENV, _CTX.tcfg)
+        _, name, _, i = task
+        pol = make_policy(name, scn.cfg.sim.seed)
+        return _day_key(scn, evaluate_day(pol, scn.eval_days[i], scn.depots, scn.cfg, name))
+    actor = make_actor(env, _CTX.tcfg)
     actor.load_state_dict(task[1])
     actor.eval()
     if kind == "train":
-        _, _, i, seed = task
-        return run_episode(_ENV, actor, _CTX.train_days[i], seed)
-    _, _, i = task
-    pol = ActorPolicy(actor, _ENV.n_slots, name=_CTX.tcfg.method, version=_ENV.obs_version)
-    return evaluate_day(pol, _CTX.eval_days[i], _CTX.depots, _CTX.cfg, _CTX.tcfg.method)
+        _, _, _, i, seed, alpha = task
+        return run_episode(env, actor, scn.train_days[i], seed, alpha)
+    _, _, _, i = task
+    pol = ActorPolicy(actor, env.n_slots, name=_CTX.tcfg.method, version=env.obs_version)
+    row = evaluate_day(pol, scn.eval_days[i], scn.depots, scn.cfg, _CTX.tcfg.method)
+    return _day_key(scn, row)
 
 
 class Workers:

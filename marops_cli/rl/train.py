@@ -11,7 +11,7 @@ from __future__ import annotations
 import datetime as dt
 import os
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
@@ -33,8 +33,8 @@ from .rollout import Episode, Workers, derive_seed
 
 __all__ = ["Trainer", "load_training_data", "split_days", "train"]
 
-BASELINES = ("random", "greedy", "myopic")  # compared with on held-out days (ops-random, ...)
-_STREAM_DAYS, _STREAM_EPISODE, _STREAM_UPDATE = 1, 2, 3
+BASELINES = ("random", "greedy", "myopic", "global")  # on held-out days (ops-random, …, ops-global)
+_STREAM_DAYS, _STREAM_EPISODE, _STREAM_UPDATE, _STREAM_SCENARIO, _STREAM_ALPHA = 1, 2, 3, 4, 5
 Event = dict[str, Any]
 
 
@@ -51,7 +51,10 @@ class Trainer:
         self.ckpt = self.out.with_suffix(".ckpt")
         self.emit = on_event or (lambda e: None)
         torch.manual_seed(self.tcfg.seed)
-        env = DeliveryEnv(td.ctx.depots, td.ctx.cfg, self.tcfg)
+        scns = td.ctx.scenarios
+        if len({s.depots.n_actions for s in scns}) > 1:
+            raise InputError("every training scenario needs the same number of actions")
+        env = DeliveryEnv(scns[0].depots, scns[0].cfg, self.tcfg)
         self.n_actions, self.n_slots = env.n_dest, env.n_slots
         self.obs_version = env.obs_version
         self.actor = Actor(env.obs_dim, env.n_logits, self.tcfg.hidden_size)
@@ -113,19 +116,45 @@ class Trainer:
         return True
 
     # -- one update --------------------------------------------------------------------
-    def _day_of(self, episode: int) -> int:
+    def _scenario_of(self, update: int) -> int:
+        """Scenarios in a fresh shuffled order per pass over them; one per update (its
+        episodes share a fleet size, so they stack into one batch)."""
+        n = len(self.td.ctx.scenarios)
+        perm = np.random.default_rng(
+            derive_seed(self.tcfg.seed, _STREAM_SCENARIO, update // n)
+        ).permutation(n)
+        return int(perm[update % n])
+
+    def _day_of(self, scenario: int, episode: int) -> int:
         """Training days in a fresh shuffled order per pass (epoch) over them."""
-        n = len(self.td.ctx.train_days)
+        n = len(self.td.ctx.scenarios[scenario].train_days)
         perm = np.random.default_rng(
             derive_seed(self.tcfg.seed, _STREAM_DAYS, episode // n)
         ).permutation(n)
         return int(perm[episode % n])
 
+    def _alpha_of(self, episode: int) -> float | None:
+        """The episode's trade-off α: drawn from ``alpha_range`` (actors that observe α),
+        else None (the config's)."""
+        lo_hi = self.tcfg.alpha_range
+        if lo_hi is None or self.obs_version < 4:
+            return None
+        rng = np.random.default_rng(derive_seed(self.tcfg.seed, _STREAM_ALPHA, episode))
+        return round(float(rng.uniform(*lo_hi)), 3)
+
     def _update(self, workers: Workers) -> dict[str, float]:
         n = min(self.tcfg.episodes_per_update, self.tcfg.episodes - self.episode)
         state = {k: v.clone() for k, v in self.actor.state_dict().items()}
+        j = self._scenario_of(self.update)
         tasks = [
-            ("train", state, self._day_of(e), derive_seed(self.tcfg.seed, _STREAM_EPISODE, e))
+            (
+                "train",
+                state,
+                j,
+                self._day_of(j, e),
+                derive_seed(self.tcfg.seed, _STREAM_EPISODE, e),
+                self._alpha_of(e),
+            )
             for e in range(self.episode, self.episode + n)
         ]
         eps: list[Episode] = workers.map(tasks)
@@ -160,21 +189,25 @@ class Trainer:
         ``bc_anneal`` of the run (MAPPO has no target: 0)."""
         t = self.tcfg
         span = t.bc_anneal * t.episodes
-        if self.obs_version != 3 or span <= 0:
+        if self.obs_version < 3 or span <= 0:
             return 0.0
         return t.bc_coef * max(0.0, 1.0 - self.episode / span)
 
     def evaluate(self, workers: Workers) -> dict[str, Any] | None:
         """Arg-max actor on the held-out days, with the baselines' numbers beside it."""
-        n_eval = len(self.td.ctx.eval_days)
-        if n_eval == 0:
+        cap = self.tcfg.eval_days_per_scenario
+        days = [
+            (j, i)
+            for j, s in enumerate(self.td.ctx.scenarios)
+            for i in range(len(s.eval_days) if cap == 0 else min(cap, len(s.eval_days)))
+        ]
+        if not days:
             return None
         if not self.baselines:
-            self.baselines = workers.map(
-                [("baseline", b, i) for b in BASELINES for i in range(n_eval)]
-            )
+            tasks = [("baseline", b, j, i) for b in BASELINES for j, i in days]
+            self.baselines = workers.map(tasks)
         state = {k: v.clone() for k, v in self.actor.state_dict().items()}
-        rows = workers.map([("eval", state, i) for i in range(n_eval)])
+        rows = workers.map([("eval", state, j, i) for j, i in days])
         ev = {"episode": self.episode, **summarise(rows, self.baselines)}
         self.evals.append(ev)
         cc = float(ev["methods"][self.tcfg.method]["combined_cost"])
@@ -191,8 +224,10 @@ class Trainer:
                 "episode": self.episode,
                 "episodes": t.episodes,
                 "resumed": resumed,
-                "train_days": len(self.td.train_dates),
-                "eval_days": len(self.td.eval_dates),
+                "train_days": sum(len(f["train_days"]) for f in self.td.files),
+                "eval_days": sum(len(f["heldout_days"]) for f in self.td.files),
+                "scenarios": len(self.td.ctx.scenarios),
+                "files": len(self.td.files),
             }
         )
         with Workers(self.td.ctx, t.workers) as workers:
@@ -218,7 +253,7 @@ class Trainer:
 
     def export(self, command: str | None, data_origin: str | None = None) -> dict[str, Any]:
         """Write the TorchScript actor and its sidecar (docs/method.md §6)."""
-        t, cfg = self.tcfg, self.td.ctx.cfg
+        t, cfg = self.tcfg, self.td.ctx.scenarios[0].cfg
         chosen = self.evals[-1] if self.evals else None
         if t.keep_best and self.best is not None:
             self.actor.load_state_dict(self.best["actor"])
@@ -240,6 +275,11 @@ class Trainer:
                 "heldout_days": [d.isoformat() for d in self.td.eval_dates],
                 "origin": data_origin,
             },
+            "scenarios": [
+                {"name": s.name, "n_depots": len(s.depots), "drones": s.cfg.sim.drones}
+                for s in self.td.ctx.scenarios
+            ],
+            "files": self.td.files,
             "reward": "eq. (10): -(1-alpha)*s(D_u/delay_scale_h) - alpha*s(E_u/energy_scale_kj), "
             "s(x) = 2*sigmoid(ln3*x) - 1 (marops_cli/rl/env.py)",
             "train_config": t.model_dump(mode="json"),
@@ -264,22 +304,26 @@ class Trainer:
 
 
 def train(
-    data: str | Path,
+    data: str | Path | Sequence[str | Path],
     cfg: PlannerConfig,
     tcfg: TrainConfig,
     out: str | Path,
     *,
     train_days: list[dt.date] | None = None,
+    n_depots: Sequence[int] = (),
+    drones: Sequence[int] = (),
     resume: bool = True,
     command: str | None = None,
     data_origin: str | None = None,
     on_event: Callable[[Event], None] | None = None,
 ) -> dict[str, Any]:
-    """Train on ``data``; write ``out``, its ``.json`` and ``.ckpt``; return the sidecar.
+    """Train on ``data`` (one file or several cities); write ``out``, its ``.json`` and
+    ``.ckpt``; return the sidecar. ``n_depots`` and ``drones`` list area counts and fleet
+    sizes to train on (default: the config's); every (file, areas, fleet) is a scenario.
 
     ``command`` and ``data_origin`` (how ``data`` was made) go into the sidecar as given.
     """
-    td = load_training_data(data, cfg, tcfg, train_days)
+    td = load_training_data(data, cfg, tcfg, train_days, n_depots=n_depots, drones=drones)
     with _one_thread():
         trainer = Trainer(td, Path(out), on_event)
         trainer.run(resume)

@@ -39,6 +39,9 @@ class Depots:
     xy: np.ndarray  # (N, 2) metres
     n_history: np.ndarray  # (N,) history requests in each area
     candidates: np.ndarray  # (N, A) depot ids, itself first
+    arrivals: np.ndarray | None = None
+    """(N, W) requests becoming visible in each area and window on a typical history
+    day (docs/method.md §6, anticipation features); None when unknown."""
 
     def __len__(self) -> int:
         return int(self.xy.shape[0])
@@ -68,7 +71,12 @@ class Depots:
     def with_actions(self, n_actions: int) -> Depots:
         """The same depots with a different number of action candidates."""
         return Depots(
-            self.method, self.frame, self.xy, self.n_history, nearest_candidates(self.xy, n_actions)
+            self.method,
+            self.frame,
+            self.xy,
+            self.n_history,
+            nearest_candidates(self.xy, n_actions),
+            self.arrivals,
         )
 
     def to_dict(self, meta: dict[str, Any]) -> dict[str, Any]:

@@ -18,7 +18,7 @@ import pyarrow.parquet as pq
 from ..config import PlannerConfig
 from ..data.frame import Frame
 from ..data.jsonfile import read_json
-from ..data.prepare import check_days_in_file, prepare_day, study_frame
+from ..data.prepare import arrival_windows, check_days_in_file, prepare_day, study_frame
 from ..data.reader import read_lade
 from ..data.table import DayRequests, LadeTable
 from ..energy import EnergyModel
@@ -117,6 +117,7 @@ def load_scenario(
         depots = Depots.load(depots_path)
         if depots.n_actions != cfg.segment.n_actions:
             depots = depots.with_actions(cfg.segment.n_actions)
+        depots.arrivals = arrival_profile(table, depots, history, cfg)
         return Scenario(table, depots.frame, depots, cfg, history)
     frame = study_frame(table, cfg.data, history)
     pts, _ = history_points(table, frame, history)
@@ -124,7 +125,19 @@ def load_scenario(
         depots = segment_points(pts[:, 0], pts[:, 1], frame, cfg.segment)
     except InputError as exc:
         raise naming(exc, table.source.path) from None
+    depots.arrivals = arrival_profile(table, depots, history, cfg)
     return Scenario(table, frame, depots, cfg, history)
+
+
+def arrival_profile(
+    table: LadeTable, depots: Depots, days: Sequence[dt.date], cfg: PlannerConfig
+) -> np.ndarray:
+    """``(N, W)``: requests becoming visible per service area and window on the mean
+    history day (docs/method.md §6: what the actor anticipates demand from)."""
+    x, y, w = arrival_windows(table, depots.frame, days, cfg.data)
+    n, n_w = len(depots), cfg.data.n_windows
+    counts = np.bincount(depots.assign(x, y) * n_w + w, minlength=n * n_w)
+    return counts.reshape(n, n_w) / max(1, len(days))
 
 
 def load_fleet(path: str | Path | None, depots: Depots, n_drones: int) -> np.ndarray:

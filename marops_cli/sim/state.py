@@ -62,6 +62,7 @@ class DayState:
             pending_due_s=self.day.due_s[idx],
             pending_weight=self.day.weight_kg[idx],
             ties=self.ties,
+            pending_visible_w=self.day.visible_w[idx],
         )
 
     def apply(self, plan: WindowPlan, speed_ms: float) -> None:

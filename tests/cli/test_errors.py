@@ -159,3 +159,14 @@ def test_bad_depots_file(example_csv: Path, tmp_path: Path, content: str, fails_
         tmp_path,
         "depots.json",
     )
+
+
+def test_bad_training_lists(example_csv: Path, tmp_path: Path, fails_cleanly) -> None:
+    out = str(tmp_path / "a.pt")
+    base = ["train", str(example_csv), "--episodes", "1", "--out", out]
+    fails_cleanly([*base, "--drones", "8,x"], tmp_path, "--drones", "8,x")
+    fails_cleanly([*base, "--n-depots", "0"], tmp_path, "--n-depots")
+    fails_cleanly([*base, "--alpha-range", "low-high"], tmp_path, "--alpha-range")
+    fails_cleanly([*base, "--alpha-range", "0.9-0.1"], tmp_path, "alpha_range")
+    missing = str(tmp_path / "nope.csv")
+    fails_cleanly(["train", str(example_csv), missing, "--out", out], tmp_path, "nope.csv")

@@ -167,3 +167,28 @@ def test_batched_subset_energies_match_brute_force(model: EnergyModel) -> None:
                 for perm in itertools.permutations(members.tolist())
             )
             assert energy[b, mask] == pytest.approx(best, rel=1e-9)
+
+
+def test_free_end_energies_land_at_the_depot_nearest_the_last_customer(
+    model: EnergyModel,
+) -> None:
+    """With ``free_end_m`` the route ends at the depot nearest its last customer (empty
+    route: stays): brute force over orders and that landing."""
+    from marops_cli.plans.order import subset_energies
+
+    rng = np.random.default_rng(11)
+    depots = rng.uniform(-2000, 2000, (5, 2))
+    xy = rng.uniform(-1500, 1500, (1, 3, 2))
+    w = rng.uniform(0.1, 1.0, (1, 3))
+    start = depots[2][None, :]
+    near_m = np.hypot(*(xy[0, :, None, :] - depots[None, :, :]).transpose(2, 0, 1)).min(axis=1)
+    energy, _, bits = subset_energies(start, start, xy, w, model, free_end_m=near_m[None, :])
+    assert energy[0, 0] == 0.0  # nothing to deliver: the drone stays
+    for mask in range(1, 8):
+        members = np.flatnonzero(bits[mask]).tolist()
+        best = np.inf
+        for perm in itertools.permutations(members):
+            last = xy[0, perm[-1]]
+            end = depots[np.argmin(np.hypot(*(depots - last).T))]
+            best = min(best, _route_j(model, xy[0], w[0], perm, start[0], end))
+        assert energy[0, mask] == pytest.approx(best, rel=1e-9)

@@ -18,6 +18,7 @@ from marops_cli.plans import GreedySelector, MilpSelector, Selector
 from marops_cli.plans.objective import lam_j, score_routes
 from marops_cli.plans.pool import build_pool
 from marops_cli.plans.ranges import pick_candidates, range_table
+from marops_cli.plans.view import FREE
 from marops_cli.plans.window import DroneRoute, _pool_tasks, check_routes, plan_window
 from marops_cli.policies.base import WindowView
 from marops_cli.segment.depots import Depots, nearest_candidates
@@ -505,6 +506,20 @@ def test_pool_landing_nearest_by_hand(model):
     assert [(r.stops, r.end) for r in plan.routes] == [((A, D), 0), ((B, C), 0)]
 
 
+def test_free_action_lands_nearest_with_the_pool_and_stays_with_subsets(model):
+    """FREE (-1) is the free landing: with destination landing configured, drone 1 still
+    ends its {B, C} route at depot 0, nearest C; the paper's planner flies it as stay."""
+    cfg = PlanConfig(alpha=0.2)
+    plan = plan_window(hand_view(), np.array([0, FREE]), model, cfg, MilpSelector())
+    assert [(r.stops, r.end, r.action) for r in plan.routes] == [
+        ((A, D), 0, 0),
+        ((B, C), 0, FREE),
+    ]
+    subsets = cfg.model_copy(update={"planner": "subsets"})
+    plan = plan_window(hand_view(), np.array([0, FREE]), model, subsets, MilpSelector())
+    assert [(r.end, r.action) for r in plan.routes] == [(0, 0), (1, 0)]
+
+
 @st.composite
 def pool_instances(draw):
     """Random windows for the pool: heavy parcels near the payload limit, tiny
@@ -546,7 +561,8 @@ def pool_instances(draw):
         pending_due_s=due_w * 1800.0 + 900.0,
         pending_weight=rng.uniform(low, high, n_req),
     )
-    actions = rng.integers(0, depots.candidates.shape[1], n_drones)
+    # -1 is FREE, the free landing (docs/method.md §4.1), drawn in half the instances.
+    actions = rng.integers(-1 if draw(st.booleans()) else 0, depots.candidates.shape[1], n_drones)
     cfg = PlanConfig(
         alpha=float(rng.uniform(0.1, 1.0)),
         landing=draw(st.sampled_from(["destination", "nearest"])),
@@ -597,7 +613,7 @@ def test_pool_routes_never_break_payload_battery_or_one_visit(inst):
         p = [pos[i] for i in r.stops]  # every stop is a pending request
         served += list(r.stops)
         assert r.start == s
-        if scope == "range" and cfg.landing == "destination":
+        if scope == "range" and cfg.landing == "destination" and r.action != FREE:
             assert r.end == dep.candidates[s, r.action]
         elif p:  # lands at the depot nearest the last customer
             d = np.hypot(*(dep.xy - view.pending_xy[p[-1]]).T)
@@ -605,7 +621,8 @@ def test_pool_routes_never_break_payload_battery_or_one_visit(inst):
         else:  # nothing to deliver and free to land: it stays
             assert r.end == s
         if scope == "range" and cfg.range == "areas":
-            assert all(view.ranges[s, r.action][view.pending_area[q]] for q in p)
+            a = 0 if r.action == FREE else r.action  # a free drone serves its stay range
+            assert all(view.ranges[s, a][view.pending_area[q]] for q in p)
         w = view.pending_weight[p]
         assert r.payload_kg == pytest.approx(w.sum(), abs=1e-12)
         assert r.payload_kg <= model.max_payload_kg + 1e-9

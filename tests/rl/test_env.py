@@ -38,8 +38,8 @@ def test_episode_adds_up_to_the_day_delay(tiny_csv: Path, small_cfg: PlannerConf
     for scope in ("team", "observed"):
         tcfg = TrainConfig(reward_scope=scope)
         td = load_training_data(tiny_csv, small_cfg, tcfg)
-        env = DeliveryEnv(td.ctx.depots, small_cfg, tcfg)
-        day = td.ctx.train_days[0]
+        env = DeliveryEnv(td.ctx.scenarios[0].depots, small_cfg, tcfg)
+        day = td.ctx.scenarios[0].train_days[0]
         env.reset(day)
         rng = np.random.default_rng(0)
         total, steps = 0.0, 0
@@ -47,7 +47,7 @@ def test_episode_adds_up_to_the_day_delay(tiny_csv: Path, small_cfg: PlannerConf
             obs, acts = env.observe(
                 lambda u, o, n=env.n_logits, g=rng: g.integers(0, n, size=len(u))
             )
-            assert obs.shape == (4, env.obs_dim) and env.action_mask().shape == (4, 4)
+            assert obs.shape == (4, env.obs_dim) and env.action_mask().shape == (4, 5)  # + free
             r, info = env.step(acts)
             assert r.shape == (4,) and np.all(r <= 0) and np.all(r > -1)
             total += float(info["late_h"])
@@ -55,3 +55,27 @@ def test_episode_adds_up_to_the_day_delay(tiny_csv: Path, small_cfg: PlannerConf
         assert steps == day.n_windows
         assert env.state is not None
         assert_allclose(total, env.state.delivery_delay_h().sum(), rtol=1e-12)
+
+
+def test_an_episode_flies_at_its_own_alpha(tiny_csv: Path, small_cfg: PlannerConfig) -> None:
+    """reset(alpha=...) prices the selection, the observation and the reward at that α."""
+    from marops_cli.policies.observation import GLOBAL_V4, per_action
+
+    tcfg = TrainConfig()
+    td = load_training_data(tiny_csv, small_cfg, tcfg)
+    scn = td.ctx.scenarios[0]
+    env = DeliveryEnv(scn.depots, small_cfg, tcfg)
+    g0 = (env.n_dest + 1) * per_action(env.obs_version)  # destinations and the free landing
+    assert env.obs_version == 4 and env.obs_dim == g0 + GLOBAL_V4
+    rewards = {}
+    for alpha in (0.2, 0.8):
+        env.reset(scn.train_days[0], alpha=alpha)
+        assert env.plan_cfg.alpha == alpha and env.cfg.plan.alpha == 0.5
+        obs, acts = env.observe(lambda u, o: np.zeros(len(u), dtype=np.int64))
+        assert np.allclose(obs[:, g0 + 7], alpha)
+        r, info = env.step(acts)
+        want = reward(info["delay_h"], info["energy_kj"], alpha, tcfg)
+        assert_allclose(r, want, rtol=1e-12)
+        rewards[alpha] = r
+    env.reset(scn.train_days[0])
+    assert env.alpha == 0.5 and env.plan_cfg is env.base_plan

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 import torch
 
-from marops_cli.policies.observation import obs_dim
+from marops_cli.policies.observation import n_choices, obs_dim
 from marops_cli.policies.torchscript import TorchScriptPolicy
 from marops_cli.rl.export import write_actor
 from marops_cli.rl.networks import Actor
@@ -22,7 +22,7 @@ pytestmark = pytest.mark.filterwarnings("ignore:`torch.jit:DeprecationWarning")
 
 def _actor(seed: int = 3) -> Actor:
     torch.manual_seed(seed)
-    actor = Actor(obs_dim(4), 4, 64)
+    actor = Actor(obs_dim(4), n_choices(4), 64)  # 4 destinations and the free landing
     with torch.no_grad():  # non-trivial logits: the head starts near zero
         actor.head.weight.normal_(0.0, 1.0)
     return actor

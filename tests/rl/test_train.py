@@ -38,7 +38,7 @@ def test_smoke_writes_actor_sidecar_checkpoint(
         assert key in doc
     assert doc["n_actions"] == 4 and doc["hidden_size"] == 64 and doc["episodes"] == 4
     assert len(doc["data"]["sha256"]) == 64 and doc["data"]["heldout_days"]
-    assert set(doc["heldout"]["methods"]) == {"marops", "random", "greedy", "myopic"}
+    assert set(doc["heldout"]["methods"]) == {"marops", "random", "greedy", "myopic", "global"}
     kinds = [e["kind"] for e in events]
     assert kinds[0] == "start" and kinds.count("update") == 2 and "eval" in kinds
 
@@ -87,3 +87,36 @@ def test_mappo_trains_and_exports_plan_slots(
     side = train(tiny_csv, small_cfg, quick(method="mappo", episodes=2), out)
     assert side["plan_slots"] == 4 and side["n_logits"] == 16 and side["n_actions"] == 4
     assert "mappo" in side["heldout"]["methods"]
+
+
+def test_several_cities_area_counts_and_fleets(
+    tiny_csv: Path, small_cfg: PlannerConfig, tmp_path: Path
+) -> None:
+    """Every (file, areas, fleet) is a scenario; an update flies one; deterministic."""
+    from marops_cli.data.synth import SynthConfig, generate, write
+
+    river = write(
+        generate(SynthConfig(days=3, seed=6, orders_per_day=500, shape="river")),
+        tmp_path / "river.csv",
+    )
+    tc = quick(episodes=6, eval_every=100, eval_days_per_scenario=1)
+    events: list[dict] = []
+    side = train(
+        [tiny_csv, river], small_cfg, tc, tmp_path / "a.pt",
+        n_depots=[6, 8], drones=[3, 4], on_event=events.append,
+    )  # fmt: skip
+    names = [s["name"] for s in side["scenarios"]]
+    assert len(names) == 8 and len(set(names)) == 8
+    assert {(s["n_depots"], s["drones"]) for s in side["scenarios"]} == {
+        (6, 3), (6, 4), (8, 3), (8, 4)
+    }  # fmt: skip
+    assert [f["file"] for f in side["files"]] == [tiny_csv.name, "river.csv"]
+    # One held-out day per scenario, each method: the rows name their scenario.
+    days = side["heldout"]["days"]
+    assert len(days) == 8 and all(d.split(":")[0] in (tiny_csv.name, "river.csv") for d in days)
+    again = tmp_path / "b.pt"
+    train(
+        [tiny_csv, river], small_cfg, quick(episodes=6, eval_every=100, eval_days_per_scenario=1,
+        workers=2), again, n_depots=[6, 8], drones=[3, 4],
+    )  # fmt: skip
+    assert _same(_weights(tmp_path / "a.pt"), _weights(again))

@@ -1,0 +1,259 @@
+"""The learned actor against myopic on cities it never saw (not a test; prints tables).
+
+Makes held-out cities with ``marops synth`` (seeds and shapes not used in training:
+the shipped actor trained on seed 11), takes depots from each city's first
+``--history`` days and replays the rest with both methods, for every (areas, drones)
+setting and every α of the sweep. Prints, per city shape and setting, the paired
+per-day difference actor − myopic (mean and bootstrap 95 % CI over days) of the day
+objective J, delay, energy and delivered share; then the α sweep's energy/delay
+points and whether myopic's dominates the actor's.
+
+    python benchmarks/heldout.py                      # 4 shapes x 10 days, 16/25 areas, 8/16 drones
+    python benchmarks/heldout.py --quick              # 2 shapes x 4 days, one setting
+
+Work is spread over ``--workers`` processes (one thread each); results do not
+depend on it.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import multiprocessing as mp
+import os
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+import numpy as np  # noqa: E402
+
+SHAPES = ("hubs", "river", "corridor", "polycentric")
+SEEDS = {"hubs": 41, "river": 42, "corridor": 43, "polycentric": 44}
+KEYS = ("objective_j_mj", "avg_delay_h", "mean_energy_kj", "delivered_share")
+
+
+def _job(task: tuple[Any, ...]) -> list[dict[str, Any]]:
+    """Replay every test day of one (city, areas, drones, α, method)."""
+    os.environ["OMP_NUM_THREADS"] = "1"
+    import torch
+
+    torch.set_num_threads(1)
+    from marops_cli.config import PlannerConfig, override
+    from marops_cli.data.reader import read_lade
+    from marops_cli.sim.jobs import METHODS, load_fleet, load_scenario, method_policy, replay
+
+    path, shape, history, n_dep, drones, alpha, method, policy = task
+    base = PlannerConfig()
+    table = read_lade(path, base.data)
+    days = table.days()[history:]
+    cfg = override(
+        base,
+        segment__method=METHODS[method][0],
+        segment__n_depots=n_dep,
+        sim__drones=drones,
+        plan__alpha=alpha,
+    )
+    scn = load_scenario(path, cfg, replay_days=days, table=table)
+    fleet = load_fleet(None, scn.depots, drones)
+    pol = method_policy(method, policy if METHODS[method][1] == "learned" else None, 0)
+    rows = []
+    for day in days:
+        _, _, m = replay(scn, day, fleet, pol, method)
+        rows.append(
+            {
+                "shape": shape,
+                "n_depots": n_dep,
+                "drones": drones,
+                "alpha": alpha,
+                "method": method,
+                "day": str(m["day"]),
+                **{k: float(m[k]) for k in KEYS},
+            }
+        )
+    return rows
+
+
+def _ci(d: np.ndarray) -> tuple[float, float, float]:
+    from marops_cli.evaluate.paired import bootstrap_ci
+
+    lo, hi = bootstrap_ci(d)
+    return float(d.mean()), lo, hi
+
+
+def paired(rows: list[dict[str, Any]], group: tuple[str, ...], a: str, b: str) -> list[dict]:
+    """Per group, the per-day difference a − b of each metric: mean and 95 % CI."""
+    out = []
+    keys = sorted({tuple(r[g] for g in group) for r in rows})
+    for key in keys:
+        sel = [r for r in rows if tuple(r[g] for g in group) == key]
+        by = {
+            m: {
+                (r["shape"], r["n_depots"], r["drones"], r["alpha"], r["day"]): r
+                for r in sel
+                if r["method"] == m
+            }
+            for m in (a, b)
+        }
+        common = sorted(set(by[a]) & set(by[b]))
+        res: dict[str, Any] = dict(zip(group, key, strict=True))
+        res["days"] = len(common)
+        for k in KEYS:
+            d = np.array([by[a][c][k] - by[b][c][k] for c in common])
+            res[k] = _ci(d)
+            res[k + "_a"] = float(np.mean([by[a][c][k] for c in common]))
+            res[k + "_b"] = float(np.mean([by[b][c][k] for c in common]))
+        res["j_better_days"] = int(
+            sum(by[a][c]["objective_j_mj"] < by[b][c]["objective_j_mj"] for c in common)
+        )
+        out.append(res)
+    return out
+
+
+def _fmt(ci: tuple[float, float, float], nd: int) -> str:
+    m, lo, hi = ci
+    star = " *" if (hi < 0 or lo > 0) else ""
+    return f"{m:+.{nd}f} [{lo:+.{nd}f}, {hi:+.{nd}f}]{star}"
+
+
+def print_paired(rows: list[dict[str, Any]], methods: tuple[str, ...], markdown: bool) -> None:
+    """Per shape and setting, the actor minus each reference, paired per day (α 0.5)."""
+    a, refs = methods[0], methods[1:]
+    at05 = [r for r in rows if r["alpha"] == 0.5]
+    sep = " | " if markdown else "  "
+    head = ["shape", "areas", "drones", "days", "Δ day J MJ", "Δ delay h", "Δ energy kJ/drone",
+            "Δ delivered share", "J better"]  # fmt: skip
+    for b in refs:
+        print(f"\n{a} − {b}, paired per day, mean [95 % bootstrap CI] (* excludes 0), α = 0.5")
+        if markdown:
+            print("| " + " | ".join(head) + " |\n|" + "---|" * len(head))
+        else:
+            print(sep.join(head))
+        groups = paired(at05, ("shape", "n_depots", "drones"), a, b)
+        groups += [
+            {**g, "n_depots": "all", "drones": "all"} for g in paired(at05, ("shape",), a, b)
+        ]
+        groups += [
+            {**g, "shape": "all", "n_depots": "all", "drones": "all"}
+            for g in paired([{**r, "all": 1} for r in at05], ("all",), a, b)
+        ]
+        for g in groups:
+            cells = [
+                str(g["shape"]), str(g["n_depots"]), str(g["drones"]), str(g["days"]),
+                _fmt(g["objective_j_mj"], 2), _fmt(g["avg_delay_h"], 3),
+                _fmt(g["mean_energy_kj"], 1), _fmt(g["delivered_share"], 4),
+                f"{g['j_better_days']}/{g['days']}",
+            ]  # fmt: skip
+            print(("| " + " | ".join(cells) + " |") if markdown else sep.join(cells))
+
+
+def print_sweep(rows: list[dict[str, Any]], methods: tuple[str, ...], markdown: bool) -> None:
+    """The α sweep's mean energy/delay point of every method per shape (and over all), and
+    which reference dominates the actor's point (no more energy and no more delay, one
+    of them less)."""
+    a, refs = methods[0], methods[1:]
+    sweep = [r for r in rows if r["n_depots"] == 16 and r["drones"] == 8]
+    shapes = [*sorted({r["shape"] for r in sweep}), "all"]
+    print("\nα sweep (16 areas, 8 drones): energy kJ/drone, delay h, day J MJ, delivered share")
+    if markdown:
+        print("| shape | α | " + " | ".join(methods) + " | actor dominated by |")
+        print("|" + "---|" * (len(methods) + 3))
+    for shape in shapes:
+        for al in sorted({r["alpha"] for r in sweep}):
+            pts = {}
+            for m in methods:
+                rs = [
+                    r
+                    for r in sweep
+                    if r["alpha"] == al and r["method"] == m and shape in ("all", r["shape"])
+                ]
+                pts[m] = tuple(
+                    float(np.mean([r[k] for r in rs]))
+                    for k in ("mean_energy_kj", "avg_delay_h", "objective_j_mj", "delivered_share")
+                )
+            ea, da = pts[a][:2]
+            dom = [
+                b
+                for b in refs
+                if pts[b][0] <= ea and pts[b][1] <= da and (pts[b][0] < ea or pts[b][1] < da)
+            ]
+            cells = [f"{p[0]:.0f} kJ, {p[1]:.3f} h, J {p[2]:.1f}, {p[3]:.3f}" for p in pts.values()]
+            if markdown:
+                print(
+                    f"| {shape} | {al:.1f} | "
+                    + " | ".join(cells)
+                    + f" | {', '.join(dom) or 'none'} |"
+                )
+            else:
+                print(
+                    f"{shape:12s} α {al:.1f}  "
+                    + "  ".join(f"{m}: {c}" for m, c in zip(methods, cells, strict=True))
+                    + f"  dominated by: {', '.join(dom) or 'none'}"
+                )
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--shapes", default=",".join(SHAPES))
+    ap.add_argument(
+        "--days", type=int, default=14, help="days per city (the first --history only give depots)"
+    )
+    ap.add_argument("--history", type=int, default=4)
+    ap.add_argument("--depots", default="16,25")
+    ap.add_argument("--drones", default="8,16")
+    ap.add_argument("--alphas", default="0.2,0.5,0.8", help="α sweep (16 areas, 8 drones)")
+    ap.add_argument("--policy", default=None, help="actor file [the shipped one]")
+    ap.add_argument(
+        "--against", default="myopic", help="reference methods, comma-separated (myopic,ops-global)"
+    )
+    ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument("--quick", action="store_true", help="2 shapes x 6 days, 16 areas, 8 drones")
+    ap.add_argument("--json", default=None, help="also write every day's row here")
+    ap.add_argument("--markdown", action="store_true")
+    args = ap.parse_args()
+    if args.quick:
+        args.shapes, args.days, args.depots, args.drones, args.alphas = (
+            "hubs,river", 8, "16", "8", "0.5",
+        )  # fmt: skip
+    shapes = [s for s in args.shapes.split(",") if s]
+    depots = [int(x) for x in args.depots.split(",")]
+    drones = [int(x) for x in args.drones.split(",")]
+    alphas = [float(x) for x in args.alphas.split(",")]
+    from marops_cli.data.synth import SynthConfig, generate, write
+
+    tmp = Path(tempfile.mkdtemp(prefix="marops-heldout-"))
+    files = {}
+    for s in shapes:
+        files[s] = tmp / f"{s}.csv"
+        write(
+            generate(SynthConfig(days=args.days, seed=SEEDS[s], shape=s, start="2022-09-01")),
+            files[s],
+        )
+    refs = [m for m in args.against.split(",") if m]
+    methods = ("marops", *refs)
+    tasks = []
+    for s in shapes:
+        for n in depots:
+            for u in drones:
+                for m in methods:
+                    tasks.append((str(files[s]), s, args.history, n, u, 0.5, m, args.policy))
+        for a in alphas:
+            if a == 0.5 and 16 in depots and 8 in drones:
+                continue  # already in the settings above
+            for m in methods:
+                tasks.append((str(files[s]), s, args.history, 16, 8, a, m, args.policy))
+    t0 = time.perf_counter()
+    with mp.get_context("spawn").Pool(args.workers) as pool:
+        rows = [r for part in pool.map(_job, tasks, chunksize=1) for r in part]
+    print(f"{len(rows)} day replays in {time.perf_counter() - t0:.0f} s", file=sys.stderr)
+    if args.json:
+        Path(args.json).write_text(json.dumps(rows, indent=1))
+    print_paired(rows, methods, args.markdown)
+    print_sweep(rows, methods, args.markdown)
+
+
+if __name__ == "__main__":
+    main()
