@@ -112,12 +112,13 @@ def load_scenario(
     table = table if table is not None else read_lade(data, cfg.data)
     check_days_in_file(table, replay_days)
     all_days = table.days()
-    history = [d for d in all_days if d not in set(replay_days)] or all_days
+    unseen = [d for d in all_days if d not in set(replay_days)]
+    history = unseen or all_days
     if depots_path is not None:
         depots = Depots.load(depots_path)
         if depots.n_actions != cfg.segment.n_actions:
             depots = depots.with_actions(cfg.segment.n_actions)
-        depots.arrivals = arrival_profile(table, depots, history, cfg)
+        depots.arrivals = arrival_profile(table, depots, unseen, cfg) if unseen else None
         return Scenario(table, depots.frame, depots, cfg, history)
     frame = study_frame(table, cfg.data, history)
     pts, _ = history_points(table, frame, history)
@@ -125,7 +126,8 @@ def load_scenario(
         depots = segment_points(pts[:, 0], pts[:, 1], frame, cfg.segment)
     except InputError as exc:
         raise naming(exc, table.source.path) from None
-    depots.arrivals = arrival_profile(table, depots, history, cfg)
+    # The profile never sees a replayed day: with no other day there is none (zeros).
+    depots.arrivals = arrival_profile(table, depots, unseen, cfg) if unseen else None
     return Scenario(table, frame, depots, cfg, history)
 
 

@@ -45,3 +45,16 @@ def test_depots_file_gets_the_profile_of_the_non_replayed_days(tmp_path: Path) -
     assert again.depots.arrivals is not None
     assert again.depots.arrivals.shape == (5, cfg.data.n_windows)
     assert again.history_days == days[:2]
+
+
+def test_no_profile_when_every_day_is_replayed(tmp_path: Path) -> None:
+    """With no day besides the replayed ones, the depots fall back to those days but the
+    arrival profile does not: it would show the actor the day it is judged on."""
+    path = write(generate(SynthConfig(days=2, seed=9, orders_per_day=600)), tmp_path / "d.csv")
+    cfg = PlannerConfig()
+    cfg.segment.n_depots = 5
+    table = read_lade(path, cfg.data)
+    scn = load_scenario(path, cfg, replay_days=table.days(), table=table)
+    assert scn.history_days == table.days() and scn.depots.arrivals is None
+    one = load_scenario(path, cfg, replay_days=table.days()[1:], table=table)
+    assert one.depots.arrivals is not None
