@@ -60,8 +60,9 @@ def written_by_marops(path: Path) -> bool:
 
 
 def check_replaceable(paths: list[Path]) -> None:
-    """Before any work: refuse, as writing would, to replace a file marops did not write
-    (unless ``--force``), so a long run cannot fail at its last step."""
+    """Refuse to replace a file marops did not write (unless ``--force``): every output
+    is checked here when written, and a long command checks its outputs before any work
+    too, so it cannot fail at its last step."""
     for final in paths:
         if final.is_file() and not _REPLACE_FOREIGN.get() and not written_by_marops(final):
             raise InputError(
@@ -81,10 +82,7 @@ class OutputSet:
 
     def path_for(self, final: str | Path) -> Path:
         final = Path(final)
-        if final.is_file() and not _REPLACE_FOREIGN.get() and not written_by_marops(final):
-            raise InputError(
-                "exists and was not written by marops; pass --force to replace it", file=final
-            )
+        check_replaceable([final])
         final.parent.mkdir(parents=True, exist_ok=True)
         fd, tmp = tempfile.mkstemp(prefix=f".{final.name}.", suffix=".tmp", dir=final.parent)
         os.close(fd)
