@@ -92,6 +92,25 @@ def _windows(offset_s: np.ndarray, window_s: float, n_windows: int) -> np.ndarra
     return np.clip(np.floor(offset_s / window_s), 0, n_windows - 1).astype(np.int32)
 
 
+def _visible_windows(accept_s: np.ndarray, due_w: np.ndarray, cfg: DataConfig) -> np.ndarray:
+    """The window each request becomes visible in: its accept time's, never after its due
+    window (accept <= delivery after reading, so the min only guards the clamping)."""
+    return np.minimum(_windows(accept_s, cfg.window_s, cfg.n_windows), due_w)
+
+
+def _in_service(
+    table: LadeTable, frame: Frame, on: np.ndarray, cfg: DataConfig
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``(start, due, x, y, inside, keep)`` per row: the service start (s) of its delivery
+    day, its delivery time from that start, its position in ``frame``, whether it is on
+    ``on`` and in the frame, and whether it is also due within service hours."""
+    start = table.delivery_day.astype(np.int64) * _DAY_S + cfg.service_start_s
+    due = (table.delivery_s - start).astype(np.float64)
+    x, y = frame.to_xy(table.lng, table.lat)
+    inside = on & frame.contains(x, y)
+    return start, due, x, y, inside, inside & (due >= 0) & (due < cfg.span_s)
+
+
 def prepare_day(
     table: LadeTable, frame: Frame, day: dt.date, cfg: DataConfig | None = None
 ) -> DayRequests:
@@ -108,11 +127,7 @@ def prepare_day(
     on_day = _on_days(table, [day])
     if not on_day.any():
         check_days_in_file(table, [day])  # raises, naming the days the file has
-    start = (np.datetime64(day, "D").astype(np.int64)) * _DAY_S + cfg.service_start_s
-    due = (table.delivery_s - start).astype(np.float64)
-    x, y = frame.to_xy(table.lng, table.lat)
-    inside = on_day & frame.contains(x, y)
-    mask = inside & (due >= 0) & (due < cfg.span_s)
+    start, due, x, y, inside, mask = _in_service(table, frame, on_day, cfg)
     if not mask.any():
         raise InputError(
             f"no requests on {day.isoformat()} inside the study area "
@@ -123,14 +138,13 @@ def prepare_day(
         )
     sub = table.subset(mask)
     due, x, y = due[mask], x[mask], y[mask]
-    accept = (sub.accept_s - start).astype(np.float64)
+    accept = (sub.accept_s - start[mask]).astype(np.float64)
     # Stable sorts, last key first: due time, then order id, then file order.
     order = np.argsort(sub.order_id, kind="stable")
     order = order[np.argsort(due[order], kind="stable")]
     weight = sub.weight_kg if sub.weight_kg is not None else parcel_weights(sub.order_id, cfg)
     due_w = _windows(due, cfg.window_s, cfg.n_windows)
-    # Accept <= delivery after reading, so this min only guards the clamping.
-    visible_w = np.minimum(_windows(accept, cfg.window_s, cfg.n_windows), due_w)
+    visible_w = _visible_windows(accept, due_w, cfg)
     return DayRequests(
         day=day,
         frame=frame,
@@ -159,16 +173,10 @@ def arrival_windows(
     all days at once: where and in which window each became visible (the window of its
     accept time, 0 when accepted before service start)."""
     cfg = cfg if cfg is not None else DataConfig()
-    days = list(days)
-    on = _on_days(table, days)
-    start = table.delivery_day.astype("datetime64[D]").astype(np.int64) * _DAY_S
-    start = start + cfg.service_start_s
-    due = (table.delivery_s - start).astype(np.float64)
-    x, y = frame.to_xy(table.lng, table.lat)
-    keep = on & frame.contains(x, y) & (due >= 0) & (due < cfg.span_s)
+    start, due, x, y, _, keep = _in_service(table, frame, _on_days(table, list(days)), cfg)
     due_w = _windows(due[keep], cfg.window_s, cfg.n_windows)
-    acc_w = _windows((table.accept_s - start).astype(np.float64)[keep], cfg.window_s, cfg.n_windows)
-    return x[keep], y[keep], np.minimum(acc_w, due_w)
+    accept = (table.accept_s[keep] - start[keep]).astype(np.float64)
+    return x[keep], y[keep], _visible_windows(accept, due_w, cfg)
 
 
 def prepare_days(
