@@ -55,11 +55,7 @@ class TrainData:
     """The scenarios a run trains on: depots from the training days, prepared days."""
 
     ctx: WorkerContext
-    train_dates: list[dt.date]  # of the first file (the sidecar lists every file's)
-    eval_dates: list[dt.date]
-    sha256: str  # of the first file
-    name: str
-    files: list[dict[str, Any]]  # per file: name, sha256, train_days, heldout_days
+    files: list[dict[str, Any]]  # per file: file (name), sha256, train_days, heldout_days
 
 
 def load_training_data(
@@ -108,24 +104,15 @@ def load_training_data(
                 "heldout_days": [d.isoformat() for d in ev_dates],
             }
         )
-    ctx = WorkerContext(scenarios, tcfg)
-    first = files[0]
-    return TrainData(
-        ctx,
-        [dt.date.fromisoformat(d) for d in first["train_days"]],
-        [dt.date.fromisoformat(d) for d in first["heldout_days"]],
-        first["sha256"],
-        first["file"],
-        files,
-    )
+    return TrainData(WorkerContext(scenarios, tcfg), files)
 
 
 def fingerprint(td: TrainData) -> dict[str, Any]:
     """What a checkpoint must share with the run that resumes it."""
     keep = td.ctx.tcfg.model_dump(exclude={"episodes", "workers", "eval_every", "checkpoint_every"})
     out: dict[str, Any] = {
-        "data_sha256": td.sha256,
-        "train_days": [d.isoformat() for d in td.train_dates],
+        "data_sha256": td.files[0]["sha256"],
+        "train_days": td.files[0]["train_days"],
         "planner": td.ctx.scenarios[0].cfg.model_dump(mode="json", exclude={"sim": {"policy"}}),
         "train": keep,
     }

@@ -269,10 +269,7 @@ class Trainer:
             "training_time_s": round(self.elapsed_s, 1),
             "marops": __version__,
             "data": {
-                "file": self.td.name,
-                "sha256": self.td.sha256,
-                "train_days": [d.isoformat() for d in self.td.train_dates],
-                "heldout_days": [d.isoformat() for d in self.td.eval_dates],
+                **self.td.files[0],  # file, sha256, train_days, heldout_days
                 "origin": data_origin,
             },
             "scenarios": [
