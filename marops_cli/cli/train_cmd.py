@@ -122,19 +122,20 @@ def _int_list(text: str | None, flag: str) -> list[int]:
     return out
 
 
-def _alpha_range(text: str | None) -> tuple[float, float] | None | str:
-    """``"0.1-0.9"`` or ``"0.1,0.9"`` -> (0.1, 0.9); ``"fixed"`` -> None; unset -> default."""
+def _alpha_range(text: str | None) -> dict[str, Any]:
+    """``TrainConfig`` fields of ``--alpha-range``: ``"0.1-0.9"`` or ``"0.1,0.9"`` ->
+    (0.1, 0.9); ``"fixed"`` -> None (the ``--alpha`` only); unset -> none (the default)."""
     if text is None:
-        return "default"
+        return {}
     if text.strip().lower() == "fixed":
-        return None
+        return {"alpha_range": None}
     parts = text.replace(",", "-").split("-")
     try:
         lo, hi = (float(x) for x in parts)
     except ValueError:
         msg = f"--alpha-range expects LOW-HIGH (e.g. 0.1-0.9) or fixed, got {text!r}"
         raise InputError(msg) from None
-    return lo, hi
+    return {"alpha_range": (lo, hi)}
 
 
 @guarded
@@ -198,12 +199,11 @@ def train(
         require_input(path)
     if out.suffix != ".pt":
         raise InputError("--out must name a .pt file (the sidecar goes beside it)", file=out)
+    outputs = [out, *(out.with_suffix(x) for x in (".json", ".ckpt", ".curve.png"))]
     for path in data:
-        refuse_overwriting_inputs(
-            [out, out.with_suffix(".json"), out.with_suffix(".ckpt")], data=path, config=config
-        )
+        refuse_overwriting_inputs(outputs, data=path, config=config)
     allow_replacing_foreign(force)
-    check_replaceable([out, out.with_suffix(".json"), out.with_suffix(".curve.png")])
+    check_replaceable(outputs)
     fleets, depot_counts = _int_list(drones, "--drones"), _int_list(n_depots, "--n-depots")
     cfg = make_config(
         config,
@@ -212,10 +212,6 @@ def train(
         sim__drones=fleets[0] if fleets else None,
         segment__n_depots=depot_counts[0] if depot_counts else None,
     )
-    extra: dict[str, Any] = {}
-    ar = _alpha_range(alpha_range)
-    if ar != "default":
-        extra["alpha_range"] = ar
     try:
         tcfg = TrainConfig(
             method=method,  # type: ignore[arg-type]
@@ -223,7 +219,7 @@ def train(
             seed=seed,
             workers=workers,
             eval_days_per_scenario=eval_days,
-            **extra,
+            **_alpha_range(alpha_range),
         )
     except ValidationError as exc:
         err = exc.errors()[0]
