@@ -220,7 +220,8 @@ class SequentialObserver:
     17. log1p drones in nb(d) after this window: those before u by their chosen
         destination, those after u (not yet decided) by their depot
 
-    and as global inputs α and the share of the day's expected arrivals still to come.
+    and as global inputs α and the share of the day's expected arrivals still to come
+    (with no profile: the share of the day's windows still to come).
 
     Version 4 also has one more block, last: the free landing (no destination; the
     drone lands at the depot nearest its last customer). Its features are those of

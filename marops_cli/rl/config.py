@@ -53,8 +53,8 @@ class TrainConfig(BaseModel):
     bc_coef: float = Field(
         1.0,
         ge=0,
-        description="weight of the imitation term: cross-entropy against the one-window "
-        "best response (myopic) on the visited states; marops only",
+        description="weight of the imitation term: cross-entropy against bc_teacher's "
+        "choice on the visited states; marops only",
     )
     bc_teacher: Literal["myopic", "free"] = Field(
         "free",

@@ -61,8 +61,9 @@ class Episode:
     mask: np.ndarray
     rewards: np.ndarray
     teacher: np.ndarray
-    """``(T, U)`` the one-window best response (``myopic``) on each observation (versions
-    3, 4), the target of the imitation term; -1 where there is none (version 2)."""
+    """``(T, U)`` the target of the imitation term on each observation
+    (``TrainConfig.bc_teacher``: the free landing, or the one-window best response);
+    -1 where there is none (version 2)."""
     energy_kj: float
     delay_h: float
 
