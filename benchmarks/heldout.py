@@ -36,6 +36,21 @@ SEEDS = {"hubs": 41, "river": 42, "corridor": 43, "polycentric": 44}
 KEYS = ("objective_j_mj", "avg_delay_h", "mean_energy_kj", "delivered_share")
 
 
+def held_out_cities(shapes: list[str], days: int, prefix: str) -> dict[str, Path]:
+    """One ``marops synth`` file per shape, seeds never used in training, in a new
+    temporary folder: ``{shape: path}``."""
+    from marops_cli.data.synth import SynthConfig, generate, write
+
+    tmp = Path(tempfile.mkdtemp(prefix=prefix))
+    return {
+        s: write(
+            generate(SynthConfig(days=days, seed=SEEDS[s], shape=s, start="2022-09-01")),
+            tmp / f"{s}.csv",
+        )
+        for s in shapes
+    }
+
+
 def _job(task: tuple[Any, ...]) -> list[dict[str, Any]]:
     """Replay every test day of one (city, areas, drones, α, method)."""
     os.environ["OMP_NUM_THREADS"] = "1"
@@ -222,16 +237,7 @@ def main() -> None:
     depots = [int(x) for x in args.depots.split(",")]
     drones = [int(x) for x in args.drones.split(",")]
     alphas = [float(x) for x in args.alphas.split(",")]
-    from marops_cli.data.synth import SynthConfig, generate, write
-
-    tmp = Path(tempfile.mkdtemp(prefix="marops-heldout-"))
-    files = {}
-    for s in shapes:
-        files[s] = tmp / f"{s}.csv"
-        write(
-            generate(SynthConfig(days=args.days, seed=SEEDS[s], shape=s, start="2022-09-01")),
-            files[s],
-        )
+    files = held_out_cities(shapes, args.days, "marops-heldout-")
     refs = [m for m in args.against.split(",") if m]
     methods = ("marops", *refs)
     tasks = []

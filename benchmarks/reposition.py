@@ -19,16 +19,13 @@ import argparse
 import multiprocessing as mp
 import os
 import sys
-import tempfile
 from pathlib import Path
 from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import numpy as np  # noqa: E402
-
-SEEDS = {"hubs": 41, "river": 42, "corridor": 43, "polycentric": 44}
-KEYS = ("objective_j_mj", "avg_delay_h", "mean_energy_kj", "delivered_share")
+from heldout import KEYS, SEEDS, held_out_cities  # noqa: E402  (the same held-out cities)
 
 
 def reposition_policy(idle: float) -> Any:
@@ -92,15 +89,9 @@ def main() -> None:
     )
     ap.add_argument("--workers", type=int, default=2)
     args = ap.parse_args()
-    from marops_cli.data.synth import SynthConfig, generate, write
     from marops_cli.evaluate.paired import bootstrap_ci
 
-    tmp = Path(tempfile.mkdtemp(prefix="marops-reposition-"))
-    files = {}
-    for s, seed in SEEDS.items():
-        files[s] = write(
-            generate(SynthConfig(days=14, seed=seed, shape=s, start="2022-09-01")), tmp / f"{s}.csv"
-        )
+    files = held_out_cities(list(SEEDS), 14, "marops-reposition-")
     fleets = [int(x) for x in args.drones.split(",")]
     tasks = [
         (str(files[s]), s, u, m, args.idle)
