@@ -108,16 +108,12 @@ class _Reporter:
             self.progress.stop()
 
 
-def _int_list(text: str | None, flag: str) -> list[int]:
-    """``"8,16"`` -> ``[8, 16]``; a clear error naming the flag otherwise."""
-    if text is None:
-        return []
-    try:
-        out = [int(x) for x in text.split(",") if x.strip()]
-    except ValueError:
-        msg = f"{flag} expects whole numbers separated by commas, got {text!r}"
-        raise InputError(msg) from None
-    if not out or min(out) < 1:
+def _sizes(text: str | None, flag: str) -> list[int]:
+    """``"8,16"`` -> ``[8, 16]`` (the sweep parser of ``evaluate``), each at least 1."""
+    from ..evaluate.settings import parse_values  # deferred: it loads the simulator
+
+    out = parse_values(text, int, flag) or []
+    if out and min(out) < 1:
         raise InputError(f"{flag} expects positive whole numbers, got {text!r}")
     return out
 
@@ -204,7 +200,7 @@ def train(
         refuse_overwriting_inputs(outputs, data=path, config=config)
     allow_replacing_foreign(force)
     check_replaceable(outputs)
-    fleets, depot_counts = _int_list(drones, "--drones"), _int_list(n_depots, "--n-depots")
+    fleets, depot_counts = _sizes(drones, "--drones"), _sizes(n_depots, "--n-depots")
     cfg = make_config(
         config,
         data__year=year,
