@@ -11,14 +11,14 @@ from pathlib import Path
 import pytest
 
 
-def _replay(example_csv: Path, cwd: Path, threads: int, method: str) -> dict[str, str]:
+def _marops(args: list[str], cwd: Path, threads: int) -> None:
+    """Run ``marops ARGS`` in ``cwd`` in a fresh process with ``threads`` OpenMP/BLAS threads."""
     env = dict(os.environ)
     for var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
         env[var] = str(threads)
     code = "from marops_cli.cli.app import main; main()"
-    args = ["replay-day", str(example_csv), "--date", "0811", "--method", method, "-q"]
     res = subprocess.run(
-        [sys.executable, "-c", code, *args, "--out", "out"],
+        [sys.executable, "-c", code, *args],
         cwd=cwd,
         env=env,
         capture_output=True,
@@ -26,6 +26,11 @@ def _replay(example_csv: Path, cwd: Path, threads: int, method: str) -> dict[str
         timeout=300,
     )
     assert res.returncode == 0, res.stderr
+
+
+def _replay(example_csv: Path, cwd: Path, threads: int, method: str) -> dict[str, str]:
+    args = ["replay-day", str(example_csv), "--date", "0811", "--method", method, "-q"]
+    _marops([*args, "--out", "out"], cwd, threads)
     return {
         name: hashlib.sha256((cwd / "out" / name).read_bytes()).hexdigest()
         for name in ("stops.parquet", "routes.parquet")
@@ -59,19 +64,8 @@ def test_every_method_and_evaluate_same_on_1_and_4_threads(example_csv: Path, tm
     rows = []
     for threads in (1, 4):
         cwd = _fresh(tmp_path / f"ev{threads}")
-        env = dict(os.environ, OMP_NUM_THREADS=str(threads), OPENBLAS_NUM_THREADS=str(threads))
         args = ["evaluate", str(example_csv), "--methods", "stay,greedy,marops", "--dates"]
-        args += ["0811", "--workers", "2", "--no-plot", "--out", "ev", "-q"]
-        code = "from marops_cli.cli.app import main; main()"
-        res = subprocess.run(
-            [sys.executable, "-c", code, *args],
-            cwd=cwd,
-            env=env,
-            capture_output=True,
-            text=True,
-            timeout=300,
-        )
-        assert res.returncode == 0, res.stderr
+        _marops([*args, "0811", "--workers", "2", "--no-plot", "--out", "ev", "-q"], cwd, threads)
         table = pq.read_table(cwd / "ev" / "results.parquet")
         keep = [c for c in table.column_names if c not in ("runtime_s", "solver_solve_s")]
         rows.append(table.select(keep).replace_schema_metadata(None))
