@@ -117,9 +117,9 @@ def _city(cfg: SynthConfig, rng: np.random.Generator) -> dict[str, np.ndarray]:
     xy = np.clip(np.vstack([dense_xy, sparse_xy]), -half, half)
     n = xy.shape[0]
     dense = np.arange(n) < cfg.n_dense_aois
-    morning = np.full(n, cfg.peak_shares[0] / max(sum(cfg.peak_shares), 1e-12))
+    shaped: dict[str, np.ndarray] = {}  # each AOI's morning share, for the shaped cities
     if cfg.shape != "hubs":  # its own random stream: the default city keeps its bytes
-        xy, morning = _shape(cfg, np.random.default_rng([cfg.seed, 1]), xy, dense, hub_of)
+        xy, shaped["morning"] = _shape(cfg, np.random.default_rng([cfg.seed, 1]), xy, dense, hub_of)
     # Small busy compounds downtown, larger quiet neighbourhoods elsewhere.
     r_lo, r_hi = (
         np.where(dense, np.log(80), np.log(200)),
@@ -147,7 +147,7 @@ def _city(cfg: SynthConfig, rng: np.random.Generator) -> dict[str, np.ndarray]:
     return {
         "xy": xy, "radius": radius, "weight": weight, "aoi_id": aoi_id, "aoi_type": aoi_type,
         "region_idx": region_idx, "region_id": region_id, "n_couriers": n_couriers,
-        "first_courier": first, "courier_ids": courier_ids, "morning": morning,
+        "first_courier": first, "courier_ids": courier_ids, **shaped,
     }  # fmt: skip
 
 
@@ -260,7 +260,7 @@ def generate(cfg: SynthConfig | None = None) -> pa.Table:
     ]
 
     midnight = (day0 + day).astype("datetime64[s]").astype(np.int64)
-    morning = None if cfg.shape == "hubs" else city["morning"][aoi]
+    morning = city["morning"][aoi] if "morning" in city else None  # None: peak_shares
     hours = _delivery_hours(cfg, rng, n, morning)
     delivery_s = midnight + np.round(hours * 3600).astype(np.int64)
     lo, hi = (h * 3600 for h in cfg.accept_lead_h)
