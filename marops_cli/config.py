@@ -182,14 +182,15 @@ class PlanConfig(_Stage):
         80, ge=1, le=500, description="pool planner: requests considered per drone"
     )
     pool_iterations: int = Field(
-        40, ge=0, le=100_000, description="pool planner: ruin-and-recreate steps per window"
+        100, ge=0, le=100_000, description="pool planner: ruin-and-recreate steps per window"
     )
     pool_urgency: float = Field(
-        1.0,
+        0.5,
         ge=0,
         le=48,
         description="pool planner: a request already due counts this many windows of delay "
-        "more when routes are built and selected (postponing it one window adds one; 0 = off)",
+        "more when routes are built (postponing it one window adds one; 0 = off); the "
+        "selection judges routes by the window objective alone",
     )
     pyvrp_iterations: int = Field(
         0,

@@ -10,11 +10,15 @@ docs/method.md, "Route pool", explains the method; in short, for one window:
    payload-aware energy (eq. (6): every leg before the new stop carries its parcel
    too): the (drone, request, position) with the best score is inserted, as long as
    payload and battery allow and the prize λ·v exceeds the extra energy. Scores:
-   ``gain`` (prize − extra energy) and ``density`` (gain per share of payload and
-   battery used). Each construction is a complete, conflict-free plan of the window.
-3. **Improvement.** Ruin and recreate (large neighbourhood search) from the best
-   construction: remove a few stops from one or two routes and re-insert greedily;
-   keep the result when G grows. Deterministic: the random stream is seeded.
+   ``weight`` (gain per kilogram), ``gain`` (prize − extra energy) and ``density``
+   (gain per share of payload and battery used). Each construction is a complete, conflict-free plan of the window.
+3. **Exchange.** In the best construction each route swaps a stop for the best
+   unserved candidate that fits once the stop is out, while its G grows.
+   **Improvement.** Ruin and recreate (large neighbourhood search), alternating a
+   ruin of one route (with a relocation to another drone) and a ruin of the served
+   stops nearest a random one over up to three routes; the touched routes are
+   refilled greedily; a result is kept when G grows or is within a falling
+   threshold of the current one. Deterministic: the random stream is seeded.
 4. **Pool.** Every route any of these solutions gave a drone is a column; the
    selection program then picks one per drone, each request at most once, so its
    result is never worse than the best single solution.
@@ -38,6 +42,7 @@ __all__ = ["DroneTask", "PoolResult", "RoutePool", "build_pool", "finish_route",
 
 _E_TOL_J = 1e-6  # margin under the usable battery for incremental energies
 SCORES = ("weight", "density", "gain")
+_ACCEPT = 0.01  # ruin and recreate accepts a solution up to this share of G worse, falling to 0
 _EXACT_MAX = 10  # exact re-ordering up to this many stops (2**10 subsets)
 
 
@@ -134,6 +139,7 @@ class RoutePool:
             for u, (t, sc) in enumerate(zip(tasks, scored, strict=True))
         ]
         self._can = np.zeros((len(tasks), self.w.size), dtype=bool)  # drone may serve request
+        self._index = [{int(q): j for j, q in enumerate(dr.cand)} for dr in self.drones]
         for u, dr in enumerate(self.drones):
             self._can[u, dr.cand] = True
 
@@ -200,63 +206,61 @@ class RoutePool:
             end_e[keep],
             start_end,
             energy=start_end,
+            score=np.full(keep.size, -np.inf),
+            slot=np.zeros(keep.size, dtype=np.int64),
+            d_e=np.zeros(keep.size),
         )
 
     # -- insertion -----------------------------------------------------------------------
 
-    def _insertion(self, dr: _Drone) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
-        """Least extra energy to insert each candidate into the route, and where."""
+    def _insertion(
+        self, dr: _Drone, sub: NDArray[np.int64]
+    ) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+        """Least extra energy to insert each candidate in ``sub`` into the route, and
+        where (slot i: after the i-th node, the start being node 0)."""
         k = len(dr.stops)
-        m = dr.cand.size
+        m = sub.size
         if m == 0:
             return np.zeros(0), np.zeros(0, dtype=np.int64)
-        nodes = np.array([m, *dr.stops])  # columns of dmat: the start, then the stops
-        wq = dr.cand_w
+        wq = dr.cand_w[sub]
+        if k == 0:  # start -> q with its parcel -> end empty
+            d_e = dr.dmat[sub, -1] * self._e(np.minimum(wq, self.cap))
+            return d_e + dr.cand_end[sub] - dr.start_end, np.zeros(m, dtype=np.int64)
+        stops = np.array(dr.stops)
+        nodes = np.empty(k + 1, dtype=np.int64)
+        nodes[0], nodes[1:] = dr.cand.size, stops
         load = np.zeros(k + 1)  # L_i leaving node i, i = 0..k
-        if k:
-            load[:k] = np.cumsum(wq[dr.stops][::-1])[::-1]
-        dq = dr.dmat[:, nodes]  # (m, k + 1): node i -> q
+        load[:k] = np.cumsum(dr.cand_w[stops][::-1])[::-1]
+        dq = dr.dmat[sub[:, None], nodes[None, :]]  # (m, k + 1): node i -> q
         e_l = self._e(load)
         e_lq = self._e(np.minimum(load[None, :] + wq[:, None], self.cap))  # (m, k + 1)
-        d_e = np.empty((m, k + 1))
-        if k:
-            legs = dr.dmat[dr.stops, nodes[:-1]]  # (k,): node i -> node i + 1
-            extra = legs[None, :] * (e_lq[:, :k] - e_l[None, :k])
-            prefix = np.concatenate([np.zeros((m, 1)), np.cumsum(extra, axis=1)], axis=1)
-            d_next = dq[:, 1:]  # q -> node i + 1, for slots i < k
-            d_e[:, :k] = (
-                prefix[:, :k]
-                + dq[:, :k] * e_lq[:, :k]
-                + d_next * e_l[None, :k]
-                - legs[None, :] * e_l[None, :k]
-            )
-            last_end = dr.cand_end[dr.stops[-1]]
-        else:
-            prefix = np.zeros((m, 1))
-            last_end = dr.start_end
-        d_e[:, k] = prefix[:, k] + dq[:, k] * e_lq[:, k] + dr.cand_end - last_end
+        legs = dr.dmat[stops, nodes[:-1]]  # (k,): node i -> node i + 1
+        # Inserting q after node i: the legs before it carry q's parcel too (prefix),
+        # node i -> q -> node i + 1 replaces node i -> node i + 1.
+        d_e = dq * e_lq
+        d_e[:, 1:] += np.cumsum((e_lq[:, :k] - e_l[None, :k]) * legs[None, :], axis=1)
+        d_e[:, :k] += dq[:, 1:] * e_l[None, :k] - (legs * e_l[:k])[None, :]
+        d_e[:, k] += dr.cand_end[sub] - dr.cand_end[stops[-1]]
         slot = d_e.argmin(axis=1)
         return d_e[np.arange(m), slot], slot
 
     def _refresh(self, u: int, score_kind: str, free: NDArray[np.bool_]) -> None:
         dr = self.drones[u]
-        d_e, slot = self._insertion(dr)
-        gain = self.prize[dr.cand] - d_e
-        feas = (
-            free[dr.cand]
-            & (dr.weight + dr.cand_w <= self.cap + 1e-9)
-            & (dr.energy + d_e <= self.usable)
-            & (gain > 0)
-        )
+        sub = np.flatnonzero(free[dr.cand] & (dr.weight + dr.cand_w <= self.cap + 1e-9))
+        d_e, slot = self._insertion(dr, sub)
+        gain = self.prize[dr.cand[sub]] - d_e
+        feas = (dr.energy + d_e <= self.usable) & (gain > 0)
         if score_kind == "density":
-            use = dr.cand_w / self.cap + np.maximum(d_e, 0.0) / self.usable
+            use = dr.cand_w[sub] / self.cap + np.maximum(d_e, 0.0) / self.usable
             score = gain / np.maximum(use, 1e-9)
         elif score_kind == "weight":
-            score = gain / np.maximum(dr.cand_w, 1e-9)
+            score = gain / np.maximum(dr.cand_w[sub], 1e-9)
         else:
             score = gain
-        dr.score = np.where(feas, score, -np.inf)
-        dr.slot, dr.d_e = slot, d_e
+        dr.score.fill(-np.inf)  # only the scores of ``sub`` are read, slots and energies too
+        dr.score[sub] = np.where(feas, score, -np.inf)
+        dr.slot[sub] = slot
+        dr.d_e[sub] = d_e
 
     def _insert(self, u: int, j: int) -> None:
         dr = self.drones[u]
@@ -284,13 +288,13 @@ class RoutePool:
             free[q] = False
             self._refresh(u, score_kind, free)
             best[i] = dr.score.max(initial=-np.inf)
-            for i2, u2 in enumerate(users):
-                d2 = self.drones[u2]
-                if u2 != u and d2.cand.size:
-                    hit = np.searchsorted(d2.cand, q)
-                    if hit < d2.cand.size and d2.cand[hit] == q and np.isfinite(d2.score[hit]):
+            for i2, u2 in enumerate(users):  # q is taken: no other drone may insert it
+                hit = self._index[u2].get(q, -1) if u2 != u else -1
+                if hit >= 0:
+                    d2 = self.drones[u2]
+                    if d2.score[hit] > -np.inf:
                         d2.score[hit] = -np.inf
-                        best[i2] = d2.score.max(initial=-np.inf)
+                        best[i2] = d2.score.max()
 
     # -- solutions -----------------------------------------------------------------------
 
@@ -332,14 +336,118 @@ class RoutePool:
             dr.cand_end[dr.stops[-1]]
         )
 
-    def _record(self, pool: list[dict[tuple[int, ...], float]]) -> None:
-        for u, dr in enumerate(self.drones):
+    def _record(
+        self, pool: list[dict[tuple[int, ...], float]], users: list[int] | None = None
+    ) -> None:
+        for u in range(len(self.drones)) if users is None else users:
+            dr = self.drones[u]
             key = tuple(int(dr.cand[j]) for j in dr.stops)
             if key and key not in pool[u]:
                 pool[u][key] = dr.energy
 
-    def build(self, iterations: int = 40, seed: int = 0) -> PoolResult:
-        """Constructions with every score, then ``iterations`` ruin-and-recreate steps."""
+    def _ruin_route(
+        self, busy: list[int], users: list[int], rng: np.random.Generator, free: NDArray[np.bool_]
+    ) -> list[int]:
+        """Remove one to three stops of one route; another drone that could serve what
+        was freed is refilled too (a relocation). Returns the drones to refill."""
+        u = busy[int(rng.integers(len(busy)))]
+        dr = self.drones[u]
+        n_drop = int(rng.integers(1, min(3, len(dr.stops)) + 1))
+        drop = sorted(rng.choice(len(dr.stops), n_drop, replace=False).tolist())
+        freed = dr.cand[[dr.stops[j] for j in drop]]
+        free[freed] = True
+        self._remove(u, drop)
+        touched = [u]
+        could: NDArray[np.bool_] = np.asarray(self._can[:, freed].any(axis=1))
+        could[u] = False
+        others = [v for v in users if could[v]] or [v for v in users if v != u]
+        if others:
+            touched.append(others[int(rng.integers(len(others)))])
+        return touched
+
+    def _ruin_near(
+        self, busy: list[int], rng: np.random.Generator, free: NDArray[np.bool_]
+    ) -> list[int]:
+        """Remove two to five served stops nearest a random served one, from at most
+        three routes, so that neighbouring routes can trade stops; a drone that could
+        serve what was freed is refilled too. Returns the drones to refill."""
+        owner: dict[int, tuple[int, int]] = {}  # request -> (drone, index in its route)
+        for u in busy:
+            dr = self.drones[u]
+            for i, j in enumerate(dr.stops):
+                owner[int(dr.cand[j])] = (u, i)
+        served = np.array(sorted(owner), dtype=np.int64)
+        centre = self.xy[served[int(rng.integers(served.size))]]
+        n_drop = int(rng.integers(2, 6))
+        drops: dict[int, list[int]] = {}
+        freed: list[int] = []
+        for q in served[np.argsort(np.hypot(*(self.xy[served] - centre).T), kind="stable")]:
+            u, i = owner[int(q)]
+            if u not in drops and len(drops) == 3:
+                continue
+            drops.setdefault(u, []).append(i)
+            freed.append(int(q))
+            if len(freed) == n_drop:
+                break
+        free[freed] = True
+        for u, idx in drops.items():
+            self._remove(u, sorted(idx))
+        touched = sorted(drops)
+        could: NDArray[np.bool_] = np.asarray(self._can[:, freed].any(axis=1))
+        others = [
+            v
+            for v in range(len(self.drones))
+            if could[v] and v not in drops and self.drones[v].cand.size
+        ]
+        if others:
+            touched.append(others[int(rng.integers(len(others)))])
+        return touched
+
+    def _exchange(self, users: list[int], free: NDArray[np.bool_], kind: str) -> None:
+        """Swap a served stop for an unserved candidate while a route's G grows
+        (then top the route up); every route met is recorded by the caller."""
+        for u in users:
+            dr = self.drones[u]
+            for _ in range(2 * len(dr.stops) + 2):
+                if not dr.stops:
+                    break
+                g0 = float(self.prize[dr.cand[dr.stops]].sum()) - dr.energy
+                stops, energy, weight = dr.stops, dr.energy, dr.weight
+                best_d, best = 1e-6, None
+                for pos in range(len(stops)):
+                    dr.stops = stops[:pos] + stops[pos + 1 :]
+                    e_wo = self._route_energy(dr)
+                    w_wo = weight - float(dr.cand_w[stops[pos]])
+                    sub = np.flatnonzero(free[dr.cand] & (w_wo + dr.cand_w <= self.cap + 1e-9))
+                    if not sub.size:
+                        continue
+                    d_e, slot = self._insertion(dr, sub)
+                    gain = self.prize[dr.cand[sub]] - d_e
+                    feas = e_wo + d_e <= self.usable
+                    if not feas.any():
+                        continue
+                    g_wo = float(self.prize[dr.cand[dr.stops]].sum()) - e_wo
+                    cand_g = np.where(feas, gain, -np.inf)
+                    j = int(cand_g.argmax())
+                    d = g_wo + float(cand_g[j]) - g0
+                    if d > best_d:
+                        best_d, best = d, (pos, int(sub[j]), int(slot[j]), e_wo + float(d_e[j]))
+                dr.stops, dr.energy, dr.weight = stops, energy, weight
+                if best is None:
+                    break
+                pos, j, at, e_new = best
+                old = dr.stops[pos]
+                new_stops = dr.stops[:pos] + dr.stops[pos + 1 :]
+                new_stops.insert(at, j)
+                dr.stops, dr.energy = new_stops, e_new
+                dr.weight = weight - float(dr.cand_w[old]) + float(dr.cand_w[j])
+                free[dr.cand[old]] = True
+                free[dr.cand[j]] = False
+                self._fill([u], kind, free)
+
+    def build(self, iterations: int = 100, seed: int = 0) -> PoolResult:
+        """Constructions with every score, exchanges in the best, then ``iterations``
+        ruin-and-recreate steps."""
         n_u = len(self.drones)
         pool: list[dict[tuple[int, ...], float]] = [{} for _ in range(n_u)]
         users = [u for u in range(n_u) if self.drones[u].cand.size]
@@ -351,32 +459,33 @@ class RoutePool:
             g = self._g()
             if g > best_g + 1e-9:
                 best_g, best_snap, best_kind = g, self._snapshot(), kind
+        if users:  # the best construction's routes, improved by exchanges
+            free = self._restore(best_snap)
+            self._exchange(users, free, best_kind)
+            self._record(pool)
+            g = self._g()
+            if g > best_g + 1e-9:
+                best_g, best_snap = g, self._snapshot()
+        # Ruin and recreate from the best so far; a worse result is accepted while it is
+        # within a threshold that falls to zero (it lets the search leave a local optimum).
         rng = np.random.default_rng(seed)
-        current = best_snap
+        current, cur_g = best_snap, best_g
         for it in range(iterations if users else 0):
             free = self._restore(current)
             busy = [u for u in users if self.drones[u].stops]
             if not busy:
                 break
-            u = busy[int(rng.integers(len(busy)))]
-            dr = self.drones[u]
-            n_drop = int(rng.integers(1, min(3, len(dr.stops)) + 1))
-            drop = sorted(rng.choice(len(dr.stops), n_drop, replace=False).tolist())
-            freed = dr.cand[[dr.stops[j] for j in drop]]
-            free[freed] = True
-            self._remove(u, drop)
-            # Another drone that could serve what was freed may take it (a relocation).
-            touched = [u]
-            could: NDArray[np.bool_] = np.asarray(self._can[:, freed].any(axis=1))
-            could[u] = False
-            others = [v for v in users if could[v]] or [v for v in users if v != u]
-            if others:
-                touched.append(others[int(rng.integers(len(others)))])
+            if it % 2:
+                touched = self._ruin_near(busy, rng, free)
+            else:
+                touched = self._ruin_route(busy, users, rng, free)
             self._fill(touched, SCORES[it % len(SCORES)] if it % 4 == 3 else best_kind, free)
-            self._record(pool)
+            self._record(pool, touched)
             g = self._g()
             if g > best_g + 1e-9:
-                best_g, current = g, self._snapshot()
+                best_g, current, cur_g = g, self._snapshot(), g
+            elif g > cur_g - _ACCEPT * abs(best_g) * (1 - it / iterations):
+                current, cur_g = self._snapshot(), g
         routes = [list(p.keys()) for p in pool]
         energy = [list(p.values()) for p in pool]
         return PoolResult(routes, energy, float(best_g))
@@ -391,7 +500,7 @@ def build_pool(
     model: EnergyModel,
     *,
     n_candidates: int = 80,
-    iterations: int = 40,
+    iterations: int = 100,
     seed: int = 0,
 ) -> PoolResult:
     """The route pool of one window (module docstring)."""

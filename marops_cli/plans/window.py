@@ -284,7 +284,8 @@ def _pool_plans(
     tasks = _pool_tasks(view, acts, cfg, scope)
     lam = lam_j(cfg.alpha, model.usable_j)
     prize = lam * (1.0 + view.pending_delay_h)
-    # Routes are built for the prize plus the urgency bonus (docs/method.md).
+    # Routes are built for the prize plus the urgency bonus; the selection judges them by
+    # the window objective alone (docs/method.md §4.4).
     due = view.pending_due_w <= view.t
     search = prize + lam * cfg.pool_urgency * view.window_h * due if cfg.pool_urgency else prize
     res = build_pool(
@@ -402,11 +403,8 @@ def plan_window(
         plan_ends = [np.full(ps.n_plans, ends[u]) for u, ps in enumerate(plan_sets)]
     t_plans = time.perf_counter() - t_start - t_cand
     t0 = time.perf_counter()
+    # The selection judges by the window objective itself (docs/method.md §4.4).
     delay = {int(i): float(view.pending_delay_h[i]) for ps in plan_sets for i in ps.request_ids}
-    if pool and cfg.pool_urgency:  # the urgency bonus (docs/method.md §4.4)
-        for i in delay:
-            if view.pending_due_w[i] <= view.t:
-                delay[i] += cfg.pool_urgency * view.window_h
     problem = SelectionProblem.from_plan_sets(
         plan_sets, delay, alpha=cfg.alpha, energy_ref_j=model.usable_j
     )
