@@ -73,7 +73,7 @@ def _job(task: tuple[Any, ...]) -> list[dict[str, Any]]:
         plan__alpha=alpha,
     )
     scn = load_scenario(path, cfg, replay_days=days, table=table)
-    fleet = load_fleet(None, scn.depots, drones)
+    fleet = load_fleet(None, scn.depots, drones, cfg)
     pol = method_policy(method, policy if METHODS[method][1] == "learned" else None, 0)
     rows = []
     for day in days:

@@ -41,7 +41,7 @@ def main() -> None:
             print(f"{method:>11}: skipped ({exc})")
             continue
         scn = load_scenario(args.data, mcfg, replay_days=days, table=base.table)
-        fleet = load_fleet(None, scn.depots, 8)
+        fleet = load_fleet(None, scn.depots, 8, mcfg)
         times = []
         for _ in range(args.repeats):
             for day in days:

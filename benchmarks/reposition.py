@@ -71,7 +71,7 @@ def _job(task: tuple[Any, ...]) -> list[dict[str, Any]]:
     table = read_lade(path, cfg.data)
     days = table.days()[4:]
     scn = load_scenario(path, cfg, replay_days=days, table=table)
-    fleet = load_fleet(None, scn.depots, drones)
+    fleet = load_fleet(None, scn.depots, drones, cfg)
     pol = reposition_policy(idle) if method == "reposition" else method_policy(method, None, 0)
     rows = []
     for d in days:

@@ -64,7 +64,7 @@ def run(args: argparse.Namespace) -> dict[str, dict[str, tuple[float, float]]]:
             plan__planner=args.planner,
         )
         scn = load_scenario(args.data, cfg, replay_days=days, table=table)
-        fleet = load_fleet(None, scn.depots, cfg.sim.drones)
+        fleet = load_fleet(None, scn.depots, cfg.sim.drones, cfg)
         pol = method_policy(m, args.policy if METHODS[m][1] == "learned" else None, cfg.sim.seed)
         t0 = time.perf_counter()
         for day in days:

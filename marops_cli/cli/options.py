@@ -35,6 +35,14 @@ Alpha = Annotated[
 Drones = Annotated[
     int | None, typer.Option("--drones", envvar="MAROPS_DRONES", help="Fleet size [8].")
 ]
+FleetFile = Annotated[
+    Path | None,
+    typer.Option(
+        "--fleet",
+        help="Fleet file (TOML or JSON): each drone's depot and type, or drones per type "
+        "(docs/outputs.md) [--drones drones of the [energy] type over the busiest depots].",
+    ),
+]
 Policy = Annotated[
     str | None,
     typer.Option(

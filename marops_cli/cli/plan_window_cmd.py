@@ -27,6 +27,8 @@ from .common import (
 from .common import out as out_console
 
 if TYPE_CHECKING:
+    from collections.abc import Sequence
+
     from ..energy import EnergyModel
 
 
@@ -42,10 +44,7 @@ def plan_window(
             "--out", help="Output folder: stops.parquet and routes.parquet (or .json files)."
         ),
     ],
-    fleet: Annotated[
-        Path | None,
-        typer.Option("--fleet", help="JSON list of each drone's depot [spread over busiest]."),
-    ] = None,
+    fleet: o.FleetFile = None,
     drones: o.Drones = None,
     delivered: Annotated[
         Path | None,
@@ -128,12 +127,21 @@ def plan_window(
     # comes after the plan): an error is the only line a failed run prints.
     done = delivered_orders(delivered) if delivered is not None else None
     scn = load_scenario(data, cfg, depots_path=depots, replay_days=[day])
-    fleet_arr = load_fleet(fleet, scn.depots, cfg.sim.drones)
-    plan, reqs = plan_one_window(scn, day, window, fleet_arr, pol, done)
+    drones_ = load_fleet(fleet, scn.depots, cfg.sim.drones, cfg)
+    plan, reqs = plan_one_window(scn, day, window, drones_, pol, done)
     print_drop_report(scn.table.report, data.name)
     print_day_scope(reqs, cfg)
     model = EnergyModel(cfg.energy)
-    stops, routes = build_tables(reqs, scn.depots, [plan], model, method, cfg.data.tz)
+    stops, routes = build_tables(
+        reqs,
+        scn.depots,
+        [plan],
+        model,
+        method,
+        cfg.data.tz,
+        drone_models=drones_.models(),
+        drone_types=drones_.type_names(),
+    )
     meta = run_meta(
         command="plan-window",
         config=cfg,
@@ -156,12 +164,13 @@ def plan_window(
                 "size_km": scn.frame.size_km,
             },
             "depots_file": {"name": depots.name, "sha256": file_sha256(depots)},
+            "fleet": drones_.describe(cfg.energy),
         },
         stamp=False,
     )
     with folder_lock(out), output_set() as files:
         written = write_route_files(files, out, stops, routes, meta, fmt, geojson)
-    _summary(plan, model, reqs.window_start(window).strftime("%Y-%m-%d %H:%M"))
+    _summary(plan, drones_.models(), reqs.window_start(window).strftime("%Y-%m-%d %H:%M"))
     info("wrote " + ", ".join(str(p) for p in written))
     if STATE["json"]:
         emit_json(
@@ -189,7 +198,7 @@ def plan_window(
         )
 
 
-def _summary(plan, model: EnergyModel, when: str) -> None:  # type: ignore[no-untyped-def]
+def _summary(plan, models: Sequence[EnergyModel], when: str) -> None:  # type: ignore[no-untyped-def]
     t = table(
         f"window {plan.t} ({when}): {plan.n_candidates} candidate requests, "
         f"solver {plan.selection.status}"
@@ -204,7 +213,7 @@ def _summary(plan, model: EnergyModel, when: str) -> None:  # type: ignore[no-un
             str(len(r.stops)),
             f"{r.distance_m / 1000:.2f}",
             f"{r.energy_j / 1000:.1f}",
-            f"{100 * r.energy_j / model.cfg.battery_j:.1f}",
+            f"{100 * r.energy_j / models[r.drone].cfg.battery_j:.1f}",
         )
     show_table(t)
     if plan.score is not None and not (STATE["json"] or STATE["silent"]):  # docs/method.md §4.2

@@ -73,6 +73,7 @@ def replay_day(
         typer.Option("--segment", help="kmeans or squares when segmenting here [the method's]."),
     ] = None,
     drones: o.Drones = None,
+    fleet: o.FleetFile = None,
     method: Annotated[
         str,
         typer.Option(
@@ -137,15 +138,19 @@ def replay_day(
     names = (f"stops.{fmt}", f"routes.{fmt}", "metrics.json", "routes.png", "routes.geojson")
     folders = [out] if date else [out, *(out / d.isoformat() for d in days)]
     refuse_overwriting_inputs(
-        [f / n for f in folders for n in names], data=data, depots=depots, config=config
+        [f / n for f in folders for n in names],
+        data=data,
+        depots=depots,
+        config=config,
+        fleet=fleet,
     )
     pol = method_policy(method, cfg.sim.policy, cfg.sim.seed)  # a bad actor file stops here
     scn = load_scenario(data, cfg, depots_path=depots, replay_days=days)
     for day in days:  # every day has requests to plan, before anything is said or written
         prepare_day(scn.table, scn.frame, day, cfg.data)
     print_drop_report(scn.table.report, data.name)
-    fleet = load_fleet(None, scn.depots, cfg.sim.drones)
-    identity = _identity(scn, cfg, method, pol.identity, depots, fmt)
+    drones_ = load_fleet(fleet, scn.depots, cfg.sim.drones, cfg)
+    identity = _identity(scn, cfg, method, pol.identity, depots, fmt, drones_.describe(cfg.energy))
     # A day folder that is complete is kept only if it was made with these settings;
     # every day is checked before anything is replayed or written.
     keep: dict[dt.date, list[dict[str, Any]]] = {}
@@ -165,7 +170,7 @@ def replay_day(
                 all_metrics.extend(keep[day])
                 continue
             metrics = _replay_one(
-                scn, day, fleet, pol, method, folder, (fmt, plot, geojson), identity
+                scn, day, drones_, pol, method, folder, (fmt, plot, geojson), identity
             )
             all_metrics.append(metrics)
         if dates:
@@ -216,10 +221,16 @@ def aggregate_days(days: list[dict[str, Any]]) -> dict[str, Any]:
 
 
 def _identity(
-    scn: Scenario, cfg: Any, method: str, policy_id: Any, depots: Path | None, fmt: str
+    scn: Scenario,
+    cfg: Any,
+    method: str,
+    policy_id: Any,
+    depots: Path | None,
+    fmt: str,
+    fleet: dict[str, Any] | None = None,
 ) -> dict[str, Any]:
-    """What makes a replayed day what it is: version, config, input, depots, policy,
-    method, seed and format. Recorded in every day's metrics.json under ``settings``."""
+    """What makes a replayed day what it is: version, config, input, depots, fleet,
+    policy, method, seed and format. Recorded in every day's metrics.json under ``settings``."""
     meta = run_meta(
         command="replay-day",
         config=cfg,
@@ -236,6 +247,8 @@ def _identity(
     }
     if depots is not None:
         meta["depots_file"] = {"name": depots.name, "sha256": file_sha256(depots)}
+    if fleet is not None:  # the resolved fleet: where each drone starts, its type
+        meta["fleet"] = fleet
     meta["format"] = fmt
     meta.pop("command", None)
     return meta
@@ -323,9 +336,18 @@ def _replay_one(
 
         res, reqs, metrics = replay(scn, day, fleet, pol, method, on_window=log)
     print_day_scope(reqs, cfg)
-    warn_undelivered(metrics, cfg.sim.drones)
+    warn_undelivered(metrics, len(fleet))
     model = EnergyModel(cfg.energy)
-    stops, routes = build_tables(reqs, scn.depots, res.plans, model, method, cfg.data.tz)
+    stops, routes = build_tables(
+        reqs,
+        scn.depots,
+        res.plans,
+        model,
+        method,
+        cfg.data.tz,
+        drone_models=fleet.models(),
+        drone_types=fleet.type_names(),
+    )
     # The route files' metadata: the run's identity (less the file format) and the day.
     meta = {k: v for k, v in identity.items() if k != "format"}
     meta.update(command="replay-day", day=day.isoformat())

@@ -197,7 +197,7 @@ def run_job(job: Job) -> dict[str, Any]:
     key = (job.method, job.seed)
     if key not in _CTX["policies"]:
         _CTX["policies"][key] = method_policy(job.method, prep.actors, job.seed)
-    fleet = load_fleet(None, base.depots, setting.drones)
+    fleet = load_fleet(None, base.depots, setting.drones, cfg)
     _, _, metrics = replay(scn, job.day, fleet, _CTX["policies"][key], job.method)
     return metrics
 

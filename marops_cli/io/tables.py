@@ -58,6 +58,7 @@ def routes_schema(tz: str = DEFAULT_TZ) -> pa.Schema:
             ("window", pa.int32()),
             ("window_start", pa.timestamp("s", tz=tz)),
             ("drone", pa.int32()),
+            ("drone_type", pa.string()),
             ("start_depot", pa.int32()),
             ("end_depot", pa.int32()),
             ("n_parcels", pa.int32()),
@@ -82,8 +83,14 @@ def build_tables(
     model: EnergyModel,
     method: str,
     tz: str = DEFAULT_TZ,
+    drone_models: Sequence[EnergyModel] | None = None,
+    drone_types: Sequence[str] | None = None,
 ) -> tuple[pa.Table, pa.Table]:
-    """(stops, routes) for the given windows of one day; times are local to ``tz``."""
+    """(stops, routes) for the given windows of one day; times are local to ``tz``.
+
+    ``drone_models`` and ``drone_types`` give each drone's type (speed and battery,
+    and its name); None: every drone is ``model``'s, the type ``default``.
+    """
     s_schema, r_schema = stops_schema(tz), routes_schema(tz)
     stops: dict[str, list[Any]] = {f.name: [] for f in s_schema}
     routes: dict[str, list[Any]] = {f.name: [] for f in r_schema}
@@ -98,7 +105,8 @@ def build_tables(
             nodes.append(("end", r.end, None))
             leg_m = np.concatenate([[0.0], r.legs_m])
             leg_j = np.concatenate([[0.0], r.legs_j])
-            arrive = np.cumsum(leg_m) / model.speed_ms
+            own = model if drone_models is None else drone_models[r.drone]
+            arrive = np.cumsum(leg_m) / own.speed_ms
             w = day.weight_kg[list(r.stops)] if n else np.zeros(0)
             # Parcels on board when leaving each node (eq. 6): all at the start, none at the end.
             on_board = np.concatenate([np.cumsum(w[::-1])[::-1], [0.0]]) if n else np.zeros(1)
@@ -140,13 +148,14 @@ def build_tables(
             routes["window"].append(plan.t)
             routes["window_start"].append(ws)
             routes["drone"].append(r.drone)
+            routes["drone_type"].append("default" if drone_types is None else drone_types[r.drone])
             routes["start_depot"].append(r.start)
             routes["end_depot"].append(r.end)
             routes["n_parcels"].append(n)
             routes["payload_kg"].append(r.payload_kg)
             routes["distance_m"].append(r.distance_m)
             routes["energy_j"].append(r.energy_j)
-            routes["battery_frac"].append(r.energy_j / model.cfg.battery_j)
+            routes["battery_frac"].append(r.energy_j / own.cfg.battery_j)
             routes["action"].append(r.action)
             routes["method"].append(method)
     return (

@@ -11,7 +11,8 @@ docs/method.md, "Route pool", explains the method; in short, for one window:
    too): the (drone, request, position) with the best score is inserted, as long as
    payload and battery allow and the prize λ·v exceeds the extra energy. Scores:
    ``weight`` (gain per kilogram), ``gain`` (prize − extra energy) and ``density``
-   (gain per share of payload and battery used). Each construction is a complete, conflict-free plan of the window.
+   (gain per share of payload and battery used). Each construction is a complete,
+   conflict-free plan of the window.
 3. **Exchange.** In the best construction each route swaps a stop for the best
    unserved candidate that fits once the stop is out, while its G grows.
    **Improvement.** Ruin and recreate (large neighbourhood search), alternating a
@@ -68,12 +69,40 @@ class DroneTask:
     """Fixed end depot id, or -1: land at the depot nearest the last customer."""
     allowed: NDArray[np.int64]
     """Positions (in the window's pending arrays) of the requests it may serve."""
+    model: EnergyModel | None = None
+    """The drone's own energy model (its type: payload, battery, speed); None: the pool's."""
+
+
+@dataclass(frozen=True)
+class _Kind:
+    """What the search needs of a drone type: payload, usable battery, energy per metre."""
+
+    cap: float
+    usable: float
+    e0: float  # J/m empty
+    grid: NDArray[np.float64]
+    table: NDArray[np.float64]
+
+    @classmethod
+    def of(cls, model: EnergyModel) -> _Kind:
+        return cls(
+            model.max_payload_kg,
+            model.usable_j - _E_TOL_J,
+            float(model.energy_per_m(0.0)),
+            model.grid_kg,
+            model.table_j_per_m,
+        )
+
+    def e(self, load: NDArray[np.float64] | float) -> NDArray[np.float64]:
+        """Energy per metre with ``load`` kg on board (the model's own table, unchecked)."""
+        return np.asarray(np.interp(load, self.grid, self.table))
 
 
 @dataclass
 class _Drone:
     """A drone's candidates and its route under construction."""
 
+    k: _Kind
     start_xy: NDArray[np.float64]
     cand: NDArray[np.int64]  # positions
     cand_xy: NDArray[np.float64]
@@ -113,17 +142,17 @@ class RoutePool:
         model: EnergyModel,
         n_candidates: int = 80,
     ) -> None:
-        self.model = model
-        self.grid, self.table = model.grid_kg, model.table_j_per_m
-        self.cap, self.usable = model.max_payload_kg, model.usable_j - _E_TOL_J
-        self.e0 = float(model.energy_per_m(0.0))
+        kinds: dict[int, _Kind] = {}  # one per energy model (drone type)
+        self.kinds = [
+            kinds.setdefault(id(m), _Kind.of(m)) for m in (t.model or model for t in tasks)
+        ]
         self.w = np.asarray(req_weight, dtype=np.float64)
         self.prize = np.asarray(prize, dtype=np.float64)
         self.xy = np.asarray(req_xy, dtype=np.float64)
         self.depots_xy = np.asarray(depots_xy, dtype=np.float64)
         self.tasks = tasks
-        self._near_end: NDArray[np.float64] | None = None
-        scored = [self._score_alone(t) for t in tasks]
+        self._near_m: NDArray[np.float64] | None = None
+        scored = [self._score_alone(t, k) for t, k in zip(tasks, self.kinds, strict=True)]
         # Each request's "home" drone: the one it suits best (highest value density; ties
         # to the lower drone). A drone keeps its ``n_candidates`` best requests and also
         # the requests it is home to (up to as many again), so every request some drone
@@ -135,7 +164,7 @@ class RoutePool:
             best[pos[better]] = density[better]
             home[pos[better]] = u
         self.drones = [
-            self._drone(t, sc, home, u, n_candidates)
+            self._drone(t, self.kinds[u], sc, home, u, n_candidates)
             for u, (t, sc) in enumerate(zip(tasks, scored, strict=True))
         ]
         self._can = np.zeros((len(tasks), self.w.size), dtype=bool)  # drone may serve request
@@ -143,42 +172,39 @@ class RoutePool:
         for u, dr in enumerate(self.drones):
             self._can[u, dr.cand] = True
 
-    def _e(self, load: NDArray[np.float64] | float) -> NDArray[np.float64]:
-        """Energy per metre with ``load`` kg on board (the model's own table, unchecked)."""
-        return np.asarray(np.interp(load, self.grid, self.table))
-
-    def _end_energy(self, xy: NDArray[np.float64], end: int) -> NDArray[np.float64]:
-        """Energy of the empty last leg from each point to the drone's end."""
+    def _end_m(self, xy: NDArray[np.float64], end: int) -> NDArray[np.float64]:
+        """Length of the last leg from each point to the drone's end."""
         if end >= 0:
-            return np.hypot(*(xy - self.depots_xy[end]).T) * self.e0
-        return nearest_depot_m(xy, self.depots_xy) * self.e0
+            return np.hypot(*(xy - self.depots_xy[end]).T)
+        return nearest_depot_m(xy, self.depots_xy)
 
     def _score_alone(
-        self, task: DroneTask
+        self, task: DroneTask, k: _Kind
     ) -> tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.float64]]:
         """The requests a drone can serve alone at a profit: positions, density, last leg."""
         s_xy = self.depots_xy[task.start]
         pos = np.asarray(task.allowed, dtype=np.int64)
         xy = self.xy[pos]
         if task.end >= 0:
-            end_e = self._end_energy(xy, task.end)
+            end_e = self._end_m(xy, task.end) * k.e0
         else:
-            if self._near_end is None:  # once for every drone that lands freely
-                self._near_end = self._end_energy(self.xy, -1)
-            end_e = self._near_end[pos]
-        start_end = float(self._end_energy(s_xy[None, :], task.end)[0])
+            if self._near_m is None:  # once for every drone that lands freely
+                self._near_m = self._end_m(self.xy, -1)
+            end_e = self._near_m[pos] * k.e0
+        start_end = float(self._end_m(s_xy[None, :], task.end)[0] * k.e0)
         w = self.w[pos]
         # Alone: start -> request with its parcel -> end empty.
-        alone = np.hypot(*(xy - s_xy).T) * self._e(np.minimum(w, self.cap)) + end_e
+        alone = np.hypot(*(xy - s_xy).T) * k.e(np.minimum(w, k.cap)) + end_e
         gain = self.prize[pos] - (alone - start_end)
-        use = w / self.cap + np.maximum(alone - start_end, 0.0) / self.usable
+        use = w / k.cap + np.maximum(alone - start_end, 0.0) / k.usable
         density = gain / np.maximum(use, 1e-9)
-        keep = np.flatnonzero((w <= self.cap + 1e-9) & (alone <= self.usable) & (gain > 0))
+        keep = np.flatnonzero((w <= k.cap + 1e-9) & (alone <= k.usable) & (gain > 0))
         return pos[keep], density[keep], end_e[keep]
 
     def _drone(
         self,
         task: DroneTask,
+        k: _Kind,
         scored: tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.float64]],
         home: NDArray[np.int64],
         u: int,
@@ -186,7 +212,7 @@ class RoutePool:
     ) -> _Drone:
         s_xy = self.depots_xy[task.start]
         pos, density, end_e = scored
-        start_end = float(self._end_energy(s_xy[None, :], task.end)[0])
+        start_end = float(self._end_m(s_xy[None, :], task.end)[0] * k.e0)
         # Best density first; ties to the lower position, so array order never matters.
         rank = np.lexsort((pos, -density))
         top = rank[:n_candidates]
@@ -198,6 +224,7 @@ class RoutePool:
         nodes = np.vstack([cxy, s_xy[None, :]])
         dmat = np.hypot(cxy[:, None, 0] - nodes[None, :, 0], cxy[:, None, 1] - nodes[None, :, 1])
         return _Drone(
+            k,
             s_xy,
             pos[keep],
             cxy,
@@ -224,7 +251,7 @@ class RoutePool:
             return np.zeros(0), np.zeros(0, dtype=np.int64)
         wq = dr.cand_w[sub]
         if k == 0:  # start -> q with its parcel -> end empty
-            d_e = dr.dmat[sub, -1] * self._e(np.minimum(wq, self.cap))
+            d_e = dr.dmat[sub, -1] * dr.k.e(np.minimum(wq, dr.k.cap))
             return d_e + dr.cand_end[sub] - dr.start_end, np.zeros(m, dtype=np.int64)
         stops = np.array(dr.stops)
         nodes = np.empty(k + 1, dtype=np.int64)
@@ -232,8 +259,8 @@ class RoutePool:
         load = np.zeros(k + 1)  # L_i leaving node i, i = 0..k
         load[:k] = np.cumsum(dr.cand_w[stops][::-1])[::-1]
         dq = dr.dmat[sub[:, None], nodes[None, :]]  # (m, k + 1): node i -> q
-        e_l = self._e(load)
-        e_lq = self._e(np.minimum(load[None, :] + wq[:, None], self.cap))  # (m, k + 1)
+        e_l = dr.k.e(load)
+        e_lq = dr.k.e(np.minimum(load[None, :] + wq[:, None], dr.k.cap))  # (m, k + 1)
         legs = dr.dmat[stops, nodes[:-1]]  # (k,): node i -> node i + 1
         # Inserting q after node i: the legs before it carry q's parcel too (prefix),
         # node i -> q -> node i + 1 replaces node i -> node i + 1.
@@ -246,12 +273,12 @@ class RoutePool:
 
     def _refresh(self, u: int, score_kind: str, free: NDArray[np.bool_]) -> None:
         dr = self.drones[u]
-        sub = np.flatnonzero(free[dr.cand] & (dr.weight + dr.cand_w <= self.cap + 1e-9))
+        sub = np.flatnonzero(free[dr.cand] & (dr.weight + dr.cand_w <= dr.k.cap + 1e-9))
         d_e, slot = self._insertion(dr, sub)
         gain = self.prize[dr.cand[sub]] - d_e
-        feas = (dr.energy + d_e <= self.usable) & (gain > 0)
+        feas = (dr.energy + d_e <= dr.k.usable) & (gain > 0)
         if score_kind == "density":
-            use = dr.cand_w[sub] / self.cap + np.maximum(d_e, 0.0) / self.usable
+            use = dr.cand_w[sub] / dr.k.cap + np.maximum(d_e, 0.0) / dr.k.usable
             score = gain / np.maximum(use, 1e-9)
         elif score_kind == "weight":
             score = gain / np.maximum(dr.cand_w[sub], 1e-9)
@@ -332,7 +359,7 @@ class RoutePool:
         ws = self.w[dr.cand[dr.stops]]
         load = np.cumsum(ws[::-1])[::-1]
         legs = np.hypot(*np.diff(pts, axis=0).T)
-        return float((legs * self._e(np.minimum(load, self.cap))).sum()) + float(
+        return float((legs * dr.k.e(np.minimum(load, dr.k.cap))).sum()) + float(
             dr.cand_end[dr.stops[-1]]
         )
 
@@ -418,12 +445,12 @@ class RoutePool:
                     dr.stops = stops[:pos] + stops[pos + 1 :]
                     e_wo = self._route_energy(dr)
                     w_wo = weight - float(dr.cand_w[stops[pos]])
-                    sub = np.flatnonzero(free[dr.cand] & (w_wo + dr.cand_w <= self.cap + 1e-9))
+                    sub = np.flatnonzero(free[dr.cand] & (w_wo + dr.cand_w <= dr.k.cap + 1e-9))
                     if not sub.size:
                         continue
                     d_e, slot = self._insertion(dr, sub)
                     gain = self.prize[dr.cand[sub]] - d_e
-                    feas = e_wo + d_e <= self.usable
+                    feas = e_wo + d_e <= dr.k.usable
                     if not feas.any():
                         continue
                     g_wo = float(self.prize[dr.cand[dr.stops]].sum()) - e_wo

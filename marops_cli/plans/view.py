@@ -10,6 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..energy import EnergyModel
 from ..segment.depots import Depots
 from .ranges import Ties
 
@@ -44,6 +45,9 @@ class WindowView:
     pending_weight: np.ndarray  # (P,)
     ties: Ties = "nearest"  # candidate order among equally delayed requests (PlanConfig.ties)
     pending_visible_w: np.ndarray | None = None  # (P,) window each became visible; None: unknown
+    drone_models: tuple[EnergyModel, ...] | None = None
+    """(U,) each drone's energy model, its type's (docs/method.md §5.1); None: one type,
+    the planner's model."""
 
     @property
     def n_drones(self) -> int:

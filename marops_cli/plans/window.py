@@ -84,7 +84,18 @@ def range_candidates(
     )
 
 
-def _reachable_actions(view: WindowView, actions: np.ndarray, model: EnergyModel) -> np.ndarray:
+def drone_models(view: WindowView, model: EnergyModel) -> list[EnergyModel]:
+    """Each drone's energy model: its type's (a mixed fleet), else ``model`` for all."""
+    if view.drone_models is None:
+        return [model] * view.n_drones
+    if len(view.drone_models) != view.n_drones:
+        raise RunError(f"{len(view.drone_models)} drone models for {view.n_drones} drones")
+    return list(view.drone_models)
+
+
+def _reachable_actions(
+    view: WindowView, actions: np.ndarray, models: list[EnergyModel]
+) -> np.ndarray:
     """Actions whose destination the empty drone cannot reach become 0 (stay); FREE stays
     FREE (an idle free drone stays where it is)."""
     dep = view.depots
@@ -95,7 +106,7 @@ def _reachable_actions(view: WindowView, actions: np.ndarray, model: EnergyModel
         d = int(dep.candidates[int(s), acts[u]])
         flight = float(np.hypot(*(dep.xy[d] - dep.xy[int(s)])))
         # The same test build_plans applies to the empty plan, so it never raises.
-        if float(model.leg_energy_j(flight, 0.0)) > model.usable_j:
+        if float(models[u].leg_energy_j(flight, 0.0)) > models[u].usable_j:
             acts[u] = 0
     return acts
 
@@ -146,10 +157,10 @@ def draft(prefs: list[np.ndarray], n_items: int, m_hat: int) -> list[np.ndarray]
 
 
 def _range_plans(
-    view: WindowView, actions: np.ndarray, model: EnergyModel, cfg: PlanConfig
+    view: WindowView, actions: np.ndarray, models: list[EnergyModel], cfg: PlanConfig
 ) -> tuple[list[PlanSet], np.ndarray, np.ndarray, float]:
     dep = view.depots
-    acts = _reachable_actions(view, actions, model)
+    acts = _reachable_actions(view, actions, models)
     t0 = time.perf_counter()
     rank = np.lexsort((view.pending_due_s, -view.pending_delay_h))
     rank_area = view.pending_area[rank]
@@ -167,18 +178,18 @@ def _range_plans(
     t_cand = time.perf_counter() - t0
     plan_sets: list[PlanSet] = []
     ends = np.zeros(view.n_drones, dtype=np.int64)
-    done: dict[tuple[int, int, bytes], PlanSet] = {}  # identical inputs, identical plans
+    done: dict[tuple[int, int, bytes, int], PlanSet] = {}  # identical inputs, identical plans
     for u, s0 in enumerate(view.drone_depot):
         s, cand = int(s0), cands[u]
         dest = int(dep.candidates[s, acts[u]])
-        key = (s, dest, cand.tobytes())
+        key = (s, dest, cand.tobytes(), id(models[u]))
         if key not in done:
             done[key] = build_plans(
                 dep.xy[s],
                 dep.xy[dest],
                 view.pending_xy[cand],
                 view.pending_weight[cand],
-                model,
+                models[u],
                 cfg,
                 request_ids=cand,
             )
@@ -188,7 +199,7 @@ def _range_plans(
 
 
 def _global_plans(
-    view: WindowView, model: EnergyModel, cfg: PlanConfig
+    view: WindowView, models: list[EnergyModel], cfg: PlanConfig
 ) -> tuple[list[PlanSet], list[np.ndarray], float]:
     """OPS-global candidates; returns each drone's plan sets and each plan's end depot."""
     dep = view.depots
@@ -204,7 +215,6 @@ def _global_plans(
     d_pool = np.hypot(pxy[:, None, 0] - dep.xy[None, :, 0], pxy[:, None, 1] - dep.xy[None, :, 1])
     near = np.argmin(d_pool, axis=1)
     d_near = d_pool[np.arange(pool.size), near]
-    e0 = float(model.energy_per_m(0.0))
     # Each drone's pool positions, nearest its depot first (ties to the lower index).
     nearest = {int(s): np.lexsort((pool, d_pool[:, int(s)])) for s in set(view.drone_depot)}
     drafted = None
@@ -212,11 +222,12 @@ def _global_plans(
         drafted = draft([nearest[int(s)] for s in view.drone_depot], pool.size, cfg.max_parcels)
     t_cand = time.perf_counter() - t0
     plan_sets, plan_ends = [], []
-    done: dict[tuple[int, bytes], tuple[PlanSet, np.ndarray]] = {}  # same inputs, same plans
+    done: dict[tuple[int, bytes, int], tuple[PlanSet, np.ndarray]] = {}  # same in, same out
     for u, s0 in enumerate(view.drone_depot):
-        s = int(s0)
+        s, model = int(s0), models[u]
+        e0 = float(model.energy_per_m(0.0))
         sel = nearest[s][: cfg.max_parcels] if drafted is None else drafted[u]
-        key = (s, sel.tobytes())
+        key = (s, sel.tobytes(), id(model))
         if key in done:
             plan_sets.append(done[key][0])
             plan_ends.append(done[key][1])
@@ -252,15 +263,22 @@ def _global_plans(
     return plan_sets, plan_ends, t_cand
 
 
-def _pool_tasks(view: WindowView, acts: np.ndarray, cfg: PlanConfig, scope: str) -> list[DroneTask]:
+def _pool_tasks(
+    view: WindowView,
+    acts: np.ndarray,
+    cfg: PlanConfig,
+    scope: str,
+    models: list[EnergyModel] | None = None,
+) -> list[DroneTask]:
     """Each drone's start, end (-1: nearest depot to its last customer) and allowed requests."""
     dep = view.depots
     everything = np.arange(view.pending_idx.size, dtype=np.int64)
     tasks = []
     for u, s0 in enumerate(view.drone_depot):
         s = int(s0)
+        m = None if models is None else models[u]
         if scope == "global":
-            tasks.append(DroneTask(s, -1, everything))
+            tasks.append(DroneTask(s, -1, everything, m))
             continue
         a = int(acts[u])
         free = a == FREE
@@ -271,17 +289,23 @@ def _pool_tasks(view: WindowView, acts: np.ndarray, cfg: PlanConfig, scope: str)
         else:  # the battery alone bounds what the drone can serve on its way
             allowed = everything
         fixed = cfg.landing == "destination" and not free
-        tasks.append(DroneTask(s, dest if fixed else -1, allowed))
+        tasks.append(DroneTask(s, dest if fixed else -1, allowed, m))
     return tasks
 
 
 def _pool_plans(
-    view: WindowView, acts: np.ndarray, model: EnergyModel, cfg: PlanConfig, scope: str
+    view: WindowView,
+    acts: np.ndarray,
+    model: EnergyModel,
+    models: list[EnergyModel],
+    cfg: PlanConfig,
+    scope: str,
 ) -> tuple[list[PlanSet], list[np.ndarray], float]:
-    """Route-pool plan sets (docs/method.md, "Route pool") and each plan's end depot."""
+    """Route-pool plan sets (docs/method.md, "Route pool") and each plan's end depot;
+    ``model`` prices delay (λ), ``models`` are the drones' own."""
     dep = view.depots
     t0 = time.perf_counter()
-    tasks = _pool_tasks(view, acts, cfg, scope)
+    tasks = _pool_tasks(view, acts, cfg, scope, models)
     lam = lam_j(cfg.alpha, model.usable_j)
     prize = lam * (1.0 + view.pending_delay_h)
     # Routes are built for the prize plus the urgency bonus; the selection judges them by
@@ -313,7 +337,7 @@ def _pool_plans(
         members = np.zeros((n_k, ids.size), dtype=bool)
         order = np.full((n_k, max(ids.size, 1)), -1, dtype=np.int16)
         energy = np.empty(n_k)
-        energy[0] = float(model.leg_energy_j(flight, 0.0))
+        energy[0] = float(models[u].leg_energy_j(flight, 0.0))
         for k, key in enumerate(keys, start=1):
             col = np.searchsorted(ids, np.array(key, dtype=np.int64))
             members[k, col] = True
@@ -359,9 +383,10 @@ def _add_pyvrp_routes(
         for u, t in enumerate(tasks):
             if t.start != int(s) or not allowed[u, stops].all():
                 continue
-            e = _route_energy_j(view, t, stops, model)
+            own = t.model or model  # the drone's own limits (a mixed fleet)
+            e = _route_energy_j(view, t, stops, own)
             w = float(view.pending_weight[stops].sum())
-            if e <= model.usable_j and w <= model.max_payload_kg + 1e-9:
+            if e <= own.usable_j and w <= own.max_payload_kg + 1e-9:
                 routes[u].setdefault(tuple(int(i) for i in stops), e)
 
 
@@ -388,18 +413,19 @@ def plan_window(
     t_start = time.perf_counter()
     acts = np.asarray(actions, dtype=np.int64)
     pool = cfg.planner == "pool"
+    models = drone_models(view, model)
     if scope == "global":
         acts = np.zeros(view.n_drones, dtype=np.int64)
         if pool:
-            plan_sets, plan_ends, t_cand = _pool_plans(view, acts, model, cfg, scope)
+            plan_sets, plan_ends, t_cand = _pool_plans(view, acts, model, models, cfg, scope)
         else:
-            plan_sets, plan_ends, t_cand = _global_plans(view, model, cfg)
+            plan_sets, plan_ends, t_cand = _global_plans(view, models, cfg)
     elif pool:
-        acts = _reachable_actions(view, acts, model)
-        plan_sets, plan_ends, t_cand = _pool_plans(view, acts, model, cfg, scope)
+        acts = _reachable_actions(view, acts, models)
+        plan_sets, plan_ends, t_cand = _pool_plans(view, acts, model, models, cfg, scope)
     else:  # the paper's planner has no free landing: FREE flies as stay
         acts = np.where(acts == FREE, 0, acts)
-        plan_sets, ends, acts, t_cand = _range_plans(view, acts, model, cfg)
+        plan_sets, ends, acts, t_cand = _range_plans(view, acts, models, cfg)
         plan_ends = [np.full(ps.n_plans, ends[u]) for u, ps in enumerate(plan_sets)]
     t_plans = time.perf_counter() - t_start - t_cand
     t0 = time.perf_counter()
@@ -424,7 +450,7 @@ def plan_window(
                 view.depots.xy,
                 xy,
                 view.pending_weight[list(stops_pos)],
-                model,
+                models[u],
             )
             stops_pos = tuple(stops_pos[i] for i in order)
             end = near if end < 0 else end
@@ -438,7 +464,7 @@ def plan_window(
             ]
         )
         w = view.pending_weight[list(stops_pos)]
-        legs_m, legs_j = model.route_energy(pts, w)
+        legs_m, legs_j = models[u].route_energy(pts, w)
         routes.append(
             DroneRoute(
                 drone=u,
@@ -464,7 +490,7 @@ def plan_window(
             "total": time.perf_counter() - t_start,
         },
     )
-    check_routes(plan.routes, model)
+    check_routes(plan.routes, models)
     plan.score = score_routes(
         view.pending_idx,
         view.pending_delay_h,
@@ -474,13 +500,15 @@ def plan_window(
     return plan
 
 
-def check_routes(routes: list[DroneRoute], model: EnergyModel) -> None:
-    """Raise :class:`RunError` if any route breaks payload, battery or one visit per order."""
+def check_routes(routes: list[DroneRoute], model: EnergyModel | list[EnergyModel]) -> None:
+    """Raise :class:`RunError` if any route breaks payload, battery or one visit per order;
+    ``model`` is every drone's, or a list of each drone's own (a mixed fleet)."""
     seen: set[int] = set()
     for r in routes:
-        if r.payload_kg > model.max_payload_kg + 1e-9:
+        own = model[r.drone] if isinstance(model, list) else model
+        if r.payload_kg > own.max_payload_kg + 1e-9:
             raise RunError(f"drone {r.drone}: payload {r.payload_kg:.3f} kg over the limit")
-        if r.energy_j > model.usable_j + 1e-6:
+        if r.energy_j > own.usable_j + 1e-6:
             raise RunError(f"drone {r.drone}: energy {r.energy_j:.0f} J over the usable battery")
         for s in r.stops:
             if s in seen:

@@ -17,7 +17,6 @@ import pyarrow.parquet as pq
 
 from ..config import PlannerConfig
 from ..data.frame import Frame
-from ..data.jsonfile import read_json
 from ..data.prepare import arrival_windows, check_days_in_file, prepare_day, study_frame
 from ..data.reader import read_lade
 from ..data.table import DayRequests, LadeTable
@@ -31,9 +30,11 @@ from ..policies.registry import make_policy
 from ..segment.depots import Depots
 from ..segment.methods import segment_points
 from ..segment.run import history_points
+from .fleet import Fleet, as_fleet
+from .fleet import load_fleet as _load_fleet
 from .metrics import day_metrics
 from .replay import DayResult, replay_day
-from .state import DayState, default_fleet
+from .state import DayState
 
 # method -> (segmentation, policy), live over the registry (marops_cli/methods.py).
 METHODS = _METHODS
@@ -142,31 +143,10 @@ def arrival_profile(
     return counts.reshape(n, n_w) / max(1, len(days))
 
 
-def load_fleet(path: str | Path | None, depots: Depots, n_drones: int) -> np.ndarray:
-    """Each drone's depot: a fleet JSON (``[3, 3, 5]`` or ``{"drones": [{"depot": 3}, …]}``),
-    else drones spread over the busiest depots."""
-    if path is None:
-        return default_fleet(depots, n_drones)
-    p = Path(path)
-    doc = read_json(p, "fleet file")
-    items = doc.get("drones", []) if isinstance(doc, dict) else doc
-    try:
-        fleet = np.array(
-            [int(d["depot"] if isinstance(d, dict) else d) for d in items], dtype=np.int64
-        )
-    except (KeyError, TypeError, ValueError) as exc:
-        raise InputError(f"expected a list of depot ids ({exc})", file=p, column="depot") from exc
-    if fleet.size == 0:
-        raise InputError("the fleet file lists no drones", file=p)
-    bad = np.flatnonzero((fleet < 0) | (fleet >= len(depots)))
-    if bad.size:
-        raise InputError(
-            f"drone {int(bad[0])} is at depot {int(fleet[bad[0]])}, "
-            f"but the depots file has ids 0..{len(depots) - 1}",
-            file=p,
-            column="depot",
-        )
-    return fleet
+def load_fleet(path: str | Path | None, depots: Depots, n_drones: int, cfg: PlannerConfig) -> Fleet:
+    """The fleet file's drones and types (docs/outputs.md, "Fleet file"), else ``n_drones``
+    drones of the default type (``cfg``'s ``[energy]``) over the busiest depots."""
+    return _load_fleet(path, depots, n_drones, cfg.energy)
 
 
 def delivered_orders(path: str | Path) -> set[str]:
@@ -190,16 +170,20 @@ def plan_one_window(
     scn: Scenario,
     day: dt.date,
     window: int,
-    fleet: np.ndarray,
+    fleet: Fleet | np.ndarray,
     policy: Policy,
     delivered: set[str] | None = None,
 ) -> tuple[WindowPlan, DayRequests]:
-    """Plan window ``window`` of ``day`` with drones at ``fleet`` (docs/method.md §4)."""
+    """Plan window ``window`` of ``day`` with the ``fleet`` (or drones at these depots, of
+    the default type) (docs/method.md §4)."""
     cfg = scn.cfg
+    fl = as_fleet(fleet, cfg.energy)
     reqs = prepare_day(scn.table, scn.frame, day, cfg.data)
     if not 0 <= window < reqs.n_windows:
         raise InputError(f"--window {window} is outside 0..{reqs.n_windows - 1}")
-    state = DayState(reqs, scn.depots, fleet, cfg.plan.coverage, cfg.plan.ties)
+    state = DayState(
+        reqs, scn.depots, fl.depot, cfg.plan.coverage, cfg.plan.ties, drone_models=fl.models()
+    )
     if delivered:
         done = np.isin(reqs.order_id.astype(str), np.array(sorted(delivered), dtype=str))
         state.delivered_w[done] = max(0, window - 1)
@@ -216,15 +200,25 @@ def plan_one_window(
 def replay(
     scn: Scenario,
     day: dt.date,
-    fleet: np.ndarray,
+    fleet: Fleet | np.ndarray,
     policy: Policy,
     method: str,
     on_window: Callable[[WindowPlan], None] | None = None,
 ) -> tuple[DayResult, DayRequests, dict[str, object]]:
-    """Replay ``day`` and compute its metrics."""
+    """Replay ``day`` with the ``fleet`` (or drones at these depots, of the default type)
+    and compute its metrics."""
+    fl = as_fleet(fleet, scn.cfg.energy)
     reqs = prepare_day(scn.table, scn.frame, day, scn.cfg.data)
     model = EnergyModel(scn.cfg.energy)
     res = replay_day(
-        reqs, scn.depots, fleet, policy, scn.cfg, method=method, model=model, on_window=on_window
+        reqs,
+        scn.depots,
+        fl.depot,
+        policy,
+        scn.cfg,
+        method=method,
+        model=model,
+        on_window=on_window,
+        drone_models=fl.models(),
     )
-    return res, reqs, day_metrics(res, model)
+    return res, reqs, day_metrics(res, model, fl)

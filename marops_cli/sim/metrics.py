@@ -2,12 +2,16 @@
 
 from __future__ import annotations
 
-from typing import Any
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from ..energy import EnergyModel
 from .replay import DayResult
+
+if TYPE_CHECKING:
+    from .fleet import Fleet
 
 CO2_G_PER_KWH = 125.0  # UK 2024 grid average, as the paper
 
@@ -22,26 +26,45 @@ def gini(values: np.ndarray) -> float:
     return float((n + 1 - 2 * (cum / cum[-1]).sum()) / n)
 
 
-def unservable(day: Any, depots_xy: np.ndarray, model: EnergyModel) -> tuple[int, int]:
-    """Requests no drone can ever serve: (heavier than the payload limit, too far: even
-    alone, from the nearest depot and back to the nearest depot, over the usable battery)."""
+def unservable(
+    day: Any, depots_xy: np.ndarray, model: EnergyModel | Sequence[EnergyModel]
+) -> tuple[int, int]:
+    """Requests no drone can ever serve: (heavier than every type's payload limit, too
+    far: even alone, from the nearest depot and back to the nearest depot, over the
+    usable battery of every type that can lift it)."""
     from ..plans.pool import nearest_depot_m
 
-    heavy = day.weight_kg > model.max_payload_kg + 1e-9
+    models = [model] if isinstance(model, EnergyModel) else list(model)
     d = nearest_depot_m(np.column_stack([day.x_m, day.y_m]), depots_xy)
-    w = np.minimum(day.weight_kg, model.max_payload_kg)
-    alone = d * np.interp(w, model.grid_kg, model.table_j_per_m) + d * model.energy_per_m(0.0)
-    far = ~heavy & (alone > model.usable_j)
+    heavy = np.ones(len(day.weight_kg), dtype=bool)
+    reach = np.zeros(len(day.weight_kg), dtype=bool)
+    for m in models:
+        lifts = day.weight_kg <= m.max_payload_kg + 1e-9
+        w = np.minimum(day.weight_kg, m.max_payload_kg)
+        alone = d * np.interp(w, m.grid_kg, m.table_j_per_m) + d * m.energy_per_m(0.0)
+        heavy &= ~lifts
+        reach |= lifts & (alone <= m.usable_j)
+    far = ~heavy & ~reach
     return int(heavy.sum()), int(far.sum())
 
 
-def day_metrics(res: DayResult, model: EnergyModel) -> dict[str, Any]:
-    """The ``metrics.json`` record of one replayed day (docs/outputs.md)."""
+def day_metrics(res: DayResult, model: EnergyModel, fleet: Fleet | None = None) -> dict[str, Any]:
+    """The ``metrics.json`` record of one replayed day (docs/outputs.md); ``fleet`` gives
+    each drone's type (None: every drone is ``model``'s, the default type)."""
     st = res.state
+    own = list(st.drone_models) if st.drone_models is not None else [model] * res.n_drones
+    types = fleet.counts() if fleet is not None else {"default": res.n_drones}
     day = st.day
     routes = [r for p in res.plans for r in p.routes]
     energy = np.array([r.energy_j for r in routes]) if routes else np.zeros(0)
-    flown = energy[energy > 0]
+    # Battery share of each flown route, of its own drone's battery.
+    battery = np.array([own[r.drone].cfg.battery_j for r in routes]) if routes else np.ones(0)
+    flown, battery = energy[energy > 0], battery[energy > 0]
+    frac_mean = frac_max = 0.0
+    if flown.size and np.all(battery == battery[0]):  # one battery size: as ever
+        frac_mean, frac_max = flown.mean() / battery[0], flown.max() / battery[0]
+    elif flown.size:
+        frac_mean, frac_max = float(np.mean(flown / battery)), float(np.max(flown / battery))
     delay = st.delivery_delay_h()
     delivered = st.delivered_w >= 0
     # Early arrival: due time minus arrival time, both from service start (docs/method.md §5).
@@ -77,15 +100,16 @@ def day_metrics(res: DayResult, model: EnergyModel) -> dict[str, Any]:
         **dict(
             zip(
                 ("unservable_heavy", "unservable_far"),
-                unservable(day, st.depots.xy, model),
+                unservable(day, st.depots.xy, list(dict.fromkeys(own))),
                 strict=True,
             )
         ),
         "depot_load_kg": {str(i): round(float(load[i]), 6) for i in range(n_areas)},
-        "battery_frac_mean": float(flown.mean() / model.cfg.battery_j) if flown.size else 0.0,
-        "battery_frac_max": float(flown.max() / model.cfg.battery_j) if flown.size else 0.0,
+        "battery_frac_mean": float(frac_mean),
+        "battery_frac_max": float(frac_max),
         "energy_kj": total_j / 1000.0,
         "drones": res.n_drones,
+        "drone_types": types,
         # The day objective: the windows' J and G summed (docs/method.md), in MJ.
         "objective_j_mj": sum(s.J for s in scores) / 1e6,
         "objective_g_mj": sum(s.G for s in scores) / 1e6,

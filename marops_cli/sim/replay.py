@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -38,13 +38,17 @@ def replay_day(
     model: EnergyModel | None = None,
     selector: Selector | None = None,
     on_window: Callable[[WindowPlan], None] | None = None,
+    drone_models: Sequence[EnergyModel] | None = None,
 ) -> DayResult:
-    """Plan every window of ``day``; ``on_window`` is called after each (for progress)."""
+    """Plan every window of ``day``; ``on_window`` is called after each (for progress).
+    ``drone_models`` are each drone's own (a mixed fleet), None: ``model`` for all."""
     model = model or EnergyModel(cfg.energy)
     # A policy that picks plans itself (the MAPPO baseline) carries its own selector.
     selector = selector or policy.selector or make_selector(cfg.plan)
     plan_cfg = plan_config(policy, cfg.plan)
-    state = DayState(day, depots, drone_depot, cfg.plan.coverage, cfg.plan.ties)
+    state = DayState(
+        day, depots, drone_depot, cfg.plan.coverage, cfg.plan.ties, drone_models=drone_models
+    )
     start_day(policy, cfg, cfg.sim.seed)
     plans: list[WindowPlan] = []
     t0 = time.perf_counter()

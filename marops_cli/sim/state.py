@@ -2,19 +2,19 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 
 from ..data.table import DayRequests
+from ..energy import EnergyModel
 from ..plans.ranges import Ties, delays_h, range_table
 from ..plans.window import WindowPlan
 from ..policies.base import WindowView
 from ..segment.depots import Depots
+from .fleet import default_fleet
 
-
-def default_fleet(depots: Depots, n_drones: int) -> np.ndarray:
-    """Drones spread over the busiest depots: drone u at the u-th busiest (wrapping)."""
-    order = np.lexsort((np.arange(len(depots)), -depots.n_history))
-    return order[np.arange(n_drones) % len(depots)].astype(np.int64)
+__all__ = ["DayState", "default_fleet"]
 
 
 class DayState:
@@ -30,12 +30,17 @@ class DayState:
         drone_depot: np.ndarray,
         coverage: float,
         ties: Ties = "nearest",
+        drone_models: Sequence[EnergyModel] | None = None,
     ) -> None:
         self.day = day
         self.depots = depots
         self.area = depots.assign(day.x_m, day.y_m)
         self.xy = np.column_stack([day.x_m, day.y_m])
         self.drone_depot = np.asarray(drone_depot, dtype=np.int64).copy()
+        # Each drone's type (speed, payload, battery); None: one type, the planner's model.
+        self.drone_models = None if drone_models is None else tuple(drone_models)
+        if self.drone_models is not None and len(self.drone_models) != self.drone_depot.size:
+            raise ValueError("one energy model per drone expected")
         self.ranges = range_table(depots, coverage)
         self.ties: Ties = ties
         self.delivered_w = np.full(len(day), -1, dtype=np.int64)
@@ -63,12 +68,15 @@ class DayState:
             pending_weight=self.day.weight_kg[idx],
             ties=self.ties,
             pending_visible_w=self.day.visible_w[idx],
+            drone_models=self.drone_models,
         )
 
     def apply(self, plan: WindowPlan, speed_ms: float) -> None:
-        """Deliver the plan's stops in window ``plan.t`` and move drones to their ends."""
+        """Deliver the plan's stops in window ``plan.t`` and move drones to their ends
+        (at ``speed_ms``, or each drone's own speed in a mixed fleet)."""
         for r in plan.routes:
-            arrive = np.cumsum(r.legs_m) / speed_ms
+            speed = speed_ms if self.drone_models is None else self.drone_models[r.drone].speed_ms
+            arrive = np.cumsum(r.legs_m) / speed
             for j, i in enumerate(r.stops):
                 if self.delivered_w[i] >= 0:
                     raise RuntimeError(f"request {i} delivered twice")

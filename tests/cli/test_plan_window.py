@@ -61,6 +61,7 @@ ROUTES_COLUMNS = [
     ("window", pa.int32()),
     ("window_start", TS),
     ("drone", pa.int32()),
+    ("drone_type", pa.string()),
     ("start_depot", pa.int32()),
     ("end_depot", pa.int32()),
     ("n_parcels", pa.int32()),
@@ -253,7 +254,7 @@ def test_delivered_orders_are_not_planned_again(example_csv, depots_file, parque
 def test_cli_equals_library_call(example_csv, depots_file, parquet_out):
     cfg = PlannerConfig()
     scn = load_scenario(example_csv, cfg, depots_path=depots_file, replay_days=[DAY])
-    fleet = load_fleet(None, scn.depots, cfg.sim.drones)
+    fleet = load_fleet(None, scn.depots, cfg.sim.drones, cfg)
     plan_, reqs = plan_one_window(scn, DAY, WINDOW, fleet, method_policy("greedy", None, 0))
 
     rt = pq.read_table(routes_path(parquet_out)).to_pydict()
@@ -275,4 +276,4 @@ def test_cli_equals_library_call(example_csv, depots_file, parquet_out):
     stops, routes = build_tables(reqs, scn.depots, [plan_], EnergyModel(cfg.energy), "greedy")
     assert records(stops) == records(pq.read_table(stops_path(parquet_out)))
     assert records(routes) == records(pq.read_table(routes_path(parquet_out)))
-    assert np.array_equal(fleet, rt["start_depot"])
+    assert np.array_equal(fleet.depot, rt["start_depot"])

@@ -19,7 +19,13 @@ from marops_cli.plans.objective import lam_j, score_routes
 from marops_cli.plans.pool import build_pool
 from marops_cli.plans.ranges import pick_candidates, range_table
 from marops_cli.plans.view import FREE
-from marops_cli.plans.window import DroneRoute, _pool_tasks, check_routes, plan_window
+from marops_cli.plans.window import (
+    DroneRoute,
+    _pool_tasks,
+    check_routes,
+    drone_models,
+    plan_window,
+)
 from marops_cli.policies.base import WindowView
 from marops_cli.segment.depots import Depots, nearest_candidates
 
@@ -573,7 +579,11 @@ def pool_instances(draw):
     )
     scope = draw(st.sampled_from(["range", "global"]))
     selector = draw(st.sampled_from(["cvxpy", "highs", "greedy"]))
-    return view, actions, cfg, scope, selector, EnergyModel(EnergyConfig(battery_j=battery))
+    model = EnergyModel(EnergyConfig(battery_j=battery))
+    if draw(st.booleans()):  # a mixed fleet: a light type beside the drawn one
+        light = EnergyModel(EnergyConfig(battery_j=battery / 2, max_payload_kg=1.0, speed_ms=14.0))
+        view.drone_models = tuple(light if k else model for k in rng.integers(0, 2, n_drones))
+    return view, actions, cfg, scope, selector, model
 
 
 @pytest.mark.parametrize("urgency", [0.0, 1.0])
@@ -609,6 +619,7 @@ def test_pool_routes_never_break_payload_battery_or_one_visit(inst):
     assert [r.drone for r in plan.routes] == list(range(view.n_drones))
     served: list[int] = []
     for u, r in enumerate(plan.routes):
+        own = model if view.drone_models is None else view.drone_models[u]
         s = int(view.drone_depot[u])
         p = [pos[i] for i in r.stops]  # every stop is a pending request
         served += list(r.stops)
@@ -625,10 +636,10 @@ def test_pool_routes_never_break_payload_battery_or_one_visit(inst):
             assert all(view.ranges[s, a][view.pending_area[q]] for q in p)
         w = view.pending_weight[p]
         assert r.payload_kg == pytest.approx(w.sum(), abs=1e-12)
-        assert r.payload_kg <= model.max_payload_kg + 1e-9
-        assert r.energy_j <= model.usable_j + 1e-6
+        assert r.payload_kg <= own.max_payload_kg + 1e-9  # its own type's limits
+        assert r.energy_j <= own.usable_j + 1e-6
         pts = np.vstack([dep.xy[r.start], view.pending_xy[p].reshape(-1, 2), dep.xy[r.end]])
-        legs_m, legs_j = model.route_energy(pts, w)
+        legs_m, legs_j = own.route_energy(pts, w)
         assert_allclose(r.legs_m, legs_m, rtol=1e-12, atol=1e-9)
         assert_allclose(r.legs_j, legs_j, rtol=1e-12, atol=1e-9)
     assert len(served) == len(set(served)), "an order is served twice"
@@ -639,14 +650,14 @@ def test_pool_routes_never_break_payload_battery_or_one_visit(inst):
         view.pending_idx, view.pending_delay_h, [(r.stops, r.energy_j) for r in plan.routes], lam
     )
     # (the pool's best is scored with the urgency bonus when there is one, G without)
-    if sel_name != "greedy" and cfg.pool_urgency == 0:
+    if sel_name != "greedy" and cfg.pool_urgency == 0 and cfg.planner == "pool":
         acts = np.array([r.action for r in plan.routes])
         best = build_pool(
             dep.xy,
             view.pending_xy,
             view.pending_weight,
             lam * (1.0 + view.pending_delay_h),
-            _pool_tasks(view, acts, cfg, scope),
+            _pool_tasks(view, acts, cfg, scope, drone_models(view, model)),
             model,
             n_candidates=cfg.pool_candidates,
             iterations=cfg.pool_iterations,
@@ -674,3 +685,42 @@ def test_pool_is_deterministic(model, scope):
     a, b = ([(r.stops, r.end, r.energy_j) for r in p.routes] for p in plans)
     assert a == b
     assert sum(len(s) for s, _, _ in a) > 4  # a real plan, not two empty routes
+
+
+@pytest.mark.parametrize("planner", ["pool", "subsets"])
+@pytest.mark.parametrize("scope", ["range", "global"])
+def test_mixed_fleet_routes_keep_each_drones_own_limits(scope, planner):
+    """A light drone (1 kg, a quarter of the battery) beside heavy ones on a busy window
+    of 1-2.4 kg parcels: it carries at most 1 kg and stays within its own battery, while
+    the heavy drones carry what it cannot; both planners, both scopes."""
+    rng = np.random.default_rng(3)
+    view = hand_view()
+    n = 30
+    view.drone_depot = np.array([0, 1, 0, 1])
+    view.pending_xy = rng.uniform(-1500, 3500, (n, 2))
+    view.pending_idx = np.arange(n)
+    view.pending_area = view.depots.assign(view.pending_xy[:, 0], view.pending_xy[:, 1])
+    view.pending_delay_h = rng.integers(0, 4, n) * WINDOW_H
+    view.pending_due_w = np.zeros(n, dtype=np.int64)
+    view.pending_due_s = np.zeros(n)
+    view.pending_weight = rng.uniform(0.3, 2.4, n)
+    heavy = EnergyModel()
+    light = EnergyModel(EnergyConfig(max_payload_kg=1.0, battery_j=56_250.0, speed_ms=14.0))
+    view.drone_models = (light, heavy, light, heavy)
+    cfg = PlanConfig(planner=planner)
+    plan = plan_window(view, np.array([0, 1, FREE, 0]), heavy, cfg, MilpSelector(), scope)
+    for r, own in zip(plan.routes, view.drone_models, strict=True):
+        assert r.payload_kg <= own.max_payload_kg + 1e-9
+        assert r.energy_j <= own.usable_j + 1e-6
+        pts = np.vstack(
+            [view.depots.xy[r.start], view.pending_xy[list(r.stops)].reshape(-1, 2)]
+            + [view.depots.xy[r.end]]
+        )
+        assert_allclose(r.legs_j, own.route_energy(pts, view.pending_weight[list(r.stops)])[1])
+    light_kg = [r.payload_kg for r in plan.routes[::2]]
+    heavy_kg = [r.payload_kg for r in plan.routes[1::2]]
+    assert max(light_kg) <= 1.0 + 1e-9 < max(heavy_kg)
+    # The same window with every drone heavy plans differently: the types matter.
+    view.drone_models = None
+    same = plan_window(view, np.array([0, 1, FREE, 0]), heavy, cfg, MilpSelector(), scope)
+    assert [r.stops for r in same.routes] != [r.stops for r in plan.routes]
