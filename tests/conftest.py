@@ -2,13 +2,27 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import os
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import pytest
 from typer.testing import CliRunner
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "shanghai_synth.csv"
+
+
+@pytest.fixture(scope="session", autouse=True)
+def _own_depots_cache(tmp_path_factory: pytest.TempPathFactory) -> Iterator[None]:
+    """The test run's depots cache is its own (never the user's), shared by the
+    processes it starts."""
+    old = os.environ.get("MAROPS_CACHE_DIR")
+    os.environ["MAROPS_CACHE_DIR"] = str(tmp_path_factory.mktemp("cache"))
+    yield
+    if old is None:
+        os.environ.pop("MAROPS_CACHE_DIR", None)
+    else:
+        os.environ["MAROPS_CACHE_DIR"] = old
 
 
 @pytest.fixture(scope="session")

@@ -27,6 +27,7 @@ from ..plans.select import make_selector
 from ..plans.window import WindowPlan, plan_window
 from ..policies.base import Policy, plan_config, start_day
 from ..policies.registry import make_policy
+from ..segment.cache import cached_depots
 from ..segment.depots import Depots
 from ..segment.methods import segment_points
 from ..segment.run import history_points
@@ -122,11 +123,18 @@ def load_scenario(
         depots.arrivals = arrival_profile(table, depots, unseen, cfg) if unseen else None
         return Scenario(table, depots.frame, depots, cfg, history)
     frame = study_frame(table, cfg.data, history)
-    pts, _ = history_points(table, frame, history)
-    try:
-        depots = segment_points(pts[:, 0], pts[:, 1], frame, cfg.segment)
-    except InputError as exc:
-        raise naming(exc, table.source.path) from None
+
+    def make() -> Depots:
+        pts, _ = history_points(table, frame, history)
+        try:
+            return segment_points(pts[:, 0], pts[:, 1], frame, cfg.segment)
+        except InputError as exc:
+            raise naming(exc, table.source.path) from None
+
+    # k-means is the slowest step of a run without --depots: the depots are cached by
+    # the hash of what they are made from (docs/outputs.md, "Depots cache").
+    key = (table.source.sha256, history, frame, cfg.data, cfg.segment)
+    depots = cached_depots(key, make)
     # The profile never sees a replayed day: with no other day there is none (zeros).
     depots.arrivals = arrival_profile(table, depots, unseen, cfg) if unseen else None
     return Scenario(table, frame, depots, cfg, history)

@@ -1,0 +1,108 @@
+"""Depots cached by what they are made from (docs/outputs.md, "Depots cache").
+
+Segmenting the history days (k-means) is the slowest part of a run that is not given
+``--depots``; its result depends only on the input file's bytes, the history days,
+the study frame and the ``[data]`` and ``[segment]`` settings. The depots are kept
+under the hash of those, exactly (``.npz``: positions to the last bit, so a run from
+the cache plans the same bytes as the run that filled it), in ``$MAROPS_CACHE_DIR``
+(default ``$XDG_CACHE_HOME/marops`` or ``~/.cache/marops``); ``MAROPS_CACHE_DIR=off``
+turns the cache off. A cache that cannot be written is skipped silently: it only
+ever saves time.
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import hashlib
+import json
+import os
+from collections.abc import Callable, Sequence
+from pathlib import Path
+
+import numpy as np
+
+from .. import __version__
+from ..config import DataConfig, SegmentConfig
+from ..data.frame import Frame
+from .depots import Depots
+
+__all__ = ["cache_dir", "cached_depots", "depots_key"]
+
+_FORMAT = 1  # bump when the stored arrays change meaning
+
+
+def cache_dir() -> Path | None:
+    """Where depots are cached; None when ``MAROPS_CACHE_DIR=off``."""
+    env = os.environ.get("MAROPS_CACHE_DIR", "").strip()
+    if env.lower() in ("off", "0", "none", "false"):
+        return None
+    if env:
+        return Path(env).expanduser()
+    base = os.environ.get("XDG_CACHE_HOME", "").strip()
+    return (Path(base) if base else Path.home() / ".cache") / "marops"
+
+
+def depots_key(
+    source_sha256: str,
+    days: Sequence[dt.date],
+    frame: Frame,
+    data: DataConfig,
+    segment: SegmentConfig,
+) -> str:
+    """The hash of everything the depots are made from."""
+    doc = {
+        "format": _FORMAT,
+        "version": __version__,
+        "source": source_sha256,
+        "days": [d.isoformat() for d in days],
+        "frame": frame.to_dict(),
+        "data": data.model_dump(mode="json"),
+        "segment": segment.model_dump(mode="json"),
+    }
+    return hashlib.sha256(json.dumps(doc, sort_keys=True).encode()).hexdigest()
+
+
+def _load(path: Path, frame: Frame) -> Depots | None:
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            method = str(z["method"])
+            xy, n_hist, cand = z["xy"], z["n_history"], z["candidates"]
+    except (OSError, KeyError, ValueError):
+        return None  # unreadable or from another format: segment again
+    return Depots(method, frame, xy, n_hist, cand)
+
+
+def _store(path: Path, depots: Depots) -> None:
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+        with tmp.open("wb") as fh:
+            np.savez(
+                fh,
+                method=np.array(depots.method),
+                xy=depots.xy,
+                n_history=depots.n_history,
+                candidates=depots.candidates,
+            )
+        os.replace(tmp, path)
+    except OSError:
+        return
+
+
+def cached_depots(
+    key_parts: tuple[str, Sequence[dt.date], Frame, DataConfig, SegmentConfig],
+    make: Callable[[], Depots],
+) -> Depots:
+    """The cached depots for these inputs, else ``make()``'s (then cached)."""
+    root = cache_dir()
+    if root is None:
+        return make()
+    frame = key_parts[2]
+    path = root / "depots" / f"{depots_key(*key_parts)}.npz"
+    if path.is_file():
+        hit = _load(path, frame)
+        if hit is not None:
+            return hit
+    depots = make()
+    _store(path, depots)
+    return depots

@@ -1,0 +1,89 @@
+"""The depots cache (docs/outputs.md, "Depots cache"): a hit is the same depots, bit for
+bit, and anything the depots depend on makes another key."""
+
+from __future__ import annotations
+
+import datetime as dt
+from pathlib import Path
+
+import numpy as np
+
+from marops_cli.config import PlannerConfig, override
+from marops_cli.data.frame import Frame
+from marops_cli.segment.cache import cache_dir, cached_depots, depots_key
+from marops_cli.segment.depots import Depots, nearest_candidates
+from marops_cli.sim.jobs import load_scenario
+
+DAYS = [dt.date(2022, 8, 1), dt.date(2022, 8, 2)]
+FRAME = Frame(121.47, 31.23, 10.0)
+
+
+def _depots() -> Depots:
+    xy = np.array([[1.0 / 3.0, 2.0], [1000.123456789, -5.5]])
+    return Depots("kmeans", FRAME, xy, np.array([4, 2]), nearest_candidates(xy, 2))
+
+
+def test_hit_returns_the_same_depots_bit_for_bit(tmp_path, monkeypatch):
+    monkeypatch.setenv("MAROPS_CACHE_DIR", str(tmp_path))
+    cfg = PlannerConfig()
+    key = ("abc", DAYS, FRAME, cfg.data, cfg.segment)
+    made = []
+
+    def make() -> Depots:
+        made.append(1)
+        return _depots()
+
+    a = cached_depots(key, make)
+    b = cached_depots(key, make)
+    assert len(made) == 1  # the second call is a hit
+    assert a.xy.tobytes() == b.xy.tobytes()  # exact, not rounded like depots.json
+    assert np.array_equal(a.candidates, b.candidates) and np.array_equal(a.n_history, b.n_history)
+    assert b.method == "kmeans" and b.frame == FRAME
+    assert len(list((tmp_path / "depots").glob("*.npz"))) == 1
+
+
+def test_every_input_of_the_depots_changes_the_key():
+    cfg = PlannerConfig()
+    base = depots_key("abc", DAYS, FRAME, cfg.data, cfg.segment)
+    other = [
+        depots_key("abd", DAYS, FRAME, cfg.data, cfg.segment),
+        depots_key("abc", DAYS[:1], FRAME, cfg.data, cfg.segment),
+        depots_key("abc", DAYS, Frame(121.47, 31.23, 12.0), cfg.data, cfg.segment),
+        depots_key("abc", DAYS, FRAME, cfg.data, override(cfg, segment__n_depots=9).segment),
+        depots_key("abc", DAYS, FRAME, cfg.data, override(cfg, segment__seed=1).segment),
+        depots_key("abc", DAYS, FRAME, override(cfg, data__window_min=20).data, cfg.segment),
+    ]
+    assert len({base, *other}) == 7
+
+
+def test_off_and_unwritable_caches_only_cost_time(tmp_path, monkeypatch):
+    cfg = PlannerConfig()
+    key = ("abc", DAYS, FRAME, cfg.data, cfg.segment)
+    monkeypatch.setenv("MAROPS_CACHE_DIR", "off")
+    assert cache_dir() is None
+    assert cached_depots(key, _depots).xy.shape == (2, 2)
+    blocker = tmp_path / "file"
+    blocker.write_text("not a folder")
+    monkeypatch.setenv("MAROPS_CACHE_DIR", str(blocker))
+    assert cached_depots(key, _depots).xy.shape == (2, 2)  # no error, nothing cached
+
+
+def test_a_run_from_the_cache_plans_what_the_run_that_filled_it_planned(
+    example_csv: Path, tmp_path, monkeypatch
+):
+    monkeypatch.setenv("MAROPS_CACHE_DIR", str(tmp_path))
+    cfg = PlannerConfig()
+    day = [dt.date(2022, 8, 11)]
+    first = load_scenario(example_csv, cfg, replay_days=day)
+    assert len(list((tmp_path / "depots").glob("*.npz"))) == 1
+    second = load_scenario(example_csv, cfg, replay_days=day)
+    assert first.depots.xy.tobytes() == second.depots.xy.tobytes()
+    assert np.array_equal(first.depots.candidates, second.depots.candidates)
+    assert np.array_equal(first.depots.arrivals, second.depots.arrivals)
+    monkeypatch.setenv("MAROPS_CACHE_DIR", "off")
+    fresh = load_scenario(example_csv, cfg, replay_days=day)
+    assert fresh.depots.xy.tobytes() == first.depots.xy.tobytes()
+    monkeypatch.setenv("MAROPS_CACHE_DIR", str(tmp_path))
+    nine = load_scenario(example_csv, override(cfg, segment__n_depots=9), replay_days=day)
+    assert len(nine.depots) == 9  # another n_depots is another key, not the 16 above
+    assert len(list((tmp_path / "depots").glob("*.npz"))) == 2
