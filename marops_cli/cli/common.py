@@ -181,9 +181,9 @@ def print_drop_report(report: DropReport, name: str) -> None:
     )
 
 
-def print_day_scope(reqs: Any, cfg: Any) -> None:
+def print_day_scope(reqs: Any, cfg: Any, label: str = "") -> None:
     """Say how many of the day's orders are planned and what the study area and the
-    service hours left out (docs/method.md §1)."""
+    service hours left out (docs/method.md §1); ``label`` names the hub of a city run."""
     left = []
     if reqs.outside_area:
         left.append(f"{reqs.outside_area:,} outside the {cfg.data.size_km:g} km study area")
@@ -194,7 +194,7 @@ def print_day_scope(reqs: Any, cfg: Any) -> None:
         )
     tail = f", {sum((reqs.outside_area, reqs.outside_hours)):,} left out ({'; '.join(left)})"
     info(
-        f"{reqs.day.isoformat()}: {reqs.orders_due:,} orders due, {len(reqs):,} planned"
+        f"{label}{reqs.day.isoformat()}: {reqs.orders_due:,} orders due, {len(reqs):,} planned"
         + (tail if left else "")
     )
 

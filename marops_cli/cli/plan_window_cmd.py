@@ -141,6 +141,7 @@ def plan_window(
         cfg.data.tz,
         drone_models=drones_.models(),
         drone_types=drones_.type_names(),
+        hub=scn.hub,
     )
     meta = run_meta(
         command="plan-window",

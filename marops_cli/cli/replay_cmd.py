@@ -74,6 +74,14 @@ def replay_day(
     ] = None,
     drones: o.Drones = None,
     fleet: o.FleetFile = None,
+    hubs: Annotated[
+        Path | None,
+        typer.Option(
+            "--hubs",
+            help="hubs.json from marops segment --hubs: replay every hub of the city, one "
+            "folder each, and report the city's coverage [one study area].",
+        ),
+    ] = None,
     method: Annotated[
         str,
         typer.Option(
@@ -110,7 +118,7 @@ def replay_day(
     allow_replacing_foreign(force)
     from ..data.dates import parse_day, parse_days
     from ..data.prepare import prepare_day
-    from ..sim.jobs import METHODS, load_fleet, load_scenario, method_policy
+    from ..sim.jobs import METHODS, load_scenario, method_policy
 
     require_input(data)
     if (date is None) == (dates is None):
@@ -135,54 +143,36 @@ def replay_day(
     days = [parse_day(date, cfg.data.year)] if date else parse_days(dates or "", cfg.data.year)
     if out.exists() and not out.is_dir():
         raise InputError("--out must be a folder; this is a file", file=out)
+    if hubs is not None and depots is not None:
+        raise InputError("--hubs segments each hub itself: drop --depots")
     names = (f"stops.{fmt}", f"routes.{fmt}", "metrics.json", "routes.png", "routes.geojson")
     folders = [out] if date else [out, *(out / d.isoformat() for d in days)]
+    if hubs is not None:  # out/hub-<id>/ below the city's metrics.json
+        areas = [p for p in out.glob("hub-*") if p.is_dir()] if out.is_dir() else []
+        folders += [a / (d.isoformat() if dates else "") for a in areas for d in days]
     refuse_overwriting_inputs(
         [f / n for f in folders for n in names],
         data=data,
         depots=depots,
         config=config,
         fleet=fleet,
+        hubs=hubs,
     )
     pol = method_policy(method, cfg.sim.policy, cfg.sim.seed)  # a bad actor file stops here
-    scn = load_scenario(data, cfg, depots_path=depots, replay_days=days)
-    for day in days:  # every day has requests to plan, before anything is said or written
-        prepare_day(scn.table, scn.frame, day, cfg.data)
-    print_drop_report(scn.table.report, data.name)
-    drones_ = load_fleet(fleet, scn.depots, cfg.sim.drones, cfg)
-    identity = _identity(scn, cfg, method, pol.identity, depots, fmt, drones_.describe(cfg.energy))
-    # A day folder that is complete is kept only if it was made with these settings;
-    # every day is checked before anything is replayed or written.
-    keep: dict[dt.date, list[dict[str, Any]]] = {}
-    for day in days:
-        done = (out if date else out / day.isoformat()) / "metrics.json"
-        if done.is_file() and not force:
-            keep[day] = _matching_days(done, identity)
-    with folder_lock(out):  # one run at a time in a folder; stale temporaries go
-        all_metrics: list[dict[str, Any]] = []
-        for day in days:
-            folder = out if date else out / day.isoformat()
-            if day in keep:
-                info(
-                    f"{day.isoformat()}: output with the same settings exists in {folder}, "
-                    "skipped (--force replays)"
-                )
-                all_metrics.extend(keep[day])
-                continue
-            metrics = _replay_one(
-                scn, day, drones_, pol, method, folder, (fmt, plot, geojson), identity
-            )
-            all_metrics.append(metrics)
-        if dates:
-            meta = run_meta(
-                command="replay-day", config=cfg, source=scn.table.source, method=method
-            )
-            with output_set() as files:
-                files.write_json(
-                    out / "metrics.json",
-                    {"meta": meta, "days": all_metrics, "total": aggregate_days(all_metrics)},
-                )
-    _print_metrics(all_metrics)
+    files_wanted = (fmt, plot, geojson)
+    if hubs is not None:
+        all_metrics = _replay_hubs(
+            data, hubs, out, days, bool(dates), cfg, fleet, pol, method, files_wanted, force
+        )
+    else:
+        scn = load_scenario(data, cfg, depots_path=depots, replay_days=days)
+        for day in days:  # every day has requests to plan, before anything is said or written
+            prepare_day(scn.table, scn.frame, day, cfg.data)
+        print_drop_report(scn.table.report, data.name)
+        all_metrics = _replay_area(
+            scn, out, days, bool(dates), fleet, pol, method, files_wanted, force, depots
+        )
+    _print_metrics(all_metrics, hubs is not None)
     if STATE["json"]:
         emit_json(
             {
@@ -192,6 +182,181 @@ def replay_day(
                 "days": all_metrics,
             }
         )
+
+
+def _replay_area(
+    scn: Scenario,
+    out: Path,
+    days: list[dt.date],
+    several: bool,
+    fleet: Path | None,
+    pol: Any,
+    method: str,
+    files_wanted: tuple[str, bool, bool],
+    force: bool,
+    depots: Path | None = None,
+    label: str = "",
+) -> list[dict[str, Any]]:
+    """Replay ``days`` of one study area into ``out`` (a folder per day when ``several``);
+    returns each day's metrics. ``label`` names the hub in messages."""
+    from ..sim.jobs import load_fleet
+
+    cfg = scn.cfg
+    drones_ = load_fleet(fleet, scn.depots, cfg.sim.drones, cfg)
+    fmt = files_wanted[0]
+    identity = _identity(scn, cfg, method, pol.identity, depots, fmt, drones_.describe(cfg.energy))
+    # A day folder that is complete is kept only if it was made with these settings;
+    # every day is checked before anything is replayed or written.
+    keep: dict[dt.date, list[dict[str, Any]]] = {}
+    for day in days:
+        done = (out / day.isoformat() if several else out) / "metrics.json"
+        if done.is_file() and not force:
+            keep[day] = _matching_days(done, identity)
+    with folder_lock(out):  # one run at a time in a folder; stale temporaries go
+        all_metrics: list[dict[str, Any]] = []
+        for day in days:
+            folder = out / day.isoformat() if several else out
+            if day in keep:
+                info(
+                    f"{label}{day.isoformat()}: output with the same settings exists in "
+                    f"{folder}, skipped (--force replays)"
+                )
+                all_metrics.extend(keep[day])
+                continue
+            metrics = _replay_one(
+                scn, day, drones_, pol, method, folder, files_wanted, identity, label
+            )
+            all_metrics.append(metrics)
+        if several:
+            meta = run_meta(
+                command="replay-day", config=cfg, source=scn.table.source, method=method
+            )
+            with output_set() as files:
+                files.write_json(
+                    out / "metrics.json",
+                    {"meta": meta, "days": all_metrics, "total": aggregate_days(all_metrics)},
+                )
+    return all_metrics
+
+
+def _replay_hubs(
+    data: Path,
+    hubs_path: Path,
+    out: Path,
+    days: list[dt.date],
+    several: bool,
+    cfg: Any,
+    fleet: Path | None,
+    pol: Any,
+    method: str,
+    files_wanted: tuple[str, bool, bool],
+    force: bool,
+) -> list[dict[str, Any]]:
+    """Replay every hub of a hubs file (docs/method.md §1.1): each a study area with its
+    own depots and fleet, into ``out/hub-<id>/``, and the city's coverage into
+    ``out/metrics.json``. Returns every hub-day's metrics."""
+    from ..config import override
+    from ..data.prepare import check_days_in_file, prepare_day
+    from ..data.reader import read_lade
+    from ..segment.hubs import hub_owner, load_hubs
+    from ..sim.jobs import load_scenario
+
+    hub_list = load_hubs(hubs_path, cfg.data)
+    table = read_lade(data, cfg.data)
+    check_days_in_file(table, days)
+    owner = hub_owner(table, hub_list)
+    print_drop_report(table.report, data.name)
+    runs = []
+    for h in hub_list:  # every hub-day is checked before anything is written
+        f = h.frame
+        cfg_h = override(
+            cfg,
+            data__center=(f.center_lng, f.center_lat),
+            data__size_km=f.size_km,
+            sim__drones=h.drones,
+        )
+        # An order belongs to the first hub whose square holds it: never planned twice.
+        table_h = table if h.id == 0 else table.subset((owner < 0) | (owner >= h.id))
+        days_h = []
+        for day in days:
+            try:
+                prepare_day(table_h, f, day, cfg_h.data)
+                days_h.append(day)
+            except InputError:
+                info(f"hub {h.id}: no requests on {day.isoformat()} in its square, skipped")
+        runs.append((h, cfg_h, table_h, days_h))
+    all_metrics: list[dict[str, Any]] = []
+    for h, cfg_h, table_h, days_h in runs:
+        if not days_h:
+            continue
+        scn = load_scenario(data, cfg_h, replay_days=days, table=table_h, hub=h.id)
+        folder = out / f"hub-{h.id}"
+        all_metrics += _replay_area(
+            scn,
+            folder,
+            days_h,
+            several,
+            fleet,
+            pol,
+            method,
+            files_wanted,
+            force,
+            None,
+            f"hub {h.id}: ",
+        )
+    city = city_coverage(table, days, all_metrics)
+    meta = run_meta(command="replay-day", config=cfg, source=table.source, method=method)
+    meta["hubs_file"] = {"name": hubs_path.name, "sha256": file_sha256(hubs_path)}
+    with output_set() as files:
+        files.write_json(
+            out / "metrics.json",
+            {
+                "meta": meta,
+                "city": city,
+                "days": all_metrics,
+                "total": aggregate_days(all_metrics),
+            },
+        )
+    info(
+        f"city: {city['planned']:,} of {city['orders_due']:,} orders due planned in "
+        f"{len(hub_list)} hubs ({100 * city['covered_share']:.1f} %), "
+        f"{city['delivered']:,} delivered"
+    )
+    return all_metrics
+
+
+def city_coverage(table: Any, days: list[dt.date], metrics: list[dict[str, Any]]) -> dict[str, Any]:
+    """What share of the city's orders the hubs plan (docs/outputs.md, "Hubs"): per day
+    and in all, orders due in the file, planned (in a hub's square and service hours)
+    and delivered."""
+    import numpy as np
+
+    due_day = table.delivery_day
+    per_day: list[dict[str, Any]] = []
+    for day in days:
+        due = int((due_day == np.datetime64(day.isoformat(), "D")).sum())
+        mine = [m for m in metrics if m["day"] == day.isoformat()]
+        planned = sum(int(m["requests"]) for m in mine)
+        delivered = sum(int(m["delivered"]) for m in mine)
+        per_day.append(
+            {
+                "day": day.isoformat(),
+                "orders_due": due,
+                "planned": planned,
+                "delivered": delivered,
+                "covered_share": planned / due if due else 0.0,
+                "hubs": len(mine),
+            }
+        )
+    due_all = sum(d["orders_due"] for d in per_day)
+    planned_all = sum(d["planned"] for d in per_day)
+    return {
+        "orders_due": due_all,
+        "planned": planned_all,
+        "delivered": sum(d["delivered"] for d in per_day),
+        "covered_share": planned_all / due_all if due_all else 0.0,
+        "days": per_day,
+    }
 
 
 def aggregate_days(days: list[dict[str, Any]]) -> dict[str, Any]:
@@ -302,6 +467,7 @@ def _replay_one(
     folder: Path,
     files_wanted: tuple[str, bool, bool],
     identity: dict[str, Any],
+    label: str = "",
 ) -> dict[str, Any]:
     from ..energy import EnergyModel
     from ..io.tables import build_tables, write_route_files
@@ -335,7 +501,7 @@ def _replay_one(
             )
 
         res, reqs, metrics = replay(scn, day, fleet, pol, method, on_window=log)
-    print_day_scope(reqs, cfg)
+    print_day_scope(reqs, cfg, label)
     warn_undelivered(metrics, len(fleet))
     model = EnergyModel(cfg.energy)
     stops, routes = build_tables(
@@ -347,6 +513,7 @@ def _replay_one(
         cfg.data.tz,
         drone_models=fleet.models(),
         drone_types=fleet.type_names(),
+        hub=scn.hub,
     )
     # The route files' metadata: the run's identity (less the file format) and the day.
     meta = {k: v for k, v in identity.items() if k != "format"}
@@ -363,12 +530,15 @@ def _replay_one(
     return metrics
 
 
-def _print_metrics(rows: list[dict[str, Any]]) -> None:
+def _print_metrics(rows: list[dict[str, Any]], hubs: bool = False) -> None:
     t = table("day metrics (docs/method.md §8)")
+    if hubs:
+        t.add_column("hub", justify="right")
     t.add_column("day", no_wrap=True, min_width=10)
     t.add_column("method", no_wrap=True)
     for _, label, _ in METRIC_COLUMNS:
         t.add_column(label, justify="right")
     for m in rows:
-        t.add_row(m["day"], m["method"], *[f.format(m[k]) for k, _, f in METRIC_COLUMNS])
+        cells = [m["day"], m["method"], *[f.format(m[k]) for k, _, f in METRIC_COLUMNS]]
+        t.add_row(*([str(m.get("hub", 0))] if hubs else []), *cells)
     show_table(t)

@@ -26,6 +26,7 @@ from .common import (
     show_table,
     table,
 )
+from .common import table as table_
 
 
 @guarded
@@ -67,12 +68,22 @@ def segment(
         bool,
         typer.Option("--plot", help="Also draw a PNG map of customers and areas beside --out."),
     ] = False,
+    hubs: Annotated[
+        str | None,
+        typer.Option(
+            "--hubs",
+            help="Tile the city into hubs instead (docs/method.md §1.1): a number, or auto "
+            "(while the next hub holds at least 1 % of the orders); --out names the hubs "
+            "file (hubs.json) that replay-day --hubs runs.",
+        ),
+    ] = None,
     force: o.Force = False,
     config: o.Config = None,
     quiet: o.Quiet = False,
     as_json: o.Json = False,
 ) -> None:
-    """Cluster a LaDe export into depots and service areas (k-means or squares)."""
+    """Cluster a LaDe export into depots and service areas (k-means or squares), or tile
+    a city into hubs (--hubs)."""
     set_output(quiet, as_json)
     allow_replacing_foreign(force)
     from ..data.dates import parse_days
@@ -82,6 +93,9 @@ def segment(
     from ..segment.run import segment_file
 
     require_input(data)
+    if hubs is not None:
+        _segment_hubs(data, out, hubs, size_km, dates, year, strict, config)
+        return
     if out.suffix != ".json":
         raise InputError(f"--out names the depots file, e.g. depots.json; got {out.name}")
     gj_path, png_path = out.with_suffix(".geojson"), out.with_suffix(".png")
@@ -159,3 +173,73 @@ def _print_summary(res) -> None:  # type: ignore[no-untyped-def]
         cands = " ".join(str(c) for c in res.depots.candidates[i])
         t.add_row(str(i), f"{x:.2f}", f"{y:.2f}", f"{res.depots.n_history[i]:,}", cands)
     show_table(t)
+
+
+def _hub_count(text: str) -> int | None:
+    if text.strip().lower() == "auto":
+        return None
+    try:
+        n = int(text)
+    except ValueError:
+        n = 0
+    if n < 1:
+        raise InputError(f"--hubs expects a number of hubs (1 or more) or auto, got {text!r}")
+    return n
+
+
+def _segment_hubs(  # type: ignore[no-untyped-def]
+    data: Path, out: Path, hubs: str, size_km, dates, year, strict, config
+) -> None:
+    """``segment --hubs``: hub squares over the city, densest first, into a hubs file."""
+    from ..data.dates import parse_days
+    from ..data.reader import read_lade
+    from ..io import output_set, run_meta
+    from ..segment.hubs import find_hubs, hubs_doc
+
+    n_hubs = _hub_count(hubs)
+    if out.suffix != ".json":
+        raise InputError(f"--out names the hubs file, e.g. hubs.json; got {out.name}")
+    refuse_overwriting_inputs([out], data=data, config=config)
+    cfg = make_config(config, data__year=year, data__size_km=size_km, data__strict=strict or None)
+    if cfg.data.center is not None:
+        raise InputError("--hubs places the study areas itself: drop [data] center")
+    day_list = parse_days(dates, cfg.data.year) if dates else None
+    table = read_lade(data, cfg.data)
+    found, total = find_hubs(table, cfg.data, day_list, n_hubs)
+    print_drop_report(table.report, data.name)
+    days = day_list or table.days()
+    meta = run_meta(
+        command="segment",
+        config=cfg,
+        source=table.source,
+        extra={"days": [d.isoformat() for d in days], "hubs": hubs},
+    )
+    with output_set() as files:
+        files.write_json(out, hubs_doc(found, total, meta))
+    held = sum(h.orders for h in found)
+    t = table_(
+        f"{len(found)} hubs of {cfg.data.size_km:g} km, holding {held:,} of {total:,} orders "
+        f"({100 * held / max(total, 1):.1f} %)"
+    )
+    for col in ("hub", "centre lng", "centre lat", "orders", "share %"):
+        t.add_column(col, justify="right")
+    for h in found:
+        t.add_row(
+            str(h.id),
+            f"{h.frame.center_lng:.5f}",
+            f"{h.frame.center_lat:.5f}",
+            f"{h.orders:,}",
+            f"{100 * h.orders / max(total, 1):.1f}",
+        )
+    show_table(t)
+    info(f"wrote {out}")
+    if STATE["json"]:
+        emit_json(
+            {
+                "command": "segment",
+                "files": [str(out)],
+                "hubs": len(found),
+                "orders": total,
+                "covered_share": held / total if total else 0.0,
+            }
+        )

@@ -61,15 +61,11 @@ class Frame:
         }
 
 
-def densest_square(
-    lng: np.ndarray, lat: np.ndarray, size_km: float, grid_m: float = 250.0
-) -> Frame:
-    """The ``size_km`` square holding the most points, on a ``grid_m`` grid (reproducible).
-
-    Points are binned on a grid around their median; every square of whole grid
-    cells is scored with a 2-D prefix sum; ties go to the first square in
-    row-major order (south-west first).
-    """
+def _square_grid(
+    lng: np.ndarray, lat: np.ndarray, size_km: float, grid_m: float
+) -> tuple[Frame, float, float, np.ndarray, int]:
+    """``(ref, x0, y0, counts (ny, nx), k)``: points binned on a ``grid_m`` grid around
+    their median, and the side ``k`` of a ``size_km`` square in cells."""
     lng = np.asarray(lng, dtype=np.float64)
     lat = np.asarray(lat, dtype=np.float64)
     if lng.size == 0:
@@ -87,11 +83,79 @@ def densest_square(
     ny = max(int(iy.max()) + 1, k)
     counts = np.zeros((ny, nx), dtype=np.int64)
     np.add.at(counts, (iy, ix), 1)
+    return ref, x0, y0, counts, k
+
+
+def _window_sums(grid: np.ndarray, k: int) -> np.ndarray:
+    """Sum of every k x k square of whole cells (2-D prefix sum)."""
+    ny, nx = grid.shape
     prefix = np.zeros((ny + 1, nx + 1), dtype=np.int64)
-    prefix[1:, 1:] = counts.cumsum(0).cumsum(1)
-    window = prefix[k:, k:] - prefix[:-k, k:] - prefix[k:, :-k] + prefix[:-k, :-k]
-    jy, jx = np.unravel_index(int(np.argmax(window)), window.shape)
+    prefix[1:, 1:] = grid.cumsum(0).cumsum(1)
+    return prefix[k:, k:] - prefix[:-k, k:] - prefix[k:, :-k] + prefix[:-k, :-k]
+
+
+def _square_frame(
+    ref: Frame, x0: float, y0: float, jy: int, jx: int, k: int, grid_m: float, size_km: float
+) -> Frame:
     cx = x0 + (jx + k / 2.0) * grid_m
     cy = y0 + (jy + k / 2.0) * grid_m
     clng, clat = ref.to_lnglat(np.array([cx]), np.array([cy]))
     return Frame(float(clng[0]), float(clat[0]), size_km)
+
+
+def densest_square(
+    lng: np.ndarray, lat: np.ndarray, size_km: float, grid_m: float = 250.0
+) -> Frame:
+    """The ``size_km`` square holding the most points, on a ``grid_m`` grid (reproducible).
+
+    Points are binned on a grid around their median; every square of whole grid
+    cells is scored with a 2-D prefix sum; ties go to the first square in
+    row-major order (south-west first).
+    """
+    ref, x0, y0, counts, k = _square_grid(lng, lat, size_km, grid_m)
+    window = _window_sums(counts, k)
+    jy, jx = np.unravel_index(int(np.argmax(window)), window.shape)
+    return _square_frame(ref, x0, y0, int(jy), int(jx), k, grid_m, size_km)
+
+
+def hub_squares(
+    lng: np.ndarray,
+    lat: np.ndarray,
+    size_km: float,
+    grid_m: float = 250.0,
+    n_hubs: int | None = None,
+    min_share: float = 0.01,
+) -> list[tuple[Frame, int]]:
+    """Disjoint ``size_km`` squares over a city, densest first (docs/method.md §1.1):
+    the first is :func:`densest_square`'s; each next one is the densest square that
+    shares no grid cell with those before. Stops after ``n_hubs`` squares, or (None)
+    when the next would hold less than ``min_share`` of the points. Returns each
+    square with the number of points it holds."""
+    ref, x0, y0, counts, k = _square_grid(lng, lat, size_km, grid_m)
+    total = int(counts.sum())
+    # The first square is densest_square's; the next may hang over the points' edge
+    # (the grid is padded by k - 1 cells), so that squares can tile a whole city.
+    # Window (jy, jx) of the padded grid is window (jy - pad, jx - pad) of the points'.
+    pad = k - 1
+    padded = np.pad(counts, pad)
+    taken = np.zeros(padded.shape, dtype=np.int64)  # cells inside a chosen square
+    window = _window_sums(padded, k)
+    first = _window_sums(counts, k)
+    jy0, jx0 = np.unravel_index(int(np.argmax(first)), first.shape)
+    pick = (int(jy0) + pad, int(jx0) + pad)
+    out: list[tuple[Frame, int]] = []
+    while n_hubs is None or len(out) < n_hubs:
+        if out:
+            free = _window_sums(taken, k) == 0
+            if not free.any():
+                break
+            score = np.where(free, window, -1)
+            jy, jx = np.unravel_index(int(np.argmax(score)), score.shape)
+            pick = (int(jy), int(jx))
+        held = int(window[pick])
+        if held <= 0 or (n_hubs is None and out and held < min_share * total):
+            break
+        frame = _square_frame(ref, x0, y0, pick[0] - pad, pick[1] - pad, k, grid_m, size_km)
+        out.append((frame, held))
+        taken[pick[0] : pick[0] + k, pick[1] : pick[1] + k] = 1
+    return out

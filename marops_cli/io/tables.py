@@ -25,6 +25,7 @@ def stops_schema(tz: str = DEFAULT_TZ) -> pa.Schema:
     """The stops table (docs/outputs.md); timestamps are local times of zone ``tz``."""
     return pa.schema(
         [
+            ("hub", pa.int32()),
             ("day", pa.date32()),
             ("window", pa.int32()),
             ("window_start", pa.timestamp("s", tz=tz)),
@@ -54,6 +55,7 @@ def routes_schema(tz: str = DEFAULT_TZ) -> pa.Schema:
     """The routes table (docs/outputs.md)."""
     return pa.schema(
         [
+            ("hub", pa.int32()),
             ("day", pa.date32()),
             ("window", pa.int32()),
             ("window_start", pa.timestamp("s", tz=tz)),
@@ -85,11 +87,13 @@ def build_tables(
     tz: str = DEFAULT_TZ,
     drone_models: Sequence[EnergyModel] | None = None,
     drone_types: Sequence[str] | None = None,
+    hub: int = 0,
 ) -> tuple[pa.Table, pa.Table]:
     """(stops, routes) for the given windows of one day; times are local to ``tz``.
 
     ``drone_models`` and ``drone_types`` give each drone's type (speed and battery,
-    and its name); None: every drone is ``model``'s, the type ``default``.
+    and its name); None: every drone is ``model``'s, the type ``default``. ``hub`` is
+    the study area's hub id (0 for a single study area).
     """
     s_schema, r_schema = stops_schema(tz), routes_schema(tz)
     stops: dict[str, list[Any]] = {f.name: [] for f in s_schema}
@@ -112,6 +116,7 @@ def build_tables(
             on_board = np.concatenate([np.cumsum(w[::-1])[::-1], [0.0]]) if n else np.zeros(1)
             on_board = np.append(on_board, 0.0)
             for seq, (kind, dep, i) in enumerate(nodes):
+                stops["hub"].append(hub)
                 stops["day"].append(day_s)
                 stops["window"].append(plan.t)
                 stops["window_start"].append(ws)
@@ -144,6 +149,7 @@ def build_tables(
                 stops["leg_j"].append(float(leg_j[seq]))
                 stops["payload_kg"].append(float(on_board[seq]))
                 stops["method"].append(method)
+            routes["hub"].append(hub)
             routes["day"].append(day_s)
             routes["window"].append(plan.t)
             routes["window_start"].append(ws)

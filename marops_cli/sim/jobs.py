@@ -6,6 +6,7 @@ A *method* (docs/method.md §7) is a segmentation, a flight-range policy and a p
 from __future__ import annotations
 
 import datetime as dt
+import hashlib
 import os
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -96,6 +97,8 @@ class Scenario:
     depots: Depots
     cfg: PlannerConfig
     history_days: list[dt.date]
+    hub: int = 0
+    """The hub this study area is (docs/method.md §1.1); 0 for a single study area."""
 
 
 def load_scenario(
@@ -105,6 +108,7 @@ def load_scenario(
     depots_path: str | Path | None = None,
     replay_days: Sequence[dt.date] = (),
     table: LadeTable | None = None,
+    hub: int = 0,
 ) -> Scenario:
     """Read the file and take depots from ``depots_path`` or segment the history days.
 
@@ -121,7 +125,7 @@ def load_scenario(
         if depots.n_actions != cfg.segment.n_actions:
             depots = depots.with_actions(cfg.segment.n_actions)
         depots.arrivals = arrival_profile(table, depots, unseen, cfg) if unseen else None
-        return Scenario(table, depots.frame, depots, cfg, history)
+        return Scenario(table, depots.frame, depots, cfg, history, hub)
     frame = study_frame(table, cfg.data, history)
 
     def make() -> Depots:
@@ -133,11 +137,12 @@ def load_scenario(
 
     # k-means is the slowest step of a run without --depots: the depots are cached by
     # the hash of what they are made from (docs/outputs.md, "Depots cache").
-    key = (table.source.sha256, history, frame, cfg.data, cfg.segment)
+    rows = hashlib.sha256(np.ascontiguousarray(table.row).tobytes()).hexdigest()
+    key = (f"{table.source.sha256}:{rows}", history, frame, cfg.data, cfg.segment)
     depots = cached_depots(key, make)
     # The profile never sees a replayed day: with no other day there is none (zeros).
     depots.arrivals = arrival_profile(table, depots, unseen, cfg) if unseen else None
-    return Scenario(table, frame, depots, cfg, history)
+    return Scenario(table, frame, depots, cfg, history, hub)
 
 
 def arrival_profile(
@@ -229,4 +234,4 @@ def replay(
         on_window=on_window,
         drone_models=fl.models(),
     )
-    return res, reqs, day_metrics(res, model, fl)
+    return res, reqs, day_metrics(res, model, fl, hub=scn.hub)

@@ -48,7 +48,9 @@ def unservable(
     return int(heavy.sum()), int(far.sum())
 
 
-def day_metrics(res: DayResult, model: EnergyModel, fleet: Fleet | None = None) -> dict[str, Any]:
+def day_metrics(
+    res: DayResult, model: EnergyModel, fleet: Fleet | None = None, hub: int = 0
+) -> dict[str, Any]:
     """The ``metrics.json`` record of one replayed day (docs/outputs.md); ``fleet`` gives
     each drone's type (None: every drone is ``model``'s, the default type)."""
     st = res.state
@@ -83,6 +85,7 @@ def day_metrics(res: DayResult, model: EnergyModel, fleet: Fleet | None = None) 
     return {
         "day": day.day.isoformat(),
         "method": res.method,
+        "hub": hub,
         "mean_energy_kj": total_j / res.n_drones / 1000.0,
         "avg_delay_h": float(delay.mean()) if delay.size else 0.0,
         "delay_unfairness": gini(area_delay[has_req]),

@@ -34,6 +34,7 @@ WINDOW = 5
 TS = pa.timestamp("ms", tz="Asia/Shanghai")
 SHANGHAI = ZoneInfo("Asia/Shanghai")
 STOPS_COLUMNS = [
+    ("hub", pa.int32()),
     ("day", pa.date32()),
     ("window", pa.int32()),
     ("window_start", TS),
@@ -57,6 +58,7 @@ STOPS_COLUMNS = [
     ("method", pa.string()),
 ]
 ROUTES_COLUMNS = [
+    ("hub", pa.int32()),
     ("day", pa.date32()),
     ("window", pa.int32()),
     ("window_start", TS),

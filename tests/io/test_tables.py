@@ -91,7 +91,8 @@ def tables(day, depots, plan, model):
 def test_schemas_are_the_documented_ones(tables):
     stops, routes = tables
     assert stops.schema.equals(STOPS_SCHEMA) and routes.schema.equals(ROUTES_SCHEMA)
-    assert stops.schema.names[:8] == [
+    assert stops.schema.names[:9] == [
+        "hub",
         "day",
         "window",
         "window_start",
@@ -109,6 +110,7 @@ def test_schemas_are_the_documented_ones(tables):
 
 def test_stops_hand_values(tables, model):
     st = tables[0].to_pydict()
+    assert st["hub"] == [0] * 6 and tables[1].column("hub").to_pylist() == [0, 0]
     assert st["drone"] == [0, 0, 0, 0, 1, 1]
     assert st["seq"] == [0, 1, 2, 3, 0, 1]
     assert st["kind"] == ["start", "customer", "customer", "end", "start", "end"]

@@ -1,0 +1,134 @@
+"""Hubs: a city tiled into study areas, each with its own depots and fleet
+(docs/method.md §1.1, docs/outputs.md "Hubs file").
+
+A hub is a study square. :func:`find_hubs` places disjoint squares densest first
+(:func:`~marops_cli.data.frame.hub_squares`); a hubs file can also be written by hand
+(centres, optionally sizes and fleet sizes). Every order belongs to at most one hub:
+the first, in hub order, whose square holds it (:func:`hub_owner`), so no order is
+planned twice where two squares touch.
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..config import DataConfig
+from ..data.frame import Frame, hub_squares
+from ..data.jsonfile import read_json
+from ..data.prepare import check_days_in_file
+from ..data.table import LadeTable
+from ..errors import InputError
+
+__all__ = ["Hub", "find_hubs", "hub_owner", "hubs_doc", "load_hubs"]
+
+
+@dataclass(frozen=True)
+class Hub:
+    """One study area of a city."""
+
+    id: int
+    frame: Frame
+    orders: int = 0
+    """Orders its square held on the days it was placed from (0: unknown)."""
+    drones: int | None = None
+    """Its fleet size; None: the run's ``--drones``."""
+
+
+def find_hubs(
+    table: LadeTable,
+    cfg: DataConfig,
+    days: Sequence[dt.date] | None,
+    n_hubs: int | None,
+    min_share: float = 0.01,
+) -> tuple[list[Hub], int]:
+    """Hubs over the orders due on ``days`` (all when None), densest first: ``n_hubs``
+    of them, or (None) while the next holds at least ``min_share`` of the orders.
+    Returns the hubs and the number of orders they were placed from."""
+    if days:
+        check_days_in_file(table, days)
+        mask = np.isin(table.delivery_day, np.array(list(days), dtype="datetime64[D]"))
+    else:
+        mask = np.ones(len(table), dtype=bool)
+    if not mask.any():
+        raise InputError("no requests to place hubs on", file=table.source.path)
+    squares = hub_squares(
+        table.lng[mask], table.lat[mask], cfg.size_km, cfg.grid_m, n_hubs, min_share
+    )
+    hubs = [Hub(i, f, n) for i, (f, n) in enumerate(squares)]
+    return hubs, int(mask.sum())
+
+
+def hubs_doc(hubs: Sequence[Hub], total: int, meta: dict[str, Any]) -> dict[str, Any]:
+    """The hubs file (docs/outputs.md, "Hubs file")."""
+    return {
+        "meta": meta,
+        "orders": total,
+        "hubs": [
+            {
+                "id": h.id,
+                "center_lng": h.frame.center_lng,
+                "center_lat": h.frame.center_lat,
+                "size_km": h.frame.size_km,
+                "orders": h.orders,
+                "share": h.orders / total if total else 0.0,
+                **({"drones": h.drones} if h.drones is not None else {}),
+            }
+            for h in hubs
+        ],
+    }
+
+
+def _number(doc: dict[str, Any], key: str, path: Path, col: str, kind: type) -> Any:
+    v = doc[key]
+    if isinstance(v, bool) or not isinstance(v, int | float):
+        raise InputError(f"expected a number, got {v!r}", file=path, column=col)
+    if kind is int and int(v) != v:
+        raise InputError(f"expected a whole number, got {v!r}", file=path, column=col)
+    return kind(v)
+
+
+def load_hubs(path: str | Path, cfg: DataConfig) -> list[Hub]:
+    """The hubs of a hubs file: ``{"hubs": [{center_lng, center_lat, size_km?, drones?}]}``
+    (or the list itself); ``size_km`` defaults to ``cfg.size_km``; ids are list order."""
+    p = Path(path)
+    doc = read_json(p, "hubs file")
+    items = doc.get("hubs") if isinstance(doc, dict) else doc
+    if not isinstance(items, list) or not items:
+        raise InputError("expected a list of hubs under 'hubs'", file=p, column="hubs")
+    hubs = []
+    for i, h in enumerate(items):
+        col = f"hubs[{i}]"
+        if not isinstance(h, dict):
+            raise InputError("a hub is a table with center_lng and center_lat", file=p, column=col)
+        for key in ("center_lng", "center_lat"):
+            if key not in h:
+                raise InputError(f"a hub needs {key}", file=p, column=f"{col}.{key}")
+        lng = _number(h, "center_lng", p, f"{col}.center_lng", float)
+        lat = _number(h, "center_lat", p, f"{col}.center_lat", float)
+        size = _number(h, "size_km", p, f"{col}.size_km", float) if "size_km" in h else None
+        if not (-180 <= lng <= 180 and -90 <= lat <= 90):
+            raise InputError("the centre is not a longitude, latitude", file=p, column=col)
+        if size is not None and not 0 < size <= 200:
+            raise InputError("size_km must be in (0, 200]", file=p, column=f"{col}.size_km")
+        drones = _number(h, "drones", p, f"{col}.drones", int) if "drones" in h else None
+        if drones is not None and drones < 1:
+            raise InputError("a hub needs at least one drone", file=p, column=f"{col}.drones")
+        orders = _number(h, "orders", p, f"{col}.orders", int) if "orders" in h else 0
+        hubs.append(Hub(i, Frame(lng, lat, cfg.size_km if size is None else size), orders, drones))
+    return hubs
+
+
+def hub_owner(table: LadeTable, hubs: Sequence[Hub]) -> np.ndarray:
+    """Each row's hub: the first (in hub order) whose square holds it, or -1."""
+    owner = np.full(len(table), -1, dtype=np.int64)
+    for h in hubs:
+        x, y = h.frame.to_xy(table.lng, table.lat)
+        mine = (owner < 0) & h.frame.contains(x, y)
+        owner[mine] = h.id
+    return owner

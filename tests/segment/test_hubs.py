@@ -1,0 +1,245 @@
+"""Hubs over a city (docs/method.md §1.1): placing the squares, the hubs file, which
+hub an order belongs to, and a city day replayed hub by hub."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pyarrow.parquet as pq
+import pytest
+from typer.testing import CliRunner
+
+from marops_cli.cli.app import app
+from marops_cli.config import DataConfig
+from marops_cli.data.frame import Frame, densest_square, hub_squares
+from marops_cli.errors import InputError
+from marops_cli.segment.hubs import Hub, hub_owner, load_hubs
+
+runner = CliRunner()
+LNG, LAT = 121.47, 31.23
+
+
+def _cluster(rng: np.random.Generator, cx_m: float, cy_m: float, n: int, sd: float = 800.0):
+    ref = Frame(LNG, LAT, 10.0)
+    x = rng.normal(cx_m, sd, n)
+    y = rng.normal(cy_m, sd, n)
+    return ref.to_lnglat(x, y)
+
+
+def test_squares_are_disjoint_densest_first_and_the_first_is_the_study_square():
+    """Three clusters 20 km apart, of 3000, 2000 and 1000 points: three 5 km squares, one
+    on each, in that order, the first exactly densest_square's; a fourth would hold
+    nothing, so auto stops at three."""
+    rng = np.random.default_rng(0)
+    parts = [
+        _cluster(rng, 0, 0, 3000),
+        _cluster(rng, 20_000, 0, 2000),
+        _cluster(rng, 0, 20_000, 1000),
+    ]
+    lng = np.concatenate([p[0] for p in parts])
+    lat = np.concatenate([p[1] for p in parts])
+    squares = hub_squares(lng, lat, 5.0, 250.0, None, 0.01)
+    assert len(squares) == 3
+    assert squares[0][0] == densest_square(lng, lat, 5.0, 250.0)
+    held = [n for _, n in squares]
+    assert held == sorted(held, reverse=True) and held[0] > 2900 and held[2] > 900
+    # Each square sits on its cluster and no point lies in two squares.
+    inside = []
+    for f, n in squares:
+        x, y = f.to_xy(lng, lat)
+        inside.append(f.contains(x, y))
+        assert abs(int(inside[-1].sum()) - n) <= 0.01 * n  # the grid count, up to edges
+    assert not (np.sum(inside, axis=0) > 1).any()
+    assert len(hub_squares(lng, lat, 5.0, 250.0, 2)) == 2
+    assert len(hub_squares(lng, lat, 5.0, 250.0, None, 0.3)) == 2  # 1000 < 30 % of 6000
+
+
+def test_an_order_belongs_to_the_first_hub_that_holds_it():
+    """Two overlapping squares: a point in both is the first hub's; outside both is -1."""
+    from marops_cli.data.table import DropReport, LadeTable, SourceInfo
+
+    a, b = Frame(LNG, LAT, 2.0), None
+    ref = Frame(LNG, LAT, 10.0)
+    b_lng, b_lat = ref.to_lnglat(np.array([1500.0]), np.array([0.0]))
+    b = Frame(float(b_lng[0]), float(b_lat[0]), 2.0)  # overlaps a on x in [500, 1000]
+    x = np.array([0.0, 800.0, 2000.0, 5000.0])
+    lng, lat = ref.to_lnglat(x, np.zeros(4))
+    n = x.size
+    table = LadeTable(
+        order_id=np.array([f"o{i}" for i in range(n)], dtype=object),
+        lng=lng,
+        lat=lat,
+        accept_s=np.zeros(n, np.int64),
+        delivery_s=np.zeros(n, np.int64),
+        aoi_id=np.array([""] * n, dtype=object),
+        weight_kg=None,
+        row=np.arange(2, n + 2),
+        source=SourceInfo("x.csv", "x.csv", 0, "0"),
+        report=DropReport(n, n),
+    )
+    owner = hub_owner(table, [Hub(0, a), Hub(1, b)])
+    assert owner.tolist() == [0, 0, 1, -1]
+
+
+@pytest.mark.parametrize(
+    ("doc", "column", "needle"),
+    [
+        ({"hubs": []}, "hubs", "list of hubs"),
+        ({"hubs": [{"center_lng": 121.4}]}, "hubs[0].center_lat", "needs center_lat"),
+        ({"hubs": [{"center_lng": 190.0, "center_lat": 31.0}]}, "hubs[0]", "longitude"),
+        (
+            {"hubs": [{"center_lng": 121.4, "center_lat": 31.0, "size_km": 0}]},
+            "hubs[0].size_km",
+            "(0, 200]",
+        ),
+        (
+            {"hubs": [{"center_lng": 121.4, "center_lat": 31.0, "drones": 1.5}]},
+            "hubs[0].drones",
+            "whole",
+        ),
+        ({"hubs": [{"center_lng": "x", "center_lat": 31.0}]}, "hubs[0].center_lng", "number"),
+    ],
+)
+def test_bad_hubs_files_name_the_key(tmp_path, doc, column, needle):
+    p = tmp_path / "hubs.json"
+    p.write_text(json.dumps(doc))
+    with pytest.raises(InputError) as err:
+        load_hubs(p, DataConfig())
+    assert err.value.column == column and needle in err.value.message
+    assert err.value.file == str(p)
+
+
+def test_hand_written_hubs_file_takes_defaults(tmp_path):
+    p = tmp_path / "h.json"
+    p.write_text(json.dumps([{"center_lng": 121.4, "center_lat": 31.2, "drones": 3}]))
+    (h,) = load_hubs(p, DataConfig(size_km=7.0))
+    assert (h.id, h.frame.size_km, h.drones, h.orders) == (0, 7.0, 3, 0)
+
+
+@pytest.fixture(scope="module")
+def city(example_csv: Path, tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+    """segment --hubs 3 on the history days, then 0811 replayed over the three hubs
+    (hub 2 with 4 drones), and the plain run of hub 0's square."""
+    d = tmp_path_factory.mktemp("city")
+    hubs = d / "hubs.json"
+    res = runner.invoke(
+        app,
+        [
+            "segment",
+            str(example_csv),
+            "--hubs",
+            "3",
+            "--dates",
+            "0801..0810",
+            "--out",
+            str(hubs),
+            "-q",
+        ],
+    )
+    assert res.exit_code == 0, res.output
+    doc = json.loads(hubs.read_text())
+    doc["hubs"][2]["drones"] = 4
+    hubs.write_text(json.dumps(doc))
+    out = d / "city"
+    res = runner.invoke(
+        app,
+        [
+            "replay-day",
+            str(example_csv),
+            "--date",
+            "0811",
+            "--hubs",
+            str(hubs),
+            "--out",
+            str(out),
+            "-q",
+        ],
+    )
+    assert res.exit_code == 0, res.output
+    h0 = doc["hubs"][0]
+    cfg = d / "center.toml"
+    cfg.write_text(f"[data]\ncenter = [{h0['center_lng']!r}, {h0['center_lat']!r}]\n")
+    plain = d / "plain"
+    res = runner.invoke(
+        app,
+        [
+            "replay-day",
+            str(example_csv),
+            "--date",
+            "0811",
+            "--config",
+            str(cfg),
+            "--out",
+            str(plain),
+            "-q",
+        ],
+    )
+    assert res.exit_code == 0, res.output
+    return {"hubs": hubs, "out": out, "plain": plain}
+
+
+def test_city_day_covers_the_hubs_once_each(city):
+    doc = json.loads(city["hubs"].read_text())
+    assert [h["id"] for h in doc["hubs"]] == [0, 1, 2]
+    assert sum(h["share"] for h in doc["hubs"]) <= 1.0
+    metrics = json.loads((city["out"] / "metrics.json").read_text())
+    seen: set[str] = set()
+    for h in range(3):
+        stops = pq.read_table(city["out"] / f"hub-{h}" / "stops.parquet").to_pydict()
+        routes = pq.read_table(city["out"] / f"hub-{h}" / "routes.parquet").to_pydict()
+        assert set(stops["hub"]) == {h} and set(routes["hub"]) == {h}
+        ids = [o for o, k in zip(stops["order_id"], stops["kind"], strict=True) if k == "customer"]
+        assert not seen & set(ids), "an order planned in two hubs"
+        seen |= set(ids)
+        assert len(set(routes["drone"])) == (4 if h == 2 else 8)
+    days = metrics["days"]
+    assert [d["hub"] for d in days] == [0, 1, 2]
+    c = metrics["city"]
+    assert c["planned"] == sum(d["requests"] for d in days)
+    assert c["delivered"] == sum(d["delivered"] for d in days) == len(seen)
+    assert c["orders_due"] == days[0]["orders_due"]  # hub 0 sees the whole city's day
+    assert c["covered_share"] == pytest.approx(c["planned"] / c["orders_due"], rel=1e-12)
+    assert 0 < c["covered_share"] < 1
+
+
+def test_a_single_hub_writes_the_plain_runs_bytes(city):
+    """Hub 0 of the city run is the plain run with its square as the study area: the
+    route files are the same bytes, the day's metrics the same bar wall times."""
+    for name in ("stops.parquet", "routes.parquet"):
+        assert (city["out"] / "hub-0" / name).read_bytes() == (city["plain"] / name).read_bytes()
+    a = json.loads((city["out"] / "hub-0" / "metrics.json").read_text())
+    b = json.loads((city["plain"] / "metrics.json").read_text())
+    for doc in (a, b):
+        doc["meta"].pop("created", None)
+        for day in doc["days"]:
+            day.pop("runtime_s")
+            day["solver"].pop("solve_s")
+    assert a == b
+
+
+def test_hubs_refuse_depots_and_bad_counts(example_csv, tmp_path, fails_cleanly):
+    hubs = tmp_path / "h.json"
+    hubs.write_text(json.dumps({"hubs": [{"center_lng": 121.45, "center_lat": 31.2}]}))
+    fails_cleanly(
+        [
+            "replay-day",
+            str(example_csv),
+            "--date",
+            "0811",
+            "--hubs",
+            str(hubs),
+            "--depots",
+            str(hubs),
+            "--out",
+            str(tmp_path / "o"),
+        ],
+        tmp_path,
+        "--hubs",
+    )
+    fails_cleanly(
+        ["segment", str(example_csv), "--hubs", "zero", "--out", str(tmp_path / "x.json")],
+        tmp_path,
+        "--hubs",
+    )
