@@ -1,0 +1,274 @@
+"""Whole cities and repeated runs: wall time and peak memory of the analyst's jobs.
+
+Every figure is a whole ``marops`` process (as cron runs it), its wall time and its
+peak resident memory (``ru_maxrss`` of that process alone):
+
+* **City** (``--city``): a LaDe-shaped city file of ``--rows`` rows (default 1.5 M:
+  180 days of a 40 km polycentric city, ``SynthConfig``, seed 5): ``segment`` over the
+  whole file, ``segment --hubs auto`` over its history days, and one day replayed over
+  every hub (``replay-day --hubs``), with the share of the city's orders the hubs cover.
+* **Repeated runs** (the bundled example): ``replay-day`` of one day with ``--depots``,
+  median and min of ``--repeats`` runs, with the stages of one run (imports, reading,
+  depots, the actor, planning, writing) measured in one process; each extra day of
+  ``--dates`` from the slope between 1 and 5 days.
+* **Sweeps** (``--sweep``): ``evaluate`` over 30 days × 4 methods of a synthetic file
+  with ``--workers 1`` and ``--workers 2`` side by side (ratio).
+
+Nothing is asserted: the machine is shared; run it on a quiet one and read min/median.
+
+    python benchmarks/scale.py [--city] [--rows 1500000] [--sweep] [--repeats 5]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+sys.path = [p for p in sys.path if Path(p or ".").resolve() != Path(__file__).parent.resolve()]
+
+ROOT = Path(__file__).resolve().parents[1]
+EXAMPLE = ROOT / "examples" / "shanghai_synth.csv"
+
+# Runs a command as a child and prints its own peak memory (KiB) after it ends.
+_WRAP = (
+    "import resource, subprocess, sys\n"
+    "r = subprocess.run(sys.argv[1:], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,"
+    " text=True)\n"
+    "sys.stderr.write(r.stderr[-2000:] if r.returncode else '')\n"
+    "print(resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss)\n"
+    "sys.exit(r.returncode)\n"
+)
+_STAGES = r"""
+import time, sys, json
+t0 = time.perf_counter()
+from marops_cli.cli import app  # noqa: F401  (what the command line loads first)
+t_cli = time.perf_counter()
+from marops_cli.config import PlannerConfig
+from marops_cli.data.reader import read_lade
+from marops_cli.sim.jobs import load_scenario, load_fleet, method_policy, replay
+from marops_cli.data.dates import parse_day
+import datetime as dt
+cfg = PlannerConfig()
+day = dt.date(2022, 8, 11)
+t1 = time.perf_counter()
+table = read_lade(sys.argv[1], cfg.data)
+t2 = time.perf_counter()
+scn = load_scenario(sys.argv[1], cfg, depots_path=sys.argv[2], replay_days=[day], table=table)
+t3 = time.perf_counter()
+pol = method_policy("marops", None, 0)
+t4 = time.perf_counter()
+fleet = load_fleet(None, scn.depots, cfg.sim.drones, cfg)
+res, reqs, metrics = replay(scn, day, fleet, pol, "marops")
+t5 = time.perf_counter()
+from marops_cli.energy import EnergyModel
+from marops_cli.io.tables import build_tables
+stops, routes = build_tables(reqs, scn.depots, res.plans, EnergyModel(cfg.energy), "marops")
+import pyarrow.parquet as pq
+pq.write_table(routes, sys.argv[3] + "/r.parquet")
+pq.write_table(stops, sys.argv[3] + "/s.parquet")
+t6 = time.perf_counter()
+print(json.dumps({"start and CLI imports": t_cli - t0, "library imports": t1 - t_cli,
+                  "read the file": t2 - t1, "depots and arrival profile": t3 - t2,
+                  "load the actor (torch)": t4 - t3, "plan 16 windows": t5 - t4,
+                  "build and write tables": t6 - t5}))
+"""
+
+
+def run(cmd: list[str], env: dict[str, str] | None = None) -> tuple[float, float]:
+    """(wall s, peak MiB) of one command in its own process."""
+    t = time.perf_counter()
+    r = subprocess.run(
+        [sys.executable, "-c", _WRAP, *cmd], capture_output=True, text=True, env=env, check=False
+    )
+    wall = time.perf_counter() - t
+    if r.returncode:
+        raise SystemExit(f"failed: {' '.join(cmd)}\n{r.stderr}")
+    return wall, int(r.stdout.strip().splitlines()[-1]) / 1024.0
+
+
+def marops(*args: str) -> list[str]:
+    return [sys.executable, "-c", "from marops_cli.cli.app import main; main()", *args]
+
+
+def city(rows: int, tmp: Path) -> None:
+    from marops_cli.data.synth import SynthConfig, generate, write
+
+    per_day = 8300.0
+    days = max(2, min(366, round(rows / per_day)))
+    path = tmp / "city.csv"
+    t = time.perf_counter()
+    cfg = SynthConfig(
+        days=days, seed=5, orders_per_day=per_day, extent_km=40.0, shape="polycentric"
+    )
+    write(generate(cfg), path)
+    n = sum(1 for _ in path.open()) - 1
+    print(
+        f"city file: {n:,} rows, {days} days, {path.stat().st_size / 1e6:.0f} MB "
+        f"(made in {time.perf_counter() - t:.1f} s)"
+    )
+    last = cfg.start.toordinal() + days - 1
+    import datetime as dt
+
+    day = dt.date.fromordinal(last).strftime("%m%d")
+    history = f"{cfg.start.strftime('%m%d')}..{dt.date.fromordinal(last - 1).strftime('%m%d')}"
+    wall, mem = run(marops("segment", str(path), "--out", str(tmp / "depots.json"), "-q"))
+    print(f"segment, whole file (16 k-means depots): {wall:6.1f} s, peak {mem:6.0f} MiB")
+    hubs = tmp / "hubs.json"
+    wall, mem = run(
+        marops("segment", str(path), "--hubs", "auto", "--dates", history, "--out", str(hubs), "-q")
+    )
+    doc = json.loads(hubs.read_text())
+    share = sum(h["share"] for h in doc["hubs"])
+    print(
+        f"segment --hubs auto:                     {wall:6.1f} s, peak {mem:6.0f} MiB "
+        f"({len(doc['hubs'])} hubs holding {100 * share:.1f} % of the history's orders)"
+    )
+    for label, cache in (("first run", "fresh"), ("again, depots cached", "same")):
+        env = dict(os.environ, MAROPS_CACHE_DIR=str(tmp / "cache"))
+        out = tmp / f"city-{cache}"
+        wall, mem = run(
+            marops(
+                "replay-day", str(path), "--date", day, "--hubs", str(hubs), "--out", str(out), "-q"
+            ),
+            env,
+        )
+        c = json.loads((out / "metrics.json").read_text())["city"]
+        print(
+            f"replay-day --hubs, one day ({label}): {wall:6.1f} s, peak {mem:6.0f} MiB; "
+            f"{c['planned']:,} of {c['orders_due']:,} orders planned "
+            f"({100 * c['covered_share']:.1f} %), {c['delivered']:,} delivered"
+        )
+
+
+def repeated(repeats: int, tmp: Path) -> None:
+    depots = tmp / "depots.json"
+    run(marops("segment", str(EXAMPLE), "--dates", "0801..0810", "--out", str(depots), "-q"))
+    walls = []
+    for i in range(repeats):
+        w, mem = run(
+            marops(
+                "replay-day",
+                str(EXAMPLE),
+                "--date",
+                "0811",
+                "--depots",
+                str(depots),
+                "--out",
+                str(tmp / f"one{i}"),
+                "-q",
+            )
+        )
+        walls.append(w)
+    print(
+        f"replay-day, one day with --depots: median {statistics.median(walls):.2f} s, "
+        f"min {min(walls):.2f} s over {repeats} runs, peak {mem:.0f} MiB"
+    )
+    r = subprocess.run(
+        [sys.executable, "-c", _STAGES, str(EXAMPLE), str(depots), str(tmp)],
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    stages = json.loads(r.stdout.strip().splitlines()[-1])
+    print(
+        "  stages of one run, in one process: "
+        + "; ".join(f"{k} {v:.2f} s" for k, v in stages.items())
+    )
+    slopes = []
+    for i in range(max(2, repeats // 2)):
+        one, _ = run(
+            marops(
+                "replay-day",
+                str(EXAMPLE),
+                "--dates",
+                "0811",
+                "--depots",
+                str(depots),
+                "--out",
+                str(tmp / f"d1-{i}"),
+                "-q",
+            )
+        )
+        five, _ = run(
+            marops(
+                "replay-day",
+                str(EXAMPLE),
+                "--dates",
+                "0808..0812",
+                "--depots",
+                str(depots),
+                "--out",
+                str(tmp / f"d5-{i}"),
+                "-q",
+            )
+        )
+        slopes.append((five - one) / 4)
+    print(
+        f"each extra day of --dates: median {statistics.median(slopes):.2f} s, "
+        f"min {min(slopes):.2f} s (5 days minus 1 day, / 4)"
+    )
+
+
+def sweep(tmp: Path) -> None:
+    from marops_cli.data.synth import SynthConfig, generate, write
+
+    path = tmp / "sweep.csv"
+    write(generate(SynthConfig(days=40, seed=9)), path)
+    walls = {}
+    for workers in (1, 2):
+        out = tmp / f"ev{workers}"
+        t = time.perf_counter()
+        r = subprocess.run(
+            marops(
+                "evaluate",
+                str(path),
+                "--methods",
+                "marops,ops-global,greedy,stay",
+                "--dates",
+                "0811..0909",
+                "--workers",
+                str(workers),
+                "--no-plot",
+                "--out",
+                str(out),
+                "-q",
+            ),
+            capture_output=True,
+            text=True,
+            check=False,
+        )
+        walls[workers] = time.perf_counter() - t
+        if r.returncode:
+            raise SystemExit(r.stderr)
+    print(
+        f"evaluate, 30 days x 4 methods: --workers 1 {walls[1]:.1f} s, --workers 2 "
+        f"{walls[2]:.1f} s: {walls[1] / walls[2]:.2f}x faster"
+    )
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--city", action="store_true", help="the city file's figures")
+    ap.add_argument("--rows", type=int, default=1_500_000)
+    ap.add_argument("--sweep", action="store_true", help="evaluate with 1 and 2 workers")
+    ap.add_argument("--repeats", type=int, default=5)
+    args = ap.parse_args()
+    with tempfile.TemporaryDirectory() as d:
+        tmp = Path(d)
+        os.environ.setdefault("MAROPS_CACHE_DIR", str(tmp / "cache"))
+        repeated(args.repeats, tmp)
+        if args.city:
+            city(args.rows, tmp)
+        if args.sweep:
+            sweep(tmp)
+
+
+if __name__ == "__main__":
+    main()
