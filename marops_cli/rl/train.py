@@ -22,6 +22,7 @@ import torch
 from .. import __version__
 from ..config import PlannerConfig
 from ..errors import InputError
+from ..policies.observation import ObsVersion
 from .config import TrainConfig
 from .data import TrainData, fingerprint, load_training_data, split_days
 from .env import DeliveryEnv
@@ -137,7 +138,7 @@ class Trainer:
         """The episode's trade-off α: drawn from ``alpha_range`` (actors that observe α),
         else None (the config's)."""
         lo_hi = self.tcfg.alpha_range
-        if lo_hi is None or self.obs_version < 4:
+        if lo_hi is None or self.obs_version < ObsVersion.ANTICIPATION:
             return None
         rng = np.random.default_rng(derive_seed(self.tcfg.seed, _STREAM_ALPHA, episode))
         return round(float(rng.uniform(*lo_hi)), 3)
@@ -189,7 +190,7 @@ class Trainer:
         ``bc_anneal`` of the run (MAPPO has no target: 0)."""
         t = self.tcfg
         span = t.bc_anneal * t.episodes
-        if self.obs_version < 3 or span <= 0:
+        if self.obs_version < ObsVersion.SEQUENTIAL or span <= 0:
             return 0.0
         return t.bc_coef * max(0.0, 1.0 - self.episode / span)
 
@@ -260,7 +261,7 @@ class Trainer:
             chosen = next(e for e in self.evals if e["episode"] == self.best["episode"])
         side: dict[str, Any] = {
             "method": t.method,
-            "obs_version": self.obs_version,
+            "obs_version": int(self.obs_version),
             "n_actions": self.n_actions,
             "alpha": cfg.plan.alpha,
             "seed": t.seed,
