@@ -67,7 +67,7 @@ class Trainer:
         self.history: list[dict[str, float]] = []
         self.evals: list[dict[str, Any]] = []
         self.baselines: list[dict[str, Any]] = []
-        self.best: dict[str, Any] | None = None  # {"episode", "combined_cost", "actor"}
+        self.best: dict[str, Any] | None = None  # {"episode", "daily_combined_cost", "actor"}
 
     # -- checkpoints -----------------------------------------------------------------
     def save_checkpoint(self) -> None:
@@ -114,6 +114,7 @@ class Trainer:
         self.history, self.evals = list(state["history"]), list(state["evals"])
         self.baselines = list(state["baselines"])
         self.best = state.get("best")
+        _name_daily_cost(self.evals, self.best)
         return True
 
     # -- one update --------------------------------------------------------------------
@@ -211,9 +212,9 @@ class Trainer:
         rows = workers.map([("eval", state, j, i) for j, i in days])
         ev = {"episode": self.episode, **summarise(rows, self.baselines)}
         self.evals.append(ev)
-        cc = float(ev["methods"][self.tcfg.method]["combined_cost"])
-        if self.best is None or cc < self.best["combined_cost"]:
-            self.best = {"episode": self.episode, "combined_cost": cc, "actor": state}
+        cc = float(ev["methods"][self.tcfg.method]["daily_combined_cost"])
+        if self.best is None or cc < self.best["daily_combined_cost"]:
+            self.best = {"episode": self.episode, "daily_combined_cost": cc, "actor": state}
         return ev
 
     def run(self, resume: bool) -> None:
@@ -287,7 +288,7 @@ class Trainer:
             "evaluations": [
                 {
                     "episode": e["episode"],
-                    **{m: v["combined_cost"] for m, v in e["methods"].items()},
+                    **{m: v["daily_combined_cost"] for m, v in e["methods"].items()},
                 }
                 for e in self.evals
             ],
@@ -299,6 +300,19 @@ class Trainer:
         if t.method == "mappo":
             side["plan_slots"] = t.plan_slots
         return write_actor(self.actor, self.out, side)
+
+
+def _name_daily_cost(evals: list[dict[str, Any]], best: dict[str, Any] | None) -> None:
+    """Checkpoints written before the daily combined cost had its name call it
+    ``combined_cost``: rename it in place, keeping the keys' order."""
+
+    def renamed(d: dict[str, Any]) -> dict[str, Any]:
+        return {("daily_combined_cost" if k == "combined_cost" else k): v for k, v in d.items()}
+
+    for e in evals:
+        e["methods"] = {m: renamed(v) for m, v in e["methods"].items()}
+    if best is not None and "combined_cost" in best:
+        best["daily_combined_cost"] = best.pop("combined_cost")
 
 
 def train(

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -20,6 +21,29 @@ def gini(values: np.ndarray) -> float:
         return 0.0
     cum = np.cumsum(v)
     return float((n + 1 - 2 * (cum / cum[-1]).sum()) / n)
+
+
+def combined_cost(
+    energy: Sequence[float] | np.ndarray,
+    delay: Sequence[float] | np.ndarray,
+    scale: tuple[float, float] | None = None,
+) -> np.ndarray:
+    """The paper's combined cost (Table III, docs/method.md §8) of methods compared with
+    each other: (energy / E + delay / D) / 2, with E and D the largest energy and delay
+    among them, or ``scale`` = (E, D) when given (e.g. the largest method means, to price
+    one day of a method). A metric whose largest value is 0 contributes 0.
+
+    ``evaluate`` prices the methods' means (``combined_cost``); training evaluations the
+    methods of each day, then average over days (``daily_combined_cost``).
+    """
+    e = np.asarray(energy, dtype=np.float64)
+    d = np.asarray(delay, dtype=np.float64)
+    e_top, d_top = (e.max(initial=0.0), d.max(initial=0.0)) if scale is None else scale
+    return (_share(e, e_top) + _share(d, d_top)) / 2.0
+
+
+def _share(values: np.ndarray, top: float) -> np.ndarray:
+    return values / top if top > 0 else np.zeros_like(values)
 
 
 def unservable(day: Any, depots_xy: np.ndarray, model: EnergyModel) -> tuple[int, int]:
