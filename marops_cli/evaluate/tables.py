@@ -20,13 +20,13 @@ import numpy as np
 import pyarrow as pa
 
 from ..sim.jobs import METHODS
-from ..sim.metrics import combined_cost
+from ..sim.metrics import combined_cost, metric_names
 from .runner import Prepared
 
 SETTING_COLUMNS = ("setting", "alpha", "drones", "coverage", "depots_n", "n_actions")
 KEY_COLUMNS = (*SETTING_COLUMNS, "segmentation", "method", "repeat", "seed", "day")
 # Summarised metrics, in the order of the summary's columns.
-SUMMARY_METRICS = (
+SUMMARY_METRICS = metric_names(
     "mean_energy_kj",
     "avg_delay_h",
     "combined_cost",

@@ -14,9 +14,9 @@ from typing import Any
 
 import numpy as np
 
-from ..sim.metrics import combined_cost
+from ..sim.metrics import combined_cost, metric_names
 
-TABLE_KEYS = (
+TABLE_KEYS = metric_names(
     "mean_energy_kj",
     "avg_delay_h",
     "daily_combined_cost",

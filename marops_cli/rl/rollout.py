@@ -29,7 +29,7 @@ from ..policies.observation import (
 )
 from ..policies.registry import make_policy
 from ..segment.depots import Depots
-from ..sim.metrics import day_metrics
+from ..sim.metrics import day_metrics, metric_names
 from ..sim.replay import replay_day
 from ..sim.state import default_fleet
 from .config import TrainConfig
@@ -37,7 +37,7 @@ from .env import DeliveryEnv
 from .networks import Actor
 from .ppo import MASKED_LOGIT
 
-EVAL_KEYS = (
+EVAL_KEYS = metric_names(
     "mean_energy_kj",
     "avg_delay_h",
     "delivered",

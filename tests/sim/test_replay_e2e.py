@@ -189,6 +189,17 @@ def test_day_accounting_and_metrics_recompute(replays, day_requests, method: str
     assert m["solver"]["calls"] == 16
 
 
+def test_metrics_json_holds_the_spec_columns(replays) -> None:
+    """A day's record, flattened as the result tables flatten it, is the spec's columns
+    in the spec's order (besides day, method and the per-depot loads)."""
+    from marops_cli.evaluate.tables import flatten
+    from marops_cli.sim.metrics import DAY_METRICS
+
+    m = json.loads((replays["marops"] / "metrics.json").read_text())["days"][0]
+    cols = [k for k in flatten(m) if k not in ("day", "method")]
+    assert [k for k in cols if not k.startswith("depot_load_kg_")] == [s.name for s in DAY_METRICS]
+
+
 def test_gini_hand_values() -> None:
     assert gini(np.ones(5)) == pytest.approx(0.0)
     # One area holds all the delay among 4: G = (n - 1) / n = 0.75.
