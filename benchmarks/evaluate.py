@@ -77,7 +77,7 @@ def available_methods() -> list[str]:
 def shape_checks(summary: pa.Table) -> list[str]:
     """The shape of Table III (docs/method.md §9), checked on ours, with why it differs."""
     rows = {r["method"]: r for r in summary.to_pylist()}
-    mean = {k: {m: r[f"{k}_mean"] for m, r in rows.items()} for k, _, _ in TABLE_ROWS}
+    mean = {s.name: {m: r[f"{s.name}_mean"] for m, r in rows.items()} for s in TABLE_ROWS}
     out = []
     if "ops-global" in rows:
         d = mean["avg_delay_h"]

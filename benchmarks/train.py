@@ -1,9 +1,9 @@
 """Held-out comparison of the shipped actors with the baselines (not a test; prints a table).
 
 Replays every evaluation day with every method (8 drones, 16 depots by default)
-and prints mean ± std over days. Combined cost (docs/method.md §8) is computed per day
-over the methods compared in this run (mean of energy / max energy and delay /
-max delay), then averaged over days.
+and prints mean ± std over days. The daily combined cost (docs/method.md §8) is the
+combined cost of each day over the methods compared in this run (mean of energy / max
+energy and delay / max delay that day), then averaged over days.
 
 Depots come from the file's first ``--history`` days; the remaining days are
 evaluated, so neither the depots nor the actors (trained on another file) ever
@@ -38,7 +38,7 @@ DEFAULT_METHODS = "marops,squares,mappo,ops-random,greedy,ops-global,stay,myopic
 COLUMNS = (
     ("mean_energy_kj", "energy kJ/drone", "{:.1f} ± {:.1f}"),
     ("avg_delay_h", "avg delay h", "{:.3f} ± {:.3f}"),
-    ("combined_cost", "combined cost", "{:.3f} ± {:.3f}"),
+    ("daily_combined_cost", "daily combined cost", "{:.3f} ± {:.3f}"),
     ("delay_unfairness", "unfairness", "{:.3f} ± {:.3f}"),
     ("avg_early_h", "early h", "{:.3f} ± {:.3f}"),
     ("delivered", "delivered", "{:.0f} ± {:.0f}"),

@@ -37,17 +37,33 @@ if TYPE_CHECKING:
     from ..sim.jobs import Scenario
 
 
+# Columns of the day table; headers and formats from the spec (sim/metrics.py, imported
+# when used: the simulator is not loaded to start the CLI).
 METRIC_COLUMNS = (
-    ("mean_energy_kj", "energy kJ/drone", "{:.1f}"),
-    ("avg_delay_h", "delay h", "{:.3f}"),
-    ("delay_unfairness", "unfairness", "{:.3f}"),
-    ("avg_early_h", "early h", "{:.3f}"),
-    ("delivered", "delivered", "{}"),
-    ("undelivered", "undelivered", "{}"),
-    ("objective_j_mj", "J MJ", "{:.2f}"),
-    ("objective_g_mj", "G MJ", "{:.2f}"),
-    ("co2_g", "CO2 g", "{:.1f}"),
-    ("runtime_s", "runtime s", "{:.3f}"),
+    "mean_energy_kj",
+    "avg_delay_h",
+    "delay_unfairness",
+    "avg_early_h",
+    "delivered",
+    "undelivered",
+    "objective_j_mj",
+    "objective_g_mj",
+    "co2_g",
+    "runtime_s",
+)
+# Summed over days by ``aggregate_days``, in the order of ``total``.
+SUMMED = (
+    "requests",
+    "delivered",
+    "undelivered",
+    "orders_due",
+    "outside_area",
+    "outside_hours",
+    "energy_kj",
+    "co2_g",
+    "objective_j_mj",
+    "objective_g_mj",
+    "runtime_s",
 )
 
 
@@ -362,22 +378,12 @@ def city_coverage(table: Any, days: list[dt.date], metrics: list[dict[str, Any]]
 def aggregate_days(days: list[dict[str, Any]]) -> dict[str, Any]:
     """Totals over several days: counts and energy summed, delays weighted by requests
     (docs/outputs.md, "Day metrics")."""
+    from ..sim.metrics import metric_names
+
     req = sum(d["requests"] for d in days)
     delivered = sum(d["delivered"] for d in days)
     total: dict[str, Any] = {"days": len(days)}
-    for k in (
-        "requests",
-        "delivered",
-        "undelivered",
-        "orders_due",
-        "outside_area",
-        "outside_hours",
-        "energy_kj",
-        "co2_g",
-        "objective_j_mj",
-        "objective_g_mj",
-        "runtime_s",
-    ):
+    for k in metric_names(*SUMMED):
         total[k] = sum(d.get(k, 0) for d in days)
     total["delivered_share"] = delivered / req if req else 1.0
     total["avg_delay_h"] = sum(d["avg_delay_h"] * d["requests"] for d in days) / req if req else 0.0
@@ -531,14 +537,17 @@ def _replay_one(
 
 
 def _print_metrics(rows: list[dict[str, Any]], hubs: bool = False) -> None:
+    from ..sim.metrics import metric_specs
+
+    specs = metric_specs(*METRIC_COLUMNS)
     t = table("day metrics (docs/method.md §8)")
     if hubs:
         t.add_column("hub", justify="right")
     t.add_column("day", no_wrap=True, min_width=10)
     t.add_column("method", no_wrap=True)
-    for _, label, _ in METRIC_COLUMNS:
-        t.add_column(label, justify="right")
+    for s in specs:
+        t.add_column(s.header, justify="right")
     for m in rows:
-        cells = [m["day"], m["method"], *[f.format(m[k]) for k, _, f in METRIC_COLUMNS]]
+        cells = [m["day"], m["method"], *[s.day_fmt.format(m[s.name]) for s in specs]]
         t.add_row(*([str(m.get("hub", 0))] if hubs else []), *cells)
     show_table(t)

@@ -37,7 +37,8 @@ from .common import (
 
 def _eval_line(ev: dict[str, Any]) -> str:
     parts = [
-        f"{m} {v['mean_energy_kj']:.0f} kJ {v['avg_delay_h']:.2f} h cost {v['combined_cost']:.3f}"
+        f"{m} {v['mean_energy_kj']:.0f} kJ {v['avg_delay_h']:.2f} h "
+        f"daily cost {v['daily_combined_cost']:.3f}"
         for m, v in ev["methods"].items()
     ]
     return f"episode {ev['episode']}: held-out " + "; ".join(parts)
@@ -241,14 +242,13 @@ def train(
         rep.close()
     console.print(f"wrote {out} and {out.with_suffix('.json')} ({side['training_time_s']:.0f} s)")
     if side.get("heldout"):
+        from ..sim.metrics import metric_specs
+
+        specs = metric_specs("mean_energy_kj", "avg_delay_h", "daily_combined_cost")
         t = table("held-out days (mean over days)")
-        for col in ("method", "energy kJ/drone", "delay h", "combined cost"):
-            t.add_column(col, justify="left" if col == "method" else "right")
+        t.add_column("method", justify="left")
+        for s in specs:
+            t.add_column(s.header, justify="right")
         for m, v in side["heldout"]["methods"].items():
-            t.add_row(
-                m,
-                f"{v['mean_energy_kj']:.1f}",
-                f"{v['avg_delay_h']:.3f}",
-                f"{v['combined_cost']:.3f}",
-            )
+            t.add_row(m, *[s.day_fmt.format(v[s.name]) for s in specs])
         show_table(t)

@@ -11,7 +11,9 @@ setting) or ``YYYY-MM-DD HH:MM:SS``, and ``ds`` is the date as an integer
 from __future__ import annotations
 
 import datetime as dt
+import math
 import re
+from collections.abc import Iterable
 
 import numpy as np
 import pyarrow as pa
@@ -77,6 +79,23 @@ def format_days(days: list[dt.date]) -> str:
         return "no dates"
     first, last = min(days), max(days)
     return first.isoformat() if first == last else f"{first}..{last}"
+
+
+HELD_OUT_SHARE = 0.2  # docs/method.md §6: 80 % / 20 % split by date
+
+
+def split_by_date(days: Iterable[dt.date]) -> tuple[list[dt.date], list[dt.date]]:
+    """(the first 80 % of the dates, the last 20 %), both sorted (docs/method.md §6).
+
+    The held-out count is 20 % of the dates rounded half up, and with two dates or more
+    each side keeps at least one. With fewer than two, every date is in the first part.
+    ``marops train`` (training / held-out days) and ``marops evaluate --split`` both use it.
+    """
+    days = sorted(days)
+    if len(days) < 2:
+        return days, []
+    n_held = min(len(days) - 1, max(1, math.floor(HELD_OUT_SHARE * len(days) + 0.5)))
+    return days[:-n_held], days[-n_held:]
 
 
 _MONTH_DAYS = np.array([0, 31, 28, 31, 30, 31, 30, 31, 31, 30, 31, 30, 31], dtype=np.int64)

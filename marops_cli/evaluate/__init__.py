@@ -5,6 +5,7 @@ repeat), ``evaluate`` runs them over worker processes, ``write_outputs`` writes
 ``results.parquet``, ``summary.csv``, ``summary.md`` and the figures together.
 """
 
+from ..sim.metrics import combined_cost
 from .evaluation import Evaluation, evaluate
 from .paper import PAPER_NAMES, TABLE3, paper_table
 from .report import markdown_table, summary_markdown, sweep_table, table3, write_outputs
@@ -19,7 +20,7 @@ from .settings import (
     split_days,
     swept_flags,
 )
-from .tables import combined_cost, results_table, summarize
+from .tables import results_table, summarize
 
 __all__ = [
     "PAPER_NAMES",

@@ -18,14 +18,14 @@ import numpy as np
 import pyarrow as pa
 
 from ..errors import InputError
+from ..sim.metrics import metric_specs
 
-# metric -> True when lower is better
+# metric -> True when lower is better (from the spec)
 PAIRED_METRICS: dict[str, bool] = {
-    "objective_j_mj": True,
-    "delivered_share": False,
-    "avg_delay_h": True,
-    "mean_energy_kj": True,
-    "combined_cost": True,
+    m.name: m.lower_is_better is True
+    for m in metric_specs(
+        "objective_j_mj", "delivered_share", "avg_delay_h", "mean_energy_kj", "combined_cost"
+    )
 }
 MIN_DAYS = 10
 N_BOOT = 2000

@@ -77,10 +77,11 @@ def paper_table(summary: pa.Table, setting: int = 0) -> str:
         head += [f"{name} paper", f"{m} ours"]
     head += [f"{m} ours" for m in extra]
     lines = ["| " + " | ".join(head) + " |", "|---" * len(head) + "|"]
-    for key, label, fmt in TABLE_ROWS:
+    for spec in TABLE_ROWS:
+        key, fmt = spec.name, spec.fmt
         if key not in TABLE3:
             continue
-        cells = [label]
+        cells = [spec.label]
         for m in PAPER_NAMES:
             mean, std = TABLE3[key][m]
             cells.append(f"{fmt.format(mean)} ± {fmt.format(std)}")

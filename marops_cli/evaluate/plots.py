@@ -15,29 +15,30 @@ import pyarrow as pa
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure  # the object API: no pyplot state, no display needed
 
+from ..sim.metrics import metric_names
 from .settings import SWEEP_FLAGS, Setting
 from .tables import depot_loads
 
+
+def _panel(metric: str, axis: str) -> tuple[str, str]:
+    """A panel: a metric column of the spec (sim/metrics.py) and its axis label."""
+    return metric_names(metric)[0], axis
+
+
+_DELAY = _panel("avg_delay_h", "average delivery delay (h)")
+_ENERGY = _panel("mean_energy_kj", "mean energy consumption (kJ)")
+_COST = _panel("combined_cost", "combined cost")
 # Panels of each sweep figure (metric column, axis label); "depot_load" is a heatmap.
 PANELS: dict[str, tuple[tuple[str, str], ...]] = {
-    "alpha": (
-        ("avg_delay_h", "average delivery delay (h)"),
-        ("mean_energy_kj", "mean energy consumption (kJ)"),
-        ("combined_cost", "combined cost"),
-    ),
+    "alpha": (_DELAY, _ENERGY, _COST),
     "drones": (
-        ("avg_delay_h", "average delivery delay (h)"),
-        ("mean_energy_kj", "mean energy consumption (kJ)"),
-        ("combined_cost", "combined cost"),
-        ("runtime_s", "running time per day (s)"),
+        _DELAY,
+        _ENERGY,
+        _COST,
+        _panel("runtime_s", "running time per day (s)"),
         ("depot_load", "depot load (kg)"),
     ),
-    "coverage": (
-        ("avg_delay_h", "average delivery delay (h)"),
-        ("mean_energy_kj", "mean energy consumption (kJ)"),
-        ("combined_cost", "combined cost"),
-        ("delay_unfairness", "delay unfairness (Gini)"),
-    ),
+    "coverage": (_DELAY, _ENERGY, _COST, _panel("delay_unfairness", "delay unfairness (Gini)")),
 }
 PANELS["depots_n"] = PANELS["coverage"]
 

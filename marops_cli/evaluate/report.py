@@ -12,25 +12,26 @@ import pyarrow.csv as pacsv
 
 from ..io import file_sha256, output_set, run_meta
 from ..io.tables import with_meta, write_parquet
+from ..sim.metrics import metric_specs
 from .plots import base_values, save_png, sweep_figure, unfairness_figure
 from .runner import Prepared
 from .settings import Setting, swept_flags
 
-# Rows of the paper's Table III (and a few more), with their number format.
-TABLE_ROWS = (
-    ("mean_energy_kj", "Mean energy consumption (kJ)", "{:.1f}"),
-    ("avg_delay_h", "Average delivery delay (h)", "{:.2f}"),
-    ("combined_cost", "Combined cost", "{:.2f}"),
-    ("delay_unfairness", "Delay unfairness", "{:.2f}"),
-    ("runtime_s", "Average running time (s)", "{:.2f}"),
-    ("avg_early_h", "Average early arrival (h)", "{:.2f}"),
-    ("co2_g", "CO2 per day (g)", "{:.0f}"),
-    ("delivered", "Delivered per day", "{:.1f}"),
-    ("undelivered", "Undelivered per day", "{:.1f}"),
-    ("delivered_share", "Delivered share", "{:.3f}"),
-    ("objective_j_mj", "Day objective J (MJ)", "{:.2f}"),
-    ("objective_g_mj", "Day objective G (MJ)", "{:.2f}"),
-    ("battery_frac_mean", "Battery used per flight", "{:.2f}"),
+# Rows of the paper's Table III (and a few more); labels and formats from the spec.
+TABLE_ROWS = metric_specs(
+    "mean_energy_kj",
+    "avg_delay_h",
+    "combined_cost",
+    "delay_unfairness",
+    "runtime_s",
+    "avg_early_h",
+    "co2_g",
+    "delivered",
+    "undelivered",
+    "delivered_share",
+    "objective_j_mj",
+    "objective_g_mj",
+    "battery_frac_mean",
 )
 COMBINED_COST_RULE = (
     "per setting, on the means over days and repeats: "
@@ -64,9 +65,9 @@ def table3(summary: pa.Table, setting: int) -> tuple[list[str], list[tuple[str, 
     rows = _rows_of(summary, setting)
     methods = [r["method"] for r in rows]
     body = [
-        (label, [mean_pm_std(r, k, fmt) for r in rows])
-        for k, label, fmt in TABLE_ROWS
-        if f"{k}_mean" in summary.column_names
+        (m.label, [mean_pm_std(r, m.name, m.fmt) for r in rows])
+        for m in TABLE_ROWS
+        if f"{m.name}_mean" in summary.column_names
     ]
     return methods, body
 

@@ -9,12 +9,12 @@ from __future__ import annotations
 
 import datetime as dt
 import itertools
-import math
 from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass
 from typing import Any, TypeVar
 
 from ..config import PlannerConfig, override
+from ..data.dates import split_by_date
 from ..errors import InputError
 from ..sim.jobs import METHODS
 
@@ -25,7 +25,6 @@ SWEEP_FLAGS: dict[str, tuple[str, str]] = {
     "coverage": ("plan__coverage", "flying coverage density"),
     "depots_n": ("segment__n_depots", "number of service areas"),
 }
-TEST_FRACTION = 0.2  # docs/method.md §6: 80 % / 20 % split by date
 
 T = TypeVar("T", int, float)
 
@@ -116,15 +115,14 @@ def _describe(s: Setting) -> str:
 
 
 def split_days(days: Sequence[dt.date], split: str) -> list[dt.date]:
-    """The last 20 % of the file's dates (``test``) or the first 80 % (``train``)."""
-    days = sorted(days)
+    """The last 20 % of the file's dates (``test``) or the first 80 % (``train``): the
+    split of ``marops train`` (:func:`~marops_cli.data.dates.split_by_date`)."""
     if split not in ("test", "train"):
         raise InputError(f"--split expects test or train, got {split!r}")
     if len(days) < 2:
         raise InputError(f"--split needs at least 2 days in the file, it has {len(days)}")
-    # Half rounds up, and each side keeps at least one day.
-    n_test = min(len(days) - 1, max(1, math.floor(TEST_FRACTION * len(days) + 0.5)))
-    return days[-n_test:] if split == "test" else days[:-n_test]
+    train, test = split_by_date(days)
+    return test if split == "test" else train
 
 
 def plan_jobs(

@@ -1,8 +1,8 @@
 """The results table (one row per day × method × setting × repeat) and its summary.
 
-Combined cost (docs/method.md §8, paper Table III) is computed over the methods of one
-setting *on the means*: with Ē_m and D̄_m a method's mean energy and delay over
-its days and repeats,
+Combined cost (docs/method.md §8, paper Table III; :func:`~marops_cli.sim.metrics.combined_cost`)
+is computed over the methods of one setting *on the means*: with Ē_m and D̄_m a method's
+mean energy and delay over its days and repeats,
 
     combined_cost_m = ( Ē_m / max_k Ē_k  +  D̄_m / max_k D̄_k ) / 2.
 
@@ -20,12 +20,13 @@ import numpy as np
 import pyarrow as pa
 
 from ..sim.jobs import METHODS
+from ..sim.metrics import combined_cost, metric_names
 from .runner import Prepared
 
 SETTING_COLUMNS = ("setting", "alpha", "drones", "coverage", "depots_n", "n_actions")
 KEY_COLUMNS = (*SETTING_COLUMNS, "segmentation", "method", "repeat", "seed", "day")
 # Summarised metrics, in the order of the summary's columns.
-SUMMARY_METRICS = (
+SUMMARY_METRICS = metric_names(
     "mean_energy_kj",
     "avg_delay_h",
     "combined_cost",
@@ -44,20 +45,6 @@ SUMMARY_METRICS = (
     "solver_fallbacks",
 )
 DEPOT_LOAD_PREFIX = "depot_load_kg_"
-
-
-def combined_cost(energy: Sequence[float], delay: Sequence[float]) -> np.ndarray:
-    """Combined cost of each method from its mean energy and mean delay (docs/method.md §8).
-
-    A metric whose maximum over the methods is 0 contributes 0 (nothing to normalise).
-    """
-    e = np.asarray(energy, dtype=np.float64)
-    d = np.asarray(delay, dtype=np.float64)
-    return (_share(e, e.max(initial=0.0)) + _share(d, d.max(initial=0.0))) / 2.0
-
-
-def _share(values: np.ndarray, top: float) -> np.ndarray:
-    return values / top if top > 0 else np.zeros_like(values)
 
 
 def flatten(metrics: dict[str, Any], prefix: str = "") -> dict[str, Any]:
@@ -116,7 +103,7 @@ def _with_combined_cost(table: pa.Table) -> pa.Table:
         names = list(dict.fromkeys(method[in_s]))
         e_top = max(float(energy[in_s & (method == m)].mean()) for m in names)
         d_top = max(float(delay[in_s & (method == m)].mean()) for m in names)
-        cost[in_s] = (_share(energy[in_s], e_top) + _share(delay[in_s], d_top)) / 2.0
+        cost[in_s] = combined_cost(energy[in_s], delay[in_s], scale=(e_top, d_top))
     at = table.schema.get_field_index("avg_delay_h") + 1
     return table.add_column(at, "combined_cost", pa.array(cost, type=pa.float64()))
 

@@ -2,7 +2,7 @@
 
 from .base import Policy, WindowView
 from .baselines import GlobalPolicy, GreedyPolicy, MyopicPolicy, RandomPolicy, StayPolicy
-from .observation import OBS_VERSION, obs_dim, observe
+from .observation import OBS_VERSION, ObsVersion, obs_dim, observe
 from .registry import make_policy
 
 __all__ = [
@@ -10,6 +10,7 @@ __all__ = [
     "GlobalPolicy",
     "GreedyPolicy",
     "MyopicPolicy",
+    "ObsVersion",
     "Policy",
     "RandomPolicy",
     "StayPolicy",

@@ -124,13 +124,13 @@ class MyopicPolicy(PolicyBase):
         pass
 
     def act(self, view: WindowView) -> np.ndarray:
-        from .observation import best_value_action, observe_and_choose
+        from .observation import ObsVersion, best_value_action, observe_and_choose
 
         mask = view.action_mask()
         return observe_and_choose(
             view,
             lambda u, obs: best_value_action(obs, mask[u]),
-            3,
+            ObsVersion.SEQUENTIAL,
             model=self._model,
             plan=self._plan,
         )[1]

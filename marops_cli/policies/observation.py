@@ -21,6 +21,7 @@ arrivals. Versions 2 and 3 stay for actors trained on them.
 from __future__ import annotations
 
 from collections.abc import Callable
+from enum import IntEnum
 
 import numpy as np
 
@@ -32,8 +33,18 @@ from ..plans.view import FREE
 from ..plans.window import range_candidates
 from .base import WindowView
 
-OBS_VERSION = 4  # what ``marops train`` writes for the flight-range actor
-OBS_VERSIONS = (2, 3, 4)  # what the loaders read
+
+class ObsVersion(IntEnum):
+    """The observation versions this marops reads (the module docstring tells them apart);
+    sidecars store the plain number (``obs_version``)."""
+
+    MAPPO = 2  # every drone observes the same window at once (the MAPPO baseline's)
+    SEQUENTIAL = 3  # drone by drone, each action with its best plan's value and energy
+    ANTICIPATION = 4  # SEQUENTIAL, the free landing and the anticipation features
+
+
+OBS_VERSION = ObsVersion.ANTICIPATION  # what ``marops train`` writes for the flight-range actor
+OBS_VERSIONS = tuple(ObsVersion)  # what the loaders read
 PER_ACTION = 10  # features per action candidate, version 2
 PER_ACTION_V3 = 13  # version 3: 10 as in version 2, then value, energy, drones heading there
 PER_ACTION_V4 = 18  # version 4: 13 as in version 3, then 5 anticipation features
@@ -48,24 +59,28 @@ Chooser = Callable[[np.ndarray, np.ndarray], np.ndarray]
 
 def per_action(version: int) -> int:
     """Features per action candidate of observation ``version``."""
-    return {2: PER_ACTION, 3: PER_ACTION_V3}.get(version, PER_ACTION_V4)
+    if version == ObsVersion.MAPPO:
+        return PER_ACTION
+    return PER_ACTION_V3 if version == ObsVersion.SEQUENTIAL else PER_ACTION_V4
 
 
 def n_choices(n_actions: int, version: int = OBS_VERSION) -> int:
     """Choices of a flight-range actor: the depot's ``n_actions`` destinations, and from
     version 4 on the free landing (:data:`~marops_cli.plans.view.FREE`), last."""
-    return n_actions + (1 if version >= 4 else 0)
+    return n_actions + (1 if version >= ObsVersion.ANTICIPATION else 0)
 
 
 def obs_dim(n_actions: int, version: int = OBS_VERSION) -> int:
     blocks = n_choices(n_actions, version)
-    return blocks * per_action(version) + (GLOBAL_V4 if version >= 4 else GLOBAL)
+    return blocks * per_action(version) + (
+        GLOBAL_V4 if version >= ObsVersion.ANTICIPATION else GLOBAL
+    )
 
 
 def choice_mask(view: WindowView, version: int = OBS_VERSION) -> np.ndarray:
     """``(U, n_choices)``: the view's action mask, plus the always-open free landing."""
     mask = view.action_mask()
-    if version < 4:
+    if version < ObsVersion.ANTICIPATION:
         return mask
     return np.hstack([mask, np.ones((mask.shape[0], 1), dtype=bool)])
 
@@ -161,7 +176,7 @@ def observe(view: WindowView, m_hat: int = M_HAT) -> np.ndarray:
     neigh_delay = area_delay[dep.candidates[:, 1:]].sum(axis=1) if a > 1 else np.zeros(n)
     drones_at = np.bincount(view.drone_depot, minlength=n).astype(np.float64)
 
-    out = np.zeros((view.n_drones, obs_dim(a, 2)), dtype=np.float32)
+    out = np.zeros((view.n_drones, obs_dim(a, ObsVersion.MAPPO)), dtype=np.float32)
     for u, s in enumerate(view.drone_depot):
         s = int(s)
         for k in range(a):
@@ -235,7 +250,7 @@ class SequentialObserver:
         model: EnergyModel | None = None,
         plan: PlanConfig | None = None,
         alpha: float | None = None,
-        version: int = 3,
+        version: int = ObsVersion.SEQUENTIAL,
     ) -> None:
         self.view = view
         self.version = version
@@ -254,7 +269,7 @@ class SequentialObserver:
         self._best: dict[int, np.ndarray] = {}  # action -> requests of the best plan (drone u)
         self._u = -1
         self.dest = view.drone_depot.astype(np.int64).copy()  # chosen, or the depot if not yet
-        if version >= 4:
+        if version >= ObsVersion.ANTICIPATION:
             self._anticipation()
             # Empty flight from each request to its nearest depot (its own area's).
             self.near_m = np.hypot(*(view.pending_xy - dep.xy[view.pending_area]).T)
@@ -338,7 +353,7 @@ class SequentialObserver:
         best = self._best_plans(s, dests, cands)
         self._best, self._u = {k: best[k][2] for k in range(a)}, u
         blocks = list(range(a))
-        if self.version >= 4:
+        if self.version >= ObsVersion.ANTICIPATION:
             fleet_after = np.bincount(self.dest, minlength=n).astype(float)
             fleet_after[s] -= 1.0  # u itself is counted where it goes, below
             best.append(self._best_plans(s, [s], [cands[0]], free=True)[0])
@@ -356,7 +371,7 @@ class SequentialObserver:
             f[VALUE] = net / self.model.usable_j
             f[VALUE + 1] = energy / self.model.usable_j
             f[VALUE + 2] = 0.0 if is_free else _lg(self.heading[d])
-            if self.version >= 4:
+            if self.version >= ObsVersion.ANTICIPATION:
                 f[13] = _lg(self.exp_next[d])
                 f[14] = _lg(self.exp_nb2[d])
                 f[15] = _lg(self.new_nb[d])
@@ -370,7 +385,7 @@ class SequentialObserver:
         g[4] = _lg(float((v.pending_delay_h * free).sum()))
         g[5] = _lg(float(np.count_nonzero(v.drone_depot[:u] == s)))
         g[6] = v.n_drones / max(1, n)
-        if self.version >= 4:
+        if self.version >= ObsVersion.ANTICIPATION:
             g[7] = self.alpha
             g[8] = self.remaining
         return out
@@ -381,7 +396,8 @@ class SequentialObserver:
         assert u == self._u, "commit the drone last observed"
         self.claimed[self._best[int(action)]] = True
         s = int(self.view.drone_depot[u])
-        if self.version >= 4 and action == self.n_actions:  # free: lands near s, most likely
+        free = self.version >= ObsVersion.ANTICIPATION and action == self.n_actions
+        if free:  # lands near s, most likely
             self.dest[u] = s
             return
         d = int(self.view.depots.candidates[s, action])
@@ -403,7 +419,7 @@ def observe_and_choose(
     Versions 3 and 4: drone by drone, in index order, each call for one drone
     (:class:`SequentialObserver`).
     """
-    if version == 2:
+    if version == ObsVersion.MAPPO:
         obs = observe(view)
         return obs, np.asarray(choose(np.arange(view.n_drones), obs), dtype=np.int64)
     seq = SequentialObserver(view, model, plan, version=version)
@@ -416,7 +432,9 @@ def observe_and_choose(
     return obs, actions
 
 
-def best_value_action(obs: np.ndarray, mask: np.ndarray, version: int = 3) -> np.ndarray:
+def best_value_action(
+    obs: np.ndarray, mask: np.ndarray, version: int = ObsVersion.SEQUENTIAL
+) -> np.ndarray:
     """Per row of version-3 (or 4) observations, the valid action whose best plan is worth
     most (ties to the lower index): the one-window best response, ``myopic``'s choice."""
     n_act = mask.shape[1]

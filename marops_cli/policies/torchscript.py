@@ -19,6 +19,7 @@ from .base import PolicyBase, WindowView
 from .observation import (
     OBS_VERSION,
     OBS_VERSIONS,
+    ObsVersion,
     choice_mask,
     n_choices,
     obs_dim,
@@ -52,8 +53,8 @@ def read_sidecar(model_path: str | Path) -> dict[str, Any]:
     if int(doc["obs_version"]) not in OBS_VERSIONS:
         raise InputError(
             f"policy was trained on observation version {doc['obs_version']}, "
-            f"this marops reads versions {', '.join(map(str, OBS_VERSIONS))} "
-            f"(it trains version {OBS_VERSION}); retrain it",
+            f"this marops reads versions {', '.join(str(int(v)) for v in OBS_VERSIONS)} "
+            f"(it trains version {int(OBS_VERSION)}); retrain it",
             file=side,
             column="obs_version",
         )
@@ -88,7 +89,7 @@ class TorchScriptPolicy(PolicyBase):
         self._torch = torch
         self.n_actions = int(self.sidecar["n_actions"])
         self.hidden_size = int(self.sidecar["hidden_size"])
-        self.obs_version = int(self.sidecar["obs_version"])
+        self.obs_version = ObsVersion(int(self.sidecar["obs_version"]))
         self._probe()
         self.name = f"torchscript:{self.path.name}"
         self._hidden: Any = None
@@ -181,10 +182,10 @@ class TorchScriptPolicy(PolicyBase):
 
     def logits(self, view: WindowView) -> np.ndarray:
         """Version-2 logits of every drone (the MAPPO actor's slot logits included)."""
-        assert self.obs_version == 2, "version-3 actors choose drone by drone (act)"
+        assert self.obs_version == ObsVersion.MAPPO, "later versions choose drone by drone (act)"
         self._check_actions(view)
         obs = observe(view)
-        assert obs.shape[1] == obs_dim(self.n_actions, 2)
+        assert obs.shape[1] == obs_dim(self.n_actions, ObsVersion.MAPPO)
         logits = self._forward(np.arange(view.n_drones), obs)
         logits[~self.mask(view)] = -np.inf
         return logits
@@ -194,7 +195,7 @@ class TorchScriptPolicy(PolicyBase):
         return choice_mask(view, self.obs_version)
 
     def act(self, view: WindowView) -> np.ndarray:
-        if self.obs_version == 2:
+        if self.obs_version == ObsVersion.MAPPO:
             return np.argmax(self.logits(view), axis=1).astype(np.int64)
         self._check_actions(view)
         mask = self.mask(view)

@@ -11,7 +11,7 @@ actor and its sidecar. Nothing here is imported when a trained actor is used.
 from .config import TrainConfig
 from .data import load_training_data, split_days
 from .env import DeliveryEnv, reward, squash
-from .evaluate import combined_costs, method_table
+from .evaluate import daily_combined_costs, method_table
 from .export import write_actor
 from .networks import Actor, Critic
 from .ppo import gae, ppo_loss, ppo_update
@@ -23,7 +23,7 @@ __all__ = [
     "DeliveryEnv",
     "TrainConfig",
     "Trainer",
-    "combined_costs",
+    "daily_combined_costs",
     "gae",
     "load_training_data",
     "method_table",

@@ -69,8 +69,8 @@ class TrainConfig(BaseModel):
     )
     keep_best: bool = Field(
         True,
-        description="export the actor of the held-out evaluation with the lowest combined "
-        "cost (early stopping) instead of the last one",
+        description="export the actor of the held-out evaluation with the lowest daily "
+        "combined cost (early stopping) instead of the last one",
     )
     alpha_range: tuple[float, float] | None = Field(
         (0.1, 0.9),

@@ -13,9 +13,10 @@ import numpy as np  # noqa: E402
 
 
 def curve_png(sidecar: dict[str, Any]) -> bytes:
-    """PNG of the mean episode return per update (left) and the held-out combined cost of
-    the actor and the baselines at every evaluation (right), from the sidecar's
-    ``learning_curve`` and ``evaluations``; the exported evaluation is marked."""
+    """PNG of the mean episode return per update (left) and the held-out daily combined
+    cost (docs/method.md §8) of the actor and the baselines at every evaluation (right),
+    from the sidecar's ``learning_curve`` and ``evaluations``; the exported evaluation is
+    marked."""
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(10, 3.8), dpi=100)
     lc = sidecar.get("learning_curve") or []
     if lc:
@@ -39,7 +40,7 @@ def curve_png(sidecar: dict[str, Any]) -> bytes:
             ax2.axvline(chosen, color="grey", ls=":", lw=1)
         ax2.legend(fontsize=8)
     ax2.set_xlabel("episode")
-    ax2.set_ylabel("combined cost (lower is better)")
+    ax2.set_ylabel("daily combined cost (lower is better)")
     ax2.set_title("held-out days", fontsize=10)
     fig.tight_layout()
     buf = io.BytesIO()

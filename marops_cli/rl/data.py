@@ -14,6 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from ..config import PlannerConfig, override
+from ..data.dates import split_by_date
 from ..data.frame import Frame
 from ..data.prepare import prepare_day
 from ..data.reader import read_lade
@@ -27,18 +28,15 @@ from .rollout import TrainScenario, WorkerContext
 
 def split_days(days: list[dt.date], train: list[dt.date] | None = None) -> tuple[list, list]:
     """(training days, held-out days): the given ones and the rest, else the first
-    80 % of the file's dates and the last 20 % (docs/method.md §6; at least one of each when
-    the file has two days or more)."""
+    80 % of the file's dates and the last 20 % (:func:`~marops_cli.data.dates.split_by_date`,
+    docs/method.md §6)."""
     days = sorted(days)
     if train is not None:
         missing = [d.isoformat() for d in train if d not in set(days)]
         if missing:
             raise InputError(f"training days not in the file: {', '.join(missing[:5])}")
         return sorted(train), [d for d in days if d not in set(train)]
-    if len(days) < 2:
-        return days, []
-    n = min(len(days) - 1, max(1, round(0.8 * len(days))))
-    return days[:n], days[n:]
+    return split_by_date(days)
 
 
 def _prepared(

@@ -63,6 +63,7 @@ from ..policies.direct import SlotSelector
 from ..policies.observation import (
     OBS_VERSION,
     Chooser,
+    ObsVersion,
     choice_mask,
     n_choices,
     obs_dim,
@@ -119,7 +120,7 @@ class DeliveryEnv:
         )
         self.plan_cfg = self.base_plan
         self.alpha = cfg.plan.alpha
-        self.obs_version = 2 if self.direct else OBS_VERSION
+        self.obs_version = ObsVersion.MAPPO if self.direct else OBS_VERSION
         self.state: DayState | None = None
         self.view: WindowView | None = None
         self.t = 0

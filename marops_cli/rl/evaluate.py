@@ -1,8 +1,10 @@
-"""Held-out comparison of methods: day metrics -> mean ± std, combined cost (docs/method.md §8).
+"""Held-out comparison of methods in training: day metrics -> mean ± std over days, with
+the daily combined cost (docs/method.md §8).
 
-Combined cost is computed per day over the methods compared that day: the mean
-of energy / max energy and delay / max delay (the paper's Table III), then
-averaged over days (mean ± std across days).
+The daily combined cost of a method is its combined cost on one day, over the methods
+compared that day (:func:`~marops_cli.sim.metrics.combined_cost`: each day normalised by
+that day's largest energy and delay), then averaged over days (mean ± std across days).
+It is not ``evaluate``'s ``combined_cost``, which normalises once, by the largest means.
 """
 
 from __future__ import annotations
@@ -12,10 +14,12 @@ from typing import Any
 
 import numpy as np
 
-TABLE_KEYS = (
+from ..sim.metrics import combined_cost, metric_names
+
+TABLE_KEYS = metric_names(
     "mean_energy_kj",
     "avg_delay_h",
-    "combined_cost",
+    "daily_combined_cost",
     "delay_unfairness",
     "avg_early_h",
     "delivered",
@@ -25,24 +29,24 @@ TABLE_KEYS = (
 )
 
 
-def combined_costs(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
-    """Add ``combined_cost`` to every row: per day, over the methods present that day."""
+def daily_combined_costs(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """Add ``daily_combined_cost`` to every row: its day's combined cost, over the methods
+    present that day."""
     by_day: dict[str, list[dict[str, Any]]] = defaultdict(list)
     for r in rows:
         by_day[r["day"]].append(r)
     out = []
     for day_rows in by_day.values():
-        e_max = max(r["mean_energy_kj"] for r in day_rows) or 1.0
-        d_max = max(r["avg_delay_h"] for r in day_rows) or 1.0
-        for r in day_rows:
-            cc = 0.5 * (r["mean_energy_kj"] / e_max + r["avg_delay_h"] / d_max)
-            out.append({**r, "combined_cost": cc})
+        cost = combined_cost(
+            [r["mean_energy_kj"] for r in day_rows], [r["avg_delay_h"] for r in day_rows]
+        )
+        out += [{**r, "daily_combined_cost": float(c)} for r, c in zip(day_rows, cost, strict=True)]
     return out
 
 
 def method_table(rows: list[dict[str, Any]]) -> dict[str, dict[str, tuple[float, float]]]:
-    """``{method: {metric: (mean, std)}}`` over days, combined cost included."""
-    rows = combined_costs(rows)
+    """``{method: {metric: (mean, std)}}`` over days, the daily combined cost included."""
+    rows = daily_combined_costs(rows)
     by_method: dict[str, list[dict[str, Any]]] = defaultdict(list)
     for r in rows:
         by_method[r["method"]].append(r)

@@ -17,7 +17,7 @@ from typing import Any
 import torch
 
 from ..io.atomic import output_set
-from ..policies.observation import OBS_VERSION
+from ..policies.observation import OBS_VERSION, ObsVersion
 from .networks import Actor
 
 ARTIFACT_FORMAT = "marops-actor/1"
@@ -51,7 +51,7 @@ def write_actor(actor: Actor, path: str | Path, sidecar: dict[str, Any]) -> dict
     path = Path(path)
     doc = {
         "format": ARTIFACT_FORMAT,
-        "obs_version": OBS_VERSION,
+        "obs_version": int(OBS_VERSION),
         "obs_dim": actor.encoder.in_features,
         "n_logits": actor.head.out_features,
         "hidden_size": actor.hidden_size,
@@ -59,7 +59,8 @@ def write_actor(actor: Actor, path: str | Path, sidecar: dict[str, Any]) -> dict
         **sidecar,
     }
     if "n_actions" not in doc:  # version 4 adds the free landing to the destinations
-        doc["n_actions"] = actor.head.out_features - (1 if int(doc["obs_version"]) >= 4 else 0)
+        free = int(doc["obs_version"]) >= ObsVersion.ANTICIPATION
+        doc["n_actions"] = actor.head.out_features - (1 if free else 0)
     with output_set() as files:
         files.write_bytes(path, actor_bytes(actor))
         files.write_json(path.with_suffix(".json"), doc)

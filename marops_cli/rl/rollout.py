@@ -21,6 +21,7 @@ from ..energy import EnergyModel
 from ..policies.base import PolicyBase, WindowView
 from ..policies.direct import SlotSelector
 from ..policies.observation import (
+    ObsVersion,
     best_value_action,
     choice_mask,
     observe_and_choose,
@@ -28,7 +29,7 @@ from ..policies.observation import (
 )
 from ..policies.registry import make_policy
 from ..segment.depots import Depots
-from ..sim.metrics import day_metrics
+from ..sim.metrics import day_metrics, metric_names
 from ..sim.replay import replay_day
 from ..sim.state import default_fleet
 from .config import TrainConfig
@@ -36,7 +37,7 @@ from .env import DeliveryEnv
 from .networks import Actor
 from .ppo import MASKED_LOGIT
 
-EVAL_KEYS = (
+EVAL_KEYS = metric_names(
     "mean_energy_kj",
     "avg_delay_h",
     "delivered",
@@ -143,9 +144,9 @@ def run_episode(
 
 def _teacher(env: DeliveryEnv, obs: np.ndarray, mask: np.ndarray) -> np.ndarray:
     """Imitation targets of one window (``TrainConfig.bc_teacher``); -1: none (version 2)."""
-    if env.obs_version < 3:
+    if env.obs_version < ObsVersion.SEQUENTIAL:
         return np.full(env.n_drones, -1, dtype=np.int64)
-    if env.tcfg.bc_teacher == "free" and env.obs_version >= 4:
+    if env.tcfg.bc_teacher == "free" and env.obs_version >= ObsVersion.ANTICIPATION:
         return np.full(env.n_drones, env.n_dest, dtype=np.int64)  # the last choice: free
     return best_value_action(obs, mask, env.obs_version)
 
@@ -161,7 +162,7 @@ class ActorPolicy(PolicyBase):
         actor: Actor,
         n_slots: int = 1,
         name: str = "actor",
-        version: int = 4,
+        version: int = ObsVersion.ANTICIPATION,
     ) -> None:
         self.actor = actor
         self.version = version

@@ -22,6 +22,7 @@ import torch
 from .. import __version__
 from ..config import PlannerConfig
 from ..errors import InputError
+from ..policies.observation import ObsVersion
 from .config import TrainConfig
 from .data import TrainData, fingerprint, load_training_data, split_days
 from .env import DeliveryEnv
@@ -66,7 +67,7 @@ class Trainer:
         self.history: list[dict[str, float]] = []
         self.evals: list[dict[str, Any]] = []
         self.baselines: list[dict[str, Any]] = []
-        self.best: dict[str, Any] | None = None  # {"episode", "combined_cost", "actor"}
+        self.best: dict[str, Any] | None = None  # {"episode", "daily_combined_cost", "actor"}
 
     # -- checkpoints -----------------------------------------------------------------
     def save_checkpoint(self) -> None:
@@ -113,6 +114,7 @@ class Trainer:
         self.history, self.evals = list(state["history"]), list(state["evals"])
         self.baselines = list(state["baselines"])
         self.best = state.get("best")
+        _name_daily_cost(self.evals, self.best)
         return True
 
     # -- one update --------------------------------------------------------------------
@@ -137,7 +139,7 @@ class Trainer:
         """The episode's trade-off α: drawn from ``alpha_range`` (actors that observe α),
         else None (the config's)."""
         lo_hi = self.tcfg.alpha_range
-        if lo_hi is None or self.obs_version < 4:
+        if lo_hi is None or self.obs_version < ObsVersion.ANTICIPATION:
             return None
         rng = np.random.default_rng(derive_seed(self.tcfg.seed, _STREAM_ALPHA, episode))
         return round(float(rng.uniform(*lo_hi)), 3)
@@ -189,7 +191,7 @@ class Trainer:
         ``bc_anneal`` of the run (MAPPO has no target: 0)."""
         t = self.tcfg
         span = t.bc_anneal * t.episodes
-        if self.obs_version < 3 or span <= 0:
+        if self.obs_version < ObsVersion.SEQUENTIAL or span <= 0:
             return 0.0
         return t.bc_coef * max(0.0, 1.0 - self.episode / span)
 
@@ -210,9 +212,9 @@ class Trainer:
         rows = workers.map([("eval", state, j, i) for j, i in days])
         ev = {"episode": self.episode, **summarise(rows, self.baselines)}
         self.evals.append(ev)
-        cc = float(ev["methods"][self.tcfg.method]["combined_cost"])
-        if self.best is None or cc < self.best["combined_cost"]:
-            self.best = {"episode": self.episode, "combined_cost": cc, "actor": state}
+        cc = float(ev["methods"][self.tcfg.method]["daily_combined_cost"])
+        if self.best is None or cc < self.best["daily_combined_cost"]:
+            self.best = {"episode": self.episode, "daily_combined_cost": cc, "actor": state}
         return ev
 
     def run(self, resume: bool) -> None:
@@ -260,7 +262,7 @@ class Trainer:
             chosen = next(e for e in self.evals if e["episode"] == self.best["episode"])
         side: dict[str, Any] = {
             "method": t.method,
-            "obs_version": self.obs_version,
+            "obs_version": int(self.obs_version),
             "n_actions": self.n_actions,
             "alpha": cfg.plan.alpha,
             "seed": t.seed,
@@ -286,7 +288,7 @@ class Trainer:
             "evaluations": [
                 {
                     "episode": e["episode"],
-                    **{m: v["combined_cost"] for m, v in e["methods"].items()},
+                    **{m: v["daily_combined_cost"] for m, v in e["methods"].items()},
                 }
                 for e in self.evals
             ],
@@ -298,6 +300,19 @@ class Trainer:
         if t.method == "mappo":
             side["plan_slots"] = t.plan_slots
         return write_actor(self.actor, self.out, side)
+
+
+def _name_daily_cost(evals: list[dict[str, Any]], best: dict[str, Any] | None) -> None:
+    """Checkpoints written before the daily combined cost had its name call it
+    ``combined_cost``: rename it in place, keeping the keys' order."""
+
+    def renamed(d: dict[str, Any]) -> dict[str, Any]:
+        return {("daily_combined_cost" if k == "combined_cost" else k): v for k, v in d.items()}
+
+    for e in evals:
+        e["methods"] = {m: renamed(v) for m, v in e["methods"].items()}
+    if best is not None and "combined_cost" in best:
+        best["daily_combined_cost"] = best.pop("combined_cost")
 
 
 def train(

@@ -1,8 +1,10 @@
-"""Per-day metrics of docs/method.md §8 (paper §V-B)."""
+"""Per-day metrics of docs/method.md §8 (paper §V-B): their spec, the combined cost, and
+the record of one replayed day."""
 
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -16,6 +18,96 @@ if TYPE_CHECKING:
 CO2_G_PER_KWH = 125.0  # UK 2024 grid average, as the paper
 
 
+@dataclass(frozen=True)
+class MetricSpec:
+    """One day-metric column (docs/outputs.md, "Day metrics"; docs/method.md §8 defines it)."""
+
+    name: str  # key in metrics.json, column of results.parquet
+    unit: str  # as docs/outputs.md gives it
+    label: str  # row of the summary tables (summary.md, the paper's Table III wording)
+    fmt: str  # a mean over days in those tables
+    header: str  # column of the day tables (replay-day, train)
+    day_fmt: str  # one day's value in those tables
+    lower_is_better: bool | None  # None: neither (counts of the input, early arrival, battery)
+
+
+_M = MetricSpec
+# Every value of a day's record (``day_metrics``) but the identifiers ``day``,
+# ``method`` and ``hub``, the per-depot ``depot_load_kg`` and the per-type
+# ``drone_types``, in the record's order, ``solver`` flattened as the result tables
+# flatten it (``solver_calls``, ...).
+DAY_METRICS: tuple[MetricSpec, ...] = (
+    _M(
+        "mean_energy_kj",
+        "kJ",
+        "Mean energy consumption (kJ)",
+        "{:.1f}",
+        "energy kJ/drone",
+        "{:.1f}",
+        True,
+    ),
+    _M("avg_delay_h", "h", "Average delivery delay (h)", "{:.2f}", "delay h", "{:.3f}", True),
+    _M("delay_unfairness", "0–1", "Delay unfairness", "{:.2f}", "unfairness", "{:.3f}", True),
+    _M("runtime_s", "s", "Average running time (s)", "{:.2f}", "runtime s", "{:.3f}", True),
+    _M("avg_early_h", "h", "Average early arrival (h)", "{:.2f}", "early h", "{:.3f}", None),
+    _M("co2_g", "g", "CO2 per day (g)", "{:.0f}", "CO2 g", "{:.1f}", True),
+    _M("delivered", "count", "Delivered per day", "{:.1f}", "delivered", "{}", False),
+    _M("undelivered", "count", "Undelivered per day", "{:.1f}", "undelivered", "{}", True),
+    _M("requests", "count", "Requests per day", "{:.1f}", "requests", "{}", None),
+    _M("orders_due", "count", "Orders due per day", "{:.1f}", "orders due", "{}", None),
+    _M("outside_area", "count", "Outside the area per day", "{:.1f}", "outside area", "{}", None),
+    _M("outside_hours", "count", "Outside hours per day", "{:.1f}", "outside hours", "{}", None),
+    _M("unservable_heavy", "count", "Too heavy per day", "{:.1f}", "too heavy", "{}", None),
+    _M("unservable_far", "count", "Too far per day", "{:.1f}", "too far", "{}", None),
+    _M("battery_frac_mean", "0–1", "Battery used per flight", "{:.2f}", "battery", "{:.3f}", None),
+    _M(
+        "battery_frac_max",
+        "0–1",
+        "Most battery a flight used",
+        "{:.2f}",
+        "battery max",
+        "{:.3f}",
+        None,
+    ),
+    _M("energy_kj", "kJ", "Energy per day (kJ)", "{:.1f}", "energy kJ", "{:.1f}", True),
+    _M("drones", "count", "Drones", "{:.0f}", "drones", "{}", None),
+    _M("objective_j_mj", "MJ", "Day objective J (MJ)", "{:.2f}", "J MJ", "{:.2f}", True),
+    _M("objective_g_mj", "MJ", "Day objective G (MJ)", "{:.2f}", "G MJ", "{:.2f}", False),
+    _M("delivered_share", "0–1", "Delivered share", "{:.3f}", "delivered share", "{:.3f}", False),
+    _M("solver_calls", "count", "Selection programs per day", "{:.1f}", "solves", "{}", None),
+    _M("solver_fallbacks", "count", "Solver fallbacks per day", "{:.1f}", "fallbacks", "{}", True),
+    _M("solver_solve_s", "s", "Selection solve time (s)", "{:.2f}", "solve s", "{:.3f}", True),
+)
+# Comparisons of methods (docs/method.md §8), from :func:`combined_cost`: ``evaluate``'s on
+# the methods' means, and training's per day then averaged over days.
+COMBINED_COST = _M(
+    "combined_cost", "ratio", "Combined cost", "{:.2f}", "combined cost", "{:.3f}", True
+)
+DAILY_COMBINED_COST = _M(
+    "daily_combined_cost",
+    "ratio",
+    "Daily combined cost",
+    "{:.3f}",
+    "daily combined cost",
+    "{:.3f}",
+    True,
+)
+METRICS: dict[str, MetricSpec] = {
+    m.name: m for m in (*DAY_METRICS, COMBINED_COST, DAILY_COMBINED_COST)
+}
+
+
+def metric_specs(*names: str) -> tuple[MetricSpec, ...]:
+    """The specs of ``names``, in that order: a table's own choice of metrics. A name
+    without a spec is an error (KeyError), so no table lists a column that does not exist."""
+    return tuple(METRICS[n] for n in names)
+
+
+def metric_names(*names: str) -> tuple[str, ...]:
+    """``names``, each checked against the spec (see :func:`metric_specs`)."""
+    return tuple(m.name for m in metric_specs(*names))
+
+
 def gini(values: np.ndarray) -> float:
     """Gini coefficient of non-negative values (0 = equal, → 1 = concentrated)."""
     v = np.sort(np.asarray(values, dtype=np.float64))
@@ -24,6 +116,29 @@ def gini(values: np.ndarray) -> float:
         return 0.0
     cum = np.cumsum(v)
     return float((n + 1 - 2 * (cum / cum[-1]).sum()) / n)
+
+
+def combined_cost(
+    energy: Sequence[float] | np.ndarray,
+    delay: Sequence[float] | np.ndarray,
+    scale: tuple[float, float] | None = None,
+) -> np.ndarray:
+    """The paper's combined cost (Table III, docs/method.md §8) of methods compared with
+    each other: (energy / E + delay / D) / 2, with E and D the largest energy and delay
+    among them, or ``scale`` = (E, D) when given (e.g. the largest method means, to price
+    one day of a method). A metric whose largest value is 0 contributes 0.
+
+    ``evaluate`` prices the methods' means (``combined_cost``); training evaluations the
+    methods of each day, then average over days (``daily_combined_cost``).
+    """
+    e = np.asarray(energy, dtype=np.float64)
+    d = np.asarray(delay, dtype=np.float64)
+    e_top, d_top = (e.max(initial=0.0), d.max(initial=0.0)) if scale is None else scale
+    return (_share(e, e_top) + _share(d, d_top)) / 2.0
+
+
+def _share(values: np.ndarray, top: float) -> np.ndarray:
+    return values / top if top > 0 else np.zeros_like(values)
 
 
 def unservable(

@@ -17,6 +17,7 @@ from marops_cli.data.dates import (
     parse_days,
     parse_ds,
     parse_times,
+    split_by_date,
 )
 from marops_cli.errors import InputError
 
@@ -129,3 +130,24 @@ def test_parse_ds() -> None:
     text = pa.array(["820", "0820", "1231", "20220820", "1301", "0230", "", None, "x", " 820"])
     np.testing.assert_array_equal(parse_ds(text, 2022), [True] * 4 + [False] * 5 + [True])
     np.testing.assert_array_equal(parse_ds(pa.array([820, 229, None]), 2022), [True, False, False])
+
+
+def _dates(n: int) -> list[dt.date]:
+    return [dt.date(2022, 8, 1) + dt.timedelta(days=i) for i in range(n)]
+
+
+# (dates in the file, held out): 20 % rounded half up, at least one on each side.
+@pytest.mark.parametrize(
+    ("n", "n_held"), [(1, 0), (2, 1), (3, 1), (8, 2), (10, 2), (12, 2), (13, 3), (50, 10)]
+)
+def test_split_by_date_holds_out_the_last_fifth(n: int, n_held: int) -> None:
+    days = _dates(n)
+    first, last = split_by_date(reversed(days))  # any order in, sorted out
+    assert first == days[: n - n_held] and last == days[n - n_held :]
+
+
+def test_split_by_date_keeps_the_days_of_the_former_training_rule() -> None:
+    """Training once kept the first round(0.8 n) dates (at least one, not all of them)."""
+    for n in range(2, 400):
+        n_train = min(n - 1, max(1, round(0.8 * n)))
+        assert len(split_by_date(_dates(n))[0]) == n_train, n

@@ -68,6 +68,20 @@ def test_split_takes_the_last_fifth_of_dates(n: int, n_test: int) -> None:
     assert train == days[:-n_test]
 
 
+def test_evaluate_and_train_split_the_same_days() -> None:
+    """``evaluate --split`` and ``marops train`` pick the same days (one 80/20 rule)."""
+    from marops_cli.rl.data import split_days as train_split
+
+    aug = [dt.date(2022, 8, d) for d in (12, 1, 5, 3, 9, 7, 2, 11, 4, 10, 8, 6, 13)]
+    train, held = train_split(aug)
+    assert held == [dt.date(2022, 8, 11), dt.date(2022, 8, 12), dt.date(2022, 8, 13)]
+    assert train == sorted(aug)[:10]
+    assert split_days(aug, "test") == held and split_days(aug, "train") == train
+    for n in range(2, 40):
+        days = [dt.date(2022, 8, 1) + dt.timedelta(days=i) for i in range(n)]
+        assert train_split(days) == (split_days(days, "train"), split_days(days, "test"))
+
+
 def test_split_needs_two_days() -> None:
     with pytest.raises(InputError, match="at least 2 days"):
         split_days([dt.date(2022, 8, 1)], "test")

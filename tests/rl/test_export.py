@@ -11,7 +11,13 @@ import numpy as np
 import pytest
 import torch
 
-from marops_cli.policies.observation import n_choices, obs_dim
+from marops_cli.policies.observation import (
+    OBS_VERSION,
+    OBS_VERSIONS,
+    ObsVersion,
+    n_choices,
+    obs_dim,
+)
 from marops_cli.policies.torchscript import TorchScriptPolicy
 from marops_cli.rl.export import write_actor
 from marops_cli.rl.networks import Actor
@@ -48,6 +54,19 @@ def test_reloaded_actor_gives_the_same_actions(tmp_path: Path) -> None:
     # Through the policy loader, a second step uses the carried hidden state.
     pol = TorchScriptPolicy(path)
     assert pol.n_actions == 4 and pol.hidden_size == 64
+
+
+def test_sidecar_writes_the_observation_version_as_a_plain_number(tmp_path: Path) -> None:
+    """Named versions in the code, the bare number in the file (byte-stable sidecars)."""
+    assert [int(v) for v in OBS_VERSIONS] == [2, 3, 4]
+    assert OBS_VERSION is ObsVersion.ANTICIPATION == 4
+    assert (ObsVersion.MAPPO, ObsVersion.SEQUENTIAL) == (2, 3)
+    path = tmp_path / "p.pt"
+    write_actor(_actor(), path, {})
+    text = path.with_suffix(".json").read_text()
+    assert '"obs_version": 4,' in text and "ObsVersion" not in text
+    assert type(json.loads(text)["obs_version"]) is int
+    assert TorchScriptPolicy(path).obs_version is ObsVersion.ANTICIPATION
 
 
 def test_loads_with_plain_torch_in_a_fresh_process(tmp_path: Path) -> None:

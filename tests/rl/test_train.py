@@ -41,6 +41,17 @@ def test_smoke_writes_actor_sidecar_checkpoint(
     assert set(doc["heldout"]["methods"]) == {"marops", "random", "greedy", "myopic", "global"}
     kinds = [e["kind"] for e in events]
     assert kinds[0] == "start" and kinds.count("update") == 2 and "eval" in kinds
+    # The held-out evaluations carry the daily combined cost (docs/method.md §8).
+    cost = doc["heldout"]["methods"]["marops"]["daily_combined_cost"]
+    assert doc["evaluations"][-1]["marops"] == cost and '"combined_cost"' not in json.dumps(doc)
+    # A checkpoint that still calls it combined_cost resumes to the same sidecar.
+    ckpt = out.with_suffix(".ckpt")
+    state = torch.load(ckpt, weights_only=True)
+    old = json.loads(json.dumps(state["evals"]).replace("daily_combined_cost", "combined_cost"))
+    state["evals"] = old
+    state["best"]["combined_cost"] = state["best"].pop("daily_combined_cost")
+    torch.save(state, ckpt)
+    assert train(tiny_csv, small_cfg, quick(), out, command="marops x") == side
 
 
 def test_same_seed_same_weights(tiny_csv: Path, small_cfg: PlannerConfig, tmp_path: Path) -> None:

@@ -189,6 +189,19 @@ def test_day_accounting_and_metrics_recompute(replays, day_requests, method: str
     assert m["solver"]["calls"] == 16
 
 
+def test_metrics_json_holds_the_spec_columns(replays) -> None:
+    """A day's record, flattened as the result tables flatten it, is the spec's columns
+    in the spec's order (besides day, method, hub, the per-depot loads and the drones
+    per type)."""
+    from marops_cli.evaluate.tables import flatten
+    from marops_cli.sim.metrics import DAY_METRICS
+
+    m = json.loads((replays["marops"] / "metrics.json").read_text())["days"][0]
+    cols = [k for k in flatten(m) if k not in ("day", "method", "hub")]
+    per_key = ("depot_load_kg_", "drone_types_")
+    assert [k for k in cols if not k.startswith(per_key)] == [s.name for s in DAY_METRICS]
+
+
 def test_gini_hand_values() -> None:
     assert gini(np.ones(5)) == pytest.approx(0.0)
     # One area holds all the delay among 4: G = (n - 1) / n = 0.75.
