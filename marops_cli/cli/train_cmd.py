@@ -175,6 +175,14 @@ def train(
             "'fixed': the --alpha only.",
         ),
     ] = None,
+    obs_version: Annotated[
+        int,
+        typer.Option(
+            "--obs-version",
+            help="Observation version of the flight-range actor: 4, or 5 (adds the drone's own "
+            "type: payload, battery, speed; for mixed fleets) [4].",
+        ),
+    ] = 4,
     seed: Annotated[int, typer.Option("--seed", help="Training seed; same seed, same actor.")] = 0,
     eval_days: Annotated[
         int,
@@ -216,6 +224,7 @@ def train(
             seed=seed,
             workers=workers,
             eval_days_per_scenario=eval_days,
+            obs_version=obs_version,  # type: ignore[arg-type]
             **_alpha_range(alpha_range),
         )
     except ValidationError as exc:

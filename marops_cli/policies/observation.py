@@ -15,7 +15,11 @@ before already fly to its destination; 4 = version 3 plus what anticipation need
 (demand expected around each destination in the next windows from the history
 days' arrival profile, today's arrivals there against that profile, the fleet there
 after this window) and, as global inputs, α and the day's expected remaining
-arrivals. Versions 2 and 3 stay for actors trained on them.
+arrivals; 5 = version 4 seen with the drone's own type (a mixed fleet): its best plans
+priced with its own energy model, payload and battery, and, as global inputs, its
+payload limit, usable battery and speed over the reference drone's (the config's
+``[energy]``; 1, 1, 1 for a fleet of one type). Versions 2, 3 and 4 stay for actors
+trained on them.
 """
 
 from __future__ import annotations
@@ -41,6 +45,7 @@ class ObsVersion(IntEnum):
     MAPPO = 2  # every drone observes the same window at once (the MAPPO baseline's)
     SEQUENTIAL = 3  # drone by drone, each action with its best plan's value and energy
     ANTICIPATION = 4  # SEQUENTIAL, the free landing and the anticipation features
+    CAPABILITIES = 5  # ANTICIPATION seen with the drone's own type (a mixed fleet)
 
 
 OBS_VERSION = ObsVersion.ANTICIPATION  # what ``marops train`` writes for the flight-range actor
@@ -51,6 +56,7 @@ PER_ACTION_V4 = 18  # version 4: 13 as in version 3, then 5 anticipation feature
 VALUE = 10  # index, within an action's block (versions 3, 4), of the best plan's net value
 GLOBAL = 7  # time, own area (2), map (2), drones sharing my depot, fleet density
 GLOBAL_V4 = 9  # version 4: 7 as before, then α and the day's expected remaining arrivals
+GLOBAL_V5 = 12  # version 5: 9 as in version 4, then the drone's payload, battery and speed
 M_HAT = 5  # candidates per drone the features assume (PlanConfig.max_parcels default)
 
 Chooser = Callable[[np.ndarray, np.ndarray], np.ndarray]
@@ -72,6 +78,8 @@ def n_choices(n_actions: int, version: int = OBS_VERSION) -> int:
 
 def obs_dim(n_actions: int, version: int = OBS_VERSION) -> int:
     blocks = n_choices(n_actions, version)
+    if version >= ObsVersion.CAPABILITIES:
+        return blocks * per_action(version) + GLOBAL_V5
     return blocks * per_action(version) + (
         GLOBAL_V4 if version >= ObsVersion.ANTICIPATION else GLOBAL
     )
@@ -268,6 +276,7 @@ class SequentialObserver:
         self.due_now = (view.pending_due_w <= view.t).astype(np.float64)
         self._best: dict[int, np.ndarray] = {}  # action -> requests of the best plan (drone u)
         self._u = -1
+        self._own = self.model  # the observed drone's energy model (version 5: its type's)
         self.dest = view.drone_depot.astype(np.int64).copy()  # chosen, or the depot if not yet
         if version >= ObsVersion.ANTICIPATION:
             self._anticipation()
@@ -305,7 +314,7 @@ class SequentialObserver:
         """(net value, energy, request positions) of the best plan s → cand → d of each
         action, priced in one batched dynamic program (:func:`subset_energies`); with
         ``free``, the plans end at the depot nearest their last customer instead."""
-        v, m = self.view, self.model
+        v, m = self.view, self._own
         n = max(1, max(c.size for c in cands))
         b = len(cands)
         xy = np.full((b, n, 2), np.nan)
@@ -337,6 +346,9 @@ class SequentialObserver:
 
         v, dep, m_hat = self.view, self.view.depots, self.plan.max_parcels
         s, n, a = int(v.drone_depot[u]), self.n_depots, self.n_actions
+        self._own = self.model
+        if self.version >= ObsVersion.CAPABILITIES and v.drone_models is not None:
+            self._own = v.drone_models[u]  # its own type prices its plans
         free = ~self.claimed
         area = v.pending_area
         area_count = np.bincount(area, weights=free.astype(float), minlength=n)
@@ -368,8 +380,8 @@ class SequentialObserver:
             _range_features(
                 f, v, s, d, v.ranges[s, kr], areas, neigh, self.drones_at, cands[kr], m_hat
             )
-            f[VALUE] = net / self.model.usable_j
-            f[VALUE + 1] = energy / self.model.usable_j
+            f[VALUE] = net / self._own.usable_j
+            f[VALUE + 1] = energy / self._own.usable_j
             f[VALUE + 2] = 0.0 if is_free else _lg(self.heading[d])
             if self.version >= ObsVersion.ANTICIPATION:
                 f[13] = _lg(self.exp_next[d])
@@ -388,6 +400,11 @@ class SequentialObserver:
         if self.version >= ObsVersion.ANTICIPATION:
             g[7] = self.alpha
             g[8] = self.remaining
+        if self.version >= ObsVersion.CAPABILITIES:  # the drone's type against the reference
+            own, ref = self._own, self.model
+            g[9] = own.max_payload_kg / ref.max_payload_kg
+            g[10] = own.usable_j / ref.usable_j
+            g[11] = own.speed_ms / ref.speed_ms
         return out
 
     def commit(self, u: int, action: int) -> None:

@@ -81,6 +81,11 @@ class TrainConfig(BaseModel):
         0, ge=0, description="held-out days per scenario in training evaluations (0: all)"
     )
     plan_slots: int = Field(4, ge=2, description="mappo: plan slots per destination (last = empty)")
+    obs_version: Literal[4, 5] = Field(
+        4,
+        description="marops: observation version (docs/method.md §6): 4, or 5 adding the "
+        "drone's own type (payload, battery, speed) for mixed fleets",
+    )
     eval_every: int = Field(200, ge=1, description="episodes between held-out evaluations")
     checkpoint_every: int = Field(40, ge=1, description="episodes between checkpoints")
 

@@ -61,7 +61,6 @@ from ..plans.window import plan_window
 from ..policies.base import WindowView
 from ..policies.direct import SlotSelector
 from ..policies.observation import (
-    OBS_VERSION,
     Chooser,
     ObsVersion,
     choice_mask,
@@ -120,7 +119,7 @@ class DeliveryEnv:
         )
         self.plan_cfg = self.base_plan
         self.alpha = cfg.plan.alpha
-        self.obs_version = ObsVersion.MAPPO if self.direct else OBS_VERSION
+        self.obs_version = ObsVersion.MAPPO if self.direct else ObsVersion(tcfg.obs_version)
         self.state: DayState | None = None
         self.view: WindowView | None = None
         self.t = 0

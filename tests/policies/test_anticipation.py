@@ -128,3 +128,35 @@ def test_free_choice_maps_to_the_free_action() -> None:
     assert choice_mask(view, 3).shape == (2, 2)
     assert to_actions(np.array([0, 2, 1]), 2).tolist() == [0, FREE, 1]
     assert n_choices(2, 4) == 3 and n_choices(2, 3) == 2
+
+
+def test_version_5_is_version_4_plus_the_drones_own_type() -> None:
+    """Version 5 (docs/method.md §6): with one type it is version 4 and then 1, 1, 1; a
+    light drone (1 kg, a third of the battery, 14 m/s) sees its own ratios, and its
+    best plans are priced with its own energy model (cheaper per metre, so a cheaper
+    plan relative to its own battery can still be worth less)."""
+    from marops_cli.config import EnergyConfig
+    from marops_cli.energy import EnergyModel
+    from marops_cli.policies.observation import GLOBAL_V5, ObsVersion
+
+    prof = np.zeros((3, 8))
+    view = _view(prof, [4, 4, 1])
+    n_a = view.depots.candidates.shape[1]
+    v4 = SequentialObserver(view, version=ObsVersion.ANTICIPATION).row(0)
+    v5 = SequentialObserver(view, version=ObsVersion.CAPABILITIES).row(0)
+    assert obs_dim(n_a, 5) == obs_dim(n_a, 4) + 3 == v5.size and GLOBAL_V5 == GLOBAL_V4 + 3
+    np.testing.assert_array_equal(v5[:-3], v4)
+    np.testing.assert_array_equal(v5[-3:], [1.0, 1.0, 1.0])
+    ref = EnergyModel()
+    light = EnergyModel(EnergyConfig(max_payload_kg=1.0, battery_j=75_000.0, speed_ms=14.0))
+    view.drone_models = (light, ref)
+    seq = SequentialObserver(view, model=ref, version=ObsVersion.CAPABILITIES)
+    row0 = seq.row(0)
+    assert row0[-3:] == pytest.approx([1.0 / 2.5, 75_000.0 / 225_000.0, 1.4], rel=1e-6)
+    per = PER_ACTION_V4
+    for k in range(n_choices(n_a, 4)):  # every best plan fits the light drone's own battery
+        assert row0[k * per + VALUE + 1] <= 1.0 + 1e-9
+    assert not np.array_equal(row0[: n_choices(n_a, 4) * per], v4[: n_choices(n_a, 4) * per])
+    seq.commit(0, 0)
+    row1 = seq.row(1)
+    assert row1[-3:] == pytest.approx([1.0, 1.0, 1.0])

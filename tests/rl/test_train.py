@@ -131,3 +131,19 @@ def test_several_cities_area_counts_and_fleets(
         workers=2), again, n_depots=[6, 8], drones=[3, 4],
     )  # fmt: skip
     assert _same(_weights(tmp_path / "a.pt"), _weights(again))
+
+
+def test_observation_version_5_trains_and_loads(
+    tiny_csv: Path, small_cfg: PlannerConfig, tmp_path: Path
+) -> None:
+    """--obs-version 5 writes a version-5 actor whose width is version 4's plus the three
+    capability inputs, and the shipped loader flies it."""
+    from marops_cli.policies.observation import obs_dim
+    from marops_cli.policies.torchscript import TorchScriptPolicy
+
+    out = tmp_path / "v5.pt"
+    side = train(tiny_csv, small_cfg, quick(episodes=2, eval_every=100, obs_version=5), out)
+    assert side["obs_version"] == 5
+    assert side["obs_dim"] == obs_dim(side["n_actions"], 5) == obs_dim(side["n_actions"], 4) + 3
+    pol = TorchScriptPolicy(out)
+    assert int(pol.obs_version) == 5
