@@ -8,6 +8,7 @@ afterwards; :func:`reference_power_w` solves it directly and exists for tests.
 from __future__ import annotations
 
 import math
+from typing import ClassVar
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -95,6 +96,19 @@ class EnergyModel:
     Payloads must lie in ``[0, max_payload_kg]``; anything outside raises ``ValueError``
     rather than extrapolating silently.
     """
+
+    _built: ClassVar[dict[str, EnergyModel]] = {}  # one model per drone type, per process
+
+    @classmethod
+    def of(cls, cfg: EnergyConfig | None = None) -> EnergyModel:
+        """The model of these drone parameters, built once per process and shared (the
+        model is read-only: every method is a pure function of the tables)."""
+        cfg = cfg or EnergyConfig()
+        key = cfg.model_dump_json()
+        model = cls._built.get(key)
+        if model is None:
+            model = cls._built[key] = cls(cfg.model_copy())
+        return model
 
     def __init__(self, cfg: EnergyConfig | None = None) -> None:
         self.cfg = cfg or EnergyConfig()

@@ -133,3 +133,17 @@ def test_parcel_drag_adds_power():
 
 def test_power_rises_with_payload(model):
     assert np.all(np.diff(model.table_w) > 0)
+
+
+def test_one_model_per_drone_type_is_built_once():
+    """EnergyModel.of shares one model per set of drone parameters (a copy of them, so a
+    later change to the config object cannot change the shared model)."""
+    from marops_cli.config import EnergyConfig
+    from marops_cli.energy import EnergyModel
+
+    a = EnergyConfig(max_payload_kg=1.5)
+    m = EnergyModel.of(a)
+    assert EnergyModel.of(EnergyConfig(max_payload_kg=1.5)) is m
+    assert EnergyModel.of(EnergyConfig()) is not m
+    a.max_payload_kg = 2.0
+    assert m.max_payload_kg == 1.5 and EnergyModel.of(a).max_payload_kg == 2.0

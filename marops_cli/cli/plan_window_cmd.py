@@ -131,7 +131,7 @@ def plan_window(
     plan, reqs = plan_one_window(scn, day, window, drones_, pol, done)
     print_drop_report(scn.table.report, data.name)
     print_day_scope(reqs, cfg)
-    model = EnergyModel(cfg.energy)
+    model = EnergyModel.of(cfg.energy)
     stops, routes = build_tables(
         reqs,
         scn.depots,

@@ -509,7 +509,7 @@ def _replay_one(
         res, reqs, metrics = replay(scn, day, fleet, pol, method, on_window=log)
     print_day_scope(reqs, cfg, label)
     warn_undelivered(metrics, len(fleet))
-    model = EnergyModel(cfg.energy)
+    model = EnergyModel.of(cfg.energy)
     stops, routes = build_tables(
         reqs,
         scn.depots,

@@ -118,7 +118,7 @@ class MyopicPolicy(PolicyBase):
         """Use the run's energy model and planning settings (α, M̂, payload)."""
         from ..energy import EnergyModel
 
-        self._model, self._plan = EnergyModel(cfg.energy), cfg.plan
+        self._model, self._plan = EnergyModel.of(cfg.energy), cfg.plan
 
     def reset(self, seed: int) -> None:
         pass

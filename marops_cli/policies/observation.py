@@ -262,7 +262,7 @@ class SequentialObserver:
     ) -> None:
         self.view = view
         self.version = version
-        self.model = model or EnergyModel()
+        self.model = model or EnergyModel.of()
         self.plan = plan or PlanConfig()
         a = self.plan.alpha if alpha is None else alpha
         self.alpha = a

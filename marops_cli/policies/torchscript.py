@@ -150,7 +150,7 @@ class TorchScriptPolicy(PolicyBase):
         """Price version-3/4 observations with the run's energy model and plan settings."""
         from ..energy import EnergyModel
 
-        self._model, self._plan = EnergyModel(cfg.energy), cfg.plan
+        self._model, self._plan = EnergyModel.of(cfg.energy), cfg.plan
 
     def reset(self, seed: int) -> None:
         self._hidden = None

@@ -108,7 +108,7 @@ class DeliveryEnv:
         self.cfg = cfg
         self.tcfg = tcfg
         self.n_drones = n_drones or cfg.sim.drones
-        self.model = EnergyModel(cfg.energy)
+        self.model = EnergyModel.of(cfg.energy)
         self.n_dest = int(depots.candidates.shape[1])
         self.direct = tcfg.method == "mappo"
         self.n_slots = tcfg.plan_slots if self.direct else 1

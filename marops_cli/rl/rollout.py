@@ -177,7 +177,7 @@ class ActorPolicy(PolicyBase):
 
     def configure(self, cfg: PlannerConfig) -> None:
         """Price version-3 observations with the run's planner settings (``start_day``)."""
-        self.model, self.plan = EnergyModel(cfg.energy), cfg.plan
+        self.model, self.plan = EnergyModel.of(cfg.energy), cfg.plan
 
     def reset(self, seed: int) -> None:
         self._h = None
@@ -205,7 +205,7 @@ def evaluate_day(
     policy: Any, day: DayRequests, depots: Depots, cfg: PlannerConfig, method: str
 ) -> dict[str, Any]:
     """Replay ``day`` with ``policy`` and keep the metrics training reports."""
-    model = EnergyModel(cfg.energy)
+    model = EnergyModel.of(cfg.energy)
     fleet = default_fleet(depots, cfg.sim.drones)
     res = replay_day(
         day,

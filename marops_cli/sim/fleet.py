@@ -51,7 +51,7 @@ class DroneType:
     energy: EnergyConfig
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "_model", EnergyModel(self.energy))
+        object.__setattr__(self, "_model", EnergyModel.of(self.energy))
 
     @property
     def model(self) -> EnergyModel:

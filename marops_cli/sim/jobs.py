@@ -201,7 +201,7 @@ def plan_one_window(
         done = np.isin(reqs.order_id.astype(str), np.array(sorted(delivered), dtype=str))
         state.delivered_w[done] = max(0, window - 1)
     start_day(policy, cfg, cfg.sim.seed)
-    model = EnergyModel(cfg.energy)
+    model = EnergyModel.of(cfg.energy)
     view = state.view(window)
     actions = policy.act(view)
     selector = policy.selector or make_selector(cfg.plan)  # mappo flies its own
@@ -222,7 +222,7 @@ def replay(
     and compute its metrics."""
     fl = as_fleet(fleet, scn.cfg.energy)
     reqs = prepare_day(scn.table, scn.frame, day, scn.cfg.data)
-    model = EnergyModel(scn.cfg.energy)
+    model = EnergyModel.of(scn.cfg.energy)
     res = replay_day(
         reqs,
         scn.depots,

@@ -42,7 +42,7 @@ def replay_day(
 ) -> DayResult:
     """Plan every window of ``day``; ``on_window`` is called after each (for progress).
     ``drone_models`` are each drone's own (a mixed fleet), None: ``model`` for all."""
-    model = model or EnergyModel(cfg.energy)
+    model = model or EnergyModel.of(cfg.energy)
     # A policy that picks plans itself (the MAPPO baseline) carries its own selector.
     selector = selector or policy.selector or make_selector(cfg.plan)
     plan_cfg = plan_config(policy, cfg.plan)

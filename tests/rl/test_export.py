@@ -58,7 +58,7 @@ def test_reloaded_actor_gives_the_same_actions(tmp_path: Path) -> None:
 
 def test_sidecar_writes_the_observation_version_as_a_plain_number(tmp_path: Path) -> None:
     """Named versions in the code, the bare number in the file (byte-stable sidecars)."""
-    assert [int(v) for v in OBS_VERSIONS] == [2, 3, 4]
+    assert [int(v) for v in OBS_VERSIONS] == [2, 3, 4, 5]
     assert OBS_VERSION is ObsVersion.ANTICIPATION == 4
     assert (ObsVersion.MAPPO, ObsVersion.SEQUENTIAL) == (2, 3)
     path = tmp_path / "p.pt"
