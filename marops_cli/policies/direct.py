@@ -25,10 +25,8 @@ from typing import Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from ..errors import InputError
 from ..plans.plans import SelectionProblem
 from ..plans.select import SelectionResult
-from .base import WindowView
 from .torchscript import TorchScriptPolicy
 
 DEFAULT_SLOTS = 4
@@ -99,20 +97,5 @@ class DirectPolicy(TorchScriptPolicy):
     planner: str | None = "subsets"  # its slots rank the paper's subset plans (method.md §4.5)
 
     def __init__(self, path: str | Path) -> None:
-        super().__init__(path)
-        if "plan_slots" not in self.sidecar:
-            raise InputError("not a MAPPO actor: its sidecar has no plan_slots", file=self.path)
-        self.n_slots = int(self.sidecar["plan_slots"])
-        self.slots = SlotSelector(self.n_slots)
-        self.selector = self.slots
+        super().__init__(path, slots=SlotSelector)
         self.name = f"mappo:{self.path.name}"
-
-    def act(self, view: WindowView) -> np.ndarray:
-        logits = self.logits(view)
-        joint = np.argmax(logits, axis=1).astype(np.int64)
-        self.slots.slots = joint % self.n_slots
-        return joint // self.n_slots
-
-    def mask(self, view: WindowView) -> np.ndarray:
-        """``(U, A · S)``: every slot of an existing destination."""
-        return np.repeat(view.action_mask(), self.n_slots, axis=1)

@@ -8,25 +8,15 @@ Loading needs torch only: no training code is imported.
 from __future__ import annotations
 
 import warnings
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any, Literal
 
-import numpy as np
-
 from ..data.jsonfile import read_json
-from ..errors import InputError, RunError
-from .base import PolicyBase, WindowView
-from .observation import (
-    OBS_VERSION,
-    OBS_VERSIONS,
-    ObsVersion,
-    choice_mask,
-    n_choices,
-    obs_dim,
-    observe,
-    observe_and_choose,
-    to_actions,
-)
+from ..errors import InputError
+from .base import WindowView
+from .observation import OBS_VERSION, OBS_VERSIONS, n_choices, obs_dim
+from .recurrent import RecurrentPolicy
 
 
 def sidecar_path(model_path: str | Path) -> Path:
@@ -61,40 +51,42 @@ def read_sidecar(model_path: str | Path) -> dict[str, Any]:
     return doc
 
 
-class TorchScriptPolicy(PolicyBase):
-    """Greedy (arg-max) actions of a recurrent TorchScript actor.
-
-    Observation version 2: all drones at once. Version 3: drone by drone, each seeing
-    what the drones before it claimed (:class:`~.observation.SequentialObserver`),
-    priced with the run's planner settings (:meth:`configure`).
-    """
+class TorchScriptPolicy(RecurrentPolicy):
+    """Greedy (arg-max) actions of a recurrent TorchScript actor and its sidecar, flown by
+    the one drive of every recurrent actor (:class:`~.recurrent.RecurrentPolicy`)."""
 
     scope: Literal["range", "global"] = "range"
 
-    def __init__(self, path: str | Path) -> None:
+    def __init__(self, path: str | Path, *, slots: Callable[[int], Any] | None = None) -> None:
+        """``slots`` makes the selector of an actor with plan slots (the MAPPO baseline:
+        its sidecar names ``plan_slots``) from their number."""
         import torch  # deferred: importing torch costs a second the other policies never pay
 
         self.path = Path(path)
         if not self.path.is_file():
             raise InputError("policy file not found", file=self.path)
         self.sidecar = read_sidecar(self.path)
+        if slots is not None and "plan_slots" not in self.sidecar:
+            raise InputError("not a MAPPO actor: its sidecar has no plan_slots", file=self.path)
+        n_slots = int(self.sidecar["plan_slots"]) if slots is not None else 1
         try:
             with warnings.catch_warnings():
                 # torch 2.13 marks TorchScript deprecated; the format is our artifact contract.
                 warnings.simplefilter("ignore", DeprecationWarning)
-                self._module = torch.jit.load(str(self.path), map_location="cpu")
+                module = torch.jit.load(str(self.path), map_location="cpu")
         except (RuntimeError, ValueError) as exc:
             raise InputError(f"not a TorchScript module ({exc})", file=self.path) from exc
-        self._module.eval()
-        self._torch = torch
-        self.n_actions = int(self.sidecar["n_actions"])
-        self.hidden_size = int(self.sidecar["hidden_size"])
-        self.obs_version = ObsVersion(int(self.sidecar["obs_version"]))
+        module.eval()
+        super().__init__(
+            module,
+            int(self.sidecar["n_actions"]),
+            int(self.sidecar["hidden_size"]),
+            int(self.sidecar["obs_version"]),
+            n_slots=n_slots,
+            slots=None if slots is None else slots(n_slots),
+            name=f"torchscript:{self.path.name}",
+        )
         self._probe()
-        self.name = f"torchscript:{self.path.name}"
-        self._hidden: Any = None
-        self._model: Any = None
-        self._plan: Any = None
 
     def _probe(self) -> None:
         """One call with the shapes the sidecar promises: ``forward(obs (2, obs_dim),
@@ -146,16 +138,7 @@ class TorchScriptPolicy(PolicyBase):
     def identity(self) -> str | Path:
         return self.path
 
-    def configure(self, cfg: Any) -> None:
-        """Price version-3/4 observations with the run's energy model and plan settings."""
-        from ..energy import EnergyModel
-
-        self._model, self._plan = EnergyModel.of(cfg.energy), cfg.plan
-
-    def reset(self, seed: int) -> None:
-        self._hidden = None
-
-    def _check_actions(self, view: WindowView) -> None:
+    def _check(self, view: WindowView) -> None:
         a = view.depots.candidates.shape[1]
         if a != self.n_actions:
             raise InputError(
@@ -163,49 +146,3 @@ class TorchScriptPolicy(PolicyBase):
                 f"the depots offer {a}; segment with --actions {self.n_actions}",
                 file=self.path,
             )
-        if self._hidden is None or self._hidden.shape[0] != view.n_drones:
-            self._hidden = self._torch.zeros(
-                (view.n_drones, self.hidden_size), dtype=self._torch.float32
-            )
-
-    def _forward(self, drones: np.ndarray, obs: np.ndarray) -> np.ndarray:
-        """Logits of ``drones`` from their observations; advances their hidden states."""
-        torch = self._torch
-        idx = torch.from_numpy(np.asarray(drones, dtype=np.int64))
-        with torch.no_grad():
-            out, h = self._module(torch.from_numpy(obs), self._hidden[idx])
-        self._hidden[idx] = h
-        logits = out.numpy().astype(np.float64)
-        if not np.isfinite(logits).all():
-            raise RunError(f"{self.path}: the actor returned NaN or infinite logits")
-        return logits
-
-    def logits(self, view: WindowView) -> np.ndarray:
-        """Version-2 logits of every drone (the MAPPO actor's slot logits included)."""
-        assert self.obs_version == ObsVersion.MAPPO, "later versions choose drone by drone (act)"
-        self._check_actions(view)
-        obs = observe(view)
-        assert obs.shape[1] == obs_dim(self.n_actions, ObsVersion.MAPPO)
-        logits = self._forward(np.arange(view.n_drones), obs)
-        logits[~self.mask(view)] = -np.inf
-        return logits
-
-    def mask(self, view: WindowView) -> np.ndarray:
-        """``(U, n_logits)`` True where the choice exists (version 4: the free landing, last)."""
-        return choice_mask(view, self.obs_version)
-
-    def act(self, view: WindowView) -> np.ndarray:
-        if self.obs_version == ObsVersion.MAPPO:
-            return np.argmax(self.logits(view), axis=1).astype(np.int64)
-        self._check_actions(view)
-        mask = self.mask(view)
-
-        def choose(drones: np.ndarray, obs: np.ndarray) -> np.ndarray:
-            logits = self._forward(drones, obs)
-            logits[~mask[drones]] = -np.inf
-            return np.argmax(logits, axis=1)
-
-        choices = observe_and_choose(
-            view, choose, self.obs_version, model=self._model, plan=self._plan
-        )[1]
-        return to_actions(choices, self.n_actions)

@@ -9,24 +9,21 @@ from __future__ import annotations
 
 import multiprocessing as mp
 from dataclasses import dataclass
-from typing import Any, Literal
+from typing import Any
 
 import numpy as np
 import torch
 from torch.distributions import Categorical
 
-from ..config import PlanConfig, PlannerConfig
+from ..config import PlannerConfig
 from ..data.table import DayRequests
 from ..energy import EnergyModel
-from ..policies.base import PolicyBase, WindowView
 from ..policies.direct import SlotSelector
 from ..policies.observation import (
     ObsVersion,
     best_value_action,
-    choice_mask,
-    observe_and_choose,
-    to_actions,
 )
+from ..policies.recurrent import RecurrentPolicy
 from ..policies.registry import make_policy
 from ..segment.depots import Depots
 from ..sim.metrics import day_metrics, metric_names
@@ -151,54 +148,18 @@ def _teacher(env: DeliveryEnv, obs: np.ndarray, mask: np.ndarray) -> np.ndarray:
     return best_value_action(obs, mask, env.obs_version)
 
 
-class ActorPolicy(PolicyBase):
-    """An in-memory actor as a :class:`~marops_cli.policies.base.Policy` (arg-max actions),
-    so evaluation replays days exactly as ``replay-day`` does with the exported file."""
-
-    scope: Literal["range", "global"] = "range"
-
-    def __init__(
-        self,
-        actor: Actor,
-        n_slots: int = 1,
-        name: str = "actor",
-        version: int = ObsVersion.ANTICIPATION,
-    ) -> None:
-        self.actor = actor
-        self.version = version
-        self.model: EnergyModel | None = None
-        self.plan: PlanConfig | None = None
-        self.n_slots = n_slots
-        self.name = name
-        self.slots = SlotSelector(n_slots) if n_slots > 1 else None
-        self.selector = self.slots
-        self.planner = "subsets" if n_slots > 1 else None  # MAPPO ranks the paper's plans
-        self._h: torch.Tensor | None = None
-
-    def configure(self, cfg: PlannerConfig) -> None:
-        """Price version-3 observations with the run's planner settings (``start_day``)."""
-        self.model, self.plan = EnergyModel.of(cfg.energy), cfg.plan
-
-    def reset(self, seed: int) -> None:
-        self._h = None
-
-    def act(self, view: WindowView) -> np.ndarray:
-        if self._h is None:
-            self._h = torch.zeros(view.n_drones, self.actor.hidden_size)
-        h = self._h
-        mask = np.repeat(choice_mask(view, self.version), self.n_slots, axis=1)
-
-        def choose(drones: np.ndarray, obs: np.ndarray) -> np.ndarray:
-            idx = torch.from_numpy(drones)
-            with torch.no_grad():
-                logits, h[idx] = self.actor(torch.from_numpy(obs), h[idx])
-            m = torch.from_numpy(mask[drones])
-            return torch.argmax(logits.masked_fill(~m, MASKED_LOGIT), dim=1).numpy()
-
-        _, joint = observe_and_choose(view, choose, self.version, model=self.model, plan=self.plan)
-        if self.slots is not None:
-            self.slots.slots = joint % self.n_slots
-        return to_actions(joint // self.n_slots, view.depots.n_actions)
+def actor_policy(
+    actor: Actor, n_slots: int = 1, name: str = "actor", version: int = ObsVersion.ANTICIPATION
+) -> RecurrentPolicy:
+    """An in-memory actor as a policy, flown by the same drive as the exported file
+    (:class:`~marops_cli.policies.recurrent.RecurrentPolicy`), so evaluation replays days
+    exactly as ``replay-day`` does."""
+    slots = SlotSelector(n_slots) if n_slots > 1 else None
+    free = 1 if version >= ObsVersion.ANTICIPATION else 0  # the free landing, last
+    n_actions = actor.head.out_features // n_slots - free
+    return RecurrentPolicy(
+        actor, n_actions, actor.hidden_size, version, n_slots=n_slots, slots=slots, name=name
+    )
 
 
 def evaluate_day(
@@ -258,7 +219,7 @@ def _work(task: tuple[Any, ...]) -> Any:
         _, _, _, i, seed, alpha = task
         return run_episode(env, actor, scn.train_days[i], seed, alpha)
     _, _, _, i = task
-    pol = ActorPolicy(actor, env.n_slots, name=_CTX.tcfg.method, version=env.obs_version)
+    pol = actor_policy(actor, env.n_slots, name=_CTX.tcfg.method, version=env.obs_version)
     row = evaluate_day(pol, scn.eval_days[i], scn.depots, scn.cfg, _CTX.tcfg.method)
     return _day_key(scn, row)
 
