@@ -4,7 +4,7 @@ Every figure is a whole ``marops`` process (as cron runs it), its wall time and 
 peak resident memory (``ru_maxrss`` of that process alone):
 
 * **City** (``--city``): a LaDe-shaped city file of ``--rows`` rows (default 1.5 M:
-  180 days of a 40 km polycentric city, ``SynthConfig``, seed 5): ``segment`` over the
+  181 days from 1 March of a 40 km polycentric city, ``SynthConfig``, seed 5): ``segment`` over the
   whole file, ``segment --hubs auto`` over its history days, and one day replayed over
   every hub (``replay-day --hubs``), with the share of the city's orders the hubs cover.
 * **Repeated runs** (the bundled example): ``replay-day`` of one day with ``--depots``,
@@ -22,6 +22,7 @@ Nothing is asserted: the machine is shared; run it on a quiet one and read min/m
 from __future__ import annotations
 
 import argparse
+import datetime as dt
 import json
 import os
 import statistics
@@ -101,11 +102,18 @@ def city(rows: int, tmp: Path) -> None:
     from marops_cli.data.synth import SynthConfig, generate, write
 
     per_day = 8300.0
-    days = max(2, min(366, round(rows / per_day)))
+    days = max(2, round(rows / per_day))
     path = tmp / "city.csv"
     t = time.perf_counter()
+    # LaDe's times carry no year: the days must stay inside one (March to December).
+    days = min(days, 300)
     cfg = SynthConfig(
-        days=days, seed=5, orders_per_day=per_day, extent_km=40.0, shape="polycentric"
+        days=days,
+        seed=5,
+        start=dt.date(2022, 3, 1),
+        orders_per_day=per_day,
+        extent_km=40.0,
+        shape="polycentric",
     )
     write(generate(cfg), path)
     n = sum(1 for _ in path.open()) - 1
@@ -113,11 +121,9 @@ def city(rows: int, tmp: Path) -> None:
         f"city file: {n:,} rows, {days} days, {path.stat().st_size / 1e6:.0f} MB "
         f"(made in {time.perf_counter() - t:.1f} s)"
     )
-    last = cfg.start.toordinal() + days - 1
-    import datetime as dt
-
-    day = dt.date.fromordinal(last).strftime("%m%d")
-    history = f"{cfg.start.strftime('%m%d')}..{dt.date.fromordinal(last - 1).strftime('%m%d')}"
+    last = dt.date.fromordinal(cfg.start.toordinal() + days - 1)
+    day = last.isoformat()  # the last day is replayed; the others are its history
+    history = f"{cfg.start.isoformat()}..{(last - dt.timedelta(days=1)).isoformat()}"
     wall, mem = run(marops("segment", str(path), "--out", str(tmp / "depots.json"), "-q"))
     print(f"segment, whole file (16 k-means depots): {wall:6.1f} s, peak {mem:6.0f} MiB")
     hubs = tmp / "hubs.json"
