@@ -68,7 +68,21 @@ def evaluate(
     n_depots: Annotated[
         str | None, typer.Option("--n-depots", help="Numbers of service areas: 8,16,32 [16].")
     ] = None,
-    workers: Annotated[int, typer.Option("--workers", min=1, help="Worker processes.")] = 2,
+    workers: Annotated[
+        int,
+        typer.Option(
+            "--workers", min=1, help="Worker processes (with --scheduler local: the cluster's)."
+        ),
+    ] = 2,
+    scheduler: Annotated[
+        str | None,
+        typer.Option(
+            "--scheduler",
+            help="Run the jobs on a Dask cluster: its scheduler's address (tcp://HOST:8786), "
+            "or local for a cluster of --workers processes on this machine; needs "
+            "pip install 'marops[cluster]' (README.md, Sweeps on a cluster).",
+        ),
+    ] = None,
     policy: Annotated[
         Path | None,
         typer.Option(
@@ -109,6 +123,10 @@ def evaluate(
 
     require_input(data)
     _check_out(out)  # before any computing
+    if scheduler is not None:
+        from ..evaluate.cluster import require_distributed
+
+        require_distributed()
     refuse_overwriting_inputs(
         [out / n for n in ("results.parquet", "summary.csv", "summary.md")],
         data=data,
@@ -144,9 +162,16 @@ def evaluate(
         actors=actors,
     )
     print_drop_report(prep.source.report, data.name)
+    where = (
+        f"{workers} workers"
+        if scheduler is None
+        else f"a local Dask cluster of {workers} workers"
+        if scheduler == "local"
+        else f"the Dask scheduler at {scheduler}"
+    )
     info(
         f"evaluate: {len(prep.methods)} methods x {len(settings)} settings x "
-        f"{len(prep.days)} days x {repeats} repeats = {len(prep.jobs)} replays, {workers} workers"
+        f"{len(prep.days)} days x {repeats} repeats = {len(prep.jobs)} replays, on {where}"
     )
     from ..evaluate.dataset import JobStore
     from ..evaluate.runner import run_identity
@@ -158,7 +183,7 @@ def evaluate(
         if store.resumed:
             info(f"resumed: {store.resumed} of {len(prep.jobs)} replays from {store.root}")
         try:
-            ev = _run(prep, workers, store)
+            ev = _run(prep, workers, store, scheduler)
         except KeyboardInterrupt as exc:  # Ctrl-C or SIGTERM
             from ..io.atomic import Terminated
 
@@ -267,7 +292,9 @@ def _methods(text: str | None, actors: dict[str, Path]) -> list[str]:
     return chosen
 
 
-def _run(prep: Prepared, workers: int, store: JobStore | None = None) -> Evaluation:
+def _run(
+    prep: Prepared, workers: int, store: JobStore | None = None, scheduler: str | None = None
+) -> Evaluation:
     """Run the jobs with a progress bar on a terminal, one log line per replay otherwise."""
     from rich.progress import (
         BarColumn,
@@ -290,7 +317,7 @@ def _run(prep: Prepared, workers: int, store: JobStore | None = None) -> Evaluat
                 f"repeat {job.repeat}"
             )
 
-        return run_evaluation(prep, workers, log, store)
+        return run_evaluation(prep, workers, log, store, scheduler)
     progress = Progress(
         TextColumn("evaluate"),
         BarColumn(),
@@ -308,6 +335,7 @@ def _run(prep: Prepared, workers: int, store: JobStore | None = None) -> Evaluat
             workers,
             lambda done, total, job: progress.update(task, completed=done),
             store,
+            scheduler,
         )
 
 

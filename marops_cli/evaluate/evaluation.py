@@ -28,11 +28,13 @@ def evaluate(
     workers: int = 2,
     on_result: OnResult | None = None,
     store: JobStore | None = None,
+    scheduler: str | None = None,
 ) -> Evaluation:
-    """Run every job of ``prep`` on ``workers`` processes and summarise the rows. With a
-    ``store`` (the jobs dataset), the jobs it holds are not run again, each finished job
-    is written to it at once, and the rows are read back from it in job order."""
-    ran = run(prep, workers, on_result, store)
+    """Run every job of ``prep`` on ``workers`` processes (or the Dask cluster at
+    ``scheduler``) and summarise the rows. With a ``store`` (the jobs dataset), the jobs
+    it holds are not run again, each finished job is written to it at once, and the rows
+    are read back from it in job order."""
+    ran = run(prep, workers, on_result, store, scheduler)
     if store is None:
         rows = [job_row(prep, job, ran[job.index]) for job in prep.jobs]
     else:

@@ -1,10 +1,11 @@
-"""Run an evaluation's jobs, in parallel over worker processes, in a fixed result order.
+"""Run an evaluation's jobs, in parallel over worker processes (or on a Dask cluster,
+marops_cli/evaluate/cluster.py), in a fixed result order.
 
 Every job builds its own config, fleet and policy from the job alone (the policy is
 reset with the job's seed at the start of the day), so a job's metrics do not
 depend on which worker runs it or on what that worker ran before. Results are put
-back in job order, so ``--workers 1`` and ``--workers 2`` give the same rows
-(except the wall-time columns).
+back in job order, so ``--workers 1``, ``--workers 2`` and a cluster give the same
+rows (except the wall-time columns).
 """
 
 from __future__ import annotations
@@ -193,6 +194,15 @@ def worker_context(prep: Prepared) -> Prepared:
     return replace(prep, source=next(iter(prep.scenarios.values())).table)
 
 
+def run_in_context(prep: Prepared, job: Job) -> Outcome:
+    """Run ``job`` in a worker that receives ``prep`` with each job (a cluster's worker):
+    it sets itself up as a pool's worker does, once, at the first job of ``prep``."""
+    if _CTX.get("prep") is not prep:
+        one_thread()
+        load(prep)
+    return _run_safe(job)
+
+
 def _init(prep: Prepared) -> None:
     # Ctrl-C reaches the whole process group: the parent stops the pool and keeps what
     # finished; workers ignore it, so no worker prints a traceback.
@@ -263,9 +273,11 @@ def run(
     workers: int = 2,
     on_result: OnResult | None = None,
     sink: JobSink | None = None,
+    scheduler: str | None = None,
 ) -> dict[int, dict[str, Any]]:
-    """Metrics of the jobs this call ran, by job index, computed by ``workers`` processes;
-    with a ``sink``, the jobs it holds are not run again and each finished job goes to it at
+    """Metrics of the jobs this call ran, by job index, computed by ``workers`` processes
+    (or on the Dask cluster at ``scheduler``, ``local`` for one on this machine); with
+    a ``sink``, the jobs it holds are not run again and each finished job goes to it at
     once."""
     if workers < 1:
         raise InputError(f"--workers expects at least 1, got {workers}")
@@ -277,6 +289,10 @@ def run(
     with ExitStack() as stack:
         if not todo:
             outcomes: Iterator[Outcome] = iter(())
+        elif scheduler is not None:
+            from .cluster import cluster_outcomes
+
+            outcomes = stack.enter_context(cluster_outcomes(prep, todo, scheduler, workers))
         else:
             outcomes = stack.enter_context(_pool_outcomes(prep, todo, workers))
         for done, (index, metrics, error, code) in enumerate(outcomes, start=len(skip) + 1):
