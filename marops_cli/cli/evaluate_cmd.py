@@ -32,6 +32,7 @@ from .common import (
 
 if TYPE_CHECKING:
     from ..evaluate import Evaluation, Job, Prepared
+    from ..evaluate.dataset import JobStore
 
 
 @guarded
@@ -67,7 +68,21 @@ def evaluate(
     n_depots: Annotated[
         str | None, typer.Option("--n-depots", help="Numbers of service areas: 8,16,32 [16].")
     ] = None,
-    workers: Annotated[int, typer.Option("--workers", min=1, help="Worker processes.")] = 2,
+    workers: Annotated[
+        int,
+        typer.Option(
+            "--workers", min=1, help="Worker processes (with --scheduler local: the cluster's)."
+        ),
+    ] = 2,
+    scheduler: Annotated[
+        str | None,
+        typer.Option(
+            "--scheduler",
+            help="Run the jobs on a Dask cluster: its scheduler's address (tcp://HOST:8786), "
+            "or local for a cluster of --workers processes on this machine; needs "
+            "pip install 'marops[cluster]' (README.md, Sweeps on a cluster).",
+        ),
+    ] = None,
     policy: Annotated[
         Path | None,
         typer.Option(
@@ -108,8 +123,12 @@ def evaluate(
 
     require_input(data)
     _check_out(out)  # before any computing
+    if scheduler is not None:
+        from ..evaluate.cluster import require_distributed
+
+        require_distributed()
     refuse_overwriting_inputs(
-        [out / n for n in ("results.parquet", "summary.csv", "summary.md", JOURNAL)],
+        [out / n for n in ("results.parquet", "summary.csv", "summary.md")],
         data=data,
         config=config,
         policy=policy,
@@ -143,33 +162,40 @@ def evaluate(
         actors=actors,
     )
     print_drop_report(prep.source.report, data.name)
+    where = (
+        f"{workers} workers"
+        if scheduler is None
+        else f"a local Dask cluster of {workers} workers"
+        if scheduler == "local"
+        else f"the Dask scheduler at {scheduler}"
+    )
     info(
         f"evaluate: {len(prep.methods)} methods x {len(settings)} settings x "
-        f"{len(prep.days)} days x {repeats} repeats = {len(prep.jobs)} replays, {workers} workers"
+        f"{len(prep.days)} days x {repeats} repeats = {len(prep.jobs)} replays, on {where}"
     )
-    from ..evaluate.runner import Journal, run_identity
+    from ..evaluate.dataset import JobStore
+    from ..evaluate.runner import run_identity
     from ..io.atomic import folder_lock
 
     with folder_lock(out):  # one run at a time in a folder; stale temporaries go
-        journal = Journal(out / JOURNAL, run_identity(prep))
+        store = JobStore(out / JOBS, prep, run_identity(prep))
+        store.open(force=force)  # this run's finished jobs, or an error for another run's
+        if store.resumed:
+            info(f"resumed: {store.resumed} of {len(prep.jobs)} replays from {store.root}")
         try:
-            ev = _run(prep, workers, journal)
+            ev = _run(prep, workers, store, scheduler)
         except KeyboardInterrupt as exc:  # Ctrl-C or SIGTERM
             from ..io.atomic import Terminated
 
-            kept = max(0, len(journal.path.read_text(encoding="utf-8").splitlines()) - 1)
             how = "terminated" if isinstance(exc, Terminated) else "interrupted"
             typer.echo(
-                f"marops: {how}; {kept} of {len(prep.jobs)} replays are kept in "
-                f"{journal.path}: run the same command again to resume",
+                f"marops: {how}; {store.kept()} of {len(prep.jobs)} replays are kept "
+                f"in {store.root}: run the same command again to resume",
                 err=True,
             )
             raise typer.Exit(143 if isinstance(exc, Terminated) else 130) from None
-        if journal.done:
-            info(f"resumed: {len(journal.done)} of {len(prep.jobs)} replays from {journal.path}")
         paths = write_outputs(out, prep, ev.results, ev.summary, plots=plots)
         paired = _paired(ev, against, out, paths)
-        journal.remove()  # the outputs are complete
     _print_tables(ev)
     if paired is not None:
         _print_paired(paired, len(prep.days))
@@ -230,8 +256,8 @@ def _print_paired(paired: Any, n_days: int) -> None:
     show_table(t)
 
 
-JOURNAL = "evaluate.partial.jsonl"
-"""Finished replays of an unfinished evaluation, in its --out folder (removed at the end)."""
+JOBS = "jobs"
+"""The jobs dataset in the --out folder: one file per finished replay (docs/outputs.md)."""
 
 
 def _check_out(out: Path) -> None:
@@ -266,7 +292,9 @@ def _methods(text: str | None, actors: dict[str, Path]) -> list[str]:
     return chosen
 
 
-def _run(prep: Prepared, workers: int, journal: Any = None) -> Evaluation:
+def _run(
+    prep: Prepared, workers: int, store: JobStore | None = None, scheduler: str | None = None
+) -> Evaluation:
     """Run the jobs with a progress bar on a terminal, one log line per replay otherwise."""
     from rich.progress import (
         BarColumn,
@@ -289,7 +317,7 @@ def _run(prep: Prepared, workers: int, journal: Any = None) -> Evaluation:
                 f"repeat {job.repeat}"
             )
 
-        return run_evaluation(prep, workers, log, journal)
+        return run_evaluation(prep, workers, log, store, scheduler)
     progress = Progress(
         TextColumn("evaluate"),
         BarColumn(),
@@ -299,13 +327,15 @@ def _run(prep: Prepared, workers: int, journal: Any = None) -> Evaluation:
         console=console,
         transient=True,
     )
-    task = progress.add_task("replays", total=len(prep.jobs))
+    resumed = store.resumed if store is not None else 0
+    task = progress.add_task("replays", total=len(prep.jobs), completed=resumed)
     with progress:
         return run_evaluation(
             prep,
             workers,
             lambda done, total, job: progress.update(task, completed=done),
-            journal,
+            store,
+            scheduler,
         )
 
 

@@ -3,11 +3,15 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import pyarrow as pa
 
-from .runner import Journal, OnResult, Prepared, run
-from .tables import results_table, summarize
+from .runner import OnResult, Prepared, run
+from .tables import job_row, rows_table, summarize
+
+if TYPE_CHECKING:
+    from .dataset import JobStore
 
 
 @dataclass
@@ -23,8 +27,17 @@ def evaluate(
     prep: Prepared,
     workers: int = 2,
     on_result: OnResult | None = None,
-    journal: Journal | None = None,
+    store: JobStore | None = None,
+    scheduler: str | None = None,
 ) -> Evaluation:
-    """Run every job of ``prep`` on ``workers`` processes and summarise the rows."""
-    results = results_table(prep, run(prep, workers, on_result, journal))
+    """Run every job of ``prep`` on ``workers`` processes (or the Dask cluster at
+    ``scheduler``) and summarise the rows. With a ``store`` (the jobs dataset), the jobs
+    it holds are not run again, each finished job is written to it at once, and the rows
+    are read back from it in job order."""
+    ran = run(prep, workers, on_result, store, scheduler)
+    if store is None:
+        rows = [job_row(prep, job, ran[job.index]) for job in prep.jobs]
+    else:
+        rows = store.rows()
+    results = rows_table(rows)
     return Evaluation(prep, results, summarize(results))

@@ -128,8 +128,10 @@ def figures(summary: pa.Table, results: pa.Table, prep: Prepared) -> dict[str, A
 
 def evaluation_meta(prep: Prepared) -> dict[str, Any]:
     """The ``marops`` metadata of an evaluation's files (docs/outputs.md)."""
+    # No run time: the same jobs give the same file wherever and whenever they ran.
     return run_meta(
         command="evaluate",
+        stamp=False,
         config=prep.cfg,
         source=prep.source.source,
         policy=next(iter(prep.actor_files.values()), None),

@@ -1,10 +1,11 @@
-"""Run an evaluation's jobs, in parallel over worker processes, in a fixed result order.
+"""Run an evaluation's jobs, in parallel over worker processes (or on a Dask cluster,
+marops_cli/evaluate/cluster.py), in a fixed result order.
 
 Every job builds its own config, fleet and policy from the job alone (the policy is
 reset with the job's seed at the start of the day), so a job's metrics do not
 depend on which worker runs it or on what that worker ran before. Results are put
-back in job order, so ``--workers 1`` and ``--workers 2`` give the same rows
-(except the wall-time columns).
+back in job order, so ``--workers 1``, ``--workers 2`` and a cluster give the same
+rows (except the wall-time columns).
 """
 
 from __future__ import annotations
@@ -16,10 +17,11 @@ import multiprocessing as mp
 import os
 import signal
 import sys
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import ExitStack, contextmanager
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -166,25 +168,49 @@ def _die_with_parent() -> None:
         os._exit(1)
 
 
+def one_thread() -> None:
+    """One OpenMP/BLAS/torch thread in this process: the workers already fill the cores,
+    and threads on top only oversubscribe them."""
+    from threadpoolctl import threadpool_limits
+
+    threadpool_limits(limits=1)  # the libraries loaded so far (numpy's BLAS)
+    os.environ["OMP_NUM_THREADS"] = "1"  # and those loaded later (torch reads it)
+    if "torch" in sys.modules:
+        sys.modules["torch"].set_num_threads(1)
+
+
+def load(prep: Prepared) -> None:
+    """Make ``prep`` this process's context for :func:`run_job`: the methods registered
+    in the parent at run time, and no policy built yet."""
+    for spec in prep.specs.values():
+        register(spec)
+    _CTX.clear()
+    _CTX["prep"] = prep
+    _CTX["policies"] = {}
+
+
+def worker_context(prep: Prepared) -> Prepared:
+    """What a worker receives: ``prep`` with only the replayed days' rows, not the file."""
+    return replace(prep, source=next(iter(prep.scenarios.values())).table)
+
+
+def run_in_context(prep: Prepared, job: Job) -> Outcome:
+    """Run ``job`` in a worker that receives ``prep`` with each job (a cluster's worker):
+    it sets itself up as a pool's worker does, once, at the first job of ``prep``."""
+    if _CTX.get("prep") is not prep:
+        one_thread()
+        load(prep)
+    return _run_safe(job)
+
+
 def _init(prep: Prepared) -> None:
     # Ctrl-C reaches the whole process group: the parent stops the pool and keeps what
     # finished; workers ignore it, so no worker prints a traceback.
     if mp.current_process().name != "MainProcess":
         signal.signal(signal.SIGINT, signal.SIG_IGN)
         _die_with_parent()
-        # One thread per worker: the workers already fill the cores, and OpenMP/BLAS
-        # threads on top only oversubscribe them.
-        from threadpoolctl import threadpool_limits
-
-        threadpool_limits(limits=1)  # the libraries loaded so far (numpy's BLAS)
-        os.environ["OMP_NUM_THREADS"] = "1"  # and those loaded later (torch reads it)
-        if "torch" in sys.modules:
-            sys.modules["torch"].set_num_threads(1)
-    for spec in prep.specs.values():  # methods registered in the parent at run time
-        register(spec)
-    _CTX.clear()
-    _CTX["prep"] = prep
-    _CTX["policies"] = {}
+        one_thread()
+    load(prep)
 
 
 def run_job(job: Job) -> dict[str, Any]:
@@ -202,7 +228,11 @@ def run_job(job: Job) -> dict[str, Any]:
     return metrics
 
 
-def _run_safe(job: Job) -> tuple[int, dict[str, Any] | None, str | None, int]:
+Outcome = tuple[int, dict[str, Any] | None, str | None, int]
+"""A job's index, then its metrics, or the message and exit code of its error."""
+
+
+def _run_safe(job: Job) -> Outcome:
     # Library errors cross the process boundary as text, then are raised again as one line.
     try:
         return job.index, run_job(job), None, 0
@@ -212,7 +242,8 @@ def _run_safe(job: Job) -> tuple[int, dict[str, Any] | None, str | None, int]:
 
 def run_identity(prep: Prepared) -> str:
     """A digest of everything that decides an evaluation's rows: input, config, methods,
-    settings, days, repeats and actors. A journal is resumed only under the same one."""
+    settings, days, repeats and actors. A jobs dataset is resumed only under the same one
+    (docs/outputs.md "Evaluation")."""
     doc = {
         "input": prep.source.source.to_dict(),
         "config": prep.cfg.model_dump(mode="json"),
@@ -225,103 +256,71 @@ def run_identity(prep: Prepared) -> str:
     return hashlib.sha256(json.dumps(doc, sort_keys=True, default=str).encode()).hexdigest()
 
 
-def _job_key(job: Job) -> list[Any]:
-    return [job.index, job.setting, job.method, job.repeat, job.seed, job.day.isoformat()]
+class JobSink(Protocol):
+    """Where finished jobs go as they finish (the jobs dataset, marops_cli/evaluate/dataset.py)."""
 
-
-class Journal:
-    """Finished jobs, one JSON line each, so an interrupted evaluation resumes.
-
-    The first line records the run identity; a journal made by another run is an
-    error (the caller names it), never silently mixed in.
-    """
-
-    def __init__(self, path: Path, identity: str) -> None:
-        self.path = path
-        self.identity = identity
-        self.done: dict[int, dict[str, Any]] = {}
-
-    def open(self, jobs: Sequence[Job]) -> None:
-        """Load the jobs an earlier run of the same evaluation finished, then append."""
-        if self.path.is_file():
-            lines = self.path.read_text(encoding="utf-8").splitlines()
-            try:
-                head = json.loads(lines[0]) if lines else {}
-            except ValueError:
-                head = {}
-            if head.get("identity") != self.identity:
-                raise InputError(
-                    "holds an unfinished evaluation with other settings; delete it or "
-                    "choose another --out",
-                    file=self.path,
-                )
-            for line in lines[1:]:
-                try:
-                    rec = json.loads(line)
-                except ValueError:  # a line cut short by the interruption
-                    continue
-                i = int(rec["key"][0])
-                if 0 <= i < len(jobs) and rec["key"] == _job_key(jobs[i]):
-                    self.done[i] = rec["metrics"]
-        else:
-            self.path.parent.mkdir(parents=True, exist_ok=True)
-            self.path.write_text(json.dumps({"identity": self.identity}) + "\n", "utf-8")
+    def finished(self) -> set[int]:
+        """Indices of the jobs already held: they are not run again."""
+        ...
 
     def add(self, job: Job, metrics: dict[str, Any]) -> None:
-        line = json.dumps({"key": _job_key(job), "metrics": metrics}, default=str)
-        with open(self.path, "a", encoding="utf-8") as fh:
-            fh.write(line + "\n")
-            fh.flush()
-            os.fsync(fh.fileno())
-
-    def remove(self) -> None:
-        self.path.unlink(missing_ok=True)
+        """Keep one finished job's metrics."""
+        ...
 
 
 def run(
     prep: Prepared,
     workers: int = 2,
     on_result: OnResult | None = None,
-    journal: Journal | None = None,
-) -> list[dict[str, Any]]:
-    """Metrics of every job, in job order, computed by ``workers`` processes; with a
-    ``journal``, jobs it holds are not run again and each finished job is added."""
+    sink: JobSink | None = None,
+    scheduler: str | None = None,
+) -> dict[int, dict[str, Any]]:
+    """Metrics of the jobs this call ran, by job index, computed by ``workers`` processes
+    (or on the Dask cluster at ``scheduler``, ``local`` for one on this machine); with
+    a ``sink``, the jobs it holds are not run again and each finished job goes to it at
+    once."""
     if workers < 1:
         raise InputError(f"--workers expects at least 1, got {workers}")
     total = len(prep.jobs)
-    results: list[dict[str, Any] | None] = [None] * total
-    if journal is not None:
-        journal.open(prep.jobs)
-        for i, metrics in journal.done.items():
-            results[i] = metrics
-    todo = [job for job in prep.jobs if results[job.index] is None]
-    done0 = total - len(todo)
+    skip = sink.finished() if sink is not None else set()
+    todo = [job for job in prep.jobs if job.index not in skip]
+    results: dict[int, dict[str, Any]] = {}
     workers = max(1, min(workers, len(todo)))
-    if not todo:
-        outcomes: Any = iter(())
-        pool = None
-    elif workers == 1:
-        _init(prep)
-        outcomes = map(_run_safe, todo)
-        pool = None
-    else:
-        # spawn: a fresh interpreter per worker, so no solver or Arrow thread state is
-        # inherited half-initialised from the parent (fork is unsafe with threads).
-        # Workers get only the replayed days' rows, not the whole file.
-        slim = replace(prep, source=next(iter(prep.scenarios.values())).table)
-        pool = mp.get_context("spawn").Pool(workers, initializer=_init, initargs=(slim,))
-        outcomes = pool.imap_unordered(_run_safe, todo, chunksize=1)
-    try:
-        for done, (index, metrics, error, code) in enumerate(outcomes, start=done0 + 1):
+    with ExitStack() as stack:
+        if not todo:
+            outcomes: Iterator[Outcome] = iter(())
+        elif scheduler is not None:
+            from .cluster import cluster_outcomes
+
+            outcomes = stack.enter_context(cluster_outcomes(prep, todo, scheduler, workers))
+        else:
+            outcomes = stack.enter_context(_pool_outcomes(prep, todo, workers))
+        for done, (index, metrics, error, code) in enumerate(outcomes, start=len(skip) + 1):
             if error is not None:
                 raise (InputError(error) if code == 2 else RunError(error))
+            assert metrics is not None
             results[index] = metrics
-            if journal is not None and metrics is not None:
-                journal.add(prep.jobs[index], metrics)
+            if sink is not None:
+                sink.add(prep.jobs[index], metrics)
             if on_result is not None:
                 on_result(done, total, prep.jobs[index])
+    return results
+
+
+@contextmanager
+def _pool_outcomes(prep: Prepared, todo: list[Job], workers: int) -> Iterator[Iterator[Outcome]]:
+    """Outcomes of ``todo`` from this process (one worker) or a local pool, as they finish."""
+    if workers == 1:
+        _init(prep)
+        yield map(_run_safe, todo)
+        return
+    # spawn: a fresh interpreter per worker, so no solver or Arrow thread state is
+    # inherited half-initialised from the parent (fork is unsafe with threads).
+    pool = mp.get_context("spawn").Pool(
+        workers, initializer=_init, initargs=(worker_context(prep),)
+    )
+    try:
+        yield pool.imap_unordered(_run_safe, todo, chunksize=1)
     finally:
-        if pool is not None:
-            pool.terminate()
-            pool.join()
-    return [r for r in results if r is not None]
+        pool.terminate()
+        pool.join()

@@ -50,7 +50,11 @@ class Setting:
 
 @dataclass(frozen=True)
 class Job:
-    """One day of one method under one setting and repeat."""
+    """One day of one method under one setting and repeat (at one hub).
+
+    ``hub`` is a partition key of the jobs dataset (docs/outputs.md "Evaluation"); every
+    evaluation has a single hub, 0, for now.
+    """
 
     index: int
     setting: int  # index into the settings list
@@ -58,6 +62,7 @@ class Job:
     repeat: int
     seed: int
     day: dt.date
+    hub: int = 0
 
 
 def parse_values(text: str | None, kind: Callable[[str], T], flag: str) -> list[T] | None:

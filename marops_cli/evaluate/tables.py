@@ -22,6 +22,7 @@ import pyarrow as pa
 from ..sim.jobs import METHODS
 from ..sim.metrics import combined_cost, metric_names
 from .runner import Prepared
+from .settings import Job
 
 SETTING_COLUMNS = ("setting", "alpha", "drones", "coverage", "depots_n", "n_actions")
 KEY_COLUMNS = (*SETTING_COLUMNS, "segmentation", "method", "repeat", "seed", "day")
@@ -58,18 +59,32 @@ def flatten(metrics: dict[str, Any], prefix: str = "") -> dict[str, Any]:
     return flat
 
 
+def key_columns(prep: Prepared, job: Job) -> dict[str, Any]:
+    """A job's :data:`KEY_COLUMNS`: its setting, segmentation, method, repeat, seed, day."""
+    s = prep.settings[job.setting]
+    row: dict[str, Any] = {"setting": job.setting, **s.columns()}
+    row["n_actions"] = prep.cfg.segment.n_actions
+    row["segmentation"] = METHODS[job.method][0]
+    row.update(method=job.method, repeat=job.repeat, seed=job.seed, day=job.day.isoformat())
+    return row
+
+
+def job_row(prep: Prepared, job: Job, metrics: dict[str, Any]) -> dict[str, Any]:
+    """A job's row of ``results.parquet`` (less ``combined_cost``, which spans jobs):
+    its key columns, then every day metric flattened."""
+    row = key_columns(prep, job)
+    rest = {k: v for k, v in metrics.items() if k not in ("day", "method", "drones")}
+    row.update(flatten(rest))
+    return row
+
+
 def results_table(prep: Prepared, metrics: Sequence[dict[str, Any]]) -> pa.Table:
     """One row per job: setting columns, repeat, seed, then every day metric flattened."""
-    rows: list[dict[str, Any]] = []
-    for job, m in zip(prep.jobs, metrics, strict=True):
-        s = prep.settings[job.setting]
-        row: dict[str, Any] = {"setting": job.setting, **s.columns()}
-        row["n_actions"] = prep.cfg.segment.n_actions
-        row["segmentation"] = METHODS[job.method][0]
-        row.update(method=job.method, repeat=job.repeat, seed=job.seed, day=job.day.isoformat())
-        rest = {k: v for k, v in m.items() if k not in ("day", "method", "drones")}
-        row.update(flatten(rest))
-        rows.append(row)
+    return rows_table([job_row(prep, job, m) for job, m in zip(prep.jobs, metrics, strict=True)])
+
+
+def rows_table(rows: Sequence[dict[str, Any]]) -> pa.Table:
+    """``results.parquet`` from the jobs' rows (:func:`job_row`), in job order."""
     columns = _column_order(rows)
     data = {c: [r.get(c) for r in rows] for c in columns}
     table = pa.table({c: _array(c, v) for c, v in data.items()})
@@ -84,6 +99,11 @@ def _column_order(rows: Sequence[dict[str, Any]]) -> list[str]:
     )
     # Depot loads last and by depot id, so a sweep over the number of depots lines up.
     return [c for c in seen if not c.startswith(DEPOT_LOAD_PREFIX)] + loads
+
+
+def row_table(row: dict[str, Any]) -> pa.Table:
+    """One row as a table with the column types ``results.parquet`` gives it."""
+    return pa.table({c: _array(c, [v]) for c, v in row.items()})
 
 
 def _array(name: str, values: list[Any]) -> pa.Array:

@@ -16,10 +16,14 @@ from typer.testing import CliRunner
 
 from marops_cli.cli.app import app
 from marops_cli.config import PlannerConfig
-from marops_cli.evaluate import expand_settings, prepare
-from marops_cli.evaluate.runner import Journal, run, run_identity
+from marops_cli.errors import InputError
+from marops_cli.evaluate import evaluate, expand_settings, prepare
+from marops_cli.evaluate.dataset import JobStore
+from marops_cli.evaluate.runner import run, run_identity
+from marops_cli.evaluate.tables import job_row, rows_table
 
 DAYS = [dt.date(2022, 8, 11), dt.date(2022, 8, 12)]
+WALL_TIME = ["runtime_s", "solver_solve_s"]  # the only columns that may differ between runs
 
 
 @pytest.fixture(scope="module")
@@ -28,34 +32,63 @@ def prep(example_csv: Path):
     return prepare(example_csv, cfg, ["stay", "greedy"], expand_settings(cfg), days=DAYS)
 
 
-def _timeless(rows: list[dict]) -> list[dict]:
-    return [{k: v for k, v in r.items() if k not in ("runtime_s", "solver")} for r in rows]
-
-
 def test_interrupted_run_resumes_to_the_same_rows(prep, tmp_path: Path) -> None:
-    full = run(prep, workers=1)
-    journal = Journal(tmp_path / "j.jsonl", run_identity(prep))
+    full = evaluate(prep, workers=1).results
+    store = JobStore(tmp_path / "jobs", prep, run_identity(prep))
+    store.open()
 
     def stop_after_two(done: int, total: int, job) -> None:
         if done == 2:
             raise KeyboardInterrupt
 
     with pytest.raises(KeyboardInterrupt):
-        run(prep, workers=1, on_result=stop_after_two, journal=journal)
-    lines = journal.path.read_text().splitlines()
-    assert len(lines) == 1 + 2  # the identity, then the two finished jobs
+        run(prep, workers=1, on_result=stop_after_two, sink=store)
+    files = sorted((tmp_path / "jobs").rglob("*.parquet"))
+    assert len(files) == 2 and store.finished() == {0, 1}  # written as each job finished
+    assert files[0].relative_to(tmp_path).parts[:4] == (
+        "jobs",
+        "hub=0",
+        "method=stay",
+        "day=2022-08-11",
+    )
     ran: list[int] = []
-    again = Journal(journal.path, run_identity(prep))
-    rows = run(prep, 1, lambda d, t, job: ran.append(job.index), again)
-    assert sorted(again.done) == [0, 1] and sorted(ran) == [2, 3]  # only the rest ran
-    assert _timeless(rows) == _timeless(full)
+    again = JobStore(tmp_path / "jobs", prep, run_identity(prep))
+    again.open()
+    assert again.resumed == 2
+    rows = evaluate(prep, 1, lambda d, t, job: ran.append(job.index), again).results
+    assert sorted(ran) == [2, 3]  # only the rest ran
+    assert rows.drop_columns(WALL_TIME).equals(full.drop_columns(WALL_TIME), check_metadata=True)
+    assert rows.schema == full.schema
 
 
-def test_a_journal_of_other_settings_is_refused(prep, tmp_path: Path) -> None:
-    path = tmp_path / "j.jsonl"
-    path.write_text(json.dumps({"identity": "another run"}) + "\n")
-    with pytest.raises(Exception, match="other settings"):
-        run(prep, 1, None, Journal(path, run_identity(prep)))
+def test_jobs_of_another_run_are_refused_and_force_clears_them(prep, tmp_path: Path) -> None:
+    jobs = tmp_path / "jobs"
+    (jobs / "hub=0").mkdir(parents=True)
+    (jobs / "_identity.json").write_text(json.dumps({"identity": "another run"}))
+    with pytest.raises(InputError, match="other settings"):
+        JobStore(jobs, prep, run_identity(prep)).open()
+    store = JobStore(jobs, prep, run_identity(prep))
+    store.open(force=True)
+    assert store.finished() == set() and (jobs / "hub=0").is_dir()  # nothing goes yet
+    store.add(prep.jobs[2], {"mean_energy_kj": 1.5, "delivered": 3})
+    assert json.loads((jobs / "_identity.json").read_text())["identity"] == run_identity(prep)
+    assert list(jobs.rglob("*.parquet")) == [store.path(prep.jobs[2])]
+
+
+def test_rows_read_back_are_the_rows_in_memory_and_a_damaged_file_runs_again(
+    prep, tmp_path: Path
+) -> None:
+    store = JobStore(tmp_path / "jobs", prep, run_identity(prep))
+    store.open()
+    ran = run(prep, workers=1, sink=store)
+    # every value and type survives the files, wall times included
+    in_memory = rows_table([job_row(prep, job, ran[job.index]) for job in prep.jobs])
+    assert rows_table(store.rows()).equals(in_memory, check_metadata=True)
+    store.path(prep.jobs[1]).write_bytes(b"PAR1 cut short")
+    again = JobStore(tmp_path / "jobs", prep, run_identity(prep))
+    again.open()
+    assert again.finished() == {0, 2, 3}
+    assert list(run(prep, workers=1, sink=again)) == [1]
 
 
 def test_out_that_is_a_file_fails_before_any_work(
@@ -81,10 +114,10 @@ def test_ctrl_c_exits_130_keeps_finished_jobs_and_prints_no_traceback(
         text=True,
         start_new_session=True,  # its own process group, like a terminal's
     )
-    journal = out / "evaluate.partial.jsonl"
+    jobs = out / "jobs"
     deadline = time.monotonic() + 240
     while time.monotonic() < deadline and proc.poll() is None:
-        if journal.is_file() and len(journal.read_text().splitlines()) >= 2:
+        if any(jobs.rglob("*.parquet")):
             break
         time.sleep(0.05)
     assert proc.poll() is None, "finished before it could be interrupted"
@@ -93,10 +126,11 @@ def test_ctrl_c_exits_130_keeps_finished_jobs_and_prints_no_traceback(
     assert proc.returncode == 130, err
     assert "Traceback" not in err and "KeyboardInterrupt" not in err
     assert "run the same command again to resume" in err
-    kept = len(journal.read_text().splitlines()) - 1
+    kept = len(list(jobs.rglob("*.parquet")))
     assert kept >= 1 and not (out / "results.parquet").exists()
-    # the same command resumes and finishes; the journal goes when the outputs are written
+    assert f"{kept} of 8 replays are kept" in err
+    # the same command resumes and finishes; the jobs stay beside the outputs
     res = CliRunner().invoke(app, args)
     assert res.exit_code == 0, res.output
     assert f"resumed: {kept} of 8 replays" in res.output
-    assert (out / "results.parquet").is_file() and not journal.exists()
+    assert (out / "results.parquet").is_file() and len(list(jobs.rglob("*.parquet"))) == 8

@@ -1,0 +1,182 @@
+"""An evaluation's jobs dataset (docs/outputs.md "Evaluation"): one Parquet file per
+finished job, written the moment the job finishes, so an interrupted or killed run
+resumes where it stopped.
+
+::
+
+    OUT/jobs/_identity.json                       the run identity (runner.run_identity)
+    OUT/jobs/hub=<h>/method=<m>/day=<YYYY-MM-DD>/s<setting>-r<repeat>.parquet
+
+A job file holds the job's row of ``results.parquet`` (less ``combined_cost``, which
+spans jobs, and less the partition keys, which its path gives), typed as there, with the
+run identity and the job in its ``marops`` metadata. ``results.parquet`` is built from
+these files in job order, whichever worker, machine or session wrote them.
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+from typing import Any
+from urllib.parse import quote
+
+import pyarrow.parquet as pq
+
+from ..errors import InputError, RunError
+from ..io import output_set, run_meta
+from ..io.tables import with_meta, write_parquet
+from .runner import Prepared
+from .settings import Job
+from .tables import KEY_COLUMNS, job_row, key_columns, row_table
+
+IDENTITY_FILE = "_identity.json"  # "_": dataset readers (pyarrow.dataset) skip it
+PARTITION = ("hub", "method", "day")
+
+
+def job_key(job: Job) -> dict[str, Any]:
+    """What a job file's metadata records of its job."""
+    return {
+        "index": job.index,
+        "hub": job.hub,
+        "setting": job.setting,
+        "method": job.method,
+        "repeat": job.repeat,
+        "seed": job.seed,
+        "day": job.day.isoformat(),
+    }
+
+
+class JobStore:
+    """The jobs dataset of one evaluation under ``root`` (``OUT/jobs``).
+
+    :meth:`open` checks that ``root`` holds this run's jobs (same run identity) or none,
+    and lists the jobs already finished; :meth:`add` writes one finished job atomically;
+    :meth:`rows` reads every job's row back, in job order.
+    """
+
+    def __init__(self, root: Path, prep: Prepared, identity: str) -> None:
+        self.root = Path(root)
+        self.prep = prep
+        self.identity = identity
+        self._done: set[int] = set()
+        self.resumed = 0  # jobs found finished by open()
+        self._started = False  # the identity file is in place
+        self._clear = False  # another run's jobs go before this run's first one
+
+    def path(self, job: Job) -> Path:
+        """``hub=<h>/method=<m>/day=<YYYY-MM-DD>/s<setting>-r<repeat>.parquet``."""
+        return (
+            self.root
+            / f"hub={job.hub}"
+            / f"method={quote(job.method, safe='')}"
+            / f"day={job.day.isoformat()}"
+            / f"s{job.setting}-r{job.repeat}.parquet"
+        )
+
+    def open(self, *, force: bool = False) -> None:
+        """List the jobs of this run already under ``root``; jobs of another run are an
+        error naming the folder (``force``: they are cleared when the first job of this
+        run is written). Writes nothing: a run that fails before its first job leaves the
+        folder as it was."""
+        held = self._held_identity()
+        self._done = set()
+        if held is not None and held != self.identity:
+            if not force:
+                raise InputError(
+                    "holds the jobs of an evaluation with other settings; run with --force "
+                    "to clear them, or choose another --out",
+                    file=self.root,
+                )
+            self._clear = True
+        elif held is not None:
+            self._started = True
+            self._done = {job.index for job in self.prep.jobs if self._read(job) is not None}
+        self.resumed = len(self._done)
+
+    def _held_identity(self) -> str | None:
+        """The run identity ``root`` holds; None for no folder or one with nothing in it."""
+        if not self.root.exists():
+            return None
+        ident = self.root / IDENTITY_FILE
+        if not ident.is_file():
+            if not any(not p.name.startswith(".") for p in self.root.iterdir()):
+                return None  # empty, or a killed run's temporaries (removed by the lock)
+            raise InputError(
+                "exists and was not written by marops evaluate; choose another --out",
+                file=self.root,
+            )
+        try:
+            doc = json.loads(ident.read_text(encoding="utf-8"))
+            return str(doc["identity"])
+        except (OSError, ValueError, KeyError, TypeError):
+            return ""  # unreadable: another run's, whatever it was
+
+    def finished(self) -> set[int]:
+        """Indices of the jobs whose file is in place."""
+        return set(self._done)
+
+    def kept(self) -> int:
+        """How many jobs have their file in place, counted on disk (after an interruption,
+        which may fall between a file's rename and its count)."""
+        return sum(self._read(job) is not None for job in self.prep.jobs)
+
+    def add(self, job: Job, metrics: dict[str, Any]) -> None:
+        """Write one finished job's file (a temporary, then renamed into place)."""
+        row = {k: v for k, v in job_row(self.prep, job, metrics).items() if k not in PARTITION}
+        meta = run_meta(
+            command="evaluate", stamp=False, extra={"identity": self.identity, "job": job_key(job)}
+        )
+        table = with_meta(row_table(row), meta)
+        if not self._started:
+            self._start()
+        self.path(job).unlink(missing_ok=True)  # not this job's, or open() would have kept it
+        with output_set() as files:
+            files.write_with(self.path(job), lambda p: write_parquet(table, p))
+        self._done.add(job.index)
+
+    def _start(self) -> None:
+        """Clear another run's jobs (``--force``), then record this run's identity."""
+        if self._clear:
+            shutil.rmtree(self.root)
+        doc = {
+            "identity": self.identity,
+            "jobs": len(self.prep.jobs),
+            "meta": run_meta(command="evaluate", source=self.prep.source.source, stamp=False),
+        }
+        with output_set() as files:
+            files.write_json(self.root / IDENTITY_FILE, doc)
+        self._started = True
+
+    def _read(self, job: Job) -> dict[str, Any] | None:
+        """The job's row from its file; None when the file is missing or not this job's
+        of this run."""
+        path = self.path(job)
+        if not path.is_file():
+            return None
+        try:
+            table = pq.read_table(path)
+            meta = json.loads((table.schema.metadata or {})[b"marops"])
+        except (OSError, ValueError, KeyError):
+            return None
+        if meta.get("identity") != self.identity or meta.get("job") != job_key(job):
+            return None
+        if table.num_rows != 1:
+            return None
+        row = table.to_pylist()[0]
+        keys = {k: v for k, v in key_columns(self.prep, job).items() if k not in PARTITION}
+        if any(row.get(k) != v for k, v in keys.items()):
+            return None
+        return row
+
+    def rows(self) -> list[dict[str, Any]]:
+        """Every job's row, read back from its file, in job order (:func:`job_row`)."""
+        rows = []
+        for job in self.prep.jobs:
+            found = self._read(job)
+            if found is None:
+                raise RunError(f"{self.path(job)}: a finished job's file is missing or damaged")
+            row = key_columns(self.prep, job)
+            row.update({k: v for k, v in found.items() if k not in KEY_COLUMNS})
+            rows.append(row)
+        return rows

@@ -1,0 +1,186 @@
+"""Sweeps on a Dask cluster and the jobs dataset: the same files however the jobs ran
+(one process, a LocalCluster, two sessions with a kill -9 between), a folder of another
+run refused, and one line when distributed is missing (README.md "Sweeps on a cluster")."""
+
+from __future__ import annotations
+
+import csv
+import io
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pyarrow.dataset as ds
+import pyarrow.parquet as pq
+import pytest
+from typer.testing import CliRunner
+
+from marops_cli.cli.app import app
+
+RUNNER = CliRunner()
+# Results don't depend on --workers or --scheduler: all these runs share one identity.
+ARGS = ["--methods", "stay,greedy", "--dates", "0811,0812", "--no-plot"]
+N_JOBS = 4
+WALL_TIME = ("runtime_s", "solver_solve_s")  # docs/outputs.md: wall time, differs per run
+MAIN = "from marops_cli.cli.app import main; main()"
+
+
+def _evaluate(example_csv: Path, out: Path, *extra: str) -> list[str]:
+    return ["evaluate", str(example_csv), *ARGS, *extra, "--out", str(out)]
+
+
+def _subprocess(args: list[str]) -> subprocess.Popen[str]:
+    return subprocess.Popen(
+        [sys.executable, "-c", MAIN, *args],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,  # its own process group: workers are killed with it
+    )
+
+
+def _same_outputs(a: Path, b: Path) -> None:
+    """results.parquet, summary.csv and summary.md the same, but for wall times."""
+    ra, rb = pq.read_table(a / "results.parquet"), pq.read_table(b / "results.parquet")
+    assert ra.schema.equals(rb.schema, check_metadata=True)  # columns, types, metadata
+    assert ra.drop_columns(list(WALL_TIME)).equals(rb.drop_columns(list(WALL_TIME)))
+
+    def csv_rows(p: Path) -> list[dict[str, str]]:
+        rows = list(csv.DictReader(io.StringIO((p / "summary.csv").read_text())))
+        return [{k: v for k, v in r.items() if not k.startswith("runtime_s_")} for r in rows]
+
+    assert csv_rows(a) == csv_rows(b) and len(csv_rows(a)) == 2
+
+    def md(p: Path) -> list[str]:
+        lines = (p / "summary.md").read_text().splitlines()
+        return [line for line in lines if not line.startswith("| Average running time")]
+
+    assert md(a) == md(b)
+
+
+@pytest.fixture(scope="module")
+def one_worker(example_csv: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    out = tmp_path_factory.mktemp("one") / "ev"
+    res = RUNNER.invoke(app, _evaluate(example_csv, out, "--workers", "1"))
+    assert res.exit_code == 0, res.output
+    return out
+
+
+def test_one_file_per_job_in_a_partitioned_dataset(one_worker: Path) -> None:
+    files = sorted(p.relative_to(one_worker).as_posix() for p in one_worker.rglob("*.parquet"))
+    assert files == [
+        "jobs/hub=0/method=greedy/day=2022-08-11/s0-r0.parquet",
+        "jobs/hub=0/method=greedy/day=2022-08-12/s0-r0.parquet",
+        "jobs/hub=0/method=stay/day=2022-08-11/s0-r0.parquet",
+        "jobs/hub=0/method=stay/day=2022-08-12/s0-r0.parquet",
+        "results.parquet",
+    ]
+    jobs = ds.dataset(one_worker / "jobs", format="parquet", partitioning="hive").to_table()
+    results = pq.read_table(one_worker / "results.parquet")
+    assert jobs.num_rows == results.num_rows == N_JOBS
+    got = sorted(
+        zip(*(jobs.column(c).to_pylist() for c in ("method", "day", "delivered")), strict=True)
+    )
+    want = sorted(
+        zip(*(results.column(c).to_pylist() for c in ("method", "day", "delivered")), strict=True)
+    )
+    assert got == want and set(jobs.column("hub").to_pylist()) == {0}
+
+
+def test_local_cluster_writes_what_one_worker_writes(
+    example_csv: Path, one_worker: Path, tmp_path: Path
+) -> None:
+    out = tmp_path / "ev"
+    proc = _subprocess(_evaluate(example_csv, out, "--scheduler", "local", "--workers", "2"))
+    _, err = proc.communicate(timeout=300)
+    assert proc.returncode == 0, err
+    assert "local Dask cluster of 2 workers" in err and "Traceback" not in err
+    _same_outputs(one_worker, out)
+
+
+def test_killed_run_resumes_without_rerunning_finished_jobs(
+    example_csv: Path, one_worker: Path, tmp_path: Path
+) -> None:
+    out = tmp_path / "ev"
+    args = _evaluate(example_csv, out, "--workers", "1")
+    proc = _subprocess(args)
+    deadline = time.monotonic() + 240
+    while time.monotonic() < deadline and proc.poll() is None:
+        if any((out / "jobs").rglob("*.parquet")):
+            break
+        time.sleep(0.02)
+    assert proc.poll() is None, "finished before it could be killed"
+    os.killpg(proc.pid, signal.SIGKILL)
+    proc.communicate(timeout=60)
+    before = {p: (p.stat().st_ino, p.stat().st_mtime_ns) for p in (out / "jobs").rglob("*.parquet")}
+    assert 1 <= len(before) < N_JOBS and not (out / "results.parquet").exists()
+    res = RUNNER.invoke(app, args)
+    assert res.exit_code == 0, res.output
+    assert f"resumed: {len(before)} of {N_JOBS} replays" in res.stderr
+    for p, stamp in before.items():  # the finished jobs were not run again
+        assert (p.stat().st_ino, p.stat().st_mtime_ns) == stamp, p
+    assert len(list((out / "jobs").rglob("*.parquet"))) == N_JOBS
+    _same_outputs(one_worker, out)
+
+
+def test_a_folder_of_another_run_is_refused_then_force_clears_it(
+    example_csv: Path, one_worker: Path, tmp_path: Path, fails_cleanly
+) -> None:
+    out = tmp_path / "ev"
+    shutil.copytree(one_worker, out)
+    other = ["evaluate", str(example_csv), "--methods", "stay", "--dates", "0811", "--no-plot"]
+    other += ["--workers", "1", "-q", "--out", str(out)]
+    fails_cleanly(other, tmp_path, str(out / "jobs"), "other settings", "--force")
+    res = RUNNER.invoke(app, [*other, "--force"])
+    assert res.exit_code == 0, res.output
+    files = [p.relative_to(out / "jobs").as_posix() for p in (out / "jobs").rglob("*.parquet")]
+    assert files == ["hub=0/method=stay/day=2022-08-11/s0-r0.parquet"]
+
+
+def test_scheduler_without_distributed_says_how_to_install_it(
+    example_csv: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, fails_cleanly
+) -> None:
+    monkeypatch.setitem(sys.modules, "distributed", None)  # import distributed fails
+    args = _evaluate(example_csv, tmp_path / "ev", "--scheduler", "local")
+    fails_cleanly(args, tmp_path, "--scheduler", "pip install 'marops[cluster]'")
+
+
+def test_unreachable_scheduler_is_one_line_and_writes_nothing(
+    example_csv: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, fails_cleanly
+) -> None:
+    from marops_cli.evaluate import cluster
+
+    monkeypatch.setattr(cluster, "CONNECT_TIMEOUT_S", 1)
+    args = _evaluate(example_csv, tmp_path / "ev", "--scheduler", "tcp://127.0.0.1:9", "-q")
+    fails_cleanly(args, tmp_path, "--scheduler tcp://127.0.0.1:9", "no Dask scheduler answered")
+    assert not (tmp_path / "ev").exists()
+
+
+def test_a_worker_with_another_actor_refuses_to_run(
+    example_csv: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A machine whose trained actor differs from the one evaluate resolved would give
+    other rows under the same run identity: its jobs fail with one line instead."""
+    import datetime as dt
+
+    from marops_cli.config import PlannerConfig
+    from marops_cli.data.reader import sha256_file
+    from marops_cli.evaluate import expand_settings, prepare, runner
+    from marops_cli.evaluate.cluster import _job
+
+    monkeypatch.setattr(runner, "one_thread", lambda: None)  # this process is no worker
+
+    cfg = PlannerConfig()
+    day = [dt.date(2022, 8, 11)]
+    prep = prepare(example_csv, cfg, ["marops"], expand_settings(cfg), days=day)
+    index, metrics, error, code = _job(prep.jobs[0], prep, {"marops": "0" * 64})
+    assert metrics is None and code == 2
+    assert error is not None and "another trained actor for marops" in error
+    right = {m: sha256_file(p) for m, p in prep.actor_files.items()}
+    assert list(right) == ["marops"]
+    index, metrics, error, code = _job(prep.jobs[0], prep, right)
+    assert error is None and metrics is not None and metrics["requests"] > 0
