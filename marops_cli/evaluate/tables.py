@@ -25,7 +25,7 @@ from .runner import Prepared
 from .settings import Job
 
 SETTING_COLUMNS = ("setting", "alpha", "drones", "coverage", "depots_n", "n_actions")
-KEY_COLUMNS = (*SETTING_COLUMNS, "segmentation", "method", "repeat", "seed", "day")
+KEY_COLUMNS = (*SETTING_COLUMNS, "segmentation", "hub", "method", "repeat", "seed", "day")
 # Summarised metrics, in the order of the summary's columns.
 SUMMARY_METRICS = metric_names(
     "mean_energy_kj",
@@ -60,12 +60,15 @@ def flatten(metrics: dict[str, Any], prefix: str = "") -> dict[str, Any]:
 
 
 def key_columns(prep: Prepared, job: Job) -> dict[str, Any]:
-    """A job's :data:`KEY_COLUMNS`: its setting, segmentation, method, repeat, seed, day."""
+    """A job's :data:`KEY_COLUMNS`: its setting, segmentation, hub, method, repeat, seed,
+    day."""
     s = prep.settings[job.setting]
     row: dict[str, Any] = {"setting": job.setting, **s.columns()}
     row["n_actions"] = prep.cfg.segment.n_actions
     row["segmentation"] = METHODS[job.method][0]
-    row.update(method=job.method, repeat=job.repeat, seed=job.seed, day=job.day.isoformat())
+    row.update(
+        hub=job.hub, method=job.method, repeat=job.repeat, seed=job.seed, day=job.day.isoformat()
+    )
     return row
 
 
@@ -73,7 +76,7 @@ def job_row(prep: Prepared, job: Job, metrics: dict[str, Any]) -> dict[str, Any]
     """A job's row of ``results.parquet`` (less ``combined_cost``, which spans jobs):
     its key columns, then every day metric flattened."""
     row = key_columns(prep, job)
-    rest = {k: v for k, v in metrics.items() if k not in ("day", "method", "drones")}
+    rest = {k: v for k, v in metrics.items() if k not in ("day", "hub", "method", "drones")}
     row.update(flatten(rest))
     return row
 
