@@ -80,16 +80,16 @@ def plan_window(
     set_output(quiet, as_json)
     allow_replacing_foreign(force)
     from ..data.dates import parse_day
-    from ..energy import EnergyModel
     from ..io import folder_lock, output_set, run_meta
     from ..io.meta import file_sha256
-    from ..io.tables import build_tables, write_route_files
+    from ..io.tables import write_route_files
     from ..sim.jobs import (
         delivered_orders,
         load_fleet,
         load_scenario,
         method_policy,
         plan_one_window,
+        route_tables,
     )
 
     require_input(data)
@@ -131,18 +131,7 @@ def plan_window(
     plan, reqs = plan_one_window(scn, day, window, drones_, pol, done)
     print_drop_report(scn.table.report, data.name)
     print_day_scope(reqs, cfg)
-    model = EnergyModel.of(cfg.energy)
-    stops, routes = build_tables(
-        reqs,
-        scn.depots,
-        [plan],
-        model,
-        method,
-        cfg.data.tz,
-        drone_models=drones_.models(),
-        drone_types=drones_.type_names(),
-        hub=scn.hub,
-    )
+    stops, routes = route_tables(scn, reqs, [plan], drones_, method)
     meta = run_meta(
         command="plan-window",
         config=cfg,

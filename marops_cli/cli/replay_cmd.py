@@ -475,11 +475,10 @@ def _replay_one(
     identity: dict[str, Any],
     label: str = "",
 ) -> dict[str, Any]:
-    from ..energy import EnergyModel
-    from ..io.tables import build_tables, write_route_files
+    from ..io.tables import write_route_files
 
     fmt, plot, geojson = files_wanted
-    from ..sim.jobs import replay
+    from ..sim.jobs import replay, route_tables
 
     cfg = scn.cfg
     n_windows = cfg.data.n_windows
@@ -509,18 +508,7 @@ def _replay_one(
         res, reqs, metrics = replay(scn, day, fleet, pol, method, on_window=log)
     print_day_scope(reqs, cfg, label)
     warn_undelivered(metrics, len(fleet))
-    model = EnergyModel.of(cfg.energy)
-    stops, routes = build_tables(
-        reqs,
-        scn.depots,
-        res.plans,
-        model,
-        method,
-        cfg.data.tz,
-        drone_models=fleet.models(),
-        drone_types=fleet.type_names(),
-        hub=scn.hub,
-    )
+    stops, routes = route_tables(scn, reqs, res.plans, fleet, method)
     # The route files' metadata: the run's identity (less the file format) and the day.
     meta = {k: v for k, v in identity.items() if k != "format"}
     meta.update(command="replay-day", day=day.isoformat())

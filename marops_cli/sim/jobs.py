@@ -14,6 +14,7 @@ from importlib import resources
 from pathlib import Path
 
 import numpy as np
+import pyarrow as pa
 import pyarrow.parquet as pq
 
 from ..config import PlannerConfig
@@ -235,3 +236,23 @@ def replay(
         drone_models=fl.models(),
     )
     return res, reqs, day_metrics(res, model, fl, hub=scn.hub)
+
+
+def route_tables(
+    scn: Scenario, reqs: DayRequests, plans: Sequence[WindowPlan], fleet: Fleet, method: str
+) -> tuple[pa.Table, pa.Table]:
+    """The stops and routes tables (docs/outputs.md) of ``plans``, each drone with its
+    type, in the scenario's hub."""
+    from ..io.tables import build_tables
+
+    return build_tables(
+        reqs,
+        scn.depots,
+        plans,
+        EnergyModel.of(scn.cfg.energy),
+        method,
+        scn.cfg.data.tz,
+        drone_models=fleet.models(),
+        drone_types=fleet.type_names(),
+        hub=scn.hub,
+    )
