@@ -384,16 +384,26 @@ class RoutePool:
         freed = dr.cand[[dr.stops[j] for j in drop]]
         free[freed] = True
         self._remove(u, drop)
-        touched = [u]
+        return [u, *self._relocation(freed, [u], users, rng, fallback=True)]
+
+    def _relocation(
+        self,
+        freed: NDArray[np.int64] | list[int],
+        ruined: list[int],
+        users: list[int],
+        rng: np.random.Generator,
+        fallback: bool = False,
+    ) -> list[int]:
+        """A random drone besides the ``ruined`` ones that could serve a freed request
+        (with ``fallback``, any other drone when none could), to refill as well."""
         could: NDArray[np.bool_] = np.asarray(self._can[:, freed].any(axis=1))
-        could[u] = False
-        others = [v for v in users if could[v]] or [v for v in users if v != u]
-        if others:
-            touched.append(others[int(rng.integers(len(others)))])
-        return touched
+        others = [v for v in users if could[v] and v not in ruined]
+        if not others and fallback:
+            others = [v for v in users if v not in ruined]
+        return [others[int(rng.integers(len(others)))]] if others else []
 
     def _ruin_near(
-        self, busy: list[int], rng: np.random.Generator, free: NDArray[np.bool_]
+        self, busy: list[int], users: list[int], rng: np.random.Generator, free: NDArray[np.bool_]
     ) -> list[int]:
         """Remove two to five served stops nearest a random served one, from at most
         three routes, so that neighbouring routes can trade stops; a drone that could
@@ -419,16 +429,8 @@ class RoutePool:
         free[freed] = True
         for u, idx in drops.items():
             self._remove(u, sorted(idx))
-        touched = sorted(drops)
-        could: NDArray[np.bool_] = np.asarray(self._can[:, freed].any(axis=1))
-        others = [
-            v
-            for v in range(len(self.drones))
-            if could[v] and v not in drops and self.drones[v].cand.size
-        ]
-        if others:
-            touched.append(others[int(rng.integers(len(others)))])
-        return touched
+        ruined = sorted(drops)
+        return ruined + self._relocation(freed, ruined, users, rng)
 
     def _exchange(self, users: list[int], free: NDArray[np.bool_], kind: str) -> None:
         """Swap a served stop for an unserved candidate while a route's G grows
@@ -503,7 +505,7 @@ class RoutePool:
             if not busy:
                 break
             if it % 2:
-                touched = self._ruin_near(busy, rng, free)
+                touched = self._ruin_near(busy, users, rng, free)
             else:
                 touched = self._ruin_route(busy, users, rng, free)
             self._fill(touched, SCORES[it % len(SCORES)] if it % 4 == 3 else best_kind, free)

@@ -85,7 +85,7 @@ def test_ruin_near_removes_the_stops_nearest_one_served_stop(model, seed):
     routes = [[0, 1, 2, 3], [4, 5, 6, 7], [8, 9, 10, 11]]
     for u, r in enumerate(routes):
         _set_route(pool, u, r, free)
-    touched = pool._ruin_near([0, 1, 2], np.random.default_rng(seed), free)
+    touched = pool._ruin_near([0, 1, 2], [0, 1, 2], np.random.default_rng(seed), free)
     served_before = set(sum(routes, []))
     freed = sorted(q for q in served_before if free[q])
     left = sorted(served_before - set(freed))
