@@ -45,17 +45,15 @@ def default_fleet(depots: Depots, n_drones: int) -> np.ndarray:
 
 @dataclass(frozen=True)
 class DroneType:
-    """A named kind of drone: its parameters and its energy model (built once)."""
+    """A named kind of drone: its parameters and its energy model (built once per
+    process, :meth:`EnergyModel.of`)."""
 
     name: str
     energy: EnergyConfig
 
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "_model", EnergyModel.of(self.energy))
-
     @property
     def model(self) -> EnergyModel:
-        return self._model  # type: ignore[attr-defined,no-any-return]
+        return EnergyModel.of(self.energy)
 
 
 @dataclass(frozen=True)

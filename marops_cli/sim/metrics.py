@@ -5,15 +5,13 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
 from ..energy import EnergyModel
+from .fleet import DEFAULT_TYPE, Fleet
 from .replay import DayResult
-
-if TYPE_CHECKING:
-    from .fleet import Fleet
 
 CO2_G_PER_KWH = 125.0  # UK 2024 grid average, as the paper
 
@@ -170,7 +168,7 @@ def day_metrics(
     each drone's type (None: every drone is ``model``'s, the default type)."""
     st = res.state
     own = list(st.drone_models) if st.drone_models is not None else [model] * res.n_drones
-    types = fleet.counts() if fleet is not None else {"default": res.n_drones}
+    types = fleet.counts() if fleet is not None else {DEFAULT_TYPE: res.n_drones}
     day = st.day
     routes = [r for p in res.plans for r in p.routes]
     energy = np.array([r.energy_j for r in routes]) if routes else np.zeros(0)
