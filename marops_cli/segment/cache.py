@@ -24,6 +24,7 @@ import numpy as np
 from .. import __version__
 from ..config import DataConfig, SegmentConfig
 from ..data.frame import Frame
+from ..data.table import LadeTable
 from .depots import Depots
 
 __all__ = ["cache_dir", "cached_depots", "depots_key"]
@@ -90,15 +91,22 @@ def _store(path: Path, depots: Depots) -> None:
 
 
 def cached_depots(
-    key_parts: tuple[str, Sequence[dt.date], Frame, DataConfig, SegmentConfig],
+    table: LadeTable,
+    days: Sequence[dt.date],
+    frame: Frame,
+    data: DataConfig,
+    segment: SegmentConfig,
     make: Callable[[], Depots],
 ) -> Depots:
-    """The cached depots for these inputs, else ``make()``'s (then cached)."""
+    """The cached depots made from ``table``'s rows of ``days`` in ``frame`` with these
+    settings, else ``make()``'s (then cached). The key is only computed when the cache is
+    on: hashing a city's rows is not free."""
     root = cache_dir()
     if root is None:
         return make()
-    frame = key_parts[2]
-    path = root / "depots" / f"{depots_key(*key_parts)}.npz"
+    rows = hashlib.sha256(np.ascontiguousarray(table.row).tobytes()).hexdigest()
+    key = depots_key(f"{table.source.sha256}:{rows}", days, frame, data, segment)
+    path = root / "depots" / f"{key}.npz"
     if path.is_file():
         hit = _load(path, frame)
         if hit is not None:

@@ -6,7 +6,6 @@ A *method* (docs/method.md §7) is a segmentation, a flight-range policy and a p
 from __future__ import annotations
 
 import datetime as dt
-import hashlib
 import os
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -138,9 +137,7 @@ def load_scenario(
 
     # k-means is the slowest step of a run without --depots: the depots are cached by
     # the hash of what they are made from (docs/outputs.md, "Depots cache").
-    rows = hashlib.sha256(np.ascontiguousarray(table.row).tobytes()).hexdigest()
-    key = (f"{table.source.sha256}:{rows}", history, frame, cfg.data, cfg.segment)
-    depots = cached_depots(key, make)
+    depots = cached_depots(table, history, frame, cfg.data, cfg.segment, make)
     # The profile never sees a replayed day: with no other day there is none (zeros).
     depots.arrivals = arrival_profile(table, depots, unseen, cfg) if unseen else None
     return Scenario(table, frame, depots, cfg, history, hub)

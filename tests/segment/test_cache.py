@@ -10,12 +10,29 @@ import numpy as np
 
 from marops_cli.config import PlannerConfig, override
 from marops_cli.data.frame import Frame
+from marops_cli.data.table import DropReport, LadeTable, SourceInfo
 from marops_cli.segment.cache import cache_dir, cached_depots, depots_key
 from marops_cli.segment.depots import Depots, nearest_candidates
 from marops_cli.sim.jobs import load_scenario
 
 DAYS = [dt.date(2022, 8, 1), dt.date(2022, 8, 2)]
 FRAME = Frame(121.47, 31.23, 10.0)
+
+
+def _table() -> LadeTable:
+    n = 3
+    return LadeTable(
+        order_id=np.array([f"o{i}" for i in range(n)], dtype=object),
+        lng=np.full(n, 121.47),
+        lat=np.full(n, 31.23),
+        accept_s=np.zeros(n, np.int64),
+        delivery_s=np.zeros(n, np.int64),
+        aoi_id=np.array([""] * n, dtype=object),
+        weight_kg=None,
+        row=np.arange(2, n + 2),
+        source=SourceInfo("x.csv", "x.csv", 0, "abc"),
+        report=DropReport(n, n),
+    )
 
 
 def _depots() -> Depots:
@@ -26,15 +43,15 @@ def _depots() -> Depots:
 def test_hit_returns_the_same_depots_bit_for_bit(tmp_path, monkeypatch):
     monkeypatch.setenv("MAROPS_CACHE_DIR", str(tmp_path))
     cfg = PlannerConfig()
-    key = ("abc", DAYS, FRAME, cfg.data, cfg.segment)
+    key = (_table(), DAYS, FRAME, cfg.data, cfg.segment)
     made = []
 
     def make() -> Depots:
         made.append(1)
         return _depots()
 
-    a = cached_depots(key, make)
-    b = cached_depots(key, make)
+    a = cached_depots(*key, make)
+    b = cached_depots(*key, make)
     assert len(made) == 1  # the second call is a hit
     assert a.xy.tobytes() == b.xy.tobytes()  # exact, not rounded like depots.json
     assert np.array_equal(a.candidates, b.candidates) and np.array_equal(a.n_history, b.n_history)
@@ -58,14 +75,14 @@ def test_every_input_of_the_depots_changes_the_key():
 
 def test_off_and_unwritable_caches_only_cost_time(tmp_path, monkeypatch):
     cfg = PlannerConfig()
-    key = ("abc", DAYS, FRAME, cfg.data, cfg.segment)
+    key = (_table(), DAYS, FRAME, cfg.data, cfg.segment)
     monkeypatch.setenv("MAROPS_CACHE_DIR", "off")
     assert cache_dir() is None
-    assert cached_depots(key, _depots).xy.shape == (2, 2)
+    assert cached_depots(*key, _depots).xy.shape == (2, 2)
     blocker = tmp_path / "file"
     blocker.write_text("not a folder")
     monkeypatch.setenv("MAROPS_CACHE_DIR", str(blocker))
-    assert cached_depots(key, _depots).xy.shape == (2, 2)  # no error, nothing cached
+    assert cached_depots(*key, _depots).xy.shape == (2, 2)  # no error, nothing cached
 
 
 def test_a_run_from_the_cache_plans_what_the_run_that_filled_it_planned(
