@@ -666,18 +666,26 @@ def test_pool_routes_never_break_payload_battery_or_one_visit(inst):
         assert best - 1e-6 * max(1.0, abs(best)) <= score.G
 
 
-@pytest.mark.parametrize("scope", ["range", "global"])
-def test_pool_is_deterministic(model, scope):
-    rng = np.random.default_rng(5)
+def _busy_view(
+    seed: int, n: int, span_m: tuple[float, float], kg: tuple[float, float]
+) -> WindowView:
+    """The hand instance's map and drones with ``n`` random requests, all due, delayed
+    0-1.5 h, within ``span_m`` on both axes and weighing within ``kg``."""
+    rng = np.random.default_rng(seed)
     view = hand_view()
-    n = 40
-    view.pending_xy = rng.uniform(-1000, 3000, (n, 2))
+    view.pending_xy = rng.uniform(*span_m, (n, 2))
     view.pending_idx = np.arange(n)
     view.pending_area = view.depots.assign(view.pending_xy[:, 0], view.pending_xy[:, 1])
     view.pending_delay_h = rng.integers(0, 4, n) * WINDOW_H
     view.pending_due_w = np.zeros(n, dtype=np.int64)
     view.pending_due_s = np.zeros(n)
-    view.pending_weight = rng.uniform(0.1, 1.0, n)
+    view.pending_weight = rng.uniform(*kg, n)
+    return view
+
+
+@pytest.mark.parametrize("scope", ["range", "global"])
+def test_pool_is_deterministic(model, scope):
+    view = _busy_view(5, 40, (-1000, 3000), (0.1, 1.0))
     plans = [
         plan_window(view, np.array([0, 1]), model, PlanConfig(), MilpSelector(), scope)
         for _ in range(2)
@@ -693,17 +701,8 @@ def test_mixed_fleet_routes_keep_each_drones_own_limits(scope, planner):
     """A light drone (1 kg, a quarter of the battery) beside heavy ones on a busy window
     of 1-2.4 kg parcels: it carries at most 1 kg and stays within its own battery, while
     the heavy drones carry what it cannot; both planners, both scopes."""
-    rng = np.random.default_rng(3)
-    view = hand_view()
-    n = 30
+    view = _busy_view(3, 30, (-1500, 3500), (0.3, 2.4))
     view.drone_depot = np.array([0, 1, 0, 1])
-    view.pending_xy = rng.uniform(-1500, 3500, (n, 2))
-    view.pending_idx = np.arange(n)
-    view.pending_area = view.depots.assign(view.pending_xy[:, 0], view.pending_xy[:, 1])
-    view.pending_delay_h = rng.integers(0, 4, n) * WINDOW_H
-    view.pending_due_w = np.zeros(n, dtype=np.int64)
-    view.pending_due_s = np.zeros(n)
-    view.pending_weight = rng.uniform(0.3, 2.4, n)
     heavy = EnergyModel()
     light = EnergyModel(EnergyConfig(max_payload_kg=1.0, battery_j=56_250.0, speed_ms=14.0))
     view.drone_models = (light, heavy, light, heavy)

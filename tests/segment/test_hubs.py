@@ -118,52 +118,29 @@ def test_hand_written_hubs_file_takes_defaults(tmp_path):
     assert (h.id, h.frame.size_km, h.drones, h.orders) == (0, 7.0, 3, 0)
 
 
+def _ok(args: list[str]) -> None:
+    """``marops ARGS -q``, which must succeed."""
+    res = runner.invoke(app, [*args, "-q"])
+    assert res.exit_code == 0, res.output
+
+
 @pytest.fixture(scope="module")
 def city(example_csv: Path, tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     """segment --hubs 3 on the history days, then 0811 replayed over the three hubs
     (hub 2 with 4 drones), and the plain run of hub 0's square."""
     d = tmp_path_factory.mktemp("city")
     hubs = d / "hubs.json"
-    res = runner.invoke(
-        app,
-        [
-            "segment",
-            str(example_csv),
-            "--hubs",
-            "3",
-            "--dates",
-            "0801..0810",
-            "--out",
-            str(hubs),
-            "-q",
-        ],
-    )
-    assert res.exit_code == 0, res.output
+    _ok(["segment", str(example_csv), "--hubs", "3", "--dates", "0801..0810", "--out", str(hubs)])
     doc = json.loads(hubs.read_text())
     doc["hubs"][2]["drones"] = 4
     hubs.write_text(json.dumps(doc))
     out = d / "city"
-    res = runner.invoke(
-        app,
-        [
-            "replay-day",
-            str(example_csv),
-            "--date",
-            "0811",
-            "--hubs",
-            str(hubs),
-            "--out",
-            str(out),
-            "-q",
-        ],
-    )
-    assert res.exit_code == 0, res.output
+    _ok(["replay-day", str(example_csv), "--date", "0811", "--hubs", str(hubs), "--out", str(out)])
     h0 = doc["hubs"][0]
     cfg = d / "center.toml"
     cfg.write_text(f"[data]\ncenter = [{h0['center_lng']!r}, {h0['center_lat']!r}]\n")
     plain = d / "plain"
-    res = runner.invoke(
-        app,
+    _ok(
         [
             "replay-day",
             str(example_csv),
@@ -173,10 +150,8 @@ def city(example_csv: Path, tmp_path_factory: pytest.TempPathFactory) -> dict[st
             str(cfg),
             "--out",
             str(plain),
-            "-q",
-        ],
+        ]
     )
-    assert res.exit_code == 0, res.output
     return {"hubs": hubs, "out": out, "plain": plain}
 
 
