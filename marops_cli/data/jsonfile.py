@@ -20,3 +20,13 @@ def read_json(path: str | Path, what: str) -> Any:
         raise InputError(f"{what} is a folder, expected a JSON file", file=p) from exc
     except (json.JSONDecodeError, UnicodeDecodeError) as exc:
         raise InputError(f"{what} is not valid JSON ({exc})", file=p) from exc
+
+
+def json_number(value: Any, path: str | Path, column: str, *, whole: bool = False) -> float:
+    """``value`` from a JSON or TOML input as a number (``whole``: a whole one); anything
+    else is an :class:`InputError` naming the file and the key."""
+    kind = "whole number" if whole else "number"
+    ok = isinstance(value, int | float) and not isinstance(value, bool)
+    if not ok or (whole and int(value) != value):
+        raise InputError(f"expected a {kind}, got {value!r}", file=path, column=column)
+    return float(value)

@@ -20,7 +20,7 @@ import numpy as np
 
 from ..config import DataConfig
 from ..data.frame import Frame, hub_squares
-from ..data.jsonfile import read_json
+from ..data.jsonfile import json_number, read_json
 from ..data.prepare import check_days_in_file
 from ..data.table import LadeTable
 from ..errors import InputError
@@ -84,15 +84,6 @@ def hubs_doc(hubs: Sequence[Hub], total: int, meta: dict[str, Any]) -> dict[str,
     }
 
 
-def _number(doc: dict[str, Any], key: str, path: Path, col: str, kind: type) -> Any:
-    v = doc[key]
-    if isinstance(v, bool) or not isinstance(v, int | float):
-        raise InputError(f"expected a number, got {v!r}", file=path, column=col)
-    if kind is int and int(v) != v:
-        raise InputError(f"expected a whole number, got {v!r}", file=path, column=col)
-    return kind(v)
-
-
 def load_hubs(path: str | Path, cfg: DataConfig) -> list[Hub]:
     """The hubs of a hubs file: ``{"hubs": [{center_lng, center_lat, size_km?, drones?}]}``
     (or the list itself); ``size_km`` defaults to ``cfg.size_km``; ids are list order."""
@@ -109,17 +100,21 @@ def load_hubs(path: str | Path, cfg: DataConfig) -> list[Hub]:
         for key in ("center_lng", "center_lat"):
             if key not in h:
                 raise InputError(f"a hub needs {key}", file=p, column=f"{col}.{key}")
-        lng = _number(h, "center_lng", p, f"{col}.center_lng", float)
-        lat = _number(h, "center_lat", p, f"{col}.center_lat", float)
-        size = _number(h, "size_km", p, f"{col}.size_km", float) if "size_km" in h else None
+        lng = json_number(h["center_lng"], p, f"{col}.center_lng")
+        lat = json_number(h["center_lat"], p, f"{col}.center_lat")
+        size = json_number(h["size_km"], p, f"{col}.size_km") if "size_km" in h else None
         if not (-180 <= lng <= 180 and -90 <= lat <= 90):
             raise InputError("the centre is not a longitude, latitude", file=p, column=col)
         if size is not None and not 0 < size <= 200:
             raise InputError("size_km must be in (0, 200]", file=p, column=f"{col}.size_km")
-        drones = _number(h, "drones", p, f"{col}.drones", int) if "drones" in h else None
+        drones = (
+            int(json_number(h["drones"], p, f"{col}.drones", whole=True)) if "drones" in h else None
+        )
         if drones is not None and drones < 1:
             raise InputError("a hub needs at least one drone", file=p, column=f"{col}.drones")
-        orders = _number(h, "orders", p, f"{col}.orders", int) if "orders" in h else 0
+        orders = (
+            int(json_number(h["orders"], p, f"{col}.orders", whole=True)) if "orders" in h else 0
+        )
         hubs.append(Hub(i, Frame(lng, lat, cfg.size_km if size is None else size), orders, drones))
     return hubs
 

@@ -27,6 +27,7 @@ import numpy as np
 from pydantic import ValidationError
 
 from ..config import EnergyConfig
+from ..data.jsonfile import json_number
 from ..energy import EnergyModel
 from ..errors import InputError
 from ..segment.depots import Depots
@@ -157,9 +158,7 @@ def _types(doc: dict[str, Any], base: EnergyConfig, path: Path) -> tuple[DroneTy
 
 
 def _int(value: Any, path: Path, column: str) -> int:
-    if isinstance(value, bool) or not isinstance(value, int | float) or int(value) != value:
-        raise InputError(f"expected a whole number, got {value!r}", file=path, column=column)
-    return int(value)
+    return int(json_number(value, path, column, whole=True))
 
 
 def load_fleet(
