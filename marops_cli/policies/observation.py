@@ -77,12 +77,14 @@ def n_choices(n_actions: int, version: int = OBS_VERSION) -> int:
 
 
 def obs_dim(n_actions: int, version: int = OBS_VERSION) -> int:
-    blocks = n_choices(n_actions, version)
-    if version >= ObsVersion.CAPABILITIES:
-        return blocks * per_action(version) + GLOBAL_V5
-    return blocks * per_action(version) + (
-        GLOBAL_V4 if version >= ObsVersion.ANTICIPATION else GLOBAL
+    n_global = (
+        GLOBAL_V5
+        if version >= ObsVersion.CAPABILITIES
+        else GLOBAL_V4
+        if version >= ObsVersion.ANTICIPATION
+        else GLOBAL
     )
+    return n_choices(n_actions, version) * per_action(version) + n_global
 
 
 def choice_mask(view: WindowView, version: int = OBS_VERSION) -> np.ndarray:
