@@ -10,7 +10,6 @@ import numpy as np
 
 from marops_cli.config import PlannerConfig, override
 from marops_cli.data.frame import Frame
-from marops_cli.data.table import DropReport, LadeTable, SourceInfo
 from marops_cli.segment.cache import cache_dir, cached_depots, depots_key
 from marops_cli.segment.depots import Depots, nearest_candidates
 from marops_cli.sim.jobs import load_scenario
@@ -19,31 +18,15 @@ DAYS = [dt.date(2022, 8, 1), dt.date(2022, 8, 2)]
 FRAME = Frame(121.47, 31.23, 10.0)
 
 
-def _table() -> LadeTable:
-    n = 3
-    return LadeTable(
-        order_id=np.array([f"o{i}" for i in range(n)], dtype=object),
-        lng=np.full(n, 121.47),
-        lat=np.full(n, 31.23),
-        accept_s=np.zeros(n, np.int64),
-        delivery_s=np.zeros(n, np.int64),
-        aoi_id=np.array([""] * n, dtype=object),
-        weight_kg=None,
-        row=np.arange(2, n + 2),
-        source=SourceInfo("x.csv", "x.csv", 0, "abc"),
-        report=DropReport(n, n),
-    )
-
-
 def _depots() -> Depots:
     xy = np.array([[1.0 / 3.0, 2.0], [1000.123456789, -5.5]])
     return Depots("kmeans", FRAME, xy, np.array([4, 2]), nearest_candidates(xy, 2))
 
 
-def test_hit_returns_the_same_depots_bit_for_bit(tmp_path, monkeypatch):
+def test_hit_returns_the_same_depots_bit_for_bit(tmp_path, monkeypatch, points_table):
     monkeypatch.setenv("MAROPS_CACHE_DIR", str(tmp_path))
     cfg = PlannerConfig()
-    key = (_table(), DAYS, FRAME, cfg.data, cfg.segment)
+    key = (points_table([121.47] * 3, [31.23] * 3, "abc"), DAYS, FRAME, cfg.data, cfg.segment)
     made = []
 
     def make() -> Depots:
@@ -73,9 +56,9 @@ def test_every_input_of_the_depots_changes_the_key():
     assert len({base, *other}) == 7
 
 
-def test_off_and_unwritable_caches_only_cost_time(tmp_path, monkeypatch):
+def test_off_and_unwritable_caches_only_cost_time(tmp_path, monkeypatch, points_table):
     cfg = PlannerConfig()
-    key = (_table(), DAYS, FRAME, cfg.data, cfg.segment)
+    key = (points_table([121.47] * 3, [31.23] * 3, "abc"), DAYS, FRAME, cfg.data, cfg.segment)
     monkeypatch.setenv("MAROPS_CACHE_DIR", "off")
     assert cache_dir() is None
     assert cached_depots(*key, _depots).xy.shape == (2, 2)

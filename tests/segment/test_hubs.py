@@ -56,29 +56,13 @@ def test_squares_are_disjoint_densest_first_and_the_first_is_the_study_square():
     assert len(hub_squares(lng, lat, 5.0, 250.0, None, 0.3)) == 2  # 1000 < 30 % of 6000
 
 
-def test_an_order_belongs_to_the_first_hub_that_holds_it():
+def test_an_order_belongs_to_the_first_hub_that_holds_it(points_table):
     """Two overlapping squares: a point in both is the first hub's; outside both is -1."""
-    from marops_cli.data.table import DropReport, LadeTable, SourceInfo
-
-    a, b = Frame(LNG, LAT, 2.0), None
+    a = Frame(LNG, LAT, 2.0)
     ref = Frame(LNG, LAT, 10.0)
     b_lng, b_lat = ref.to_lnglat(np.array([1500.0]), np.array([0.0]))
     b = Frame(float(b_lng[0]), float(b_lat[0]), 2.0)  # overlaps a on x in [500, 1000]
-    x = np.array([0.0, 800.0, 2000.0, 5000.0])
-    lng, lat = ref.to_lnglat(x, np.zeros(4))
-    n = x.size
-    table = LadeTable(
-        order_id=np.array([f"o{i}" for i in range(n)], dtype=object),
-        lng=lng,
-        lat=lat,
-        accept_s=np.zeros(n, np.int64),
-        delivery_s=np.zeros(n, np.int64),
-        aoi_id=np.array([""] * n, dtype=object),
-        weight_kg=None,
-        row=np.arange(2, n + 2),
-        source=SourceInfo("x.csv", "x.csv", 0, "0"),
-        report=DropReport(n, n),
-    )
+    table = points_table(*ref.to_lnglat(np.array([0.0, 800.0, 2000.0, 5000.0]), np.zeros(4)))
     owner = hub_owner(table, [Hub(0, a), Hub(1, b)])
     assert owner.tolist() == [0, 0, 1, -1]
 
