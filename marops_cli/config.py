@@ -213,7 +213,11 @@ class PlanConfig(_Stage):
         "first, then earlier due) or due (the paper: earlier due first, then nearer)",
     )
     alpha: float = Field(0.5, gt=0, le=1, description="trade-off weight: energy vs delay")
-    solver: Literal["highs", "greedy"] = Field("highs", description="plan selection solver")
+    solver: Literal["highs", "cvxpy", "greedy"] = Field(
+        "highs",
+        description="plan selection: highs (the boolean program passed to HiGHS directly), "
+        "cvxpy (the same program modelled in cvxpy, solved by HiGHS) or greedy",
+    )
     time_limit_s: float = Field(2.0, gt=0, description="solver time limit per window")
     strict_cover: bool = Field(False, description="paper's exact cover when feasible")
 

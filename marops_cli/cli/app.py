@@ -2,10 +2,13 @@
 
 from __future__ import annotations
 
+import atexit
+import contextlib
+import os
 import signal
 import sys
 import warnings
-from typing import Annotated
+from typing import Annotated, NoReturn
 
 import typer
 import typer.core
@@ -84,27 +87,56 @@ def _one_line_warning(
     typer.echo(f"warning: {text}", err=True)
 
 
-def main() -> None:
-    """The console script: every error is one plain line on stderr (docs/outputs.md)."""
+def _run() -> int | str | None:
+    """The command line's exit status (an int, a message for stderr, or None for 0)."""
     if PLAIN:  # help and messages as plain text for logs and pipes
         typer.core.HAS_RICH = False
     signal.signal(signal.SIGTERM, _terminate)
     warnings.showwarning = _one_line_warning
     try:
         code = app(standalone_mode=False)
+    except SystemExit as exc:  # the commands' own exits (sys.exit(2) on bad input, ...)
+        return exc.code
     except typer.Abort:
         typer.echo("marops: interrupted", err=True)
-        sys.exit(130)
+        return 130
     except Exception as exc:  # usage errors (unknown option, bad value, missing argument)
         message = getattr(exc, "format_message", None)
         if message is None:
             raise
         if type(exc).__name__ == "NoArgsIsHelpError":  # bare `marops CMD`: its help
             typer.echo(message(), err=True)
-            sys.exit(2)
+            return 2
         ctx = getattr(exc, "ctx", None)
         hint = f" (see '{ctx.command_path} --help')" if ctx is not None else ""
         text = " ".join(str(message()).split())
         typer.echo(f"marops: error: {text}{hint}", err=True)
-        sys.exit(int(getattr(exc, "exit_code", 2)))
-    sys.exit(code if isinstance(code, int) else 0)
+        return int(getattr(exc, "exit_code", 2))
+    return code if isinstance(code, int) else 0
+
+
+def _leave(code: int | str | None) -> NoReturn:
+    """End the process once the command is done, without tearing the interpreter down.
+
+    Exit handlers still run and the standard streams are flushed; what is skipped is
+    freeing every module's objects one by one, which took 0.3–0.4 s after torch had
+    been imported (docs/decisions.md, "Start-up and exit"). Every file the commands
+    write is closed (and renamed into place) before they return.
+    """
+    if code is None:
+        status = 0
+    elif isinstance(code, int):
+        status = code
+    else:  # sys.exit("message"): the message goes to stderr, status 1
+        print(code, file=sys.stderr)
+        status = 1
+    atexit._run_exitfuncs()
+    for stream in (sys.stdout, sys.stderr):
+        with contextlib.suppress(Exception):
+            stream.flush()
+    os._exit(status)
+
+
+def main() -> None:
+    """The console script: every error is one plain line on stderr (docs/outputs.md)."""
+    _leave(_run())

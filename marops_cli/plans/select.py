@@ -26,7 +26,6 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Literal, Protocol
 
-import cvxpy as cp
 import highspy
 import numpy as np
 import scipy.sparse as sp
@@ -157,6 +156,10 @@ def _decode(
 
 
 def _solve_cvxpy(milp: _Milp, strict: bool, time_limit_s: float) -> _Attempt:
+    # Imported here: cvxpy (with the scipy.stats it loads) takes most of a second to
+    # import, which the default direct HiGHS backend never needs.
+    import cvxpy as cp
+
     t0 = time.perf_counter()
     x = cp.Variable(milp.cols.size, boolean=True)
     u = milp.n_drones
@@ -262,7 +265,7 @@ class MilpSelector:
 
     time_limit_s: float = 2.0
     strict_cover: bool = False
-    backend: Literal["cvxpy", "highs"] = "cvxpy"
+    backend: Literal["cvxpy", "highs"] = "highs"
 
     def _attempt(
         self, problem: SelectionProblem, milp: _Milp, strict: bool, limit: float
@@ -337,4 +340,6 @@ def make_selector(cfg: PlanConfig) -> Selector:
     """The selector that ``cfg.solver`` names."""
     if cfg.solver == "greedy":
         return GreedySelector()
-    return MilpSelector(time_limit_s=cfg.time_limit_s, strict_cover=cfg.strict_cover)
+    return MilpSelector(
+        time_limit_s=cfg.time_limit_s, strict_cover=cfg.strict_cover, backend=cfg.solver
+    )

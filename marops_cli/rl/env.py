@@ -56,7 +56,7 @@ import numpy as np
 from ..config import PlannerConfig
 from ..data.table import DayRequests
 from ..energy import EnergyModel
-from ..plans.select import MilpSelector, Selector, make_selector
+from ..plans.select import Selector, make_selector
 from ..plans.window import plan_window
 from ..policies.base import WindowView
 from ..policies.direct import SlotSelector
@@ -90,14 +90,6 @@ def reward(
     )
 
 
-def _fast_selector(cfg: PlannerConfig) -> Selector:
-    """The planner's selector; the MILP through highspy directly (same program as
-    ``replay-day``, without cvxpy's per-call canonicalisation: a third of a step)."""
-    if cfg.plan.solver == "highs":
-        return MilpSelector(cfg.plan.time_limit_s, cfg.plan.strict_cover, backend="highs")
-    return make_selector(cfg.plan)
-
-
 class DeliveryEnv:
     """A day of the simulator as a multi-agent episode (paper Alg. 3, inner loop)."""
 
@@ -112,7 +104,9 @@ class DeliveryEnv:
         self.n_dest = int(depots.candidates.shape[1])
         self.direct = tcfg.method == "mappo"
         self.n_slots = tcfg.plan_slots if self.direct else 1
-        self.selector: Selector = SlotSelector(self.n_slots) if self.direct else _fast_selector(cfg)
+        self.selector: Selector = (
+            SlotSelector(self.n_slots) if self.direct else make_selector(cfg.plan)
+        )
         # MAPPO's plan slots rank the paper's subset plans (policies/direct.py).
         self.base_plan = (
             cfg.plan.model_copy(update={"planner": "subsets"}) if self.direct else cfg.plan

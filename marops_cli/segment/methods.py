@@ -3,8 +3,6 @@
 from __future__ import annotations
 
 import numpy as np
-from sklearn.cluster import KMeans
-from threadpoolctl import threadpool_limits
 
 from ..config import SegmentConfig
 from ..data.frame import Frame
@@ -26,6 +24,11 @@ def kmeans_depots(x: np.ndarray, y: np.ndarray, frame: Frame, cfg: SegmentConfig
             f"only {distinct} distinct history locations in the study area, fewer than the "
             f"{cfg.n_depots} depots asked for (--n-depots)"
         )
+    # Imported here: scikit-learn (and the scipy.stats it pulls in) costs most of a
+    # second that a replay with a depots file never needs.
+    from sklearn.cluster import KMeans
+    from threadpoolctl import threadpool_limits
+
     km = KMeans(n_clusters=cfg.n_depots, n_init=cfg.n_init, random_state=cfg.seed)
     # One thread: k-means' OpenMP reductions sum in an order that depends on the thread
     # count, which moved the centroids' last bits (and so the routes) between machines.

@@ -32,3 +32,37 @@ def test_distributed_is_optional_but_tested() -> None:
     assert not any(d.startswith(("distributed", "dask")) for d in project["dependencies"])
     for extra in ("cluster", "test", "dev"):
         assert any(d.startswith("distributed") for d in project["optional-dependencies"][extra])
+
+
+def test_replay_with_depots_loads_only_what_it_plans_with(
+    example_csv: Path, tmp_path: Path
+) -> None:
+    """A replay with a depots file segments nothing (no scikit-learn), selects without
+    cvxpy (the default solver hands HiGHS the program), draws nothing (no matplotlib);
+    torch only for an actor (docs/decisions.md, "Start-up and exit")."""
+    from typer.testing import CliRunner
+
+    from marops_cli.cli.app import app
+
+    depots = tmp_path / "depots.json"
+    seg = ["segment", str(example_csv), "--dates", "0801..0810", "--out", str(depots)]
+    assert CliRunner().invoke(app, seg).exit_code == 0
+    loaded = {}
+    for method in ("myopic", "marops"):
+        args = ["replay-day", str(example_csv), "--date", "0811", "--depots", str(depots)]
+        args += ["--method", method, "--out", str(tmp_path / method), "-q"]
+        code = (
+            "import json, sys\n"
+            "from typer.testing import CliRunner\n"
+            "from marops_cli.cli.app import app\n"
+            f"res = CliRunner().invoke(app, {args!r})\n"
+            "assert res.exit_code == 0, res.output\n"
+            f"print(json.dumps(sorted(m for m in {HEAVY!r} if m in sys.modules)))"
+        )
+        res = subprocess.run(
+            [sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, timeout=300
+        )
+        assert res.returncode == 0, res.stderr
+        loaded[method] = json.loads(res.stdout.strip().splitlines()[-1])
+    assert loaded["myopic"] == ["highspy", "scipy"]
+    assert loaded["marops"] == ["highspy", "scipy", "torch"]

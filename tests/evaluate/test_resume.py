@@ -106,7 +106,12 @@ def test_ctrl_c_exits_130_keeps_finished_jobs_and_prints_no_traceback(
     out = tmp_path / "ev"
     args = ["evaluate", str(example_csv), "--methods", "stay,greedy,ops-random,myopic"]
     args += ["--dates", "0811..0812", "--workers", "2", "--no-plot", "--out", str(out)]
-    code = "from marops_cli.cli.app import main; main()"
+    # Ctrl-C as in a terminal, even when the tests run where SIGINT is ignored (a
+    # background job): an ignored SIGINT is inherited and Python then keeps it ignored.
+    code = (
+        "import signal; signal.signal(signal.SIGINT, signal.default_int_handler)\n"
+        "from marops_cli.cli.app import main; main()"
+    )
     proc = subprocess.Popen(
         [sys.executable, "-c", code, *args],
         stdout=subprocess.PIPE,

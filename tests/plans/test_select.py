@@ -184,7 +184,7 @@ def test_strict_cover_with_a_request_no_plan_serves():
 
 
 def test_only_empty_plans_needs_no_solver(monkeypatch):
-    monkeypatch.setitem(select_mod._BACKENDS, "cvxpy", None)  # would fail if called
+    monkeypatch.setitem(select_mod._BACKENDS, "highs", None)  # would fail if called
     a = plan_set([], np.zeros((1, 0)), [12_000.0])
     problem = SelectionProblem.from_plan_sets([a, a], {}, alpha=0.5, energy_ref_j=E_REF)
     result = MilpSelector().select(problem)
@@ -210,7 +210,7 @@ def test_time_limit_without_incumbent_falls_back(monkeypatch):
     def timed_out(milp, strict, limit):
         return select_mod._Attempt(None, "kTimeLimit", 0.001, 0.002)
 
-    monkeypatch.setitem(select_mod._BACKENDS, "cvxpy", timed_out)
+    monkeypatch.setitem(select_mod._BACKENDS, "highs", timed_out)
     problem = random_problem(4)
     result = MilpSelector().select(problem)
     assert result.fallback and result.status == "time limit; fallback: greedy"
@@ -221,7 +221,7 @@ def test_a_solution_that_does_not_verify_is_rejected(monkeypatch):
     def all_ones(milp, strict, limit):  # every plan at once: not a selection
         return select_mod._Attempt(np.ones(milp.cols.size), "kOptimal", 0.0, 0.0)
 
-    monkeypatch.setitem(select_mod._BACKENDS, "cvxpy", all_ones)
+    monkeypatch.setitem(select_mod._BACKENDS, "highs", all_ones)
     problem = random_problem(5)
     result = MilpSelector().select(problem)
     assert result.fallback and "not a selection" in result.status
@@ -239,14 +239,29 @@ def test_time_limit_reaches_highs_through_cvxpy(monkeypatch):
         return original(self, data, warm_start, verbose, solver_opts, solver_cache)
 
     monkeypatch.setattr(HIGHS, "solve_via_data", spy)
+    MilpSelector(time_limit_s=0.75, backend="cvxpy").select(random_problem(6))
+    assert seen["time_limit"] == pytest.approx(0.75, rel=0.01)
+
+
+def test_time_limit_and_gap_reach_highs_directly(monkeypatch):
+    seen: dict[str, object] = {}
+    original = highspy.Highs.setOptionValue
+
+    def spy(self, name, value):
+        seen[name] = value
+        return original(self, name, value)
+
+    monkeypatch.setattr(highspy.Highs, "setOptionValue", spy)
     MilpSelector(time_limit_s=0.75).select(random_problem(6))
     assert seen["time_limit"] == pytest.approx(0.75, rel=0.01)
+    assert seen["mip_rel_gap"] == select_mod._MIP_REL_GAP and seen["output_flag"] is False
 
 
 def test_make_selector_follows_the_config():
     assert isinstance(make_selector(PlanConfig(solver="greedy")), GreedySelector)
     milp = make_selector(PlanConfig(time_limit_s=0.5, strict_cover=True))
     assert isinstance(milp, MilpSelector)
-    assert milp.time_limit_s == 0.5 and milp.strict_cover and milp.backend == "cvxpy"
+    assert milp.time_limit_s == 0.5 and milp.strict_cover and milp.backend == "highs"
+    assert make_selector(PlanConfig(solver="cvxpy")).backend == "cvxpy"  # type: ignore[union-attr]
     selector: Selector = milp  # both satisfy the protocol
     assert isinstance(selector.select(random_problem(1)), SelectionResult)

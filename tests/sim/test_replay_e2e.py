@@ -235,3 +235,37 @@ def test_same_seed_same_bytes(example_csv: Path, depots_file: Path, tmp_path: Pa
         outs.append(out)
     for name in ("stops.parquet", "routes.parquet"):
         assert (outs[0] / name).read_bytes() == (outs[1] / name).read_bytes()
+
+
+def test_cvxpy_and_direct_highs_plan_the_same_day(
+    example_csv: Path, depots_file: Path, tmp_path: Path
+) -> None:
+    """``[plan] solver = "cvxpy"`` models the program the default hands HiGHS directly:
+    a whole day's route files are the same bytes (docs/decisions.md, "Start-up and exit")."""
+    outs = []
+    for solver in ("highs", "cvxpy"):
+        cfg = tmp_path / f"{solver}.toml"
+        cfg.write_text(f'[plan]\nsolver = "{solver}"\n')
+        out = tmp_path / solver
+        res = runner.invoke(
+            app,
+            [
+                "replay-day",
+                str(example_csv),
+                "--date",
+                "0811",
+                "--depots",
+                str(depots_file),
+                "--method",
+                "myopic",
+                "--config",
+                str(cfg),
+                "--out",
+                str(out),
+            ],
+        )
+        assert res.exit_code == 0, res.output
+        outs.append(out)
+    for name in ("stops.parquet", "routes.parquet"):
+        a, b = (pq.read_table(o / name) for o in outs)
+        assert a.equals(b), name
