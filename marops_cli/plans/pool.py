@@ -43,6 +43,7 @@ __all__ = ["DroneTask", "PoolResult", "RoutePool", "build_pool", "finish_route",
 
 _E_TOL_J = 1e-6  # margin under the usable battery for incremental energies
 SCORES = ("weight", "density", "gain")
+_Route = tuple[tuple[int, ...], float, float, float]  # stops, energy, weight, prizes
 _ACCEPT = 0.01  # ruin and recreate accepts a solution up to this share of G worse, falling to 0
 _EXACT_MAX = 10  # exact re-ordering up to this many stops (2**10 subsets)
 
@@ -107,12 +108,14 @@ class _Drone:
     cand: NDArray[np.int64]  # positions
     cand_xy: NDArray[np.float64]
     cand_w: NDArray[np.float64]
+    cand_prize: NDArray[np.float64]
     dmat: NDArray[np.float64]  # (m, m + 1) distances candidate -> candidate, or -> start
     cand_end: NDArray[np.float64]  # energy of the empty last leg from each candidate
     start_end: float  # ... and from the start (the empty route)
     stops: list[int] = field(default_factory=list)  # indices into cand
     energy: float = 0.0
     weight: float = 0.0
+    psum: float | None = 0.0  # prizes of the stops; None whenever ``stops`` change
     # cached best insertion per candidate
     score: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
     slot: NDArray[np.int64] = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
@@ -229,6 +232,7 @@ class RoutePool:
             pos[keep],
             cxy,
             self.w[pos[keep]],
+            self.prize[pos[keep]],
             dmat,
             end_e[keep],
             start_end,
@@ -268,14 +272,13 @@ class RoutePool:
         d_e[:, 1:] += np.cumsum((e_lq[:, :k] - e_l[None, :k]) * legs[None, :], axis=1)
         d_e[:, :k] += dq[:, 1:] * e_l[None, :k] - (legs * e_l[:k])[None, :]
         d_e[:, k] += dr.cand_end[sub] - dr.cand_end[stops[-1]]
-        slot = d_e.argmin(axis=1)
-        return d_e[np.arange(m), slot], slot
+        return d_e.min(axis=1), d_e.argmin(axis=1)
 
     def _refresh(self, u: int, score_kind: str, free: NDArray[np.bool_]) -> None:
         dr = self.drones[u]
-        sub = np.flatnonzero(free[dr.cand] & (dr.weight + dr.cand_w <= dr.k.cap + 1e-9))
+        sub = (free[dr.cand] & (dr.weight + dr.cand_w <= dr.k.cap + 1e-9)).nonzero()[0]
         d_e, slot = self._insertion(dr, sub)
-        gain = self.prize[dr.cand[sub]] - d_e
+        gain = dr.cand_prize[sub] - d_e
         feas = (dr.energy + d_e <= dr.k.usable) & (gain > 0)
         if score_kind == "density":
             use = dr.cand_w[sub] / dr.k.cap + np.maximum(d_e, 0.0) / dr.k.usable
@@ -292,6 +295,7 @@ class RoutePool:
     def _insert(self, u: int, j: int) -> None:
         dr = self.drones[u]
         dr.stops.insert(int(dr.slot[j]), j)
+        dr.psum = None
         dr.energy += float(dr.d_e[j])
         dr.weight += float(self.w[dr.cand[j]])
 
@@ -327,38 +331,60 @@ class RoutePool:
 
     def _reset(self) -> NDArray[np.bool_]:
         for dr in self.drones:
-            dr.stops, dr.energy, dr.weight = [], dr.start_end, 0.0
+            dr.stops, dr.energy, dr.weight, dr.psum = [], dr.start_end, 0.0, None
         return np.ones(self.w.size, dtype=bool)
+
+    def _psum(self, dr: _Drone) -> float:
+        if dr.psum is None:
+            dr.psum = float(dr.cand_prize[dr.stops].sum())
+        return dr.psum
 
     def _g(self) -> float:
         """G of the current routes: prizes served less every drone's energy."""
-        return float(sum(self.prize[dr.cand[dr.stops]].sum() - dr.energy for dr in self.drones))
+        return float(sum(self._psum(dr) - dr.energy for dr in self.drones))
 
-    def _snapshot(self) -> list[tuple[list[int], float, float]]:
-        return [(list(dr.stops), dr.energy, dr.weight) for dr in self.drones]
+    def _state(self, u: int) -> _Route:
+        dr = self.drones[u]
+        return (tuple(dr.stops), dr.energy, dr.weight, self._psum(dr))
 
-    def _restore(self, snap: list[tuple[list[int], float, float]]) -> NDArray[np.bool_]:
+    def _snapshot(self) -> list[_Route]:
+        return [self._state(u) for u in range(len(self.drones))]
+
+    def _restore(self, snap: list[_Route]) -> NDArray[np.bool_]:
         free = np.ones(self.w.size, dtype=bool)
-        for dr, (stops, e, w) in zip(self.drones, snap, strict=True):
-            dr.stops, dr.energy, dr.weight = list(stops), e, w
-            free[dr.cand[stops]] = False
+        for dr, (stops, e, w, ps) in zip(self.drones, snap, strict=True):
+            dr.stops, dr.energy, dr.weight, dr.psum = list(stops), e, w, ps
+            free[dr.cand[list(stops)]] = False
         return free
+
+    def _restore_some(self, snap: list[_Route], users: list[int], free: NDArray[np.bool_]) -> None:
+        """Put the routes of ``users`` back as in ``snap`` (the others are as there)."""
+        for u in users:
+            dr = self.drones[u]
+            free[dr.cand[dr.stops]] = True
+        for u in users:
+            dr = self.drones[u]
+            stops, dr.energy, dr.weight, dr.psum = snap[u]
+            dr.stops = list(stops)
+            free[dr.cand[dr.stops]] = False
 
     def _remove(self, u: int, drop: list[int]) -> None:
         """Remove stops (indices into the route) and recompute energy exactly."""
         dr = self.drones[u]
         gone = set(drop)
         dr.stops = [j for i, j in enumerate(dr.stops) if i not in gone]
+        dr.psum = None
         dr.energy = self._route_energy(dr)
         dr.weight = float(self.w[dr.cand[dr.stops]].sum())
 
     def _route_energy(self, dr: _Drone) -> float:
         if not dr.stops:
             return dr.start_end
-        pts = np.vstack([dr.start_xy[None, :], dr.cand_xy[dr.stops]])
-        ws = self.w[dr.cand[dr.stops]]
-        load = np.cumsum(ws[::-1])[::-1]
-        legs = np.hypot(*np.diff(pts, axis=0).T)
+        stops = np.array(dr.stops)
+        load = np.cumsum(dr.cand_w[stops][::-1])[::-1]
+        prev = np.empty_like(stops)
+        prev[0], prev[1:] = dr.cand.size, stops[:-1]  # the start is the last column
+        legs = dr.dmat[stops, prev]
         return float((legs * dr.k.e(np.minimum(load, dr.k.cap))).sum()) + float(
             dr.cand_end[dr.stops[-1]]
         )
@@ -408,18 +434,19 @@ class RoutePool:
         """Remove two to five served stops nearest a random served one, from at most
         three routes, so that neighbouring routes can trade stops; a drone that could
         serve what was freed is refilled too. Returns the drones to refill."""
-        owner: dict[int, tuple[int, int]] = {}  # request -> (drone, index in its route)
-        for u in busy:
-            dr = self.drones[u]
-            for i, j in enumerate(dr.stops):
-                owner[int(dr.cand[j])] = (u, i)
-        served = np.array(sorted(owner), dtype=np.int64)
+        reqs = np.concatenate([self.drones[u].cand[self.drones[u].stops] for u in busy])
+        by_req = np.argsort(reqs, kind="stable")  # requests in increasing order
+        served = reqs[by_req]
+        whose = np.repeat(busy, [len(self.drones[u].stops) for u in busy])[by_req].tolist()
+        where = np.concatenate([np.arange(len(self.drones[u].stops)) for u in busy])[by_req]
+        where_l = where.tolist()
         centre = self.xy[served[int(rng.integers(served.size))]]
         n_drop = int(rng.integers(2, 6))
         drops: dict[int, list[int]] = {}
         freed: list[int] = []
-        for q in served[np.argsort(np.hypot(*(self.xy[served] - centre).T), kind="stable")]:
-            u, i = owner[int(q)]
+        near = np.argsort(np.hypot(*(self.xy[served] - centre).T), kind="stable")
+        for s in near.tolist():
+            q, u, i = int(served[s]), whose[s], where_l[s]
             if u not in drops and len(drops) == 3:
                 continue
             drops.setdefault(u, []).append(i)
@@ -468,7 +495,7 @@ class RoutePool:
                 old = dr.stops[pos]
                 new_stops = dr.stops[:pos] + dr.stops[pos + 1 :]
                 new_stops.insert(at, j)
-                dr.stops, dr.energy = new_stops, e_new
+                dr.stops, dr.energy, dr.psum = new_stops, e_new, None
                 dr.weight = weight - float(dr.cand_w[old]) + float(dr.cand_w[j])
                 free[dr.cand[old]] = True
                 free[dr.cand[j]] = False
@@ -499,8 +526,10 @@ class RoutePool:
         # within a threshold that falls to zero (it lets the search leave a local optimum).
         rng = np.random.default_rng(seed)
         current, cur_g = best_snap, best_g
+        free = self._restore(current)
+        dirty: list[int] = []  # drones whose route differs from ``current``
         for it in range(iterations if users else 0):
-            free = self._restore(current)
+            self._restore_some(current, dirty, free)
             busy = [u for u in users if self.drones[u].stops]
             if not busy:
                 break
@@ -511,10 +540,15 @@ class RoutePool:
             self._fill(touched, SCORES[it % len(SCORES)] if it % 4 == 3 else best_kind, free)
             self._record(pool, touched)
             g = self._g()
-            if g > best_g + 1e-9:
-                best_g, current, cur_g = g, self._snapshot(), g
-            elif g > cur_g - _ACCEPT * abs(best_g) * (1 - it / iterations):
-                current, cur_g = self._snapshot(), g
+            accept = g > best_g + 1e-9
+            if accept:
+                best_g = g
+            if accept or g > cur_g - _ACCEPT * abs(best_g) * (1 - it / iterations):
+                current, cur_g, dirty = list(current), g, []
+                for u in touched:
+                    current[u] = self._state(u)
+            else:
+                dirty = touched
         routes = [list(p.keys()) for p in pool]
         energy = [list(p.values()) for p in pool]
         return PoolResult(routes, energy, float(best_g))

@@ -20,6 +20,7 @@ def model() -> EnergyModel:
 def _set_route(pool: RoutePool, u: int, requests: list[int], free: np.ndarray) -> None:
     dr = pool.drones[u]
     dr.stops = [int(np.flatnonzero(dr.cand == q)[0]) for q in requests]
+    dr.psum = None  # its prizes are summed again when asked
     dr.energy = pool._route_energy(dr)
     dr.weight = float(pool.w[requests].sum())
     free[requests] = False
