@@ -10,7 +10,8 @@ peak resident memory (``ru_maxrss`` of that process alone):
 * **Repeated runs** (the bundled example): ``replay-day`` of one day with ``--depots``,
   median and min of ``--repeats`` runs, with the stages of one run (imports, reading,
   depots, the actor, planning, writing) measured in one process; each extra day of
-  ``--dates`` from the slope between 1 and 5 days.
+  ``--dates`` from the slope between 2 and 12 days (with 2 workers and with 1), and
+  between 1 and 5 days.
 * **Sweeps** (``--sweep``): ``evaluate`` over 30 days × 4 methods of a synthetic file
   with ``--workers 1`` and ``--workers 2`` side by side (ratio).
 
@@ -187,38 +188,31 @@ def repeated(repeats: int, tmp: Path) -> None:
         "  stages of one run, in one process: "
         + "; ".join(f"{k} {v:.2f} s" for k, v in stages.items())
     )
-    slopes = []
+
+    def dates(span: str, i: int, *extra: str) -> float:
+        out = tmp / f"d-{span.replace('..', '-')}-{'-'.join(extra)}-{i}"
+        cmd = ["replay-day", str(EXAMPLE), "--dates", span, "--depots", str(depots)]
+        return run(marops(*cmd, *extra, "--out", str(out), "-q"))[0]
+
+    # The marginal day: from 2 days to all 12 of the example (both on workers, so the
+    # workers' start is in both and cancels), with the default 2 workers and with 1;
+    # and, as before, 5 days against 1 (which plans in the command's own process).
+    slopes: dict[str, list[float]] = {"2 workers": [], "1 worker": [], "5 vs 1 day": []}
     for i in range(max(2, repeats // 2)):
-        one, _ = run(
-            marops(
-                "replay-day",
-                str(EXAMPLE),
-                "--dates",
-                "0811",
-                "--depots",
-                str(depots),
-                "--out",
-                str(tmp / f"d1-{i}"),
-                "-q",
-            )
-        )
-        five, _ = run(
-            marops(
-                "replay-day",
-                str(EXAMPLE),
-                "--dates",
-                "0808..0812",
-                "--depots",
-                str(depots),
-                "--out",
-                str(tmp / f"d5-{i}"),
-                "-q",
-            )
-        )
-        slopes.append((five - one) / 4)
+        for label, extra in (("2 workers", ()), ("1 worker", ("--workers", "1"))):
+            two = dates("0811..0812", i, *extra)
+            twelve = dates("0801..0812", i, *extra)
+            slopes[label].append((twelve - two) / 10)
+        one = dates("0811", i)
+        five = dates("0808..0812", i)
+        slopes["5 vs 1 day"].append((five - one) / 4)
     print(
-        f"each extra day of --dates: median {statistics.median(slopes):.2f} s, "
-        f"min {min(slopes):.2f} s (5 days minus 1 day, / 4)"
+        "each extra day of --dates: "
+        + "; ".join(
+            f"{k} median {statistics.median(v):.2f} s, min {min(v):.2f} s"
+            for k, v in slopes.items()
+        )
+        + " (12 days minus 2 days, / 10; 5 days minus 1 day, / 4)"
     )
 
 

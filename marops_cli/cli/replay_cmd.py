@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import datetime as dt
 import json
+from contextlib import ExitStack
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
 
@@ -123,6 +125,24 @@ def replay_day(
             help="Replay days whose output already exists; replace files marops did not write.",
         ),
     ] = False,
+    workers: Annotated[
+        int,
+        typer.Option(
+            "--workers",
+            min=1,
+            help="Worker processes for several days or hubs (with --scheduler local: the "
+            "cluster's); one day of one area runs here.",
+        ),
+    ] = 2,
+    scheduler: Annotated[
+        str | None,
+        typer.Option(
+            "--scheduler",
+            help="Replay the days (and hubs) on a Dask cluster: its scheduler's address "
+            "(tcp://HOST:8786), or local; needs pip install 'marops[cluster]' (README.md, "
+            "Sweeps on a cluster).",
+        ),
+    ] = None,
     year: o.Year = None,
     strict: o.Strict = False,
     config: o.Config = None,
@@ -139,6 +159,10 @@ def replay_day(
     require_input(data)
     if (date is None) == (dates is None):
         raise InputError("give exactly one of --date or --dates")
+    if scheduler is not None:
+        from ..evaluate.cluster import require_distributed
+
+        require_distributed()
     if fmt not in ("parquet", "json"):
         raise InputError(f"--format expects parquet or json, got {fmt!r}")
     if method not in METHODS:
@@ -157,6 +181,12 @@ def replay_day(
         sim__policy=policy,
     )
     days = [parse_day(date, cfg.data.year)] if date else parse_days(dates or "", cfg.data.year)
+    if scheduler is None and workers > 1 and (len(days) > 1 or hubs is not None):
+        from ..evaluate.workers import warm_up
+
+        # Several days or hubs may go to worker processes: their fork server imports
+        # the planner (and torch for an actor) while this process reads the file.
+        warm_up(actor=cfg.sim.policy is not None or METHODS[method][1] in ("learned", "direct"))
     if out.exists() and not out.is_dir():
         raise InputError("--out must be a folder; this is a file", file=out)
     if hubs is not None and depots is not None:
@@ -175,19 +205,16 @@ def replay_day(
         hubs=hubs,
     )
     pol = method_policy(method, cfg.sim.policy, cfg.sim.seed)  # a bad actor file stops here
-    files_wanted = (fmt, plot, geojson)
+    run = _Run(pol, method, (fmt, plot, geojson), force, workers, scheduler)
     if hubs is not None:
-        all_metrics = _replay_hubs(
-            data, hubs, out, days, bool(dates), cfg, fleet, pol, method, files_wanted, force
-        )
+        all_metrics = _replay_hubs(data, hubs, out, days, bool(dates), cfg, fleet, run)
     else:
         scn = load_scenario(data, cfg, depots_path=depots, replay_days=days)
         for day in days:  # every day has requests to plan, before anything is said or written
             prepare_day(scn.table, scn.frame, day, cfg.data)
         print_drop_report(scn.table.report, data.name)
-        all_metrics = _replay_area(
-            scn, out, days, bool(dates), fleet, pol, method, files_wanted, force, depots
-        )
+        area = _area(scn, out, days, bool(dates), fleet, run, depots)
+        all_metrics = _replay_areas([area], run)[0]
     _print_metrics(all_metrics, hubs is not None)
     if STATE["json"]:
         emit_json(
@@ -200,59 +227,107 @@ def replay_day(
         )
 
 
-def _replay_area(
+@dataclass(frozen=True)
+class _Run:
+    """What every study area of the run shares: the policy, the files, the workers."""
+
+    pol: Any
+    method: str
+    files_wanted: tuple[str, bool, bool]
+    force: bool
+    workers: int
+    scheduler: str | None
+
+
+@dataclass
+class _Area:
+    """A study area (the single one, or a hub) and the days to replay into its folder."""
+
+    scn: Scenario
+    fleet: Any
+    out: Path
+    days: list[dt.date]
+    several: bool
+    identity: dict[str, Any]
+    keep: dict[dt.date, list[dict[str, Any]]]
+    label: str = ""
+
+    def folder(self, day: dt.date) -> Path:
+        return self.out / day.isoformat() if self.several else self.out
+
+
+def _area(
     scn: Scenario,
     out: Path,
     days: list[dt.date],
     several: bool,
     fleet: Path | None,
-    pol: Any,
-    method: str,
-    files_wanted: tuple[str, bool, bool],
-    force: bool,
+    run: _Run,
     depots: Path | None = None,
     label: str = "",
-) -> list[dict[str, Any]]:
-    """Replay ``days`` of one study area into ``out`` (a folder per day when ``several``);
-    returns each day's metrics. ``label`` names the hub in messages."""
+) -> _Area:
+    """A study area to replay ``days`` of into ``out`` (a folder per day when
+    ``several``); ``label`` names the hub in messages. A day folder that is complete is
+    kept only if it was made with these settings: every day is checked here, before
+    anything is replayed or written."""
     from ..sim.jobs import load_fleet
 
     cfg = scn.cfg
     drones_ = load_fleet(fleet, scn.depots, cfg.sim.drones, cfg)
-    fmt = files_wanted[0]
-    identity = _identity(scn, cfg, method, pol.identity, depots, fmt, drones_.describe(cfg.energy))
-    # A day folder that is complete is kept only if it was made with these settings;
-    # every day is checked before anything is replayed or written.
+    fmt = run.files_wanted[0]
+    identity = _identity(
+        scn, cfg, run.method, run.pol.identity, depots, fmt, drones_.describe(cfg.energy)
+    )
     keep: dict[dt.date, list[dict[str, Any]]] = {}
     for day in days:
         done = (out / day.isoformat() if several else out) / "metrics.json"
-        if done.is_file() and not force:
+        if done.is_file() and not run.force:
             keep[day] = _matching_days(done, identity)
-    with folder_lock(out):  # one run at a time in a folder; stale temporaries go
-        all_metrics: list[dict[str, Any]] = []
-        for day in days:
-            folder = out / day.isoformat() if several else out
-            if day in keep:
+    return _Area(scn, drones_, out, days, several, identity, keep, label)
+
+
+def _replay_areas(areas: list[_Area], run: _Run) -> list[list[dict[str, Any]]]:
+    """Replay every area's days (on workers when there are several, docs/decisions.md
+    "Workers"), writing each day's files the moment it is done; returns each area's day
+    metrics in day order."""
+    from ..sim.days import DayJob
+
+    done: dict[tuple[int, dt.date], dict[str, Any]] = {}
+    jobs: list[DayJob] = []
+    for i, a in enumerate(areas):
+        for day in a.days:
+            if day in a.keep:
                 info(
-                    f"{label}{day.isoformat()}: output with the same settings exists in "
-                    f"{folder}, skipped (--force replays)"
+                    f"{a.label}{day.isoformat()}: output with the same settings exists in "
+                    f"{a.folder(day)}, skipped (--force replays)"
                 )
-                all_metrics.extend(keep[day])
-                continue
-            metrics = _replay_one(
-                scn, day, drones_, pol, method, folder, files_wanted, identity, label
-            )
-            all_metrics.append(metrics)
-        if several:
-            meta = run_meta(
-                command="replay-day", config=cfg, source=scn.table.source, method=method
-            )
-            with output_set() as files:
-                files.write_json(
-                    out / "metrics.json",
-                    {"meta": meta, "days": all_metrics, "total": aggregate_days(all_metrics)},
+            else:
+                jobs.append(DayJob(len(jobs), i, day))
+    with ExitStack() as locks:
+        for a in areas:  # one run at a time in a folder; stale temporaries go
+            locks.enter_context(folder_lock(a.out))
+        if len(jobs) > 1 and (run.workers > 1 or run.scheduler is not None):
+            done = _replay_on_workers(areas, jobs, run)
+        else:
+            for job in jobs:
+                done[(job.hub, job.day)] = _replay_here(areas[job.hub], job, run)
+        per_area = []
+        for i, a in enumerate(areas):
+            rows: list[dict[str, Any]] = []
+            for day in a.days:
+                rows.extend(a.keep[day] if day in a.keep else [done[(i, day)]])
+            if a.several:
+                cfg = a.scn.cfg
+                meta = run_meta(
+                    command="replay-day", config=cfg, source=a.scn.table.source, method=run.method
                 )
-    return all_metrics
+                with output_set() as files:
+                    files.write_json(
+                        a.out / "metrics.json",
+                        {"meta": meta, "days": rows, "total": aggregate_days(rows)},
+                    )
+            per_area.append(rows)
+    return per_area
 
 
 def _replay_hubs(
@@ -263,10 +338,7 @@ def _replay_hubs(
     several: bool,
     cfg: Any,
     fleet: Path | None,
-    pol: Any,
-    method: str,
-    files_wanted: tuple[str, bool, bool],
-    force: bool,
+    run: _Run,
 ) -> list[dict[str, Any]]:
     """Replay every hub of a hubs file (docs/method.md §1.1): each a study area with its
     own depots and fleet, into ``out/hub-<id>/``, and the city's coverage into
@@ -301,27 +373,16 @@ def _replay_hubs(
             except InputError:
                 info(f"hub {h.id}: no requests on {day.isoformat()} in its square, skipped")
         runs.append((h, cfg_h, table_h, days_h))
-    all_metrics: list[dict[str, Any]] = []
+    areas = []
     for h, cfg_h, table_h, days_h in runs:
         if not days_h:
             continue
         scn = load_scenario(data, cfg_h, replay_days=days, table=table_h, hub=h.id)
         folder = out / f"hub-{h.id}"
-        all_metrics += _replay_area(
-            scn,
-            folder,
-            days_h,
-            several,
-            fleet,
-            pol,
-            method,
-            files_wanted,
-            force,
-            None,
-            f"hub {h.id}: ",
-        )
+        areas.append(_area(scn, folder, days_h, several, fleet, run, None, f"hub {h.id}: "))
+    all_metrics = [m for rows in _replay_areas(areas, run) for m in rows]
     city = city_coverage(table, days, all_metrics)
-    meta = run_meta(command="replay-day", config=cfg, source=table.source, method=method)
+    meta = run_meta(command="replay-day", config=cfg, source=table.source, method=run.method)
     meta["hubs_file"] = {"name": hubs_path.name, "sha256": file_sha256(hubs_path)}
     with output_set() as files:
         files.write_json(
@@ -464,27 +525,19 @@ def _matching_days(done: Path, identity: dict[str, Any]) -> list[dict[str, Any]]
     return list(days)
 
 
-def _replay_one(
-    scn: Scenario,
-    day: dt.date,
-    fleet: Any,
-    pol: Any,
-    method: str,
-    folder: Path,
-    files_wanted: tuple[str, bool, bool],
-    identity: dict[str, Any],
-    label: str = "",
-) -> dict[str, Any]:
-    from ..io.tables import write_route_files
+def _replay_here(area: _Area, job: Any, run: _Run) -> dict[str, Any]:
+    """Replay one day in this process, with a progress bar over its windows on a
+    terminal (one log line per window otherwise); write its files; its metrics."""
+    from ..sim.days import DayJob
 
-    fmt, plot, geojson = files_wanted
-    from ..sim.jobs import replay, route_tables
-
-    cfg = scn.cfg
+    day = job.day
+    cfg = area.scn.cfg
     n_windows = cfg.data.n_windows
+    work = _work([area], run, plot=run.files_wanted[1])
+    work.use_policy(run.pol)  # the one the command loaded
     if is_terminal() and not (STATE["quiet"] or STATE["json"]):
         progress = Progress(
-            TextColumn(f"{day.isoformat()} {method}"),
+            TextColumn(f"{day.isoformat()} {run.method}"),
             BarColumn(),
             MofNCompleteColumn(),
             TimeElapsedColumn(),
@@ -493,35 +546,113 @@ def _replay_one(
         )
         task = progress.add_task("windows", total=n_windows)
         with progress:
-            res, reqs, metrics = replay(
-                scn, day, fleet, pol, method, on_window=lambda p: progress.advance(task)
-            )
+            out = work.run(DayJob(0, 0, day), on_window=lambda p: progress.advance(task))
     else:
 
         def log(p: Any) -> None:
             served = sum(len(r.stops) for r in p.routes)
             info(
-                f"{day.isoformat()} {method} window {p.t} of 0..{n_windows - 1}: "
-                f"{served} delivered, {p.n_candidates} candidates, solver {p.selection.status}"
+                f"{area.label}{day.isoformat()} {run.method} window {p.t} of "
+                f"0..{n_windows - 1}: {served} delivered, {p.n_candidates} candidates, "
+                f"solver {p.selection.status}"
             )
 
-        res, reqs, metrics = replay(scn, day, fleet, pol, method, on_window=log)
-    print_day_scope(reqs, cfg, label)
-    warn_undelivered(metrics, len(fleet))
-    stops, routes = route_tables(scn, reqs, res.plans, fleet, method)
+        out = work.run(DayJob(0, 0, day), on_window=log)
+    _write_day(area, day, out, run)
+    return out.metrics
+
+
+def _work(areas: list[_Area], run: _Run, plot: bool) -> Any:
+    """The run's days as work for any process (marops_cli/sim/days.py)."""
+    from ..io.meta import file_sha256
+    from ..methods import method as method_spec
+    from ..sim.days import ReplayWork, only_days
+
+    cfg = areas[0].scn.cfg
+    actor = run.pol.identity
+    return ReplayWork(
+        {i: (only_days(a.scn, a.days), a.fleet) for i, a in enumerate(areas)},
+        run.method,
+        cfg.sim.policy,
+        cfg.sim.seed,
+        plot,
+        method_spec(run.method),
+        file_sha256(actor) if isinstance(actor, Path) else None,
+    )
+
+
+def _replay_on_workers(
+    areas: list[_Area], jobs: list[Any], run: _Run
+) -> dict[tuple[int, dt.date], dict[str, Any]]:
+    """Replay ``jobs`` (days of areas) on worker processes or a Dask cluster; each day's
+    files are written here as it comes back. Returns each day's metrics."""
+    from ..errors import RunError
+    from ..evaluate.workers import outcomes
+
+    work = _work(areas, run, plot=run.files_wanted[1])
+    where = (
+        f"{min(run.workers, len(jobs))} workers"
+        if run.scheduler is None
+        else "a local Dask cluster"
+        if run.scheduler == "local"
+        else f"the Dask scheduler at {run.scheduler}"
+    )
+    info(f"replay-day: {len(jobs)} days to replay on {where}")
+    done: dict[tuple[int, dt.date], dict[str, Any]] = {}
+    progress = None
+    if is_terminal() and not (STATE["quiet"] or STATE["json"]):
+        progress = Progress(
+            TextColumn(f"replay-day {run.method}"),
+            BarColumn(),
+            MofNCompleteColumn(),
+            TimeElapsedColumn(),
+            console=console,
+            transient=True,
+        )
+    with ExitStack() as stack:
+        task = None
+        if progress is not None:
+            stack.enter_context(progress)
+            task = progress.add_task("days", total=len(jobs))
+        finished = stack.enter_context(
+            outcomes(work, jobs, run.workers, run.scheduler, "replay-day")
+        )
+        for n, (index, out, error, code) in enumerate(finished, start=1):
+            if error is not None:
+                raise (InputError(error) if code == 2 else RunError(error))
+            job = jobs[index]
+            area = areas[job.hub]
+            _write_day(area, job.day, out, run)
+            done[(job.hub, job.day)] = out.metrics
+            if progress is not None and task is not None:
+                progress.update(task, completed=n)
+            else:
+                m = out.metrics
+                info(
+                    f"replay-day {n}/{len(jobs)}: {area.label}{job.day.isoformat()} "
+                    f"{run.method}: {m['delivered']:,} of {m['requests']:,} delivered"
+                )
+    return done
+
+
+def _write_day(area: _Area, day: dt.date, out: Any, run: _Run) -> None:
+    """Say what the day planned and write its files; metrics.json last."""
+    from ..io.tables import write_route_files
+
+    fmt, _, geojson = run.files_wanted
+    print_day_scope(out.scope, area.scn.cfg, area.label)
+    warn_undelivered(out.metrics, len(area.fleet))
+    folder = area.folder(day)
     # The route files' metadata: the run's identity (less the file format) and the day.
-    meta = {k: v for k, v in identity.items() if k != "format"}
+    meta = {k: v for k, v in area.identity.items() if k != "format"}
     meta.update(command="replay-day", day=day.isoformat())
     with output_set() as files:
-        write_route_files(files, folder, stops, routes, meta, fmt, geojson)
-        if plot:
-            from ..sim.plot import plot_day
-
-            files.write_with(folder / "routes.png", lambda p: plot_day(res, reqs, p))
+        write_route_files(files, folder, out.stops, out.routes, meta, fmt, geojson)
+        if out.png is not None:
+            files.write_bytes(folder / "routes.png", out.png)
         # metrics.json is renamed last: its presence means the day is complete.
-        stamped = dict(meta, **run_meta(command="replay-day"), settings=identity)
-        files.write_json(folder / "metrics.json", {"meta": stamped, "days": [metrics]})
-    return metrics
+        stamped = dict(meta, **run_meta(command="replay-day"), settings=area.identity)
+        files.write_json(folder / "metrics.json", {"meta": stamped, "days": [out.metrics]})
 
 
 def _print_metrics(rows: list[dict[str, Any]], hubs: bool = False) -> None:

@@ -9,15 +9,18 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pyarrow as pa
-from matplotlib.axes import Axes
-from matplotlib.figure import Figure  # the object API: no pyplot state, no display needed
 
 from ..sim.metrics import metric_names
 from .settings import SWEEP_FLAGS, Setting
 from .tables import depot_loads
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+    from matplotlib.figure import Figure
 
 
 def _panel(metric: str, axis: str) -> tuple[str, str]:
@@ -73,6 +76,10 @@ def sweep_figure(
     panels = PANELS[flag]
     ncols = min(3, len(panels))
     nrows = -(-len(panels) // ncols)
+    # matplotlib loads with the first figure: running jobs (workers.py) never needs it.
+    # The object API: no pyplot state, no display needed.
+    from matplotlib.figure import Figure
+
     fig = Figure(figsize=(4.2 * ncols, 3.4 * nrows), dpi=100, layout="constrained")
     axes = fig.subplots(nrows, ncols, squeeze=False).ravel()
     for ax in axes[len(panels) :]:
@@ -128,6 +135,8 @@ def _depot_panel(
 
 def unfairness_figure(summary: pa.Table, methods: Sequence[str], held: dict[str, float]) -> Figure:
     """Delay unfairness (Gini over service areas) per method at the base setting."""
+    from matplotlib.figure import Figure
+
     fig = Figure(figsize=(1.2 * len(methods) + 2.5, 3.6), dpi=100, layout="constrained")
     ax = fig.subplots()
     rows = _slice(summary, "", held)

@@ -1,5 +1,5 @@
-"""Run an evaluation's jobs, in parallel over worker processes (or on a Dask cluster,
-marops_cli/evaluate/cluster.py), in a fixed result order.
+"""Run an evaluation's jobs, in parallel over worker processes or on a Dask cluster
+(marops_cli/evaluate/workers.py), in a fixed result order.
 
 Every job builds its own config, fleet and policy from the job alone (the policy is
 reset with the job's seed at the start of the day), so a job's metrics do not
@@ -13,12 +13,8 @@ from __future__ import annotations
 import datetime as dt
 import hashlib
 import json
-import multiprocessing as mp
-import os
-import signal
-import sys
-from collections.abc import Callable, Iterator, Sequence
-from contextlib import ExitStack, contextmanager
+import socket
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Protocol
@@ -29,13 +25,14 @@ from ..config import PlannerConfig, override
 from ..data.dates import format_days
 from ..data.reader import read_lade, sha256_file
 from ..data.table import LadeTable
-from ..errors import InputError, MaropsError, RunError
+from ..errors import InputError, RunError
 from ..methods import Method, register
 from ..methods import method as method_spec
 from ..policies.base import Policy
 from ..sim.jobs import METHODS, Scenario, load_fleet, load_scenario, replay
 from ..sim.jobs import method_policy as _method_policy
 from .settings import Job, Setting, check_settings, plan_jobs, split_days
+from .workers import outcomes
 
 OnResult = Callable[[int, int, Job], None]
 
@@ -149,36 +146,6 @@ def prepare(
     )
 
 
-# Per-process state of a worker (set once by the pool initializer).
-_CTX: dict[str, Any] = {}
-
-
-def _die_with_parent() -> None:
-    """A worker whose parent is killed (kill -9) is killed too, not left running (Linux)."""
-    if not sys.platform.startswith("linux"):
-        return
-    import ctypes
-
-    try:
-        libc = ctypes.CDLL("libc.so.6", use_errno=True)
-        libc.prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
-    except (OSError, AttributeError):
-        pass
-    if os.getppid() == 1:  # the parent died before the call
-        os._exit(1)
-
-
-def one_thread() -> None:
-    """One OpenMP/BLAS/torch thread in this process: the workers already fill the cores,
-    and threads on top only oversubscribe them."""
-    from threadpoolctl import threadpool_limits
-
-    threadpool_limits(limits=1)  # the libraries loaded so far (numpy's BLAS)
-    os.environ["OMP_NUM_THREADS"] = "1"  # and those loaded later (torch reads it)
-    if "torch" in sys.modules:
-        sys.modules["torch"].set_num_threads(1)
-
-
 def load(prep: Prepared) -> None:
     """Make ``prep`` this process's context for :func:`run_job`: the methods registered
     in the parent at run time, and no policy built yet."""
@@ -189,28 +156,13 @@ def load(prep: Prepared) -> None:
     _CTX["policies"] = {}
 
 
+# Per-process state of a worker (set once by EvaluateWork.setup).
+_CTX: dict[str, Any] = {}
+
+
 def worker_context(prep: Prepared) -> Prepared:
     """What a worker receives: ``prep`` with only the replayed days' rows, not the file."""
     return replace(prep, source=next(iter(prep.scenarios.values())).table)
-
-
-def run_in_context(prep: Prepared, job: Job) -> Outcome:
-    """Run ``job`` in a worker that receives ``prep`` with each job (a cluster's worker):
-    it sets itself up as a pool's worker does, once, at the first job of ``prep``."""
-    if _CTX.get("prep") is not prep:
-        one_thread()
-        load(prep)
-    return _run_safe(job)
-
-
-def _init(prep: Prepared) -> None:
-    # Ctrl-C reaches the whole process group: the parent stops the pool and keeps what
-    # finished; workers ignore it, so no worker prints a traceback.
-    if mp.current_process().name != "MainProcess":
-        signal.signal(signal.SIGINT, signal.SIG_IGN)
-        _die_with_parent()
-        one_thread()
-    load(prep)
 
 
 def run_job(job: Job) -> dict[str, Any]:
@@ -228,16 +180,37 @@ def run_job(job: Job) -> dict[str, Any]:
     return metrics
 
 
-Outcome = tuple[int, dict[str, Any] | None, str | None, int]
-"""A job's index, then its metrics, or the message and exit code of its error."""
+@dataclass
+class EvaluateWork:
+    """An evaluation's jobs as :class:`~.workers.Work`: ``prep`` (the replayed days'
+    rows only) and the SHA-256 of each trained actor ``evaluate`` resolved."""
 
+    prep: Prepared
+    actors: dict[str, str]
 
-def _run_safe(job: Job) -> Outcome:
-    # Library errors cross the process boundary as text, then are raised again as one line.
-    try:
-        return job.index, run_job(job), None, 0
-    except MaropsError as exc:
-        return job.index, None, str(exc), exc.exit_code
+    @classmethod
+    def of(cls, prep: Prepared) -> EvaluateWork:
+        return cls(worker_context(prep), {m: sha256_file(p) for m, p in prep.actor_files.items()})
+
+    def setup(self) -> None:
+        load(self.prep)
+
+    def run(self, job: Job) -> dict[str, Any]:
+        return run_job(job)
+
+    def refuse(self) -> str | None:
+        """Why this worker would not run the trained actors ``evaluate`` resolved: a
+        machine with another marops version or another actor file at that path would give
+        other rows under the same run identity."""
+        for method, sha in self.actors.items():
+            found = method_policy(method, self.prep.actors, 0).identity
+            if not isinstance(found, Path) or sha256_file(found) != sha:
+                return (
+                    f"a worker on {socket.gethostname()} runs another trained actor for "
+                    f"{method} ({found}); install the same marops and actor files on every "
+                    "machine"
+                )
+        return None
 
 
 def run_identity(prep: Prepared) -> str:
@@ -285,17 +258,9 @@ def run(
     skip = sink.finished() if sink is not None else set()
     todo = [job for job in prep.jobs if job.index not in skip]
     results: dict[int, dict[str, Any]] = {}
-    workers = max(1, min(workers, len(todo)))
-    with ExitStack() as stack:
-        if not todo:
-            outcomes: Iterator[Outcome] = iter(())
-        elif scheduler is not None:
-            from .cluster import cluster_outcomes
-
-            outcomes = stack.enter_context(cluster_outcomes(prep, todo, scheduler, workers))
-        else:
-            outcomes = stack.enter_context(_pool_outcomes(prep, todo, workers))
-        for done, (index, metrics, error, code) in enumerate(outcomes, start=len(skip) + 1):
+    work = EvaluateWork.of(prep)
+    with outcomes(work, todo, workers, scheduler, "evaluate") as done_jobs:
+        for done, (index, metrics, error, code) in enumerate(done_jobs, start=len(skip) + 1):
             if error is not None:
                 raise (InputError(error) if code == 2 else RunError(error))
             assert metrics is not None
@@ -305,22 +270,3 @@ def run(
             if on_result is not None:
                 on_result(done, total, prep.jobs[index])
     return results
-
-
-@contextmanager
-def _pool_outcomes(prep: Prepared, todo: list[Job], workers: int) -> Iterator[Iterator[Outcome]]:
-    """Outcomes of ``todo`` from this process (one worker) or a local pool, as they finish."""
-    if workers == 1:
-        _init(prep)
-        yield map(_run_safe, todo)
-        return
-    # spawn: a fresh interpreter per worker, so no solver or Arrow thread state is
-    # inherited half-initialised from the parent (fork is unsafe with threads).
-    pool = mp.get_context("spawn").Pool(
-        workers, initializer=_init, initargs=(worker_context(prep),)
-    )
-    try:
-        yield pool.imap_unordered(_run_safe, todo, chunksize=1)
-    finally:
-        pool.terminate()
-        pool.join()

@@ -169,18 +169,39 @@ def test_a_worker_with_another_actor_refuses_to_run(
 
     from marops_cli.config import PlannerConfig
     from marops_cli.data.reader import sha256_file
-    from marops_cli.evaluate import expand_settings, prepare, runner
-    from marops_cli.evaluate.cluster import _job
+    from marops_cli.evaluate import expand_settings, prepare, workers
+    from marops_cli.evaluate.runner import EvaluateWork
 
-    monkeypatch.setattr(runner, "one_thread", lambda: None)  # this process is no worker
+    monkeypatch.setattr(workers, "one_thread", lambda: None)  # this process is no worker
 
     cfg = PlannerConfig()
     day = [dt.date(2022, 8, 11)]
     prep = prepare(example_csv, cfg, ["marops"], expand_settings(cfg), days=day)
-    index, metrics, error, code = _job(prep.jobs[0], prep, {"marops": "0" * 64})
+    wrong = EvaluateWork(prep, {"marops": "0" * 64})
+    index, metrics, error, code = workers._cluster_job(prep.jobs[0], wrong)
     assert metrics is None and code == 2
     assert error is not None and "another trained actor for marops" in error
-    right = {m: sha256_file(p) for m, p in prep.actor_files.items()}
-    assert list(right) == ["marops"]
-    index, metrics, error, code = _job(prep.jobs[0], prep, right)
+    right = EvaluateWork.of(prep)
+    assert list(right.actors) == ["marops"]
+    assert right.actors["marops"] == sha256_file(prep.actor_files["marops"])
+    index, metrics, error, code = workers._cluster_job(prep.jobs[0], right)
     assert error is None and metrics is not None and metrics["requests"] > 0
+
+
+def test_replay_days_on_a_local_cluster_are_the_days_planned_here(
+    example_csv: Path, tmp_path: Path
+) -> None:
+    """``replay-day --dates --scheduler local``: each day planned on a Dask worker and
+    written by the command, the same route files as one process planning them."""
+    base = ["replay-day", str(example_csv), "--dates", "0811..0812", "--method", "greedy"]
+    here = tmp_path / "here"
+    res = RUNNER.invoke(app, [*base, "--workers", "1", "--out", str(here)])
+    assert res.exit_code == 0, res.output
+    out = tmp_path / "cluster"
+    proc = _subprocess([*base, "--scheduler", "local", "--workers", "2", "--out", str(out)])
+    _, err = proc.communicate(timeout=300)
+    assert proc.returncode == 0, err
+    assert "2 days to replay on a local Dask cluster" in err and "Traceback" not in err
+    for day in ("2022-08-11", "2022-08-12"):
+        for name in ("stops.parquet", "routes.parquet"):
+            assert (here / day / name).read_bytes() == (out / day / name).read_bytes()

@@ -135,3 +135,26 @@ def test_says_what_was_left_out_and_warns_when_much_stays_undelivered(
     res = runner.invoke(app, [*args, "--drones", "16", "--out", str(tmp_path / "many")])
     day = json.loads((tmp_path / "many" / "metrics.json").read_text())["days"][0]
     assert (day["undelivered"] > 0.1 * day["requests"]) == ("warning:" in res.output)
+
+
+def test_days_on_workers_are_the_days_planned_here(example_csv: Path, tmp_path: Path) -> None:
+    """Several days go to worker processes (docs/decisions.md, "Workers"): every route
+    file is the same bytes as when this process plans them one after another, the day
+    metrics agree, and a worker's plot reaches its day folder."""
+    outs = {}
+    for workers in ("1", "2"):
+        out = tmp_path / f"w{workers}"
+        args = ["replay-day", str(example_csv), "--dates", "0810..0812", "--method", "myopic"]
+        res = runner.invoke(app, [*args, "--workers", workers, "--plot", "--out", str(out)])
+        assert res.exit_code == 0, res.output
+        outs[workers] = out
+    assert "3 days to replay on 2 workers" in res.output
+    for day in ("2022-08-10", "2022-08-11", "2022-08-12"):
+        for name in ("stops.parquet", "routes.parquet"):
+            assert (outs["1"] / day / name).read_bytes() == (outs["2"] / day / name).read_bytes()
+        assert (outs["2"] / day / "routes.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    a, b = (json.loads((o / "metrics.json").read_text()) for o in outs.values())
+    drop = {"runtime_s", "solver"}  # wall times (the solver's among its counts)
+    assert [{k: v for k, v in d.items() if k not in drop} for d in a["days"]] == [
+        {k: v for k, v in d.items() if k not in drop} for d in b["days"]
+    ]

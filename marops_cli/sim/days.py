@@ -1,0 +1,135 @@
+"""The days of a ``replay-day`` run as jobs that any process can run
+(docs/decisions.md, "Workers").
+
+A :class:`ReplayWork` holds what every day needs (each study area's replayed days'
+rows, depots and fleet, the method); :meth:`ReplayWork.run` replays one (hub, day) and
+returns its route tables, metrics and what the command line says of it, so that the
+files are written by the ``replay-day`` process, whichever worker or machine planned the
+day. A day does not depend on the days before it (the policy starts each day from its
+seed), so a day planned on a worker is the same as one planned in the command's process.
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import socket
+import tempfile
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pyarrow as pa
+
+from ..methods import Method, register
+from ..plans.window import WindowPlan
+from ..policies.base import Policy
+from .fleet import Fleet
+from .jobs import Scenario, method_policy, replay, route_tables
+
+
+@dataclass(frozen=True)
+class DayJob:
+    """One day of one study area (``hub``: its key in :attr:`ReplayWork.areas`)."""
+
+    index: int
+    hub: int
+    day: dt.date
+
+
+@dataclass(frozen=True)
+class DayScope:
+    """What a day's log line says: orders due, planned, and what was left out."""
+
+    day: dt.date
+    orders_due: int
+    planned: int
+    outside_area: int
+    outside_hours: int
+
+    def __len__(self) -> int:
+        return self.planned
+
+
+@dataclass
+class DayOutput:
+    """A replayed day: its metrics, route tables, scope and (with ``plot``) the PNG."""
+
+    metrics: dict[str, Any]
+    stops: pa.Table
+    routes: pa.Table
+    scope: DayScope
+    png: bytes | None = None
+
+
+def only_days(scn: Scenario, days: list[dt.date]) -> Scenario:
+    """``scn`` with only the rows of ``days``: what a worker needs, not the whole file."""
+    keep = np.isin(scn.table.delivery_day, np.array(days, dtype="datetime64[D]"))
+    return Scenario(
+        scn.table.subset(keep), scn.frame, scn.depots, scn.cfg, scn.history_days, scn.hub
+    )
+
+
+@dataclass
+class ReplayWork:
+    """Every day job of a ``replay-day`` run (a :class:`~marops_cli.evaluate.workers.Work`)."""
+
+    areas: dict[int, tuple[Scenario, Fleet]]
+    method: str
+    policy: str | None
+    seed: int
+    plot: bool
+    spec: Method
+    """The method's registry entry, so a worker knows a method registered at run time."""
+    actor_sha: str | None = None
+    """SHA-256 of the trained actor the command resolved (None: the method runs none)."""
+    _policy: Policy | None = field(default=None, repr=False, compare=False)
+
+    def __getstate__(self) -> dict[str, Any]:
+        return {**self.__dict__, "_policy": None}  # each process builds its own
+
+    def setup(self) -> None:
+        register(self.spec)
+        self._policy = None
+
+    def use_policy(self, policy: Policy) -> None:
+        """Fly ``policy`` (one this process loaded already) instead of building one."""
+        self._policy = policy
+
+    def _pol(self) -> Policy:
+        if self._policy is None:
+            self._policy = method_policy(self.method, self.policy, self.seed)
+        return self._policy
+
+    def run(self, job: DayJob, on_window: Callable[[WindowPlan], None] | None = None) -> DayOutput:
+        scn, fleet = self.areas[job.hub]
+        res, reqs, metrics = replay(scn, job.day, fleet, self._pol(), self.method, on_window)
+        stops, routes = route_tables(scn, reqs, res.plans, fleet, self.method)
+        scope = DayScope(
+            reqs.day, reqs.orders_due, len(reqs), reqs.outside_area, reqs.outside_hours
+        )
+        png = None
+        if self.plot:
+            from .plot import plot_day
+
+            with tempfile.TemporaryDirectory() as tmp:
+                path = Path(tmp) / "routes.png"
+                plot_day(res, reqs, path)
+                png = path.read_bytes()
+        return DayOutput(metrics, stops, routes, scope, png)
+
+    def refuse(self) -> str | None:
+        """Why this machine would not run the actor the command resolved, or None."""
+        if self.actor_sha is None:
+            return None
+        from ..io.meta import file_sha256
+
+        found = self._pol().identity
+        if not isinstance(found, Path) or file_sha256(found) != self.actor_sha:
+            return (
+                f"a worker on {socket.gethostname()} runs another trained actor for "
+                f"{self.method} ({found}); install the same marops and actor files on every "
+                "machine"
+            )
+        return None
