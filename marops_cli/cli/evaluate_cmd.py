@@ -83,6 +83,14 @@ def evaluate(
             "pip install 'marops[cluster]' (README.md, Sweeps on a cluster).",
         ),
     ] = None,
+    hubs: Annotated[
+        Path | None,
+        typer.Option(
+            "--hubs",
+            help="hubs.json from marops segment --hubs: evaluate every hub of the city "
+            "(each with its own depots and fleet; rows keyed by hub) [one study area].",
+        ),
+    ] = None,
     policy: Annotated[
         Path | None,
         typer.Option(
@@ -133,8 +141,14 @@ def evaluate(
         config=config,
         policy=policy,
         mappo_policy=mappo_policy,
+        hubs=hubs,
     )
     cfg = make_config(config, data__year=year, data__strict=strict or None, sim__seed=seed)
+    hub_list = None
+    if hubs is not None:
+        from ..segment.hubs import load_hubs
+
+        hub_list = load_hubs(hubs, cfg.data)
     settings = expand_settings(
         cfg,
         alpha=parse_values(alpha, float, "--alpha"),
@@ -160,6 +174,7 @@ def evaluate(
         split=split or "test",
         repeats=repeats,
         actors=actors,
+        hubs=hub_list,
     )
     print_drop_report(prep.source.report, data.name)
     where = (
@@ -169,9 +184,11 @@ def evaluate(
         if scheduler == "local"
         else f"the Dask scheduler at {scheduler}"
     )
+    hub_note = f" over {len(prep.hubs)} hubs (hub-days with requests)" if prep.hubs else ""
     info(
         f"evaluate: {len(prep.methods)} methods x {len(settings)} settings x "
-        f"{len(prep.days)} days x {repeats} repeats = {len(prep.jobs)} replays, on {where}"
+        f"{len(prep.days)} days x {repeats} repeats{hub_note} = {len(prep.jobs)} replays, "
+        f"on {where}"
     )
     from ..evaluate.dataset import JobStore
     from ..evaluate.runner import run_identity
@@ -311,10 +328,11 @@ def _run(
 
         def log(done: int, total: int, job: Job) -> None:
             s = prep.settings[job.setting]
+            hub = f"hub {job.hub} " if prep.hubs else ""
             info(
-                f"evaluate {done}/{total}: {job.day.isoformat()} {job.method} alpha={s.alpha:g} "
-                f"drones={s.drones} coverage={s.coverage:g} depots={s.depots_n} "
-                f"repeat {job.repeat}"
+                f"evaluate {done}/{total}: {hub}{job.day.isoformat()} {job.method} "
+                f"alpha={s.alpha:g} drones={prep.drones(job)} coverage={s.coverage:g} "
+                f"depots={s.depots_n} repeat {job.repeat}"
             )
 
         return run_evaluation(prep, workers, log, store, scheduler)

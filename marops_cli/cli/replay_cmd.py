@@ -343,43 +343,24 @@ def _replay_hubs(
     """Replay every hub of a hubs file (docs/method.md §1.1): each a study area with its
     own depots and fleet, into ``out/hub-<id>/``, and the city's coverage into
     ``out/metrics.json``. Returns every hub-day's metrics."""
-    from ..config import override
-    from ..data.prepare import check_days_in_file, prepare_day
+    from ..data.prepare import check_days_in_file
     from ..data.reader import read_lade
-    from ..segment.hubs import hub_owner, load_hubs
+    from ..segment.hubs import hub_areas, load_hubs
     from ..sim.jobs import load_scenario
 
     hub_list = load_hubs(hubs_path, cfg.data)
     table = read_lade(data, cfg.data)
     check_days_in_file(table, days)
-    owner = hub_owner(table, hub_list)
     print_drop_report(table.report, data.name)
-    runs = []
-    for h in hub_list:  # every hub-day is checked before anything is written
-        f = h.frame
-        cfg_h = override(
-            cfg,
-            data__center=(f.center_lng, f.center_lat),
-            data__size_km=f.size_km,
-            sim__drones=h.drones,
-        )
-        # An order belongs to the first hub whose square holds it: never planned twice.
-        table_h = table if h.id == 0 else table.subset((owner < 0) | (owner >= h.id))
-        days_h = []
-        for day in days:
-            try:
-                prepare_day(table_h, f, day, cfg_h.data)
-                days_h.append(day)
-            except InputError:
-                info(f"hub {h.id}: no requests on {day.isoformat()} in its square, skipped")
-        runs.append((h, cfg_h, table_h, days_h))
     areas = []
-    for h, cfg_h, table_h, days_h in runs:
-        if not days_h:
+    for a in hub_areas(table, cfg, hub_list, days):  # every hub-day checked before writing
+        for day in a.skipped:
+            info(f"hub {a.hub.id}: no requests on {day.isoformat()} in its square, skipped")
+        if not a.days:
             continue
-        scn = load_scenario(data, cfg_h, replay_days=days, table=table_h, hub=h.id)
-        folder = out / f"hub-{h.id}"
-        areas.append(_area(scn, folder, days_h, several, fleet, run, None, f"hub {h.id}: "))
+        scn = load_scenario(data, a.cfg, replay_days=days, table=a.table, hub=a.hub.id)
+        folder = out / f"hub-{a.hub.id}"
+        areas.append(_area(scn, folder, a.days, several, fleet, run, None, f"hub {a.hub.id}: "))
     all_metrics = [m for rows in _replay_areas(areas, run) for m in rows]
     city = city_coverage(table, days, all_metrics)
     meta = run_meta(command="replay-day", config=cfg, source=table.source, method=run.method)

@@ -1,7 +1,7 @@
 """Paired comparisons against a reference method (``evaluate --against``).
 
 For each setting and method, the per-day difference method − reference of each metric
-(same day, same repeat), its mean and a bootstrap 95 % confidence interval (resampling
+(same day, repeat and hub), its mean and a bootstrap 95 % confidence interval (resampling
 days with replacement, a fixed seed, so the interval is reproducible), and how many
 days the method was better. A comparison backed by fewer than :data:`MIN_DAYS` days
 is flagged: the combined cost alone can be won by delivering less, so the day
@@ -53,9 +53,10 @@ def paired_table(results: pa.Table, against: str) -> pa.Table:
         raise InputError(
             f"--against {against!r} is not among the methods compared ({', '.join(methods)})"
         )
-    by: dict[tuple[int, str], dict[tuple[str, int], dict[str, Any]]] = defaultdict(dict)
+    # Pairs are the same day, repeat and hub (a city's hubs are days of their own).
+    by: dict[tuple[int, str], dict[tuple[int, str, int], dict[str, Any]]] = defaultdict(dict)
     for r in rows:
-        by[(r["setting"], r["method"])][(r["day"], r["repeat"])] = r
+        by[(r["setting"], r["method"])][(r.get("hub", 0), r["day"], r["repeat"])] = r
     out: dict[str, list[Any]] = defaultdict(list)
     for (setting, method), days in by.items():
         if method == against:

@@ -29,6 +29,7 @@ from ..errors import InputError, RunError
 from ..methods import Method, register
 from ..methods import method as method_spec
 from ..policies.base import Policy
+from ..segment.hubs import Hub, hub_areas
 from ..sim.jobs import METHODS, Scenario, load_fleet, load_scenario, replay
 from ..sim.jobs import method_policy as _method_policy
 from .settings import Job, Setting, check_settings, plan_jobs, split_days
@@ -48,12 +49,20 @@ class Prepared:
     settings: list[Setting]
     repeats: int
     jobs: list[Job]
-    scenarios: dict[tuple[str, int], Scenario]  # (segmentation, depots) -> test-day scenario
+    scenarios: dict[tuple[int, str, int], Scenario]
+    """(hub, segmentation, depots) -> the hub's test-day scenario (hub 0: the one area)."""
     actors: dict[str, Path]  # policy kind -> trained actor given on the command line
     actor_files: dict[str, Path]  # method -> the trained actor it runs
     specs: dict[str, Method] = field(default_factory=dict)
     """The methods' registry entries, so spawned workers know methods registered at run
     time (marops_cli/methods.py)."""
+    hubs: list[Hub] = field(default_factory=list)
+    """The hubs of a city run (``--hubs``); empty: one study area."""
+
+    def drones(self, job: Job) -> int:
+        """The fleet size of ``job``: its hub's own, else its setting's."""
+        own = self.hubs[job.hub].drones if self.hubs else None
+        return own if own is not None else self.settings[job.setting].drones
 
 
 # Policy kinds of METHODS that load a trained actor -> the evaluate flag that overrides it.
@@ -106,11 +115,15 @@ def prepare(
     split: str = "test",
     repeats: int = 1,
     actors: dict[str, Path] | None = None,
+    hubs: Sequence[Hub] | None = None,
 ) -> Prepared:
     """Read ``data`` once, choose the days, segment the other days once per segmentation.
 
     ``days`` replays those dates; otherwise ``split`` picks the held-out (last 20 %)
     or training dates. Depots come from every day not replayed (``load_scenario``).
+    With ``hubs`` (a city, docs/method.md §1.1) every hub is a study area with its own
+    depots and fleet, an order belongs to the first hub whose square holds it, and a
+    hub is replayed on the days it has requests.
     """
     methods = list(dict.fromkeys(methods))
     actors = {k: Path(v) for k, v in (actors or {}).items()}
@@ -122,14 +135,28 @@ def prepare(
     chosen = list(days) if days else split_days(table.days(), split)
     if not chosen:
         raise InputError(f"no days to evaluate (the file has {format_days(table.days())})")
-    on_days = np.isin(table.delivery_day, np.array(chosen, dtype="datetime64[D]"))
-    test_table = table.subset(on_days)  # workers need only the replayed days' rows
-    scenarios: dict[tuple[str, int], Scenario] = {}
-    for key in sorted({(METHODS[m][0], s.depots_n) for m in methods for s in settings}):
-        seg_cfg = override(cfg, segment__method=key[0], segment__n_depots=key[1])
-        scn = load_scenario(data, seg_cfg, replay_days=chosen, table=table)
-        scenarios[key] = Scenario(test_table, scn.frame, scn.depots, seg_cfg, scn.history_days)
-    jobs = plan_jobs(len(settings), methods, chosen, repeats, cfg.sim.seed)
+    scenarios: dict[tuple[int, str, int], Scenario] = {}
+    hub_days: list[tuple[int, list[dt.date]]] = []
+    areas = (
+        [(0, cfg, table, chosen)]
+        if not hubs
+        else [(a.hub.id, a.cfg, a.table, a.days) for a in hub_areas(table, cfg, hubs, chosen)]
+    )
+    for hub, cfg_h, table_h, days_h in areas:
+        if not days_h:
+            continue  # a hub without requests on any of the days
+        on_days = np.isin(table_h.delivery_day, np.array(chosen, dtype="datetime64[D]"))
+        test_table = table_h.subset(on_days)  # workers need only the replayed days' rows
+        for key in sorted({(METHODS[m][0], s.depots_n) for m in methods for s in settings}):
+            seg_cfg = override(cfg_h, segment__method=key[0], segment__n_depots=key[1])
+            scn = load_scenario(data, seg_cfg, replay_days=chosen, table=table_h, hub=hub)
+            scenarios[(hub, *key)] = Scenario(
+                test_table, scn.frame, scn.depots, seg_cfg, scn.history_days, hub
+            )
+        hub_days.append((hub, days_h))
+    jobs = plan_jobs(len(settings), methods, hub_days, repeats, cfg.sim.seed)
+    if not jobs:
+        raise InputError("no hub has requests on the days to evaluate", file=Path(data))
     specs = {m: method_spec(m) for m in methods}
     return Prepared(
         table,
@@ -143,6 +170,7 @@ def prepare(
         actors,
         actor_files,
         specs,
+        list(hubs or ()),
     )
 
 
@@ -169,13 +197,14 @@ def run_job(job: Job) -> dict[str, Any]:
     """Replay one job's day; the metrics record of ``day_metrics``."""
     prep: Prepared = _CTX["prep"]
     setting = prep.settings[job.setting]
-    cfg = setting.config(prep.cfg, job.method, job.seed)
-    base = prep.scenarios[(METHODS[job.method][0], setting.depots_n)]
-    scn = Scenario(base.table, base.frame, base.depots, cfg, base.history_days)
+    base = prep.scenarios[(job.hub, METHODS[job.method][0], setting.depots_n)]
+    # The area's config (its square, with --hubs) with the setting, method and seed.
+    cfg = setting.config(base.cfg, job.method, job.seed)
+    scn = Scenario(base.table, base.frame, base.depots, cfg, base.history_days, job.hub)
     key = (job.method, job.seed)
     if key not in _CTX["policies"]:
         _CTX["policies"][key] = method_policy(job.method, prep.actors, job.seed)
-    fleet = load_fleet(None, base.depots, setting.drones, cfg)
+    fleet = load_fleet(None, base.depots, prep.drones(job), cfg)
     _, _, metrics = replay(scn, job.day, fleet, _CTX["policies"][key], job.method)
     return metrics
 
@@ -226,6 +255,11 @@ def run_identity(prep: Prepared) -> str:
         "repeats": prep.repeats,
         "actors": {m: sha256_file(p) for m, p in sorted(prep.actor_files.items())},
     }
+    if prep.hubs:
+        doc["hubs"] = [
+            [h.id, h.frame.center_lng, h.frame.center_lat, h.frame.size_km, h.drones]
+            for h in prep.hubs
+        ]
     return hashlib.sha256(json.dumps(doc, sort_keys=True, default=str).encode()).hexdigest()
 
 

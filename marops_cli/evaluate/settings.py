@@ -52,8 +52,8 @@ class Setting:
 class Job:
     """One day of one method under one setting and repeat (at one hub).
 
-    ``hub`` is a partition key of the jobs dataset (docs/outputs.md "Evaluation"); every
-    evaluation has a single hub, 0, for now.
+    ``hub`` is a partition key of the jobs dataset (docs/outputs.md "Evaluation"): 0 for
+    a single study area, the hub's id with ``--hubs``.
     """
 
     index: int
@@ -133,14 +133,23 @@ def split_days(days: Sequence[dt.date], split: str) -> list[dt.date]:
 def plan_jobs(
     n_settings: int,
     methods: Sequence[str],
-    days: Sequence[dt.date],
+    days: Sequence[dt.date] | Sequence[tuple[int, list[dt.date]]],
     repeats: int,
     seed: int,
 ) -> list[Job]:
-    """Jobs ordered setting, method, repeat, day; repeat ``r`` runs with seed ``seed + r``."""
+    """Jobs ordered setting, method, repeat, hub, day; repeat ``r`` runs with seed
+    ``seed + r``. ``days`` are the days of the one study area (hub 0), or (hub, its
+    days) for each hub of a city."""
     if repeats < 1:
         raise InputError(f"--repeats expects at least 1, got {repeats}")
+    areas: list[tuple[int, list[dt.date]]] = (
+        [(0, list(days))]  # type: ignore[arg-type]
+        if not days or isinstance(days[0], dt.date)
+        else list(days)  # type: ignore[arg-type]
+    )
     jobs: list[Job] = []
-    for s, m, r, d in itertools.product(range(n_settings), methods, range(repeats), days):
-        jobs.append(Job(len(jobs), s, m, r, seed + r, d))
+    for s, m, r in itertools.product(range(n_settings), methods, range(repeats)):
+        for hub, hub_days in areas:
+            for d in hub_days:
+                jobs.append(Job(len(jobs), s, m, r, seed + r, d, hub))
     return jobs

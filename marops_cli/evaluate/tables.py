@@ -64,6 +64,7 @@ def key_columns(prep: Prepared, job: Job) -> dict[str, Any]:
     day."""
     s = prep.settings[job.setting]
     row: dict[str, Any] = {"setting": job.setting, **s.columns()}
+    row["drones"] = prep.drones(job)  # a hub's own fleet size, with --hubs
     row["n_actions"] = prep.cfg.segment.n_actions
     row["segmentation"] = METHODS[job.method][0]
     row.update(

@@ -18,14 +18,14 @@ from typing import Any
 
 import numpy as np
 
-from ..config import DataConfig
+from ..config import DataConfig, PlannerConfig, override
 from ..data.frame import Frame, hub_squares
 from ..data.jsonfile import json_number, read_json
-from ..data.prepare import check_days_in_file
+from ..data.prepare import check_days_in_file, prepare_day
 from ..data.table import LadeTable
 from ..errors import InputError
 
-__all__ = ["Hub", "find_hubs", "hub_owner", "hubs_doc", "load_hubs"]
+__all__ = ["Hub", "HubArea", "find_hubs", "hub_areas", "hub_owner", "hubs_doc", "load_hubs"]
 
 
 @dataclass(frozen=True)
@@ -127,3 +127,44 @@ def hub_owner(table: LadeTable, hubs: Sequence[Hub]) -> np.ndarray:
         mine = (owner < 0) & h.frame.contains(x, y)
         owner[mine] = h.id
     return owner
+
+
+@dataclass(frozen=True)
+class HubArea:
+    """A hub as a study area: its config (its square; its fleet size when it has one),
+    the file's rows it may plan, and the days it has requests on."""
+
+    hub: Hub
+    cfg: PlannerConfig
+    table: LadeTable
+    days: list[dt.date]
+    skipped: list[dt.date]
+    """Days its square has no request on (not replayed)."""
+
+
+def hub_areas(
+    table: LadeTable, cfg: PlannerConfig, hubs: Sequence[Hub], days: Sequence[dt.date]
+) -> list[HubArea]:
+    """Every hub as a study area over ``days``. An order belongs to the first hub whose
+    square holds it (:func:`hub_owner`): a hub's rows are the file less those of
+    earlier hubs, so no order is planned twice."""
+    owner = hub_owner(table, hubs)
+    areas = []
+    for h in hubs:
+        f = h.frame
+        cfg_h = override(
+            cfg,
+            data__center=(f.center_lng, f.center_lat),
+            data__size_km=f.size_km,
+            sim__drones=h.drones,
+        )
+        rows = table if h.id == 0 else table.subset((owner < 0) | (owner >= h.id))
+        kept, skipped = [], []
+        for day in days:
+            try:
+                prepare_day(rows, f, day, cfg_h.data)
+                kept.append(day)
+            except InputError:
+                skipped.append(day)
+        areas.append(HubArea(h, cfg_h, rows, kept, skipped))
+    return areas
