@@ -265,3 +265,31 @@ def test_make_selector_follows_the_config():
     assert make_selector(PlanConfig(solver="cvxpy")).backend == "cvxpy"  # type: ignore[union-attr]
     selector: Selector = milp  # both satisfy the protocol
     assert isinstance(selector.select(random_problem(1)), SelectionResult)
+
+
+def test_a_fractional_relaxation_goes_on_to_the_integer_program(monkeypatch):
+    """Three drones, three requests, each drone's one plan serving two of them (an odd
+    cycle): the relaxation takes every plan by half (1.5 plans' gain), the program only
+    one. HiGHS is run twice, the relaxation then the integer program, and the answer is
+    one plan. When the relaxation's vertex is integral it is the answer, HiGHS run once."""
+    ids = [0, 1, 2]
+    pairs = [[1, 1, 0], [0, 1, 1], [1, 0, 1]]
+    sets = [plan_set(ids, [[0, 0, 0], pair], [10_000.0, 12_000.0]) for pair in pairs]
+    delay = {0: 1.0, 1: 1.0, 2: 1.0}
+    problem = SelectionProblem.from_plan_sets(sets, delay, alpha=0.5, energy_ref_j=E_REF)
+    runs = []
+    original = highspy.Highs.run
+
+    def counted(self):
+        runs.append(1)
+        return original(self)
+
+    monkeypatch.setattr(highspy.Highs, "run", counted)
+    result = MilpSelector().select(problem)
+    assert len(runs) == 2 and result.status == "optimal"
+    assert sorted(result.chosen.tolist()) == [0, 0, 1]
+    assert_allclose(result.objective, brute_force(problem), rtol=OBJ_RTOL)
+    runs.clear()
+    disjoint = [plan_set([i], [[0], [1]], [10_000.0, 12_000.0]) for i in ids]
+    easy = SelectionProblem.from_plan_sets(disjoint, delay, alpha=0.5, energy_ref_j=E_REF)
+    assert MilpSelector().select(easy).chosen.tolist() == [1, 1, 1] and len(runs) == 1
