@@ -161,6 +161,13 @@ def evaluate(
         raise InputError("give at most one of --dates or --split")
     actors = {k: v for k, v in (("learned", policy), ("direct", mappo_policy)) if v is not None}
     chosen = _methods(methods, actors)
+    if scheduler is None and workers > 1:
+        from ..evaluate.workers import warm_up
+        from ..sim.jobs import loads_actor
+
+        # The workers' fork server imports the planner (and torch for an actor) while
+        # this process reads the file and segments it.
+        warm_up(actor=any(loads_actor(m) for m in chosen))
     if against is not None and against not in chosen:
         raise InputError(
             f"--against {against!r} is not among the methods compared ({', '.join(chosen)})"

@@ -154,7 +154,7 @@ def replay_day(
     allow_replacing_foreign(force)
     from ..data.dates import parse_day, parse_days
     from ..data.prepare import prepare_day
-    from ..sim.jobs import METHODS, load_scenario, method_policy
+    from ..sim.jobs import METHODS, load_scenario, loads_actor, method_policy
 
     require_input(data)
     if (date is None) == (dates is None):
@@ -186,7 +186,7 @@ def replay_day(
 
         # Several days or hubs may go to worker processes: their fork server imports
         # the planner (and torch for an actor) while this process reads the file.
-        warm_up(actor=cfg.sim.policy is not None or METHODS[method][1] in ("learned", "direct"))
+        warm_up(actor=loads_actor(method, cfg.sim.policy))
     if out.exists() and not out.is_dir():
         raise InputError("--out must be a folder; this is a file", file=out)
     if hubs is not None and depots is not None:
@@ -310,7 +310,7 @@ def _replay_areas(areas: list[_Area], run: _Run) -> list[list[dict[str, Any]]]:
             done = _replay_on_workers(areas, jobs, run)
         else:
             for job in jobs:
-                done[(job.hub, job.day)] = _replay_here(areas[job.hub], job, run)
+                done[(job.area, job.day)] = _replay_here(areas[job.area], job, run)
         per_area = []
         for i, a in enumerate(areas):
             rows: list[dict[str, Any]] = []
@@ -602,9 +602,9 @@ def _replay_on_workers(
             if error is not None:
                 raise (InputError(error) if code == 2 else RunError(error))
             job = jobs[index]
-            area = areas[job.hub]
+            area = areas[job.area]
             _write_day(area, job.day, out, run)
-            done[(job.hub, job.day)] = out.metrics
+            done[(job.area, job.day)] = out.metrics
             if progress is not None and task is not None:
                 progress.update(task, completed=n)
             else:

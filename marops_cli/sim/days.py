@@ -31,10 +31,10 @@ from .jobs import Scenario, method_policy, replay, route_tables
 
 @dataclass(frozen=True)
 class DayJob:
-    """One day of one study area (``hub``: its key in :attr:`ReplayWork.areas`)."""
+    """One day of one study area (``area``: its key in :attr:`ReplayWork.areas`)."""
 
     index: int
-    hub: int
+    area: int
     day: dt.date
 
 
@@ -103,7 +103,7 @@ class ReplayWork:
         return self._policy
 
     def run(self, job: DayJob, on_window: Callable[[WindowPlan], None] | None = None) -> DayOutput:
-        scn, fleet = self.areas[job.hub]
+        scn, fleet = self.areas[job.area]
         res, reqs, metrics = replay(scn, job.day, fleet, self._pol(), self.method, on_window)
         stops, routes = route_tables(scn, reqs, res.plans, fleet, self.method)
         scope = DayScope(

@@ -44,6 +44,13 @@ DEFAULT_POLICY_NAME = "marops-basic.pt"
 DEFAULT_MAPPO_NAME = "mappo-basic.pt"
 
 
+def loads_actor(method: str, policy: str | None = None) -> bool:
+    """Whether ``method`` (with ``policy``, a ``--policy`` spec) flies a trained actor,
+    which needs torch; an unknown method says no (it fails later, naming itself)."""
+    spec = policy or (METHODS[method][1] if method in METHODS else "")
+    return spec in ("learned", "direct") or spec.startswith("torchscript:") or spec.endswith(".pt")
+
+
 def default_policy_path(name: str = DEFAULT_POLICY_NAME) -> Path | None:
     """The shipped actor: ``$MAROPS_POLICY``, else ``marops-basic.pt`` of the installed
     package data (``policies/`` in the source tree, ``marops_cli.shipped`` once installed).
