@@ -118,6 +118,12 @@ def _depot_panel(
     rows = _slice(results, flag, held) & (
         np.asarray(results.column("method").to_pylist(), dtype=object) == method
     )
+    where = ""
+    hub = results.column("hub").to_numpy() if "hub" in results.column_names else None
+    if hub is not None and np.unique(hub[rows]).size > 1:  # hubs' depot ids are their own
+        first = int(hub[rows].min())
+        rows &= hub == first
+        where = f", hub {first}"
     x_all = results.column(flag).to_numpy().astype(float)
     xs = sorted(set(x_all[rows].tolist()))
     loads = [depot_loads(results, rows & np.isclose(x_all, x)) for x in xs]
@@ -129,7 +135,7 @@ def _depot_panel(
     ax.set_yticks(range(len(xs)), [f"{x:g}" for x in xs])
     ax.set_xlabel("depot (service area) id")
     ax.set_ylabel(SWEEP_FLAGS[flag][1])
-    ax.set_title(f"depot load (kg/day), {method}", fontsize=9)
+    ax.set_title(f"depot load (kg/day), {method}{where}", fontsize=9)
     fig.colorbar(im, ax=ax)
 
 

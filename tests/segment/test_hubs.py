@@ -236,3 +236,30 @@ def test_evaluate_over_hubs_keys_rows_and_pairs_by_hub(example_csv, city, tmp_pa
     assert paired and {(p["method"], p["days"]) for p in paired} == {("marops", "3")}
     summary = list(csv.DictReader((out / "summary.csv").open()))
     assert [(s["method"], s["n"]) for s in summary] == [("marops", "3"), ("stay", "3")]
+
+
+def test_depot_load_heatmap_of_a_city_shows_one_hubs_depots():
+    """Each hub numbers its own depots: the heatmap of a --drones sweep over hubs is
+    drawn for the first hub only, and says so."""
+    import pyarrow as pa
+    from matplotlib.figure import Figure
+
+    from marops_cli.evaluate.plots import _depot_panel
+
+    results = pa.table(
+        {
+            "alpha": [0.5] * 4,
+            "drones": [4, 8, 4, 8],
+            "coverage": [0.25] * 4,
+            "depots_n": [16] * 4,
+            "method": ["marops"] * 4,
+            "hub": [0, 0, 1, 1],
+            "depot_load_kg_0": [1.0, 2.0, 100.0, 200.0],
+            "depot_load_kg_1": [3.0, 4.0, 300.0, 400.0],
+        }
+    )
+    fig = Figure()
+    ax = fig.subplots()
+    _depot_panel(fig, ax, results, "drones", "marops", {"alpha": 0.5, "coverage": 0.25})
+    assert ax.get_title() == "depot load (kg/day), marops, hub 0"
+    assert ax.images[0].get_array().tolist() == [[1.0, 3.0], [2.0, 4.0]]
