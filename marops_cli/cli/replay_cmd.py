@@ -306,11 +306,24 @@ def _replay_areas(areas: list[_Area], run: _Run) -> list[list[dict[str, Any]]]:
     with ExitStack() as locks:
         for a in areas:  # one run at a time in a folder; stale temporaries go
             locks.enter_context(folder_lock(a.out))
-        if len(jobs) > 1 and (run.workers > 1 or run.scheduler is not None):
-            done = _replay_on_workers(areas, jobs, run)
-        else:
-            for job in jobs:
-                done[(job.area, job.day)] = _replay_here(areas[job.area], job, run)
+        try:
+            if len(jobs) > 1 and (run.workers > 1 or run.scheduler is not None):
+                _replay_on_workers(areas, jobs, run, done)
+            else:
+                for job in jobs:
+                    done[(job.area, job.day)] = _replay_here(areas[job.area], job, run)
+        except KeyboardInterrupt as exc:  # Ctrl-C or SIGTERM: say what is kept
+            if len(jobs) < 2:
+                raise
+            from ..io.atomic import Terminated
+
+            how = "terminated" if isinstance(exc, Terminated) else "interrupted"
+            typer.echo(
+                f"marops: {how}; {len(done)} of {len(jobs)} days are written: run the same "
+                "command again to replay the others",
+                err=True,
+            )
+            raise typer.Exit(143 if isinstance(exc, Terminated) else 130) from None
         per_area = []
         for i, a in enumerate(areas):
             rows: list[dict[str, Any]] = []
@@ -563,10 +576,13 @@ def _work(areas: list[_Area], run: _Run, plot: bool) -> Any:
 
 
 def _replay_on_workers(
-    areas: list[_Area], jobs: list[Any], run: _Run
-) -> dict[tuple[int, dt.date], dict[str, Any]]:
+    areas: list[_Area],
+    jobs: list[Any],
+    run: _Run,
+    done: dict[tuple[int, dt.date], dict[str, Any]],
+) -> None:
     """Replay ``jobs`` (days of areas) on worker processes or a Dask cluster; each day's
-    files are written here as it comes back. Returns each day's metrics."""
+    files are written here as it comes back, and its metrics go into ``done``."""
     from ..errors import RunError
     from ..evaluate.workers import outcomes
 
@@ -579,7 +595,6 @@ def _replay_on_workers(
         else f"the Dask scheduler at {run.scheduler}"
     )
     info(f"replay-day: {len(jobs)} days to replay on {where}")
-    done: dict[tuple[int, dt.date], dict[str, Any]] = {}
     progress = None
     if is_terminal() and not (STATE["quiet"] or STATE["json"]):
         progress = Progress(
@@ -613,7 +628,6 @@ def _replay_on_workers(
                     f"replay-day {n}/{len(jobs)}: {area.label}{job.day.isoformat()} "
                     f"{run.method}: {m['delivered']:,} of {m['requests']:,} delivered"
                 )
-    return done
 
 
 def _write_day(area: _Area, day: dt.date, out: Any, run: _Run) -> None:
