@@ -229,7 +229,8 @@ def subset_energies(
 
     ``free_end_m`` ``(B, n)``: the route has no fixed end; after its last customer i it
     flies ``free_end_m[b, i]`` metres empty (to the depot nearest i), and the empty route
-    stays at the start (``end_xy`` is then ignored).
+    stays at the start (``end_xy`` is then ignored). A row of only NaN keeps its fixed
+    end, so fixed and free routes can share one call.
     """
     xy = np.asarray(customers_xy, dtype=np.float64)
     w = np.asarray(weights_kg, dtype=np.float64)
@@ -251,8 +252,10 @@ def subset_energies(
     f[:, 0] = d[:, : n + 1, n + 1] * float(model.energy_per_m(0.0))
     if free_end_m is not None:
         free = np.asarray(free_end_m, dtype=np.float64).reshape(b, n)
-        f[:, 0, :n] = np.where(np.isfinite(free), free, 0.0) * float(model.energy_per_m(0.0))
-        f[:, 0, n] = 0.0
+        rows = ~np.all(np.isnan(free), axis=1)  # the rows with a free end
+        e0 = float(model.energy_per_m(0.0))
+        f[rows, 0, :n] = np.where(np.isfinite(free[rows]), free[rows], 0.0) * e0
+        f[rows, 0, n] = 0.0
     leg = d[:, : n + 1, :n]  # (B, from i, to j)
     for masks in layers[1:]:
         tail = np.where(bits[masks], f[:, masks[:, None] ^ pow2, cols], np.inf)  # (B, m, n)

@@ -315,7 +315,8 @@ class SequentialObserver:
     ) -> list[tuple[float, float, np.ndarray]]:
         """(net value, energy, request positions) of the best plan s → cand → d of each
         action, priced in one batched dynamic program (:func:`subset_energies`); with
-        ``free``, the plans end at the depot nearest their last customer instead."""
+        ``free``, the last plan ends at the depot nearest its last customer instead (its
+        ``dests`` entry is ``s``, where an empty plan stays)."""
         v, m = self.view, self._own
         n = max(1, max(c.size for c in cands))
         b = len(cands)
@@ -327,10 +328,9 @@ class SequentialObserver:
             val[i, : c.size] = 1.0 + v.pending_delay_h[c]
         xy_s = np.repeat(v.depots.xy[s][None, :], b, axis=0)
         free_m = None
-        if free:
+        if free:  # the other rows stay NaN: fixed ends
             free_m = np.full((b, n), np.nan)
-            for i, c in enumerate(cands):
-                free_m[i, : c.size] = self.near_m[c]
+            free_m[-1, : cands[-1].size] = self.near_m[cands[-1]]
         energy, _, bits = subset_energies(xy_s, v.depots.xy[dests], xy, w, m, free_m)
         net = self.lam * (val @ bits.T) - energy
         net[energy > m.usable_j] = -np.inf
@@ -364,15 +364,15 @@ class SequentialObserver:
         per = per_action(self.version)
         dests = [int(dep.candidates[s, k]) for k in range(a)]
         cands = [range_candidates(v, rank, rank_area, s, k, m_hat) for k in range(a)]
-        best = self._best_plans(s, dests, cands)
-        self._best, self._u = {k: best[k][2] for k in range(a)}, u
         blocks = list(range(a))
-        if self.version >= ObsVersion.ANTICIPATION:
+        if self.version >= ObsVersion.ANTICIPATION:  # the free landing, in the same call
+            best = self._best_plans(s, [*dests, s], [*cands, cands[0]], free=True)
             fleet_after = np.bincount(self.dest, minlength=n).astype(float)
             fleet_after[s] -= 1.0  # u itself is counted where it goes, below
-            best.append(self._best_plans(s, [s], [cands[0]], free=True)[0])
-            self._best[a] = best[a][2]
             blocks.append(a)
+        else:
+            best = self._best_plans(s, dests, cands)
+        self._best, self._u = {k: best[k][2] for k in blocks}, u
         for k in blocks:
             is_free = k == a
             d = s if is_free else dests[k]

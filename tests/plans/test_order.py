@@ -192,3 +192,23 @@ def test_free_end_energies_land_at_the_depot_nearest_the_last_customer(
             end = depots[np.argmin(np.hypot(*(depots - last).T))]
             best = min(best, _route_j(model, xy[0], w[0], perm, start[0], end))
         assert energy[0, mask] == pytest.approx(best, rel=1e-9)
+
+
+def test_fixed_and_free_routes_share_one_call(model: EnergyModel) -> None:
+    """A row of ``free_end_m`` that is all NaN keeps its fixed end: one call over a fixed
+    and a free row gives, bit for bit, what a call for each gives."""
+    from marops_cli.plans.order import subset_energies
+
+    rng = np.random.default_rng(12)
+    xy = rng.uniform(-1500, 1500, (2, 4, 2))
+    w = rng.uniform(0.1, 1.0, (2, 4))
+    starts, ends = rng.uniform(-2000, 2000, (2, 2)), rng.uniform(-2000, 2000, (2, 2))
+    near = rng.uniform(100, 900, 4)
+    free = np.vstack([np.full(4, np.nan), near])
+    both, _, _ = subset_energies(starts, ends, xy, w, model, free_end_m=free)
+    fixed, _, _ = subset_energies(starts[:1], ends[:1], xy[:1], w[:1], model)
+    alone, _, _ = subset_energies(starts[1:], ends[1:], xy[1:], w[1:], model, near[None, :])
+    assert np.array_equal(both[0], fixed[0]) and np.array_equal(both[1], alone[0])
+    assert not np.array_equal(
+        both[1], subset_energies(starts[1:], ends[1:], xy[1:], w[1:], model)[0][0]
+    )

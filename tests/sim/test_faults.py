@@ -63,7 +63,8 @@ def test_sigterm_exits_143_with_one_line_and_leaves_outputs_complete_or_absent(
     os.kill(proc.pid, signal.SIGTERM)
     _, err = proc.communicate(timeout=120)
     assert proc.returncode == 143, err
-    assert err.strip().splitlines()[-1] == "marops: terminated"
+    last = err.strip().splitlines()[-1]
+    assert last.startswith("marops: terminated; ") and "of 12 days are written" in last
     assert "Traceback" not in err
     assert not list(out.rglob("*.tmp")) and not (out / ".marops.lock").exists()
     for day in (p for p in out.iterdir() if p.is_dir()):
