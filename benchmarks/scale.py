@@ -253,6 +253,21 @@ def sweep(tmp: Path) -> None:
     )
 
 
+def calibration() -> float:
+    """Seconds a fixed pure-Python workload takes now, in a fresh process (min of 3):
+    how busy the shared machine is while the figures are taken."""
+    code = "import time; t = time.perf_counter(); sum(i * i for i in range(3_000_000)); "
+    code += "print(time.perf_counter() - t)"
+    return min(
+        float(
+            subprocess.run(
+                [sys.executable, "-c", code], capture_output=True, text=True, check=True
+            ).stdout
+        )
+        for _ in range(3)
+    )
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--city", action="store_true", help="the city file's figures")
@@ -260,6 +275,7 @@ def main() -> None:
     ap.add_argument("--sweep", action="store_true", help="evaluate with 1 and 2 workers")
     ap.add_argument("--repeats", type=int, default=5)
     args = ap.parse_args()
+    before = calibration()
     with tempfile.TemporaryDirectory() as d:
         tmp = Path(d)
         os.environ.setdefault("MAROPS_CACHE_DIR", str(tmp / "cache"))
@@ -268,6 +284,10 @@ def main() -> None:
             city(args.rows, tmp)
         if args.sweep:
             sweep(tmp)
+    print(
+        f"machine: a fixed Python loop took {before:.3f} s before and {calibration():.3f} s "
+        "after (larger: a busier machine)"
+    )
 
 
 if __name__ == "__main__":
