@@ -529,15 +529,8 @@ def _replay_here(area: _Area, job: Any, run: _Run) -> dict[str, Any]:
     n_windows = cfg.data.n_windows
     work = _work([area], run, plot=run.files_wanted[1])
     work.use_policy(run.pol)  # the one the command loaded
-    if is_terminal() and not (STATE["quiet"] or STATE["json"]):
-        progress = Progress(
-            TextColumn(f"{day.isoformat()} {run.method}"),
-            BarColumn(),
-            MofNCompleteColumn(),
-            TimeElapsedColumn(),
-            console=console,
-            transient=True,
-        )
+    progress = _progress(f"{day.isoformat()} {run.method}")
+    if progress is not None:
         task = progress.add_task("windows", total=n_windows)
         with progress:
             out = work.run(DayJob(0, 0, day), on_window=lambda p: progress.advance(task))
@@ -554,6 +547,20 @@ def _replay_here(area: _Area, job: Any, run: _Run) -> dict[str, Any]:
         out = work.run(DayJob(0, 0, day), on_window=log)
     _write_day(area, day, out, run)
     return out.metrics
+
+
+def _progress(label: str) -> Progress | None:
+    """A progress bar on a terminal (None for logs, --quiet and --json)."""
+    if not is_terminal() or STATE["quiet"] or STATE["json"]:
+        return None
+    return Progress(
+        TextColumn(label),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TimeElapsedColumn(),
+        console=console,
+        transient=True,
+    )
 
 
 def _work(areas: list[_Area], run: _Run, plot: bool) -> Any:
@@ -595,16 +602,7 @@ def _replay_on_workers(
         else f"the Dask scheduler at {run.scheduler}"
     )
     info(f"replay-day: {len(jobs)} days to replay on {where}")
-    progress = None
-    if is_terminal() and not (STATE["quiet"] or STATE["json"]):
-        progress = Progress(
-            TextColumn(f"replay-day {run.method}"),
-            BarColumn(),
-            MofNCompleteColumn(),
-            TimeElapsedColumn(),
-            console=console,
-            transient=True,
-        )
+    progress = _progress(f"replay-day {run.method}")
     with ExitStack() as stack:
         task = None
         if progress is not None:
