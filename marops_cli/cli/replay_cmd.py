@@ -308,10 +308,12 @@ def _replay_areas(areas: list[_Area], run: _Run) -> list[list[dict[str, Any]]]:
             locks.enter_context(folder_lock(a.out))
         try:
             if len(jobs) > 1 and (run.workers > 1 or run.scheduler is not None):
-                _replay_on_workers(areas, jobs, run, done)
-            else:
+                _replay_on_workers(areas, jobs, run, _work(areas, run), done)
+            elif jobs:
+                work = _work(areas, run)
+                work.use_policy(run.pol)  # the one the command loaded
                 for job in jobs:
-                    done[(job.area, job.day)] = _replay_here(areas[job.area], job, run)
+                    done[(job.area, job.day)] = _replay_here(areas[job.area], job, run, work)
         except KeyboardInterrupt as exc:  # Ctrl-C or SIGTERM: say what is kept
             if len(jobs) < 2:
                 raise
@@ -519,21 +521,16 @@ def _matching_days(done: Path, identity: dict[str, Any]) -> list[dict[str, Any]]
     return list(days)
 
 
-def _replay_here(area: _Area, job: Any, run: _Run) -> dict[str, Any]:
-    """Replay one day in this process, with a progress bar over its windows on a
-    terminal (one log line per window otherwise); write its files; its metrics."""
-    from ..sim.days import DayJob
-
+def _replay_here(area: _Area, job: Any, run: _Run, work: Any) -> dict[str, Any]:
+    """Replay one day of ``work`` in this process, with a progress bar over its windows
+    on a terminal (one log line per window otherwise); write its files; its metrics."""
     day = job.day
-    cfg = area.scn.cfg
-    n_windows = cfg.data.n_windows
-    work = _work([area], run, plot=run.files_wanted[1])
-    work.use_policy(run.pol)  # the one the command loaded
+    n_windows = area.scn.cfg.data.n_windows
     progress = _progress(f"{day.isoformat()} {run.method}")
     if progress is not None:
         task = progress.add_task("windows", total=n_windows)
         with progress:
-            out = work.run(DayJob(0, 0, day), on_window=lambda p: progress.advance(task))
+            out = work.run(job, on_window=lambda p: progress.advance(task))
     else:
 
         def log(p: Any) -> None:
@@ -544,7 +541,7 @@ def _replay_here(area: _Area, job: Any, run: _Run) -> dict[str, Any]:
                 f"solver {p.selection.status}"
             )
 
-        out = work.run(DayJob(0, 0, day), on_window=log)
+        out = work.run(job, on_window=log)
     _write_day(area, day, out, run)
     return out.metrics
 
@@ -563,8 +560,8 @@ def _progress(label: str) -> Progress | None:
     )
 
 
-def _work(areas: list[_Area], run: _Run, plot: bool) -> Any:
-    """The run's days as work for any process (marops_cli/sim/days.py)."""
+def _work(areas: list[_Area], run: _Run) -> Any:
+    """The run's days as work for any process (marops_cli/sim/days.py), built once."""
     from ..io.meta import file_sha256
     from ..methods import method as method_spec
     from ..sim.days import ReplayWork, only_days
@@ -576,7 +573,7 @@ def _work(areas: list[_Area], run: _Run, plot: bool) -> Any:
         run.method,
         cfg.sim.policy,
         cfg.sim.seed,
-        plot,
+        run.files_wanted[1],  # plot
         method_spec(run.method),
         file_sha256(actor) if isinstance(actor, Path) else None,
     )
@@ -586,14 +583,14 @@ def _replay_on_workers(
     areas: list[_Area],
     jobs: list[Any],
     run: _Run,
+    work: Any,
     done: dict[tuple[int, dt.date], dict[str, Any]],
 ) -> None:
-    """Replay ``jobs`` (days of areas) on worker processes or a Dask cluster; each day's
-    files are written here as it comes back, and its metrics go into ``done``."""
+    """Replay ``jobs`` (days of areas) of ``work`` on worker processes or a Dask cluster;
+    each day's files are written here as it comes back, its metrics go into ``done``."""
     from ..errors import RunError
     from ..evaluate.workers import outcomes
 
-    work = _work(areas, run, plot=run.files_wanted[1])
     where = (
         f"{min(run.workers, len(jobs))} workers"
         if run.scheduler is None
