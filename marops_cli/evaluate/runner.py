@@ -13,7 +13,6 @@ from __future__ import annotations
 import datetime as dt
 import hashlib
 import json
-import socket
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -30,7 +29,7 @@ from ..methods import Method, register
 from ..methods import method as method_spec
 from ..policies.base import Policy
 from ..segment.hubs import Hub, hub_areas
-from ..sim.jobs import METHODS, Scenario, load_fleet, load_scenario, replay
+from ..sim.jobs import METHODS, Scenario, load_fleet, load_scenario, other_actor, replay
 from ..sim.jobs import method_policy as _method_policy
 from .settings import Job, Setting, check_settings, plan_jobs, split_days
 from .workers import outcomes
@@ -232,13 +231,9 @@ class EvaluateWork:
         machine with another marops version or another actor file at that path would give
         other rows under the same run identity."""
         for method, sha in self.actors.items():
-            found = method_policy(method, self.prep.actors, 0).identity
-            if not isinstance(found, Path) or sha256_file(found) != sha:
-                return (
-                    f"a worker on {socket.gethostname()} runs another trained actor for "
-                    f"{method} ({found}); install the same marops and actor files on every "
-                    "machine"
-                )
+            problem = other_actor(method, method_policy(method, self.prep.actors, 0), sha)
+            if problem is not None:
+                return problem
         return None
 
 

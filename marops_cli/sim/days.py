@@ -12,7 +12,6 @@ seed), so a day planned on a worker is the same as one planned in the command's 
 from __future__ import annotations
 
 import datetime as dt
-import socket
 import tempfile
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -26,7 +25,7 @@ from ..methods import Method, register
 from ..plans.window import WindowPlan
 from ..policies.base import Policy
 from .fleet import Fleet
-from .jobs import Scenario, method_policy, replay, route_tables
+from .jobs import Scenario, method_policy, other_actor, replay, route_tables
 
 
 @dataclass(frozen=True)
@@ -123,13 +122,4 @@ class ReplayWork:
         """Why this machine would not run the actor the command resolved, or None."""
         if self.actor_sha is None:
             return None
-        from ..io.meta import file_sha256
-
-        found = self._pol().identity
-        if not isinstance(found, Path) or file_sha256(found) != self.actor_sha:
-            return (
-                f"a worker on {socket.gethostname()} runs another trained actor for "
-                f"{self.method} ({found}); install the same marops and actor files on every "
-                "machine"
-            )
-        return None
+        return other_actor(self.method, self._pol(), self.actor_sha)

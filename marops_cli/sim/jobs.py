@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import datetime as dt
 import os
+import socket
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from importlib import resources
@@ -19,7 +20,7 @@ import pyarrow.parquet as pq
 from ..config import PlannerConfig
 from ..data.frame import Frame
 from ..data.prepare import arrival_windows, check_days_in_file, prepare_day, study_frame
-from ..data.reader import read_lade
+from ..data.reader import read_lade, sha256_file
 from ..data.table import DayRequests, LadeTable
 from ..energy import EnergyModel
 from ..errors import InputError, naming
@@ -49,6 +50,19 @@ def loads_actor(method: str, policy: str | None = None) -> bool:
     which needs torch; an unknown method says no (it fails later, naming itself)."""
     spec = policy or (METHODS[method][1] if method in METHODS else "")
     return spec in ("learned", "direct") or spec.startswith("torchscript:") or spec.endswith(".pt")
+
+
+def other_actor(method: str, policy: Policy, sha256: str) -> str | None:
+    """Why ``policy`` is not the trained actor (SHA-256 ``sha256``) the command resolved
+    for ``method``, or None: a worker machine with another marops version or another
+    actor file at that path would give other results under the same settings."""
+    found = policy.identity
+    if not isinstance(found, Path) or sha256_file(found) != sha256:
+        return (
+            f"a worker on {socket.gethostname()} runs another trained actor for {method} "
+            f"({found}); install the same marops and actor files on every machine"
+        )
+    return None
 
 
 def default_policy_path(name: str = DEFAULT_POLICY_NAME) -> Path | None:

@@ -205,3 +205,20 @@ def test_replay_days_on_a_local_cluster_are_the_days_planned_here(
     for day in ("2022-08-11", "2022-08-12"):
         for name in ("stops.parquet", "routes.parquet"):
             assert (here / day / name).read_bytes() == (out / day / name).read_bytes()
+
+
+def test_a_replay_worker_with_another_actor_refuses_to_run() -> None:
+    """replay-day's day work checks the actor the same way (sim.jobs.other_actor)."""
+    from marops_cli.data.reader import sha256_file
+    from marops_cli.methods import method
+    from marops_cli.sim.days import ReplayWork
+    from marops_cli.sim.jobs import default_policy_path
+
+    actor = default_policy_path()
+    assert actor is not None
+    work = ReplayWork({}, "marops", None, 0, False, method("marops"), "0" * 64)
+    problem = work.refuse()
+    assert problem is not None and "another trained actor for marops" in problem
+    work = ReplayWork({}, "marops", None, 0, False, method("marops"), sha256_file(actor))
+    assert work.refuse() is None
+    assert ReplayWork({}, "myopic", None, 0, False, method("myopic")).refuse() is None
