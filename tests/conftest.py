@@ -52,3 +52,49 @@ def _fails_cleanly(args: list[str], out_dir: Path, *needles: str) -> str:
 def fails_cleanly() -> Callable[..., str]:
     """The bad-input contract of docs/outputs.md as one check (see :func:`_fails_cleanly`)."""
     return _fails_cleanly
+
+
+# ``marops`` in a process of its own. Ctrl-C is as in a terminal even when the tests run
+# where SIGINT is ignored (a background job): an ignored SIGINT is inherited, and Python
+# then keeps it ignored.
+MAIN = (
+    "import signal; signal.signal(signal.SIGINT, signal.default_int_handler)\n"
+    "from marops_cli.cli.app import main; main()"
+)
+
+
+def _stop_marops(
+    args: list[str], ready: Callable[[], bool], sig: int, *, group: bool = True
+) -> tuple[int, str]:
+    """Start ``marops ARGS`` in its own process group, wait until ``ready()`` (some
+    finished step's file exists), send ``sig`` to the group (the workers too) or, with
+    ``group`` False, to the command alone; its exit code and stderr."""
+    import subprocess
+    import sys
+    import time
+
+    proc = subprocess.Popen(
+        [sys.executable, "-c", MAIN, *args],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,  # its own process group, like a terminal's
+    )
+    deadline = time.monotonic() + 240
+    while time.monotonic() < deadline and proc.poll() is None:
+        if ready():
+            break
+        time.sleep(0.02)
+    assert proc.poll() is None, "finished before it could be stopped"
+    if group:
+        os.killpg(proc.pid, sig)
+    else:
+        os.kill(proc.pid, sig)
+    _, err = proc.communicate(timeout=120)
+    return proc.returncode, err
+
+
+@pytest.fixture
+def stop_marops() -> Callable[..., tuple[int, str]]:
+    """Stop a ``marops`` run half-way with a signal (see :func:`_stop_marops`)."""
+    return _stop_marops

@@ -173,6 +173,10 @@ def prepare(
     )
 
 
+# Per-process state of a worker (set once by EvaluateWork.setup).
+_CTX: dict[str, Any] = {}
+
+
 def load(prep: Prepared) -> None:
     """Make ``prep`` this process's context for :func:`run_job`: the methods registered
     in the parent at run time, and no policy built yet."""
@@ -181,10 +185,6 @@ def load(prep: Prepared) -> None:
     _CTX.clear()
     _CTX["prep"] = prep
     _CTX["policies"] = {}
-
-
-# Per-process state of a worker (set once by EvaluateWork.setup).
-_CTX: dict[str, Any] = {}
 
 
 def worker_context(prep: Prepared) -> Prepared:

@@ -6,12 +6,10 @@ from __future__ import annotations
 
 import csv
 import io
-import os
 import shutil
 import signal
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import pyarrow.dataset as ds
@@ -103,19 +101,11 @@ def test_local_cluster_writes_what_one_worker_writes(
 
 
 def test_killed_run_resumes_without_rerunning_finished_jobs(
-    example_csv: Path, one_worker: Path, tmp_path: Path
+    example_csv: Path, one_worker: Path, tmp_path: Path, stop_marops
 ) -> None:
     out = tmp_path / "ev"
     args = _evaluate(example_csv, out, "--workers", "1")
-    proc = _subprocess(args)
-    deadline = time.monotonic() + 240
-    while time.monotonic() < deadline and proc.poll() is None:
-        if any((out / "jobs").rglob("*.parquet")):
-            break
-        time.sleep(0.02)
-    assert proc.poll() is None, "finished before it could be killed"
-    os.killpg(proc.pid, signal.SIGKILL)
-    proc.communicate(timeout=60)
+    stop_marops(args, lambda: any((out / "jobs").rglob("*.parquet")), signal.SIGKILL)
     before = {p: (p.stat().st_ino, p.stat().st_mtime_ns) for p in (out / "jobs").rglob("*.parquet")}
     assert 1 <= len(before) < N_JOBS and not (out / "results.parquet").exists()
     res = RUNNER.invoke(app, args)

@@ -4,11 +4,7 @@ from __future__ import annotations
 
 import datetime as dt
 import json
-import os
 import signal
-import subprocess
-import sys
-import time
 from pathlib import Path
 
 import pytest
@@ -101,34 +97,15 @@ def test_out_that_is_a_file_fails_before_any_work(
 
 
 def test_ctrl_c_exits_130_keeps_finished_jobs_and_prints_no_traceback(
-    example_csv: Path, tmp_path: Path
+    example_csv: Path, tmp_path: Path, stop_marops
 ) -> None:
     out = tmp_path / "ev"
     args = ["evaluate", str(example_csv), "--methods", "stay,greedy,ops-random,myopic"]
     args += ["--dates", "0811..0812", "--workers", "2", "--no-plot", "--out", str(out)]
-    # Ctrl-C as in a terminal, even when the tests run where SIGINT is ignored (a
-    # background job): an ignored SIGINT is inherited and Python then keeps it ignored.
-    code = (
-        "import signal; signal.signal(signal.SIGINT, signal.default_int_handler)\n"
-        "from marops_cli.cli.app import main; main()"
-    )
-    proc = subprocess.Popen(
-        [sys.executable, "-c", code, *args],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-        start_new_session=True,  # its own process group, like a terminal's
-    )
     jobs = out / "jobs"
-    deadline = time.monotonic() + 240
-    while time.monotonic() < deadline and proc.poll() is None:
-        if any(jobs.rglob("*.parquet")):
-            break
-        time.sleep(0.05)
-    assert proc.poll() is None, "finished before it could be interrupted"
-    os.killpg(proc.pid, signal.SIGINT)  # Ctrl-C: the whole group, workers included
-    _, err = proc.communicate(timeout=120)
-    assert proc.returncode == 130, err
+    # Ctrl-C: the whole group, workers included
+    code, err = stop_marops(args, lambda: any(jobs.rglob("*.parquet")), signal.SIGINT)
+    assert code == 130, err
     assert "Traceback" not in err and "KeyboardInterrupt" not in err
     assert "run the same command again to resume" in err
     kept = len(list(jobs.rglob("*.parquet")))

@@ -2,19 +2,13 @@
 
 from __future__ import annotations
 
-import os
 import signal
-import subprocess
-import sys
-import time
 from pathlib import Path
 
 from typer.testing import CliRunner
 
 from marops_cli.cli.app import app
 from marops_cli.io.atomic import folder_lock
-
-CODE = "from marops_cli.cli.app import main; main()"
 
 
 def test_a_second_run_into_a_busy_folder_stops_with_a_message(example_csv: Path, tmp_path: Path):
@@ -44,25 +38,13 @@ def test_the_next_run_removes_temporaries_a_killed_run_left(example_csv: Path, t
 
 
 def test_sigterm_exits_143_with_one_line_and_leaves_outputs_complete_or_absent(
-    example_csv: Path, tmp_path: Path
+    example_csv: Path, tmp_path: Path, stop_marops
 ):
     out = tmp_path / "week"
     args = ["replay-day", str(example_csv), "--dates", "0801..0812", "--method", "greedy"]
-    proc = subprocess.Popen(
-        [sys.executable, "-c", CODE, *args, "--out", str(out), "-q"],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-    )
-    deadline = time.monotonic() + 240
-    while time.monotonic() < deadline and proc.poll() is None:
-        if (out / "2022-08-01" / "metrics.json").exists():
-            break
-        time.sleep(0.02)
-    assert proc.poll() is None, "finished before it could be stopped"
-    os.kill(proc.pid, signal.SIGTERM)
-    _, err = proc.communicate(timeout=120)
-    assert proc.returncode == 143, err
+    ready = (out / "2022-08-01" / "metrics.json").exists
+    code, err = stop_marops([*args, "--out", str(out), "-q"], ready, signal.SIGTERM, group=False)
+    assert code == 143, err
     last = err.strip().splitlines()[-1]
     assert last.startswith("marops: terminated; ") and "of 12 days are written" in last
     assert "Traceback" not in err

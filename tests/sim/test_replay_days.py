@@ -161,39 +161,17 @@ def test_days_on_workers_are_the_days_planned_here(example_csv: Path, tmp_path: 
 
 
 def test_ctrl_c_keeps_the_finished_days_and_a_rerun_replays_the_rest(
-    example_csv: Path, tmp_path: Path
+    example_csv: Path, tmp_path: Path, stop_marops
 ) -> None:
     """Days on workers: Ctrl-C stops the run with one line (exit 130), every day
     written so far stays whole, and the same command replays only the others."""
-    import os
     import signal
-    import subprocess
-    import sys
-    import time
 
     out = tmp_path / "days"
     args = ["replay-day", str(example_csv), "--dates", "0801..0812", "--method", "greedy"]
     args += ["--workers", "2", "--out", str(out)]
-    code = (  # Ctrl-C as in a terminal, even where the tests run with SIGINT ignored
-        "import signal; signal.signal(signal.SIGINT, signal.default_int_handler)\n"
-        "from marops_cli.cli.app import main; main()"
-    )
-    proc = subprocess.Popen(
-        [sys.executable, "-c", code, *args],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-        start_new_session=True,
-    )
-    deadline = time.monotonic() + 240
-    while time.monotonic() < deadline and proc.poll() is None:
-        if any(out.glob("*/metrics.json")):
-            break
-        time.sleep(0.02)
-    assert proc.poll() is None, "finished before it could be interrupted"
-    os.killpg(proc.pid, signal.SIGINT)
-    _, err = proc.communicate(timeout=120)
-    assert proc.returncode == 130, err
+    code, err = stop_marops(args, lambda: any(out.glob("*/metrics.json")), signal.SIGINT)
+    assert code == 130, err
     assert "Traceback" not in err and "of 12 days are written" in err
     kept = sorted(p.parent.name for p in out.glob("*/metrics.json"))
     assert 1 <= len(kept) < 12 and not (out / "metrics.json").exists()
