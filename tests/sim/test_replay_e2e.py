@@ -210,29 +210,17 @@ def test_gini_hand_values() -> None:
     assert gini(np.array([1.0, 3.0])) == pytest.approx(0.25)
 
 
+def _replay_0811(example_csv: Path, depots_file: Path, out: Path, *extra: str) -> Path:
+    """``replay-day`` of 0811 on the k-means depots into ``out``, which must succeed."""
+    args = ["replay-day", str(example_csv), "--date", "0811", "--depots", str(depots_file)]
+    res = runner.invoke(app, [*args, *extra, "--out", str(out)])
+    assert res.exit_code == 0, res.output
+    return out
+
+
 def test_same_seed_same_bytes(example_csv: Path, depots_file: Path, tmp_path: Path) -> None:
-    outs = []
-    for k in range(2):
-        out = tmp_path / f"run{k}"
-        res = runner.invoke(
-            app,
-            [
-                "replay-day",
-                str(example_csv),
-                "--date",
-                "0811",
-                "--depots",
-                str(depots_file),
-                "--method",
-                "ops-random",
-                "--seed",
-                "3",
-                "--out",
-                str(out),
-            ],
-        )
-        assert res.exit_code == 0, res.output
-        outs.append(out)
+    extra = ("--method", "ops-random", "--seed", "3")
+    outs = [_replay_0811(example_csv, depots_file, tmp_path / f"run{k}", *extra) for k in range(2)]
     for name in ("stops.parquet", "routes.parquet"):
         assert (outs[0] / name).read_bytes() == (outs[1] / name).read_bytes()
 
@@ -246,26 +234,8 @@ def test_cvxpy_and_direct_highs_plan_the_same_day(
     for solver in ("highs", "cvxpy"):
         cfg = tmp_path / f"{solver}.toml"
         cfg.write_text(f'[plan]\nsolver = "{solver}"\n')
-        out = tmp_path / solver
-        res = runner.invoke(
-            app,
-            [
-                "replay-day",
-                str(example_csv),
-                "--date",
-                "0811",
-                "--depots",
-                str(depots_file),
-                "--method",
-                "myopic",
-                "--config",
-                str(cfg),
-                "--out",
-                str(out),
-            ],
-        )
-        assert res.exit_code == 0, res.output
-        outs.append(out)
+        extra = ("--method", "myopic", "--config", str(cfg))
+        outs.append(_replay_0811(example_csv, depots_file, tmp_path / solver, *extra))
     for name in ("stops.parquet", "routes.parquet"):
         a, b = (pq.read_table(o / name) for o in outs)
         assert a.equals(b), name
