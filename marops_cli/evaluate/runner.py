@@ -153,7 +153,7 @@ def prepare(
                 test_table, scn.frame, scn.depots, seg_cfg, scn.history_days, hub
             )
         hub_days.append((hub, days_h))
-    jobs = plan_jobs(len(settings), methods, hub_days, repeats, cfg.sim.seed)
+    jobs = plan_jobs(len(settings), methods, chosen, repeats, cfg.sim.seed, hub_days=hub_days)
     if not jobs:
         raise InputError("no hub has requests on the days to evaluate", file=Path(data))
     specs = {m: method_spec(m) for m in methods}

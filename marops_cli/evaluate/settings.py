@@ -133,23 +133,21 @@ def split_days(days: Sequence[dt.date], split: str) -> list[dt.date]:
 def plan_jobs(
     n_settings: int,
     methods: Sequence[str],
-    days: Sequence[dt.date] | Sequence[tuple[int, list[dt.date]]],
+    days: Sequence[dt.date],
     repeats: int,
     seed: int,
+    *,
+    hub_days: Sequence[tuple[int, Sequence[dt.date]]] | None = None,
 ) -> list[Job]:
     """Jobs ordered setting, method, repeat, hub, day; repeat ``r`` runs with seed
-    ``seed + r``. ``days`` are the days of the one study area (hub 0), or (hub, its
-    days) for each hub of a city."""
+    ``seed + r``. ``days`` are the days of the one study area (hub 0); ``hub_days``, for
+    a city, gives each hub with its own days instead."""
     if repeats < 1:
         raise InputError(f"--repeats expects at least 1, got {repeats}")
-    areas: list[tuple[int, list[dt.date]]] = (
-        [(0, list(days))]  # type: ignore[arg-type]
-        if not days or isinstance(days[0], dt.date)
-        else list(days)  # type: ignore[arg-type]
-    )
+    areas = list(hub_days) if hub_days is not None else [(0, days)]
     jobs: list[Job] = []
     for s, m, r in itertools.product(range(n_settings), methods, range(repeats)):
-        for hub, hub_days in areas:
-            for d in hub_days:
+        for hub, area_days in areas:
+            for d in area_days:
                 jobs.append(Job(len(jobs), s, m, r, seed + r, d, hub))
     return jobs
