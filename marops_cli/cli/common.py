@@ -8,7 +8,7 @@ import os
 import sys
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import Any, NoReturn, TypeVar
 
 import typer
 from rich.console import Console
@@ -118,13 +118,20 @@ def guarded(fn: F) -> F:
             typer.echo(f"marops: error: {exc}", err=True)
             raise typer.Exit(1) from None
         except KeyboardInterrupt as exc:  # Ctrl-C, or SIGTERM (Terminated)
-            from ..io.atomic import Terminated
-
-            term = isinstance(exc, Terminated)
-            typer.echo("marops: terminated" if term else "marops: interrupted", err=True)
-            raise typer.Exit(143 if term else 130) from None
+            stopped(exc)
 
     return wrapper  # type: ignore[return-value]
+
+
+def stopped(exc: KeyboardInterrupt, kept: str = "") -> NoReturn:
+    """Ctrl-C or SIGTERM (:class:`~marops_cli.io.atomic.Terminated`): one line on stderr,
+    with what the run keeps when it says, and exit 130 (143 for SIGTERM)."""
+    from ..io.atomic import Terminated
+
+    term = isinstance(exc, Terminated)
+    how = "terminated" if term else "interrupted"
+    typer.echo(f"marops: {how}; {kept}" if kept else f"marops: {how}", err=True)
+    raise typer.Exit(143 if term else 130) from None
 
 
 def parse_center(text: str | None) -> tuple[float, float] | None:

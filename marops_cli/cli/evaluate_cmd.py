@@ -26,6 +26,7 @@ from .common import (
     require_input,
     set_output,
     show_table,
+    stopped,
     table,
     warn,
 )
@@ -209,15 +210,11 @@ def evaluate(
         try:
             ev = _run(prep, workers, store, scheduler)
         except KeyboardInterrupt as exc:  # Ctrl-C or SIGTERM
-            from ..io.atomic import Terminated
-
-            how = "terminated" if isinstance(exc, Terminated) else "interrupted"
-            typer.echo(
-                f"marops: {how}; {store.kept()} of {len(prep.jobs)} replays are kept "
-                f"in {store.root}: run the same command again to resume",
-                err=True,
+            stopped(
+                exc,
+                f"{store.kept()} of {len(prep.jobs)} replays are kept in {store.root}: run "
+                "the same command again to resume",
             )
-            raise typer.Exit(143 if isinstance(exc, Terminated) else 130) from None
         paths = write_outputs(out, prep, ev.results, ev.summary, plots=plots)
         paired = _paired(ev, against, out, paths)
     _print_tables(ev)

@@ -31,6 +31,7 @@ from .common import (
     require_input,
     set_output,
     show_table,
+    stopped,
     table,
     warn_undelivered,
 )
@@ -317,15 +318,11 @@ def _replay_areas(areas: list[_Area], run: _Run) -> list[list[dict[str, Any]]]:
         except KeyboardInterrupt as exc:  # Ctrl-C or SIGTERM: say what is kept
             if len(jobs) < 2:
                 raise
-            from ..io.atomic import Terminated
-
-            how = "terminated" if isinstance(exc, Terminated) else "interrupted"
-            typer.echo(
-                f"marops: {how}; {len(done)} of {len(jobs)} days are written: run the same "
-                "command again to replay the others",
-                err=True,
+            stopped(
+                exc,
+                f"{len(done)} of {len(jobs)} days are written: run the same command again "
+                "to replay the others",
             )
-            raise typer.Exit(143 if isinstance(exc, Terminated) else 130) from None
         per_area = []
         for i, a in enumerate(areas):
             rows: list[dict[str, Any]] = []
