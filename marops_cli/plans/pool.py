@@ -434,19 +434,18 @@ class RoutePool:
         """Remove two to five served stops nearest a random served one, from at most
         three routes, so that neighbouring routes can trade stops; a drone that could
         serve what was freed is refilled too. Returns the drones to refill."""
-        reqs = np.concatenate([self.drones[u].cand[self.drones[u].stops] for u in busy])
-        by_req = np.argsort(reqs, kind="stable")  # requests in increasing order
-        served = reqs[by_req]
-        whose = np.repeat(busy, [len(self.drones[u].stops) for u in busy])[by_req].tolist()
-        where = np.concatenate([np.arange(len(self.drones[u].stops)) for u in busy])[by_req]
-        where_l = where.tolist()
+        owner: dict[int, tuple[int, int]] = {}  # request -> (drone, index in its route)
+        for u in busy:
+            dr = self.drones[u]
+            for i, j in enumerate(dr.stops):
+                owner[int(dr.cand[j])] = (u, i)
+        served = np.array(sorted(owner), dtype=np.int64)
         centre = self.xy[served[int(rng.integers(served.size))]]
         n_drop = int(rng.integers(2, 6))
         drops: dict[int, list[int]] = {}
         freed: list[int] = []
-        near = np.argsort(np.hypot(*(self.xy[served] - centre).T), kind="stable")
-        for s in near.tolist():
-            q, u, i = int(served[s]), whose[s], where_l[s]
+        for q in served[np.argsort(np.hypot(*(self.xy[served] - centre).T), kind="stable")]:
+            u, i = owner[int(q)]
             if u not in drops and len(drops) == 3:
                 continue
             drops.setdefault(u, []).append(i)
