@@ -188,21 +188,22 @@ def print_drop_report(report: DropReport, name: str) -> None:
     )
 
 
-def print_day_scope(reqs: Any, cfg: Any, label: str = "") -> None:
+def print_day_scope(scope: Any, cfg: Any, label: str = "") -> None:
     """Say how many of the day's orders are planned and what the study area and the
-    service hours left out (docs/method.md §1); ``label`` names the hub of a city run."""
+    service hours left out (docs/method.md §1), from its ``sim.days.DayScope``;
+    ``label`` names the hub of a city run."""
     left = []
-    if reqs.outside_area:
-        left.append(f"{reqs.outside_area:,} outside the {cfg.data.size_km:g} km study area")
-    if reqs.outside_hours:
+    if scope.outside_area:
+        left.append(f"{scope.outside_area:,} outside the {cfg.data.size_km:g} km study area")
+    if scope.outside_hours:
         left.append(
-            f"{reqs.outside_hours:,} due outside service hours "
+            f"{scope.outside_hours:,} due outside service hours "
             f"{cfg.data.service_start}-{cfg.data.service_end}"
         )
-    tail = f", {sum((reqs.outside_area, reqs.outside_hours)):,} left out ({'; '.join(left)})"
+    tail = f", {sum((scope.outside_area, scope.outside_hours)):,} left out ({'; '.join(left)})"
     info(
-        f"{label}{reqs.day.isoformat()}: {reqs.orders_due:,} orders due, {len(reqs):,} planned"
-        + (tail if left else "")
+        f"{label}{scope.day.isoformat()}: {scope.orders_due:,} orders due, "
+        f"{scope.planned:,} planned" + (tail if left else "")
     )
 
 

@@ -83,6 +83,7 @@ def plan_window(
     from ..io import folder_lock, output_set, run_meta
     from ..io.meta import file_sha256
     from ..io.tables import write_route_files
+    from ..sim.days import DayScope
     from ..sim.jobs import (
         delivered_orders,
         load_fleet,
@@ -130,7 +131,7 @@ def plan_window(
     drones_ = load_fleet(fleet, scn.depots, cfg.sim.drones, cfg)
     plan, reqs = plan_one_window(scn, day, window, drones_, pol, done)
     print_drop_report(scn.table.report, data.name)
-    print_day_scope(reqs, cfg)
+    print_day_scope(DayScope.of(reqs), cfg)
     stops, routes = route_tables(scn, reqs, [plan], drones_, method)
     meta = run_meta(
         command="plan-window",

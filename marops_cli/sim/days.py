@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 import pyarrow as pa
 
+from ..data.table import DayRequests
 from ..methods import Method, register
 from ..plans.window import WindowPlan
 from ..policies.base import Policy
@@ -47,8 +48,9 @@ class DayScope:
     outside_area: int
     outside_hours: int
 
-    def __len__(self) -> int:
-        return self.planned
+    @classmethod
+    def of(cls, reqs: DayRequests) -> DayScope:
+        return cls(reqs.day, reqs.orders_due, len(reqs), reqs.outside_area, reqs.outside_hours)
 
 
 @dataclass
@@ -105,9 +107,7 @@ class ReplayWork:
         scn, fleet = self.areas[job.area]
         res, reqs, metrics = replay(scn, job.day, fleet, self._pol(), self.method, on_window)
         stops, routes = route_tables(scn, reqs, res.plans, fleet, self.method)
-        scope = DayScope(
-            reqs.day, reqs.orders_due, len(reqs), reqs.outside_area, reqs.outside_hours
-        )
+        scope = DayScope.of(reqs)
         png = None
         if self.plot:
             from .plot import plot_day
