@@ -85,4 +85,3 @@ def start_day(policy: Policy, cfg: PlannerConfig, seed: int) -> None:
     """Hand a policy the run's planner settings and start its day."""
     policy.configure(cfg)
     policy.reset(seed)
-

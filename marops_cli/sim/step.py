@@ -91,9 +91,7 @@ class WindowStep:
         return replace(self, plan=self.plan.model_copy(update={"alpha": alpha}))
 
 
-def plan_step(
-    view: WindowView, actions: np.ndarray | SlotActions, how: WindowStep
-) -> WindowPlan:
+def plan_step(view: WindowView, actions: np.ndarray | SlotActions, how: WindowStep) -> WindowPlan:
     """Plan window ``view.t`` with each drone's action (and, from a policy that picks plans
     itself, the plan slot it picked); nothing is applied."""
     selector = how.selector
