@@ -120,11 +120,12 @@ class DeliveryEnv:
         self.tcfg = tcfg
         self.n_drones = n_drones or cfg.sim.drones
         self.n_dest = int(depots.candidates.shape[1])
-        self.direct = tcfg.method == "mappo"
-        self.n_slots = tcfg.plan_slots if self.direct else 1
         self.base_how = how or trained_step(cfg, tcfg)
-        if self.direct != isinstance(self.base_how.selector, SlotSelector):
+        slots = self.base_how.selector
+        self.direct = isinstance(slots, SlotSelector)
+        if self.direct != (tcfg.method == "mappo"):
             raise ValueError("the MAPPO baseline, and only it, flies its plan slots")
+        self.n_slots = slots.n_slots if isinstance(slots, SlotSelector) else 1
         self.how = self.base_how
         self.alpha = self.how.plan.alpha
         self.obs_version = ObsVersion.MAPPO if self.direct else ObsVersion(tcfg.obs_version)
