@@ -274,8 +274,10 @@ def select(names: list[str], patterns: list[str] | None) -> list[str]:
     return chosen
 
 
-def run_cases(names: list[str], keep: Path | None) -> Iterator[tuple[str, dict[str, Any], float]]:
-    """Run the cases one by one: (name, fingerprints by file, seconds)."""
+def run_cases(
+    names: list[str], keep: Path | None
+) -> Iterator[tuple[str, dict[str, Any] | str, float]]:
+    """Run the cases one by one: (name, fingerprints by file or why it failed, seconds)."""
     cases = all_cases()
     with tempfile.TemporaryDirectory(prefix="marops-same-") as tmp:
         work = Path(tmp)
@@ -288,7 +290,10 @@ def run_cases(names: list[str], keep: Path | None) -> Iterator[tuple[str, dict[s
             if out.exists():  # a kept folder from an earlier run
                 shutil.rmtree(out)
             t0 = time.perf_counter()
-            files = cases[name](run, name)
+            try:
+                files: dict[str, Any] | str = cases[name](run, name)
+            except RuntimeError as exc:  # a command failed: the case has no outputs
+                files = str(exc)
             yield name, files, time.perf_counter() - t0
 
 
@@ -309,6 +314,23 @@ def differences(want: dict[str, Any], got: dict[str, Any]) -> list[str]:
             shown = ", ".join(parts[:6]) + (f" (+{len(parts) - 6} more)" if len(parts) > 6 else "")
             out.append(f"{path}: {shown or 'content'}")
     return out
+
+
+def write_record(path: Path, cases: dict[str, Any], update: bool) -> None:
+    """Write the fingerprints (sorted keys); ``update`` keeps the file's other cases."""
+    doc = {
+        "about": "benchmarks/same_results.py fingerprints; see docs/decisions.md",
+        "volatile": {
+            "json_keys": sorted(VOLATILE_KEYS),
+            "json_paths": sorted(VOLATILE_PATHS),
+            "columns": sorted(VOLATILE_COLUMNS),
+        },
+        "cases": cases,
+    }
+    if update and path.exists():
+        doc["cases"] = {**json.loads(path.read_text(encoding="utf-8"))["cases"], **cases}
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(doc, indent=1, sort_keys=True) + "\n", encoding="utf-8")
 
 
 def main() -> int:
@@ -338,6 +360,10 @@ def main() -> int:
     got: dict[str, Any] = {}
     failed = 0
     for name, files, seconds in run_cases(chosen, args.keep):
+        if isinstance(files, str):
+            failed += 1
+            print(f"{name:28s} FAILED: {files}", flush=True)
+            continue
         got[name] = files
         if check is None:
             print(f"{name:28s} recorded ({len(files)} files, {seconds:.1f} s)", flush=True)
@@ -354,20 +380,10 @@ def main() -> int:
     total = time.perf_counter() - t_start
 
     if args.record is not None:
-        doc = {
-            "about": "benchmarks/same_results.py fingerprints; see docs/decisions.md",
-            "volatile": {
-                "json_keys": sorted(VOLATILE_KEYS),
-                "json_paths": sorted(VOLATILE_PATHS),
-                "columns": sorted(VOLATILE_COLUMNS),
-            },
-            "cases": got,
-        }
-        if args.record.exists() and patterns:  # a subset updates only its own cases
-            old = json.loads(args.record.read_text(encoding="utf-8"))
-            doc["cases"] = {**old["cases"], **got}
-        args.record.parent.mkdir(parents=True, exist_ok=True)
-        args.record.write_text(json.dumps(doc, indent=1, sort_keys=True) + "\n", encoding="utf-8")
+        if failed:
+            print(f"{failed} cases failed; {args.record} not written")
+            return 1
+        write_record(args.record, got, update=bool(patterns))
         print(f"wrote {args.record} ({len(got)} cases, {total:.0f} s)")
         return 0
     print(f"{len(chosen) - failed} of {len(chosen)} cases the same ({total:.0f} s)")
