@@ -12,8 +12,8 @@ For each, the median of ``WindowPlan.timings`` (candidates, plans, model build, 
 total) and of the process CPU time of the whole window (and the fastest window's total
 and CPU), for the range scope (greedy flight-range policy) and the global scope
 (OPS-global), with the selector a replay uses (``make_selector``); then the same
-selection program solved through cvxpy and through
-highspy directly (``solve_highs_direct``), interleaved, with the cvxpy/direct ratio.
+selection program solved through cvxpy and through highspy directly
+(``solve_highs_direct``), interleaved, with the cvxpy/direct ratio.
 Goals for the basic scenario: a window under 50 ms; cvxpy build + solve within 1.5×
 of direct HiGHS. A one-plan program (one drone, one parcel) shows cvxpy's fixed
 cost per program, which alone exceeds 1.5× the direct solve of the basic window.
