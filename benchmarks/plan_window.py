@@ -41,10 +41,11 @@ from marops_cli.config import PlannerConfig, SegmentConfig  # noqa: E402
 from marops_cli.data.frame import Frame  # noqa: E402
 from marops_cli.data.prepare import prepare_day  # noqa: E402
 from marops_cli.energy import EnergyModel  # noqa: E402
+from marops_cli.plans.planner import SubsetsPlanner  # noqa: E402
 from marops_cli.plans.plans import SelectionProblem  # noqa: E402
 from marops_cli.plans.ranges import delays_h, range_table  # noqa: E402
 from marops_cli.plans.select import MilpSelector, solve_highs_direct  # noqa: E402
-from marops_cli.plans.window import _global_plans, _range_plans, plan_window  # noqa: E402
+from marops_cli.plans.window import drone_models, plan_window  # noqa: E402
 from marops_cli.policies.base import WindowView  # noqa: E402
 from marops_cli.policies.baselines import GreedyPolicy  # noqa: E402
 from marops_cli.segment import segment_points  # noqa: E402
@@ -102,10 +103,8 @@ def problem_of(
     view: WindowView, actions: np.ndarray, model: EnergyModel, cfg: PlannerConfig, scope: str
 ) -> SelectionProblem:
     """The selection program ``plan_window`` builds for this window."""
-    if scope == "global":
-        plan_sets = _global_plans(view, model, cfg.plan)[0]
-    else:
-        plan_sets = _range_plans(view, actions, model, cfg.plan)[0]
+    planner = SubsetsPlanner(cfg.plan, "global" if scope == "global" else "range")
+    plan_sets = planner.plans(view, actions, model, drone_models(view, model)).plan_sets
     delay = {int(i): float(view.pending_delay_h[i]) for ps in plan_sets for i in ps.request_ids}
     return SelectionProblem.from_plan_sets(
         plan_sets, delay, alpha=cfg.plan.alpha, energy_ref_j=model.usable_j
@@ -137,7 +136,7 @@ def bench(name: str, view: WindowView, cfg: PlannerConfig, repeats: int, profile
         print(
             f"{scope:>7} {plan.n_candidates:6d} {n_plans:6d} "
             + " ".join(ms(times[s]) for s in STAGES)
-            + f"   ({plan.selection.status}, served "
+            + f"   ({plan.selection.status_text}, served "
             f"{sum(len(r.stops) for r in plan.routes)})"
         )
         if profile:
