@@ -134,7 +134,7 @@ class SelectionResult:
 
     ``status`` is the verdict on the selection (the solve it came from; the failed solve's
     when ``fallback``); :attr:`status_text` (also ``str()``) tells the whole story in the
-    words the route files and the command line print.
+    words the command line prints (docs/method.md §4.3).
     """
 
     chosen: NDArray[np.int64]
@@ -157,8 +157,8 @@ class SelectionResult:
 
     @property
     def status_text(self) -> str:
-        """The status as written to route files and printed, e.g. ``"optimal"``, ``"strict
-        cover: optimal"`` or ``"time limit; fallback: greedy"``."""
+        """The status in words, as printed, e.g. ``"optimal"``, ``"strict cover: optimal"``
+        or ``"time limit; fallback: greedy"``."""
         if not self.solves:
             return str(self.status)
         if self.strict_cover and not self.uncovered and len(self.solves) == 1:
