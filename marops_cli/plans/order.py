@@ -89,7 +89,12 @@ def node_distances(start_xy: ArrayLike, end_xy: ArrayLike, xy: ArrayLike) -> NDA
 def exact_orders(
     d: NDArray[np.float64], e_mask: NDArray[np.float64], e0: float, n: int
 ) -> NDArray[np.int8]:
-    """Backward DP over subsets, layer by layer (all masks of one size at once)."""
+    """The energy-minimal visiting order of every subset (module docstring), by the
+    backward dynamic program layer by layer (all masks of one size at once).
+
+    ``d`` is :func:`node_distances`' matrix, ``e_mask`` the energy per metre with each
+    mask's parcels on board, ``e0`` empty; returns ``(2**n, n)`` orders padded with -1.
+    """
     bits, layers = subset_masks(n)
     size = 1 << n
     pow2 = np.int64(1) << np.arange(n, dtype=np.int64)
