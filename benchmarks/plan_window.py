@@ -159,7 +159,7 @@ def bench(name: str, view: WindowView, cfg: PlannerConfig, repeats: int, profile
         print(
             f"{scope:>7} {plan.n_candidates:6d} {n_plans:6d} "
             + " ".join(ms(times[s]) for s in STAGES)
-            + f"   ({plan.selection.status}, served "
+            + f"   ({plan.selection.status_text}, served "
             f"{sum(len(r.stops) for r in plan.routes)}; min total "
             f"{1e3 * min(times['total']):.2f}, cpu {1e3 * min(times['cpu']):.2f})"
         )

@@ -27,7 +27,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..plans.plans import SelectionProblem
-from ..plans.select import SelectionResult
+from ..plans.select import SelectionResult, SelectionStatus
 from .base import SLOT_PLANNER
 from .torchscript import TorchScriptPolicy
 
@@ -86,7 +86,12 @@ class SlotSelector:
             chosen[u] = k
             claimed |= free
         return SelectionResult(
-            chosen, problem.objective(chosen), "direct", False, time.perf_counter() - t0, 0.0
+            chosen,
+            problem.objective(chosen),
+            SelectionStatus.DIRECT,
+            False,
+            time.perf_counter() - t0,
+            0.0,
         )
 
 
