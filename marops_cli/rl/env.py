@@ -204,7 +204,7 @@ class DeliveryEnv:
         dest = to_actions(actions // self.n_slots, self.n_dest)
         chosen = SlotActions(dest, actions % self.n_slots) if self.direct else dest
         starts = view.drone_depot.copy()
-        plan = self.last_plan = fly_window(st, self.t, chosen, self.how)
+        plan = self.last_plan = fly_window(st, self.t, chosen, self.how, view)
         energy_kj = np.array([r.energy_j for r in plan.routes]) / 1000.0
         delay_h, late_h = self._delay_added(starts, self._spared_h(plan.routes))
         e_u = (

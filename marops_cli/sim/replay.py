@@ -50,7 +50,8 @@ def replay_day(
     plans: list[WindowPlan] = []
     t0 = time.perf_counter()
     for t in range(day.n_windows):
-        plan = fly_window(state, t, policy.act(state.view(t)), how)
+        view = state.view(t)
+        plan = fly_window(state, t, policy.act(view), how, view)
         plans.append(plan)
         if on_window is not None:
             on_window(plan)

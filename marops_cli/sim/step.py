@@ -9,7 +9,7 @@ that replay later flies it with.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field
 from typing import Literal
 
 import numpy as np
@@ -17,6 +17,7 @@ import numpy as np
 from ..config import PlanConfig, PlannerConfig
 from ..energy import EnergyModel
 from ..errors import RunError
+from ..plans.planner import Planner, make_planner
 from ..plans.select import Selector, make_selector
 from ..plans.view import WindowView
 from ..plans.window import WindowPlan, plan_window
@@ -41,6 +42,11 @@ class WindowStep:
     that picks plans itself (the MAPPO baseline)."""
     scope: Literal["range", "global"] = "range"
     """``range``: the actions set the flight ranges; ``global``: the whole map."""
+    planner: Planner = field(init=False, repr=False, compare=False)
+    """Builds the drones' plans: chosen once, from ``plan`` and ``scope``."""
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "planner", make_planner(self.plan, self.scope))
 
     @classmethod
     def make(
@@ -88,7 +94,8 @@ class WindowStep:
         """This step at trade-off ``alpha`` (itself when it already is)."""
         if alpha == self.plan.alpha:
             return self
-        return replace(self, plan=self.plan.model_copy(update={"alpha": alpha}))
+        plan = self.plan.model_copy(update={"alpha": alpha})
+        return WindowStep(self.model, plan, self.selector, self.scope)
 
 
 def plan_step(view: WindowView, actions: np.ndarray | SlotActions, how: WindowStep) -> WindowPlan:
@@ -100,14 +107,21 @@ def plan_step(view: WindowView, actions: np.ndarray | SlotActions, how: WindowSt
             raise RunError("plan slots need the slot selector of the policy that picked them")
         selector = selector.picking(actions.slots)
         actions = actions.actions
-    return plan_window(view, actions, how.model, how.plan, selector, scope=how.scope)
+    return plan_window(
+        view, actions, how.model, how.plan, selector, scope=how.scope, planner=how.planner
+    )
 
 
 def fly_window(
-    state: DayState, t: int, actions: np.ndarray | SlotActions, how: WindowStep
+    state: DayState,
+    t: int,
+    actions: np.ndarray | SlotActions,
+    how: WindowStep,
+    view: WindowView | None = None,
 ) -> WindowPlan:
     """Plan window ``t`` of ``state`` with ``actions`` and apply the plan: its stops are
-    delivered and the drones land where their routes end."""
-    plan = plan_step(state.view(t), actions, how)
+    delivered and the drones land where their routes end. ``view`` is ``state.view(t)``
+    when the caller has it already (the one the policy saw)."""
+    plan = plan_step(state.view(t) if view is None else view, actions, how)
     state.apply(plan, how.model.speed_ms)
     return plan
