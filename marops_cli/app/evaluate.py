@@ -126,8 +126,7 @@ def evaluate(
         actors=actors,
         hubs=config.hubs,
     )
-    name = Path(data).name if not isinstance(data, LadeTable) else data.source.name
-    progress.message(prep.source.report.describe(name))
+    progress.message(prep.source.report.describe(prep.source.source.name))
     progress.message(_plan_line(prep, config))
     if out is None:
         ev = _run(prep, config, None, progress)
