@@ -50,7 +50,13 @@ def segment_file(
     path: str | Path, cfg: PlannerConfig, days: list[dt.date] | None = None
 ) -> SegmentResult:
     """Depots and service areas for the requests of ``days`` (all days when None)."""
-    table = read_lade(path, cfg.data)
+    return segment_table(read_lade(path, cfg.data), cfg, days)
+
+
+def segment_table(
+    table: LadeTable, cfg: PlannerConfig, days: list[dt.date] | None = None
+) -> SegmentResult:
+    """Depots and service areas for the rows of ``table`` due on ``days`` (all when None)."""
     frame = study_frame(table, cfg.data, days or None)
     pts, used_days = history_points(table, frame, days)
     try:
