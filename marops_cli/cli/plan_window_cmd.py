@@ -51,14 +51,7 @@ def plan_window(
         ),
     ] = None,
     policy: o.Policy = None,
-    method: Annotated[
-        str,
-        typer.Option(
-            "--method",
-            help=f"One of {o.METHOD_NAMES} (docs/method.md §7) [marops].",
-            show_default=False,
-        ),
-    ] = "marops",
+    method: o.Method = "marops",
     alpha: o.Alpha = None,
     ordering: o.Ordering = None,
     strict_cover: o.StrictCover = False,

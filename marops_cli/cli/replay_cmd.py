@@ -70,14 +70,7 @@ def replay_day(
             "folder each, and report the city's coverage [one study area].",
         ),
     ] = None,
-    method: Annotated[
-        str,
-        typer.Option(
-            "--method",
-            help=f"One of {o.METHOD_NAMES} (docs/method.md §7) [marops].",
-            show_default=False,
-        ),
-    ] = "marops",
+    method: o.Method = "marops",
     policy: o.Policy = None,
     alpha: o.Alpha = None,
     ordering: o.Ordering = None,
