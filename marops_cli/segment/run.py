@@ -1,17 +1,15 @@
-"""``segment`` as one library call: read a LaDe file, place the study area, segment it."""
+"""``segment`` as one library call: place the study area over a LaDe table, segment it."""
 
 from __future__ import annotations
 
 import datetime as dt
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
 from ..config import PlannerConfig
 from ..data.frame import Frame
 from ..data.prepare import check_days_in_file, study_frame
-from ..data.reader import read_lade
 from ..data.table import LadeTable
 from ..errors import InputError, naming
 from .depots import Depots
@@ -44,13 +42,6 @@ def history_points(
             "the study area holds no requests on the chosen days", file=table.source.path
         )
     return np.column_stack([x[inside], y[inside]]), days
-
-
-def segment_file(
-    path: str | Path, cfg: PlannerConfig, days: list[dt.date] | None = None
-) -> SegmentResult:
-    """Depots and service areas for the requests of ``days`` (all days when None)."""
-    return segment_table(read_lade(path, cfg.data), cfg, days)
 
 
 def segment_table(
