@@ -75,7 +75,7 @@ def test_a_table_in_memory_plans_as_its_file_and_writes_nothing(
 def test_a_pandas_frame_plans_and_writes_nothing(
     example_csv: Path, depots: Path, quiet_folders: list[Path]
 ) -> None:
-    pd = pytest.importorskip("pandas")
+    import pandas as pd
     frame = _rows(example_csv).to_pandas()
     day = marops.replay_day(frame, date="0811", depots=depots, method="stay")
     window = marops.plan_window(frame, depots, "0811", 5, method="stay")
