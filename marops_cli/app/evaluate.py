@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING
 from ..config import PlannerConfig
 from ..data.table import LadeTable
 from ..errors import InputError
+from .messages import drop_report
 from .progress import SILENT, Progress
 
 if TYPE_CHECKING:
@@ -126,7 +127,7 @@ def evaluate(
         actors=actors,
         hubs=config.hubs,
     )
-    progress.message(prep.source.report.describe(prep.source.source.name))
+    drop_report(progress, prep.source.report, prep.source.source.name)
     progress.message(_plan_line(prep, config))
     if out is None:
         ev = _run(prep, config, None, progress)

@@ -14,16 +14,7 @@ UNDELIVERED_WARN = 0.10
 
 def drop_report(progress: Progress, report: DropReport, name: str) -> None:
     """Which rows were dropped and why (docs/method.md §1)."""
-    if report.n_dropped == 0:
-        progress.message(f"{name}: {report.total:,} rows read, none dropped")
-        return
-    parts = ", ".join(
-        f"{n:,} {reason.replace('_', ' ')}" for reason, n in report.dropped.items() if n
-    )
-    progress.message(
-        f"{name}: {report.total:,} rows read, {report.kept:,} kept, "
-        f"{report.n_dropped:,} dropped ({parts}); --strict makes these errors"
-    )
+    progress.message(report.describe(name))
 
 
 def day_scope(progress: Progress, scope: Any, cfg: Any, label: str = "") -> None:

@@ -19,9 +19,7 @@ from rich.console import Console
 from rich.table import Table
 
 from ..app.inputs import parse_center, refuse_overwriting_inputs, require_input
-from ..app.messages import drop_report
 from ..config import PlannerConfig, load_config, override
-from ..data.table import DropReport
 from ..errors import MaropsError
 
 __all__ = [
@@ -36,7 +34,6 @@ __all__ = [
     "make_config",
     "out",
     "parse_center",
-    "print_drop_report",
     "refuse_overwriting_inputs",
     "require_input",
     "set_output",
@@ -161,13 +158,6 @@ def stopped(exc: KeyboardInterrupt, kept: str = "") -> NoReturn:
 def make_config(config: Path | None, **overrides: Any) -> PlannerConfig:
     """The TOML config (or defaults) with command-line flags applied on top."""
     return override(load_config(config), **overrides)
-
-
-def print_drop_report(report: DropReport, name: str) -> None:
-    """Tell the user which rows were dropped and why (docs/method.md §1)."""
-    from .progress import Terminal
-
-    drop_report(Terminal(), report, name)
 
 
 def kv_table(title: str, rows: list[tuple[str, str]]) -> Table:

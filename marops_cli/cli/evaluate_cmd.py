@@ -15,11 +15,9 @@ from ..methods import reference_names
 from . import options as o
 from .common import (
     STATE,
-    console,
     emit_json,
     guarded,
     info,
-    is_terminal,
     make_config,
     refuse_overwriting_inputs,
     require_input,
@@ -29,6 +27,7 @@ from .common import (
     table,
     warn,
 )
+from .progress import Terminal
 
 if TYPE_CHECKING:
     import pyarrow as pa
@@ -171,7 +170,7 @@ def evaluate(
         force=force,
     )
     try:
-        res = run_evaluation(data, run, out=out, progress=_Progress())
+        res = run_evaluation(data, run, out=out, progress=Terminal(remaining=True))
     except KeyboardInterrupt as exc:  # Ctrl-C or SIGTERM, with what the folder keeps
         stopped(exc, "; ".join(getattr(exc, "__notes__", ())))
     _print_tables(res.summary)
@@ -274,56 +273,3 @@ def _print_tables(summary: pa.Table) -> None:
         for label, cells in body:
             t.add_row(label, *cells)
         show_table(t)
-
-
-class _Progress:
-    """The evaluation's progress: a bar on a terminal, one log line per replay otherwise.
-
-    This command's own rendering of :class:`~marops_cli.app.progress.Progress`, until
-    the CLI has one shared by every command.
-    """
-
-    def __init__(self) -> None:
-        self.bar: Any = None
-        self.task: Any = None
-
-    def message(self, text: str) -> None:
-        info(text)
-
-    def warning(self, text: str) -> None:
-        warn(text)
-
-    def start(self, label: str, total: int, unit: str) -> None:
-        if not is_terminal() or STATE["quiet"] or STATE["json"]:
-            return
-        from rich.progress import (
-            BarColumn,
-            MofNCompleteColumn,
-            Progress,
-            TextColumn,
-            TimeElapsedColumn,
-            TimeRemainingColumn,
-        )
-
-        self.bar = Progress(
-            TextColumn(label),
-            BarColumn(),
-            MofNCompleteColumn(),
-            TimeElapsedColumn(),
-            TimeRemainingColumn(),
-            console=console,
-            transient=True,
-        )
-        self.task = self.bar.add_task(unit, total=total)
-        self.bar.start()
-
-    def advance(self, text: str = "") -> None:
-        if self.bar is not None:
-            self.bar.advance(self.task)
-        elif text:
-            info(text)
-
-    def finish(self) -> None:
-        if self.bar is not None:
-            self.bar.stop()
-            self.bar = None

@@ -6,15 +6,25 @@ from __future__ import annotations
 
 from typing import Any
 
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.progress import (
+    BarColumn,
+    MofNCompleteColumn,
+    Progress,
+    ProgressColumn,
+    TextColumn,
+    TimeElapsedColumn,
+    TimeRemainingColumn,
+)
 
 from .common import PLAIN, STATE, console, info, is_terminal, warn
 
 
 class Terminal:
-    """Renders one use case's :class:`~marops_cli.app.progress.Progress` calls."""
+    """Renders one use case's :class:`~marops_cli.app.progress.Progress` calls;
+    ``remaining`` adds the time left to the bar (long runs: evaluate)."""
 
-    def __init__(self) -> None:
+    def __init__(self, remaining: bool = False) -> None:
+        self._remaining = remaining
         self._bar: Progress | None = None
         self._task: Any = None
         self._status: Any = None
@@ -36,14 +46,15 @@ class Terminal:
             return
         if quiet or not is_terminal():
             return
-        self._bar = Progress(
+        columns: list[ProgressColumn] = [
             TextColumn(label),
             BarColumn(),
             MofNCompleteColumn(),
             TimeElapsedColumn(),
-            console=console,
-            transient=True,
-        )
+        ]
+        if self._remaining:
+            columns.append(TimeRemainingColumn())
+        self._bar = Progress(*columns, console=console, transient=True)
         self._task = self._bar.add_task(unit, total=total)
         self._bar.start()
 
