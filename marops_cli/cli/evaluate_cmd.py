@@ -133,7 +133,7 @@ def evaluate(
     require_input(data)
     _check_out(out)  # before any computing
     if scheduler is not None:
-        from ..evaluate.cluster import require_distributed
+        from ..workers.cluster import require_distributed
 
         require_distributed()
     refuse_overwriting_inputs(
@@ -163,12 +163,13 @@ def evaluate(
     actors = {k: v for k, v in (("learned", policy), ("direct", mappo_policy)) if v is not None}
     chosen = _methods(methods, actors)
     if scheduler is None and workers > 1:
-        from ..evaluate.workers import warm_up
+        from ..evaluate.runner import worker_modules
         from ..sim.jobs import loads_actor
+        from ..workers import warm_up
 
         # The workers' fork server imports the planner (and torch for an actor) while
         # this process reads the file and segments it.
-        warm_up(actor=any(loads_actor(m) for m in chosen))
+        warm_up(worker_modules(actor=any(loads_actor(m) for m in chosen)))
     if against is not None and against not in chosen:
         raise InputError(
             f"--against {against!r} is not among the methods compared ({', '.join(chosen)})"

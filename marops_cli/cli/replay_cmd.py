@@ -155,13 +155,13 @@ def replay_day(
     allow_replacing_foreign(force)
     from ..data.dates import parse_day, parse_days
     from ..data.prepare import prepare_day
-    from ..sim.jobs import METHODS, load_scenario, loads_actor, method_policy
+    from ..sim.jobs import METHODS, load_scenario, loads_actor, method_policy, replay_modules
 
     require_input(data)
     if (date is None) == (dates is None):
         raise InputError("give exactly one of --date or --dates")
     if scheduler is not None:
-        from ..evaluate.cluster import require_distributed
+        from ..workers.cluster import require_distributed
 
         require_distributed()
     if fmt not in ("parquet", "json"):
@@ -183,11 +183,11 @@ def replay_day(
     )
     days = [parse_day(date, cfg.data.year)] if date else parse_days(dates or "", cfg.data.year)
     if scheduler is None and workers > 1 and (len(days) > 1 or hubs is not None):
-        from ..evaluate.workers import warm_up
+        from ..workers import warm_up
 
         # Several days or hubs may go to worker processes: their fork server imports
         # the planner (and torch for an actor) while this process reads the file.
-        warm_up(actor=loads_actor(method, cfg.sim.policy))
+        warm_up(replay_modules(actor=loads_actor(method, cfg.sim.policy)))
     if out.exists() and not out.is_dir():
         raise InputError("--out must be a folder; this is a file", file=out)
     if hubs is not None and depots is not None:
@@ -586,7 +586,7 @@ def _replay_on_workers(
     """Replay ``jobs`` (days of areas) of ``work`` on worker processes or a Dask cluster;
     each day's files are written here as it comes back, its metrics go into ``done``."""
     from ..errors import RunError
-    from ..evaluate.workers import outcomes
+    from ..workers import outcomes
 
     where = (
         f"{min(run.workers, len(jobs))} workers"
