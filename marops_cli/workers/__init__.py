@@ -19,7 +19,7 @@ from contextlib import contextmanager
 
 from .pool import LocalPool, warm_up
 from .threads import one_thread, single_threaded
-from .work import Job, Outcome, Work, run_safe
+from .work import Job, Outcome, Work
 
 __all__ = [
     "Job",
@@ -28,7 +28,6 @@ __all__ = [
     "Work",
     "one_thread",
     "outcomes",
-    "run_safe",
     "single_threaded",
     "warm_up",
 ]
