@@ -7,6 +7,12 @@ sweep each over α, drones, coverage and number of areas. Every run's files
 
     .venv/bin/python benchmarks/evaluate.py            # run everything, write the page
     .venv/bin/python benchmarks/evaluate.py --reuse    # rewrite the page from earlier runs
+    .venv/bin/python benchmarks/evaluate.py --smoke    # every run, least input (CI)
+
+``--smoke`` makes every run on 2 days of a 10-day file with a third of the orders,
+3 methods, 2 values per sweep and one worker, and writes the page and the runs to a
+temporary folder (CI runs it so the script keeps up with the library; docs/results.md
+is left alone).
 """
 
 from __future__ import annotations
@@ -16,6 +22,7 @@ import json
 import os
 import platform
 import sys
+import tempfile
 import time
 from pathlib import Path
 from typing import Any
@@ -456,17 +463,12 @@ def pool_paired(res: Any, methods: list[str]) -> list[str]:
     return out
 
 
-def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--data", type=Path, default=ROOT / "build/evaluate/synth50.csv")
-    ap.add_argument("--out", type=Path, default=ROOT / "build/evaluate")
-    ap.add_argument("--doc", type=Path, default=ROOT / "docs/results.md")
-    ap.add_argument("--methods", default=None, help="comma-separated [all this build can run]")
-    ap.add_argument("--runs", default=",".join(RUNS), help="which runs [all]")
-    ap.add_argument("--reuse", action="store_true", help="keep runs whose results exist")
-    args = ap.parse_args()
+def run_all(
+    args: argparse.Namespace, runs: dict[str, tuple[dict[str, list], int]], synth: SynthConfig
+) -> None:
+    """Make the runs ``args.runs`` names (``synth``'s file first, if missing), then the page."""
     if not args.data.is_file():
-        write(generate(SynthConfig(days=50, seed=23)), args.data)
+        write(generate(synth), args.data)
     methods = args.methods.split(",") if args.methods else available_methods()
     paper = override(PlannerConfig(), plan__planner="subsets")
     for name in args.runs.split(","):
@@ -474,7 +476,7 @@ def main() -> None:
         out = args.out / name
         if args.reuse and (out / "results.parquet").is_file():
             continue
-        flags, workers = RUNS[name]
+        flags, workers = runs[name]
         prep = prepare(args.data, cfg, methods, expand_settings(cfg, **flags), split="test")
         t0 = time.perf_counter()
         ev = evaluate(prep, workers=workers)
@@ -484,6 +486,27 @@ def main() -> None:
     results = {n: pq.read_table(args.out / n / "results.parquet") for n in done}
     write_page(args.doc, results)
     print(f"wrote {args.doc}")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--data", type=Path, default=ROOT / "build/evaluate/synth50.csv")
+    ap.add_argument("--out", type=Path, default=ROOT / "build/evaluate")
+    ap.add_argument("--doc", type=Path, default=ROOT / "docs/results.md")
+    ap.add_argument("--methods", default=None, help="comma-separated [all this build can run]")
+    ap.add_argument("--runs", default=",".join(RUNS), help="which runs [all]")
+    ap.add_argument("--reuse", action="store_true", help="keep runs whose results exist")
+    ap.add_argument("--smoke", action="store_true", help="every run, least input (CI)")
+    args = ap.parse_args()
+    if not args.smoke:
+        run_all(args, RUNS, SynthConfig(days=50, seed=23))
+        return
+    with tempfile.TemporaryDirectory(prefix="marops-evaluate-smoke-") as d:
+        tmp = Path(d)
+        args.data, args.out, args.doc = tmp / "synth.csv", tmp, tmp / "results.md"
+        args.methods = args.methods or "marops,ops-global,greedy"
+        runs = {n: ({k: v[:2] for k, v in f.items()}, 1) for n, (f, _) in RUNS.items()}
+        run_all(args, runs, SynthConfig(days=10, seed=23, orders_per_day=600.0))
 
 
 if __name__ == "__main__":

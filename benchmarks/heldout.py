@@ -10,6 +10,7 @@ points and whether myopic's dominates the actor's.
 
     python benchmarks/heldout.py                      # 4 shapes x 10 days, 16/25 areas, 8/16 drones
     python benchmarks/heldout.py --quick              # 2 shapes x 4 days, one setting
+    python benchmarks/heldout.py --smoke              # 1 shape x 2 days, one setting (CI)
 
 Work is spread over ``--workers`` processes (one thread each); results do not
 depend on it.
@@ -226,12 +227,17 @@ def main() -> None:
     )
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--quick", action="store_true", help="2 shapes x 6 days, 16 areas, 8 drones")
+    ap.add_argument("--smoke", action="store_true", help="1 shape x 2 days, one setting (CI)")
     ap.add_argument("--json", default=None, help="also write every day's row here")
     ap.add_argument("--markdown", action="store_true")
     args = ap.parse_args()
     if args.quick:
         args.shapes, args.days, args.depots, args.drones, args.alphas = (
             "hubs,river", 8, "16", "8", "0.5",
+        )  # fmt: skip
+    if args.smoke:
+        args.shapes, args.days, args.depots, args.drones, args.alphas = (
+            "hubs", args.history + 2, "16", "8", "0.5",
         )  # fmt: skip
     shapes = [s for s in args.shapes.split(",") if s]
     depots = [int(x) for x in args.depots.split(",")]

@@ -5,7 +5,10 @@ files with metrics.json, or none), no worker may outlive the parent, and the nex
 must remove the temporaries the killed one left and finish. Prints a line per kill and
 the totals.
 
-    python benchmarks/kills.py [--kills 10] [--seed 0]
+    python benchmarks/kills.py [--kills 10] [--seed 0] [--smoke]
+
+``--smoke``: one early kill per command, of two-day runs (CI runs it so the script
+keeps up with the command line).
 """
 
 from __future__ import annotations
@@ -27,6 +30,11 @@ COMMANDS = {
     "replay-day": ["replay-day", str(EXAMPLE), "--dates", "0801..0812", "--method", "greedy"],
     "evaluate": ["evaluate", str(EXAMPLE), "--methods", "stay,greedy,ops-random"]
     + ["--dates", "0809..0812", "--workers", "2", "--no-plot"],
+}
+SMOKE_COMMANDS = {
+    "replay-day": ["replay-day", str(EXAMPLE), "--dates", "0811..0812", "--method", "greedy"],
+    "evaluate": ["evaluate", str(EXAMPLE), "--methods", "stay,greedy"]
+    + ["--dates", "0811..0812", "--workers", "2", "--no-plot"],
 }
 
 
@@ -58,12 +66,15 @@ def _complete_or_absent(out: Path, command: str) -> bool:
     return final <= names or not (final & names)
 
 
-def one_kill(command: str, rng: random.Random, tmp: Path, i: int) -> dict[str, object]:
+def one_kill(
+    command: str, rng: random.Random, tmp: Path, i: int, smoke: bool = False
+) -> dict[str, object]:
     out = tmp / f"{command}-{i}"
-    args = [sys.executable, "-c", CODE, *COMMANDS[command], "--out", str(out), "-q"]
+    cmd = (SMOKE_COMMANDS if smoke else COMMANDS)[command]
+    args = [sys.executable, "-c", CODE, *cmd, "--out", str(out), "-q"]
     t0 = time.monotonic()
     proc = subprocess.Popen(args, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    time.sleep(rng.uniform(2.0, 9.0))
+    time.sleep(rng.uniform(1.0, 3.0) if smoke else rng.uniform(2.0, 9.0))
     finished = proc.poll() is not None
     if not finished:
         os.kill(proc.pid, signal.SIGKILL)
@@ -90,13 +101,16 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--kills", type=int, default=10, help="kills per command")
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--smoke", action="store_true", help="1 early kill of a short run each (CI)")
     args = ap.parse_args()
+    if args.smoke:
+        args.kills = 1
     rng = random.Random(args.seed)
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         for command in COMMANDS:
             for i in range(args.kills):
-                row = one_kill(command, rng, Path(tmp), i)
+                row = one_kill(command, rng, Path(tmp), i, args.smoke)
                 rows.append(row)
                 print(row, flush=True)
     for command in COMMANDS:

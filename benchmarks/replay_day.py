@@ -4,7 +4,9 @@
 on the bundled example's held-out days. Prints the median over days and repeats,
 and the ratio ops-global / greedy.
 
-    python benchmarks/replay_day.py [DATA] [--repeats 3]
+    python benchmarks/replay_day.py [DATA] [--repeats 3] [--smoke]
+
+``--smoke``: the last day only, once (CI runs it so the script keeps up with the library).
 """
 
 from __future__ import annotations
@@ -26,10 +28,13 @@ def main() -> None:
     ap.add_argument("data", nargs="?", default="examples/shanghai_synth.csv")
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--methods", default=",".join(m for m in METHODS if m != "stay"))
+    ap.add_argument("--smoke", action="store_true", help="the last day, 1 repeat (CI)")
     args = ap.parse_args()
     cfg = PlannerConfig()
     base = load_scenario(args.data, cfg)
-    days = base.table.days()[-2:]  # held out from segmentation below
+    days = base.table.days()[-1 if args.smoke else -2 :]  # held out from segmentation below
+    if args.smoke:
+        args.repeats = 1
     results: dict[str, list[float]] = {}
     requests: list[int] = []
     for method in args.methods.split(","):

@@ -10,7 +10,10 @@ the held-out cities of ``benchmarks/heldout.py`` (seeds 41–44, four shapes, 10
 16 areas, α 0.5). If this rule cannot beat landing free, there is little for a learned
 repositioning to earn on these cities.
 
-    python benchmarks/reposition.py [--drones 8,16] [--idle 0.0]
+    python benchmarks/reposition.py [--drones 8,16] [--idle 0.0] [--smoke]
+
+``--smoke``: one city of 2 replayed days, 8 drones (CI runs it so the script keeps up
+with the library).
 """
 
 from __future__ import annotations
@@ -88,10 +91,14 @@ def main() -> None:
         "--idle", type=float, default=0.0, help="net value at or below which a drone is idle"
     )
     ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument("--smoke", action="store_true", help="one city, 2 days, 8 drones (CI)")
     args = ap.parse_args()
     from marops_cli.evaluate.paired import bootstrap_ci
 
-    files = held_out_cities(list(SEEDS), 14, "marops-reposition-")
+    shapes, days = (["hubs"], 6) if args.smoke else (list(SEEDS), 14)
+    if args.smoke:
+        args.drones = "8"
+    files = held_out_cities(shapes, days, "marops-reposition-")
     fleets = [int(x) for x in args.drones.split(",")]
     tasks = [
         (str(files[s]), s, u, m, args.idle)

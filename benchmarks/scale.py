@@ -17,7 +17,11 @@ peak resident memory (``ru_maxrss`` of that process alone):
 
 Nothing is asserted: the machine is shared; run it on a quiet one and read min/median.
 
-    python benchmarks/scale.py [--city] [--rows 1500000] [--sweep] [--repeats 5]
+    python benchmarks/scale.py [--city] [--rows 1500000] [--sweep] [--repeats 5] [--smoke]
+
+``--smoke`` runs every part once on the least input (a two-day 8 km city, runs of two
+and three days, a one-day sweep of two methods), so CI sees the script keep up with the
+command line; its figures mean nothing.
 """
 
 from __future__ import annotations
@@ -99,10 +103,9 @@ def marops(*args: str) -> list[str]:
     return [sys.executable, "-c", "from marops_cli.cli.app import main; main()", *args]
 
 
-def city(rows: int, tmp: Path) -> None:
+def city(rows: int, tmp: Path, per_day: float = 8300.0, extent_km: float = 40.0) -> None:
     from marops_cli.data.synth import SynthConfig, generate, write
 
-    per_day = 8300.0
     days = max(2, round(rows / per_day))
     path = tmp / "city.csv"
     t = time.perf_counter()
@@ -113,7 +116,7 @@ def city(rows: int, tmp: Path) -> None:
         seed=5,
         start=dt.date(2022, 3, 1),
         orders_per_day=per_day,
-        extent_km=40.0,
+        extent_km=extent_km,
         shape="polycentric",
     )
     write(generate(cfg), path)
@@ -154,7 +157,7 @@ def city(rows: int, tmp: Path) -> None:
         )
 
 
-def repeated(repeats: int, tmp: Path) -> None:
+def repeated(repeats: int, tmp: Path, smoke: bool = False) -> None:
     depots = tmp / "depots.json"
     run(marops("segment", str(EXAMPLE), "--dates", "0801..0810", "--out", str(depots), "-q"))
     walls = []
@@ -197,30 +200,38 @@ def repeated(repeats: int, tmp: Path) -> None:
     # The marginal day: from 2 days to all 12 of the example (both on workers, so the
     # workers' start is in both and cancels), with the default 2 workers and with 1;
     # and, as before, 5 days against 1 (which plans in the command's own process).
-    slopes: dict[str, list[float]] = {"2 workers": [], "1 worker": [], "5 vs 1 day": []}
-    for i in range(max(2, repeats // 2)):
+    many, n_many, few, n_few = (
+        ("0810..0812", 3, "0811..0812", 2) if smoke else ("0801..0812", 12, "0808..0812", 5)
+    )
+    few_label = f"{n_few} vs 1 day"
+    slopes: dict[str, list[float]] = {"2 workers": [], "1 worker": [], few_label: []}
+    for i in range(1 if smoke else max(2, repeats // 2)):
         for label, extra in (("2 workers", ()), ("1 worker", ("--workers", "1"))):
             two = dates("0811..0812", i, *extra)
-            twelve = dates("0801..0812", i, *extra)
-            slopes[label].append((twelve - two) / 10)
+            all_days = dates(many, i, *extra)
+            slopes[label].append((all_days - two) / (n_many - 2))
         one = dates("0811", i)
-        five = dates("0808..0812", i)
-        slopes["5 vs 1 day"].append((five - one) / 4)
+        some = dates(few, i)
+        slopes[few_label].append((some - one) / (n_few - 1))
     print(
         "each extra day of --dates: "
         + "; ".join(
             f"{k} median {statistics.median(v):.2f} s, min {min(v):.2f} s"
             for k, v in slopes.items()
         )
-        + " (12 days minus 2 days, / 10; 5 days minus 1 day, / 4)"
+        + f" ({n_many} days minus 2 days, / {n_many - 2}; {n_few} days minus 1 day, "
+        f"/ {n_few - 1})"
     )
 
 
-def sweep(tmp: Path) -> None:
+def sweep(tmp: Path, smoke: bool = False) -> None:
     from marops_cli.data.synth import SynthConfig, generate, write
 
     path = tmp / "sweep.csv"
-    write(generate(SynthConfig(days=40, seed=9)), path)
+    write(generate(SynthConfig(days=12 if smoke else 40, seed=9)), path)
+    methods, dates, n_days = (
+        ("greedy,stay", "0812", 1) if smoke else ("marops,ops-global,greedy,stay", "0811..0909", 30)
+    )
     walls = {}
     for workers in (1, 2):
         out = tmp / f"ev{workers}"
@@ -230,9 +241,9 @@ def sweep(tmp: Path) -> None:
                 "evaluate",
                 str(path),
                 "--methods",
-                "marops,ops-global,greedy,stay",
+                methods,
                 "--dates",
-                "0811..0909",
+                dates,
                 "--workers",
                 str(workers),
                 "--no-plot",
@@ -248,8 +259,8 @@ def sweep(tmp: Path) -> None:
         if r.returncode:
             raise SystemExit(r.stderr)
     print(
-        f"evaluate, 30 days x 4 methods: --workers 1 {walls[1]:.1f} s, --workers 2 "
-        f"{walls[2]:.1f} s: {walls[1] / walls[2]:.2f}x faster"
+        f"evaluate, {n_days} days x {len(methods.split(','))} methods: --workers 1 "
+        f"{walls[1]:.1f} s, --workers 2 {walls[2]:.1f} s: {walls[1] / walls[2]:.2f}x faster"
     )
 
 
@@ -274,16 +285,19 @@ def main() -> None:
     ap.add_argument("--rows", type=int, default=1_500_000)
     ap.add_argument("--sweep", action="store_true", help="evaluate with 1 and 2 workers")
     ap.add_argument("--repeats", type=int, default=5)
+    ap.add_argument("--smoke", action="store_true", help="every part once, least input (CI)")
     args = ap.parse_args()
+    if args.smoke:
+        args.repeats, args.city, args.sweep, args.rows = 1, True, True, 2000
     before = calibration()
     with tempfile.TemporaryDirectory() as d:
         tmp = Path(d)
         os.environ.setdefault("MAROPS_CACHE_DIR", str(tmp / "cache"))
-        repeated(args.repeats, tmp)
+        repeated(args.repeats, tmp, args.smoke)
         if args.city:
-            city(args.rows, tmp)
+            city(args.rows, tmp, *((1000.0, 8.0) if args.smoke else (8300.0, 40.0)))
         if args.sweep:
-            sweep(tmp)
+            sweep(tmp, args.smoke)
     print(
         f"machine: a fixed Python loop took {before:.3f} s before and {calibration():.3f} s "
         "after (larger: a busier machine)"

@@ -1,6 +1,6 @@
 """Timing of visiting orders and plan selection; prints figures, is not a test.
 
-    .venv/bin/python -m benchmarks.selection [--repeat 50] [--drones 8] [--candidates 5]
+    .venv/bin/python -m benchmarks.selection [--repeat 50] [--drones 8] [--candidates 5] [--smoke]
 
 (it also runs as a script: ``python benchmarks/selection.py``)
 
@@ -8,6 +8,9 @@
 * plan selection on random windows (``--drones`` drones with ``--candidates``
   candidates each, drawn with overlap from a shared pool): build + solve through
   cvxpy and through highspy directly, interleaved, median over ``--repeat`` runs.
+
+``--smoke``: 5 candidates and one window, once each (CI runs it so the script keeps up
+with the library).
 """
 
 from __future__ import annotations
@@ -56,10 +59,10 @@ def window(seed: int, drones: int, candidates: int, model: EnergyModel) -> Selec
     return SelectionProblem.from_plan_sets(sets, delay, alpha=0.5, energy_ref_j=model.usable_j)
 
 
-def bench_orders(model: EnergyModel, repeat: int) -> None:
+def bench_orders(model: EnergyModel, repeat: int, sizes: tuple[int, ...]) -> None:
     rng = np.random.default_rng(0)
     print("visiting order of every subset (ms, median)")
-    for n in (5, 8, 10, 12):
+    for n in sizes:
         xy = rng.uniform(0, 2000, (n, 2))
         w = rng.uniform(0.05, 2.5 / n, n)
         reps = repeat if n <= 8 else max(5, repeat // 10)
@@ -73,10 +76,12 @@ def bench_orders(model: EnergyModel, repeat: int) -> None:
         print(f"  n={n:2d} ({1 << n:5d} subsets): exact {exact:7.3f}  greedy {greedy:7.3f}")
 
 
-def bench_select(model: EnergyModel, repeat: int, drones: int, candidates: int) -> None:
+def bench_select(
+    model: EnergyModel, repeat: int, drones: int, candidates: int, windows: int
+) -> None:
     print(f"selection, {drones} drones x {candidates} candidates (ms, median of {repeat})")
     ratios = []
-    for seed in range(5):
+    for seed in range(windows):
         problem = window(seed, drones, candidates, model)
         sel = {b: MilpSelector(backend=b) for b in ("cvxpy", "highs")}
         res = {b: s.select(problem) for b, s in sel.items()}
@@ -115,10 +120,13 @@ def main() -> None:
     parser.add_argument("--repeat", type=int, default=50)
     parser.add_argument("--drones", type=int, default=8)
     parser.add_argument("--candidates", type=int, default=5)
+    parser.add_argument("--smoke", action="store_true", help="smallest sizes, 1 repeat (CI)")
     args = parser.parse_args()
     model = EnergyModel()
-    bench_orders(model, args.repeat)
-    bench_select(model, args.repeat, args.drones, args.candidates)
+    if args.smoke:
+        args.repeat = 1
+    bench_orders(model, args.repeat, (5,) if args.smoke else (5, 8, 10, 12))
+    bench_select(model, args.repeat, args.drones, args.candidates, 1 if args.smoke else 5)
 
 
 if __name__ == "__main__":

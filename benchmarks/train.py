@@ -18,6 +18,9 @@ scenario (8 drones, 16 areas, a 20-day ``marops synth --seed 11`` file, 2 worker
 held-out evaluations every 200 episodes included) and prints the figure:
 
     python benchmarks/train.py --time-training 2000
+
+``--smoke`` runs both on the least input (2 training episodes on one worker; the table
+over one held-out day), so CI sees the script keep up with the library.
 """
 
 from __future__ import annotations
@@ -74,31 +77,63 @@ def run(args: argparse.Namespace) -> dict[str, dict[str, tuple[float, float]]]:
     return method_table(rows)
 
 
-def time_training(episodes: int, workers: int) -> None:
-    """Train the flight-range actor for ``episodes`` on the basic scenario; print the time."""
+def time_training(episodes: int, workers: int, smoke: bool = False) -> None:
+    """Train the flight-range actor for ``episodes`` on the basic scenario; print the time
+    (``smoke``: on 5 days of a third of the orders, the least that trains)."""
     import json
     import subprocess
     import tempfile
 
-    tmp = Path(tempfile.mkdtemp(prefix="marops-train-time-"))
-    data = tmp / "train.csv"
-    exe = Path(sys.executable).with_name("marops")  # the venv's entry point
-    marops = [str(exe) if exe.exists() else "marops"]
-    subprocess.run(
-        [*marops, "synth", "--days", "20", "--seed", "11", "--out", str(data)], check=True
-    )
-    out = tmp / "a.pt"
-    cmd = [*marops, "train", str(data), "--episodes", str(episodes), "--workers", str(workers),
-           "--no-resume", "--out", str(out)]  # fmt: skip
-    t0 = time.perf_counter()
-    subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)
-    wall = time.perf_counter() - t0
-    side = json.loads(out.with_suffix(".json").read_text())
+    with tempfile.TemporaryDirectory(prefix="marops-train-time-") as d:
+        data, out = Path(d) / "train.csv", Path(d) / "a.pt"
+        exe = Path(sys.executable).with_name("marops")  # the venv's entry point
+        marops = [str(exe) if exe.exists() else "marops"]
+        size = ["--days", "5", "--orders-per-day", "600"] if smoke else ["--days", "20"]
+        subprocess.run([*marops, "synth", *size, "--seed", "11", "--out", str(data)], check=True)
+        cmd = [*marops, "train", str(data), "--episodes", str(episodes), "--workers",
+               str(workers), "--no-resume", "--out", str(out)]  # fmt: skip
+        t0 = time.perf_counter()
+        subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)
+        wall = time.perf_counter() - t0
+        side = json.loads(out.with_suffix(".json").read_text())
     print(
         f"marops train, {episodes} episodes, {workers} workers: {wall:.0f} s wall "
         f"({wall / 60:.1f} min, {wall / episodes:.3f} s per episode); "
         f"training_time_s {side['training_time_s']:.0f} s (rollouts, updates, evaluations)"
     )
+
+
+def print_table(args: argparse.Namespace) -> None:
+    """Replay the held-out days of ``args.data`` with every method; print the table."""
+    table = run(args)
+    head = ["method", *[c[1] for c in COLUMNS]]
+    lines = [[m, *[fmt.format(*t[k]) for k, _, fmt in COLUMNS]] for m, t in table.items()]
+    if args.markdown:
+        print("| " + " | ".join(head) + " |")
+        print("|" + "---|" * len(head))
+        for ln in lines:
+            print("| " + " | ".join(ln) + " |")
+    else:
+        widths = [max(len(r[i]) for r in [head, *lines]) for i in range(len(head))]
+        for r in [head, *lines]:
+            print("  ".join(c.ljust(w) for c, w in zip(r, widths, strict=True)))
+
+
+def smoke(args: argparse.Namespace) -> None:
+    """Both parts on the least input: 2 training episodes on one worker, then the table
+    over the one held-out day of a ``marops synth --seed 23 --start 2022-09-01`` file
+    with a third of the orders."""
+    import datetime as dt
+    import tempfile
+
+    from marops_cli.data.synth import SynthConfig, generate, write
+
+    time_training(2, 1, smoke=True)
+    with tempfile.TemporaryDirectory(prefix="marops-train-smoke-") as d:
+        start = dt.date(2022, 9, 1)
+        cfg = SynthConfig(days=args.history + 1, seed=23, start=start, orders_per_day=600.0)
+        args.data = str(write(generate(cfg), Path(d) / "heldout.csv"))
+        print_table(args)
 
 
 def main() -> None:
@@ -117,24 +152,16 @@ def main() -> None:
     )
     ap.add_argument("--policy", default=None, help="actor for marops/squares [the shipped one]")
     ap.add_argument("--markdown", action="store_true", help="print a Markdown table")
+    ap.add_argument("--smoke", action="store_true", help="2 episodes; 1 day's table (CI)")
     args = ap.parse_args()
-    if args.time_training:
+    if args.smoke:
+        smoke(args)
+    elif args.time_training:
         time_training(args.time_training, args.workers)
-        return
-    if not args.data:
+    elif not args.data:
         ap.error("--data is required (or --time-training N)")
-    table = run(args)
-    head = ["method", *[c[1] for c in COLUMNS]]
-    lines = [[m, *[fmt.format(*t[k]) for k, _, fmt in COLUMNS]] for m, t in table.items()]
-    if args.markdown:
-        print("| " + " | ".join(head) + " |")
-        print("|" + "---|" * len(head))
-        for ln in lines:
-            print("| " + " | ".join(ln) + " |")
     else:
-        widths = [max(len(r[i]) for r in [head, *lines]) for i in range(len(head))]
-        for r in [head, *lines]:
-            print("  ".join(c.ljust(w) for c, w in zip(r, widths, strict=True)))
+        print_table(args)
 
 
 if __name__ == "__main__":

@@ -15,7 +15,16 @@ from numpy.typing import ArrayLike, NDArray
 
 from .config import EnergyConfig
 
-__all__ = ["EnergyModel", "power_curve_w", "reference_power_w"]
+__all__ = ["ENERGY_TOL_J", "PAYLOAD_TOL_KG", "EnergyModel", "power_curve_w", "reference_power_w"]
+
+PAYLOAD_TOL_KG = 1e-9
+"""A load fits the payload limit up to this much over it: sums of the same parcel weights
+in another order differ by rounding (docs/method.md, "Feasibility")."""
+ENERGY_TOL_J = 1e-6
+"""A route fits the usable battery up to this much over it: the same route's energy summed
+leg by leg, or by insertions, differs by rounding; a search that adds energies up
+insertion by insertion plans this much under the battery so that its routes, recomputed,
+still fit (docs/method.md, "Feasibility")."""
 
 _NEWTON_MAX_ITER = 60
 _NEWTON_RTOL = 1e-14
@@ -131,8 +140,19 @@ class EnergyModel:
     def max_payload_kg(self) -> float:
         return self.cfg.max_payload_kg
 
+    def fits(
+        self, weight_kg: ArrayLike = 0.0, energy_j: ArrayLike | None = None
+    ) -> NDArray[np.bool_]:
+        """Whether a load of ``weight_kg`` fits the payload limit and a route of
+        ``energy_j`` (when given) the usable battery, each within its tolerance
+        (:data:`PAYLOAD_TOL_KG`, :data:`ENERGY_TOL_J`); elementwise."""
+        ok = np.asarray(weight_kg) <= self.max_payload_kg + PAYLOAD_TOL_KG
+        if energy_j is not None:
+            ok = ok & (np.asarray(energy_j) <= self.usable_j + ENERGY_TOL_J)
+        return ok
+
     def _check(self, payload: NDArray[np.float64]) -> None:
-        tol = 1e-9
+        tol = PAYLOAD_TOL_KG
         if payload.size and (payload.min() < -tol or payload.max() > self.max_payload_kg + tol):
             raise ValueError(
                 f"expected payload in [0, {self.max_payload_kg}] kg, "

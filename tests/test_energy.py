@@ -147,3 +147,18 @@ def test_one_model_per_drone_type_is_built_once():
     assert EnergyModel.of(EnergyConfig()) is not m
     a.max_payload_kg = 2.0
     assert m.max_payload_kg == 1.5 and EnergyModel.of(a).max_payload_kg == 2.0
+
+
+def test_fits_at_and_just_over_the_limits() -> None:
+    """The defaults: 2.5 kg payload, usable battery 225 kJ x (1 - 0.25) = 168,750 J; the
+    tolerances are 1e-9 kg and 1e-6 J (docs/method.md, "Feasibility")."""
+    m = EnergyModel()
+    assert m.usable_j == 168_750.0 and m.max_payload_kg == 2.5
+    assert m.fits(2.5) and m.fits(2.5 + 0.5e-9)
+    assert not m.fits(2.5 + 2e-9) and not m.fits(2.6)
+    assert m.fits(0.0, 168_750.0) and m.fits(2.5, 168_750.0 + 0.5e-6)
+    assert not m.fits(0.0, 168_750.0 + 2e-6)
+    assert not m.fits(2.5 + 2e-9, 100.0)  # both limits hold, not either
+    assert m.fits(energy_j=168_750.0) and not m.fits(energy_j=168_751.0)
+    got = m.fits(np.array([1.0, 2.5, 2.51]), np.array([1e5, 2e5, 1e5]))
+    assert got.tolist() == [True, False, False]

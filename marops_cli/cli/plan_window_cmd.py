@@ -144,7 +144,7 @@ def plan_window(
             "day": day.isoformat(),
             "window": window,
             "solver": {
-                "status": plan.selection.status,
+                "status": plan.selection.status_text,
                 "fallback": plan.selection.fallback,
                 "objective": plan.selection.objective,
             },
@@ -192,7 +192,7 @@ def plan_window(
 def _summary(plan, models: Sequence[EnergyModel], when: str) -> None:  # type: ignore[no-untyped-def]
     t = table(
         f"window {plan.t} ({when}): {plan.n_candidates} candidate requests, "
-        f"solver {plan.selection.status}"
+        f"solver {plan.selection.status_text}"
         + (" (greedy fallback)" if plan.selection.fallback else "")
     )
     for col in ("drone", "from → to", "parcels", "km", "kJ", "battery %"):

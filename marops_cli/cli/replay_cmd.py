@@ -535,7 +535,7 @@ def _replay_here(area: _Area, job: Any, run: _Run, work: Any) -> dict[str, Any]:
             info(
                 f"{area.label}{day.isoformat()} {run.method} window {p.t} of "
                 f"0..{n_windows - 1}: {served} delivered, {p.n_candidates} candidates, "
-                f"solver {p.selection.status}"
+                f"solver {p.selection.status_text}"
             )
 
         out = work.run(job, on_window=log)

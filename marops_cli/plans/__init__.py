@@ -1,11 +1,13 @@
 """Candidate plans, their visiting order and the selection program (docs/method.md §4)."""
 
 from .order import MAX_STOPS, SubsetOrders, best_order, subset_orders
+from .planner import DronePlans, Planner, make_planner
 from .plans import NoFeasiblePlanError, PlanSet, SelectionProblem, build_plans
 from .select import (
     GreedySelector,
     MilpSelector,
     SelectionResult,
+    SelectionStatus,
     Selector,
     greedy_select,
     make_selector,
@@ -14,17 +16,21 @@ from .select import (
 
 __all__ = [
     "MAX_STOPS",
+    "DronePlans",
     "GreedySelector",
     "MilpSelector",
     "NoFeasiblePlanError",
+    "Planner",
     "PlanSet",
     "SelectionProblem",
     "SelectionResult",
+    "SelectionStatus",
     "Selector",
     "SubsetOrders",
     "best_order",
     "build_plans",
     "greedy_select",
+    "make_planner",
     "make_selector",
     "solve_highs_direct",
     "subset_orders",

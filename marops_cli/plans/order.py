@@ -28,7 +28,17 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..energy import EnergyModel
 
-__all__ = ["MAX_STOPS", "SubsetOrders", "best_order", "subset_orders"]
+__all__ = [
+    "MAX_STOPS",
+    "SubsetOrders",
+    "best_order",
+    "evaluate_orders",
+    "exact_orders",
+    "node_distances",
+    "subset_energies",
+    "subset_masks",
+    "subset_orders",
+]
 
 MAX_STOPS = 12
 """Most candidates one drone may have: 2**12 subsets, ~10 ms for the exact order."""
@@ -57,7 +67,7 @@ class SubsetOrders:
 
 
 @lru_cache(maxsize=MAX_STOPS + 1)
-def _subsets(n: int) -> tuple[NDArray[np.bool_], list[NDArray[np.int64]]]:
+def subset_masks(n: int) -> tuple[NDArray[np.bool_], list[NDArray[np.int64]]]:
     """Membership matrix ``(2**n, n)`` and the masks grouped by number of members."""
     masks = np.arange(1 << n, dtype=np.int64)
     bits = ((masks[:, None] >> np.arange(n)) & 1).astype(bool)
@@ -67,7 +77,7 @@ def _subsets(n: int) -> tuple[NDArray[np.bool_], list[NDArray[np.int64]]]:
     return bits, layers
 
 
-def _distances(start_xy: ArrayLike, end_xy: ArrayLike, xy: ArrayLike) -> NDArray[np.float64]:
+def node_distances(start_xy: ArrayLike, end_xy: ArrayLike, xy: ArrayLike) -> NDArray[np.float64]:
     """Euclidean matrix over nodes: candidates ``0..n-1``, start ``n``, end ``n + 1``."""
     pts = np.vstack(
         [np.reshape(xy, (-1, 2)), np.reshape(start_xy, (1, 2)), np.reshape(end_xy, (1, 2))]
@@ -76,11 +86,16 @@ def _distances(start_xy: ArrayLike, end_xy: ArrayLike, xy: ArrayLike) -> NDArray
     return np.hypot(diff[..., 0], diff[..., 1])
 
 
-def _exact(
+def exact_orders(
     d: NDArray[np.float64], e_mask: NDArray[np.float64], e0: float, n: int
 ) -> NDArray[np.int8]:
-    """Backward DP over subsets, layer by layer (all masks of one size at once)."""
-    bits, layers = _subsets(n)
+    """The energy-minimal visiting order of every subset (module docstring), by the
+    backward dynamic program layer by layer (all masks of one size at once).
+
+    ``d`` is :func:`node_distances`' matrix, ``e_mask`` the energy per metre with each
+    mask's parcels on board, ``e0`` empty; returns ``(2**n, n)`` orders padded with -1.
+    """
+    bits, layers = subset_masks(n)
     size = 1 << n
     pow2 = np.int64(1) << np.arange(n, dtype=np.int64)
     cols = np.arange(n)
@@ -114,7 +129,7 @@ def _unroll(nxt: NDArray[np.int8], n: int) -> NDArray[np.int8]:
 
 def _greedy(d: NDArray[np.float64], n: int) -> NDArray[np.int8]:
     """Nearest unvisited candidate by distance, every mask at once."""
-    bits, _ = _subsets(n)
+    bits, _ = subset_masks(n)
     size = 1 << n
     order = np.full((size, n), -1, dtype=np.int8)
     rest = bits.copy()
@@ -129,7 +144,7 @@ def _greedy(d: NDArray[np.float64], n: int) -> NDArray[np.int8]:
     return order
 
 
-def _evaluate(
+def evaluate_orders(
     order: NDArray[np.int8],
     d: NDArray[np.float64],
     w: NDArray[np.float64],
@@ -177,19 +192,19 @@ def subset_orders(
         raise ValueError("expected one location per parcel weight")
     if np.any(w < 0):
         raise ValueError("expected parcel weights >= 0")
-    bits, _ = _subsets(n)
-    d = _distances(start_xy, end_xy, customers_xy)
+    bits, _ = subset_masks(n)
+    d = node_distances(start_xy, end_xy, customers_xy)
     total = bits @ w
     cap = model.max_payload_kg
-    over = total > cap + 1e-9
+    over = ~model.fits(total)
     if method == "exact":
         e_mask = model.energy_per_m(np.minimum(total, cap))
-        order = _exact(d, e_mask, float(model.energy_per_m(0.0)), n)
+        order = exact_orders(d, e_mask, float(model.energy_per_m(0.0)), n)
     elif method == "greedy":
         order = _greedy(d, n)
     else:
         raise ValueError(f"expected ordering 'exact' or 'greedy', got {method!r}")
-    dist, energy = _evaluate(order, d, w, total, model, n)
+    dist, energy = evaluate_orders(order, d, w, total, model, n)
     energy[over] = np.inf
     return SubsetOrders(
         order=order, size=bits.sum(axis=1), weight_kg=total, distance_m=dist, energy_j=energy
@@ -240,11 +255,11 @@ def subset_energies(
     pts = np.concatenate([np.where(np.isfinite(xy), xy, s), s, e], axis=1)  # (B, n + 2, 2)
     diff = pts[:, :, None, :] - pts[:, None, :, :]
     d = np.hypot(diff[..., 0], diff[..., 1])
-    bits, layers = _subsets(n)
+    bits, layers = subset_masks(n)
     size = 1 << n
     total = np.where(np.isfinite(w), w, 0.0) @ bits.T  # (B, 2**n)
     pad = ~np.isfinite(w)
-    over = (total > model.max_payload_kg + 1e-9) | (pad.astype(np.int64) @ bits.T > 0)
+    over = ~model.fits(total) | (pad.astype(np.int64) @ bits.T > 0)
     e_mask = model.energy_per_m(np.minimum(total, model.max_payload_kg))
     pow2 = np.int64(1) << np.arange(n, dtype=np.int64)
     cols = np.arange(n)

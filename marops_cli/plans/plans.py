@@ -28,11 +28,10 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..config import PlanConfig
 from ..energy import EnergyModel
+from .objective import lam_j
 from .order import subset_orders
 
 __all__ = ["NoFeasiblePlanError", "PlanSet", "SelectionProblem", "build_plans"]
-
-_WEIGHT_TOL_KG = 1e-9
 
 
 class NoFeasiblePlanError(ValueError):
@@ -117,7 +116,7 @@ def build_plans(
         )
     keep = (
         (subsets.size <= cfg.max_parcels)
-        & (subsets.weight_kg <= model.max_payload_kg + _WEIGHT_TOL_KG)
+        & model.fits(subsets.weight_kg)
         & (subsets.energy_j <= model.usable_j)
     )
     masks = np.flatnonzero(keep)
@@ -167,8 +166,7 @@ class SelectionProblem:
         for u, ps in enumerate(plan_sets):
             if ps.n_plans == 0 or ps.members[0].any():
                 raise ValueError(f"expected plan 0 of drone {u} to be the empty plan")
-        if not 0 < alpha <= 1:
-            raise ValueError(f"expected alpha in (0, 1], got {alpha}")
+        lam = lam_j(alpha, energy_ref_j)
         ids = np.unique(np.concatenate([ps.request_ids for ps in plan_sets]).astype(np.int64))
         missing = [int(i) for i in ids if int(i) not in delay_h]
         if missing:
@@ -188,7 +186,7 @@ class SelectionProblem:
             cover=cover,
             request_ids=ids,
             value=1.0 + np.array([float(delay_h[int(i)]) for i in ids]),
-            lam=(1.0 - alpha) / alpha * float(energy_ref_j),
+            lam=lam,
         )
 
     @property
@@ -203,12 +201,6 @@ class SelectionProblem:
     def drone(self) -> NDArray[np.int64]:
         """``(P,)`` the drone owning each plan."""
         return np.repeat(np.arange(self.n_drones), np.diff(self.offsets))
-
-    @cached_property
-    def drone_matrix(self) -> sp.csr_matrix:
-        """``(U, P)`` one row per drone: the equality rows Σ_k x_uk = 1."""
-        p = self.n_plans
-        return sp.csr_matrix((np.ones(p), (self.drone, np.arange(p))), shape=(self.n_drones, p))
 
     @cached_property
     def cost(self) -> NDArray[np.float64]:

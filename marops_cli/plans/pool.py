@@ -36,28 +36,15 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-from ..energy import EnergyModel
-from .order import MAX_STOPS, _distances, _evaluate, _exact, _subsets
+from ..energy import ENERGY_TOL_J, EnergyModel
+from ..segment.depots import nearest_depot
+from .order import MAX_STOPS, evaluate_orders, exact_orders, node_distances, subset_masks
 
-__all__ = ["DroneTask", "PoolResult", "RoutePool", "build_pool", "finish_route", "nearest_depot_m"]
-
-_E_TOL_J = 1e-6  # margin under the usable battery for incremental energies
+__all__ = ["DroneTask", "PoolResult", "RoutePool", "build_pool", "finish_route"]
 SCORES = ("weight", "density", "gain")
 _Route = tuple[tuple[int, ...], float, float, float]  # stops, energy, weight, prizes
 _ACCEPT = 0.01  # ruin and recreate accepts a solution up to this share of G worse, falling to 0
 _EXACT_MAX = 10  # exact re-ordering up to this many stops (2**10 subsets)
-
-
-def nearest_depot_m(xy: NDArray[np.float64], depots_xy: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Distance from each point to its nearest depot, in chunks (no points x depots matrix)."""
-    out = np.empty(xy.shape[0])
-    step = max(1, 2_000_000 // max(depots_xy.shape[0], 1))
-    for i in range(0, xy.shape[0], step):
-        p = xy[i : i + step]
-        out[i : i + step] = np.hypot(
-            p[:, None, 0] - depots_xy[None, :, 0], p[:, None, 1] - depots_xy[None, :, 1]
-        ).min(axis=1)
-    return out
 
 
 @dataclass(frozen=True)
@@ -78,8 +65,11 @@ class DroneTask:
 class _Kind:
     """What the search needs of a drone type: payload, usable battery, energy per metre."""
 
+    model: EnergyModel
     cap: float
     usable: float
+    """The battery the search plans within: the usable battery less the tolerance, so
+    that energies added up insertion by insertion still fit once recomputed."""
     e0: float  # J/m empty
     grid: NDArray[np.float64]
     table: NDArray[np.float64]
@@ -87,8 +77,9 @@ class _Kind:
     @classmethod
     def of(cls, model: EnergyModel) -> _Kind:
         return cls(
+            model,
             model.max_payload_kg,
-            model.usable_j - _E_TOL_J,
+            model.usable_j - ENERGY_TOL_J,
             float(model.energy_per_m(0.0)),
             model.grid_kg,
             model.table_j_per_m,
@@ -179,7 +170,7 @@ class RoutePool:
         """Length of the last leg from each point to the drone's end."""
         if end >= 0:
             return np.hypot(*(xy - self.depots_xy[end]).T)
-        return nearest_depot_m(xy, self.depots_xy)
+        return nearest_depot(xy, self.depots_xy)[1]
 
     def _score_alone(
         self, task: DroneTask, k: _Kind
@@ -201,7 +192,7 @@ class RoutePool:
         gain = self.prize[pos] - (alone - start_end)
         use = w / k.cap + np.maximum(alone - start_end, 0.0) / k.usable
         density = gain / np.maximum(use, 1e-9)
-        keep = np.flatnonzero((w <= k.cap + 1e-9) & (alone <= k.usable) & (gain > 0))
+        keep = np.flatnonzero(k.model.fits(w) & (alone <= k.usable) & (gain > 0))
         return pos[keep], density[keep], end_e[keep]
 
     def _drone(
@@ -276,7 +267,7 @@ class RoutePool:
 
     def _refresh(self, u: int, score_kind: str, free: NDArray[np.bool_]) -> None:
         dr = self.drones[u]
-        sub = (free[dr.cand] & (dr.weight + dr.cand_w <= dr.k.cap + 1e-9)).nonzero()[0]
+        sub = (free[dr.cand] & dr.k.model.fits(dr.weight + dr.cand_w)).nonzero()[0]
         d_e, slot = self._insertion(dr, sub)
         gain = dr.cand_prize[sub] - d_e
         feas = (dr.energy + d_e <= dr.k.usable) & (gain > 0)
@@ -473,7 +464,7 @@ class RoutePool:
                     dr.stops = stops[:pos] + stops[pos + 1 :]
                     e_wo = self._route_energy(dr)
                     w_wo = weight - float(dr.cand_w[stops[pos]])
-                    sub = np.flatnonzero(free[dr.cand] & (w_wo + dr.cand_w <= dr.k.cap + 1e-9))
+                    sub = np.flatnonzero(free[dr.cand] & dr.k.model.fits(w_wo + dr.cand_w))
                     if not sub.size:
                         continue
                     d_e, slot = self._insertion(dr, sub)
@@ -589,22 +580,21 @@ def finish_route(
     if n == 0:
         return np.zeros(0, dtype=np.int64), -1
     if 1 < n <= min(_EXACT_MAX, MAX_STOPS):
-        d = _distances(start_xy, start_xy if end_xy is None else end_xy, stops_xy)
+        d = node_distances(start_xy, start_xy if end_xy is None else end_xy, stops_xy)
         if end_xy is None:
-            d[:n, n + 1] = nearest_depot_m(stops_xy, depots_xy)
-        bits, _ = _subsets(n)
+            d[:n, n + 1] = nearest_depot(stops_xy, depots_xy)[1]
+        bits, _ = subset_masks(n)
         total = bits @ weights
         cap = model.max_payload_kg
         e_mask = model.energy_per_m(np.minimum(total, cap))
-        order_all = _exact(d, e_mask, float(model.energy_per_m(0.0)), n)
+        order_all = exact_orders(d, e_mask, float(model.energy_per_m(0.0)), n)
         order = order_all[-1].astype(np.int64)
         # Never worse than the given order (the table is exact, this guards rounding).
         full = np.array([[*order], [*range(n)]], dtype=np.int8)
-        _, e = _evaluate(full, d, weights, np.full(2, total[-1]), model, n)
+        _, e = evaluate_orders(full, d, weights, np.full(2, total[-1]), model, n)
         if e[1] < e[0]:
             order = np.arange(n)
     else:
         order = np.arange(n)
-    last = stops_xy[order[-1]]
-    end = int(np.hypot(*(depots_xy - last).T).argmin()) if end_xy is None else -1
+    end = int(nearest_depot(stops_xy[order[-1]], depots_xy)[0][0]) if end_xy is None else -1
     return order, end

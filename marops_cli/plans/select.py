@@ -19,11 +19,13 @@ from __future__ import annotations
 
 import contextlib
 import ctypes
+import math
 import os
 import sys
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from enum import StrEnum
 from typing import Literal, Protocol
 
 import highspy
@@ -39,17 +41,28 @@ __all__ = [
     "MilpSelector",
     "SelectionProblem",  # defined in plans.py, re-exported for callers of the selection
     "SelectionResult",
+    "SelectionStatus",
     "Selector",
+    "SolveVerdict",
     "greedy_select",
     "make_selector",
     "solve_highs_direct",
 ]
 
 
+_banner_silenced = False
+
+
 def _silence_highs_banner() -> None:
     """HiGHS (1.16) prints a banner on stdout when its first solver object is made, which
     would corrupt ``--json`` output and cron logs: make that first one with stdout
-    pointed at /dev/null. Later objects print nothing (their output_flag is off)."""
+    pointed at /dev/null, once, before the first solve (not on import: importing the
+    library touches no file descriptor). Later objects print nothing (their output_flag
+    is off)."""
+    global _banner_silenced
+    if _banner_silenced:
+        return
+    _banner_silenced = True
     try:
         sys.stdout.flush()
         saved = os.dup(1)
@@ -68,23 +81,98 @@ def _silence_highs_banner() -> None:
         os.close(devnull)
 
 
-_silence_highs_banner()
-
 _MIP_REL_GAP = 1e-7  # HiGHS' default 1e-4 of the objective is too loose to be "optimal"
 _INTEGRAL_TOL = 1e-9  # a relaxation's vertex this close to 0/1 everywhere is integral
 _CANON_BACKEND = "CPP"  # measured faster than "SCIPY" on these models (benchmarks/selection.py)
 
 
+class SelectionStatus(StrEnum):
+    """How a selection, or one solve of the program, ended."""
+
+    OPTIMAL = "optimal"
+    TIME_LIMIT = "time limit"
+    """Stopped at the time limit (with an incumbent, that is the selection)."""
+    INFEASIBLE = "infeasible"
+    SOLVER_ERROR = "solver error"
+    OTHER = "other"
+    """Any other HiGHS model status (its name is in :attr:`SolveVerdict.detail`)."""
+    GREEDY = "greedy"
+    """Chosen by :func:`greedy_select` alone (the ``greedy`` solver)."""
+    DIRECT = "direct"
+    """Chosen by a policy directly (``policies/direct.py``)."""
+
+
+_STATUS = {
+    "kOptimal": SelectionStatus.OPTIMAL,
+    "kTimeLimit": SelectionStatus.TIME_LIMIT,
+    "kInfeasible": SelectionStatus.INFEASIBLE,
+    "kUnboundedOrInfeasible": SelectionStatus.INFEASIBLE,
+}
+
+
+@dataclass(frozen=True)
+class SolveVerdict:
+    """One solve of the program: the solver's status and why its answer was not used."""
+
+    status: SelectionStatus
+    detail: str = ""
+    """The HiGHS status name (``OTHER``) or the exception (``SOLVER_ERROR``)."""
+    unused: str = ""
+    """Why the answer was not used: "solution is not a selection" or "rejected: ..."."""
+
+    def __str__(self) -> str:
+        text = {
+            SelectionStatus.OTHER: self.detail,
+            SelectionStatus.SOLVER_ERROR: f"solver error ({self.detail})",
+        }.get(self.status, self.status.value)
+        return f"{text} ({self.unused})" if self.unused else text
+
+
 @dataclass(frozen=True)
 class SelectionResult:
-    """Chosen plan (local index) per drone and how it was found."""
+    """Chosen plan (local index) per drone and how it was found.
+
+    ``status`` is the verdict on the selection (the solve it came from; the failed solve's
+    when ``fallback``); :attr:`status_text` (also ``str()``) tells the whole story in the
+    words the command line prints (docs/method.md §4.3).
+    """
 
     chosen: NDArray[np.int64]
     objective: float
-    status: str
+    status: SelectionStatus
     fallback: bool
+    """The solver gave no usable selection: :func:`greedy_select`'s was taken."""
     solve_s: float
     build_s: float
+    bound: float | None = None
+    """A lower bound on the objective (J) from the last solve, where HiGHS reports one."""
+    gap: float | None = None
+    """HiGHS' relative gap of the last solve (of the program it solved), where reported."""
+    strict_cover: bool = False
+    """The strict cover was asked for (``PlanConfig.strict_cover``)."""
+    uncovered: tuple[int, ...] = ()
+    """Requests in no plan, which made the strict cover infeasible before any solve."""
+    solves: tuple[SolveVerdict, ...] = field(default=())
+    """Each solve in order: the strict cover's when tried, then the relaxed program's."""
+
+    @property
+    def status_text(self) -> str:
+        """The status in words, as printed, e.g. ``"optimal"``, ``"strict cover: optimal"``
+        or ``"time limit; fallback: greedy"``."""
+        if not self.solves:
+            return str(self.status)
+        if self.strict_cover and not self.uncovered and len(self.solves) == 1:
+            return f"strict cover: {self.solves[0]}"  # the strict cover held
+        head = ""
+        if self.uncovered:
+            head = f"strict cover infeasible (in no plan: {list(self.uncovered[:5])}); relaxed: "
+        elif len(self.solves) == 2:
+            head = f"strict cover {self.solves[0]}; relaxed: "
+        tail = "; fallback: greedy" if self.fallback else ""
+        return f"{head}{self.solves[-1]}{tail}"
+
+    def __str__(self) -> str:
+        return self.status_text
 
 
 class Selector(Protocol):
@@ -104,6 +192,9 @@ class _Milp:
     rows: sp.csr_matrix
     """``(U + R, n)``: the drone rows, then the request rows."""
     n_drones: int
+    scale: float
+    """``cost`` times ``scale`` plus ``offset`` is the objective in joules."""
+    offset: float
 
 
 def _reduce(problem: SelectionProblem) -> _Milp:
@@ -127,15 +218,24 @@ def _reduce(problem: SelectionProblem) -> _Milp:
         shape=(u + cover.shape[0], n),
     )
     scale = max(float(np.abs(cost).max(initial=0.0)), 1.0)
-    return _Milp(cols, cost / scale, rows, u)
+    offset = float(problem.cost[empty].sum()) + problem.constant
+    return _Milp(cols, cost / scale, rows, u, scale, offset)
 
 
 @dataclass
 class _Attempt:
     x: NDArray[np.float64] | None
     status: str
+    """The HiGHS model status name, or the solver error."""
     build_s: float
     solve_s: float
+    bound: float | None = None
+    """HiGHS' dual bound on the (scaled, reduced) program."""
+    gap: float | None = None
+
+
+def _finite(x: float) -> float | None:
+    return float(x) if math.isfinite(x) else None
 
 
 def _decode(
@@ -161,6 +261,7 @@ def _solve_cvxpy(milp: _Milp, strict: bool, time_limit_s: float) -> _Attempt:
     # import, which the default direct HiGHS backend never needs.
     import cvxpy as cp
 
+    _silence_highs_banner()
     t0 = time.perf_counter()
     x = cp.Variable(milp.cols.size, boolean=True)
     u = milp.n_drones
@@ -177,12 +278,21 @@ def _solve_cvxpy(milp: _Milp, strict: bool, time_limit_s: float) -> _Attempt:
     opts = {"time_limit": float(time_limit_s), "mip_rel_gap": _MIP_REL_GAP}
     raw = chain.solve_via_data(prob, data, solver_opts=opts)
     prob.unpack_results(raw, chain, inverse)
-    found = raw["info"].primal_solution_status == highspy.kSolutionStatusFeasible
+    info = raw["info"]
+    found = info.primal_solution_status == highspy.kSolutionStatusFeasible
     xv = np.asarray(x.value, dtype=np.float64) if found and x.value is not None else None
-    return _Attempt(xv, raw["model_status"], t1 - t0, time.perf_counter() - t1)
+    return _Attempt(
+        xv,
+        raw["model_status"],
+        t1 - t0,
+        time.perf_counter() - t1,
+        _finite(info.mip_dual_bound),
+        _finite(info.mip_gap),
+    )
 
 
 def _solve_highs(milp: _Milp, strict: bool, time_limit_s: float) -> _Attempt:
+    _silence_highs_banner()
     t0 = time.perf_counter()
     a = milp.rows.tocsc()
     n_row, n_col = a.shape
@@ -208,24 +318,28 @@ def _solve_highs(milp: _Milp, strict: bool, time_limit_s: float) -> _Attempt:
     if h.getModelStatus() == highspy.HighsModelStatus.kOptimal:
         x = np.asarray(h.getSolution().col_value, dtype=np.float64)
         if np.abs(x - np.round(x)).max(initial=0.0) <= _INTEGRAL_TOL:
-            return _Attempt(np.round(x), "kOptimal", t1 - t0, time.perf_counter() - t1)
+            # The relaxation's optimum bounds the program, and is attained: no gap.
+            bound = _finite(h.getInfo().objective_function_value)
+            return _Attempt(np.round(x), "kOptimal", t1 - t0, time.perf_counter() - t1, bound, 0.0)
     lp.integrality_ = [highspy.HighsVarType.kInteger] * n_col
     h.passModel(lp)
     h.setOptionValue("time_limit", max(float(time_limit_s) - (time.perf_counter() - t0), 0.01))
     h.run()
-    found = h.getInfo().primal_solution_status == highspy.kSolutionStatusFeasible
+    info = h.getInfo()
+    found = info.primal_solution_status == highspy.kSolutionStatusFeasible
     xv = np.asarray(h.getSolution().col_value, dtype=np.float64) if found else None
-    return _Attempt(xv, h.getModelStatus().name, t1 - t0, time.perf_counter() - t1)
+    return _Attempt(
+        xv,
+        h.getModelStatus().name,
+        t1 - t0,
+        time.perf_counter() - t1,
+        _finite(info.mip_dual_bound),
+        _finite(info.mip_gap),
+    )
 
 
 _Backend = Callable[[_Milp, bool, float], _Attempt]
 _BACKENDS: dict[str, _Backend] = {"cvxpy": _solve_cvxpy, "highs": _solve_highs}
-_STATUS = {
-    "kOptimal": "optimal",
-    "kTimeLimit": "time limit",
-    "kInfeasible": "infeasible",
-    "kUnboundedOrInfeasible": "infeasible",
-}
 
 
 def greedy_select(problem: SelectionProblem) -> NDArray[np.int64]:
@@ -259,7 +373,12 @@ class GreedySelector:
         t0 = time.perf_counter()
         chosen = greedy_select(problem)
         return SelectionResult(
-            chosen, problem.objective(chosen), "greedy", False, time.perf_counter() - t0, 0.0
+            chosen,
+            problem.objective(chosen),
+            SelectionStatus.GREEDY,
+            False,
+            time.perf_counter() - t0,
+            0.0,
         )
 
 
@@ -279,7 +398,7 @@ class MilpSelector:
 
     def _attempt(
         self, problem: SelectionProblem, milp: _Milp, strict: bool, limit: float
-    ) -> tuple[NDArray[np.int64] | None, _Attempt]:
+    ) -> tuple[NDArray[np.int64] | None, _Attempt, SolveVerdict]:
         """One solve, decoded and verified; ``None`` when there is no usable selection."""
         if milp.cols.size == 0:  # only empty plans: nothing to decide
             att = _Attempt(np.zeros(0), "kOptimal", 0.0, 0.0)
@@ -287,55 +406,76 @@ class MilpSelector:
             try:
                 att = _BACKENDS[self.backend](milp, strict, limit)
             except Exception as exc:  # any solver failure means: fall back
-                att = _Attempt(None, f"solver error ({type(exc).__name__}: {exc})", 0.0, 0.0)
-        att.status = _STATUS.get(att.status, att.status)
+                error = SolveVerdict(SelectionStatus.SOLVER_ERROR, f"{type(exc).__name__}: {exc}")
+                return None, _Attempt(None, str(error), 0.0, 0.0), error
+        status = _STATUS.get(att.status, SelectionStatus.OTHER)
+        detail = att.status if status is SelectionStatus.OTHER else ""
         chosen = _decode(problem, milp, att.x)
         if chosen is None:
-            if att.x is not None:
-                att.status += " (solution is not a selection)"
-            return None, att
+            unused = "solution is not a selection" if att.x is not None else ""
+            return None, att, SolveVerdict(status, detail, unused)
         reason = problem.violation(chosen)
         if reason is None and strict and problem.served(chosen).min(initial=1) < 1:
             reason = "a request is not covered"
         if reason is not None:
-            att.status += f" (rejected: {reason})"
-            return None, att
-        return chosen, att
+            return None, att, SolveVerdict(status, detail, f"rejected: {reason}")
+        return chosen, att, SolveVerdict(status, detail)
 
     def select(self, problem: SelectionProblem) -> SelectionResult:
         t0 = time.perf_counter()
         milp = _reduce(problem)
         build_s, solve_s = time.perf_counter() - t0, 0.0
-        prefix = ""
+        solves: list[SolveVerdict] = []
+        uncovered: tuple[int, ...] = ()
         if self.strict_cover:
             missing = problem.uncoverable()
             if missing.size:
-                prefix = f"strict cover infeasible (in no plan: {missing[:5].tolist()}); relaxed: "
+                uncovered = tuple(int(i) for i in missing)
             else:
-                chosen, att = self._attempt(problem, milp, True, self.time_limit_s)
+                chosen, att, verdict = self._attempt(problem, milp, True, self.time_limit_s)
                 build_s, solve_s = build_s + att.build_s, solve_s + att.solve_s
+                solves.append(verdict)
                 if chosen is not None:
-                    return SelectionResult(
-                        chosen,
-                        problem.objective(chosen),
-                        f"strict cover: {att.status}",
-                        False,
-                        solve_s,
-                        build_s,
-                    )
-                prefix = f"strict cover {att.status}; relaxed: "
+                    return self._result(problem, chosen, att, milp, solves, (), solve_s, build_s)
         limit = max(self.time_limit_s - build_s - solve_s, 0.1 * self.time_limit_s)
-        chosen, att = self._attempt(problem, milp, False, limit)
+        chosen, att, verdict = self._attempt(problem, milp, False, limit)
         build_s, solve_s = build_s + att.build_s, solve_s + att.solve_s
-        status = prefix + att.status
+        solves.append(verdict)
         fallback = chosen is None
         if chosen is None:
             t1 = time.perf_counter()
             chosen = greedy_select(problem)
             solve_s += time.perf_counter() - t1
-            status += "; fallback: greedy"
+        return self._result(
+            problem, chosen, att, milp, solves, uncovered, solve_s, build_s, fallback
+        )
+
+    def _result(
+        self,
+        problem: SelectionProblem,
+        chosen: NDArray[np.int64],
+        att: _Attempt,
+        milp: _Milp,
+        solves: list[SolveVerdict],
+        uncovered: tuple[int, ...],
+        solve_s: float,
+        build_s: float,
+        fallback: bool = False,
+    ) -> SelectionResult:
+        """The result of the last solve ``att``, its bound back in joules."""
+        bound = None if att.bound is None else milp.offset + milp.scale * att.bound
         return SelectionResult(
-            chosen, problem.objective(chosen), status, fallback, solve_s, build_s
+            chosen,
+            problem.objective(chosen),
+            solves[-1].status,
+            fallback,
+            solve_s,
+            build_s,
+            bound=bound,
+            gap=att.gap,
+            strict_cover=self.strict_cover,
+            uncovered=uncovered,
+            solves=tuple(solves),
         )
 
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Literal, Protocol, runtime_checkable
 
@@ -11,7 +12,21 @@ from ..plans.select import Selector
 from ..plans.view import WindowView
 
 if TYPE_CHECKING:
-    from ..config import PlanConfig, PlannerConfig
+    from ..config import PlannerConfig
+
+SLOT_PLANNER = "subsets"
+"""The planner whose plans a policy that picks plans by slot ranks (the MAPPO baseline:
+the paper's subset plans, docs/method.md §4.5)."""
+
+
+@dataclass(frozen=True)
+class SlotActions:
+    """One window's choices of a policy that picks the plans itself (the MAPPO baseline):
+    each drone's action, as :meth:`Policy.act` returns them, and the plan slot it picked
+    (:class:`~.direct.SlotSelector` flies it)."""
+
+    actions: np.ndarray
+    slots: np.ndarray
 
 
 @runtime_checkable
@@ -41,8 +56,9 @@ class Policy(Protocol):
         """Start a new day (recurrent state, random streams)."""
         ...
 
-    def act(self, view: WindowView) -> np.ndarray:
-        """Action index (0 = stay) for every drone, shape ``(U,)``."""
+    def act(self, view: WindowView) -> np.ndarray | SlotActions:
+        """Action index (0 = stay) for every drone, shape ``(U,)``; a policy that picks
+        the plans itself adds each drone's plan slot (:class:`SlotActions`)."""
         ...
 
 
@@ -69,11 +85,3 @@ def start_day(policy: Policy, cfg: PlannerConfig, seed: int) -> None:
     """Hand a policy the run's planner settings and start its day."""
     policy.configure(cfg)
     policy.reset(seed)
-
-
-def plan_config(policy: Policy, plan: PlanConfig) -> PlanConfig:
-    """The plan settings ``policy`` flies with: its own ``planner`` when it names one (the
-    MAPPO baseline ranks the paper's subset plans), else ``plan``."""
-    if policy.planner is None or policy.planner == plan.planner:
-        return plan
-    return plan.model_copy(update={"planner": policy.planner})

@@ -19,6 +19,7 @@ of its set (dropping a stop never adds payload or distance).
 from __future__ import annotations
 
 import time
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Literal
 
@@ -26,7 +27,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..plans.plans import SelectionProblem
-from ..plans.select import SelectionResult
+from ..plans.select import SelectionResult, SelectionStatus
+from .base import SLOT_PLANNER
 from .torchscript import TorchScriptPolicy
 
 DEFAULT_SLOTS = 4
@@ -50,16 +52,18 @@ def slot_plan(problem: SelectionProblem, u: int, slot: int, n_slots: int) -> int
     return int(ranked[min(slot, ranked.size - 1)])
 
 
+@dataclass(frozen=True, eq=False)
 class SlotSelector:
-    """A :class:`~marops_cli.plans.select.Selector` that flies the plan in each drone's slot.
+    """A :class:`~marops_cli.plans.select.Selector` that flies the plan in each drone's slot;
+    conflicts go to the drone with the lower index."""
 
-    Set :attr:`slots` (one per drone) before each window; conflicts go to the
-    drone with the lower index.
-    """
+    n_slots: int = DEFAULT_SLOTS
+    slots: NDArray[np.int64] | None = None
+    """Each drone's slot in the window it selects for; None: slot 0 (the best plan)."""
 
-    def __init__(self, n_slots: int = DEFAULT_SLOTS) -> None:
-        self.n_slots = n_slots
-        self.slots: NDArray[np.int64] | None = None
+    def picking(self, slots: np.ndarray) -> SlotSelector:
+        """This selector flying ``slots`` (one per drone)."""
+        return SlotSelector(self.n_slots, np.asarray(slots, dtype=np.int64))
 
     def select(self, problem: SelectionProblem) -> SelectionResult:
         t0 = time.perf_counter()
@@ -82,19 +86,25 @@ class SlotSelector:
             chosen[u] = k
             claimed |= free
         return SelectionResult(
-            chosen, problem.objective(chosen), "direct", False, time.perf_counter() - t0, 0.0
+            chosen,
+            problem.objective(chosen),
+            SelectionStatus.DIRECT,
+            False,
+            time.perf_counter() - t0,
+            0.0,
         )
 
 
 class DirectPolicy(TorchScriptPolicy):
     """Arg-max of a TorchScript actor over destination × plan slot (the MAPPO baseline).
 
-    The sidecar names ``plan_slots``; :attr:`selector` carries the chosen slots
-    to the window planner, which must use it instead of the optimiser.
+    The sidecar names ``plan_slots``; :meth:`act` returns the chosen slots with the
+    actions (:class:`~.base.SlotActions`), and :attr:`selector`, which the window planner
+    uses instead of the optimiser, flies them.
     """
 
     scope: Literal["range", "global"] = "range"
-    planner: str | None = "subsets"  # its slots rank the paper's subset plans (method.md §4.5)
+    planner: str | None = SLOT_PLANNER  # its slots rank the paper's subset plans
 
     def __init__(self, path: str | Path) -> None:
         super().__init__(path, slots=SlotSelector)

@@ -31,10 +31,10 @@ import numpy as np
 
 from ..config import PlanConfig
 from ..energy import EnergyModel
+from ..plans.candidates import by_delay, range_candidates
+from ..plans.objective import lam_j
 from ..plans.order import subset_energies
-from ..plans.ranges import pick_candidates
 from ..plans.view import FREE
-from ..plans.window import range_candidates
 from .base import WindowView
 
 
@@ -105,22 +105,6 @@ def _lg(x: float | np.ndarray) -> float | np.ndarray:
     return np.log1p(np.maximum(x, 0.0))
 
 
-def _planner_candidates(view: WindowView, s: int, rng: np.ndarray, m_hat: int) -> np.ndarray:
-    """Pending positions of the M̂ requests the planner would pick in range ``rng`` for a
-    drone at depot ``s`` (same rule as :func:`pick_candidates`)."""
-    inside = np.flatnonzero(rng[view.pending_area])
-    dist_s = np.hypot(*(view.pending_xy[inside] - view.depots.xy[s]).T)
-    cand = pick_candidates(
-        np.arange(inside.size),
-        view.pending_delay_h[inside],
-        view.pending_due_s[inside],
-        dist_s,
-        m_hat,
-        view.ties,
-    )
-    return inside[cand]
-
-
 def _range_features(
     f: np.ndarray,
     view: WindowView,
@@ -185,6 +169,8 @@ def observe(view: WindowView, m_hat: int = M_HAT) -> np.ndarray:
     # Delay around each depot: the areas of its own candidate list, itself excluded.
     neigh_delay = area_delay[dep.candidates[:, 1:]].sum(axis=1) if a > 1 else np.zeros(n)
     drones_at = np.bincount(view.drone_depot, minlength=n).astype(np.float64)
+    rank = by_delay(view)
+    rank_area = view.pending_area[rank]
 
     out = np.zeros((view.n_drones, obs_dim(a, ObsVersion.MAPPO)), dtype=np.float32)
     for u, s in enumerate(view.drone_depot):
@@ -201,7 +187,7 @@ def observe(view: WindowView, m_hat: int = M_HAT) -> np.ndarray:
                 (area_count, area_delay, area_due),
                 neigh_delay,
                 drones_at,
-                _planner_candidates(view, s, rng, m_hat),
+                range_candidates(view, rank, rank_area, s, k, m_hat),
                 m_hat,
             )
         g = out[u, a * PER_ACTION :]
@@ -268,13 +254,13 @@ class SequentialObserver:
         self.plan = plan or PlanConfig()
         a = self.plan.alpha if alpha is None else alpha
         self.alpha = a
-        self.lam = (1.0 - a) / a * self.model.usable_j
+        self.lam = lam_j(a, self.model.usable_j)
         dep = view.depots
         self.n_depots, self.n_actions = dep.candidates.shape
         self.claimed = np.zeros(view.pending_idx.size, dtype=bool)
         self.heading = np.zeros(self.n_depots)  # drones before that chose each destination
         self.drones_at = np.bincount(view.drone_depot, minlength=self.n_depots).astype(float)
-        self.rank = np.lexsort((view.pending_due_s, -view.pending_delay_h))
+        self.rank = by_delay(view)
         self.due_now = (view.pending_due_w <= view.t).astype(np.float64)
         self._best: dict[int, np.ndarray] = {}  # action -> requests of the best plan (drone u)
         self._u = -1

@@ -6,8 +6,9 @@ TorchScript file (:class:`~.torchscript.TorchScriptPolicy`), so both take the sa
 actions on the same window. Observation version 2: all drones at once; later versions
 drone by drone, each seeing what the drones before it claimed
 (:class:`~.observation.SequentialObserver`), priced with the run's planner settings.
-With plan slots (the MAPPO baseline) the choice is destination × slot and the slots go
-to :attr:`slots` (a :class:`~.direct.SlotSelector`), which the planner then flies.
+With plan slots (the MAPPO baseline) the choice is destination × slot: :meth:`act` returns
+the slots with the actions (:class:`~.base.SlotActions`) and :attr:`selector` (a
+:class:`~.direct.SlotSelector`) flies them.
 """
 
 from __future__ import annotations
@@ -18,7 +19,7 @@ from typing import TYPE_CHECKING, Any, Literal
 import numpy as np
 
 from ..errors import RunError
-from .base import PolicyBase, WindowView
+from .base import SLOT_PLANNER, PolicyBase, SlotActions, WindowView
 from .observation import ObsVersion, choice_mask, observe, observe_and_choose, to_actions
 
 if TYPE_CHECKING:
@@ -40,7 +41,7 @@ class RecurrentPolicy(PolicyBase):
         version: int,
         *,
         n_slots: int = 1,
-        slots: Any = None,
+        selector: Any = None,
         name: str = "actor",
     ) -> None:
         import torch  # deferred: importing torch costs a second the other policies never pay
@@ -51,10 +52,9 @@ class RecurrentPolicy(PolicyBase):
         self.hidden_size = int(hidden_size)
         self.obs_version = ObsVersion(int(version))
         self.n_slots = int(n_slots)
-        self.slots = slots
-        self.selector = slots
+        self.selector = selector
         if self.n_slots > 1:
-            self.planner = "subsets"  # its slots rank the paper's subset plans (method.md §4.5)
+            self.planner = SLOT_PLANNER  # its slots rank the paper's subset plans
         self.name = name
         self._hidden: Any = None
         self._model: Any = None
@@ -105,7 +105,7 @@ class RecurrentPolicy(PolicyBase):
         logits[~self.mask(view)] = -np.inf
         return logits
 
-    def act(self, view: WindowView) -> np.ndarray:
+    def act(self, view: WindowView) -> np.ndarray | SlotActions:
         self._start(view)
         mask = self.mask(view)
 
@@ -117,6 +117,7 @@ class RecurrentPolicy(PolicyBase):
         joint = observe_and_choose(
             view, choose, self.obs_version, model=self._model, plan=self._plan
         )[1]
-        if self.slots is not None:
-            self.slots.slots = joint % self.n_slots
-        return to_actions(joint // self.n_slots, self.n_actions)
+        actions = to_actions(joint // self.n_slots, self.n_actions)
+        if self.n_slots == 1:
+            return actions
+        return SlotActions(actions, joint % self.n_slots)

@@ -83,7 +83,7 @@ class TorchScriptPolicy(RecurrentPolicy):
             int(self.sidecar["hidden_size"]),
             int(self.sidecar["obs_version"]),
             n_slots=n_slots,
-            slots=None if slots is None else slots(n_slots),
+            selector=None if slots is None else slots(n_slots),
             name=f"torchscript:{self.path.name}",
         )
         self._probe()

@@ -53,12 +53,11 @@ import math
 
 import numpy as np
 
-from ..config import PlannerConfig
+from ..config import PlanConfig, PlannerConfig
 from ..data.table import DayRequests
 from ..energy import EnergyModel
-from ..plans.select import Selector, make_selector
-from ..plans.window import plan_window
-from ..policies.base import WindowView
+from ..plans.window import WindowPlan
+from ..policies.base import SLOT_PLANNER, SlotActions, WindowView
 from ..policies.direct import SlotSelector
 from ..policies.observation import (
     Chooser,
@@ -70,7 +69,9 @@ from ..policies.observation import (
     to_actions,
 )
 from ..segment.depots import Depots
+from ..sim.fleet import Fleet
 from ..sim.state import DayState, default_fleet
+from ..sim.step import WindowStep, fly_window
 from .config import TrainConfig
 
 _LN3 = math.log(3.0)
@@ -90,33 +91,59 @@ def reward(
     )
 
 
+def trained_step(cfg: PlannerConfig, tcfg: TrainConfig) -> WindowStep:
+    """How training flies a window: as replay flies the actor it exports, a flight-range
+    policy; the MAPPO baseline's plan slots rank the paper's subset plans, flown by its
+    slot selector (:func:`~.rollout.actor_policy`)."""
+    if tcfg.method != "mappo":
+        return WindowStep.make(cfg)
+    return WindowStep.make(cfg, planner=SLOT_PLANNER, selector=SlotSelector(tcfg.plan_slots))
+
+
 class DeliveryEnv:
-    """A day of the simulator as a multi-agent episode (paper Alg. 3, inner loop)."""
+    """A day of the simulator as a multi-agent episode (paper Alg. 3, inner loop).
+
+    ``how`` flies every window (:func:`~marops_cli.sim.step.fly_window`, as replay does);
+    by default as the trained policy will be flown (:func:`trained_step`).
+    """
 
     def __init__(
-        self, depots: Depots, cfg: PlannerConfig, tcfg: TrainConfig, n_drones: int | None = None
+        self,
+        depots: Depots,
+        cfg: PlannerConfig,
+        tcfg: TrainConfig,
+        n_drones: int | None = None,
+        how: WindowStep | None = None,
     ) -> None:
         self.depots = depots
         self.cfg = cfg
         self.tcfg = tcfg
         self.n_drones = n_drones or cfg.sim.drones
-        self.model = EnergyModel.of(cfg.energy)
         self.n_dest = int(depots.candidates.shape[1])
-        self.direct = tcfg.method == "mappo"
-        self.n_slots = tcfg.plan_slots if self.direct else 1
-        self.selector: Selector = (
-            SlotSelector(self.n_slots) if self.direct else make_selector(cfg.plan)
-        )
-        # MAPPO's plan slots rank the paper's subset plans (policies/direct.py).
-        self.base_plan = (
-            cfg.plan.model_copy(update={"planner": "subsets"}) if self.direct else cfg.plan
-        )
-        self.plan_cfg = self.base_plan
-        self.alpha = cfg.plan.alpha
+        self.base_how = how or trained_step(cfg, tcfg)
+        slots = self.base_how.selector
+        self.direct = isinstance(slots, SlotSelector)
+        if self.direct != (tcfg.method == "mappo"):
+            raise ValueError("the MAPPO baseline, and only it, flies its plan slots")
+        self.n_slots = slots.n_slots if isinstance(slots, SlotSelector) else 1
+        self.how = self.base_how
+        self.alpha = self.how.plan.alpha
         self.obs_version = ObsVersion.MAPPO if self.direct else ObsVersion(tcfg.obs_version)
         self.state: DayState | None = None
         self.view: WindowView | None = None
+        self.last_plan: WindowPlan | None = None
+        """The plan of the window flown last (None before the day's first)."""
         self.t = 0
+
+    @property
+    def model(self) -> EnergyModel:
+        """The energy model that prices λ (and the drones of a one-type fleet)."""
+        return self.how.model
+
+    @property
+    def plan_cfg(self) -> PlanConfig:
+        """The plan settings of this episode (at its α)."""
+        return self.how.plan
 
     @property
     def n_logits(self) -> int:
@@ -127,20 +154,28 @@ class DeliveryEnv:
         return obs_dim(self.n_dest, self.obs_version)
 
     def reset(
-        self, day: DayRequests, fleet: np.ndarray | None = None, alpha: float | None = None
+        self,
+        day: DayRequests,
+        fleet: Fleet | np.ndarray | None = None,
+        alpha: float | None = None,
     ) -> None:
-        """Start ``day`` with drones at ``fleet`` (default: the busiest depots), at
-        trade-off ``alpha`` (default: the config's)."""
-        self.alpha = self.cfg.plan.alpha if alpha is None else float(alpha)
-        self.plan_cfg = (
-            self.base_plan
-            if self.alpha == self.base_plan.alpha
-            else self.base_plan.model_copy(update={"alpha": self.alpha})
-        )
-        fleet = default_fleet(self.depots, self.n_drones) if fleet is None else fleet
-        self.state = DayState(day, self.depots, fleet, self.cfg.plan.coverage, self.cfg.plan.ties)
+        """Start ``day`` with drones at ``fleet`` (depots, or a fleet with each drone's
+        type; default: the busiest depots), at trade-off ``alpha`` (default: the step's)."""
+        self.alpha = self.base_how.plan.alpha if alpha is None else float(alpha)
+        self.how = self.base_how.at_alpha(self.alpha)
+        if fleet is None:
+            depot, models = default_fleet(self.depots, self.n_drones), None
+        elif isinstance(fleet, Fleet):
+            depot, models = fleet.depot, fleet.models()
+        else:
+            depot, models = np.asarray(fleet), None
+        if len(depot) != self.n_drones:
+            raise ValueError(f"a fleet of {len(depot)} drones for {self.n_drones} agents")
+        plan = self.cfg.plan
+        self.state = DayState(day, self.depots, depot, plan.coverage, plan.ties, models)
         self.t = 0
         self.view = self.state.view(0)
+        self.last_plan = None
 
     def observe(self, choose: Chooser) -> tuple[np.ndarray, np.ndarray]:
         """``(obs (U, D), actions (U,))`` of the current window, ``choose`` deciding
@@ -166,14 +201,11 @@ class DeliveryEnv:
         assert self.state is not None and self.view is not None and not self.done
         st, view = self.state, self.view
         actions = np.asarray(actions, dtype=np.int64)
-        if self.direct:
-            assert isinstance(self.selector, SlotSelector)
-            self.selector.slots = actions % self.n_slots
         dest = to_actions(actions // self.n_slots, self.n_dest)
-        plan = plan_window(view, dest, self.model, self.plan_cfg, self.selector)
-        energy_kj = np.array([r.energy_j for r in plan.routes]) / 1000.0
+        chosen = SlotActions(dest, actions % self.n_slots) if self.direct else dest
         starts = view.drone_depot.copy()
-        st.apply(plan, self.model.speed_ms)
+        plan = self.last_plan = fly_window(st, self.t, chosen, self.how, view)
+        energy_kj = np.array([r.energy_j for r in plan.routes]) / 1000.0
         delay_h, late_h = self._delay_added(starts, self._spared_h(plan.routes))
         e_u = (
             energy_kj

@@ -16,7 +16,6 @@ from torch.distributions import Categorical
 
 from ..config import PlannerConfig
 from ..data.table import DayRequests
-from ..energy import EnergyModel
 from ..policies.direct import SlotSelector
 from ..policies.observation import (
     ObsVersion,
@@ -27,6 +26,7 @@ from ..segment.depots import Depots
 from ..sim.metrics import day_metrics, metric_names
 from ..sim.replay import replay_day
 from ..sim.state import default_fleet
+from ..sim.step import WindowStep
 from .config import TrainConfig
 from .env import DeliveryEnv
 from .networks import Actor
@@ -152,11 +152,17 @@ def actor_policy(
     """An in-memory actor as a policy, flown by the same drive as the exported file
     (:class:`~marops_cli.policies.recurrent.RecurrentPolicy`), so evaluation replays days
     exactly as ``replay-day`` does."""
-    slots = SlotSelector(n_slots) if n_slots > 1 else None
+    selector = SlotSelector(n_slots) if n_slots > 1 else None
     free = 1 if version >= ObsVersion.ANTICIPATION else 0  # the free landing, last
     n_actions = actor.head.out_features // n_slots - free
     return RecurrentPolicy(
-        actor, n_actions, actor.hidden_size, version, n_slots=n_slots, slots=slots, name=name
+        actor,
+        n_actions,
+        actor.hidden_size,
+        version,
+        n_slots=n_slots,
+        selector=selector,
+        name=name,
     )
 
 
@@ -164,17 +170,8 @@ def evaluate_day(
     policy: Any, day: DayRequests, depots: Depots, cfg: PlannerConfig, method: str
 ) -> dict[str, Any]:
     """Replay ``day`` with ``policy`` and keep the metrics training reports."""
-    model = EnergyModel.of(cfg.energy)
+    how = WindowStep.of(policy, cfg)
     fleet = default_fleet(depots, cfg.sim.drones)
-    res = replay_day(
-        day,
-        depots,
-        fleet,
-        policy,
-        cfg,
-        method=method,
-        model=model,
-        selector=policy.selector,
-    )
-    m = day_metrics(res, model)
+    res = replay_day(day, depots, fleet, policy, cfg, method=method, how=how)
+    m = day_metrics(res, how.model)
     return {"day": m["day"], "method": method, **{k: m[k] for k in EVAL_KEYS}}

@@ -12,6 +12,24 @@ from ..data.frame import Frame
 from ..errors import InputError
 
 
+def nearest_depot(xy: np.ndarray, depots_xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Each point's nearest depot and the distance to it (m); ties go to the lower depot id.
+
+    ``xy`` is ``(P, 2)``, ``depots_xy`` ``(N, 2)``. In chunks: a city's million points
+    never build a points x depots matrix at once.
+    """
+    xy = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
+    ids = np.empty(xy.shape[0], dtype=np.int64)
+    dist = np.empty(xy.shape[0])
+    step = max(1, 2_000_000 // max(depots_xy.shape[0], 1))
+    for i in range(0, xy.shape[0], step):
+        p = xy[i : i + step]
+        d = np.hypot(p[:, None, 0] - depots_xy[None, :, 0], p[:, None, 1] - depots_xy[None, :, 1])
+        ids[i : i + step] = np.argmin(d, axis=1)  # the first minimum: the lower id
+        dist[i : i + step] = d[np.arange(p.shape[0]), ids[i : i + step]]
+    return ids, dist
+
+
 def nearest_candidates(xy: np.ndarray, n_actions: int) -> np.ndarray:
     """Each depot's action candidates: itself first, then its nearest other depots.
 
@@ -54,19 +72,11 @@ class Depots:
         return self.frame.to_lnglat(self.xy[:, 0], self.xy[:, 1])
 
     def assign(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-        """Service area (depot id) of each point: its nearest depot, ties to the lower id."""
-        x = np.asarray(x, dtype=np.float64)
-        y = np.asarray(y, dtype=np.float64)
-        if x.size == 0:
-            return np.zeros(0, dtype=np.int64)
-        out = np.empty(x.size, dtype=np.int64)
-        # In chunks: a city's million points never build a points x depots matrix at once.
-        step = max(1, 4_000_000 // max(self.xy.shape[0], 1))
-        for i in range(0, x.size, step):
-            px, py = x[i : i + step, None], y[i : i + step, None]
-            d2 = (px - self.xy[None, :, 0]) ** 2 + (py - self.xy[None, :, 1]) ** 2
-            out[i : i + step] = np.argmin(d2, axis=1)
-        return out
+        """Service area (depot id) of each point: its nearest depot, ties to the lower id
+        (:func:`nearest_depot`)."""
+        x = np.asarray(x, dtype=np.float64).reshape(-1)
+        y = np.asarray(y, dtype=np.float64).reshape(-1)
+        return nearest_depot(np.column_stack([x, y]), self.xy)[0]
 
     def with_actions(self, n_actions: int) -> Depots:
         """The same depots with a different number of action candidates."""

@@ -24,9 +24,8 @@ from ..energy import EnergyModel
 from ..errors import InputError, naming
 from ..methods import METHODS as _METHODS
 from ..methods import method as method_spec
-from ..plans.select import make_selector
-from ..plans.window import WindowPlan, plan_window
-from ..policies.base import Policy, plan_config, start_day
+from ..plans.window import WindowPlan
+from ..policies.base import Policy, start_day
 from ..policies.registry import SHIPPED, PolicySpec, make_policy
 from ..segment.cache import cached_depots
 from ..segment.depots import Depots
@@ -37,6 +36,7 @@ from .fleet import load_fleet as _load_fleet
 from .metrics import day_metrics
 from .replay import DayResult, replay_day
 from .state import DayState
+from .step import WindowStep, plan_step
 
 # method -> (segmentation, policy), live over the registry (marops_cli/methods.py).
 METHODS = _METHODS
@@ -212,13 +212,8 @@ def plan_one_window(
         done = np.isin(reqs.order_id.astype(str), np.array(sorted(delivered), dtype=str))
         state.delivered_w[done] = max(0, window - 1)
     start_day(policy, cfg, cfg.sim.seed)
-    model = EnergyModel.of(cfg.energy)
     view = state.view(window)
-    actions = policy.act(view)
-    selector = policy.selector or make_selector(cfg.plan)  # mappo flies its own
-    plan_cfg = plan_config(policy, cfg.plan)
-    plan = plan_window(view, actions, model, plan_cfg, selector, scope=policy.scope)
-    return plan, reqs
+    return plan_step(view, policy.act(view), WindowStep.of(policy, cfg)), reqs
 
 
 def replay(
@@ -233,7 +228,7 @@ def replay(
     and compute its metrics."""
     fl = as_fleet(fleet, scn.cfg.energy)
     reqs = prepare_day(scn.table, scn.frame, day, scn.cfg.data)
-    model = EnergyModel.of(scn.cfg.energy)
+    how = WindowStep.of(policy, scn.cfg)
     res = replay_day(
         reqs,
         scn.depots,
@@ -241,11 +236,11 @@ def replay(
         policy,
         scn.cfg,
         method=method,
-        model=model,
+        how=how,
         on_window=on_window,
         drone_models=fl.models(),
     )
-    return res, reqs, day_metrics(res, model, fl, hub=scn.hub)
+    return res, reqs, day_metrics(res, how.model, fl, hub=scn.hub)
 
 
 def route_tables(

@@ -1,4 +1,4 @@
-"""Replay one day window by window with a fleet, a policy and a selector."""
+"""Replay one day window by window with a fleet and a policy."""
 
 from __future__ import annotations
 
@@ -11,11 +11,11 @@ import numpy as np
 from ..config import PlannerConfig
 from ..data.table import DayRequests
 from ..energy import EnergyModel
-from ..plans.select import Selector, make_selector
-from ..plans.window import WindowPlan, plan_window
-from ..policies.base import Policy, plan_config, start_day
+from ..plans.window import WindowPlan
+from ..policies.base import Policy, start_day
 from ..segment.depots import Depots
 from .state import DayState
+from .step import WindowStep, fly_window
 
 
 @dataclass
@@ -35,17 +35,14 @@ def replay_day(
     cfg: PlannerConfig,
     *,
     method: str,
-    model: EnergyModel | None = None,
-    selector: Selector | None = None,
+    how: WindowStep | None = None,
     on_window: Callable[[WindowPlan], None] | None = None,
     drone_models: Sequence[EnergyModel] | None = None,
 ) -> DayResult:
     """Plan every window of ``day``; ``on_window`` is called after each (for progress).
-    ``drone_models`` are each drone's own (a mixed fleet), None: ``model`` for all."""
-    model = model or EnergyModel.of(cfg.energy)
-    # A policy that picks plans itself (the MAPPO baseline) carries its own selector.
-    selector = selector or policy.selector or make_selector(cfg.plan)
-    plan_cfg = plan_config(policy, cfg.plan)
+    ``how`` flies the windows (default: as ``policy`` flies under ``cfg``);
+    ``drone_models`` are each drone's own (a mixed fleet), None: the step's model for all."""
+    how = how or WindowStep.of(policy, cfg)
     state = DayState(
         day, depots, drone_depot, cfg.plan.coverage, cfg.plan.ties, drone_models=drone_models
     )
@@ -54,9 +51,7 @@ def replay_day(
     t0 = time.perf_counter()
     for t in range(day.n_windows):
         view = state.view(t)
-        actions = policy.act(view)
-        plan = plan_window(view, actions, model, plan_cfg, selector, scope=policy.scope)
-        state.apply(plan, model.speed_ms)
+        plan = fly_window(state, t, policy.act(view), how, view)
         plans.append(plan)
         if on_window is not None:
             on_window(plan)

@@ -17,6 +17,7 @@ from marops_cli.plans import (
     PlanSet,
     SelectionProblem,
     SelectionResult,
+    SelectionStatus,
     Selector,
     build_plans,
     greedy_select,
@@ -24,6 +25,7 @@ from marops_cli.plans import (
     solve_highs_direct,
 )
 from marops_cli.plans import select as select_mod
+from marops_cli.plans.select import SolveVerdict
 
 E_REF = 168_750.0
 OBJ_RTOL = 1e-9  # the MILP is solved to a relative gap of 1e-7 of O(1) scaled costs
@@ -160,7 +162,7 @@ def test_strict_cover_when_feasible(backend):
     relaxed = MilpSelector(backend=backend).select(problem)
     assert list(relaxed.chosen) == [0, 0]
     strict = MilpSelector(strict_cover=True, backend=backend).select(problem)
-    assert strict.status == "strict cover: optimal" and not strict.fallback
+    assert strict.status_text == "strict cover: optimal" and not strict.fallback
     assert np.all(problem.served(strict.chosen) == 1)
     assert_allclose(strict.objective, brute_force(problem, strict=True), rtol=OBJ_RTOL)
     assert_allclose(strict.objective, 50_000.0)  # {1,2} + {3} (or {1} + {2,3})
@@ -170,7 +172,7 @@ def test_strict_cover_when_feasible(backend):
 def test_strict_cover_infeasible_falls_back_to_the_relaxed_program(backend):
     problem = strict_instance(feasible=False)
     result = MilpSelector(strict_cover=True, backend=backend).select(problem)
-    assert result.status == "strict cover infeasible; relaxed: optimal"
+    assert result.status_text == "strict cover infeasible; relaxed: optimal"
     assert not result.fallback
     assert_allclose(result.objective, brute_force(problem), rtol=OBJ_RTOL)
 
@@ -179,7 +181,7 @@ def test_strict_cover_with_a_request_no_plan_serves():
     a = plan_set([1, 2], [[0, 0], [1, 0]], [10_000.0, 20_000.0])
     problem = SelectionProblem.from_plan_sets([a], {1: 1.0, 2: 1.0}, alpha=0.5, energy_ref_j=E_REF)
     result = MilpSelector(strict_cover=True).select(problem)
-    assert result.status.startswith("strict cover infeasible (in no plan: [2]); relaxed: ")
+    assert result.status_text.startswith("strict cover infeasible (in no plan: [2]); relaxed: ")
     assert list(result.chosen) == [1]
 
 
@@ -201,7 +203,7 @@ def test_solver_error_falls_back_to_greedy(monkeypatch, backend):
     problem = random_problem(3)
     result = MilpSelector(backend=backend).select(problem)
     assert result.fallback
-    assert "solver error" in result.status and result.status.endswith("fallback: greedy")
+    assert "solver error" in result.status_text and result.status_text.endswith("fallback: greedy")
     assert_valid(problem, result)
     assert list(result.chosen) == list(greedy_select(problem))
 
@@ -213,7 +215,7 @@ def test_time_limit_without_incumbent_falls_back(monkeypatch):
     monkeypatch.setitem(select_mod._BACKENDS, "highs", timed_out)
     problem = random_problem(4)
     result = MilpSelector().select(problem)
-    assert result.fallback and result.status == "time limit; fallback: greedy"
+    assert result.fallback and result.status_text == "time limit; fallback: greedy"
     assert_valid(problem, result)
 
 
@@ -224,7 +226,7 @@ def test_a_solution_that_does_not_verify_is_rejected(monkeypatch):
     monkeypatch.setitem(select_mod._BACKENDS, "highs", all_ones)
     problem = random_problem(5)
     result = MilpSelector().select(problem)
-    assert result.fallback and "not a selection" in result.status
+    assert result.fallback and "not a selection" in result.status_text
     assert_valid(problem, result)
 
 
@@ -293,3 +295,78 @@ def test_a_fractional_relaxation_goes_on_to_the_integer_program(monkeypatch):
     disjoint = [plan_set([i], [[0], [1]], [10_000.0, 12_000.0]) for i in ids]
     easy = SelectionProblem.from_plan_sets(disjoint, delay, alpha=0.5, energy_ref_j=E_REF)
     assert MilpSelector().select(easy).chosen.tolist() == [1, 1, 1] and len(runs) == 1
+
+
+def _result(status, fallback=False, **kw) -> SelectionResult:
+    return SelectionResult(np.zeros(1, np.int64), 0.0, status, fallback, 0.0, 0.0, **kw)
+
+
+def test_status_text_renders_each_story():
+    """The words route files and the command line print, from the typed result."""
+    S, V = SelectionStatus, SolveVerdict
+    assert _result(S.GREEDY).status_text == "greedy" and str(_result(S.DIRECT)) == "direct"
+    assert _result(S.OPTIMAL, solves=(V(S.OPTIMAL),)).status_text == "optimal"
+    timed = _result(S.TIME_LIMIT, True, solves=(V(S.TIME_LIMIT),))
+    assert timed.status_text == "time limit; fallback: greedy"
+    odd = _result(S.OTHER, True, solves=(V(S.OTHER, "kInterrupt"),))
+    assert odd.status_text == "kInterrupt; fallback: greedy"
+    crash = V(S.SOLVER_ERROR, "RuntimeError: boom")
+    assert str(crash) == "solver error (RuntimeError: boom)"
+    bad = V(S.OPTIMAL, unused="rejected: a request is not covered")
+    assert str(bad) == "optimal (rejected: a request is not covered)"
+    strict = _result(S.OPTIMAL, strict_cover=True, solves=(V(S.OPTIMAL),))
+    assert strict.status_text == "strict cover: optimal"
+    failed = _result(S.OPTIMAL, strict_cover=True, solves=(V(S.INFEASIBLE), V(S.OPTIMAL)))
+    assert failed.status_text == "strict cover infeasible; relaxed: optimal"
+    holes = _result(
+        S.TIME_LIMIT,
+        True,
+        strict_cover=True,
+        uncovered=(9, 8, 7, 6, 5, 4),
+        solves=(V(S.TIME_LIMIT),),
+    )
+    assert holes.status_text == (
+        "strict cover infeasible (in no plan: [9, 8, 7, 6, 5]); relaxed: time limit; "
+        "fallback: greedy"
+    )
+
+
+@pytest.mark.parametrize("backend", ["cvxpy", "highs"])
+def test_optimal_result_is_typed_with_its_bound(backend):
+    problem = random_problem(11)
+    result = MilpSelector(backend=backend).select(problem)
+    assert result.status is SelectionStatus.OPTIMAL and not result.fallback
+    assert result.solves == (SolveVerdict(SelectionStatus.OPTIMAL),)
+    assert result.bound is not None and result.gap is not None and result.gap <= 1e-6
+    # the bound is in joules, below the optimum and within the solver's gap of it
+    assert result.bound <= result.objective + 1e-6 * abs(result.objective)
+    assert_allclose(result.bound, result.objective, rtol=1e-6)
+
+
+def test_fallback_keeps_the_failed_verdict(monkeypatch):
+    def timed_out(milp, strict, limit):
+        return select_mod._Attempt(None, "kTimeLimit", 0.001, 0.002, bound=-0.5, gap=None)
+
+    monkeypatch.setitem(select_mod._BACKENDS, "highs", timed_out)
+    result = MilpSelector().select(random_problem(4))
+    assert result.status is SelectionStatus.TIME_LIMIT and result.fallback
+    assert result.bound is not None and result.gap is None
+    assert GreedySelector().select(random_problem(4)).status is SelectionStatus.GREEDY
+
+
+def test_importing_the_selection_touches_no_file_descriptor():
+    """The HiGHS banner is silenced on the first solve, not on import."""
+    import subprocess
+    import sys
+
+    code = (
+        "import os\n"
+        "calls = []\n"
+        "real = os.dup2\n"
+        "os.dup2 = lambda *a: (calls.append(a), real(*a))[1]\n"
+        "import marops_cli.plans.select as s\n"
+        "assert calls == [] and not s._banner_silenced, calls\n"
+        "s._silence_highs_banner()\n"
+        "assert len(calls) == 2 and s._banner_silenced\n"
+    )
+    subprocess.run([sys.executable, "-c", code], check=True)

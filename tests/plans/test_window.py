@@ -16,16 +16,11 @@ from marops_cli.energy import EnergyModel, reference_power_w
 from marops_cli.errors import RunError
 from marops_cli.plans import GreedySelector, MilpSelector, Selector
 from marops_cli.plans.objective import lam_j, score_routes
+from marops_cli.plans.planner import _pool_tasks
 from marops_cli.plans.pool import build_pool
 from marops_cli.plans.ranges import pick_candidates, range_table
 from marops_cli.plans.view import FREE
-from marops_cli.plans.window import (
-    DroneRoute,
-    _pool_tasks,
-    check_routes,
-    drone_models,
-    plan_window,
-)
+from marops_cli.plans.window import DroneRoute, check_routes, drone_models, plan_window
 from marops_cli.policies.base import WindowView
 from marops_cli.segment.depots import Depots, nearest_candidates
 
@@ -456,7 +451,7 @@ def test_window_invariants(model, inst):
 
 def test_draft_by_hand() -> None:
     """Two drones want the same three requests most: they alternate, snake order."""
-    from marops_cli.plans.window import draft
+    from marops_cli.plans.candidates import draft
 
     prefs = [np.array([0, 1, 2, 3]), np.array([0, 1, 2, 4])]
     got = draft(prefs, 5, 2)

@@ -240,16 +240,19 @@ def test_version3_actor_chooses_drone_by_drone(tmp_path: Path) -> None:
 def test_mappo_flies_the_paper_planner_whatever_the_setting():
     """The MAPPO actor's plan slots rank the paper's subset plans, so it keeps that
     planner under the route pool default; flight-range policies keep the setting."""
-    from marops_cli.config import PlanConfig
-    from marops_cli.policies.base import plan_config
+    from marops_cli.config import PlannerConfig
+    from marops_cli.policies.direct import SlotSelector
     from marops_cli.sim.jobs import method_policy
+    from marops_cli.sim.step import WindowStep
 
-    plan = PlanConfig()
+    cfg = PlannerConfig()
+    plan = cfg.plan
     assert plan.planner == "pool"
-    mappo = method_policy("mappo", None, 0)
-    assert plan_config(mappo, plan).planner == "subsets"
-    assert plan_config(mappo, plan).model_copy(update={"planner": "pool"}) == plan
-    assert plan_config(StayPolicy(), plan) is plan
+    mappo = WindowStep.of(method_policy("mappo", None, 0), cfg)
+    assert mappo.plan.planner == "subsets" and isinstance(mappo.selector, SlotSelector)
+    assert mappo.plan.model_copy(update={"planner": "pool"}) == plan
+    stay = WindowStep.of(StayPolicy(), cfg)
+    assert stay.plan is plan and not isinstance(stay.selector, SlotSelector)
 
 
 def test_policy_specs_parse_once_into_a_record(monkeypatch: pytest.MonkeyPatch) -> None:

@@ -35,11 +35,11 @@ def test_ranking_by_value_then_energy() -> None:
 def test_first_claim_wins_and_last_slot_is_empty() -> None:
     p = _problem()
     sel = SlotSelector(4)
-    sel.slots = np.array([0, 0])
-    r = sel.select(p)
+    r = sel.picking(np.array([0, 0])).select(p)
     # drone 0 takes {10, 11}; drone 1 wanted {11, 12}, 11 is taken -> flies {12} (plan 2)
     assert r.chosen.tolist() == [3, 2] and p.violation(r.chosen) is None
-    sel.slots = np.array([3, 1])  # drone 0 flies empty; drone 1's second-best is {11}
-    assert sel.select(p).chosen.tolist() == [0, 1]
-    sel.slots = np.array([2, 2])  # third-best: drone 0 {10}, drone 1 {12}
-    assert sel.select(p).chosen.tolist() == [1, 2]
+    # drone 0 flies empty; drone 1's second-best is {11}
+    assert sel.picking(np.array([3, 1])).select(p).chosen.tolist() == [0, 1]
+    # third-best: drone 0 {10}, drone 1 {12}
+    assert sel.picking(np.array([2, 2])).select(p).chosen.tolist() == [1, 2]
+    assert sel.slots is None and sel.select(p).chosen.tolist() == [3, 2]  # slot 0: the best

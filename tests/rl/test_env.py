@@ -78,4 +78,4 @@ def test_an_episode_flies_at_its_own_alpha(tiny_csv: Path, small_cfg: PlannerCon
         assert_allclose(r, want, rtol=1e-12)
         rewards[alpha] = r
     env.reset(scn.train_days[0])
-    assert env.alpha == 0.5 and env.plan_cfg is env.base_plan
+    assert env.alpha == 0.5 and env.how is env.base_how

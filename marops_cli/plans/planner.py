@@ -1,0 +1,432 @@
+"""The planners: each drone's candidate plans for one window (docs/method.md §4, §7).
+
+A :class:`Planner` is chosen once from the config (:func:`make_planner`) and builds, for a
+window and the drones' actions, every drone's plan set and where each plan lands; the
+selection program then picks one plan per drone (``window.py``). Three planners:
+
+* :class:`SubsetsPlanner`: the paper's (Alg. 2): every feasible subset of each drone's
+  M̂ candidates, in its flight range (scope ``range``) or, OPS-global (scope ``global``),
+  among the U·M̂ most delayed requests of the whole map, each drone taking the M̂ of them
+  nearest its depot and each plan landing at the depot nearest its last customer.
+* :class:`RoutePoolPlanner`: the route pool (docs/method.md, "Route pool").
+* :class:`PyvrpPoolPlanner`: the route pool with PyVRP's routes as extra columns
+  (``pyvrp_iterations`` > 0).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from typing import Literal, Protocol
+
+import numpy as np
+
+from ..config import PlanConfig
+from ..energy import EnergyModel
+from ..segment.depots import nearest_depot
+from .candidates import by_delay, draft, range_candidates
+from .objective import lam_j
+from .plans import PlanSet, build_plans
+from .pool import DroneTask, build_pool
+from .view import FREE, WindowView
+
+__all__ = [
+    "DronePlans",
+    "Planner",
+    "PyvrpPoolPlanner",
+    "RoutePoolPlanner",
+    "SubsetsPlanner",
+    "make_planner",
+]
+
+Scope = Literal["range", "global"]
+
+
+@dataclass(frozen=True)
+class DronePlans:
+    """What a planner gives the selection for one window."""
+
+    plan_sets: list[PlanSet]
+    """Each drone's plans; plan 0 is its empty plan."""
+    ends: list[np.ndarray]
+    """Each drone's plans' end depots; -1: the depot nearest the last customer, fixed
+    once the chosen route is ordered."""
+    actions: np.ndarray
+    """``(U,)`` the actions the drones fly (a destination out of reach becomes stay)."""
+    candidates_s: float
+    """Seconds spent choosing candidates (the route pool: building its routes)."""
+    reorder: bool
+    """The chosen routes still get their energy-minimal order and landing
+    (:func:`~marops_cli.plans.pool.finish_route`): the route pool stores routes in
+    insertion order."""
+
+
+class Planner(Protocol):
+    """Builds each drone's plans for one window from the drones' actions."""
+
+    def plans(
+        self,
+        view: WindowView,
+        actions: np.ndarray,
+        model: EnergyModel,
+        models: list[EnergyModel],
+    ) -> DronePlans:
+        """Plan sets and ends for ``view``; ``model`` prices delay (λ = ((1 − α)/α) ·
+        its usable battery), ``models`` are the drones' own (a mixed fleet)."""
+        ...
+
+
+@dataclass(frozen=True)
+class SubsetsPlanner:
+    """The paper's planner: every feasible subset of each drone's candidates."""
+
+    cfg: PlanConfig
+    scope: Scope = "range"
+
+    def plans(
+        self,
+        view: WindowView,
+        actions: np.ndarray,
+        model: EnergyModel,
+        models: list[EnergyModel],
+    ) -> DronePlans:
+        if self.scope == "global":  # no flight range: every drone starts as "stay"
+            acts = np.zeros(view.n_drones, dtype=np.int64)
+            plan_sets, plan_ends, t_cand = _global_plans(view, models, self.cfg)
+            return DronePlans(plan_sets, plan_ends, acts, t_cand, reorder=False)
+        # The paper's planner has no free landing: FREE flies as stay.
+        acts = np.asarray(actions, dtype=np.int64)
+        acts = np.where(acts == FREE, 0, acts)
+        plan_sets, ends, acts, t_cand = _range_plans(view, acts, models, self.cfg)
+        plan_ends = [np.full(ps.n_plans, ends[u]) for u, ps in enumerate(plan_sets)]
+        return DronePlans(plan_sets, plan_ends, acts, t_cand, reorder=False)
+
+
+@dataclass(frozen=True)
+class RoutePoolPlanner:
+    """The route pool: many good routes per drone from construction and ruin and
+    recreate (docs/method.md, "Route pool")."""
+
+    cfg: PlanConfig
+    scope: Scope = "range"
+
+    def pyvrp_iterations(self) -> int:
+        """PyVRP iterations whose routes join the pool: none (:class:`PyvrpPoolPlanner`)."""
+        return 0
+
+    def plans(
+        self,
+        view: WindowView,
+        actions: np.ndarray,
+        model: EnergyModel,
+        models: list[EnergyModel],
+    ) -> DronePlans:
+        if self.scope == "global":
+            acts = np.zeros(view.n_drones, dtype=np.int64)
+        else:
+            acts = _reachable_actions(view, np.asarray(actions, dtype=np.int64), models)
+        plan_sets, plan_ends, t_cand = _pool_plans(
+            view, acts, model, models, self.cfg, self.scope, self.pyvrp_iterations()
+        )
+        return DronePlans(plan_sets, plan_ends, acts, t_cand, reorder=True)
+
+
+@dataclass(frozen=True)
+class PyvrpPoolPlanner(RoutePoolPlanner):
+    """The route pool with PyVRP's routes for the window as extra columns, each re-costed
+    exactly (``cfg.pyvrp_iterations`` iterations; needs the pyvrp extra)."""
+
+    def pyvrp_iterations(self) -> int:
+        return self.cfg.pyvrp_iterations
+
+
+def make_planner(cfg: PlanConfig, scope: Scope = "range") -> Planner:
+    """The planner ``cfg.planner`` names, for flight ranges or the whole map (``scope``)."""
+    if scope not in ("range", "global"):
+        raise ValueError(f"expected scope 'range' or 'global', got {scope!r}")
+    if cfg.planner == "pool":
+        pool = PyvrpPoolPlanner if cfg.pyvrp_iterations > 0 else RoutePoolPlanner
+        return pool(cfg, scope)
+    return SubsetsPlanner(cfg, scope)
+
+
+def _reachable_actions(
+    view: WindowView, actions: np.ndarray, models: list[EnergyModel]
+) -> np.ndarray:
+    """Actions whose destination the empty drone cannot reach become 0 (stay); FREE stays
+    FREE (an idle free drone stays where it is)."""
+    dep = view.depots
+    acts = np.asarray(actions, dtype=np.int64).copy()
+    for u, s in enumerate(view.drone_depot):
+        if acts[u] == FREE:
+            continue
+        d = int(dep.candidates[int(s), acts[u]])
+        flight = float(np.hypot(*(dep.xy[d] - dep.xy[int(s)])))
+        # The same test build_plans applies to the empty plan, so it never raises.
+        if float(models[u].leg_energy_j(flight, 0.0)) > models[u].usable_j:
+            acts[u] = 0
+    return acts
+
+
+def _drafted_candidates(
+    view: WindowView, rank: np.ndarray, rank_area: np.ndarray, acts: np.ndarray, m_hat: int
+) -> list[np.ndarray]:
+    """Candidates by draft: drones take turns (snake order) claiming the most delayed
+    unclaimed request in their range, M̂ rounds; a drone left short tops up with requests
+    others claimed, so the selection can still arbitrate between them.
+
+    Each drone's preference order is :func:`pick_candidates`' (delay, then distance to
+    its depot and due time as ``view.ties`` orders them, then index); only the head of
+    its range that the draft can reach is sorted.
+    """
+    head = m_hat * (view.n_drones + 1)  # the most any drone can reach in the draft
+    prefs = [
+        range_candidates(view, rank, rank_area, int(s), int(a), head)
+        for s, a in zip(view.drone_depot, acts, strict=True)
+    ]
+    return draft(prefs, view.pending_idx.size, m_hat)
+
+
+def _range_plans(
+    view: WindowView, actions: np.ndarray, models: list[EnergyModel], cfg: PlanConfig
+) -> tuple[list[PlanSet], np.ndarray, np.ndarray, float]:
+    dep = view.depots
+    acts = _reachable_actions(view, actions, models)
+    t0 = time.perf_counter()
+    rank = by_delay(view)
+    rank_area = view.pending_area[rank]
+    if cfg.candidates == "draft":
+        cands = _drafted_candidates(view, rank, rank_area, acts, cfg.max_parcels)
+    else:
+        # Drones at the same depot taking the same action have the same candidates.
+        by_key: dict[tuple[int, int], np.ndarray] = {}
+        cands = []
+        for u, s in enumerate(view.drone_depot):
+            sa = (int(s), int(acts[u]))
+            if sa not in by_key:
+                by_key[sa] = range_candidates(view, rank, rank_area, *sa, cfg.max_parcels)
+            cands.append(by_key[sa])
+    t_cand = time.perf_counter() - t0
+    plan_sets: list[PlanSet] = []
+    ends = np.zeros(view.n_drones, dtype=np.int64)
+    done: dict[tuple[int, int, bytes, int], PlanSet] = {}  # identical inputs, identical plans
+    for u, s0 in enumerate(view.drone_depot):
+        s, cand = int(s0), cands[u]
+        dest = int(dep.candidates[s, acts[u]])
+        key = (s, dest, cand.tobytes(), id(models[u]))
+        if key not in done:
+            done[key] = build_plans(
+                dep.xy[s],
+                dep.xy[dest],
+                view.pending_xy[cand],
+                view.pending_weight[cand],
+                models[u],
+                cfg,
+                request_ids=cand,
+            )
+        plan_sets.append(done[key])
+        ends[u] = dest
+    return plan_sets, ends, acts, t_cand
+
+
+def _global_plans(
+    view: WindowView, models: list[EnergyModel], cfg: PlanConfig
+) -> tuple[list[PlanSet], list[np.ndarray], float]:
+    """OPS-global candidates; returns each drone's plan sets and each plan's end depot."""
+    dep = view.depots
+    t0 = time.perf_counter()
+    n_pool = view.n_drones * cfg.max_parcels
+    order = np.lexsort(
+        (np.arange(view.pending_idx.size), view.pending_due_s, -view.pending_delay_h)
+    )
+    pool = order[:n_pool]
+    # Distance from every pooled request to every depot, and its nearest depot, once for
+    # all drones.
+    pxy = view.pending_xy[pool]
+    d_pool = np.hypot(pxy[:, None, 0] - dep.xy[None, :, 0], pxy[:, None, 1] - dep.xy[None, :, 1])
+    near, d_near = nearest_depot(pxy, dep.xy)
+    # Each drone's pool positions, nearest its depot first (ties to the lower index).
+    nearest = {int(s): np.lexsort((pool, d_pool[:, int(s)])) for s in set(view.drone_depot)}
+    drafted = None
+    if cfg.candidates == "draft":
+        drafted = draft([nearest[int(s)] for s in view.drone_depot], pool.size, cfg.max_parcels)
+    t_cand = time.perf_counter() - t0
+    plan_sets, plan_ends = [], []
+    done: dict[tuple[int, bytes, int], tuple[PlanSet, np.ndarray]] = {}  # same in, same out
+    for u, s0 in enumerate(view.drone_depot):
+        s, model = int(s0), models[u]
+        e0 = float(model.energy_per_m(0.0))
+        sel = nearest[s][: cfg.max_parcels] if drafted is None else drafted[u]
+        key = (s, sel.tobytes(), id(model))
+        if key in done:
+            plan_sets.append(done[key][0])
+            plan_ends.append(done[key][1])
+            continue
+        d = d_pool[:, s]
+        cand = pool[sel]
+        ps = build_plans(
+            dep.xy[s],
+            dep.xy[s],
+            view.pending_xy[cand],
+            view.pending_weight[cand],
+            model,
+            cfg,
+            request_ids=cand,
+        )
+        # Land at the depot nearest the last customer instead of flying back: the
+        # last leg is flown empty, so only its length changes (never longer).
+        sizes = (ps.order >= 0).sum(axis=1)
+        ends = np.full(ps.n_plans, s, dtype=np.int64)
+        energy, distance = ps.energy_j.copy(), ps.distance_m.copy()
+        has = sizes > 0  # (no candidates at all: only the empty plan, nothing to index)
+        if has.any():
+            last = sel[ps.order[has, sizes[has] - 1]]
+            ends[has] = near[last]
+            distance[has] += d_near[last] - d[last]
+            energy[has] += e0 * (d_near[last] - d[last])
+        done[key] = (
+            PlanSet(ps.request_ids, ps.members, ps.order, energy, distance, ps.weight_kg),
+            ends,
+        )
+        plan_sets.append(done[key][0])
+        plan_ends.append(ends)
+    return plan_sets, plan_ends, t_cand
+
+
+def _pool_tasks(
+    view: WindowView,
+    acts: np.ndarray,
+    cfg: PlanConfig,
+    scope: Scope,
+    models: list[EnergyModel] | None = None,
+) -> list[DroneTask]:
+    """Each drone's start, end (-1: nearest depot to its last customer) and allowed requests."""
+    dep = view.depots
+    everything = np.arange(view.pending_idx.size, dtype=np.int64)
+    tasks = []
+    for u, s0 in enumerate(view.drone_depot):
+        s = int(s0)
+        m = None if models is None else models[u]
+        if scope == "global":
+            tasks.append(DroneTask(s, -1, everything, m))
+            continue
+        a = int(acts[u])
+        free = a == FREE
+        a = 0 if free else a
+        dest = int(dep.candidates[s, a])
+        if cfg.range == "areas":
+            allowed = np.flatnonzero(view.ranges[s, a][view.pending_area]).astype(np.int64)
+        else:  # the battery alone bounds what the drone can serve on its way
+            allowed = everything
+        fixed = cfg.landing == "destination" and not free
+        tasks.append(DroneTask(s, dest if fixed else -1, allowed, m))
+    return tasks
+
+
+def _pool_plans(
+    view: WindowView,
+    acts: np.ndarray,
+    model: EnergyModel,
+    models: list[EnergyModel],
+    cfg: PlanConfig,
+    scope: Scope,
+    pyvrp_iterations: int = 0,
+) -> tuple[list[PlanSet], list[np.ndarray], float]:
+    """Route-pool plan sets (docs/method.md, "Route pool") and each plan's end depot;
+    ``model`` prices delay (λ), ``models`` are the drones' own; with ``pyvrp_iterations``
+    PyVRP's routes join the pool as extra columns."""
+    dep = view.depots
+    t0 = time.perf_counter()
+    tasks = _pool_tasks(view, acts, cfg, scope, models)
+    lam = lam_j(cfg.alpha, model.usable_j)
+    prize = lam * (1.0 + view.pending_delay_h)
+    # Routes are built for the prize plus the urgency bonus; the selection judges them by
+    # the window objective alone (docs/method.md §4.4).
+    due = view.pending_due_w <= view.t
+    search = prize + lam * cfg.pool_urgency * view.window_h * due if cfg.pool_urgency else prize
+    res = build_pool(
+        dep.xy,
+        view.pending_xy,
+        view.pending_weight,
+        search,
+        tasks,
+        model,
+        n_candidates=cfg.pool_candidates,
+        iterations=cfg.pool_iterations,
+        seed=view.t,
+    )
+    routes = [dict(zip(r, e, strict=True)) for r, e in zip(res.routes, res.energy_j, strict=True)]
+    if pyvrp_iterations > 0:
+        _add_pyvrp_routes(view, tasks, lam, model, pyvrp_iterations, routes)
+    t_cand = time.perf_counter() - t0
+    plan_sets, plan_ends = [], []
+    for u, task in enumerate(tasks):
+        empty_end = task.start if task.end < 0 else task.end
+        flight = float(np.hypot(*(dep.xy[empty_end] - dep.xy[task.start])))
+        keys = list(routes[u])
+        ids = np.unique(np.array([i for k in keys for i in k], dtype=np.int64))
+        n_k = len(keys) + 1
+        members = np.zeros((n_k, ids.size), dtype=bool)
+        order = np.full((n_k, max(ids.size, 1)), -1, dtype=np.int16)
+        energy = np.empty(n_k)
+        energy[0] = float(models[u].leg_energy_j(flight, 0.0))
+        for k, key in enumerate(keys, start=1):
+            col = np.searchsorted(ids, np.array(key, dtype=np.int64))
+            members[k, col] = True
+            order[k, : col.size] = col
+            energy[k] = routes[u][key]
+        weight = members @ view.pending_weight[ids] if ids.size else np.zeros(n_k)
+        # Distances are recomputed for the chosen routes; the table needs energies only.
+        plan_sets.append(PlanSet(ids, members, order, energy, np.zeros(n_k), weight))
+        plan_ends.append(np.full(n_k, task.end, dtype=np.int64))
+    return plan_sets, plan_ends, t_cand
+
+
+def _add_pyvrp_routes(
+    view: WindowView,
+    tasks: list[DroneTask],
+    lam: float,
+    model: EnergyModel,
+    iterations: int,
+    routes: list[dict[tuple[int, ...], float]],
+) -> None:
+    """PyVRP's routes for the window as extra columns (each re-costed exactly)."""
+    from .pyvrp_routes import solve_window
+
+    n = view.pending_idx.size
+    allowed = np.zeros((len(tasks), n), dtype=bool)
+    for u, t in enumerate(tasks):
+        allowed[u, t.allowed] = True
+    ends = np.array([t.end for t in tasks], dtype=np.int64)
+    peer = solve_window(
+        view.depots.xy,
+        np.array([t.start for t in tasks], dtype=np.int64),
+        view.pending_xy,
+        view.pending_weight,
+        1.0 + view.pending_delay_h,
+        lam,
+        model,
+        drone_end=None if np.all(ends < 0) else np.where(ends < 0, view.drone_depot, ends),
+        allowed=None if allowed.all() else allowed,
+        iterations=iterations,
+        seed=view.t,
+    )
+    for s, stops in zip(peer.start, peer.stops, strict=True):
+        for u, t in enumerate(tasks):
+            if t.start != int(s) or not allowed[u, stops].all():
+                continue
+            own = t.model or model  # the drone's own limits (a mixed fleet)
+            e = _route_energy_j(view, t, stops, own)
+            w = float(view.pending_weight[stops].sum())
+            if e <= own.usable_j and own.fits(w):
+                routes[u].setdefault(tuple(int(i) for i in stops), e)
+
+
+def _route_energy_j(
+    view: WindowView, task: DroneTask, stops: np.ndarray, model: EnergyModel
+) -> float:
+    dep = view.depots
+    xy = view.pending_xy[stops]
+    end = task.end if task.end >= 0 else int(nearest_depot(xy[-1], dep.xy)[0][0])
+    pts = np.vstack([dep.xy[task.start], xy, dep.xy[end]])
+    return float(model.route_energy(pts, view.pending_weight[stops])[1].sum())
