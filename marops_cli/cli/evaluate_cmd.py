@@ -135,7 +135,7 @@ def evaluate(
     require_input(data)
     _check_out(out)  # before any computing
     if scheduler is not None:
-        from ..evaluate.cluster import require_distributed
+        from ..workers.cluster import require_distributed
 
         require_distributed()
     refuse_overwriting_inputs(
