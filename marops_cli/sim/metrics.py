@@ -94,15 +94,35 @@ DAILY_COMBINED_COST = _M(
 # record only when the day ran under a model other than the paper's, so the paper's
 # records and tables stay as they were.
 OPS_METRICS: tuple[MetricSpec, ...] = (
-    _M("battery_waits", "count", "Windows waited for a battery", "{:.1f}", "battery waits",
-       "{}", True),
+    _M(
+        "battery_waits",
+        "count",
+        "Windows waited for a battery",
+        "{:.1f}",
+        "battery waits",
+        "{}",
+        True,
+    ),
     _M("busy_windows", "count", "Windows on long flights", "{:.1f}", "busy", "{}", None),
-    _M("stock_left_total", "count", "Parcels left at depots", "{:.1f}", "stock left", "{}",
-       True),
-    _M("stock_left_max", "count", "Most parcels left at a depot", "{:.1f}", "stock left max",
-       "{}", True),
-    _M("charged_min", "count", "Fewest charged spare batteries", "{:.1f}", "charged min",
-       "{}", None),
+    _M("stock_left_total", "count", "Parcels left at depots", "{:.1f}", "stock left", "{}", True),
+    _M(
+        "stock_left_max",
+        "count",
+        "Most parcels left at a depot",
+        "{:.1f}",
+        "stock left max",
+        "{}",
+        True,
+    ),
+    _M(
+        "charged_min",
+        "count",
+        "Fewest charged spare batteries",
+        "{:.1f}",
+        "charged min",
+        "{}",
+        None,
+    ),
 )
 METRICS: dict[str, MetricSpec] = {
     m.name: m for m in (*DAY_METRICS, *OPS_METRICS, COMBINED_COST, DAILY_COMBINED_COST)
