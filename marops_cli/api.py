@@ -1,32 +1,37 @@
-"""The Python API: the commands as functions, for notebooks and scripts.
+"""The Python API: the use cases as functions, for notebooks and scripts.
 
-Each function runs exactly what its command runs and writes the same files (into
-``out``, or a temporary folder when ``out`` is None), then returns them read back:
-tables as ``pyarrow.Table`` (``.to_pandas()`` with pandas installed, or
-``polars.from_arrow``) and metrics as dictionaries. Options are the commands' flags
-as keyword arguments (``drones=16``, ``alpha=0.2``, ``config="planner.toml"``); errors
-are raised as :class:`marops_cli.errors.InputError` (bad input) or
-:class:`marops_cli.errors.MaropsError`, never printed.
+Each function runs the use case its command runs (marops_cli/app/), with the
+commands' flags as keyword arguments (``drones=16``, ``alpha=0.2``,
+``config="planner.toml"``). ``data`` is a LaDe export's path, or its rows in memory
+as a pandas ``DataFrame`` or a ``pyarrow.Table`` with the export's columns (read and
+checked as a file is; errors name ``DataFrame`` or ``Table``). Results are in memory:
+tables as ``pyarrow.Table`` (``.to_pandas()``, ``polars.from_arrow``) carrying the
+files' ``marops`` metadata, metrics as dictionaries. Nothing is written unless
+``out`` is given, then exactly the files its command writes there; nothing is printed
+(warnings are :mod:`warnings`); errors are raised as
+:class:`marops_cli.errors.InputError` (bad input) or
+:class:`marops_cli.errors.MaropsError`. Depots segmented from a file are cached as the
+commands cache them (``MAROPS_CACHE_DIR``, docs/outputs.md "Depots cache"); from data
+in memory they are not (docs/decisions.md, "Application layer").
 
     from marops_cli import api as marops
 
     depots = marops.segment("lade.csv", out="out/depots.json", dates="0801..0810")
-    day = marops.replay_day("lade.csv", "0811", out="out/0811", depots="out/depots.json")
+    day = marops.replay_day(frame, date="0811", depots="out/depots.json")
     day.metrics["avg_delay_h"], day.routes.to_pandas()
 """
 
 from __future__ import annotations
 
-import contextlib
 import json
-import tempfile
-from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:  # pyarrow loads with the first call, so `import marops_cli` stays light
     import pyarrow as pa
+
+    from .config import PlannerConfig
 
 __all__ = [
     "DayResult",
@@ -49,7 +54,7 @@ class DayResult:
     """The day's ``metrics.json`` record (``replay_day``), or the window's solver and
     objective (``plan_window``)."""
     folder: Path | None
-    """Where the files are (None when they were written to a temporary folder)."""
+    """Where the files are (None when nothing was written)."""
 
 
 @dataclass(frozen=True)
@@ -61,48 +66,28 @@ class EvaluationResult:
     folder: Path | None
 
 
-@contextlib.contextmanager
-def _silent() -> Iterator[None]:
-    from .cli.common import STATE
+def _config(config: str | Path | None, **overrides: Any) -> PlannerConfig:
+    """The TOML config (or defaults) with the keyword options applied on top."""
+    from .config import load_config, override
 
-    saved = dict(STATE)
-    STATE.update(quiet=True, json=False, silent=True)
-    try:
-        yield
-    finally:
-        STATE.clear()
-        STATE.update(saved)
+    return override(load_config(Path(config) if config is not None else None), **overrides)
 
 
-@contextlib.contextmanager
-def _folder(out: str | Path | None) -> Iterator[tuple[Path, bool]]:
-    if out is not None:
-        yield Path(out), True
-        return
-    with tempfile.TemporaryDirectory(prefix="marops-") as tmp:
-        yield Path(tmp) / "out", False
+def _path(value: str | Path | None) -> Path | None:
+    return Path(value) if value is not None else None
 
 
-def _call(command: Callable[..., Any], **kwargs: Any) -> Any:
-    """Run a command's function itself (not its error-to-exit-code wrapper), silently."""
-    raw = getattr(command, "__wrapped__", command)
-    for k in ("data", "out", "depots", "config", "fleet", "delivered"):
-        if isinstance(kwargs.get(k), str):
-            kwargs[k] = Path(kwargs[k])
-    with _silent():
-        return raw(**kwargs)
-
-
-def read_lade(data: str | Path, *, year: int = 2022, strict: bool = False) -> pa.Table:
-    """The kept rows of a LaDe export as a table (``order_id``, ``lng``, ``lat``,
-    ``accept_time`` and ``delivery_time`` as local times, ``row``, ``weight_kg`` when the
-    file has it); the rows dropped and why are in the metadata ``marops.drop_report``."""
+def read_lade(data: Any, *, year: int = 2022, strict: bool = False) -> pa.Table:
+    """The kept rows of a LaDe export (a path, a DataFrame or a Table) as a table
+    (``order_id``, ``lng``, ``lat``, ``accept_time`` and ``delivery_time`` as local
+    times, ``row``, ``weight_kg`` when the data has it); the rows dropped and why are
+    in the metadata ``marops.drop_report``."""
     import pyarrow as pa
 
+    from .app.inputs import read_data
     from .config import DataConfig
-    from .data.reader import read_lade as _read
 
-    table = _read(Path(data), DataConfig(year=year, strict=strict))
+    table = read_data(data, DataConfig(year=year, strict=strict))
     cols: dict[str, Any] = {
         "order_id": table.order_id.astype(str),
         "lng": table.lng,
@@ -118,89 +103,247 @@ def read_lade(data: str | Path, *, year: int = 2022, strict: bool = False) -> pa
     return out.replace_schema_metadata({"marops": report})
 
 
-def segment(data: str | Path, *, out: str | Path | None = None, **options: Any) -> dict[str, Any]:
-    """``marops segment``: the depots document (``depots.json``) as a dictionary.
-    Options: ``dates``, ``n_depots``, ``method``, ``size_km``, ``center``, ``actions``,
-    ``seed``, ``geojson``, ``plot``, ``year``, ``strict``, ``config``."""
-    with _folder(None) as (tmp, _):
-        path = Path(out) if out is not None else tmp.with_name("depots.json")
-        _call(_cmd("segment"), data=data, out=path, **options)
-        return dict(json.loads(path.read_text(encoding="utf-8")))
+def segment(
+    data: Any,
+    *,
+    out: str | Path | None = None,
+    dates: str | None = None,
+    n_depots: int | None = None,
+    method: str | None = None,
+    size_km: float | None = None,
+    center: str | tuple[float, float] | None = None,
+    actions: int | None = None,
+    seed: int | None = None,
+    geojson: bool = False,
+    plot: bool = False,
+    hubs: str | int | None = None,
+    year: int | None = None,
+    strict: bool = False,
+    force: bool = False,
+    config: str | Path | None = None,
+) -> dict[str, Any]:
+    """``marops segment``: the depots document (``depots.json``; with ``hubs``, the
+    hubs file) as a dictionary, written to ``out`` when given."""
+    from .app.inputs import parse_center
+    from .app.segment import segment as run
+    from .app.segment import segment_hubs
+    from .io.atomic import dumps_json, replacing_foreign_files
+
+    flags: dict[str, Any] = dict(data__year=year, data__size_km=size_km)
+    flags["data__strict"] = strict or None
+    with replacing_foreign_files(force):
+        if hubs is not None:
+            tiling = segment_hubs(data, _config(config, **flags), hubs, days=dates, out=out)
+            return dict(json.loads(dumps_json(tiling.doc())))
+        cfg = _config(
+            config,
+            **flags,
+            data__center=parse_center(center) if isinstance(center, str) else center,
+            segment__n_depots=n_depots,
+            segment__method=method,
+            segment__n_actions=actions,
+            segment__seed=seed,
+        )
+        res = run(data, cfg, days=dates, out=out, geojson=geojson, plot=plot)
+    return dict(json.loads(dumps_json(res.doc())))  # as the file reads back
 
 
 def plan_window(
-    data: str | Path,
+    data: Any,
     depots: str | Path,
     date: str,
     window: int,
     *,
     out: str | Path | None = None,
-    **options: Any,
+    method: str = "marops",
+    drones: int | None = None,
+    fleet: str | Path | None = None,
+    delivered: str | Path | None = None,
+    policy: str | None = None,
+    alpha: float | None = None,
+    ordering: str | None = None,
+    strict_cover: bool = False,
+    seed: int | None = None,
+    year: int | None = None,
+    strict: bool = False,
+    tz: str | None = None,
+    fmt: str = "parquet",
+    geojson: bool = False,
+    force: bool = False,
+    config: str | Path | None = None,
 ) -> DayResult:
-    """``marops plan-window``: one window's stops and routes, and its solver and
-    window objective (``metrics``). Options: ``method`` (default ``marops``),
-    ``drones``, ``fleet``, ``delivered``, ``policy``, ``alpha``, ``seed``, ``tz``,
-    ``geojson``, ``config``, …"""
-    import pyarrow.parquet as pq
+    """``marops plan-window``: one window's stops and routes, and its solver and window
+    objective (``metrics``)."""
+    from .app.plan_window import plan_window as run
+    from .data.dates import parse_day
+    from .io.atomic import replacing_foreign_files
 
-    with _folder(out) as (folder, kept):
-        _call(
-            _cmd("plan-window"),
-            data=data,
-            depots=depots,
-            date=str(date),
-            window=int(window),
-            out=folder,
-            **options,
+    cfg = _config(
+        config,
+        data__year=year,
+        data__strict=strict or None,
+        data__tz=tz,
+        plan__alpha=alpha,
+        plan__ordering=ordering,
+        plan__strict_cover=strict_cover or None,
+        sim__drones=drones,
+        sim__seed=seed,
+        sim__policy=policy,
+    )
+    with replacing_foreign_files(force):
+        res = run(
+            data,
+            cfg,
+            parse_day(str(date), cfg.data.year),
+            int(window),
+            depots=Path(depots),
+            method=method,
+            fleet=_path(fleet),
+            delivered=_path(delivered),
+            out=_path(out),
+            fmt=fmt,
+            geojson=geojson,
         )
-        stops = pq.read_table(folder / "stops.parquet")
-        routes = pq.read_table(folder / "routes.parquet")
-        meta = json.loads(stops.schema.metadata[b"marops"])
-        info = {"solver": meta.get("solver"), "objective": meta.get("objective")}
-        return DayResult(stops, routes, info, folder if kept else None)
+    metrics = {"solver": res.solver, "objective": res.objective}
+    return DayResult(res.stops, res.routes, metrics, _path(out))
 
 
 def replay_day(
-    data: str | Path, date: str, *, out: str | Path | None = None, **options: Any
+    data: Any,
+    date: str,
+    *,
+    out: str | Path | None = None,
+    method: str = "marops",
+    depots: str | Path | None = None,
+    n_depots: int | None = None,
+    segment: str | None = None,
+    drones: int | None = None,
+    fleet: str | Path | None = None,
+    policy: str | None = None,
+    alpha: float | None = None,
+    ordering: str | None = None,
+    seed: int | None = None,
+    year: int | None = None,
+    strict: bool = False,
+    tz: str | None = None,
+    fmt: str = "parquet",
+    geojson: bool = False,
+    plot: bool = False,
+    force: bool = False,
+    config: str | Path | None = None,
 ) -> DayResult:
-    """``marops replay-day --date``: the day's stops, routes and metrics. Options:
-    ``method`` (default ``marops``), ``depots``, ``n_depots``, ``drones``, ``policy``,
-    ``alpha``, ``seed``, ``tz``, ``geojson``, ``plot``, ``force``, ``config``, …"""
+    """``marops replay-day --date``: the day's stops, routes and metrics."""
+    from .app.replay import ReplayOptions, check_options, replay_days
+    from .data.dates import parse_day
+    from .io.atomic import replacing_foreign_files
+    from .methods import METHODS
+
+    opts = ReplayOptions(method, fmt, plot, geojson, force, keep_tables=True)
+    check_options(opts)
+    cfg = _config(
+        config,
+        data__year=year,
+        data__strict=strict or None,
+        data__tz=tz,
+        segment__n_depots=n_depots,
+        segment__method=segment or METHODS[method][0],
+        plan__alpha=alpha,
+        plan__ordering=ordering,
+        sim__drones=drones,
+        sim__seed=seed,
+        sim__policy=policy,
+    )
+    day = parse_day(str(date), cfg.data.year)
+    with replacing_foreign_files(force):
+        res = replay_days(
+            data,
+            cfg,
+            [day],
+            options=opts,
+            out=_path(out),
+            several=False,
+            depots=_path(depots),
+            fleet=_path(fleet),
+            protect={"config": _path(config)},
+        )
+    if not res.tables:  # the day was in ``out`` already, made with the same settings
+        return _read_back(Path(out or "."), res.days[0])
+    tables = res.tables[0]
+    return DayResult(tables.stops, tables.routes, res.days[0], _path(out))
+
+
+def _read_back(folder: Path, metrics: dict[str, Any]) -> DayResult:
+    """A day kept from an earlier run into ``folder``: its tables read from its files."""
     import pyarrow.parquet as pq
 
-    with _folder(out) as (folder, kept):
-        _call(_cmd("replay-day"), data=data, date=str(date), out=folder, **options)
-        stops = pq.read_table(folder / "stops.parquet")
-        routes = pq.read_table(folder / "routes.parquet")
-        metrics = json.loads((folder / "metrics.json").read_text(encoding="utf-8"))["days"][0]
-        return DayResult(stops, routes, metrics, folder if kept else None)
+    stops, routes = (
+        pq.read_table(folder / "stops.parquet"),
+        pq.read_table(folder / "routes.parquet"),
+    )
+    return DayResult(stops, routes, metrics, folder)
 
 
 def evaluate(
-    data: str | Path, *, out: str | Path | None = None, **options: Any
+    data: Any,
+    *,
+    out: str | Path | None = None,
+    methods: str | None = None,
+    dates: str | None = None,
+    split: str | None = None,
+    repeats: int = 1,
+    drones: str | None = None,
+    alpha: str | None = None,
+    coverage: str | None = None,
+    n_depots: str | None = None,
+    workers: int = 2,
+    scheduler: str | None = None,
+    hubs: str | Path | None = None,
+    policy: str | Path | None = None,
+    mappo_policy: str | Path | None = None,
+    against: str | None = None,
+    plots: bool = True,
+    seed: int | None = None,
+    year: int | None = None,
+    strict: bool = False,
+    force: bool = False,
+    config: str | Path | None = None,
 ) -> EvaluationResult:
-    """``marops evaluate``: per-day results and their summary. Options: ``methods``
-    (comma-separated), ``dates``, ``split``, ``repeats``, ``drones``, ``alpha``,
-    ``coverage``, ``n_depots`` (sweeps take "a,b,c" strings), ``workers``, ``plots``,
-    ``config``, …"""
-    import pyarrow.csv as pacsv
-    import pyarrow.parquet as pq
+    """``marops evaluate``: per-day results and their summary. Sweeps take "a,b,c"
+    strings (``drones="4,8"``)."""
+    from .app.evaluate import EvaluateConfig
+    from .app.evaluate import evaluate as run
+    from .app.inputs import in_memory, read_data
+    from .data.dates import parse_days
+    from .errors import InputError
+    from .evaluate import parse_values
+    from .io.atomic import replacing_foreign_files
+    from .segment.hubs import load_hubs
 
-    with _folder(out) as (folder, kept):
-        _call(_cmd("evaluate"), data=data, out=folder, **options)
-        results = pq.read_table(folder / "results.parquet")
-        summary = pacsv.read_csv(folder / "summary.csv")
-        return EvaluationResult(results, summary, folder if kept else None)
-
-
-def _cmd(name: str) -> Callable[..., Any]:
-    import importlib
-
-    module, attr = {
-        "segment": ("segment_cmd", "segment"),
-        "plan-window": ("plan_window_cmd", "plan_window"),
-        "replay-day": ("replay_cmd", "replay_day"),
-        "evaluate": ("evaluate_cmd", "evaluate"),
-    }[name]
-    fn: Callable[..., Any] = getattr(importlib.import_module(f".cli.{module}", __package__), attr)
-    return fn
+    cfg = _config(config, data__year=year, data__strict=strict or None, sim__seed=seed)
+    days = parse_days(dates, cfg.data.year) if dates else None
+    if days and split:
+        raise InputError("give at most one of dates or split")
+    actors = {k: Path(v) for k, v in (("learned", policy), ("direct", mappo_policy)) if v}
+    listed = [m.strip() for m in methods.split(",") if m.strip()] if methods else None
+    spec = EvaluateConfig(
+        cfg,
+        listed,
+        alpha=parse_values(alpha, float, "--alpha"),
+        drones=parse_values(drones, int, "--drones"),
+        coverage=parse_values(coverage, float, "--coverage"),
+        depots_n=parse_values(n_depots, int, "--n-depots"),
+        days=days,
+        split=split or "test",
+        repeats=repeats,
+        workers=workers,
+        scheduler=scheduler,
+        hubs=load_hubs(hubs, cfg.data) if hubs is not None else None,
+        actors=actors,
+        against=against,
+        plots=plots,
+        force=force,
+    )
+    source = read_data(data, cfg.data) if in_memory(data) else Path(data)
+    with replacing_foreign_files(force):
+        res = run(source, spec, out=_path(out))
+    return EvaluationResult(res.results, res.summary, res.folder)

@@ -2,7 +2,7 @@
 
 The CLI renders these calls as status lines and progress bars (``cli/``); the Python
 API passes :data:`SILENT`, which turns warnings into :mod:`warnings` and drops the
-rest; a notebook may pass its own object with the same four methods.
+rest; a notebook may pass its own object with the same five methods.
 """
 
 from __future__ import annotations
@@ -24,7 +24,8 @@ class Progress(Protocol):
         """Something the user should know even in a quiet run."""
 
     def start(self, label: str, total: int, unit: str) -> None:
-        """A long step begins: ``total`` ``unit`` (windows, days, episodes) to go."""
+        """A long step begins: ``total`` ``unit`` (windows, days, episodes) to go;
+        ``total`` 0: a step of unknown length (segmenting)."""
 
     def advance(self, text: str = "") -> None:
         """One more ``unit`` of the step begun last is done; ``text`` says what it was

@@ -53,7 +53,7 @@ def _root(
     ] = False,
 ) -> None:
     """Operations planner for drone last-mile delivery."""
-    STATE.update(debug=debug, quiet=False, json=False, silent=False)
+    STATE.update(debug=debug, quiet=False, json=False)
     from ..io.atomic import allow_replacing_foreign
 
     allow_replacing_foreign(False)  # each command decides (--force)

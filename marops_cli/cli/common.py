@@ -1,4 +1,8 @@
-"""Shared CLI plumbing: error handling, consoles, option parsing helpers."""
+"""Shared CLI plumbing: error handling, consoles, option parsing helpers.
+
+``parse_center``, ``require_input`` and ``refuse_overwriting_inputs`` live in the
+application layer
+(marops_cli/app/inputs.py); they are imported here for the commands that use them."""
 
 from __future__ import annotations
 
@@ -14,9 +18,30 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
+from ..app.inputs import parse_center, refuse_overwriting_inputs, require_input
 from ..config import PlannerConfig, load_config, override
-from ..data.table import DropReport
-from ..errors import InputError, MaropsError
+from ..errors import MaropsError
+
+__all__ = [
+    "PLAIN",
+    "STATE",
+    "console",
+    "emit_json",
+    "guarded",
+    "info",
+    "is_terminal",
+    "kv_table",
+    "make_config",
+    "out",
+    "parse_center",
+    "refuse_overwriting_inputs",
+    "require_input",
+    "set_output",
+    "show_table",
+    "stopped",
+    "table",
+    "warn",
+]
 
 
 def plain_output() -> bool:
@@ -39,8 +64,7 @@ console = Console(
 """Messages and progress (stderr)."""
 out = Console(highlight=False, width=_WIDE if PLAIN else None, soft_wrap=PLAIN, no_color=PLAIN)
 """Result tables (stdout), so a cron job's log keeps them whole."""
-STATE: dict[str, bool] = {"debug": False, "quiet": False, "json": False, "silent": False}
-"""``silent``: the Python API runs a command; nothing is printed, warnings are warnings."""
+STATE: dict[str, bool] = {"debug": False, "quiet": False, "json": False}
 
 
 def set_output(quiet: bool = False, as_json: bool = False) -> None:
@@ -50,17 +74,12 @@ def set_output(quiet: bool = False, as_json: bool = False) -> None:
 
 def info(message: str) -> None:
     """A progress or status line on stderr; silent with ``--quiet`` or ``--json``."""
-    if not (STATE["quiet"] or STATE["json"] or STATE["silent"]):
+    if not (STATE["quiet"] or STATE["json"]):
         console.print(message)
 
 
 def warn(message: str) -> None:
     """A warning on stderr (shown with ``--quiet`` and ``--json`` too)."""
-    if STATE["silent"]:
-        import warnings
-
-        warnings.warn(message, stacklevel=2)
-        return
     console.print(f"warning: {message}")
 
 
@@ -93,7 +112,7 @@ def table(title: str, **kwargs: Any) -> Table:
 
 def show_table(t: Table) -> None:
     """Print a result table on stdout unless ``--json`` replaces it."""
-    if not (STATE["json"] or STATE["silent"]):
+    if not STATE["json"]:
         out.print(t)
 
 
@@ -118,7 +137,9 @@ def guarded(fn: F) -> F:
             typer.echo(f"marops: error: {exc}", err=True)
             raise typer.Exit(1) from None
         except KeyboardInterrupt as exc:  # Ctrl-C, or SIGTERM (Terminated)
-            stopped(exc)
+            # A use case interrupted after some of its work was written says what it
+            # keeps in the exception's notes (marops_cli/app/replay_areas.py).
+            stopped(exc, "; ".join(getattr(exc, "__notes__", ())))
 
     return wrapper  # type: ignore[return-value]
 
@@ -134,98 +155,9 @@ def stopped(exc: KeyboardInterrupt, kept: str = "") -> NoReturn:
     raise typer.Exit(143 if term else 130) from None
 
 
-def parse_center(text: str | None) -> tuple[float, float] | None:
-    """``"121.47,31.23"`` -> (lng, lat)."""
-    if text is None:
-        return None
-    try:
-        lng_s, lat_s = text.split(",")
-        lng, lat = float(lng_s), float(lat_s)
-    except ValueError:
-        raise InputError(f"--center expects LNG,LAT (e.g. 121.47,31.23), got {text!r}") from None
-    if not (-180 <= lng <= 180 and -90 <= lat <= 90):
-        raise InputError(f"--center {text!r} is not a valid LNG,LAT")
-    return lng, lat
-
-
 def make_config(config: Path | None, **overrides: Any) -> PlannerConfig:
     """The TOML config (or defaults) with command-line flags applied on top."""
     return override(load_config(config), **overrides)
-
-
-def refuse_overwriting_inputs(outputs: list[Path], **inputs: Path | None) -> None:
-    """Stop before any work when an output would replace an input file (``--out DATA``)."""
-    seen = {}
-    for flag, path in inputs.items():
-        if path is not None and Path(path).exists():
-            seen[Path(path).resolve()] = flag.replace("_", "-")
-    for out_path in outputs:
-        hit = seen.get(Path(out_path).resolve())
-        if hit is not None:
-            raise InputError(
-                f"would overwrite the input given as {hit}; choose another --out", file=out_path
-            )
-
-
-def require_input(path: Path) -> None:
-    if not path.exists():
-        raise InputError("file not found", file=path)
-    if path.is_dir():
-        raise InputError("is a folder, expected a LaDe CSV or Parquet file", file=path)
-
-
-def print_drop_report(report: DropReport, name: str) -> None:
-    """Tell the user which rows were dropped and why (docs/method.md §1)."""
-    if report.n_dropped == 0:
-        info(f"{name}: {report.total:,} rows read, none dropped")
-        return
-    parts = ", ".join(
-        f"{n:,} {reason.replace('_', ' ')}" for reason, n in report.dropped.items() if n
-    )
-    info(
-        f"{name}: {report.total:,} rows read, {report.kept:,} kept, "
-        f"{report.n_dropped:,} dropped ({parts}); --strict makes these errors"
-    )
-
-
-def print_day_scope(scope: Any, cfg: Any, label: str = "") -> None:
-    """Say how many of the day's orders are planned and what the study area and the
-    service hours left out (docs/method.md §1), from its ``sim.days.DayScope``;
-    ``label`` names the hub of a city run."""
-    left = []
-    if scope.outside_area:
-        left.append(f"{scope.outside_area:,} outside the {cfg.data.size_km:g} km study area")
-    if scope.outside_hours:
-        left.append(
-            f"{scope.outside_hours:,} due outside service hours "
-            f"{cfg.data.service_start}-{cfg.data.service_end}"
-        )
-    tail = f", {sum((scope.outside_area, scope.outside_hours)):,} left out ({'; '.join(left)})"
-    info(
-        f"{label}{scope.day.isoformat()}: {scope.orders_due:,} orders due, "
-        f"{scope.planned:,} planned" + (tail if left else "")
-    )
-
-
-UNDELIVERED_WARN = 0.10
-
-
-def warn_undelivered(metrics: dict[str, Any], drones: int) -> None:
-    """Warn when more than 10 % of a day's requests stayed undelivered, and about
-    requests no drone can serve at all (too heavy, too far)."""
-    heavy, far = metrics.get("unservable_heavy", 0), metrics.get("unservable_far", 0)
-    if heavy or far:
-        warn(
-            f"{metrics['day']}: {heavy:,} parcels heavier than the payload limit and {far:,} "
-            "requests beyond any drone's reach from the nearest depot cannot be served"
-        )
-    share = metrics["undelivered"] / max(metrics["requests"], 1)
-    if share > UNDELIVERED_WARN:
-        warn(
-            f"{metrics['day']}: {metrics['undelivered']:,} of {metrics['requests']:,} "
-            f"requests ({share:.0%}) stayed undelivered with {drones} "
-            + ("drone" if drones == 1 else "drones")
-        )
 
 
 def kv_table(title: str, rows: list[tuple[str, str]]) -> Table:

@@ -15,13 +15,10 @@ from ..methods import reference_names
 from . import options as o
 from .common import (
     STATE,
-    console,
     emit_json,
     guarded,
     info,
-    is_terminal,
     make_config,
-    print_drop_report,
     refuse_overwriting_inputs,
     require_input,
     set_output,
@@ -30,10 +27,14 @@ from .common import (
     table,
     warn,
 )
+from .progress import Terminal
 
 if TYPE_CHECKING:
-    from ..evaluate import Evaluation, Job, Prepared
-    from ..evaluate.dataset import JobStore
+    import pyarrow as pa
+
+    from ..app.evaluate import EvaluationResult
+    from ..config import PlannerConfig
+    from ..segment.hubs import Hub
 
 
 @guarded
@@ -128,7 +129,8 @@ def evaluate(
     set_output(quiet, as_json)
     allow_replacing_foreign(force)
     # The library (pyarrow, matplotlib, the planner) loads here, so `marops --help` stays fast.
-    from ..evaluate import expand_settings, parse_values, prepare, write_outputs
+    from ..app.evaluate import EvaluateConfig
+    from ..app.evaluate import evaluate as run_evaluation
 
     require_input(data)
     _check_out(out)  # before any computing
@@ -145,111 +147,77 @@ def evaluate(
         hubs=hubs,
     )
     cfg = make_config(config, data__year=year, data__strict=strict or None, sim__seed=seed)
-    hub_list = None
-    if hubs is not None:
-        from ..segment.hubs import load_hubs
-
-        hub_list = load_hubs(hubs, cfg.data)
-    settings = expand_settings(
-        cfg,
-        alpha=parse_values(alpha, float, "--alpha"),
-        drones=parse_values(drones, int, "--drones"),
-        coverage=parse_values(coverage, float, "--coverage"),
-        depots_n=parse_values(n_depots, int, "--n-depots"),
-    )
+    hub_list = _hubs(hubs, cfg)
+    sweep = _sweep(alpha, drones, coverage, n_depots)
     days = parse_days(dates, cfg.data.year) if dates else None
     if days and split:
         raise InputError("give at most one of --dates or --split")
     actors = {k: v for k, v in (("learned", policy), ("direct", mappo_policy)) if v is not None}
-    chosen = _methods(methods, actors)
-    if scheduler is None and workers > 1:
-        from ..evaluate.workers import warm_up
-        from ..sim.jobs import loads_actor
-
-        # The workers' fork server imports the planner (and torch for an actor) while
-        # this process reads the file and segments it.
-        warm_up(actor=any(loads_actor(m) for m in chosen))
-    if against is not None and against not in chosen:
-        raise InputError(
-            f"--against {against!r} is not among the methods compared ({', '.join(chosen)})"
-        )
-    prep = prepare(
-        data,
+    listed = [m.strip() for m in methods.split(",") if m.strip()] if methods is not None else None
+    run = EvaluateConfig(
         cfg,
-        chosen,
-        settings,
+        listed,
+        **sweep,
         days=days,
         split=split or "test",
         repeats=repeats,
-        actors=actors,
+        workers=workers,
+        scheduler=scheduler,
         hubs=hub_list,
+        actors=actors,
+        against=against,
+        plots=plots,
+        force=force,
     )
-    print_drop_report(prep.source.report, data.name)
-    where = (
-        f"{workers} workers"
-        if scheduler is None
-        else f"a local Dask cluster of {workers} workers"
-        if scheduler == "local"
-        else f"the Dask scheduler at {scheduler}"
-    )
-    hub_note = f" over {len(prep.hubs)} hubs (hub-days with requests)" if prep.hubs else ""
-    info(
-        f"evaluate: {len(prep.methods)} methods x {len(settings)} settings x "
-        f"{len(prep.days)} days x {repeats} repeats{hub_note} = {len(prep.jobs)} replays, "
-        f"on {where}"
-    )
-    from ..evaluate.dataset import JobStore
-    from ..evaluate.runner import run_identity
-    from ..io.atomic import folder_lock
-
-    with folder_lock(out):  # one run at a time in a folder; stale temporaries go
-        store = JobStore(out / JOBS, prep, run_identity(prep))
-        store.open(force=force)  # this run's finished jobs, or an error for another run's
-        if store.resumed:
-            info(f"resumed: {store.resumed} of {len(prep.jobs)} replays from {store.root}")
-        try:
-            ev = _run(prep, workers, store, scheduler)
-        except KeyboardInterrupt as exc:  # Ctrl-C or SIGTERM
-            stopped(
-                exc,
-                f"{store.kept()} of {len(prep.jobs)} replays are kept in {store.root}: run "
-                "the same command again to resume",
-            )
-        paths = write_outputs(out, prep, ev.results, ev.summary, plots=plots)
-        paired = _paired(ev, against, out, paths)
-    _print_tables(ev)
-    if paired is not None:
-        _print_paired(paired, len(prep.days))
-    info(f"wrote {', '.join(str(p) for p in paths)}")
+    try:
+        res = run_evaluation(data, run, out=out, progress=Terminal(remaining=True))
+    except KeyboardInterrupt as exc:  # Ctrl-C or SIGTERM, with what the folder keeps
+        stopped(exc, "; ".join(getattr(exc, "__notes__", ())))
+    _print_tables(res.summary)
+    if res.paired is not None:
+        _print_paired(res.paired, len(res.days))
+    info(f"wrote {', '.join(str(p) for p in res.files)}")
     if STATE["json"]:
-        emit_json(
-            {
-                "command": "evaluate",
-                "files": [str(p) for p in paths],
-                "days": [d.isoformat() for d in prep.days],
-                "summary": ev.summary.to_pylist(),
-                "paired": paired.to_pylist() if paired is not None else None,
-            }
-        )
+        _emit_json(res)
 
 
-def _paired(ev: Evaluation, against: str | None, out: Path, paths: list[Path]) -> Any:
-    """``paired.csv``: every method against ``against``, day by day (None without one)."""
-    if against is None:
+def _hubs(path: Path | None, cfg: PlannerConfig) -> list[Hub] | None:
+    """The hubs of ``--hubs`` (None without it)."""
+    if path is None:
         return None
-    import pyarrow.csv as pacsv
+    from ..segment.hubs import load_hubs
 
-    from ..evaluate.paired import paired_table
-    from ..io import output_set
-
-    table = paired_table(ev.results, against)
-    with output_set() as files:
-        files.write_with(out / "paired.csv", lambda p: pacsv.write_csv(table, str(p)))
-    paths.append(out / "paired.csv")
-    return table
+    return load_hubs(path, cfg.data)
 
 
-def _print_paired(paired: Any, n_days: int) -> None:
+def _sweep(
+    alpha: str | None, drones: str | None, coverage: str | None, n_depots: str | None
+) -> dict[str, Any]:
+    """The sweep flags' values (None: the config's), as ``EvaluateConfig`` fields."""
+    from ..evaluate import parse_values
+
+    return {
+        "alpha": parse_values(alpha, float, "--alpha"),
+        "drones": parse_values(drones, int, "--drones"),
+        "coverage": parse_values(coverage, float, "--coverage"),
+        "depots_n": parse_values(n_depots, int, "--n-depots"),
+    }
+
+
+def _emit_json(res: EvaluationResult) -> None:
+    """``--json``: the files written, the days, the summary and the paired comparison."""
+    emit_json(
+        {
+            "command": "evaluate",
+            "files": [str(p) for p in res.files],
+            "days": [d.isoformat() for d in res.days],
+            "summary": res.summary.to_pylist(),
+            "paired": res.paired.to_pylist() if res.paired is not None else None,
+        }
+    )
+
+
+def _print_paired(paired: pa.Table, n_days: int) -> None:
     from ..evaluate.paired import MIN_DAYS, verdict
 
     rows = paired.to_pylist()
@@ -277,10 +245,6 @@ def _print_paired(paired: Any, n_days: int) -> None:
     show_table(t)
 
 
-JOBS = "jobs"
-"""The jobs dataset in the --out folder: one file per finished replay (docs/outputs.md)."""
-
-
 def _check_out(out: Path) -> None:
     """--out must be a folder this user can write (or create), found out before anything
     runs and without writing anything."""
@@ -295,79 +259,14 @@ def _check_out(out: Path) -> None:
         raise InputError(f"--out is not writable ({probe})", file=out)
 
 
-def _methods(text: str | None, actors: dict[str, Path]) -> list[str]:
-    """The listed methods, or every one this build can run (learned ones need an actor)."""
-    from ..evaluate import check_methods
-    from ..methods import METHODS, method
-
-    if text is not None:
-        return [m.strip() for m in text.split(",") if m.strip()]
-    chosen = []
-    for m in METHODS:
-        try:
-            check_methods([m], actors)
-        except InputError:
-            continue  # the default list skips what cannot run; a listed method errors
-        if method(m).in_default_evaluation:  # the references (stay, myopic) are asked for
-            chosen.append(m)
-    return chosen
-
-
-def _run(
-    prep: Prepared, workers: int, store: JobStore | None = None, scheduler: str | None = None
-) -> Evaluation:
-    """Run the jobs with a progress bar on a terminal, one log line per replay otherwise."""
-    from rich.progress import (
-        BarColumn,
-        MofNCompleteColumn,
-        Progress,
-        TextColumn,
-        TimeElapsedColumn,
-        TimeRemainingColumn,
-    )
-
-    from ..evaluate import evaluate as run_evaluation
-
-    if not is_terminal() or STATE["quiet"] or STATE["json"]:
-
-        def log(done: int, total: int, job: Job) -> None:
-            s = prep.settings[job.setting]
-            hub = f"hub {job.hub} " if prep.hubs else ""
-            info(
-                f"evaluate {done}/{total}: {hub}{job.day.isoformat()} {job.method} "
-                f"alpha={s.alpha:g} drones={prep.drones(job)} coverage={s.coverage:g} "
-                f"depots={s.depots_n} repeat {job.repeat}"
-            )
-
-        return run_evaluation(prep, workers, log, store, scheduler)
-    progress = Progress(
-        TextColumn("evaluate"),
-        BarColumn(),
-        MofNCompleteColumn(),
-        TimeElapsedColumn(),
-        TimeRemainingColumn(),
-        console=console,
-        transient=True,
-    )
-    resumed = store.resumed if store is not None else 0
-    task = progress.add_task("replays", total=len(prep.jobs), completed=resumed)
-    with progress:
-        return run_evaluation(
-            prep,
-            workers,
-            lambda done, total, job: progress.update(task, completed=done),
-            store,
-            scheduler,
-        )
-
-
-def _print_tables(ev: Evaluation) -> None:
+def _print_tables(summary: pa.Table) -> None:
+    """One Table III per setting."""
     from ..evaluate import table3
     from ..evaluate.report import setting_title
 
-    for s in sorted(set(ev.summary.column("setting").to_pylist())):
-        methods, body = table3(ev.summary, s)
-        t = table(setting_title(ev.summary, s))
+    for s in sorted(set(summary.column("setting").to_pylist())):
+        methods, body = table3(summary, s)
+        t = table(setting_title(summary, s))
         t.add_column("metric")
         for m in methods:
             t.add_column(m, justify="right")

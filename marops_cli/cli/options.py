@@ -17,6 +17,14 @@ Config = Annotated[
         "--config", envvar="MAROPS_CONFIG", help="Planner config TOML; flags override it."
     ),
 ]
+Method = Annotated[
+    str,
+    typer.Option(
+        "--method",
+        help=f"One of {METHOD_NAMES} (docs/method.md §7) [marops].",
+        show_default=False,
+    ),
+]
 Year = Annotated[
     int | None,
     typer.Option("--year", envvar="MAROPS_YEAR", help="Year of the MM-DD times [2022]."),

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated
+from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 
@@ -16,8 +16,6 @@ from .common import (
     guarded,
     info,
     make_config,
-    print_day_scope,
-    print_drop_report,
     refuse_overwriting_inputs,
     require_input,
     set_output,
@@ -25,11 +23,10 @@ from .common import (
     table,
 )
 from .common import out as out_console
+from .progress import Terminal
 
 if TYPE_CHECKING:
-    from collections.abc import Sequence
-
-    from ..energy import EnergyModel
+    from ..app.plan_window import PlannedWindow
 
 
 @guarded
@@ -54,14 +51,7 @@ def plan_window(
         ),
     ] = None,
     policy: o.Policy = None,
-    method: Annotated[
-        str,
-        typer.Option(
-            "--method",
-            help=f"One of {o.METHOD_NAMES} (docs/method.md §7) [marops].",
-            show_default=False,
-        ),
-    ] = "marops",
+    method: o.Method = "marops",
     alpha: o.Alpha = None,
     ordering: o.Ordering = None,
     strict_cover: o.StrictCover = False,
@@ -79,19 +69,9 @@ def plan_window(
     """Plan one time window: flight ranges, candidate plans, optimal plan selection."""
     set_output(quiet, as_json)
     allow_replacing_foreign(force)
+    from ..app.inputs import check_format
+    from ..app.plan_window import plan_window as plan
     from ..data.dates import parse_day
-    from ..io import folder_lock, output_set, run_meta
-    from ..io.meta import file_sha256
-    from ..io.tables import write_route_files
-    from ..sim.days import DayScope
-    from ..sim.jobs import (
-        delivered_orders,
-        load_fleet,
-        load_scenario,
-        method_policy,
-        plan_one_window,
-        route_tables,
-    )
 
     require_input(data)
     if out.suffix in (".parquet", ".json"):
@@ -100,8 +80,7 @@ def plan_window(
         )
     if out.exists() and not out.is_dir():
         raise InputError("--out must be a folder; this is a file", file=out)
-    if fmt not in ("parquet", "json"):
-        raise InputError(f"--format expects parquet or json, got {fmt!r}")
+    check_format(fmt)
     refuse_overwriting_inputs(
         [out / f"stops.{fmt}", out / f"routes.{fmt}", out / "routes.geojson"],
         data=data,
@@ -123,73 +102,55 @@ def plan_window(
         sim__policy=policy,
     )
     day = parse_day(date, cfg.data.year)
-    pol = method_policy(method, cfg.sim.policy, cfg.sim.seed)
-    # Every input is checked before anything is said about the data (the drop report
-    # comes after the plan): an error is the only line a failed run prints.
-    done = delivered_orders(delivered) if delivered is not None else None
-    scn = load_scenario(data, cfg, depots_path=depots, replay_days=[day])
-    drones_ = load_fleet(fleet, scn.depots, cfg.sim.drones, cfg)
-    plan, reqs = plan_one_window(scn, day, window, drones_, pol, done)
-    print_drop_report(scn.table.report, data.name)
-    print_day_scope(DayScope.of(reqs), cfg)
-    stops, routes = route_tables(scn, reqs, [plan], drones_, method)
-    meta = run_meta(
-        command="plan-window",
-        config=cfg,
-        source=scn.table.source,
-        policy=pol.identity,
+    res = plan(
+        data,
+        cfg,
+        day,
+        window,
+        depots=depots,
         method=method,
-        seed=cfg.sim.seed,
-        extra={
-            "day": day.isoformat(),
-            "window": window,
-            "solver": {
-                "status": plan.selection.status_text,
-                "fallback": plan.selection.fallback,
-                "objective": plan.selection.objective,
-            },
-            "objective": plan.score.as_dict() if plan.score else None,
-            "frame": {
-                "center_lng": scn.frame.center_lng,
-                "center_lat": scn.frame.center_lat,
-                "size_km": scn.frame.size_km,
-            },
-            "depots_file": {"name": depots.name, "sha256": file_sha256(depots)},
-            "fleet": drones_.describe(cfg.energy),
-        },
-        stamp=False,
+        fleet=fleet,
+        delivered=delivered,
+        out=out,
+        fmt=fmt,
+        geojson=geojson,
+        progress=Terminal(),
     )
-    with folder_lock(out), output_set() as files:
-        written = write_route_files(files, out, stops, routes, meta, fmt, geojson)
-    _summary(plan, drones_.models(), reqs.window_start(window).strftime("%Y-%m-%d %H:%M"))
-    info("wrote " + ", ".join(str(p) for p in written))
+    _summary(res)
+    info("wrote " + ", ".join(str(p) for p in res.files))
     if STATE["json"]:
-        emit_json(
+        emit_json(_json_doc(res, day.isoformat(), window))
+
+
+def _json_doc(res: PlannedWindow, day: str, window: int) -> dict[str, Any]:
+    """``--json``: the window's files, solver, objective and routes."""
+    order_id = res.requests.order_id
+    return {
+        "command": "plan-window",
+        "day": day,
+        "window": window,
+        "files": [str(p) for p in res.files],
+        "solver": res.solver,
+        "objective": res.objective,
+        "routes": [
             {
-                "command": "plan-window",
-                "day": day.isoformat(),
-                "window": window,
-                "files": [str(p) for p in written],
-                "solver": meta["solver"],
-                "objective": meta["objective"],
-                "routes": [
-                    {
-                        "drone": r.drone,
-                        "start_depot": r.start,
-                        "end_depot": r.end,
-                        "action": r.action,
-                        "order_ids": [str(reqs.order_id[i]) for i in r.stops],
-                        "payload_kg": r.payload_kg,
-                        "distance_m": r.distance_m,
-                        "energy_j": r.energy_j,
-                    }
-                    for r in plan.routes
-                ],
+                "drone": r.drone,
+                "start_depot": r.start,
+                "end_depot": r.end,
+                "action": r.action,
+                "order_ids": [str(order_id[i]) for i in r.stops],
+                "payload_kg": r.payload_kg,
+                "distance_m": r.distance_m,
+                "energy_j": r.energy_j,
             }
-        )
+            for r in res.plan.routes
+        ],
+    }
 
 
-def _summary(plan, models: Sequence[EnergyModel], when: str) -> None:  # type: ignore[no-untyped-def]
+def _summary(res: PlannedWindow) -> None:
+    plan, models = res.plan, res.fleet.models()
+    when = res.requests.window_start(plan.t).strftime("%Y-%m-%d %H:%M")
     t = table(
         f"window {plan.t} ({when}): {plan.n_candidates} candidate requests, "
         f"solver {plan.selection.status_text}"
@@ -207,7 +168,7 @@ def _summary(plan, models: Sequence[EnergyModel], when: str) -> None:  # type: i
             f"{100 * r.energy_j / models[r.drone].cfg.battery_j:.1f}",
         )
     show_table(t)
-    if plan.score is not None and not (STATE["json"] or STATE["silent"]):  # docs/method.md §4.2
+    if plan.score is not None and not STATE["json"]:  # docs/method.md §4.2
         sc = plan.score
         out_console.print(
             f"window objective: J {sc.J / 1e6:.3f} MJ, G {sc.G / 1e6:.3f} MJ "

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 
@@ -11,22 +11,22 @@ from ..errors import InputError
 from ..io.atomic import allow_replacing_foreign
 from . import options as o
 from .common import (
-    PLAIN,
     STATE,
-    console,
     emit_json,
     guarded,
     info,
     make_config,
     parse_center,
-    print_drop_report,
     refuse_overwriting_inputs,
     require_input,
     set_output,
     show_table,
     table,
 )
-from .common import table as table_
+from .progress import Terminal
+
+if TYPE_CHECKING:
+    from ..segment.depots import Depots
 
 
 @guarded
@@ -86,11 +86,7 @@ def segment(
     a city into hubs (--hubs)."""
     set_output(quiet, as_json)
     allow_replacing_foreign(force)
-    from ..data.dates import parse_days
-    from ..io import output_set, run_meta
-    from ..segment import areas_geojson
-    from ..segment.plot import plot_depots
-    from ..segment.run import segment_file
+    from ..app.segment import segment as segment_data
 
     require_input(data)
     if hubs is not None:
@@ -111,48 +107,22 @@ def segment(
         segment__n_actions=actions,
         segment__seed=seed,
     )
-    day_list = parse_days(dates, cfg.data.year) if dates else None
-    if PLAIN or STATE["quiet"] or STATE["json"]:
-        res = segment_file(data, cfg, day_list)
-    else:
-        with console.status("segmenting…"):
-            res = segment_file(data, cfg, day_list)
-    print_drop_report(res.table.report, data.name)
-    meta = run_meta(
-        command="segment",
-        config=cfg,
-        source=res.table.source,
-        method=cfg.segment.method,
-        seed=cfg.segment.seed,
-        extra={
-            "days": [d.isoformat() for d in res.days],
-            "n_history": int(res.history_xy.shape[0]),
-            "rows": res.table.report.to_dict(),
-        },
+    res = segment_data(
+        data, cfg, days=dates, out=out, geojson=geojson, plot=plot, progress=Terminal()
     )
-    with output_set() as files:
-        files.write_json(out, res.depots.to_dict(meta))
-        if geojson:
-            files.write_json(gj_path, areas_geojson(res.depots, meta))
-        if plot:
-            title = (
-                f"{cfg.segment.method}: {len(res.depots)} depots, "
-                f"{res.history_xy.shape[0]:,} history requests, {len(res.days)} days"
-            )
-            files.write_with(png_path, lambda p: plot_depots(res.depots, res.history_xy, p, title))
-    _print_summary(res)
-    written = [out, *(p for p, want in ((gj_path, geojson), (png_path, plot)) if want)]
-    info("wrote " + ", ".join(str(p) for p in written))
+    _print_summary(res.depots)
+    info("wrote " + ", ".join(str(p) for p in res.files))
     if STATE["json"]:
+        frame = res.depots.frame
         emit_json(
             {
                 "command": "segment",
-                "files": [str(p) for p in written],
+                "files": [str(p) for p in res.files],
                 "method": cfg.segment.method,
                 "frame": {
-                    "center_lng": res.depots.frame.center_lng,
-                    "center_lat": res.depots.frame.center_lat,
-                    "size_km": res.depots.frame.size_km,
+                    "center_lng": frame.center_lng,
+                    "center_lat": frame.center_lat,
+                    "size_km": frame.size_km,
                 },
                 "history_days": [d.isoformat() for d in res.days],
                 "depots": len(res.depots),
@@ -160,70 +130,41 @@ def segment(
         )
 
 
-def _print_summary(res) -> None:  # type: ignore[no-untyped-def]
-    f = res.depots.frame
+def _print_summary(depots: Depots) -> None:
+    f = depots.frame
     t = table(
-        f"{len(res.depots)} depots around ({f.center_lng:.5f}, {f.center_lat:.5f}), "
+        f"{len(depots)} depots around ({f.center_lng:.5f}, {f.center_lat:.5f}), "
         f"{f.size_km:g} km square"
     )
     for col in ("depot", "x km", "y km", "history", "candidates"):
         t.add_column(col, justify="right" if col != "candidates" else "left")
-    for i in range(len(res.depots)):
-        x, y = res.depots.xy[i] / 1000.0
-        cands = " ".join(str(c) for c in res.depots.candidates[i])
-        t.add_row(str(i), f"{x:.2f}", f"{y:.2f}", f"{res.depots.n_history[i]:,}", cands)
+    for i in range(len(depots)):
+        x, y = depots.xy[i] / 1000.0
+        cands = " ".join(str(c) for c in depots.candidates[i])
+        t.add_row(str(i), f"{x:.2f}", f"{y:.2f}", f"{depots.n_history[i]:,}", cands)
     show_table(t)
-
-
-def _hub_count(text: str) -> int | None:
-    if text.strip().lower() == "auto":
-        return None
-    try:
-        n = int(text)
-    except ValueError:
-        n = 0
-    if n < 1:
-        raise InputError(f"--hubs expects a number of hubs (1 or more) or auto, got {text!r}")
-    return n
 
 
 def _segment_hubs(  # type: ignore[no-untyped-def]
     data: Path, out: Path, hubs: str, size_km, dates, year, strict, config
 ) -> None:
     """``segment --hubs``: hub squares over the city, densest first, into a hubs file."""
-    from ..data.dates import parse_days
-    from ..data.reader import read_lade
-    from ..io import output_set, run_meta
-    from ..segment.hubs import find_hubs, hubs_doc
+    from ..app.segment import hub_count, segment_hubs
 
-    n_hubs = _hub_count(hubs)
+    hub_count(hubs)  # a bad --hubs is the first error
     if out.suffix != ".json":
         raise InputError(f"--out names the hubs file, e.g. hubs.json; got {out.name}")
     refuse_overwriting_inputs([out], data=data, config=config)
     cfg = make_config(config, data__year=year, data__size_km=size_km, data__strict=strict or None)
-    if cfg.data.center is not None:
-        raise InputError("--hubs places the study areas itself: drop [data] center")
-    day_list = parse_days(dates, cfg.data.year) if dates else None
-    table = read_lade(data, cfg.data)
-    found, total = find_hubs(table, cfg.data, day_list, n_hubs)
-    print_drop_report(table.report, data.name)
-    days = day_list or table.days()
-    meta = run_meta(
-        command="segment",
-        config=cfg,
-        source=table.source,
-        extra={"days": [d.isoformat() for d in days], "hubs": hubs},
-    )
-    with output_set() as files:
-        files.write_json(out, hubs_doc(found, total, meta))
-    held = sum(h.orders for h in found)
-    t = table_(
-        f"{len(found)} hubs of {cfg.data.size_km:g} km, holding {held:,} of {total:,} orders "
-        f"({100 * held / max(total, 1):.1f} %)"
+    res = segment_hubs(data, cfg, hubs, days=dates, out=out, progress=Terminal())
+    held, total = sum(h.orders for h in res.hubs), res.total
+    t = table(
+        f"{len(res.hubs)} hubs of {cfg.data.size_km:g} km, holding {held:,} of {total:,} "
+        f"orders ({100 * held / max(total, 1):.1f} %)"
     )
     for col in ("hub", "centre lng", "centre lat", "orders", "share %"):
         t.add_column(col, justify="right")
-    for h in found:
+    for h in res.hubs:
         t.add_row(
             str(h.id),
             f"{h.frame.center_lng:.5f}",
@@ -238,7 +179,7 @@ def _segment_hubs(  # type: ignore[no-untyped-def]
             {
                 "command": "segment",
                 "files": [str(out)],
-                "hubs": len(found),
+                "hubs": len(res.hubs),
                 "orders": total,
                 "covered_share": held / total if total else 0.0,
             }

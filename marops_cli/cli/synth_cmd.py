@@ -2,14 +2,11 @@
 
 from __future__ import annotations
 
-import datetime as dt
 from pathlib import Path
 from typing import Annotated
 
 import typer
-from pydantic import ValidationError
 
-from ..errors import InputError
 from .common import guarded, info
 
 
@@ -37,23 +34,18 @@ def synth(
     ] = None,
 ) -> None:
     """Generate LaDe-shaped delivery data (all 17 columns, the real export's formats and quirks)."""
-    from ..data.dates import parse_day
-    from ..data.synth import SynthConfig, generate, write
+    from ..app.synth import synth as generate
 
-    if fmt not in (None, "csv", "parquet"):
-        raise InputError(f"--format expects csv or parquet, got {fmt!r}")
-    first: dt.date = parse_day(start, 2022)
-    fields: dict[str, object] = {"days": days, "seed": seed, "start": first, "shape": shape}
-    if orders_per_day is not None:
-        fields["orders_per_day"] = orders_per_day
-    try:
-        cfg = SynthConfig(**fields)  # type: ignore[arg-type]
-    except ValidationError as exc:
-        err = exc.errors()[0]
-        raise InputError(f"invalid option {err['loc'][0]}: {err['msg']}") from None
-    table = generate(cfg)
-    path = write(table, out, fmt)  # type: ignore[arg-type]
+    res = generate(
+        days=days,
+        seed=seed,
+        start=start,
+        orders_per_day=orders_per_day,
+        shape=shape,
+        out=out,
+        fmt=fmt,
+    )
     info(
-        f"wrote {path} ({table.num_rows:,} rows, {days} days from {first.isoformat()}, "
-        f"{shape} city)"
+        f"wrote {res.path} ({res.table.num_rows:,} rows, {days} days from "
+        f"{res.start.isoformat()}, {shape} city)"
     )

@@ -6,7 +6,7 @@ import shlex
 import sys
 import time
 from pathlib import Path
-from typing import Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 from pydantic import ValidationError
@@ -32,20 +32,16 @@ from .common import (
     require_input,
     show_table,
     table,
+    warn,
 )
 
-
-def _eval_line(ev: dict[str, Any]) -> str:
-    parts = [
-        f"{m} {v['mean_energy_kj']:.0f} kJ {v['avg_delay_h']:.2f} h "
-        f"daily cost {v['daily_combined_cost']:.3f}"
-        for m, v in ev["methods"].items()
-    ]
-    return f"episode {ev['episode']}: held-out " + "; ".join(parts)
+if TYPE_CHECKING:
+    from ..rl.config import TrainConfig
 
 
 class _Reporter:
-    """Progress bar on a terminal, plain log lines otherwise (cron, CI)."""
+    """Training's progress: a bar with the reward on a terminal, plain log lines with the
+    time left otherwise (cron, CI), from the numbers the app's progress notes carry."""
 
     def __init__(self, every: int) -> None:
         self.every = every
@@ -62,51 +58,49 @@ class _Reporter:
             return None
         return (time.perf_counter() - self.t0) / done * max(0, self.total - episode)
 
-    def __call__(self, e: dict[str, Any]) -> None:
-        kind = e["kind"]
-        if kind == "start":
+    def message(self, text: str) -> None:
+        e = getattr(text, "fields", {})
+        if e.get("kind") == "start":
             self.first, self.total = int(e["episode"]), int(e["episodes"])
             self.t0 = time.perf_counter()
-            what = "resuming at" if e["resumed"] else "starting at"
-            scn = int(e.get("scenarios", 1))
-            where = f" in {scn} scenarios ({e.get('files', 1)} files)" if scn > 1 else ""
-            console.print(
-                f"training on {e['train_days']} days{where}, held out {e['eval_days']}; "
-                f"{what} episode {e['episode']} of {e['episodes']}"
-            )
-            if is_terminal():
-                self.progress = Progress(
-                    TextColumn("episodes"),
-                    BarColumn(),
-                    MofNCompleteColumn(),
-                    TextColumn("reward {task.fields[reward]}"),
-                    TimeElapsedColumn(),
-                    TimeRemainingColumn(),
-                    console=console,
-                    transient=True,
-                )
-                self.task = self.progress.add_task(
-                    "train", total=e["episodes"], completed=e["episode"], reward="-"
-                )
-                self.progress.start()
-        elif kind == "update":
-            line = (
-                f"episode {e['episode']}: reward {e['reward']:.3f}, "
-                f"day delay {e['delay_h']:.0f} h, "
-                f"energy {e['energy_kj']:.0f} kJ, entropy {e['entropy']:.3f}"
-            )
-            if self.progress is not None:
-                self.progress.update(self.task, completed=e["episode"], reward=f"{e['reward']:.3f}")
-            elif e["episode"] % self.every < 8 or e["episode"] <= 8:
-                eta = self.eta_s(int(e["episode"]))
-                left = f", about {eta / 60:.1f} min left" if eta is not None else ""
-                typer.echo(f"[{time.perf_counter() - self.t0:7.0f}s] {line}{left}", err=True)
-        elif kind == "eval":
-            console.print(_eval_line(e))
+        console.print(text)
 
-    def close(self) -> None:
+    def warning(self, text: str) -> None:
+        warn(text)
+
+    def start(self, label: str, total: int, unit: str) -> None:
+        if not is_terminal():
+            return
+        self.progress = Progress(
+            TextColumn(label),
+            BarColumn(),
+            MofNCompleteColumn(),
+            TextColumn("reward {task.fields[reward]}"),
+            TimeElapsedColumn(),
+            TimeRemainingColumn(),
+            console=console,
+            transient=True,
+        )
+        self.task = self.progress.add_task(
+            "train", total=self.total, completed=self.first, reward="-"
+        )
+        self.progress.start()
+
+    def advance(self, text: str = "") -> None:
+        e = getattr(text, "fields", None)
+        if e is None:  # an episode of an update before its last: nothing to show yet
+            return
+        if self.progress is not None:
+            self.progress.update(self.task, completed=e["episode"], reward=f"{e['reward']:.3f}")
+        elif e["episode"] % self.every < 8 or e["episode"] <= 8:
+            eta = self.eta_s(int(e["episode"]))
+            left = f", about {eta / 60:.1f} min left" if eta is not None else ""
+            typer.echo(f"[{time.perf_counter() - self.t0:7.0f}s] {text}{left}", err=True)
+
+    def finish(self) -> None:
         if self.progress is not None:
             self.progress.stop()
+            self.progress = None
 
 
 def _sizes(text: str | None, flag: str) -> list[int]:
@@ -197,14 +191,14 @@ def train(
     force: o.Force = False,
 ) -> None:
     """Train the flight-range actor (MAPPO) on training days; write TorchScript + sidecar."""
-    from ..rl.config import TrainConfig  # deferred: torch loads only for this command
-    from ..rl.train import train as run_training
+    from ..app.train import TrainSetup, actor_files
+    from ..app.train import train as run_training
 
     for path in data:
         require_input(path)
     if out.suffix != ".pt":
         raise InputError("--out must name a .pt file (the sidecar goes beside it)", file=out)
-    outputs = [out, *(out.with_suffix(x) for x in (".json", ".ckpt", ".curve.png"))]
+    outputs = actor_files(out)
     for path in data:
         refuse_overwriting_inputs(outputs, data=path, config=config)
     allow_replacing_foreign(force)
@@ -217,47 +211,51 @@ def train(
         sim__drones=fleets[0] if fleets else None,
         segment__n_depots=depot_counts[0] if depot_counts else None,
     )
+    tcfg = _train_config(
+        method=method,
+        episodes=episodes,
+        seed=seed,
+        workers=workers,
+        eval_days_per_scenario=eval_days,
+        obs_version=obs_version,
+        **_alpha_range(alpha_range),
+    )
+    setup = TrainSetup(
+        cfg,
+        tcfg,
+        train_days=parse_days(days, cfg.data.year) if days else None,
+        n_depots=depot_counts,
+        drones=fleets,
+        resume=resume,
+        command="marops " + shlex.join(sys.argv[1:]) if sys.argv else None,
+        data_origin=data_origin,
+    )
+    res = run_training(data, setup, out, progress=_Reporter(tcfg.checkpoint_every))
+    console.print(f"wrote {out} and {out.with_suffix('.json')} ({res.training_time_s:.0f} s)")
+    if res.heldout:
+        _print_heldout(res.heldout)
+
+
+def _train_config(**fields: Any) -> TrainConfig:
+    """The training hyperparameters of the flags; a bad value names its flag."""
+    from ..rl.config import TrainConfig  # deferred: torch loads only for this command
+
     try:
-        tcfg = TrainConfig(
-            method=method,  # type: ignore[arg-type]
-            episodes=episodes,
-            seed=seed,
-            workers=workers,
-            eval_days_per_scenario=eval_days,
-            obs_version=obs_version,  # type: ignore[arg-type]
-            **_alpha_range(alpha_range),
-        )
+        return TrainConfig(**fields)
     except ValidationError as exc:
         err = exc.errors()[0]
         raise InputError(f"invalid option --{err['loc'][0]}: {err['msg']}") from None
-    train_days = parse_days(days, cfg.data.year) if days else None
-    command = "marops " + shlex.join(sys.argv[1:]) if sys.argv else None
-    rep = _Reporter(tcfg.checkpoint_every)
-    try:
-        side = run_training(
-            data,
-            cfg,
-            tcfg,
-            out,
-            train_days=train_days,
-            n_depots=depot_counts,
-            drones=fleets,
-            resume=resume,
-            command=command,
-            data_origin=data_origin,
-            on_event=rep,
-        )
-    finally:
-        rep.close()
-    console.print(f"wrote {out} and {out.with_suffix('.json')} ({side['training_time_s']:.0f} s)")
-    if side.get("heldout"):
-        from ..sim.metrics import metric_specs
 
-        specs = metric_specs("mean_energy_kj", "avg_delay_h", "daily_combined_cost")
-        t = table("held-out days (mean over days)")
-        t.add_column("method", justify="left")
-        for s in specs:
-            t.add_column(s.header, justify="right")
-        for m, v in side["heldout"]["methods"].items():
-            t.add_row(m, *[s.day_fmt.format(v[s.name]) for s in specs])
-        show_table(t)
+
+def _print_heldout(heldout: dict[str, Any]) -> None:
+    """The exported actor's held-out days beside the baselines' (mean over days)."""
+    from ..sim.metrics import metric_specs
+
+    specs = metric_specs("mean_energy_kj", "avg_delay_h", "daily_combined_cost")
+    t = table("held-out days (mean over days)")
+    t.add_column("method", justify="left")
+    for s in specs:
+        t.add_column(s.header, justify="right")
+    for m, v in heldout["methods"].items():
+        t.add_row(m, *[s.day_fmt.format(v[s.name]) for s in specs])
+    show_table(t)

@@ -19,6 +19,8 @@ every other row in its :class:`DropReport`. What is an error and what is dropped
 
 Row numbers are 1-based with the header as row 1, counting non-blank lines
 (pyarrow skips blank lines); for Parquet the first data row is row 2 as well.
+:func:`read_lade_table` reads the same columns from a pandas DataFrame or a pyarrow
+Table in memory (the Python API's data), numbering its rows the same way.
 """
 
 from __future__ import annotations
@@ -351,29 +353,82 @@ def read_lade(path: str | Path, cfg: DataConfig | None = None) -> LadeTable:
         table = _read_parquet(path) if kind == "parquet" else _read_csv(path, compression)
         # mimalloc keeps freed parse buffers; returning them cuts the peak by ~200 MB.
         pa.default_memory_pool().release_unused()
-        parsed = _check_errors(table, path, cfg)
-        code, lng, lat = _drop_reasons(table, parsed)
-        pa.default_memory_pool().release_unused()
-        if cfg.strict and code.any():
-            raise _strict_error(code, parsed, lng, path)
-        keep = code == 0
-        idx = np.flatnonzero(keep)
-        kept = table.take(idx)
-        aoi = (
-            _strings(kept["aoi_id"])
-            if "aoi_id" in kept.column_names
-            else np.full(idx.size, "", dtype=object)
+
+        def source() -> SourceInfo:
+            return SourceInfo(
+                path=str(path), name=path.name, size=path.stat().st_size, sha256=digest.result()
+            )
+
+        return _lade_table(table, str(path), cfg, source)
+
+
+IN_MEMORY = ("DataFrame", "Table")
+"""The names an in-memory table goes by in messages and metadata (pandas, pyarrow)."""
+
+
+def read_lade_table(data: object, cfg: DataConfig | None = None) -> LadeTable:
+    """Read LaDe-D rows held in memory, a pandas ``DataFrame`` or a ``pyarrow.Table``
+    with the export's columns, exactly as :func:`read_lade` reads a file: the same
+    checks, drops and errors, which name ``DataFrame`` (or ``Table``) where they would
+    name the file. Its identity (``input`` in the metadata) is the SHA-256 of its
+    columns in Arrow's stream format. Rows are numbered as in a file: the first row
+    is row 2."""
+    cfg = cfg if cfg is not None else DataConfig()
+    if isinstance(data, pa.Table):
+        where, table = IN_MEMORY[1], data
+    elif type(data).__name__ == "DataFrame" and hasattr(data, "columns"):
+        where = IN_MEMORY[0]
+        try:
+            table = pa.Table.from_pandas(data, preserve_index=False)
+        except (pa.ArrowException, TypeError, ValueError) as exc:
+            raise InputError(f"cannot read the columns ({exc})", file=where) from exc
+    else:
+        raise InputError(
+            f"expected a LaDe file path, a pandas DataFrame or a pyarrow Table, got "
+            f"{type(data).__name__}"
         )
-        weight = parsed["weight_kg"][keep] if "weight_kg" in parsed else None
-        counts = np.bincount(code, minlength=len(DROP_REASONS) + 1)
-        report = DropReport(
-            total=int(code.size),
-            kept=int(idx.size),
-            dropped={r: int(counts[k + 1]) for k, r in enumerate(DROP_REASONS)},
-        )
-        source = SourceInfo(
-            path=str(path), name=path.name, size=path.stat().st_size, sha256=digest.result()
-        )
+    include = _check_columns([str(n) for n in table.column_names], Path(where))
+    table = table.select(include)
+    if table.num_rows == 0:
+        raise InputError(f"the {where} has no data rows", file=where, row=2)
+    sink = pa.BufferOutputStream()
+    with pa.ipc.new_stream(sink, table.schema) as writer:
+        writer.write_table(table)
+    buf = sink.getvalue()
+    sha = hashlib.sha256(memoryview(buf)).hexdigest()
+
+    def source() -> SourceInfo:
+        return SourceInfo(path=where, name=where, size=buf.size, sha256=sha)
+
+    return _lade_table(table, where, cfg, source)
+
+
+def _lade_table(
+    table: pa.Table, where: str, cfg: DataConfig, source: Callable[[], SourceInfo]
+) -> LadeTable:
+    """The kept rows of ``table`` (all columns read) and its drop report; ``where``
+    names it in errors, ``source()`` is its identity."""
+    path = Path(where)
+    parsed = _check_errors(table, path, cfg)
+    code, lng, lat = _drop_reasons(table, parsed)
+    pa.default_memory_pool().release_unused()
+    if cfg.strict and code.any():
+        raise _strict_error(code, parsed, lng, path)
+    keep = code == 0
+    idx = np.flatnonzero(keep)
+    kept = table.take(idx)
+    aoi = (
+        _strings(kept["aoi_id"])
+        if "aoi_id" in kept.column_names
+        else np.full(idx.size, "", dtype=object)
+    )
+    weight = parsed["weight_kg"][keep] if "weight_kg" in parsed else None
+    counts = np.bincount(code, minlength=len(DROP_REASONS) + 1)
+    report = DropReport(
+        total=int(code.size),
+        kept=int(idx.size),
+        dropped={r: int(counts[k + 1]) for k, r in enumerate(DROP_REASONS)},
+    )
     return LadeTable(
         order_id=_strings(kept["order_id"]),
         lng=lng[keep],
@@ -383,6 +438,6 @@ def read_lade(path: str | Path, cfg: DataConfig | None = None) -> LadeTable:
         aoi_id=aoi,
         weight_kg=weight,
         row=(idx + 2).astype(np.int64),
-        source=source,
+        source=source(),
         report=report,
     )

@@ -105,7 +105,7 @@ def check_methods(methods: Sequence[str], actors: dict[str, Path] | None = None)
 
 
 def prepare(
-    data: str | Path,
+    data: str | Path | LadeTable,
     cfg: PlannerConfig,
     methods: Sequence[str],
     settings: Sequence[Setting],
@@ -116,7 +116,8 @@ def prepare(
     actors: dict[str, Path] | None = None,
     hubs: Sequence[Hub] | None = None,
 ) -> Prepared:
-    """Read ``data`` once, choose the days, segment the other days once per segmentation.
+    """Read ``data`` once (or take the table read already), choose the days, segment the
+    other days once per segmentation.
 
     ``days`` replays those dates; otherwise ``split`` picks the held-out (last 20 %)
     or training dates. Depots come from every day not replayed (``load_scenario``).
@@ -130,10 +131,11 @@ def prepare(
     check_settings(cfg, settings, methods)
     if repeats < 1:
         raise InputError(f"--repeats expects at least 1, got {repeats}")
-    table = read_lade(data, cfg.data)
+    table = data if isinstance(data, LadeTable) else read_lade(data, cfg.data)
     chosen = list(days) if days else split_days(table.days(), split)
     if not chosen:
         raise InputError(f"no days to evaluate (the file has {format_days(table.days())})")
+    path = Path(table.source.path)
     scenarios: dict[tuple[int, str, int], Scenario] = {}
     hub_days: list[tuple[int, list[dt.date]]] = []
     areas = (
@@ -148,14 +150,14 @@ def prepare(
         test_table = table_h.subset(on_days)  # workers need only the replayed days' rows
         for key in sorted({(METHODS[m][0], s.depots_n) for m in methods for s in settings}):
             seg_cfg = override(cfg_h, segment__method=key[0], segment__n_depots=key[1])
-            scn = load_scenario(data, seg_cfg, replay_days=chosen, table=table_h, hub=hub)
+            scn = load_scenario(path, seg_cfg, replay_days=chosen, table=table_h, hub=hub)
             scenarios[(hub, *key)] = Scenario(
                 test_table, scn.frame, scn.depots, seg_cfg, scn.history_days, hub
             )
         hub_days.append((hub, days_h))
     jobs = plan_jobs(len(settings), methods, chosen, repeats, cfg.sim.seed, hub_days=hub_days)
     if not jobs:
-        raise InputError("no hub has requests on the days to evaluate", file=Path(data))
+        raise InputError("no hub has requests on the days to evaluate", file=path)
     specs = {m: method_spec(m) for m in methods}
     return Prepared(
         table,

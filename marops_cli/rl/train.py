@@ -8,10 +8,9 @@ that never stopped, whatever the number of workers.
 
 from __future__ import annotations
 
-import datetime as dt
 import os
 import time
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
@@ -20,10 +19,8 @@ import numpy as np
 import torch
 
 from .. import __version__
-from ..config import PlannerConfig
 from ..errors import InputError
 from ..policies.observation import ObsVersion
-from .config import TrainConfig
 from .data import TrainData, fingerprint, load_training_data, split_days
 from .env import DeliveryEnv
 from .evaluate import summarise
@@ -316,26 +313,20 @@ def _name_daily_cost(evals: list[dict[str, Any]], best: dict[str, Any] | None) -
 
 
 def train(
-    data: str | Path | Sequence[str | Path],
-    cfg: PlannerConfig,
-    tcfg: TrainConfig,
+    td: TrainData,
     out: str | Path,
     *,
-    train_days: list[dt.date] | None = None,
-    n_depots: Sequence[int] = (),
-    drones: Sequence[int] = (),
     resume: bool = True,
     command: str | None = None,
     data_origin: str | None = None,
     on_event: Callable[[Event], None] | None = None,
 ) -> dict[str, Any]:
-    """Train on ``data`` (one file or several cities); write ``out``, its ``.json`` and
-    ``.ckpt``; return the sidecar. ``n_depots`` and ``drones`` list area counts and fleet
-    sizes to train on (default: the config's); every (file, areas, fleet) is a scenario.
+    """Train on the scenarios of ``td`` (:func:`~.data.load_training_data`), resuming
+    from ``out``'s ``.ckpt`` when ``resume`` says so; write ``out``, its ``.json``
+    sidecar and ``.curve.png``; return the sidecar.
 
-    ``command`` and ``data_origin`` (how ``data`` was made) go into the sidecar as given.
+    ``command`` and ``data_origin`` (how the data was made) go into the sidecar as given.
     """
-    td = load_training_data(data, cfg, tcfg, train_days, n_depots=n_depots, drones=drones)
     with _one_thread():
         trainer = Trainer(td, Path(out), on_event)
         trainer.run(resume)

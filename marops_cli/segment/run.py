@@ -1,17 +1,15 @@
-"""``segment`` as one library call: read a LaDe file, place the study area, segment it."""
+"""``segment`` as one library call: place the study area over a LaDe table, segment it."""
 
 from __future__ import annotations
 
 import datetime as dt
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
 from ..config import PlannerConfig
 from ..data.frame import Frame
 from ..data.prepare import check_days_in_file, study_frame
-from ..data.reader import read_lade
 from ..data.table import LadeTable
 from ..errors import InputError, naming
 from .depots import Depots
@@ -46,11 +44,10 @@ def history_points(
     return np.column_stack([x[inside], y[inside]]), days
 
 
-def segment_file(
-    path: str | Path, cfg: PlannerConfig, days: list[dt.date] | None = None
+def segment_table(
+    table: LadeTable, cfg: PlannerConfig, days: list[dt.date] | None = None
 ) -> SegmentResult:
-    """Depots and service areas for the requests of ``days`` (all days when None)."""
-    table = read_lade(path, cfg.data)
+    """Depots and service areas for the rows of ``table`` due on ``days`` (all when None)."""
     frame = study_frame(table, cfg.data, days or None)
     pts, used_days = history_points(table, frame, days)
     try:

@@ -3,19 +3,19 @@
 
 A :class:`ReplayWork` holds what every day needs (each study area's replayed days'
 rows, depots and fleet, the method); :meth:`ReplayWork.run` replays one (hub, day) and
-returns its route tables, metrics and what the command line says of it, so that the
-files are written by the ``replay-day`` process, whichever worker or machine planned the
-day. A day does not depend on the days before it (the policy starts each day from its
-seed), so a day planned on a worker is the same as one planned in the command's process.
+returns its route tables, metrics and what the run reports of it, so that the files are
+written by the process that runs the replay (marops_cli/app/replay_areas.py), whichever
+worker or machine planned the day. A day does not depend on the days before it (the
+policy starts each day from its seed), so a day planned on a worker is the same as one
+planned in the replay's own process.
 """
 
 from __future__ import annotations
 
 import datetime as dt
-import tempfile
+import io
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -112,10 +112,9 @@ class ReplayWork:
         if self.plot:
             from .plot import plot_day
 
-            with tempfile.TemporaryDirectory() as tmp:
-                path = Path(tmp) / "routes.png"
-                plot_day(res, reqs, path)
-                png = path.read_bytes()
+            buf = io.BytesIO()  # matplotlib writes the same PNG bytes to a buffer
+            plot_day(res, reqs, buf)  # type: ignore[arg-type]
+            png = buf.getvalue()
         return DayOutput(metrics, stops, routes, scope, png)
 
     def refuse(self) -> str | None:

@@ -130,11 +130,14 @@ def load_scenario(
     replay_days: Sequence[dt.date] = (),
     table: LadeTable | None = None,
     hub: int = 0,
+    cache: bool = True,
 ) -> Scenario:
     """Read the file and take depots from ``depots_path`` or segment the history days.
 
     History days are the file's days other than the replayed ones (all days when
     that leaves none), so the depots never see the demand they are judged on.
+    ``cache=False`` segments without the depots cache (data held in memory: the
+    Python API writes nothing it was not asked to).
     """
     table = table if table is not None else read_lade(data, cfg.data)
     check_days_in_file(table, replay_days)
@@ -158,7 +161,7 @@ def load_scenario(
 
     # k-means is the slowest step of a run without --depots: the depots are cached by
     # the hash of what they are made from (docs/outputs.md, "Depots cache").
-    depots = cached_depots(table, history, frame, cfg.data, cfg.segment, make)
+    depots = cached_depots(table, history, frame, cfg.data, cfg.segment, make) if cache else make()
     # The profile never sees a replayed day: with no other day there is none (zeros).
     depots.arrivals = arrival_profile(table, depots, unseen, cfg) if unseen else None
     return Scenario(table, frame, depots, cfg, history, hub)

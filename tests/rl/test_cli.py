@@ -80,20 +80,14 @@ def test_train_rejects_bad_options(tiny_csv: Path, tmp_path: Path) -> None:
 def test_training_log_gives_the_time_left(monkeypatch) -> None:
     """Without a terminal each logged episode says how long the rest will take, at the
     pace so far: 10 of 100 episodes in 60 s leaves 90 × 6 s = 9 min."""
+    from marops_cli.app.train import Note
     from marops_cli.cli import train_cmd
 
     clock = iter([0.0, 1000.0, 1060.0])  # created, started, asked
     monkeypatch.setattr(train_cmd.time, "perf_counter", lambda: next(clock))
     monkeypatch.setattr(train_cmd, "is_terminal", lambda: False)
     rep = train_cmd._Reporter(every=200)
-    rep(
-        {
-            "kind": "start",
-            "episode": 0,
-            "episodes": 100,
-            "resumed": False,
-            "train_days": 8,
-            "eval_days": 2,
-        }
-    )
+    start = {"kind": "start", "episode": 0, "episodes": 100, "resumed": False}
+    rep.message(Note("training on 8 days, held out 2; starting at episode 0 of 100", **start))
+    rep.start("episodes", 100, "episodes")
     assert rep.eta_s(10) == pytest.approx(540.0)

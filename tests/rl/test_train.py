@@ -1,20 +1,69 @@
-"""Training end to end in seconds: artifacts, determinism, resume, worker count."""
+"""Training end to end in seconds: artifacts, determinism, resume, worker count (the
+application layer's use case, marops_cli/app/train.py)."""
 
 from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import Any
 
 import pytest
 import torch
 
+from marops_cli.app import SILENT, Progress
+from marops_cli.app.train import TrainResult, TrainSetup
+from marops_cli.app.train import train as run_training
 from marops_cli.config import PlannerConfig
-from marops_cli.rl.train import train
+from marops_cli.rl.config import TrainConfig
 
 from .conftest import quick
 
 # torch 2.13 deprecates TorchScript; docs/method.md §6 names it as the artifact format.
 pytestmark = pytest.mark.filterwarnings("ignore:`torch.jit:DeprecationWarning")
+
+
+class Events:
+    """A progress that keeps the training loop's events from the notes it hears, and
+    stops the run (Ctrl-C) once an update reaches episode ``stop_at``."""
+
+    def __init__(self, stop_at: int | None = None) -> None:
+        self.events: list[dict] = []
+        self.advances = 0
+        self.stop_at = stop_at
+
+    def message(self, text: str) -> None:
+        self.events.append(text.fields)  # type: ignore[attr-defined]
+
+    def warning(self, text: str) -> None:
+        raise AssertionError(text)
+
+    def start(self, label: str, total: int, unit: str) -> None:
+        self.total = total
+
+    def advance(self, text: str = "") -> None:
+        self.advances += 1
+        if text:
+            self.events.append(text.fields)  # type: ignore[attr-defined]
+            if self.events[-1]["episode"] == self.stop_at:
+                raise KeyboardInterrupt  # the run dies here
+
+    def finish(self) -> None:
+        return None
+
+
+def train(
+    data: Path | list[Path],
+    cfg: PlannerConfig,
+    tcfg: TrainConfig,
+    out: Path,
+    *,
+    progress: Progress = SILENT,
+    **options: Any,
+) -> dict:
+    """The sidecar of a training run of the application layer."""
+    res = run_training(data, TrainSetup(cfg, tcfg, **options), out, progress=progress)
+    assert isinstance(res, TrainResult) and res.actor == out
+    return res.sidecar
 
 
 def _weights(path: Path) -> dict[str, torch.Tensor]:
@@ -29,9 +78,14 @@ def test_smoke_writes_actor_sidecar_checkpoint(
     tiny_csv: Path, small_cfg: PlannerConfig, tmp_path: Path
 ) -> None:
     out = tmp_path / "a.pt"
-    events: list[dict] = []
-    side = train(tiny_csv, small_cfg, quick(), out, command="marops x", on_event=events.append)
+    rec = Events()
+    setup = TrainSetup(small_cfg, quick(), command="marops x")
+    res = run_training(tiny_csv, setup, out, progress=rec)
+    side, events = res.sidecar, rec.events
     assert out.is_file() and out.with_suffix(".ckpt").is_file()
+    assert res.files == [out, *(out.with_suffix(x) for x in (".json", ".curve.png", ".ckpt"))]
+    assert all(f.is_file() for f in res.files) and len(res.curve) == 2
+    assert res.heldout == side["heldout"] and rec.advances == rec.total == 4  # one per episode
     doc = json.loads(out.with_suffix(".json").read_text())
     assert doc == json.loads(json.dumps(side))
     for key in ("obs_version", "n_actions", "hidden_size", "alpha", "seed", "episodes", "command"):
@@ -69,16 +123,13 @@ def test_resume_matches_an_uninterrupted_run(
     whole, cut = tmp_path / "whole.pt", tmp_path / "cut.pt"
     train(tiny_csv, small_cfg, quick(), whole, resume=False)
 
-    def stop_after_first_checkpoint(e: dict) -> None:
-        if e["kind"] == "update" and e["episode"] == 4:
-            raise KeyboardInterrupt  # the run dies before its second checkpoint
-
-    with pytest.raises(KeyboardInterrupt):
-        train(tiny_csv, small_cfg, quick(), cut, resume=False, on_event=stop_after_first_checkpoint)
+    with pytest.raises(KeyboardInterrupt):  # the run dies before its second checkpoint
+        train(tiny_csv, small_cfg, quick(), cut, resume=False, progress=Events(stop_at=4))
     assert cut.with_suffix(".ckpt").is_file() and not cut.is_file()
-    events: list[dict] = []
-    train(tiny_csv, small_cfg, quick(), cut, resume=True, on_event=events.append)
-    assert events[0]["resumed"] and events[0]["episode"] == 2
+    rec = Events()
+    train(tiny_csv, small_cfg, quick(), cut, resume=True, progress=rec)
+    assert rec.events[0]["resumed"] and rec.events[0]["episode"] == 2
+    assert rec.total == rec.advances == 2  # the episodes left
     assert _same(_weights(whole), _weights(cut))
 
 
@@ -111,10 +162,8 @@ def test_several_cities_area_counts_and_fleets(
         tmp_path / "river.csv",
     )
     tc = quick(episodes=6, eval_every=100, eval_days_per_scenario=1)
-    events: list[dict] = []
     side = train(
-        [tiny_csv, river], small_cfg, tc, tmp_path / "a.pt",
-        n_depots=[6, 8], drones=[3, 4], on_event=events.append,
+        [tiny_csv, river], small_cfg, tc, tmp_path / "a.pt", n_depots=[6, 8], drones=[3, 4],
     )  # fmt: skip
     names = [s["name"] for s in side["scenarios"]]
     assert len(names) == 8 and len(set(names)) == 8

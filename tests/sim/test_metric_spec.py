@@ -76,7 +76,8 @@ def test_summary_tables_follow_the_spec() -> None:
 
 def test_day_tables_follow_the_spec() -> None:
     """replay-day's table and the sweep figures name only columns of the spec."""
-    from marops_cli.cli.replay_cmd import METRIC_COLUMNS, SUMMED
+    from marops_cli.app.replay import SUMMED
+    from marops_cli.cli.replay_cmd import METRIC_COLUMNS
     from marops_cli.evaluate.plots import PANELS
 
     heads = [(METRICS[k].header, METRICS[k].day_fmt) for k in METRIC_COLUMNS]

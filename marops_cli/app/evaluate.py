@@ -1,0 +1,245 @@
+"""Evaluate: compare methods over held-out days, sweep settings, write tables and figures.
+
+One call reads the data, segments it, runs every job (day x method x setting x repeat)
+over worker processes or a Dask cluster, and summarises the rows (paper Table III,
+docs/method.md §7-9). Given an output folder, it keeps each finished job in
+``OUT/jobs/`` as it finishes, resumes from there, and writes ``results.parquet``,
+``summary.csv``, ``summary.md``, the figures and ``paired.csv`` (docs/outputs.md,
+"Evaluation").
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from ..config import PlannerConfig
+from ..data.table import LadeTable
+from ..errors import InputError
+from .messages import drop_report
+from .progress import SILENT, Progress
+
+if TYPE_CHECKING:
+    import pyarrow as pa
+
+    from ..evaluate import Evaluation, Job, Prepared
+    from ..evaluate.dataset import JobStore
+    from ..segment.hubs import Hub
+
+__all__ = ["JOBS", "EvaluateConfig", "EvaluationResult", "default_methods", "evaluate"]
+
+JOBS = "jobs"
+"""The jobs dataset in the output folder: one file per finished replay (docs/outputs.md)."""
+
+
+@dataclass(frozen=True)
+class EvaluateConfig:
+    """What to compare, over which days and settings, and where to run it."""
+
+    planner: PlannerConfig
+    methods: Sequence[str] | None = None
+    """Methods to compare; None: :func:`default_methods`."""
+    alpha: Sequence[float] | None = None
+    drones: Sequence[int] | None = None
+    coverage: Sequence[float] | None = None
+    depots_n: Sequence[int] | None = None
+    """Values to sweep (every combination is a setting); None keeps the config's value."""
+    days: Sequence[dt.date] | None = None
+    """Days to replay; None: the ``split``'s."""
+    split: str = "test"
+    """``test``: the last 20 % of the file's dates; ``train``: the rest."""
+    repeats: int = 1
+    workers: int = 2
+    scheduler: str | None = None
+    """A Dask scheduler's address, ``local`` for a cluster of ``workers`` processes on
+    this machine; None: local worker processes."""
+    hubs: Sequence[Hub] | None = None
+    """Every hub of a city as its own study area (docs/method.md §1.1); None: one area."""
+    actors: dict[str, Path] = field(default_factory=dict)
+    """Policy kind (``learned``, ``direct``) -> trained actor replacing the shipped one."""
+    against: str | None = None
+    """Reference method of the paired comparison (``paired``); None: none."""
+    plots: bool = True
+    force: bool = False
+    """Clear another evaluation's jobs found in the output folder."""
+
+
+@dataclass(frozen=True)
+class EvaluationResult:
+    """What an evaluation produced, in memory, and where its files are."""
+
+    results: pa.Table
+    """One row per setting x method x day x repeat (docs/outputs.md, "Evaluation")."""
+    summary: pa.Table
+    """Mean and std per setting and method."""
+    paired: pa.Table | None
+    """Each method's per-day difference to ``against``, with a bootstrap 95 % CI."""
+    days: list[dt.date]
+    files: list[Path]
+    """The files written (none without an output folder)."""
+    folder: Path | None
+
+
+def evaluate(
+    data: str | Path | LadeTable,
+    config: EvaluateConfig,
+    *,
+    out: Path | None = None,
+    progress: Progress = SILENT,
+) -> EvaluationResult:
+    """Run the evaluation ``config`` describes on ``data`` (a LaDe file or its table);
+    with ``out``, keep its jobs there as they finish (resuming the ones already there)
+    and write its tables and figures."""
+    from ..evaluate import expand_settings, prepare
+
+    cfg = config.planner
+    settings = expand_settings(
+        cfg,
+        alpha=config.alpha,
+        drones=config.drones,
+        coverage=config.coverage,
+        depots_n=config.depots_n,
+    )
+    actors = {k: Path(v) for k, v in config.actors.items()}
+    methods = list(config.methods) if config.methods is not None else default_methods(actors)
+    if config.scheduler is None and config.workers > 1:
+        from ..evaluate.workers import warm_up
+        from ..sim.jobs import loads_actor
+
+        # The workers' fork server imports the planner (and torch for an actor) while
+        # this process reads the file and segments it.
+        warm_up(actor=any(loads_actor(m) for m in methods))
+    if config.against is not None and config.against not in methods:
+        raise InputError(
+            f"--against {config.against!r} is not among the methods compared ({', '.join(methods)})"
+        )
+    prep = prepare(
+        data,
+        cfg,
+        methods,
+        settings,
+        days=config.days,
+        split=config.split,
+        repeats=config.repeats,
+        actors=actors,
+        hubs=config.hubs,
+    )
+    drop_report(progress, prep.source.report, prep.source.source.name)
+    progress.message(_plan_line(prep, config))
+    if out is None:
+        ev = _run(prep, config, None, progress)
+        paired = _paired(ev, config.against)
+        return EvaluationResult(ev.results, ev.summary, paired, prep.days, [], None)
+    return _evaluate_into(out, prep, config, progress)
+
+
+def default_methods(actors: dict[str, Path]) -> list[str]:
+    """Every method this build can run (learned ones need an actor), but the references
+    (stay, myopic), which are compared only when asked for."""
+    from ..evaluate import check_methods
+    from ..methods import METHODS, method
+
+    chosen = []
+    for m in METHODS:
+        try:
+            check_methods([m], actors)
+        except InputError:
+            continue  # the default list skips what cannot run; a listed method errors
+        if method(m).in_default_evaluation:
+            chosen.append(m)
+    return chosen
+
+
+def _plan_line(prep: Prepared, config: EvaluateConfig) -> str:
+    """``evaluate: 3 methods x 1 settings x 4 days x 1 repeats = 12 replays, on 2 workers``."""
+    workers, scheduler = config.workers, config.scheduler
+    where = (
+        f"{workers} workers"
+        if scheduler is None
+        else f"a local Dask cluster of {workers} workers"
+        if scheduler == "local"
+        else f"the Dask scheduler at {scheduler}"
+    )
+    hub_note = f" over {len(prep.hubs)} hubs (hub-days with requests)" if prep.hubs else ""
+    return (
+        f"evaluate: {len(prep.methods)} methods x {len(prep.settings)} settings x "
+        f"{len(prep.days)} days x {prep.repeats} repeats{hub_note} = {len(prep.jobs)} "
+        f"replays, on {where}"
+    )
+
+
+def _evaluate_into(
+    out: Path, prep: Prepared, config: EvaluateConfig, progress: Progress
+) -> EvaluationResult:
+    """Run ``prep`` keeping its jobs in ``out``, then write its tables and figures there."""
+    from ..evaluate import write_outputs
+    from ..evaluate.dataset import JobStore
+    from ..evaluate.runner import run_identity
+    from ..io.atomic import folder_lock
+
+    with folder_lock(out):  # one run at a time in a folder; stale temporaries go
+        store = JobStore(out / JOBS, prep, run_identity(prep))
+        store.open(force=config.force)  # this run's finished jobs, or an error for another's
+        if store.resumed:
+            n = len(prep.jobs)
+            progress.message(f"resumed: {store.resumed} of {n} replays from {store.root}")
+        try:
+            ev = _run(prep, config, store, progress)
+        except KeyboardInterrupt as exc:  # Ctrl-C or SIGTERM: the caller says what is kept
+            exc.add_note(
+                f"{store.kept()} of {len(prep.jobs)} replays are kept in {store.root}: run "
+                "the same command again to resume"
+            )
+            raise
+        files = write_outputs(out, prep, ev.results, ev.summary, plots=config.plots)
+        paired = _paired(ev, config.against)
+        if paired is not None:
+            files.append(_write_paired(out, paired))
+    return EvaluationResult(ev.results, ev.summary, paired, prep.days, files, out)
+
+
+def _run(
+    prep: Prepared, config: EvaluateConfig, store: JobStore | None, progress: Progress
+) -> Evaluation:
+    """Run the jobs, one ``advance`` per replay (the ones resumed first, at once)."""
+    from ..evaluate import evaluate as run_evaluation
+
+    def done(n: int, total: int, job: Job) -> None:
+        s = prep.settings[job.setting]
+        hub = f"hub {job.hub} " if prep.hubs else ""
+        progress.advance(
+            f"evaluate {n}/{total}: {hub}{job.day.isoformat()} {job.method} "
+            f"alpha={s.alpha:g} drones={prep.drones(job)} coverage={s.coverage:g} "
+            f"depots={s.depots_n} repeat {job.repeat}"
+        )
+
+    progress.start("evaluate", len(prep.jobs), "replays")
+    try:
+        for _ in range(store.resumed if store is not None else 0):
+            progress.advance()
+        return run_evaluation(prep, config.workers, done, store, config.scheduler)
+    finally:
+        progress.finish()
+
+
+def _paired(ev: Evaluation, against: str | None) -> pa.Table | None:
+    """Every method against ``against``, day by day (None without one)."""
+    if against is None:
+        return None
+    from ..evaluate.paired import paired_table
+
+    return paired_table(ev.results, against)
+
+
+def _write_paired(out: Path, paired: pa.Table) -> Path:
+    """``paired.csv``."""
+    import pyarrow.csv as pacsv
+
+    from ..io import output_set
+
+    with output_set() as files:
+        files.write_with(out / "paired.csv", lambda p: pacsv.write_csv(paired, str(p)))
+    return out / "paired.csv"

@@ -1,0 +1,88 @@
+"""What makes a replayed day what it is, and whether an earlier day folder was made the
+same way (``replay-day`` resumes a run by keeping such days, docs/outputs.md)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from ..errors import InputError
+from ..io import run_meta
+from ..io.meta import file_sha256
+
+if TYPE_CHECKING:
+    from ..sim.jobs import Scenario
+
+
+def identity(
+    scn: Scenario,
+    method: str,
+    policy_id: Any,
+    depots: Path | None,
+    fmt: str,
+    fleet: dict[str, Any] | None = None,
+) -> dict[str, Any]:
+    """Version, config, input, depots, fleet, policy, method, seed and format of a
+    replayed day: recorded in every day's metrics.json under ``settings``."""
+    cfg = scn.cfg
+    meta = run_meta(
+        command="replay-day",
+        config=cfg,
+        source=scn.table.source,
+        policy=policy_id,
+        method=method,
+        seed=cfg.sim.seed,
+        stamp=False,
+    )
+    meta["frame"] = {
+        "center_lng": scn.frame.center_lng,
+        "center_lat": scn.frame.center_lat,
+        "size_km": scn.frame.size_km,
+    }
+    if depots is not None:
+        meta["depots_file"] = {"name": depots.name, "sha256": file_sha256(depots)}
+    if fleet is not None:  # the resolved fleet: where each drone starts, its type
+        meta["fleet"] = fleet
+    meta["format"] = fmt
+    meta.pop("command", None)
+    return meta
+
+
+def _flatten(doc: Any, prefix: str = "") -> dict[str, Any]:
+    if not isinstance(doc, dict):
+        return {prefix: doc}
+    out: dict[str, Any] = {}
+    for k, v in doc.items():
+        out.update(_flatten(v, f"{prefix}.{k}" if prefix else str(k)))
+    return out
+
+
+def matching_days(done: Path, ident: dict[str, Any]) -> list[dict[str, Any]]:
+    """The day records of ``done`` if it was made with ``ident``; else a clear error."""
+    try:
+        doc = json.loads(done.read_text(encoding="utf-8"))
+        prior = doc["meta"].get("settings")
+        days = doc["days"]
+    except (OSError, ValueError, KeyError, TypeError, AttributeError) as exc:
+        raise InputError(
+            f"unreadable earlier output ({exc}); pass --force to replay or choose another --out",
+            file=done,
+        ) from exc
+    if prior is None:
+        raise InputError(
+            "earlier output without recorded settings; pass --force to replay or choose "
+            "another --out",
+            file=done,
+        )
+    old, new = _flatten(prior), _flatten(ident)
+    diff = [k for k in sorted(set(old) | set(new)) if old.get(k) != new.get(k)]
+    if diff:
+        shown = "; ".join(f"{k}: {old.get(k)!r} here, {new.get(k)!r} now" for k in diff[:3])
+        more = f" (+{len(diff) - 3} more)" if len(diff) > 3 else ""
+        raise InputError(
+            f"holds a replay made with other settings ({shown}{more}); pass --force to "
+            "replay it or choose another --out",
+            file=done,
+        )
+    return list(days)

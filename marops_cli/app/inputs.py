@@ -1,0 +1,82 @@
+"""The inputs every use case takes: data as a file or an in-memory table, depots, fleet."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, TypeAlias
+
+from ..config import DataConfig
+from ..errors import InputError
+
+if TYPE_CHECKING:
+    from ..data.table import LadeTable
+
+Data: TypeAlias = "str | Path | Any"
+"""A LaDe export: a path (CSV, CSV.gz, Parquet), a pandas DataFrame or a pyarrow Table
+with the export's columns."""
+
+
+def in_memory(data: Any) -> bool:
+    """Whether ``data`` is a table in memory rather than a file's path."""
+    return not isinstance(data, str | Path)
+
+
+def data_name(data: Any) -> str:
+    """What messages call the data: the file's name, or ``DataFrame`` / ``Table``."""
+    from ..data.reader import IN_MEMORY  # pyarrow loads with the first read, not the CLI
+
+    if not in_memory(data):
+        return Path(data).name
+    return IN_MEMORY[1] if type(data).__name__ == "Table" else IN_MEMORY[0]
+
+
+def require_input(path: str | Path) -> None:
+    """Stop at once when the data file is missing or is a folder."""
+    path = Path(path)
+    if not path.exists():
+        raise InputError("file not found", file=path)
+    if path.is_dir():
+        raise InputError("is a folder, expected a LaDe CSV or Parquet file", file=path)
+
+
+def parse_center(text: str | None) -> tuple[float, float] | None:
+    """``"121.47,31.23"`` -> (lng, lat)."""
+    if text is None:
+        return None
+    try:
+        lng_s, lat_s = text.split(",")
+        lng, lat = float(lng_s), float(lat_s)
+    except ValueError:
+        raise InputError(f"--center expects LNG,LAT (e.g. 121.47,31.23), got {text!r}") from None
+    if not (-180 <= lng <= 180 and -90 <= lat <= 90):
+        raise InputError(f"--center {text!r} is not a valid LNG,LAT")
+    return lng, lat
+
+
+def check_format(fmt: str) -> None:
+    """Route files are written as ``parquet`` or ``json``."""
+    if fmt not in ("parquet", "json"):
+        raise InputError(f"--format expects parquet or json, got {fmt!r}")
+
+
+def read_data(data: Any, cfg: DataConfig) -> LadeTable:
+    """The kept rows of ``data`` (a file or a table in memory) and its drop report."""
+    from ..data.reader import read_lade, read_lade_table
+
+    if in_memory(data):
+        return read_lade_table(data, cfg)
+    return read_lade(Path(data), cfg)
+
+
+def refuse_overwriting_inputs(outputs: list[Path], **inputs: Path | None) -> None:
+    """Stop before any work when an output would replace an input file (``--out DATA``)."""
+    seen = {}
+    for flag, path in inputs.items():
+        if path is not None and Path(path).exists():
+            seen[Path(path).resolve()] = flag.replace("_", "-")
+    for out_path in outputs:
+        hit = seen.get(Path(out_path).resolve())
+        if hit is not None:
+            raise InputError(
+                f"would overwrite the input given as {hit}; choose another --out", file=out_path
+            )

@@ -1,0 +1,54 @@
+"""The status lines and warnings the use cases report (docs/method.md §1, docs/outputs.md):
+one wording for the command line and the Python API."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from ..data.table import DropReport
+from .progress import Progress
+
+UNDELIVERED_WARN = 0.10
+"""Share of a day's requests left undelivered above which a run warns."""
+
+
+def drop_report(progress: Progress, report: DropReport, name: str) -> None:
+    """Which rows were dropped and why (docs/method.md §1)."""
+    progress.message(report.describe(name))
+
+
+def day_scope(progress: Progress, scope: Any, cfg: Any, label: str = "") -> None:
+    """How many of the day's orders are planned and what the study area and the service
+    hours left out (docs/method.md §1), from its ``sim.days.DayScope``; ``label`` names
+    the hub of a city run."""
+    left = []
+    if scope.outside_area:
+        left.append(f"{scope.outside_area:,} outside the {cfg.data.size_km:g} km study area")
+    if scope.outside_hours:
+        left.append(
+            f"{scope.outside_hours:,} due outside service hours "
+            f"{cfg.data.service_start}-{cfg.data.service_end}"
+        )
+    tail = f", {sum((scope.outside_area, scope.outside_hours)):,} left out ({'; '.join(left)})"
+    progress.message(
+        f"{label}{scope.day.isoformat()}: {scope.orders_due:,} orders due, "
+        f"{scope.planned:,} planned" + (tail if left else "")
+    )
+
+
+def undelivered(progress: Progress, metrics: dict[str, Any], drones: int) -> None:
+    """Warn when more than 10 % of a day's requests stayed undelivered, and about
+    requests no drone can serve at all (too heavy, too far)."""
+    heavy, far = metrics.get("unservable_heavy", 0), metrics.get("unservable_far", 0)
+    if heavy or far:
+        progress.warning(
+            f"{metrics['day']}: {heavy:,} parcels heavier than the payload limit and {far:,} "
+            "requests beyond any drone's reach from the nearest depot cannot be served"
+        )
+    share = metrics["undelivered"] / max(metrics["requests"], 1)
+    if share > UNDELIVERED_WARN:
+        progress.warning(
+            f"{metrics['day']}: {metrics['undelivered']:,} of {metrics['requests']:,} "
+            f"requests ({share:.0%}) stayed undelivered with {drones} "
+            + ("drone" if drones == 1 else "drones")
+        )

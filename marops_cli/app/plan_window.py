@@ -1,0 +1,151 @@
+"""Plan one time window for the whole fleet (``plan-window``, docs/method.md §4): flight
+ranges, candidate plans, the optimal selection; its stops and routes tables."""
+
+from __future__ import annotations
+
+import datetime as dt
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from ..config import PlannerConfig
+from .inputs import Data, check_format, data_name, in_memory, read_data
+from .messages import day_scope, drop_report
+from .progress import SILENT, Progress
+
+if TYPE_CHECKING:
+    import pyarrow as pa
+
+    from ..data.table import DayRequests
+    from ..plans.window import WindowPlan
+    from ..sim.fleet import Fleet
+
+
+@dataclass(frozen=True)
+class PlannedWindow:
+    """A planned window: the plan, the day's requests it was planned from, the fleet,
+    its stops and routes tables (with their ``marops`` metadata, as in the files), and
+    the files written."""
+
+    plan: WindowPlan
+    requests: DayRequests
+    fleet: Fleet
+    stops: pa.Table
+    routes: pa.Table
+    meta: dict[str, Any]
+    files: list[Path]
+
+    @property
+    def solver(self) -> dict[str, Any]:
+        """The selection's status, fallback and objective."""
+        return dict(self.meta["solver"])
+
+    @property
+    def objective(self) -> dict[str, Any] | None:
+        """The window objective (docs/method.md §4.2), or None."""
+        return self.meta["objective"]
+
+
+def plan_window(
+    data: Data,
+    cfg: PlannerConfig,
+    day: dt.date,
+    window: int,
+    *,
+    depots: str | Path,
+    method: str = "marops",
+    fleet: Any = None,
+    delivered: str | Path | None = None,
+    out: str | Path | None = None,
+    fmt: str = "parquet",
+    geojson: bool = False,
+    progress: Progress = SILENT,
+) -> PlannedWindow:
+    """Plan window ``window`` of ``day`` with the depots of ``depots`` and the fleet of a
+    fleet file (else ``cfg.sim.drones`` drones), leaving out the orders an earlier stops
+    file (``delivered``) delivered; with ``out`` write its route files there."""
+    from ..io import folder_lock, output_set
+    from ..io.tables import with_meta, write_route_files
+    from ..sim.days import DayScope
+    from ..sim.fleet import Fleet
+    from ..sim.jobs import (
+        delivered_orders,
+        load_fleet,
+        load_scenario,
+        method_policy,
+        plan_one_window,
+        route_tables,
+    )
+
+    check_format(fmt)
+    pol = method_policy(method, cfg.sim.policy, cfg.sim.seed)
+    # Every input is checked before anything is said about the data (the drop report
+    # comes after the plan): an error is the only line a failed run prints.
+    done = delivered_orders(delivered) if delivered is not None else None
+    table = read_data(data, cfg.data)
+    scn = load_scenario(
+        table.source.path,
+        cfg,
+        depots_path=depots,
+        replay_days=[day],
+        table=table,
+        cache=not in_memory(data),
+    )
+    drones = (
+        fleet if isinstance(fleet, Fleet) else load_fleet(fleet, scn.depots, cfg.sim.drones, cfg)
+    )
+    plan, reqs = plan_one_window(scn, day, window, drones, pol, done)
+    drop_report(progress, scn.table.report, data_name(data))
+    day_scope(progress, DayScope.of(reqs), cfg)
+    stops, routes = route_tables(scn, reqs, [plan], drones, method)
+    meta = _meta(scn, cfg, pol, method, day, window, plan, Path(depots), drones)
+    written: list[Path] = []
+    if out is not None:
+        with folder_lock(out), output_set() as files:
+            written = write_route_files(files, Path(out), stops, routes, meta, fmt, geojson)
+    return PlannedWindow(
+        plan, reqs, drones, with_meta(stops, meta), with_meta(routes, meta), meta, written
+    )
+
+
+def _meta(
+    scn: Any,
+    cfg: PlannerConfig,
+    pol: Any,
+    method: str,
+    day: dt.date,
+    window: int,
+    plan: WindowPlan,
+    depots: Path,
+    fleet: Fleet,
+) -> dict[str, Any]:
+    """The route files' metadata: the run's identity, the window and its solution."""
+    from ..io import run_meta
+    from ..io.meta import file_sha256
+
+    return run_meta(
+        command="plan-window",
+        config=cfg,
+        source=scn.table.source,
+        policy=pol.identity,
+        method=method,
+        seed=cfg.sim.seed,
+        extra={
+            "day": day.isoformat(),
+            "window": window,
+            "solver": {
+                "status": plan.selection.status_text,
+                "fallback": plan.selection.fallback,
+                "objective": plan.selection.objective,
+            },
+            "objective": plan.score.as_dict() if plan.score else None,
+            "frame": {
+                "center_lng": scn.frame.center_lng,
+                "center_lat": scn.frame.center_lat,
+                "size_km": scn.frame.size_km,
+            },
+            "depots_file": {"name": depots.name, "sha256": file_sha256(depots)},
+            "fleet": fleet.describe(cfg.energy),
+        },
+        stamp=False,
+    )

@@ -1,0 +1,178 @@
+"""Replay whole days window by window (``replay-day``, docs/method.md §8): one study area
+or every hub of a city, here or on workers or a Dask cluster; each day's stops, routes
+and metrics, written into an output folder when one is given."""
+
+from __future__ import annotations
+
+import datetime as dt
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from ..config import PlannerConfig
+from ..errors import InputError
+from .inputs import (
+    Data,
+    check_format,
+    data_name,
+    in_memory,
+    read_data,
+    refuse_overwriting_inputs,
+)
+from .messages import drop_report
+from .progress import SILENT, Progress
+from .replay_areas import SUMMED, DayTables, ReplayResult, Run, aggregate_days, make_area
+from .replay_areas import replay_areas as _replay_areas
+
+__all__ = [
+    "SUMMED",
+    "DayTables",
+    "ReplayOptions",
+    "ReplayResult",
+    "aggregate_days",
+    "check_options",
+    "replay_days",
+]
+
+_OUTPUT_NAMES = ("metrics.json", "routes.png", "routes.geojson")
+
+
+@dataclass(frozen=True)
+class ReplayOptions:
+    """How to replay: the method, the files, where the days run."""
+
+    method: str = "marops"
+    fmt: str = "parquet"
+    """Route files: parquet or json."""
+    plot: bool = False
+    geojson: bool = False
+    force: bool = False
+    """Replay days whose output exists already."""
+    workers: int = 1
+    """Worker processes for several days or hubs."""
+    scheduler: str | None = None
+    """A Dask scheduler's address, or ``local``."""
+    keep_tables: bool | None = None
+    """Keep every replayed day's tables in the result [only when nothing is written]."""
+
+
+def check_options(options: ReplayOptions) -> None:
+    """Refuse options no replay can run with, before any work."""
+    from ..sim.jobs import METHODS
+
+    if options.scheduler is not None:
+        from ..evaluate.cluster import require_distributed
+
+        require_distributed()
+    check_format(options.fmt)
+    if options.method not in METHODS:
+        raise InputError(
+            f"unknown --method {options.method!r}: expected one of {', '.join(METHODS)}"
+        )
+
+
+def replay_days(
+    data: Data,
+    cfg: PlannerConfig,
+    days: list[dt.date],
+    *,
+    options: ReplayOptions = ReplayOptions(),
+    out: str | Path | None = None,
+    several: bool | None = None,
+    depots: str | Path | None = None,
+    fleet: Any = None,
+    hubs: str | Path | None = None,
+    protect: Mapping[str, Path | None] | None = None,
+    progress: Progress = SILENT,
+) -> ReplayResult:
+    """Replay ``days`` of ``data`` with ``cfg``: depots from ``depots`` (else segmented
+    from the other days), the fleet of a fleet file or ``cfg.sim.drones`` drones, every
+    hub of a ``hubs`` file instead of one study area. With ``out`` each day's files go
+    into ``out`` (``out/<day>/`` when ``several``, default: more than one day) and a day
+    already there with the same settings is kept; ``protect`` names more input files
+    (flag -> path) the outputs must never replace."""
+    check_options(options)
+    from ..sim.jobs import loads_actor, method_policy
+
+    several = len(days) > 1 if several is None else several
+    if options.scheduler is None and options.workers > 1 and (len(days) > 1 or hubs is not None):
+        from ..evaluate.workers import warm_up
+
+        # Several days or hubs may go to worker processes: their fork server imports
+        # the planner (and torch for an actor) while this process reads the file.
+        warm_up(actor=loads_actor(options.method, cfg.sim.policy))
+    folder = Path(out) if out is not None else None
+    if folder is not None and folder.exists() and not folder.is_dir():
+        raise InputError("--out must be a folder; this is a file", file=folder)
+    if hubs is not None and depots is not None:
+        raise InputError("--hubs segments each hub itself: drop --depots")
+    if folder is not None:
+        inputs = {"data": None if in_memory(data) else Path(data), "depots": depots}
+        inputs.update({**(protect or {}), "fleet": fleet, "hubs": hubs})
+        outputs = _outputs(folder, days, several, hubs is not None, options.fmt)
+        refuse_overwriting_inputs(outputs, **{k: _path(v) for k, v in inputs.items()})
+    pol = method_policy(options.method, cfg.sim.policy, cfg.sim.seed)  # a bad actor stops here
+    keep = folder is None if options.keep_tables is None else options.keep_tables
+    run = Run(
+        pol,
+        options.method,
+        options.fmt,
+        options.plot,
+        options.geojson,
+        options.force,
+        options.workers,
+        options.scheduler,
+        keep,
+    )
+    if hubs is not None:
+        from .replay_hubs import replay_hubs
+
+        return replay_hubs(data, Path(hubs), folder, days, several, cfg, fleet, run, progress)
+    return _one_area(data, cfg, days, folder, several, depots, fleet, run, progress)
+
+
+def _one_area(
+    data: Data,
+    cfg: PlannerConfig,
+    days: list[dt.date],
+    out: Path | None,
+    several: bool,
+    depots: str | Path | None,
+    fleet: Any,
+    run: Run,
+    progress: Progress,
+) -> ReplayResult:
+    from ..data.prepare import prepare_day
+    from ..sim.jobs import load_scenario
+
+    table = read_data(data, cfg.data)
+    depots_path = Path(depots) if depots is not None else None
+    scn = load_scenario(
+        table.source.path,
+        cfg,
+        depots_path=depots_path,
+        replay_days=days,
+        table=table,
+        cache=not in_memory(data),
+    )
+    for day in days:  # every day has requests to plan, before anything is said or written
+        prepare_day(scn.table, scn.frame, day, cfg.data)
+    drop_report(progress, scn.table.report, data_name(data))
+    area = make_area(scn, out, days, several, fleet, run, depots_path)
+    rows, tables = _replay_areas([area], run, progress)
+    return ReplayResult(rows[0], aggregate_days(rows[0]), tables, None, out)
+
+
+def _path(value: Any) -> Path | None:
+    return Path(value) if isinstance(value, str | Path) else None
+
+
+def _outputs(out: Path, days: list[dt.date], several: bool, hubs: bool, fmt: str) -> list[Path]:
+    """Every file a replay into ``out`` may write (hub folders: those there already)."""
+    names = (f"stops.{fmt}", f"routes.{fmt}", *_OUTPUT_NAMES)
+    folders = [out, *(out / d.isoformat() for d in days)] if several else [out]
+    if hubs:  # out/hub-<id>/ below the city's metrics.json
+        areas = [p for p in out.glob("hub-*") if p.is_dir()] if out.is_dir() else []
+        folders += [a / (d.isoformat() if several else "") for a in areas for d in days]
+    return [f / n for f in folders for n in names]

@@ -1,0 +1,329 @@
+"""Replaying the days of study areas (one area, or every hub of a city), here or on
+worker processes, each day's files written the moment it is done (docs/decisions.md,
+"Workers"); its day records, tables and totals."""
+
+from __future__ import annotations
+
+import datetime as dt
+from contextlib import ExitStack
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from ..errors import InputError, RunError
+from ..io import folder_lock, output_set, run_meta
+from .identity import identity, matching_days
+from .messages import day_scope, undelivered
+from .progress import Progress
+
+if TYPE_CHECKING:
+    import pyarrow as pa
+
+    from ..sim.days import DayJob, DayOutput, ReplayWork
+    from ..sim.jobs import Scenario
+
+# Summed over days by ``aggregate_days``, in the order of ``total``.
+SUMMED = (
+    "requests",
+    "delivered",
+    "undelivered",
+    "orders_due",
+    "outside_area",
+    "outside_hours",
+    "energy_kj",
+    "co2_g",
+    "objective_j_mj",
+    "objective_g_mj",
+    "runtime_s",
+)
+
+
+@dataclass(frozen=True)
+class DayTables:
+    """A replayed day's stops and routes tables (with their ``marops`` metadata, as in
+    the files) and, when drawn, its PNG."""
+
+    hub: int
+    day: dt.date
+    stops: pa.Table
+    routes: pa.Table
+    png: bytes | None = None
+
+
+@dataclass(frozen=True)
+class ReplayResult:
+    """A replay: every (hub-)day's metrics record in order, their totals, the tables of
+    the days replayed (when kept) and, for a city, its coverage."""
+
+    days: list[dict[str, Any]]
+    total: dict[str, Any]
+    tables: list[DayTables] = field(default_factory=list)
+    city: dict[str, Any] | None = None
+    out: Path | None = None
+
+
+@dataclass(frozen=True)
+class Run:
+    """What every study area of a replay shares: the policy, the files, the workers."""
+
+    pol: Any
+    method: str
+    fmt: str
+    plot: bool
+    geojson: bool
+    force: bool
+    workers: int
+    scheduler: str | None
+    keep_tables: bool
+
+
+@dataclass
+class Area:
+    """A study area (the single one, or a hub) and the days to replay into its folder
+    (``out`` None: nothing is written)."""
+
+    scn: Scenario
+    fleet: Any
+    out: Path | None
+    days: list[dt.date]
+    several: bool
+    identity: dict[str, Any]
+    keep: dict[dt.date, list[dict[str, Any]]]
+    label: str = ""
+
+    def folder(self, day: dt.date) -> Path | None:
+        if self.out is None:
+            return None
+        return self.out / day.isoformat() if self.several else self.out
+
+
+def make_area(
+    scn: Scenario,
+    out: Path | None,
+    days: list[dt.date],
+    several: bool,
+    fleet: Any,
+    run: Run,
+    depots: Path | None = None,
+    label: str = "",
+) -> Area:
+    """A study area to replay ``days`` of into ``out`` (a folder per day when
+    ``several``); ``label`` names the hub in messages. A day folder that is complete is
+    kept only if it was made with these settings: every day is checked here, before
+    anything is replayed or written."""
+    from ..sim.fleet import Fleet
+    from ..sim.jobs import load_fleet
+
+    cfg = scn.cfg
+    drones = (
+        fleet if isinstance(fleet, Fleet) else load_fleet(fleet, scn.depots, cfg.sim.drones, cfg)
+    )
+    ident = identity(
+        scn, run.method, run.pol.identity, depots, run.fmt, drones.describe(cfg.energy)
+    )
+    keep: dict[dt.date, list[dict[str, Any]]] = {}
+    for day in days if out is not None else ():
+        done = (out / day.isoformat() if several else out) / "metrics.json"
+        if done.is_file() and not run.force:
+            keep[day] = matching_days(done, ident)
+    return Area(scn, drones, out, days, several, ident, keep, label)
+
+
+_Done = dict[tuple[int, dt.date], tuple[dict[str, Any], "DayTables | None"]]
+
+
+def replay_areas(
+    areas: list[Area], run: Run, progress: Progress
+) -> tuple[list[list[dict[str, Any]]], list[DayTables]]:
+    """Replay every area's days (on workers when there are several), writing each day's
+    files the moment it is done; each area's day metrics in day order, and the kept
+    tables. An interrupt of several days carries a note: what the run keeps."""
+    from ..sim.days import DayJob
+
+    done: _Done = {}
+    jobs: list[DayJob] = []
+    for i, a in enumerate(areas):
+        for day in a.days:
+            if day in a.keep:
+                progress.message(
+                    f"{a.label}{day.isoformat()}: output with the same settings exists in "
+                    f"{a.folder(day)}, skipped (--force replays)"
+                )
+            else:
+                jobs.append(DayJob(len(jobs), i, day))
+    with ExitStack() as locks:
+        for a in areas:  # one run at a time in a folder; stale temporaries go
+            if a.out is not None:
+                locks.enter_context(folder_lock(a.out))
+        try:
+            if len(jobs) > 1 and (run.workers > 1 or run.scheduler is not None):
+                _replay_on_workers(areas, jobs, run, _work(areas, run), done, progress)
+            elif jobs:
+                work = _work(areas, run)
+                work.use_policy(run.pol)  # the one the caller loaded
+                for job in jobs:
+                    done[(job.area, job.day)] = _replay_here(
+                        areas[job.area], job, run, work, progress
+                    )
+        except KeyboardInterrupt as exc:  # Ctrl-C or SIGTERM: the caller says what is kept
+            if len(jobs) > 1:
+                exc.add_note(
+                    f"{len(done)} of {len(jobs)} days are written: run the same command "
+                    "again to replay the others"
+                )
+            raise
+        return _collect(areas, run, done)
+
+
+def _collect(
+    areas: list[Area], run: Run, done: _Done
+) -> tuple[list[list[dict[str, Any]]], list[DayTables]]:
+    """Each area's day records (kept or replayed) in day order, with the metrics.json of
+    an area replayed a folder per day; the tables kept."""
+    per_area, tables = [], []
+    for i, a in enumerate(areas):
+        rows: list[dict[str, Any]] = []
+        for day in a.days:
+            if day in a.keep:
+                rows.extend(a.keep[day])
+                continue
+            metrics, kept = done[(i, day)]
+            rows.append(metrics)
+            if kept is not None:
+                tables.append(kept)
+        if a.several and a.out is not None:
+            meta = run_meta(
+                command="replay-day", config=a.scn.cfg, source=a.scn.table.source, method=run.method
+            )
+            with output_set() as files:
+                files.write_json(
+                    a.out / "metrics.json",
+                    {"meta": meta, "days": rows, "total": aggregate_days(rows)},
+                )
+        per_area.append(rows)
+    return per_area, tables
+
+
+def _replay_here(
+    area: Area, job: DayJob, run: Run, work: ReplayWork, progress: Progress
+) -> tuple[dict[str, Any], DayTables | None]:
+    """Replay one day of ``work`` in this process, a progress step per window."""
+    day = job.day
+    n_windows = area.scn.cfg.data.n_windows
+
+    def log(p: Any) -> None:
+        served = sum(len(r.stops) for r in p.routes)
+        progress.advance(
+            f"{area.label}{day.isoformat()} {run.method} window {p.t} of "
+            f"0..{n_windows - 1}: {served} delivered, {p.n_candidates} candidates, "
+            f"solver {p.selection.status_text}"
+        )
+
+    progress.start(f"{day.isoformat()} {run.method}", n_windows, "windows")
+    try:
+        out = work.run(job, on_window=log)
+    finally:
+        progress.finish()
+    return _finish_day(area, day, out, run, progress)
+
+
+def _work(areas: list[Area], run: Run) -> ReplayWork:
+    """The run's days as work for any process (marops_cli/sim/days.py), built once."""
+    from ..io.meta import file_sha256
+    from ..methods import method as method_spec
+    from ..sim.days import ReplayWork, only_days
+
+    cfg = areas[0].scn.cfg
+    actor = run.pol.identity
+    return ReplayWork(
+        {i: (only_days(a.scn, a.days), a.fleet) for i, a in enumerate(areas)},
+        run.method,
+        cfg.sim.policy,
+        cfg.sim.seed,
+        run.plot,
+        method_spec(run.method),
+        file_sha256(actor) if isinstance(actor, Path) else None,
+    )
+
+
+def _replay_on_workers(
+    areas: list[Area],
+    jobs: list[DayJob],
+    run: Run,
+    work: ReplayWork,
+    done: _Done,
+    progress: Progress,
+) -> None:
+    """Replay ``jobs`` (days of areas) of ``work`` on worker processes or a Dask cluster;
+    each day's files are written here as it comes back, its metrics go into ``done``."""
+    from ..evaluate.workers import outcomes
+
+    where = (
+        f"{min(run.workers, len(jobs))} workers"
+        if run.scheduler is None
+        else "a local Dask cluster"
+        if run.scheduler == "local"
+        else f"the Dask scheduler at {run.scheduler}"
+    )
+    progress.message(f"replay-day: {len(jobs)} days to replay on {where}")
+    progress.start(f"replay-day {run.method}", len(jobs), "days")
+    try:
+        with outcomes(work, jobs, run.workers, run.scheduler, "replay-day") as finished:
+            for n, (index, out, error, code) in enumerate(finished, start=1):
+                if error is not None:
+                    raise (InputError(error) if code == 2 else RunError(error))
+                job = jobs[index]
+                area = areas[job.area]
+                done[(job.area, job.day)] = _finish_day(area, job.day, out, run, progress)
+                m = out.metrics
+                progress.advance(
+                    f"replay-day {n}/{len(jobs)}: {area.label}{job.day.isoformat()} "
+                    f"{run.method}: {m['delivered']:,} of {m['requests']:,} delivered"
+                )
+    finally:
+        progress.finish()
+
+
+def _finish_day(
+    area: Area, day: dt.date, out: DayOutput, run: Run, progress: Progress
+) -> tuple[dict[str, Any], DayTables | None]:
+    """Say what the day planned and write its files (metrics.json last) when the area
+    has a folder; its metrics and, when kept, its tables."""
+    from ..io.tables import with_meta, write_route_files
+
+    day_scope(progress, out.scope, area.scn.cfg, area.label)
+    undelivered(progress, out.metrics, len(area.fleet))
+    # The route files' metadata: the run's identity (less the file format) and the day.
+    meta = {k: v for k, v in area.identity.items() if k != "format"}
+    meta.update(command="replay-day", day=day.isoformat())
+    folder = area.folder(day)
+    if folder is not None:
+        with output_set() as files:
+            write_route_files(files, folder, out.stops, out.routes, meta, run.fmt, run.geojson)
+            if out.png is not None:
+                files.write_bytes(folder / "routes.png", out.png)
+            # metrics.json is renamed last: its presence means the day is complete.
+            stamped = dict(meta, **run_meta(command="replay-day"), settings=area.identity)
+            files.write_json(folder / "metrics.json", {"meta": stamped, "days": [out.metrics]})
+    if not run.keep_tables:
+        return out.metrics, None
+    tables = DayTables(
+        area.scn.hub, day, with_meta(out.stops, meta), with_meta(out.routes, meta), out.png
+    )
+    return out.metrics, tables
+
+
+def aggregate_days(days: list[dict[str, Any]]) -> dict[str, Any]:
+    """Totals over several days: counts and energy summed, delays weighted by requests
+    (docs/outputs.md, "Day metrics")."""
+    from ..sim.metrics import metric_names
+
+    req = sum(d["requests"] for d in days)
+    delivered = sum(d["delivered"] for d in days)
+    total: dict[str, Any] = {"days": len(days)}
+    for k in metric_names(*SUMMED):
+        total[k] = sum(d.get(k, 0) for d in days)
+    total["delivered_share"] = delivered / req if req else 1.0
+    total["avg_delay_h"] = sum(d["avg_delay_h"] * d["requests"] for d in days) / req if req else 0.0
+    total["mean_energy_kj"] = sum(d["mean_energy_kj"] for d in days) / len(days) if days else 0.0
+    return total

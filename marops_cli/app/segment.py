@@ -1,0 +1,169 @@
+"""Place the study area and segment it into depots and service areas (``segment``,
+docs/method.md §2), or tile a city into hubs (``segment --hubs``, §1.1)."""
+
+from __future__ import annotations
+
+import datetime as dt
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from ..config import PlannerConfig
+from ..errors import InputError
+from ..io import output_set, run_meta
+from .inputs import Data, data_name, read_data
+from .messages import drop_report
+from .progress import SILENT, Progress
+
+if TYPE_CHECKING:
+    import numpy as np
+
+    from ..data.table import LadeTable
+    from ..segment.depots import Depots
+    from ..segment.hubs import Hub
+
+
+@dataclass(frozen=True)
+class Segmentation:
+    """Depots and service areas, the history they were made from, and the files written."""
+
+    depots: Depots
+    days: list[dt.date]
+    history_xy: np.ndarray
+    """(n, 2) customer points used, metres."""
+    table: LadeTable
+    meta: dict[str, Any]
+    files: list[Path]
+
+    def doc(self) -> dict[str, Any]:
+        """The depots file's document (``depots.json``, docs/outputs.md)."""
+        return self.depots.to_dict(self.meta)
+
+
+@dataclass(frozen=True)
+class HubTiling:
+    """Hub squares over a city, densest first, and the files written."""
+
+    hubs: list[Hub]
+    total: int
+    """Orders the hubs were placed from."""
+    table: LadeTable
+    meta: dict[str, Any]
+    files: list[Path]
+
+    def doc(self) -> dict[str, Any]:
+        """The hubs file's document (``hubs.json``, docs/outputs.md)."""
+        from ..segment.hubs import hubs_doc
+
+        return hubs_doc(self.hubs, self.total, self.meta)
+
+
+def history_days(days: str | list[dt.date] | None, year: int) -> list[dt.date] | None:
+    """``days`` as dates (``"0801..0810"``, ``"801,802"`` or dates); None for all."""
+    from ..data.dates import parse_days
+
+    if isinstance(days, str):
+        return parse_days(days, year) if days else None
+    return list(days) if days else None
+
+
+def segment(
+    data: Data,
+    cfg: PlannerConfig,
+    *,
+    days: str | list[dt.date] | None = None,
+    out: str | Path | None = None,
+    geojson: bool = False,
+    plot: bool = False,
+    progress: Progress = SILENT,
+) -> Segmentation:
+    """Depots for the requests of ``days`` (all days when None); with ``out`` (the
+    depots file) write it, and beside it the areas as GeoJSON and a PNG map when asked."""
+    from ..segment import areas_geojson
+    from ..segment.plot import plot_depots
+    from ..segment.run import segment_table
+
+    day_list = history_days(days, cfg.data.year)
+    progress.start("segmenting…", 0, "")  # no steps to count: a spinner on a terminal
+    try:
+        res = segment_table(read_data(data, cfg.data), cfg, day_list)
+    finally:
+        progress.finish()
+    drop_report(progress, res.table.report, data_name(data))
+    meta = run_meta(
+        command="segment",
+        config=cfg,
+        source=res.table.source,
+        method=cfg.segment.method,
+        seed=cfg.segment.seed,
+        extra={
+            "days": [d.isoformat() for d in res.days],
+            "n_history": int(res.history_xy.shape[0]),
+            "rows": res.table.report.to_dict(),
+        },
+    )
+    done = Segmentation(res.depots, res.days, res.history_xy, res.table, meta, [])
+    if out is None:
+        return done
+    path = Path(out)
+    gj_path, png_path = path.with_suffix(".geojson"), path.with_suffix(".png")
+    with output_set() as files:
+        files.write_json(path, done.doc())
+        if geojson:
+            files.write_json(gj_path, areas_geojson(res.depots, meta))
+        if plot:
+            title = (
+                f"{cfg.segment.method}: {len(res.depots)} depots, "
+                f"{res.history_xy.shape[0]:,} history requests, {len(res.days)} days"
+            )
+            files.write_with(png_path, lambda p: plot_depots(res.depots, res.history_xy, p, title))
+    done.files.extend([path, *(p for p, want in ((gj_path, geojson), (png_path, plot)) if want)])
+    return done
+
+
+def hub_count(text: str | int) -> int | None:
+    """``--hubs``: a number of hubs, or None for ``auto``."""
+    if isinstance(text, str) and text.strip().lower() == "auto":
+        return None
+    try:
+        n = int(text)
+    except ValueError:
+        n = 0
+    if n < 1:
+        raise InputError(f"--hubs expects a number of hubs (1 or more) or auto, got {text!r}")
+    return n
+
+
+def segment_hubs(
+    data: Data,
+    cfg: PlannerConfig,
+    hubs: str | int,
+    *,
+    days: str | list[dt.date] | None = None,
+    out: str | Path | None = None,
+    progress: Progress = SILENT,
+) -> HubTiling:
+    """Hub squares over the city's orders due on ``days`` (all when None), densest
+    first: ``hubs`` of them, or ``auto`` (while the next holds at least 1 % of the
+    orders); with ``out`` write the hubs file that ``replay-day --hubs`` runs."""
+    from ..segment.hubs import find_hubs
+
+    n_hubs = hub_count(hubs)
+    if cfg.data.center is not None:
+        raise InputError("--hubs places the study areas itself: drop [data] center")
+    day_list = history_days(days, cfg.data.year)
+    table = read_data(data, cfg.data)
+    found, total = find_hubs(table, cfg.data, day_list, n_hubs)
+    drop_report(progress, table.report, data_name(data))
+    meta = run_meta(
+        command="segment",
+        config=cfg,
+        source=table.source,
+        extra={"days": [d.isoformat() for d in day_list or table.days()], "hubs": str(hubs)},
+    )
+    done = HubTiling(found, total, table, meta, [])
+    if out is not None:
+        with output_set() as files:
+            files.write_json(Path(out), done.doc())
+        done.files.append(Path(out))
+    return done

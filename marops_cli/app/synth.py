@@ -1,0 +1,55 @@
+"""Write LaDe-shaped synthetic data (``synth``, docs/method.md §1)."""
+
+from __future__ import annotations
+
+import datetime as dt
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from ..errors import InputError
+
+if TYPE_CHECKING:
+    import pyarrow as pa
+
+
+@dataclass(frozen=True)
+class Synthesized:
+    """The generated rows (all 17 LaDe columns), their first day and the file written."""
+
+    table: pa.Table
+    start: dt.date
+    path: Path | None
+
+
+def synth(
+    *,
+    days: int = 12,
+    seed: int = 7,
+    start: str | dt.date = "2022-08-01",
+    orders_per_day: float | None = None,
+    shape: str = "hubs",
+    out: str | Path | None = None,
+    fmt: str | None = None,
+) -> Synthesized:
+    """``days`` consecutive days of a ``shape`` city from ``start`` (same seed, same
+    rows); with ``out`` written as CSV or Parquet (``fmt``, else from the suffix)."""
+    from pydantic import ValidationError
+
+    from ..data.dates import parse_day
+    from ..data.synth import SynthConfig, generate, write
+
+    if fmt not in (None, "csv", "parquet"):
+        raise InputError(f"--format expects csv or parquet, got {fmt!r}")
+    first = start if isinstance(start, dt.date) else parse_day(start, 2022)
+    fields: dict[str, object] = {"days": days, "seed": seed, "start": first, "shape": shape}
+    if orders_per_day is not None:
+        fields["orders_per_day"] = orders_per_day
+    try:
+        cfg = SynthConfig(**fields)  # type: ignore[arg-type]
+    except ValidationError as exc:
+        err = exc.errors()[0]
+        raise InputError(f"invalid option {err['loc'][0]}: {err['msg']}") from None
+    table = generate(cfg)
+    path = write(table, Path(out), fmt) if out is not None else None  # type: ignore[arg-type]
+    return Synthesized(table, first, path)

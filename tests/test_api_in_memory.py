@@ -1,0 +1,102 @@
+"""The Python API over data in memory (docs/decisions.md, "Application layer"): a pandas
+DataFrame or a pyarrow Table plans as its file does, and a call without ``out`` writes
+nothing: not in the working folder, not in a temporary folder, not in the depots cache."""
+
+from __future__ import annotations
+
+import tempfile
+from collections.abc import Iterator
+from pathlib import Path
+
+import pyarrow as pa
+import pyarrow.csv as pacsv
+import pytest
+
+from marops_cli import api as marops
+from marops_cli.errors import InputError
+
+
+def _rows(csv: Path) -> pa.Table:
+    """The example's rows as text, as the reader reads the file."""
+    names = pacsv.read_csv(csv).column_names
+    opts = pacsv.ConvertOptions(column_types={n: pa.string() for n in names})
+    return pacsv.read_csv(csv, convert_options=opts)
+
+
+def _files(*folders: Path) -> set[Path]:
+    return {p for f in folders for p in f.rglob("*")}
+
+
+@pytest.fixture
+def quiet_folders(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Iterator[list[Path]]:
+    """An empty working folder, temporary folder and depots cache, watched by the test."""
+    folders = [tmp_path / n for n in ("work", "tmp", "cache")]
+    for f in folders:
+        f.mkdir()
+    monkeypatch.chdir(folders[0])
+    monkeypatch.setenv("TMPDIR", str(folders[1]))
+    monkeypatch.setattr(tempfile, "tempdir", None)  # gettempdir() reads TMPDIR again
+    monkeypatch.setenv("MAROPS_CACHE_DIR", str(folders[2]))
+    assert Path(tempfile.gettempdir()) == folders[1]
+    yield folders
+
+
+@pytest.fixture(scope="module")
+def depots(example_csv: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    path = tmp_path_factory.mktemp("depots") / "depots.json"
+    marops.segment(example_csv, out=path, dates="0801..0810")
+    return path
+
+
+def test_a_table_in_memory_plans_as_its_file_and_writes_nothing(
+    example_csv: Path, depots: Path, quiet_folders: list[Path]
+) -> None:
+    rows = _rows(example_csv)
+    day = marops.replay_day(rows, date="0811", depots=depots, method="stay")
+    window = marops.plan_window(rows, depots, "0811", 5)
+    doc = marops.segment(rows, dates="0801..0810")
+    no_depots = marops.replay_day(rows, date="0811", method="stay")  # segments the others
+    assert _files(*quiet_folders) == set()
+
+    from_file = marops.replay_day(example_csv, "0811", depots=depots, method="stay")
+    assert day.routes.equals(from_file.routes) and day.stops.equals(from_file.stops)
+    timing = ("runtime_s", "solver")
+    assert {k: v for k, v in day.metrics.items() if k not in timing} == {
+        k: v for k, v in from_file.metrics.items() if k not in timing
+    }
+    assert day.folder is None and day.metrics["requests"] > 0
+    assert b"marops" in day.routes.schema.metadata
+    assert set(window.routes.column("window").to_pylist()) == {5}
+    assert window.metrics["objective"]["G"] > 0 and window.folder is None
+    assert doc["meta"]["input"]["name"] == "Table" and len(doc["depots"]) == 16
+    assert no_depots.metrics["requests"] == day.metrics["requests"]
+
+
+def test_a_pandas_frame_plans_and_writes_nothing(
+    example_csv: Path, depots: Path, quiet_folders: list[Path]
+) -> None:
+    import pandas as pd
+    frame = _rows(example_csv).to_pandas()
+    day = marops.replay_day(frame, date="0811", depots=depots, method="stay")
+    window = marops.plan_window(frame, depots, "0811", 5, method="stay")
+    assert _files(*quiet_folders) == set()
+    assert isinstance(frame, pd.DataFrame)
+    assert day.metrics["delivered"] > 0 and window.routes.num_rows > 0
+    assert day.routes.to_pandas().shape[0] == day.routes.num_rows
+    with pytest.raises(InputError, match="^DataFrame, row 1, column 'lat': missing required"):
+        marops.read_lade(frame.drop(columns=["lat"]))
+
+
+def test_a_table_in_memory_is_checked_as_a_file_is(depots: Path, example_csv: Path) -> None:
+    rows = _rows(example_csv)
+    with pytest.raises(InputError, match="^Table, row 1, column 'lng': missing required column"):
+        marops.replay_day(rows.drop_columns(["lng"]), date="0811", depots=depots)
+    bad = rows.set_column(
+        rows.column_names.index("accept_time"),
+        "accept_time",
+        pa.array(["soon"] + rows.column("accept_time").to_pylist()[1:]),
+    )
+    with pytest.raises(InputError, match="^Table, row 2, column 'accept_time': expected a time"):
+        marops.read_lade(bad)
+    with pytest.raises(InputError, match="has no data rows"):
+        marops.read_lade(rows.slice(0, 0))
