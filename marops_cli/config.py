@@ -275,8 +275,7 @@ class OpsConfig(_Stage):
     def _check_chargers(cls, v: int, info: ValidationInfo) -> int:
         if v == 0 and info.data.get("batteries_per_depot") is not None:
             raise ValueError(
-                "expected >= 1 when batteries_per_depot is set (used batteries would never "
-                "charge)"
+                "expected >= 1 when batteries_per_depot is set (used batteries would never charge)"
             )
         return v
 

@@ -231,9 +231,7 @@ def _range_plans(
                 cands.append(_NONE)
                 continue
             if sa not in by_key:
-                by_key[sa] = _own_range_candidates(
-                    view, rank, rank_area, u, *sa, cfg.max_parcels
-                )
+                by_key[sa] = _own_range_candidates(view, rank, rank_area, u, *sa, cfg.max_parcels)
             cands.append(by_key[sa])
     t_cand = time.perf_counter() - t0
     plan_sets: list[PlanSet] = []
@@ -278,9 +276,7 @@ def _global_plans(
     nearest = {int(s): np.lexsort((pool, d_pool[:, int(s)])) for s in set(view.drone_depot)}
     if view.pending_stock is not None:  # only the parcels stocked at the drone's depot
         nearest = {s: p[view.pending_stock[pool[p]] == s] for s, p in nearest.items()}
-    prefs = [
-        nearest[int(s)] if view.ready(u) else _NONE for u, s in enumerate(view.drone_depot)
-    ]
+    prefs = [nearest[int(s)] if view.ready(u) else _NONE for u, s in enumerate(view.drone_depot)]
     drafted = None
     if cfg.candidates == "draft":
         drafted = draft(prefs, pool.size, cfg.max_parcels)

@@ -224,3 +224,39 @@ def test_the_shipped_example_turns_every_rule_on():
     assert ops.stock == "home" and ops.busy and not ops.paper
     assert ops.batteries_per_depot == 2 and ops.chargers_per_depot == 1
     assert cfg.energy.battery_j / ops.charge_power_w == pytest.approx(3600.0)  # full in 1 h
+
+
+def test_a_state_built_without_the_model_takes_the_steps():
+    """The training environment builds its state bare: its first window binds the step's
+    model, so later views show it."""
+    far = day([(4000.0, 0.0)], [0], window_s=600.0, n_windows=3)
+    how = WindowStep.make(config(OpsConfig(busy=True)), scope="global")
+    state = DayState(far, ONE, np.array([0]), 0.25)
+    fly_window(state, 0, np.zeros(1, dtype=np.int64), how)
+    assert state.ops is not None and state.view(1).drone_ready.tolist() == [False]
+
+
+def test_replay_day_records_what_the_model_held_back(tmp_path: Path, example_csv):
+    """The shipped example binds on the example day: parcels are left at their depots,
+    and the record says so; the paper's record has none of these keys."""
+    import json
+
+    from typer.testing import CliRunner
+
+    from marops_cli.cli.app import app
+
+    example = Path(__file__).parents[2] / "examples" / "operations.toml"
+    days = {}
+    for name, extra in (("paper", []), ("ops", ["--config", str(example)])):
+        out = tmp_path / name
+        args = ["replay-day", str(example_csv), "--date", "0811", "--method", "ops-global"]
+        res = CliRunner().invoke(app, [*args, *extra, "--out", str(out)])
+        assert res.exit_code == 0, res.output
+        record = json.loads(next(out.rglob("metrics.json")).read_text(encoding="utf-8"))
+        days[name] = record["days"][0]
+        assert record["meta"]["config"]["ops"]["stock"] == ("home" if extra else "any")
+    assert "battery_waits" not in days["paper"] and "stock_left" not in days["paper"]
+    ops = days["ops"]
+    assert sum(ops["stock_left"].values()) == ops["stock_left_total"] == ops["undelivered"]
+    assert ops["stock_left_total"] > days["paper"]["undelivered"]
+    assert ops["charged_min"] is not None and ops["battery_waits"] >= 0
