@@ -22,8 +22,10 @@ class Method:
     name: str
     segmentation: Literal["kmeans", "squares"]
     policy: str
-    """A policy spec of ``make_policy``: ``learned`` (the shipped actor), ``direct`` (the
-    shipped MAPPO actor), ``global``, ``random``, ``greedy``, ``stay``, ``myopic``…"""
+    """A policy spec (``PolicySpec.parse`` of marops_cli/policies/registry.py reads it):
+    ``learned`` (the shipped actor), ``direct`` (the shipped MAPPO actor), ``global``,
+    ``random``, ``greedy``, ``stay``, ``myopic``, or an actor file. Text, so that this
+    registry stays light."""
     summary: str
     in_default_evaluation: bool = True
     """In ``evaluate``'s list when ``--methods`` is not given (references are not)."""
@@ -52,7 +54,8 @@ for _m in (
 
 
 class _Table(Mapping[str, tuple[str, str]]):
-    """``METHODS[name] -> (segmentation, policy)``, live over the registry."""
+    """``METHODS[name] -> (segmentation, policy)``, live over the registry; new code
+    reads the typed record, :func:`method`."""
 
     def __getitem__(self, name: str) -> tuple[str, str]:
         m = _REGISTRY[name]
@@ -69,6 +72,7 @@ METHODS: Mapping[str, tuple[str, str]] = _Table()
 
 
 def method(name: str) -> Method:
+    """The registry entry of method ``name`` (KeyError when there is none)."""
     return _REGISTRY[name]
 
 

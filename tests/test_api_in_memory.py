@@ -76,6 +76,7 @@ def test_a_pandas_frame_plans_and_writes_nothing(
     example_csv: Path, depots: Path, quiet_folders: list[Path]
 ) -> None:
     import pandas as pd
+
     frame = _rows(example_csv).to_pandas()
     day = marops.replay_day(frame, date="0811", depots=depots, method="stay")
     window = marops.plan_window(frame, depots, "0811", 5, method="stay")

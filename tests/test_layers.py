@@ -1,7 +1,7 @@
 """Imports run one way: api | cli > app > evaluate, rl > sim > io > policies > plans >
-segment > data (pyproject's import-linter contract; the API and the CLI are independent
-siblings over the application layer), function-level imports included; nothing below
-the CLI imports typer or rich."""
+segment > data > workers (pyproject's import-linter contract; the API and the CLI are
+independent siblings over the application layer), function-level imports included;
+nothing below the CLI imports typer or rich."""
 
 from __future__ import annotations
 

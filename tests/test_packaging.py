@@ -5,7 +5,11 @@ from __future__ import annotations
 import tomllib
 from pathlib import Path
 
-from marops_cli.sim.jobs import DEFAULT_MAPPO_NAME, DEFAULT_POLICY_NAME, default_policy_path
+from marops_cli.policies.registry import (
+    DEFAULT_MAPPO_NAME,
+    DEFAULT_POLICY_NAME,
+    default_policy_path,
+)
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -106,12 +106,13 @@ def evaluate(
     actors = {k: Path(v) for k, v in config.actors.items()}
     methods = list(config.methods) if config.methods is not None else default_methods(actors)
     if config.scheduler is None and config.workers > 1:
-        from ..evaluate.workers import warm_up
+        from ..evaluate.runner import worker_modules
         from ..sim.jobs import loads_actor
+        from ..workers import warm_up
 
         # The workers' fork server imports the planner (and torch for an actor) while
         # this process reads the file and segments it.
-        warm_up(actor=any(loads_actor(m) for m in methods))
+        warm_up(worker_modules(actor=any(loads_actor(m) for m in methods)))
     if config.against is not None and config.against not in methods:
         raise InputError(
             f"--against {config.against!r} is not among the methods compared ({', '.join(methods)})"
@@ -205,7 +206,7 @@ def _run(
     prep: Prepared, config: EvaluateConfig, store: JobStore | None, progress: Progress
 ) -> Evaluation:
     """Run the jobs, one ``advance`` per replay (the ones resumed first, at once)."""
-    from ..evaluate import evaluate as run_evaluation
+    from ..evaluate import evaluate_jobs
 
     def done(n: int, total: int, job: Job) -> None:
         s = prep.settings[job.setting]
@@ -220,7 +221,7 @@ def _run(
     try:
         for _ in range(store.resumed if store is not None else 0):
             progress.advance()
-        return run_evaluation(prep, config.workers, done, store, config.scheduler)
+        return evaluate_jobs(prep, config.workers, done, store, config.scheduler)
     finally:
         progress.finish()
 

@@ -62,7 +62,7 @@ def check_options(options: ReplayOptions) -> None:
     from ..sim.jobs import METHODS
 
     if options.scheduler is not None:
-        from ..evaluate.cluster import require_distributed
+        from ..workers.cluster import require_distributed
 
         require_distributed()
     check_format(options.fmt)
@@ -93,15 +93,15 @@ def replay_days(
     already there with the same settings is kept; ``protect`` names more input files
     (flag -> path) the outputs must never replace."""
     check_options(options)
-    from ..sim.jobs import loads_actor, method_policy
+    from ..sim.jobs import loads_actor, method_policy, replay_modules
 
     several = len(days) > 1 if several is None else several
     if options.scheduler is None and options.workers > 1 and (len(days) > 1 or hubs is not None):
-        from ..evaluate.workers import warm_up
+        from ..workers import warm_up
 
         # Several days or hubs may go to worker processes: their fork server imports
         # the planner (and torch for an actor) while this process reads the file.
-        warm_up(actor=loads_actor(options.method, cfg.sim.policy))
+        warm_up(replay_modules(actor=loads_actor(options.method, cfg.sim.policy)))
     folder = Path(out) if out is not None else None
     if folder is not None and folder.exists() and not folder.is_dir():
         raise InputError("--out must be a folder; this is a file", file=folder)

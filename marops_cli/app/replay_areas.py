@@ -10,7 +10,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from ..errors import InputError, RunError
 from ..io import folder_lock, output_set, run_meta
 from .identity import identity, matching_days
 from .messages import day_scope, undelivered
@@ -256,7 +255,7 @@ def _replay_on_workers(
 ) -> None:
     """Replay ``jobs`` (days of areas) of ``work`` on worker processes or a Dask cluster;
     each day's files are written here as it comes back, its metrics go into ``done``."""
-    from ..evaluate.workers import outcomes
+    from ..workers import outcomes
 
     where = (
         f"{min(run.workers, len(jobs))} workers"
@@ -269,10 +268,9 @@ def _replay_on_workers(
     progress.start(f"replay-day {run.method}", len(jobs), "days")
     try:
         with outcomes(work, jobs, run.workers, run.scheduler, "replay-day") as finished:
-            for n, (index, out, error, code) in enumerate(finished, start=1):
-                if error is not None:
-                    raise (InputError(error) if code == 2 else RunError(error))
-                job = jobs[index]
+            for n, outcome in enumerate(finished, start=1):
+                out = outcome.value()
+                job = jobs[outcome.index]
                 area = areas[job.area]
                 done[(job.area, job.day)] = _finish_day(area, job.day, out, run, progress)
                 m = out.metrics

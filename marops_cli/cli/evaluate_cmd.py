@@ -38,7 +38,7 @@ if TYPE_CHECKING:
 
 
 @guarded
-def evaluate(
+def evaluate_command(
     data: o.Data,
     out: Annotated[Path, typer.Option("--out", help="Output folder.")],
     methods: Annotated[
@@ -135,7 +135,7 @@ def evaluate(
     require_input(data)
     _check_out(out)  # before any computing
     if scheduler is not None:
-        from ..evaluate.cluster import require_distributed
+        from ..workers.cluster import require_distributed
 
         require_distributed()
     refuse_overwriting_inputs(

@@ -1,5 +1,5 @@
 """Run an evaluation's jobs, in parallel over worker processes or on a Dask cluster
-(marops_cli/evaluate/workers.py), in a fixed result order.
+(marops_cli/workers), in a fixed result order.
 
 Every job builds its own config, fleet and policy from the job alone (the policy is
 reset with the job's seed at the start of the day), so a job's metrics do not
@@ -24,15 +24,22 @@ from ..config import PlannerConfig, override
 from ..data.dates import format_days
 from ..data.reader import read_lade, sha256_file
 from ..data.table import LadeTable
-from ..errors import InputError, RunError
+from ..errors import InputError
 from ..methods import Method, register
 from ..methods import method as method_spec
-from ..policies.base import Policy
 from ..segment.hubs import Hub, hub_areas
-from ..sim.jobs import METHODS, Scenario, load_fleet, load_scenario, other_actor, replay
-from ..sim.jobs import method_policy as _method_policy
+from ..sim.jobs import (
+    METHODS,
+    Scenario,
+    load_fleet,
+    load_scenario,
+    method_policy,
+    other_actor,
+    replay,
+    replay_modules,
+)
+from ..workers import outcomes
 from .settings import Job, Setting, check_settings, plan_jobs, split_days
-from .workers import outcomes
 
 OnResult = Callable[[int, int, Job], None]
 
@@ -68,13 +75,6 @@ class Prepared:
 ACTOR_FLAGS = {"learned": "--policy", "direct": "--mappo-policy"}
 
 
-def method_policy(method: str, actors: dict[str, Path], seed: int) -> Policy:
-    """The method's policy; ``actors`` overrides the shipped actor per policy kind."""
-    kind = METHODS[method][1]
-    spec = f"torchscript:{actors[kind]}" if kind in actors else None
-    return _method_policy(method, spec, seed)
-
-
 def check_methods(methods: Sequence[str], actors: dict[str, Path] | None = None) -> dict[str, Path]:
     """Load every method's policy once; fail with one line naming what is missing.
 
@@ -86,14 +86,14 @@ def check_methods(methods: Sequence[str], actors: dict[str, Path] | None = None)
         if m not in METHODS:
             raise InputError(f"unknown method {m!r}: this build has {', '.join(METHODS)}")
     for kind, path in (actors or {}).items():
-        if any(METHODS[m][1] == kind for m in methods) and not Path(path).is_file():
+        if any(method_spec(m).policy == kind for m in methods) and not Path(path).is_file():
             raise InputError(f"trained actor not found ({ACTOR_FLAGS[kind]})", file=path)
     files: dict[str, Path] = {}
     for m in methods:
         try:
-            pol = method_policy(m, actors or {}, 0)
+            pol = method_policy(m, None, 0, actors=actors)
         except InputError as exc:
-            flag = ACTOR_FLAGS.get(METHODS[m][1])
+            flag = ACTOR_FLAGS.get(method_spec(m).policy)
             if flag is None:
                 raise
             raise InputError(
@@ -148,7 +148,9 @@ def prepare(
             continue  # a hub without requests on any of the days
         on_days = np.isin(table_h.delivery_day, np.array(chosen, dtype="datetime64[D]"))
         test_table = table_h.subset(on_days)  # workers need only the replayed days' rows
-        for key in sorted({(METHODS[m][0], s.depots_n) for m in methods for s in settings}):
+        for key in sorted(
+            {(method_spec(m).segmentation, s.depots_n) for m in methods for s in settings}
+        ):
             seg_cfg = override(cfg_h, segment__method=key[0], segment__n_depots=key[1])
             scn = load_scenario(path, seg_cfg, replay_days=chosen, table=table_h, hub=hub)
             scenarios[(hub, *key)] = Scenario(
@@ -175,6 +177,11 @@ def prepare(
     )
 
 
+def worker_modules(actor: bool) -> tuple[str, ...]:
+    """What an evaluation's worker preloads (with torch for an ``actor``)."""
+    return (__name__, *replay_modules(actor))
+
+
 # Per-process state of a worker (set once by EvaluateWork.setup).
 _CTX: dict[str, Any] = {}
 
@@ -198,13 +205,13 @@ def run_job(job: Job) -> dict[str, Any]:
     """Replay one job's day; the metrics record of ``day_metrics``."""
     prep: Prepared = _CTX["prep"]
     setting = prep.settings[job.setting]
-    base = prep.scenarios[(job.hub, METHODS[job.method][0], setting.depots_n)]
+    base = prep.scenarios[(job.hub, method_spec(job.method).segmentation, setting.depots_n)]
     # The area's config (its square, with --hubs) with the setting, method and seed.
     cfg = setting.config(base.cfg, job.method, job.seed)
     scn = Scenario(base.table, base.frame, base.depots, cfg, base.history_days, job.hub)
     key = (job.method, job.seed)
     if key not in _CTX["policies"]:
-        _CTX["policies"][key] = method_policy(job.method, prep.actors, job.seed)
+        _CTX["policies"][key] = method_policy(job.method, None, job.seed, actors=prep.actors)
     fleet = load_fleet(None, base.depots, prep.drones(job), cfg)
     _, _, metrics = replay(scn, job.day, fleet, _CTX["policies"][key], job.method)
     return metrics
@@ -212,8 +219,8 @@ def run_job(job: Job) -> dict[str, Any]:
 
 @dataclass
 class EvaluateWork:
-    """An evaluation's jobs as :class:`~.workers.Work`: ``prep`` (the replayed days'
-    rows only) and the SHA-256 of each trained actor ``evaluate`` resolved."""
+    """An evaluation's jobs as a :class:`~marops_cli.workers.Work`: ``prep`` (the replayed
+    days' rows only) and the SHA-256 of each trained actor ``evaluate`` resolved."""
 
     prep: Prepared
     actors: dict[str, str]
@@ -221,6 +228,10 @@ class EvaluateWork:
     @classmethod
     def of(cls, prep: Prepared) -> EvaluateWork:
         return cls(worker_context(prep), {m: sha256_file(p) for m, p in prep.actor_files.items()})
+
+    @property
+    def preload(self) -> tuple[str, ...]:
+        return worker_modules(actor=bool(self.actors))
 
     def setup(self) -> None:
         load(self.prep)
@@ -233,7 +244,8 @@ class EvaluateWork:
         machine with another marops version or another actor file at that path would give
         other rows under the same run identity."""
         for method, sha in self.actors.items():
-            problem = other_actor(method, method_policy(method, self.prep.actors, 0), sha)
+            policy = method_policy(method, None, 0, actors=self.prep.actors)
+            problem = other_actor(method, policy, sha)
             if problem is not None:
                 return problem
         return None
@@ -291,10 +303,8 @@ def run(
     results: dict[int, dict[str, Any]] = {}
     work = EvaluateWork.of(prep)
     with outcomes(work, todo, workers, scheduler, "evaluate") as done_jobs:
-        for done, (index, metrics, error, code) in enumerate(done_jobs, start=len(skip) + 1):
-            if error is not None:
-                raise (InputError(error) if code == 2 else RunError(error))
-            assert metrics is not None
+        for done, outcome in enumerate(done_jobs, start=len(skip) + 1):
+            index, metrics = outcome.index, outcome.value()
             results[index] = metrics
             if sink is not None:
                 sink.add(prep.jobs[index], metrics)

@@ -3,7 +3,7 @@
 from .base import Policy, WindowView
 from .baselines import GlobalPolicy, GreedyPolicy, MyopicPolicy, RandomPolicy, StayPolicy
 from .observation import OBS_VERSION, ObsVersion, obs_dim, observe
-from .registry import make_policy
+from .registry import PolicySpec, make_policy
 
 __all__ = [
     "OBS_VERSION",
@@ -12,6 +12,7 @@ __all__ = [
     "MyopicPolicy",
     "ObsVersion",
     "Policy",
+    "PolicySpec",
     "RandomPolicy",
     "StayPolicy",
     "WindowView",

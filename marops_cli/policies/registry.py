@@ -1,39 +1,114 @@
-"""Policy names on the command line -> policy objects."""
+"""Policy specs (``--policy``, a method's policy) parsed once into a :class:`PolicySpec`,
+and specs -> policy objects."""
 
 from __future__ import annotations
 
+import os
+from dataclasses import dataclass
+from importlib import resources
 from pathlib import Path
+from typing import Literal
 
 from ..errors import InputError
 from .base import Policy
 from .baselines import GlobalPolicy, GreedyPolicy, MyopicPolicy, RandomPolicy, StayPolicy
 
 SIMPLE = ("stay", "random", "greedy", "global", "myopic")
+DEFAULT_POLICY_NAME = "marops-basic.pt"
+DEFAULT_MAPPO_NAME = "mappo-basic.pt"
+SHIPPED = {"learned": DEFAULT_POLICY_NAME, "direct": DEFAULT_MAPPO_NAME}
+"""A method's shipped actor, by policy kind: the flight-range actor, the MAPPO actor."""
+
+Kind = Literal["stay", "random", "greedy", "global", "myopic", "learned", "direct", "torchscript"]
 
 
-def make_policy(spec: str, seed: int = 0) -> Policy:
-    """``stay``, ``random``, ``greedy``, ``global``, ``myopic``, ``torchscript:PATH`` or a
-    ``.pt`` path."""
-    if spec == "stay":
+@dataclass(frozen=True)
+class PolicySpec:
+    """A parsed policy spec: a baseline by name (:data:`SIMPLE`), a shipped actor
+    (``learned``, ``direct``) or a trained actor file (``torchscript``, with its ``path``
+    as given)."""
+
+    kind: Kind
+    path: str | None = None
+
+    @classmethod
+    def parse(cls, spec: str) -> PolicySpec:
+        """``stay``, ``random``, ``greedy``, ``global``, ``myopic``, ``learned``,
+        ``direct``, ``torchscript:PATH`` or a ``.pt`` path."""
+        if spec in SIMPLE or spec in SHIPPED:
+            return cls(spec)  # type: ignore[arg-type]
+        path = spec.removeprefix("torchscript:")
+        if spec.startswith("torchscript:") or path.endswith(".pt"):
+            return cls.actor(path)
+        raise InputError(
+            f"unknown policy {spec!r}: expected one of {', '.join(SIMPLE)}, "
+            "torchscript:PATH or a .pt file"
+        )
+
+    @classmethod
+    def actor(cls, path: str | Path) -> PolicySpec:
+        """The trained actor file at ``path``."""
+        return cls("torchscript", str(path))
+
+    @property
+    def loads_actor(self) -> bool:
+        """Whether the policy flies a trained actor (which needs torch)."""
+        return self.kind == "torchscript" or self.kind in SHIPPED
+
+    def shipped(self) -> PolicySpec | None:
+        """A shipped actor's spec as its file's (None: this install ships none); any
+        other spec as it is."""
+        if self.kind not in SHIPPED:
+            return self
+        path = default_policy_path(SHIPPED[self.kind])
+        return None if path is None else PolicySpec.actor(path)
+
+    def __str__(self) -> str:
+        return f"torchscript:{self.path}" if self.kind == "torchscript" else self.kind
+
+
+def default_policy_path(name: str = DEFAULT_POLICY_NAME) -> Path | None:
+    """The shipped actor: ``$MAROPS_POLICY``, else ``marops-basic.pt`` of the installed
+    package data (``policies/`` in the source tree, ``marops_cli.shipped`` once installed).
+
+    ``name`` picks another shipped actor (``mappo-basic.pt``, which ``$MAROPS_POLICY``
+    does not replace).
+    """
+    env = os.environ.get("MAROPS_POLICY")
+    if env and name == DEFAULT_POLICY_NAME:
+        return Path(env)
+    try:
+        found = resources.files("marops_cli.shipped") / name
+    except ModuleNotFoundError:  # an install without the package data
+        return None
+    path = Path(str(found))
+    return path if path.is_file() else None
+
+
+def make_policy(spec: str | PolicySpec, seed: int = 0) -> Policy:
+    """The policy of ``spec`` (a :class:`PolicySpec` or its text, see
+    :meth:`PolicySpec.parse`); ``seed`` seeds the random baseline."""
+    if isinstance(spec, str):
+        spec = PolicySpec.parse(spec)
+    resolved = spec.shipped()
+    if resolved is None:
+        raise InputError(f"no trained actor is shipped at policies/{SHIPPED[spec.kind]}")
+    spec = resolved
+    if spec.kind == "stay":
         return StayPolicy()
-    if spec == "random":
+    if spec.kind == "random":
         return RandomPolicy(seed)
-    if spec == "greedy":
+    if spec.kind == "greedy":
         return GreedyPolicy()
-    if spec == "global":
+    if spec.kind == "global":
         return GlobalPolicy()
-    if spec == "myopic":
+    if spec.kind == "myopic":
         return MyopicPolicy()
-    path = spec.removeprefix("torchscript:")
-    if spec.startswith("torchscript:") or path.endswith(".pt"):
-        from .torchscript import TorchScriptPolicy, read_sidecar
+    from .torchscript import TorchScriptPolicy, read_sidecar
 
-        if "plan_slots" in read_sidecar(path):  # a MAPPO actor: destination x plan slot
-            from .direct import DirectPolicy
+    assert spec.path is not None
+    if "plan_slots" in read_sidecar(spec.path):  # a MAPPO actor: destination x plan slot
+        from .direct import DirectPolicy
 
-            return DirectPolicy(Path(path))
-        return TorchScriptPolicy(Path(path))
-    raise InputError(
-        f"unknown policy {spec!r}: expected one of {', '.join(SIMPLE)}, "
-        "torchscript:PATH or a .pt file"
-    )
+        return DirectPolicy(Path(spec.path))
+    return TorchScriptPolicy(Path(spec.path))

@@ -1,13 +1,12 @@
-"""Rollouts and evaluations, in worker processes, deterministic whatever the scheduling.
+"""Rollouts and evaluations of one day, deterministic for their inputs: the worker
+pool runs them as training's tasks (marops_cli/rl/tasks.py), in whichever process.
 
-Every task carries everything that decides its outcome (actor weights, day,
-seed), each worker runs torch single-threaded, and results come back in task
-order: one worker or many, the same run gives the same numbers.
+Everything that decides an outcome is an argument (actor weights, day, seed), so one
+worker or many, the same run gives the same numbers.
 """
 
 from __future__ import annotations
 
-import multiprocessing as mp
 from dataclasses import dataclass
 from typing import Any
 
@@ -23,10 +22,9 @@ from ..policies.observation import (
     best_value_action,
 )
 from ..policies.recurrent import RecurrentPolicy
-from ..policies.registry import make_policy
 from ..segment.depots import Depots
 from ..sim.metrics import day_metrics, metric_names
-from ..sim.replay import replay_day
+from ..sim.replay import fly_day
 from ..sim.state import default_fleet
 from ..sim.step import WindowStep
 from .config import TrainConfig
@@ -174,81 +172,6 @@ def evaluate_day(
     """Replay ``day`` with ``policy`` and keep the metrics training reports."""
     how = WindowStep.of(policy, cfg)
     fleet = default_fleet(depots, cfg.sim.drones)
-    res = replay_day(day, depots, fleet, policy, cfg, method=method, how=how)
+    res = fly_day(day, depots, fleet, policy, cfg, method=method, how=how)
     m = day_metrics(res, how.model)
     return {"day": m["day"], "method": method, **{k: m[k] for k in EVAL_KEYS}}
-
-
-_CTX: WorkerContext | None = None
-_ENVS: list[DeliveryEnv] = []
-
-
-def _init(ctx: WorkerContext) -> None:
-    global _CTX, _ENVS
-    torch.set_num_threads(1)  # one process per core; threads would only add noise
-    torch.use_deterministic_algorithms(True)
-    _CTX = ctx
-    _ENVS = [DeliveryEnv(s.depots, s.cfg, ctx.tcfg) for s in ctx.scenarios]
-
-
-def _day_key(scn: TrainScenario, row: dict[str, Any]) -> dict[str, Any]:
-    """A held-out row keyed by scenario and day when the run has several scenarios."""
-    assert _CTX is not None
-    if len(_CTX.scenarios) > 1:
-        row["day"] = f"{scn.name}:{row['day']}"
-    return row
-
-
-def _work(task: tuple[Any, ...]) -> Any:
-    """``("train", actor, scenario, day, seed, alpha)``, ``("eval", actor, scenario, day)``
-    or ``("baseline", name, scenario, day)``."""
-    assert _CTX is not None and _ENVS
-    kind, j = task[0], task[2]
-    scn, env = _CTX.scenarios[j], _ENVS[j]
-    if kind == "baseline":
-        _, name, _, i = task
-        pol = make_policy(name, scn.cfg.sim.seed)
-        return _day_key(scn, evaluate_day(pol, scn.eval_days[i], scn.depots, scn.cfg, name))
-    actor = make_actor(env, _CTX.tcfg)
-    actor.load_state_dict(task[1])
-    actor.eval()
-    if kind == "train":
-        _, _, _, i, seed, alpha = task
-        return run_episode(env, actor, scn.train_days[i], seed, alpha)
-    _, _, _, i = task
-    pol = actor_policy(actor, env.n_slots, name=_CTX.tcfg.method, version=env.obs_version)
-    row = evaluate_day(pol, scn.eval_days[i], scn.depots, scn.cfg, _CTX.tcfg.method)
-    return _day_key(scn, row)
-
-
-class Workers:
-    """A pool of rollout processes ('spawn': safe with torch), or the caller itself
-    when ``n == 1``. Use as a context manager."""
-
-    def __init__(self, ctx: WorkerContext, n: int) -> None:
-        self.n = n
-        self._pool = None
-        if n > 1:
-            self._pool = mp.get_context("spawn").Pool(n, initializer=_init, initargs=(ctx,))
-        else:
-            _init(ctx)
-
-    def map(self, tasks: list[tuple[Any, ...]]) -> list[Any]:
-        """Run ``tasks`` and return their results in task order."""
-        if self._pool is None:
-            return [_work(t) for t in tasks]
-        return self._pool.map(_work, tasks, chunksize=1)
-
-    def close(self) -> None:
-        if self._pool is not None:
-            self._pool.close()
-            self._pool.join()
-            self._pool = None
-
-    def __enter__(self) -> Workers:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        if self._pool is not None and exc[0] is not None:
-            self._pool.terminate()
-        self.close()

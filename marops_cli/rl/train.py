@@ -10,8 +10,7 @@ from __future__ import annotations
 
 import os
 import time
-from collections.abc import Callable, Iterator
-from contextlib import contextmanager
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -21,15 +20,17 @@ import torch
 from .. import __version__
 from ..errors import InputError
 from ..policies.observation import ObsVersion
+from ..workers import LocalPool, single_threaded
 from .data import TrainData, fingerprint, load_training_data, split_days
 from .env import DeliveryEnv
 from .evaluate import summarise
 from .export import write_actor
 from .networks import Actor, Critic
 from .ppo import make_batch, ppo_update
-from .rollout import Episode, Workers, derive_seed
+from .rollout import Episode, derive_seed
+from .tasks import ActorDay, BaselineDay, RolloutWork, TrainEpisode
 
-__all__ = ["Trainer", "load_training_data", "split_days", "train"]
+__all__ = ["Trainer", "load_training_data", "split_days", "train_actor"]
 
 BASELINES = ("random", "greedy", "myopic", "global")  # on held-out days (ops-random, …, ops-global)
 _STREAM_DAYS, _STREAM_EPISODE, _STREAM_UPDATE, _STREAM_SCENARIO, _STREAM_ALPHA = 1, 2, 3, 4, 5
@@ -141,22 +142,22 @@ class Trainer:
         rng = np.random.default_rng(derive_seed(self.tcfg.seed, _STREAM_ALPHA, episode))
         return round(float(rng.uniform(*lo_hi)), 3)
 
-    def _update(self, workers: Workers) -> dict[str, float]:
+    def _update(self, workers: LocalPool) -> dict[str, float]:
         n = min(self.tcfg.episodes_per_update, self.tcfg.episodes - self.episode)
         state = {k: v.clone() for k, v in self.actor.state_dict().items()}
         j = self._scenario_of(self.update)
         tasks = [
-            (
-                "train",
+            TrainEpisode(
+                k,
                 state,
                 j,
                 self._day_of(j, e),
                 derive_seed(self.tcfg.seed, _STREAM_EPISODE, e),
                 self._alpha_of(e),
             )
-            for e in range(self.episode, self.episode + n)
+            for k, e in enumerate(range(self.episode, self.episode + n))
         ]
-        eps: list[Episode] = workers.map(tasks)
+        eps: list[Episode] = workers.results(tasks)
         obs, actions, logp, mask, rewards = (
             _stack(eps, k) for k in ("obs", "actions", "logp", "mask", "rewards")
         )
@@ -192,7 +193,7 @@ class Trainer:
             return 0.0
         return t.bc_coef * max(0.0, 1.0 - self.episode / span)
 
-    def evaluate(self, workers: Workers) -> dict[str, Any] | None:
+    def evaluate(self, workers: LocalPool) -> dict[str, Any] | None:
         """Arg-max actor on the held-out days, with the baselines' numbers beside it."""
         cap = self.tcfg.eval_days_per_scenario
         days = [
@@ -203,10 +204,11 @@ class Trainer:
         if not days:
             return None
         if not self.baselines:
-            tasks = [("baseline", b, j, i) for b in BASELINES for j, i in days]
-            self.baselines = workers.map(tasks)
+            runs = [(b, j, i) for b in BASELINES for j, i in days]
+            tasks = [BaselineDay(k, b, j, i) for k, (b, j, i) in enumerate(runs)]
+            self.baselines = workers.results(tasks)
         state = {k: v.clone() for k, v in self.actor.state_dict().items()}
-        rows = workers.map([("eval", state, j, i) for j, i in days])
+        rows = workers.results([ActorDay(k, state, j, i) for k, (j, i) in enumerate(days)])
         ev = {"episode": self.episode, **summarise(rows, self.baselines)}
         self.evals.append(ev)
         cc = float(ev["methods"][self.tcfg.method]["daily_combined_cost"])
@@ -229,7 +231,7 @@ class Trainer:
                 "files": len(self.td.files),
             }
         )
-        with Workers(self.td.ctx, t.workers) as workers:
+        with LocalPool(RolloutWork(self.td.ctx), t.workers) as workers:
             while self.episode < t.episodes:
                 t0 = time.perf_counter()
                 before = self.episode
@@ -312,7 +314,7 @@ def _name_daily_cost(evals: list[dict[str, Any]], best: dict[str, Any] | None) -
         best["daily_combined_cost"] = best.pop("combined_cost")
 
 
-def train(
+def train_actor(
     td: TrainData,
     out: str | Path,
     *,
@@ -327,22 +329,10 @@ def train(
 
     ``command`` and ``data_origin`` (how the data was made) go into the sidecar as given.
     """
-    with _one_thread():
+    # One deterministic thread, as in the workers, for the networks' initialisation (its
+    # QR factorisation depends on the thread count) and every update, so the arithmetic
+    # is the same whatever --workers says and whatever ran before in this process.
+    with single_threaded(deterministic=True):
         trainer = Trainer(td, Path(out), on_event)
         trainer.run(resume)
         return trainer.export(command, data_origin)
-
-
-@contextmanager
-def _one_thread() -> Iterator[None]:
-    """One deterministic thread, as in the workers, for the networks' initialisation (its
-    QR factorisation depends on the thread count) and every update, so the arithmetic is
-    the same whatever ``--workers`` says and whatever ran before in this process."""
-    threads, strict = torch.get_num_threads(), torch.are_deterministic_algorithms_enabled()
-    torch.set_num_threads(1)
-    torch.use_deterministic_algorithms(True)
-    try:
-        yield
-    finally:
-        torch.set_num_threads(threads)
-        torch.use_deterministic_algorithms(strict)

@@ -26,7 +26,7 @@ from ..methods import Method, register
 from ..plans.window import WindowPlan
 from ..policies.base import Policy
 from .fleet import Fleet
-from .jobs import Scenario, method_policy, other_actor, replay, route_tables
+from .jobs import Scenario, method_policy, other_actor, replay, replay_modules, route_tables
 
 
 @dataclass(frozen=True)
@@ -74,7 +74,7 @@ def only_days(scn: Scenario, days: list[dt.date]) -> Scenario:
 
 @dataclass
 class ReplayWork:
-    """Every day job of a ``replay-day`` run (a :class:`~marops_cli.evaluate.workers.Work`)."""
+    """Every day job of a ``replay-day`` run (a :class:`~marops_cli.workers.Work`)."""
 
     areas: dict[int, tuple[Scenario, Fleet]]
     method: str
@@ -89,6 +89,10 @@ class ReplayWork:
 
     def __getstate__(self) -> dict[str, Any]:
         return {**self.__dict__, "_policy": None}  # each process builds its own
+
+    @property
+    def preload(self) -> tuple[str, ...]:
+        return replay_modules(actor=self.actor_sha is not None)
 
     def setup(self) -> None:
         register(self.spec)

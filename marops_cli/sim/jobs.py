@@ -6,11 +6,9 @@ A *method* (docs/method.md §7) is a segmentation, a flight-range policy and a p
 from __future__ import annotations
 
 import datetime as dt
-import os
 import socket
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
-from importlib import resources
 from pathlib import Path
 
 import numpy as np
@@ -25,9 +23,10 @@ from ..data.table import DayRequests, LadeTable
 from ..energy import EnergyModel
 from ..errors import InputError, naming
 from ..methods import METHODS as _METHODS
+from ..methods import method as method_spec
 from ..plans.window import WindowPlan
 from ..policies.base import Policy, start_day
-from ..policies.registry import make_policy
+from ..policies.registry import SHIPPED, PolicySpec, make_policy
 from ..segment.cache import cached_depots
 from ..segment.depots import Depots
 from ..segment.methods import segment_points
@@ -35,21 +34,40 @@ from ..segment.run import history_points
 from .fleet import Fleet, as_fleet
 from .fleet import load_fleet as _load_fleet
 from .metrics import day_metrics
-from .replay import DayResult, replay_day
+from .replay import FlownDay, fly_day
 from .state import DayState
 from .step import WindowStep, plan_step
 
 # method -> (segmentation, policy), live over the registry (marops_cli/methods.py).
 METHODS = _METHODS
-DEFAULT_POLICY_NAME = "marops-basic.pt"
-DEFAULT_MAPPO_NAME = "mappo-basic.pt"
+# What a worker replaying days imports before its first job (its fork server preloads
+# it); an actor's run adds torch and the actor loader.
+REPLAY_MODULES = ("marops_cli.sim.days", "marops_cli.io.tables", "pyarrow.parquet")
+ACTOR_MODULES = ("torch", "marops_cli.policies.torchscript")
+# Messages for a method whose shipped actor this install lacks, by policy kind.
+_NOT_SHIPPED = {
+    "learned": "needs a trained actor: none is shipped at policies/{name}; pass --policy "
+    "PATH.pt or a baseline (stay, random, greedy)",
+    "direct": "needs a trained MAPPO actor: none is shipped at policies/{name}; pass "
+    "--policy PATH.pt (made by marops train --method mappo)",
+}
 
 
 def loads_actor(method: str, policy: str | None = None) -> bool:
     """Whether ``method`` (with ``policy``, a ``--policy`` spec) flies a trained actor,
-    which needs torch; an unknown method says no (it fails later, naming itself)."""
-    spec = policy or (METHODS[method][1] if method in METHODS else "")
-    return spec in ("learned", "direct") or spec.startswith("torchscript:") or spec.endswith(".pt")
+    which needs torch; an unknown method or policy says no (it fails later, naming
+    itself)."""
+    spec = policy or (method_spec(method).policy if method in METHODS else "")
+    try:
+        return PolicySpec.parse(spec).loads_actor
+    except InputError:
+        return False
+
+
+def replay_modules(actor: bool) -> tuple[str, ...]:
+    """What a worker replaying days preloads: the planner and the route tables, and for
+    an ``actor`` torch and the actor loader."""
+    return (*REPLAY_MODULES, *(ACTOR_MODULES if actor else ()))
 
 
 def other_actor(method: str, policy: Policy, sha256: str) -> str | None:
@@ -65,48 +83,22 @@ def other_actor(method: str, policy: Policy, sha256: str) -> str | None:
     return None
 
 
-def default_policy_path(name: str = DEFAULT_POLICY_NAME) -> Path | None:
-    """The shipped actor: ``$MAROPS_POLICY``, else ``marops-basic.pt`` of the installed
-    package data (``policies/`` in the source tree, ``marops_cli.shipped`` once installed).
-
-    ``name`` picks another shipped actor (``mappo-basic.pt``, which ``$MAROPS_POLICY``
-    does not replace).
-    """
-    env = os.environ.get("MAROPS_POLICY")
-    if env and name == DEFAULT_POLICY_NAME:
-        return Path(env)
-    try:
-        found = resources.files("marops_cli.shipped") / name
-    except ModuleNotFoundError:  # an install without the package data
-        return None
-    path = Path(str(found))
-    return path if path.is_file() else None
-
-
-def method_policy(method: str, policy: str | None, seed: int) -> Policy:
-    """The policy a method runs: ``policy`` when given, else the method's own."""
+def method_policy(
+    method: str, policy: str | None, seed: int, *, actors: Mapping[str, Path] | None = None
+) -> Policy:
+    """The policy a method runs: ``policy`` (a spec) when given, else the method's own,
+    whose shipped actor ``actors`` replaces by policy kind (``learned``, ``direct``:
+    evaluate's ``--policy`` and ``--mappo-policy``)."""
     if method not in METHODS:
         raise InputError(f"unknown method {method!r}: expected one of {', '.join(METHODS)}")
-    spec = policy or METHODS[method][1]
-    if spec == "learned":
-        path = default_policy_path()
-        if path is None:
-            raise InputError(
-                f"method {method!r} needs a trained actor: none is shipped at "
-                f"policies/{DEFAULT_POLICY_NAME}; pass --policy PATH.pt or a baseline "
-                "(stay, random, greedy)"
-            )
-        spec = f"torchscript:{path}"
-    if spec == "direct":
-        path = default_policy_path(DEFAULT_MAPPO_NAME)
-        if path is None:
-            raise InputError(
-                f"method {method!r} needs a trained MAPPO actor: none is shipped at "
-                f"policies/{DEFAULT_MAPPO_NAME}; pass --policy PATH.pt "
-                "(made by marops train --method mappo)"
-            )
-        spec = f"torchscript:{path}"
-    return make_policy(spec, seed)
+    spec = PolicySpec.parse(policy or method_spec(method).policy)
+    if policy is None and actors and spec.kind in actors:
+        spec = PolicySpec.actor(actors[spec.kind])
+    resolved = spec.shipped()
+    if resolved is None:
+        why = _NOT_SHIPPED[spec.kind].format(name=SHIPPED[spec.kind])
+        raise InputError(f"method {method!r} {why}")
+    return make_policy(resolved, seed)
 
 
 @dataclass
@@ -234,13 +226,13 @@ def replay(
     policy: Policy,
     method: str,
     on_window: Callable[[WindowPlan], None] | None = None,
-) -> tuple[DayResult, DayRequests, dict[str, object]]:
+) -> tuple[FlownDay, DayRequests, dict[str, object]]:
     """Replay ``day`` with the ``fleet`` (or drones at these depots, of the default type)
     and compute its metrics."""
     fl = as_fleet(fleet, scn.cfg.energy)
     reqs = prepare_day(scn.table, scn.frame, day, scn.cfg.data)
     how = WindowStep.of(policy, scn.cfg)
-    res = replay_day(
+    res = fly_day(
         reqs,
         scn.depots,
         fl.depot,

@@ -20,7 +20,7 @@ from ..errors import RunError
 from ..plans.planner import Planner, make_planner
 from ..plans.select import Selector, make_selector
 from ..plans.view import WindowView
-from ..plans.window import WindowPlan, plan_window
+from ..plans.window import WindowPlan, plan_routes
 from ..policies.base import Policy, SlotActions
 from ..policies.direct import SlotSelector
 from .state import DayState
@@ -115,7 +115,7 @@ def plan_step(view: WindowView, actions: np.ndarray | SlotActions, how: WindowSt
         # A view built without the model (one window planned alone): parcels wait at the
         # depot of their service area.
         view = replace(view, pending_stock=view.pending_area)
-    return plan_window(
+    return plan_routes(
         view, actions, how.model, how.plan, selector, scope=how.scope, planner=how.planner
     )
 

@@ -142,7 +142,7 @@ def test_scheduler_without_distributed_says_how_to_install_it(
 def test_unreachable_scheduler_is_one_line_and_writes_nothing(
     example_csv: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, fails_cleanly
 ) -> None:
-    from marops_cli.evaluate import cluster
+    from marops_cli.workers import cluster
 
     monkeypatch.setattr(cluster, "CONNECT_TIMEOUT_S", 1)
     args = _evaluate(example_csv, tmp_path / "ev", "--scheduler", "tcp://127.0.0.1:9", "-q")
@@ -159,22 +159,23 @@ def test_a_worker_with_another_actor_refuses_to_run(
 
     from marops_cli.config import PlannerConfig
     from marops_cli.data.reader import sha256_file
-    from marops_cli.evaluate import expand_settings, prepare, workers
+    from marops_cli.evaluate import expand_settings, prepare
     from marops_cli.evaluate.runner import EvaluateWork
+    from marops_cli.workers import cluster
 
-    monkeypatch.setattr(workers, "one_thread", lambda: None)  # this process is no worker
+    monkeypatch.setattr(cluster, "one_thread", lambda: None)  # this process is no worker
 
     cfg = PlannerConfig()
     day = [dt.date(2022, 8, 11)]
     prep = prepare(example_csv, cfg, ["marops"], expand_settings(cfg), days=day)
     wrong = EvaluateWork(prep, {"marops": "0" * 64})
-    index, metrics, error, code = workers._cluster_job(prep.jobs[0], wrong)
+    index, metrics, error, code = cluster._cluster_job(prep.jobs[0], wrong)
     assert metrics is None and code == 2
     assert error is not None and "another trained actor for marops" in error
     right = EvaluateWork.of(prep)
     assert list(right.actors) == ["marops"]
     assert right.actors["marops"] == sha256_file(prep.actor_files["marops"])
-    index, metrics, error, code = workers._cluster_job(prep.jobs[0], right)
+    index, metrics, error, code = cluster._cluster_job(prep.jobs[0], right)
     assert error is None and metrics is not None and metrics["requests"] > 0
 
 
@@ -201,8 +202,8 @@ def test_a_replay_worker_with_another_actor_refuses_to_run() -> None:
     """replay-day's day work checks the actor the same way (sim.jobs.other_actor)."""
     from marops_cli.data.reader import sha256_file
     from marops_cli.methods import method
+    from marops_cli.policies.registry import default_policy_path
     from marops_cli.sim.days import ReplayWork
-    from marops_cli.sim.jobs import default_policy_path
 
     actor = default_policy_path()
     assert actor is not None

@@ -253,3 +253,36 @@ def test_mappo_flies_the_paper_planner_whatever_the_setting():
     assert mappo.plan.model_copy(update={"planner": "pool"}) == plan
     stay = WindowStep.of(StayPolicy(), cfg)
     assert stay.plan is plan and not isinstance(stay.selector, SlotSelector)
+
+
+def test_policy_specs_parse_once_into_a_record(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Every way to name a policy parses to one record; what it flies follows from it."""
+    from marops_cli.policies.registry import PolicySpec
+
+    assert PolicySpec.parse("greedy") == PolicySpec("greedy")
+    assert PolicySpec.parse("learned") == PolicySpec("learned")
+    assert PolicySpec.parse("torchscript:a/b") == PolicySpec("torchscript", "a/b")
+    assert PolicySpec.parse("./x.pt") == PolicySpec.actor("./x.pt")  # the path as given
+    assert str(PolicySpec.parse("x.pt")) == "torchscript:x.pt" and str(PolicySpec("stay")) == "stay"
+    assert [PolicySpec.parse(s).loads_actor for s in ("direct", "x.pt", "myopic")] == [
+        True,
+        True,
+        False,
+    ]
+    with pytest.raises(InputError, match=r"^unknown policy 'clever': expected one of stay, "):
+        PolicySpec.parse("clever")
+    assert PolicySpec("random").shipped() == PolicySpec("random")
+    monkeypatch.setenv("MAROPS_POLICY", "/elsewhere/mine.pt")
+    assert PolicySpec("learned").shipped() == PolicySpec.actor("/elsewhere/mine.pt")
+
+
+def test_one_method_policy_takes_evaluate_actor_overrides(tmp_path: Path) -> None:
+    """``actors`` replaces a method's shipped actor by policy kind; a given spec wins."""
+    from marops_cli.sim.jobs import method_policy
+
+    mine = _export(tmp_path)
+    assert method_policy("marops", None, 0, actors={"learned": mine}).identity == mine
+    assert method_policy("marops", None, 0, actors={"direct": mine}).identity != mine
+    assert isinstance(method_policy("marops", "greedy", 0, actors={"learned": mine}), GreedyPolicy)
+    with pytest.raises(InputError, match="unknown method 'nope'"):
+        method_policy("nope", None, 0)

@@ -10,7 +10,7 @@ from typer.testing import CliRunner
 
 from marops_cli.cli.app import app
 from marops_cli.policies.observation import OBS_VERSION
-from marops_cli.sim.jobs import DEFAULT_MAPPO_NAME, default_policy_path
+from marops_cli.policies.registry import DEFAULT_MAPPO_NAME, default_policy_path
 
 runner = CliRunner()
 POLICIES = Path(__file__).resolve().parents[2] / "policies"

@@ -1,0 +1,119 @@
+"""Local worker processes, forked from a fork server, each set up once from the run's
+:class:`~.work.Work` (docs/decisions.md, "Workers").
+
+Workers are forked from a *fork server* that has already imported what the work needs
+(:attr:`Work.preload <.work.Work.preload>`: the planner, torch for an actor), so a
+worker starts in milliseconds instead of re-importing the stack; :func:`warm_up` starts
+that server early, while the parent is still reading the file. Where there is no fork
+server (Windows), workers are spawned.
+"""
+
+from __future__ import annotations
+
+import multiprocessing as mp
+import os
+import signal
+import sys
+from collections.abc import Iterable, Iterator, Sequence
+from typing import Any
+
+from .threads import one_thread
+from .work import Job, Outcome, Work, run_safe
+
+
+def _die_with_parent() -> None:
+    """A worker whose parent is killed (kill -9) is killed too, not left running (Linux)."""
+    if not sys.platform.startswith("linux"):
+        return
+    import ctypes
+
+    try:
+        libc = ctypes.CDLL("libc.so.6", use_errno=True)
+        libc.prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
+    except (OSError, AttributeError):
+        pass
+    if os.getppid() == 1:  # the parent died before the call
+        os._exit(1)
+
+
+def _context() -> Any:
+    """Fork server where the platform has one, else spawn: never a plain fork of the
+    parent, whose Arrow and solver threads would be copied half-way."""
+    method = "forkserver" if "forkserver" in mp.get_all_start_methods() else "spawn"
+    return mp.get_context(method)
+
+
+_server_started = False
+
+
+def warm_up(modules: Sequence[str]) -> None:
+    """Start the fork server now, importing ``modules`` (a work's :attr:`~.work.Work.preload`),
+    so its imports overlap with the parent's own work; later pools fork from it. Harmless
+    where there is none, or when it runs already."""
+    global _server_started
+    ctx = _context()
+    if ctx.get_start_method() != "forkserver" or _server_started:
+        return
+    ctx.set_forkserver_preload(list(modules))
+    from multiprocessing import forkserver
+
+    forkserver.ensure_running()
+    _server_started = True
+
+
+# Per-process state of a pool's worker (set once by the initializer).
+_WORK: list[Work] = []
+
+
+def _init(work: Work) -> None:
+    # Ctrl-C reaches the whole process group: the parent stops the pool and keeps what
+    # finished; workers ignore it, so no worker prints a traceback.
+    if mp.current_process().name != "MainProcess":
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+        _die_with_parent()
+        one_thread()
+    work.setup()
+    _WORK[:] = [work]
+
+
+def _run_pooled(job: Job) -> Outcome:
+    return run_safe(_WORK[0], job)
+
+
+class LocalPool:
+    """``work``'s jobs on ``workers`` local processes, each set up once from ``work``;
+    this process itself when ``workers`` is 1. A context manager: leaving it (Ctrl-C
+    included) stops the workers."""
+
+    def __init__(self, work: Work, workers: int) -> None:
+        self.work = work
+        self._pool: Any = None
+        if workers <= 1:
+            _init(work)
+            return
+        warm_up(work.preload)
+        self._pool = _context().Pool(workers, initializer=_init, initargs=(work,))
+
+    def outcomes(self, jobs: Iterable[Job]) -> Iterator[Outcome]:
+        """The outcomes of ``jobs`` as they finish."""
+        if self._pool is None:
+            return (run_safe(self.work, job) for job in jobs)
+        return self._pool.imap_unordered(_run_pooled, jobs, chunksize=1)
+
+    def results(self, jobs: Sequence[Job]) -> list[Any]:
+        """The results of ``jobs`` in their order (their indices are distinct), whichever
+        worker ran each; a failed job is raised as one line."""
+        found = {outcome.index: outcome.value() for outcome in self.outcomes(jobs)}
+        return [found[job.index] for job in jobs]
+
+    def close(self) -> None:
+        if self._pool is not None:
+            self._pool.terminate()
+            self._pool.join()
+            self._pool = None
+
+    def __enter__(self) -> LocalPool:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()

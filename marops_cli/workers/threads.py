@@ -1,0 +1,53 @@
+"""One OpenMP/BLAS/torch thread per process: for every worker, whose siblings already
+fill the cores, and for training's own arithmetic, which must not depend on the thread
+count (docs/decisions.md, "Workers")."""
+
+from __future__ import annotations
+
+import os
+import sys
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+
+
+def one_thread(deterministic: bool = False) -> Callable[[], None]:
+    """Limit this process to one OpenMP/BLAS/torch thread, torch's deterministic
+    algorithms too with ``deterministic``; returns what puts the previous settings back.
+
+    A worker keeps the limit for life; :func:`single_threaded` restores it.
+    """
+    from threadpoolctl import threadpool_limits
+
+    torch = sys.modules.get("torch")
+    threads = strict = None
+    if torch is not None:  # read before the limits below, which torch's OpenMP shares
+        threads, strict = torch.get_num_threads(), torch.are_deterministic_algorithms_enabled()
+    limiter = threadpool_limits(limits=1)  # the libraries loaded so far (numpy's BLAS)
+    omp = os.environ.get("OMP_NUM_THREADS")
+    os.environ["OMP_NUM_THREADS"] = "1"  # and those loaded later (torch reads it)
+    if torch is not None:
+        torch.set_num_threads(1)
+        if deterministic:
+            torch.use_deterministic_algorithms(True)
+
+    def restore() -> None:
+        limiter.restore_original_limits()
+        if omp is None:
+            os.environ.pop("OMP_NUM_THREADS", None)
+        else:
+            os.environ["OMP_NUM_THREADS"] = omp
+        if torch is not None:
+            torch.set_num_threads(threads)
+            torch.use_deterministic_algorithms(strict)
+
+    return restore
+
+
+@contextmanager
+def single_threaded(deterministic: bool = False) -> Iterator[None]:
+    """:func:`one_thread` within, the previous settings back on the way out."""
+    restore = one_thread(deterministic)
+    try:
+        yield
+    finally:
+        restore()

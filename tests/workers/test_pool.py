@@ -1,0 +1,92 @@
+"""The worker pool behind evaluate, replay-day and training: results in job order
+whatever the number of workers, each worker set up once, failures as one line, and the
+one-thread limit that training takes back (docs/decisions.md, "Workers")."""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import pytest
+
+from marops_cli.errors import InputError, RunError
+from marops_cli.workers import LocalPool, outcomes, single_threaded
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+@dataclass(frozen=True)
+class Square:
+    index: int
+    x: int
+
+
+@dataclass
+class SquareWork:
+    """Squares its jobs' numbers; 13 is bad input, 666 a failed run."""
+
+    setups: int = 0
+    preload = ()
+
+    def setup(self) -> None:
+        self.setups += 1
+
+    def run(self, job: Square) -> tuple[int, int, int]:
+        if job.x == 13:
+            raise InputError("13 is unlucky", file="numbers.txt")
+        if job.x == 666:
+            raise RunError("the run broke")
+        return job.x * job.x, os.getpid(), self.setups
+
+    def refuse(self) -> str | None:
+        return None
+
+
+@pytest.fixture(autouse=True)
+def _importable(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Workers unpickle this module's work by name: they get the parent's sys.path."""
+    monkeypatch.syspath_prepend(str(ROOT))
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_results_come_back_in_job_order(workers: int) -> None:
+    jobs = [Square(i, x) for i, x in enumerate([5, 3, 9, 1, 7, 2])]
+    with LocalPool(SquareWork(), workers) as pool:
+        got = pool.results(jobs)
+        again = pool.results(jobs[::-1])
+    assert [square for square, _, _ in got] == [25, 9, 81, 1, 49, 4]
+    assert [square for square, _, _ in again] == [4, 49, 1, 81, 9, 25]
+    assert {setups for _, _, setups in got + again} == {1}  # once per process
+    pids = {pid for _, pid, _ in got + again}
+    assert (pids == {os.getpid()}) == (workers == 1)
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_a_failed_job_is_raised_as_one_line(workers: int) -> None:
+    with LocalPool(SquareWork(), workers) as pool:
+        with pytest.raises(InputError, match=r"^numbers.txt: 13 is unlucky$"):
+            pool.results([Square(0, 2), Square(1, 13)])
+        with pytest.raises(RunError, match=r"^the run broke$"):
+            pool.results([Square(0, 666)])
+
+
+def test_outcomes_hold_every_job_once() -> None:
+    jobs = [Square(i, i) for i in range(5)]
+    with outcomes(SquareWork(), jobs, 2, None, "squares") as done:
+        found = sorted((o.index, o.value()[0]) for o in done)
+    assert found == [(i, i * i) for i in range(5)]
+    with outcomes(SquareWork(), [], 2, None, "squares") as done:
+        assert list(done) == []
+
+
+def test_one_thread_is_taken_back() -> None:
+    torch = pytest.importorskip("torch")
+    torch.set_num_threads(2)
+    before = (torch.get_num_threads(), os.environ.get("OMP_NUM_THREADS"))
+    strict = torch.are_deterministic_algorithms_enabled()
+    with single_threaded(deterministic=True):
+        assert torch.get_num_threads() == 1 and os.environ["OMP_NUM_THREADS"] == "1"
+        assert torch.are_deterministic_algorithms_enabled()
+    assert (torch.get_num_threads(), os.environ.get("OMP_NUM_THREADS")) == before
+    assert torch.are_deterministic_algorithms_enabled() == strict
