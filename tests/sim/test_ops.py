@@ -16,7 +16,7 @@ from marops_cli.errors import InputError
 from marops_cli.policies.base import PolicyBase
 from marops_cli.segment.depots import Depots, nearest_candidates
 from marops_cli.sim.metrics import ops_metrics
-from marops_cli.sim.replay import replay_day
+from marops_cli.sim.replay import fly_day
 from marops_cli.sim.state import DayState
 from marops_cli.sim.step import WindowStep, fly_window, plan_step
 
@@ -83,11 +83,11 @@ def test_a_drone_carries_only_its_depots_stock(planner, scope):
     """Under the paper's model the drone at A serves both parcels in window 0; with
     parcels at home it may only take A's: B's stays at B."""
     policy = Fixed(scope, action=1)  # range: towards B, so B's area is in range
-    paper = replay_day(A_AND_B, TWO, np.array([0]), policy, config(planner=planner), method="p")
+    paper = fly_day(A_AND_B, TWO, np.array([0]), policy, config(planner=planner), method="p")
     assert paper.state.delivered_w.tolist() == [0, 0]
 
     home = config(OpsConfig(stock="home"), planner)
-    res = replay_day(A_AND_B, TWO, np.array([0]), policy, home, method="h")
+    res = fly_day(A_AND_B, TWO, np.array([0]), policy, home, method="h")
     assert res.state.delivered_w[0] == 0
     first = [i for r in res.plans[0].routes for i in r.stops]
     assert first == [0]  # B's parcel did not leave from A
@@ -119,13 +119,13 @@ def test_a_drone_without_a_charged_battery_waits_until_one_is():
     """1 spare battery, 1 charger charging E / 2.5 per window: a battery used in window 0
     charges in windows 1, 2, 3 and is a spare from window 4. The drone flies on its own
     battery in window 0, on the spare in window 1, waits windows 2 and 3, flies in 4."""
-    paper = replay_day(SAME_SPOT, ONE, np.array([0]), Fixed(), config(), method="p")
+    paper = fly_day(SAME_SPOT, ONE, np.array([0]), Fixed(), config(), method="p")
     energies = {round(r.energy_j, 6) for p in paper.plans for r in p.routes if r.stops}
     assert paper.state.delivered_w.tolist() == [0, 1, 2] and len(energies) == 1
     e = energies.pop()
     power = e / 2.5 / SAME_SPOT.window_s
     ops = OpsConfig(batteries_per_depot=1, chargers_per_depot=1, charge_power_w=power)
-    res = replay_day(SAME_SPOT, ONE, np.array([0]), Fixed(), config(ops), method="b")
+    res = fly_day(SAME_SPOT, ONE, np.array([0]), Fixed(), config(ops), method="b")
     assert res.state.delivered_w.tolist() == [0, 1, 4]
     assert [bool(r.stops) for p in res.plans for r in p.routes] == [1, 1, 0, 0, 1, 0]
     m = ops_metrics(res.state)
@@ -139,12 +139,12 @@ def test_two_chargers_charge_two_batteries_at_once():
     """The same day with power E / 1.5 per window and two chargers: a used battery is
     a spare two windows after the window it was used in; with one spare the drone waits
     window 2 only."""
-    paper = replay_day(SAME_SPOT, ONE, np.array([0]), Fixed(), config(), method="p")
+    paper = fly_day(SAME_SPOT, ONE, np.array([0]), Fixed(), config(), method="p")
     e = next(r.energy_j for r in paper.plans[0].routes)
     ops = OpsConfig(
         batteries_per_depot=1, chargers_per_depot=2, charge_power_w=e / 1.5 / SAME_SPOT.window_s
     )
-    res = replay_day(SAME_SPOT, ONE, np.array([0]), Fixed(), config(ops), method="b")
+    res = fly_day(SAME_SPOT, ONE, np.array([0]), Fixed(), config(ops), method="b")
     assert res.state.delivered_w.tolist() == [0, 1, 3]
 
 
@@ -154,10 +154,10 @@ def test_a_long_flight_keeps_its_drone_out_of_the_next_window():
     far = day([(4000.0, 0.0), (4000.0, 10.0)], [0, 1], window_s=600.0, n_windows=4)
     cfg = config()
     assert cfg.energy.speed_ms == 10.0
-    paper = replay_day(far, ONE, np.array([0]), Fixed(), cfg, method="p")
+    paper = fly_day(far, ONE, np.array([0]), Fixed(), cfg, method="p")
     assert paper.state.delivered_w.tolist() == [0, 1]  # every flight ends in its window
 
-    res = replay_day(far, ONE, np.array([0]), Fixed(), config(OpsConfig(busy=True)), method="b")
+    res = fly_day(far, ONE, np.array([0]), Fixed(), config(OpsConfig(busy=True)), method="b")
     assert res.state.delivered_w.tolist() == [0, 2]
     assert res.state.arrive_s[0] == pytest.approx(400.0)  # 4 km out, in window 0
     assert not res.plans[1].routes[0].stops  # window 1: only its empty plan
