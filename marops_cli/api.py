@@ -127,7 +127,8 @@ def segment(
     from .app.inputs import parse_center
     from .app.segment import segment as run
     from .app.segment import segment_hubs
-    from .io.atomic import dumps_json, replacing_foreign_files
+    from .io.atomic import dumps_json
+    from .io.ownership import replacing_foreign_files
 
     flags: dict[str, Any] = dict(data__year=year, data__size_km=size_km)
     flags["data__strict"] = strict or None
@@ -176,7 +177,7 @@ def plan_window(
     objective (``metrics``)."""
     from .app.plan_window import plan_window as run
     from .data.dates import parse_day
-    from .io.atomic import replacing_foreign_files
+    from .io.ownership import replacing_foreign_files
 
     cfg = _config(
         config,
@@ -235,7 +236,7 @@ def replay_day(
     """``marops replay-day --date``: the day's stops, routes and metrics."""
     from .app.replay import ReplayOptions, check_options, replay_days
     from .data.dates import parse_day
-    from .io.atomic import replacing_foreign_files
+    from .io.ownership import replacing_foreign_files
     from .methods import method as method_spec
 
     opts = ReplayOptions(method, fmt, plot, geojson, force, keep_tables=True)
@@ -316,7 +317,7 @@ def evaluate(
     from .data.dates import parse_days
     from .errors import InputError
     from .evaluate import parse_values
-    from .io.atomic import replacing_foreign_files
+    from .io.ownership import replacing_foreign_files
     from .segment.hubs import load_hubs
 
     cfg = _config(config, data__year=year, data__strict=strict or None, sim__seed=seed)

@@ -94,7 +94,9 @@ def evaluate(
     with ``out``, keep its jobs there as they finish (resuming the ones already there)
     and write its tables and figures."""
     from ..evaluate import expand_settings, prepare
+    from ..io.ownership import register_inputs
 
+    register_inputs([data, *config.actors.values()])  # never an output
     cfg = config.planner
     settings = expand_settings(
         cfg,

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TypeAlias
 
@@ -68,15 +69,11 @@ def read_data(data: Any, cfg: DataConfig) -> LadeTable:
     return read_lade(Path(data), cfg)
 
 
-def refuse_overwriting_inputs(outputs: list[Path], **inputs: Path | None) -> None:
-    """Stop before any work when an output would replace an input file (``--out DATA``)."""
-    seen = {}
-    for flag, path in inputs.items():
-        if path is not None and Path(path).exists():
-            seen[Path(path).resolve()] = flag.replace("_", "-")
-    for out_path in outputs:
-        hit = seen.get(Path(out_path).resolve())
-        if hit is not None:
-            raise InputError(
-                f"would overwrite the input given as {hit}; choose another --out", file=out_path
-            )
+def protect_inputs(outputs: Iterable[Path], inputs: Iterable[Any]) -> None:
+    """Register the run's input files (no output may replace one, whatever the names:
+    ``io/ownership.py``) and check ``outputs`` before any work: not an input, not a
+    file marops did not write (without ``--force``), in a folder that can be written."""
+    from ..io.ownership import check_outputs, register_inputs
+
+    register_inputs(inputs)
+    check_outputs(outputs)

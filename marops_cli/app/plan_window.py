@@ -65,6 +65,9 @@ def plan_window(
     fleet file (else ``cfg.sim.drones`` drones), leaving out the orders an earlier stops
     file (``delivered``) delivered; with ``out`` write its route files there."""
     from ..io import folder_lock, output_set
+    from ..io.ownership import register_inputs
+
+    register_inputs([data, depots, fleet, delivered, cfg.sim.policy])  # never an output
     from ..io.tables import with_meta, write_route_files
     from ..sim.days import DayScope
     from ..sim.fleet import Fleet

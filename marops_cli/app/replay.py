@@ -18,7 +18,7 @@ from .inputs import (
     data_name,
     in_memory,
     read_data,
-    refuse_overwriting_inputs,
+    protect_inputs,
 )
 from .messages import drop_report
 from .progress import SILENT, Progress
@@ -111,7 +111,7 @@ def replay_days(
         inputs = {"data": None if in_memory(data) else Path(data), "depots": depots}
         inputs.update({**(protect or {}), "fleet": fleet, "hubs": hubs})
         outputs = _outputs(folder, days, several, hubs is not None, options.fmt)
-        refuse_overwriting_inputs(outputs, **{k: _path(v) for k, v in inputs.items()})
+        protect_inputs(outputs, [_path(v) for v in inputs.values()])
     pol = method_policy(options.method, cfg.sim.policy, cfg.sim.seed)  # a bad actor stops here
     keep = folder is None if options.keep_tables is None else options.keep_tables
     run = Run(

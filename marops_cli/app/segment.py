@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING, Any
 from ..config import PlannerConfig
 from ..errors import InputError
 from ..io import output_set, run_meta
+from ..io.ownership import register_inputs
 from .inputs import Data, data_name, read_data
 from .messages import drop_report
 from .progress import SILENT, Progress
@@ -83,6 +84,7 @@ def segment(
     from ..segment.plot import plot_depots
     from ..segment.run import segment_table
 
+    register_inputs([data])  # never an output
     day_list = history_days(days, cfg.data.year)
     progress.start("segmenting…", 0, "")  # no steps to count: a spinner on a terminal
     try:
@@ -147,6 +149,8 @@ def segment_hubs(
     first: ``hubs`` of them, or ``auto`` (while the next holds at least 1 % of the
     orders); with ``out`` write the hubs file that ``replay-day --hubs`` runs."""
     from ..segment.hubs import find_hubs
+
+    register_inputs([data])  # never an output
 
     n_hubs = hub_count(hubs)
     if cfg.data.center is not None:

@@ -50,6 +50,15 @@ def synth(
     except ValidationError as exc:
         err = exc.errors()[0]
         raise InputError(f"invalid option {err['loc'][0]}: {err['msg']}") from None
+    if out is None:
+        return Synthesized(generate(cfg), first, None)
+    from ..io import output_set
+    from ..io.ownership import check_outputs
+
+    out = Path(out)
+    check_outputs([out])  # never a file marops did not write
     table = generate(cfg)
-    path = write(table, Path(out), fmt) if out is not None else None  # type: ignore[arg-type]
-    return Synthesized(table, first, path)
+    kind = fmt or ("parquet" if out.suffix.lower() in (".parquet", ".pq") else "csv")
+    with output_set() as files:
+        files.write_with(out, lambda tmp: write(table, tmp, kind))  # type: ignore[arg-type]
+    return Synthesized(table, first, out)

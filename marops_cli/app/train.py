@@ -109,7 +109,11 @@ def train(
     from ..rl.data import load_training_data
     from ..rl.train import train_actor
 
+    from ..io.ownership import check_outputs, register_inputs
+
     out = Path(out)
+    register_inputs([data] if isinstance(data, str | Path) else list(data))
+    check_outputs(actor_files(out))  # before the long work, not after it
     td = load_training_data(
         data,
         setup.planner,

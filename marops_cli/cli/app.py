@@ -54,9 +54,9 @@ def _root(
 ) -> None:
     """Operations planner for drone last-mile delivery."""
     STATE.update(debug=debug, quiet=False, json=False)
-    from ..io.atomic import allow_replacing_foreign
+    from ..io.ownership import new_run
 
-    allow_replacing_foreign(False)  # each command decides (--force)
+    new_run()  # each command decides (--force) and registers its inputs
 
 
 app.command("synth")(synth_command)

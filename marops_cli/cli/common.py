@@ -1,6 +1,6 @@
 """Shared CLI plumbing: error handling, consoles, option parsing helpers.
 
-``parse_center``, ``require_input`` and ``refuse_overwriting_inputs`` live in the
+``parse_center``, ``require_input`` and ``protect_inputs`` live in the
 application layer
 (marops_cli/app/inputs.py); they are imported here for the commands that use them."""
 
@@ -18,7 +18,7 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
-from ..app.inputs import parse_center, refuse_overwriting_inputs, require_input
+from ..app.inputs import parse_center, protect_inputs, require_input
 from ..config import PlannerConfig, load_config, override
 from ..errors import MaropsError
 
@@ -34,7 +34,7 @@ __all__ = [
     "make_config",
     "out",
     "parse_center",
-    "refuse_overwriting_inputs",
+    "protect_inputs",
     "require_input",
     "set_output",
     "show_table",

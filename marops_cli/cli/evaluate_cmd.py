@@ -10,7 +10,7 @@ import typer
 
 from ..data.dates import parse_days
 from ..errors import InputError
-from ..io.atomic import allow_replacing_foreign
+from ..io.ownership import allow_replacing_foreign
 from ..methods import reference_names
 from . import options as o
 from .common import (
@@ -19,7 +19,7 @@ from .common import (
     guarded,
     info,
     make_config,
-    refuse_overwriting_inputs,
+    protect_inputs,
     require_input,
     set_output,
     show_table,
@@ -138,13 +138,9 @@ def evaluate_command(
         from ..workers.cluster import require_distributed
 
         require_distributed()
-    refuse_overwriting_inputs(
-        [out / n for n in ("results.parquet", "summary.csv", "summary.md")],
-        data=data,
-        config=config,
-        policy=policy,
-        mappo_policy=mappo_policy,
-        hubs=hubs,
+    protect_inputs(
+        [out / n for n in ("results.parquet", "summary.csv", "summary.md", "paired.csv")],
+        [data, config, policy, mappo_policy, hubs],
     )
     cfg = make_config(config, data__year=year, data__strict=strict or None, sim__seed=seed)
     hub_list = _hubs(hubs, cfg)

@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING, Annotated, Any
 import typer
 
 from ..errors import InputError
-from ..io.atomic import allow_replacing_foreign
+from ..io.ownership import allow_replacing_foreign
 from . import options as o
 from .common import (
     STATE,
@@ -16,7 +16,7 @@ from .common import (
     guarded,
     info,
     make_config,
-    refuse_overwriting_inputs,
+    protect_inputs,
     require_input,
     set_output,
     show_table,
@@ -81,13 +81,9 @@ def plan_window_command(
     if out.exists() and not out.is_dir():
         raise InputError("--out must be a folder; this is a file", file=out)
     check_format(fmt)
-    refuse_overwriting_inputs(
+    protect_inputs(
         [out / f"stops.{fmt}", out / f"routes.{fmt}", out / "routes.geojson"],
-        data=data,
-        depots=depots,
-        fleet=fleet,
-        delivered=delivered,
-        config=config,
+        [data, depots, fleet, delivered, config],
     )
     cfg = make_config(
         config,

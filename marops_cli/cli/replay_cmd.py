@@ -8,7 +8,7 @@ from typing import Annotated, Any
 import typer
 
 from ..errors import InputError
-from ..io.atomic import allow_replacing_foreign
+from ..io.ownership import allow_replacing_foreign
 from ..methods import method as method_spec
 from . import options as o
 from .common import (

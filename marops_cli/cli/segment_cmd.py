@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING, Annotated
 import typer
 
 from ..errors import InputError
-from ..io.atomic import allow_replacing_foreign
+from ..io.ownership import allow_replacing_foreign
 from . import options as o
 from .common import (
     STATE,
@@ -17,7 +17,7 @@ from .common import (
     info,
     make_config,
     parse_center,
-    refuse_overwriting_inputs,
+    protect_inputs,
     require_input,
     set_output,
     show_table,
@@ -95,7 +95,7 @@ def segment_command(
     if out.suffix != ".json":
         raise InputError(f"--out names the depots file, e.g. depots.json; got {out.name}")
     gj_path, png_path = out.with_suffix(".geojson"), out.with_suffix(".png")
-    refuse_overwriting_inputs([out, gj_path, png_path], data=data, config=config)
+    protect_inputs([out, gj_path, png_path], [data, config])
     cfg = make_config(
         config,
         data__year=year,
@@ -154,7 +154,7 @@ def _segment_hubs(  # type: ignore[no-untyped-def]
     hub_count(hubs)  # a bad --hubs is the first error
     if out.suffix != ".json":
         raise InputError(f"--out names the hubs file, e.g. hubs.json; got {out.name}")
-    refuse_overwriting_inputs([out], data=data, config=config)
+    protect_inputs([out], [data, config])
     cfg = make_config(config, data__year=year, data__size_km=size_km, data__strict=strict or None)
     res = segment_hubs(data, cfg, hubs, days=dates, out=out, progress=Terminal())
     held, total = sum(h.orders for h in res.hubs), res.total

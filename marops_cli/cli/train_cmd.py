@@ -21,14 +21,14 @@ from rich.progress import (
 
 from ..data.dates import parse_days
 from ..errors import InputError
-from ..io.atomic import allow_replacing_foreign, check_replaceable
+from ..io.ownership import allow_replacing_foreign
 from . import options as o
 from .common import (
     console,
     guarded,
     is_terminal,
     make_config,
-    refuse_overwriting_inputs,
+    protect_inputs,
     require_input,
     show_table,
     table,
@@ -198,11 +198,8 @@ def train_command(
         require_input(path)
     if out.suffix != ".pt":
         raise InputError("--out must name a .pt file (the sidecar goes beside it)", file=out)
-    outputs = actor_files(out)
-    for path in data:
-        refuse_overwriting_inputs(outputs, data=path, config=config)
     allow_replacing_foreign(force)
-    check_replaceable(outputs)
+    protect_inputs(actor_files(out), [*data, config])  # before the long work
     fleets, depot_counts = _sizes(drones, "--drones"), _sizes(n_depots, "--n-depots")
     cfg = make_config(
         config,

@@ -4,71 +4,26 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import signal
 import tempfile
+import threading
 from collections.abc import Callable, Iterator
-from contextlib import contextmanager
-from contextvars import ContextVar
+from contextlib import ExitStack, contextmanager
 from pathlib import Path
 from typing import Any
 
-from ..errors import InputError, RunError
-
-_REPLACE_FOREIGN: ContextVar[bool] = ContextVar("replace_foreign", default=False)
-
-
-@contextmanager
-def replacing_foreign_files(allowed: bool) -> Iterator[None]:
-    """Within: outputs may replace existing files marops did not write (``--force``)."""
-    token = _REPLACE_FOREIGN.set(allowed)
-    try:
-        yield
-    finally:
-        _REPLACE_FOREIGN.reset(token)
-
-
-def allow_replacing_foreign(allowed: bool) -> None:
-    """For the rest of this command: may outputs replace files marops did not write?"""
-    _REPLACE_FOREIGN.set(allowed)
-
-
-def written_by_marops(path: Path) -> bool:
-    """An existing file is ours: Parquet with ``marops`` metadata, JSON or GeoJSON with a
-    marops ``meta``/``marops`` member, or a figure, summary or journal we name."""
-    suffix = path.suffix.lower()
-    try:
-        if suffix == ".parquet":
-            import pyarrow.parquet as pq
-
-            meta = pq.read_schema(path).metadata or {}
-            return b"marops" in meta
-        if suffix in (".json", ".geojson"):
-            doc = json.loads(path.read_text(encoding="utf-8"))
-            if not isinstance(doc, dict):
-                return False
-            head = doc.get("meta") or doc.get("marops") or {}
-            return (
-                isinstance(head, dict)
-                and head.get("package") == "marops"
-                or ("depots" in doc and "frame" in doc)
-                or str(doc.get("format", "")).startswith("marops-")  # an actor's sidecar
-            )
-    except (OSError, ValueError):
-        return False
-    # figures, summaries, journals and actor files: named by the command, so ours
-    return suffix in (".png", ".csv", ".md", ".jsonl", ".pt", ".ckpt")
-
-
-def check_replaceable(paths: list[Path]) -> None:
-    """Refuse to replace a file marops did not write (unless ``--force``): every output
-    is checked here when written, and a long command checks its outputs before any work
-    too, so it cannot fail at its last step."""
-    for final in paths:
-        if final.is_file() and not _REPLACE_FOREIGN.get() and not written_by_marops(final):
-            raise InputError(
-                "exists and was not written by marops; pass --force to replace it", file=final
-            )
-
+from ..data.reader import sha256_file
+from ..errors import RunError
+from .ownership import (
+    JOURNAL,
+    TMP_MARK,
+    cannot_write,
+    check_replaceable,
+    folder_held,
+    journal_update,
+    needs_journal,
+)
 
 class OutputSet:
     """A group of files written together: all of them appear, or none does.
@@ -83,23 +38,57 @@ class OutputSet:
     def path_for(self, final: str | Path) -> Path:
         final = Path(final)
         check_replaceable([final])
-        final.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=f".{final.name}.", suffix=".tmp", dir=final.parent)
+        try:
+            final.parent.mkdir(parents=True, exist_ok=True)
+            _clean_once(final.parent)
+            fd, tmp = tempfile.mkstemp(
+                prefix=f".{final.name}.{TMP_MARK}", suffix=".tmp", dir=final.parent
+            )
+        except OSError as exc:
+            raise cannot_write(final, exc) from None
         os.close(fd)
         self._pending.append((Path(tmp), final))
         return Path(tmp)
 
     def write_bytes(self, final: str | Path, data: bytes) -> None:
-        self.path_for(final).write_bytes(data)
+        self.write_with(final, lambda tmp: tmp.write_bytes(data))
 
     def write_json(self, final: str | Path, doc: Any) -> None:
         self.write_bytes(final, dumps_json(doc).encode("utf-8"))
 
     def write_with(self, final: str | Path, writer: Callable[[Path], None]) -> None:
-        writer(self.path_for(final))
+        tmp = self.path_for(final)
+        try:
+            writer(tmp)
+        except OSError as exc:
+            if exc.errno is None:
+                raise
+            raise cannot_write(Path(final), exc) from None
 
     def commit(self) -> None:
         mode = 0o666 & ~_umask()  # mkstemp makes 0600; outputs are shared like any file
+        # Files without marops metadata go into their folder's journal, renamed into
+        # place with them (docs/outputs.md).
+        journaled: dict[Path, dict[str, str]] = {}
+        for tmp, final in self._pending:
+            if needs_journal(final):
+                journaled.setdefault(final.parent, {})[final.name] = sha256_file(tmp)
+        with ExitStack() as held:
+            for folder in journaled:
+                held.enter_context(folder_held(folder))
+            journals = []
+            for folder, names in journaled.items():
+                try:
+                    journals.append((journal_update(folder, names), folder / JOURNAL))
+                except OSError as exc:
+                    self._pending.extend(journals)  # removed by discard()
+                    raise cannot_write(folder / JOURNAL, exc) from None
+            self._pending.extend(journals)
+            self._rename_all(mode, first=len(self._pending) - len(journals))
+
+    def _rename_all(self, mode: int, first: int) -> None:
+        """Journals first (they list old and new content), then the files."""
+        order = self._pending[first:] + self._pending[:first]
         # Ctrl-C or SIGTERM waits until every file of the set is in place (the renames
         # take microseconds), so a stopped run never leaves half a set.
         stop = {signal.SIGINT, signal.SIGTERM}
@@ -107,9 +96,12 @@ class OutputSet:
         if blocked:
             old = signal.pthread_sigmask(signal.SIG_BLOCK, stop)
         try:
-            for tmp, final in self._pending:
-                os.chmod(tmp, mode)
-                os.replace(tmp, final)
+            for tmp, final in order:
+                try:
+                    os.chmod(tmp, mode)
+                    os.replace(tmp, final)
+                except OSError as exc:
+                    raise cannot_write(final, exc) from None
             self._pending.clear()
         finally:
             if blocked:
@@ -132,9 +124,9 @@ def output_set() -> Iterator[OutputSet]:
         raise
     try:
         out.commit()
-    except OSError as exc:
+    except BaseException:
         out.discard()
-        raise RunError(f"could not write outputs: {exc}") from exc
+        raise
 
 
 def _umask() -> int:
@@ -152,45 +144,108 @@ class Terminated(KeyboardInterrupt):
     """SIGTERM, raised where the program runs so temporaries are removed on the way out."""
 
 
+LOCK = ".marops.lock"
+
+
 @contextmanager
 def folder_lock(folder: str | Path) -> Iterator[None]:
     """Hold ``folder`` for this run: a second run into it stops with a clear message
-    instead of redoing the work; temporaries a killed run left there are removed."""
-    import fcntl
+    instead of redoing the work; temporaries a killed run left there are removed.
 
+    The lock is an OS lock (``flock``) on ``.marops.lock``, held while the file is
+    open: only its holder ever removes that file, and only while holding it, so a
+    refused run cannot break the lock of the run that holds it.
+    """
     folder = Path(folder)
     created = not folder.exists()
     folder.mkdir(parents=True, exist_ok=True)
-    lock = folder / ".marops.lock"
-    fh = open(lock, "a+")  # noqa: SIM115 (held for the whole run)
+    lock = folder / LOCK
+    fh = _take(folder, lock)
+    root = folder.resolve()
     try:
+        with _GUARD:
+            _HELD[root] = os.getpid()
+        _clean_once(folder)
+        yield
+    finally:
+        with _GUARD:
+            _HELD.pop(root, None)
+            _CLEANED.difference_update(
+                {f for f in _CLEANED if f == root or root in f.parents}
+            )
+        empty = created and not any(p.name != LOCK for p in folder.iterdir())
+        lock.unlink(missing_ok=True)  # still holding it: the next run takes a fresh one
+        fh.close()
+        if empty:  # a failed run leaves no empty folder
+            try:
+                folder.rmdir()
+            except OSError:  # another run created its lock meanwhile
+                pass
+
+
+def _take(folder: Path, lock: Path) -> Any:
+    """The open, locked lock file, or a :class:`RunError` naming the holder."""
+    import fcntl
+
+    while True:
+        fh = open(lock, "a+")  # noqa: SIM115 (held for the whole run)
         try:
             fcntl.flock(fh.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
         except OSError:
             fh.seek(0)
             holder = fh.read().strip() or "another process"
+            fh.close()
             raise RunError(
                 f"{folder}: another marops run ({holder}) is writing here; wait for it to "
                 "finish or choose another --out"
             ) from None
-        fh.seek(0)
-        fh.truncate()
-        fh.write(f"pid {os.getpid()}")
-        fh.flush()
-        remove_stale_temporaries(folder)
-        yield
-    finally:
-        lock.unlink(missing_ok=True)
+        # The holder removes the file as it ends: a lock taken on a file already
+        # removed holds nothing, so take the one now at that name.
+        try:
+            same = os.path.samestat(os.fstat(fh.fileno()), os.stat(lock))
+        except FileNotFoundError:
+            same = False
+        if same:
+            break
         fh.close()
-        if created and not any(folder.iterdir()):  # a failed run leaves no empty folder
-            folder.rmdir()
+    fh.seek(0)
+    fh.truncate()
+    fh.write(f"pid {os.getpid()}")
+    fh.flush()
+    return fh
+
+
+# Folders under a lock this process holds, and those already cleaned of stale
+# temporaries this run: a folder is cleaned before this run's first temporary there,
+# so only a killed run's can go.
+_GUARD = threading.Lock()
+_HELD: dict[Path, int] = {}
+_CLEANED: set[Path] = set()
+
+
+def _clean_once(folder: Path) -> None:
+    """Remove a killed run's temporaries from ``folder`` the first time this run writes
+    there, when a lock this process holds covers it (no other run writes there)."""
+    here = folder.resolve()
+    with _GUARD:
+        if here in _CLEANED:
+            return
+        pid = os.getpid()
+        if not any(p == pid and (r == here or r in here.parents) for r, p in _HELD.items()):
+            return
+        _CLEANED.add(here)
+        remove_stale_temporaries(here)
+
+
+_STALE = re.compile(r"^\..+\." + TMP_MARK + r"[a-z0-9_]{8}\.tmp$")
 
 
 def remove_stale_temporaries(folder: Path) -> int:
-    """Remove ``.NAME.XXXXXXXX.tmp`` files that a killed run left under ``folder``."""
+    """Remove the temporaries (``.NAME.marops-XXXXXXXX.tmp``) a killed run left in
+    ``folder`` itself: not below it, and nothing named otherwise."""
     n = 0
-    for tmp in folder.rglob(".*.tmp"):
-        if tmp.is_file():
+    for tmp in folder.iterdir():
+        if _STALE.match(tmp.name) and tmp.is_file() and not tmp.is_symlink():
             tmp.unlink(missing_ok=True)
             n += 1
     return n

@@ -8,7 +8,6 @@ that never stopped, whatever the number of workers.
 
 from __future__ import annotations
 
-import os
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -19,6 +18,7 @@ import torch
 
 from .. import __version__
 from ..errors import InputError
+from ..io.atomic import output_set
 from ..policies.observation import ObsVersion
 from ..workers import LocalPool, single_threaded
 from .data import TrainData, fingerprint, load_training_data, split_days
@@ -84,10 +84,8 @@ class Trainer:
             "baselines": self.baselines,
             "best": self.best,
         }
-        tmp = self.ckpt.with_name(f".{self.ckpt.name}.{os.getpid()}.tmp")
-        self.ckpt.parent.mkdir(parents=True, exist_ok=True)
-        torch.save(state, tmp)
-        os.replace(tmp, self.ckpt)
+        with output_set() as files:  # recorded as marops's, so the next run may replace it
+            files.write_with(self.ckpt, lambda tmp: torch.save(state, tmp))
 
     def load_checkpoint(self) -> bool:
         """Resume from ``NAME.ckpt`` when there is one; refuse one made differently."""

@@ -26,15 +26,23 @@ def test_a_second_run_into_a_busy_folder_stops_with_a_message(example_csv: Path,
 
 def test_the_next_run_removes_temporaries_a_killed_run_left(example_csv: Path, tmp_path: Path):
     out = tmp_path / "week"
-    stale = [out / ".metrics.json.k1l2e3d4.tmp", out / "2022-08-11" / ".stops.parquet.x9y8.tmp"]
-    for p in stale:
+    stale = [
+        out / ".metrics.json.marops-k1l2e3d4.tmp",
+        out / "2022-08-11" / ".stops.parquet.marops-x9y8z7w6.tmp",
+    ]
+    kept = [  # not marops's name, or in a folder the run does not write
+        out / ".metrics.json.k1l2e3d4.tmp",
+        out / ".thesis-draft.tmp",
+        out / "keep" / "deeper" / ".stops.parquet.marops-abcdefgh.tmp",
+    ]
+    for p in stale + kept:
         p.parent.mkdir(parents=True, exist_ok=True)
         p.write_bytes(b"half a file")
     args = ["replay-day", str(example_csv), "--dates", "0811..0812", "--method", "stay"]
     res = CliRunner().invoke(app, [*args, "--out", str(out)])
     assert res.exit_code == 0, res.output
     assert not any(p.exists() for p in stale)
-    assert not list(out.rglob("*.tmp"))
+    assert all(p.read_bytes() == b"half a file" for p in kept)
 
 
 def test_sigterm_exits_143_with_one_line_and_leaves_outputs_complete_or_absent(

@@ -1,0 +1,205 @@
+"""Which files marops may replace (docs/outputs.md): its own, judged by provenance, never
+a run's inputs, and only where it can write.
+
+A file is marops's when its content says so (a Parquet file's ``marops`` metadata, a
+JSON document's marops ``meta``) or, for files that carry no metadata (CSV, PNG,
+Markdown, actors and checkpoints), when the folder's journal ``.marops-files.json``
+lists it with the SHA-256 of what is there now. A file edited since is not marops's
+any more. The name never decides.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import errno
+import json
+import os
+import tempfile
+from collections.abc import Iterable, Iterator
+from contextlib import contextmanager
+from contextvars import ContextVar
+from pathlib import Path
+
+from ..data.reader import sha256_file
+from ..errors import InputError, RunError
+
+JOURNAL = ".marops-files.json"
+JOURNAL_FORMAT = "marops-files/1"
+TMP_MARK = "marops-"
+"""Temporaries are ``.NAME.marops-XXXXXXXX.tmp``: nothing a user makes is named so."""
+
+_REPLACE_FOREIGN: ContextVar[bool] = ContextVar("replace_foreign", default=False)
+_RUN_INPUTS: ContextVar[tuple[Path, ...]] = ContextVar("run_inputs", default=())
+_WITH_METADATA = (".parquet", ".json", ".geojson")
+
+
+@contextmanager
+def replacing_foreign_files(allowed: bool) -> Iterator[None]:
+    """Within: one run; outputs may replace existing files marops did not write
+    (``--force``), and the run's inputs are registered afresh."""
+    token = _REPLACE_FOREIGN.set(allowed)
+    inputs = _RUN_INPUTS.set(())
+    try:
+        yield
+    finally:
+        _RUN_INPUTS.reset(inputs)
+        _REPLACE_FOREIGN.reset(token)
+
+
+def allow_replacing_foreign(allowed: bool) -> None:
+    """For the rest of this command: may outputs replace files marops did not write?"""
+    _REPLACE_FOREIGN.set(allowed)
+
+
+def new_run() -> None:
+    """A command starts: no inputs registered, no foreign file replaced."""
+    _REPLACE_FOREIGN.set(False)
+    _RUN_INPUTS.set(())
+
+
+def register_inputs(paths: Iterable[str | Path | None]) -> None:
+    """The files this run reads: no output of the run may replace one (see
+    :func:`check_not_input`), whatever the names. Missing paths and tables in memory
+    (anything not a path) are skipped."""
+    known = list(_RUN_INPUTS.get())
+    for p in paths:
+        if isinstance(p, str | os.PathLike) and Path(p).exists() and Path(p) not in known:
+            known.append(Path(p))
+    _RUN_INPUTS.set(tuple(known))
+
+
+def check_not_input(final: Path) -> None:
+    """Refuse an output that is one of the run's inputs: the same resolved path or the
+    same file (an inode reached through a symlink, a hard link or ``..``)."""
+    target = Path(final).resolve()
+    for inp in _RUN_INPUTS.get():
+        same = inp.resolve() == target
+        if not same and final.exists():
+            with contextlib.suppress(OSError):
+                same = os.path.samefile(inp, final)
+        if same:
+            raise InputError(
+                f"is an input of this run ({inp}); choose another --out", file=final
+            )
+
+
+def written_by_marops(path: Path) -> bool:
+    """An existing file is marops's: Parquet with ``marops`` metadata, JSON or GeoJSON
+    with a marops ``meta``/``marops`` member (or an actor's sidecar), or any file the
+    folder's journal lists with the content it has now."""
+    suffix = path.suffix.lower()
+    try:
+        if suffix == ".parquet":
+            import pyarrow.parquet as pq
+
+            if b"marops" in (pq.read_schema(path).metadata or {}):
+                return True
+        elif suffix in (".json", ".geojson") and _json_is_ours(path):
+            return True
+        return sha256_file(path) in _journal(path.parent).get(path.name, [])
+    except (OSError, ValueError):
+        return False
+
+
+def _json_is_ours(path: Path) -> bool:
+    doc = json.loads(path.read_text(encoding="utf-8"))
+    if not isinstance(doc, dict):
+        return False
+    head = doc.get("meta") or doc.get("marops") or {}
+    return (
+        isinstance(head, dict)
+        and head.get("package") == "marops"
+        or ("depots" in doc and "frame" in doc)
+        or str(doc.get("format", "")).startswith("marops-")  # an actor's sidecar
+    )
+
+
+def check_replaceable(paths: Iterable[Path]) -> None:
+    """Refuse an output that is an input of the run, or an existing file marops did not
+    write (unless ``--force``)."""
+    for final in paths:
+        final = Path(final)
+        check_not_input(final)
+        if final.is_file() and not _REPLACE_FOREIGN.get() and not written_by_marops(final):
+            raise InputError(
+                "exists and was not written by marops; pass --force to replace it", file=final
+            )
+
+
+def check_outputs(paths: Iterable[Path]) -> None:
+    """Before any work: each output may be replaced (above) and its folder written,
+    found out by creating and removing a temporary there (or, for a folder still to be
+    made, by the nearest existing one)."""
+    for final in paths:
+        final = Path(final)
+        check_replaceable([final])
+        folder = final.absolute().parent
+        while not folder.exists():
+            folder = folder.parent
+        if not folder.is_dir():
+            raise InputError(f"cannot be created: {folder} is a file", file=final)
+        try:
+            fd, probe = tempfile.mkstemp(
+                prefix=f".{final.name}.{TMP_MARK}", suffix=".tmp", dir=folder
+            )
+            os.close(fd)
+            os.unlink(probe)
+        except OSError as exc:  # found before the work: bad usage, exit 2
+            raise InputError(f"cannot write ({_reason(exc)})", file=final) from None
+
+
+def cannot_write(final: Path, exc: OSError) -> RunError:
+    """A write that failed during the run (exit 1), as one line naming the file:
+    ``FILE: cannot write (No space left on device)``."""
+    return RunError(f"{final}: cannot write ({_reason(exc)})")
+
+
+def _reason(exc: OSError) -> str:
+    return exc.strerror or os.strerror(exc.errno or errno.EIO)
+
+
+# -- the journal ---------------------------------------------------------------------
+def needs_journal(final: Path) -> bool:
+    """Files without marops metadata in their content are recorded in the journal."""
+    return final.suffix.lower() not in _WITH_METADATA
+
+
+def _journal(folder: Path) -> dict[str, list[str]]:
+    try:
+        doc = json.loads((folder / JOURNAL).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return {}
+    files = doc.get("files") if isinstance(doc, dict) else None
+    if doc.get("format") != JOURNAL_FORMAT or not isinstance(files, dict):
+        return {}
+    return {k: v for k, v in files.items() if isinstance(v, list)}
+
+
+def journal_update(folder: Path, written: dict[str, str]) -> Path:
+    """A temporary holding ``folder``'s journal with ``written`` (name -> SHA-256 of the
+    new content) added, for the caller to rename into place with the files. Each entry
+    keeps the previous hash too, so the file is marops's before and after its rename;
+    entries of files gone are dropped."""
+    files = _journal(folder)
+    for name, digest in written.items():
+        files[name] = [digest, *[h for h in files.get(name, [])[:1] if h != digest]]
+    files = {k: v for k, v in files.items() if k in written or (folder / k).is_file()}
+    doc = {"format": JOURNAL_FORMAT, "files": dict(sorted(files.items()))}
+    fd, tmp = tempfile.mkstemp(prefix=f"{JOURNAL}.{TMP_MARK}", suffix=".tmp", dir=folder)
+    with os.fdopen(fd, "w", encoding="utf-8") as fh:
+        json.dump(doc, fh, indent=2)
+        fh.write("\n")
+    return Path(tmp)
+
+
+@contextmanager
+def folder_held(folder: Path) -> Iterator[None]:
+    """Two processes committing into one folder update its journal one after the other."""
+    import fcntl
+
+    fd = os.open(folder, os.O_RDONLY)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX)
+        yield
+    finally:
+        os.close(fd)  # releases the lock

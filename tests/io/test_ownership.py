@@ -1,0 +1,127 @@
+"""Which files marops replaces: its own by provenance (metadata or the journal), never a
+user's file by its name, never one of the run's inputs (docs/outputs.md)."""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from marops_cli.errors import InputError
+from marops_cli.io import output_set
+from marops_cli.io.ownership import (
+    JOURNAL,
+    check_replaceable,
+    register_inputs,
+    replacing_foreign_files,
+    written_by_marops,
+)
+
+MAIN = "from marops_cli.cli.app import main; main()"
+
+
+def marops(*args: object, cwd: Path | None = None) -> subprocess.CompletedProcess[str]:
+    """The real command line in a process of its own."""
+    cmd = [sys.executable, "-c", MAIN, *map(str, args)]
+    return subprocess.run(cmd, capture_output=True, text=True, cwd=cwd, timeout=300)
+
+
+def one_line(err: str) -> str:
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in err, err
+    return lines[0]
+
+
+# -- failure 3: synth replaced a user's file judged by its extension -------------------
+def test_synth_never_replaces_a_file_marops_did_not_write(tmp_path: Path) -> None:
+    notes = tmp_path / "analyst_notes.csv"
+    notes.write_text("my notes, not data\n")
+    res = marops("synth", "--days", "1", "--orders-per-day", "50", "--out", notes)
+    assert res.returncode == 2
+    assert one_line(res.stderr) == (
+        f"marops: error: {notes}: exists and was not written by marops; "
+        "pass --force to replace it"
+    )
+    assert notes.read_text() == "my notes, not data\n"
+
+
+def test_synth_replaces_its_own_file_until_someone_edits_it(tmp_path: Path) -> None:
+    data = tmp_path / "city.csv"
+    args = ("synth", "--days", "1", "--orders-per-day", "50", "--out", data)
+    assert marops(*args).returncode == 0
+    assert data.name in json.loads((tmp_path / JOURNAL).read_text())["files"]
+    assert marops(*args).returncode == 0  # the journal says it is marops's
+    with data.open("a") as fh:
+        fh.write("an analyst's extra line\n")
+    res = marops(*args)
+    assert res.returncode == 2 and "not written by marops" in res.stderr
+    assert data.read_text().endswith("an analyst's extra line\n")
+
+
+def test_a_figure_is_marops_s_only_while_the_journal_holds_its_content(tmp_path: Path) -> None:
+    fig = tmp_path / "alpha.png"
+    fig.write_bytes(b"\x89PNG a user's figure")
+    assert not written_by_marops(fig)  # the name and extension say nothing
+    with replacing_foreign_files(True), output_set() as files:
+        files.write_bytes(fig, b"\x89PNG marops's figure")
+    assert written_by_marops(fig)
+    with output_set() as files:  # replaced again without --force
+        files.write_bytes(fig, b"\x89PNG the next run's figure")
+    assert written_by_marops(fig)
+    fig.write_bytes(b"\x89PNG edited")
+    assert not written_by_marops(fig)
+    with pytest.raises(InputError, match="not written by marops"):
+        check_replaceable([fig])
+
+
+def test_the_journal_drops_files_that_are_gone(tmp_path: Path) -> None:
+    with output_set() as files:
+        files.write_bytes(tmp_path / "a.csv", b"a")
+        files.write_bytes(tmp_path / "b.md", b"b")
+    (tmp_path / "a.csv").unlink()
+    with output_set() as files:
+        files.write_bytes(tmp_path / "b.md", b"bb")
+    listed = json.loads((tmp_path / JOURNAL).read_text())["files"]
+    assert set(listed) == {"b.md"}
+
+
+# -- failure 2: evaluate wrote its paired table over its data file ---------------------
+def test_evaluate_refuses_an_input_named_like_one_of_its_outputs(
+    example_csv: Path, tmp_path: Path
+) -> None:
+    ev = tmp_path / "ev"
+    ev.mkdir()
+    data = ev / "paired.csv"
+    shutil.copy(example_csv, data)
+    before = data.read_bytes()
+    res = marops("evaluate", data, "--dates", "0811", "--against", "stay", "--out", ev)
+    assert res.returncode == 2
+    assert "is an input of this run" in one_line(res.stderr)
+    assert data.read_bytes() == before
+    assert sorted(p.name for p in ev.iterdir()) == ["paired.csv"]
+
+
+@pytest.mark.parametrize("link", ["symlink", "hardlink", "dotdot"])
+def test_no_output_replaces_an_input_reached_another_way(tmp_path: Path, link: str) -> None:
+    data = tmp_path / "data.csv"
+    data.write_text("order_id\n1\n")
+    out = tmp_path / "out"
+    out.mkdir()
+    target = out / "summary.csv"
+    if link == "symlink":
+        target.symlink_to(data)
+    elif link == "hardlink":
+        os.link(data, target)
+    else:
+        target = out / ".." / "data.csv"
+    with replacing_foreign_files(True):  # even --force never writes over an input
+        register_inputs([data])
+        with pytest.raises(InputError, match="is an input of this run"), output_set() as f:
+            f.write_bytes(target, b"results")
+    assert data.read_text() == "order_id\n1\n"
+    assert not [p for p in out.iterdir() if p.name.endswith(".tmp")]
