@@ -17,8 +17,8 @@ from .inputs import (
     check_format,
     data_name,
     in_memory,
-    read_data,
     protect_inputs,
+    read_data,
 )
 from .messages import drop_report
 from .progress import SILENT, Progress

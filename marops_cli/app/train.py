@@ -106,10 +106,9 @@ def train(
     reward, delay, energy and entropy on an update's last), and each held-out
     evaluation.
     """
+    from ..io.ownership import check_outputs, register_inputs
     from ..rl.data import load_training_data
     from ..rl.train import train_actor
-
-    from ..io.ownership import check_outputs, register_inputs
 
     out = Path(out)
     register_inputs([data] if isinstance(data, str | Path) else list(data))

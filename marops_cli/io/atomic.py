@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import re
@@ -24,6 +25,7 @@ from .ownership import (
     journal_update,
     needs_journal,
 )
+
 
 class OutputSet:
     """A group of files written together: all of them appear, or none does.
@@ -170,17 +172,13 @@ def folder_lock(folder: str | Path) -> Iterator[None]:
     finally:
         with _GUARD:
             _HELD.pop(root, None)
-            _CLEANED.difference_update(
-                {f for f in _CLEANED if f == root or root in f.parents}
-            )
+            _CLEANED.difference_update({f for f in _CLEANED if f == root or root in f.parents})
         empty = created and not any(p.name != LOCK for p in folder.iterdir())
         lock.unlink(missing_ok=True)  # still holding it: the next run takes a fresh one
         fh.close()
         if empty:  # a failed run leaves no empty folder
-            try:
+            with contextlib.suppress(OSError):  # another run created its lock meanwhile
                 folder.rmdir()
-            except OSError:  # another run created its lock meanwhile
-                pass
 
 
 def _take(folder: Path, lock: Path) -> Any:

@@ -78,9 +78,7 @@ def check_not_input(final: Path) -> None:
             with contextlib.suppress(OSError):
                 same = os.path.samefile(inp, final)
         if same:
-            raise InputError(
-                f"is an input of this run ({inp}); choose another --out", file=final
-            )
+            raise InputError(f"is an input of this run ({inp}); choose another --out", file=final)
 
 
 def written_by_marops(path: Path) -> bool:

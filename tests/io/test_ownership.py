@@ -44,8 +44,7 @@ def test_synth_never_replaces_a_file_marops_did_not_write(tmp_path: Path) -> Non
     res = marops("synth", "--days", "1", "--orders-per-day", "50", "--out", notes)
     assert res.returncode == 2
     assert one_line(res.stderr) == (
-        f"marops: error: {notes}: exists and was not written by marops; "
-        "pass --force to replace it"
+        f"marops: error: {notes}: exists and was not written by marops; pass --force to replace it"
     )
     assert notes.read_text() == "my notes, not data\n"
 

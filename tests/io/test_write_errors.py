@@ -79,9 +79,9 @@ def test_a_full_disk_while_writing_names_the_file(tmp_path: Path) -> None:
 
     if not Path("/dev/full").exists():
         pytest.skip("no /dev/full")
-    with pytest.raises(RunError, match=r"routes\.png: cannot write \(No space left on device\)"):
-        with output_set() as files:
-            files.write_with(final, to_full_disk)
+    full = r"routes\.png: cannot write \(No space left on device\)"
+    with pytest.raises(RunError, match=full), output_set() as files:
+        files.write_with(final, to_full_disk)
     assert not final.exists()
 
 
@@ -92,7 +92,7 @@ def test_a_failed_rename_names_the_file(tmp_path: Path, monkeypatch) -> None:
         raise OSError(errno.EROFS, os.strerror(errno.EROFS))
 
     monkeypatch.setattr(os, "replace", refuse)
-    with pytest.raises(RunError, match=r"stops\.parquet: cannot write \(Read-only file system\)"):
-        with output_set() as files:
-            files.write_bytes(final, b"x")
+    read_only = r"stops\.parquet: cannot write \(Read-only file system\)"
+    with pytest.raises(RunError, match=read_only), output_set() as files:
+        files.write_bytes(final, b"x")
     assert list(tmp_path.iterdir()) == []
