@@ -2,10 +2,10 @@
 a run's inputs, and only where it can write.
 
 A file is marops's when its content says so (a Parquet file's ``marops`` metadata, a
-JSON document's marops ``meta``) or, for files that carry no metadata (CSV, PNG,
-Markdown, actors and checkpoints), when the folder's journal ``.marops-files.json``
-lists it with the SHA-256 of what is there now. A file edited since is not marops's
-any more. The name never decides.
+JSON document's marops ``meta``, a training checkpoint's format) or, for files that
+carry no metadata (CSV, PNG, Markdown, actors), when the folder's journal
+``.marops-files.json`` lists it with the SHA-256 of what is there now. A file edited
+since is not marops's any more. The name never decides.
 """
 
 from __future__ import annotations
@@ -15,6 +15,7 @@ import errno
 import json
 import os
 import tempfile
+import zipfile
 from collections.abc import Iterable, Iterator
 from contextlib import contextmanager
 from contextvars import ContextVar
@@ -30,7 +31,7 @@ TMP_MARK = "marops-"
 
 _REPLACE_FOREIGN: ContextVar[bool] = ContextVar("replace_foreign", default=False)
 _RUN_INPUTS: ContextVar[tuple[Path, ...]] = ContextVar("run_inputs", default=())
-_WITH_METADATA = (".parquet", ".json", ".geojson")
+_WITH_METADATA = (".parquet", ".json", ".geojson", ".ckpt")
 
 
 @contextmanager
@@ -83,19 +84,20 @@ def check_not_input(final: Path) -> None:
 
 def written_by_marops(path: Path) -> bool:
     """An existing file is marops's: Parquet with ``marops`` metadata, JSON or GeoJSON
-    with a marops ``meta``/``marops`` member (or an actor's sidecar), or any file the
-    folder's journal lists with the content it has now."""
+    with a marops ``meta``/``marops`` member (or an actor's sidecar), a training
+    checkpoint, or any file the folder's journal lists with the content it has now."""
     suffix = path.suffix.lower()
     try:
         if suffix == ".parquet":
             import pyarrow.parquet as pq
 
-            if b"marops" in (pq.read_schema(path).metadata or {}):
-                return True
-        elif suffix in (".json", ".geojson") and _json_is_ours(path):
-            return True
-        return sha256_file(path) in _journal(path.parent).get(path.name, [])
-    except (OSError, ValueError):
+            ours = b"marops" in (pq.read_schema(path).metadata or {})
+        elif suffix in (".json", ".geojson"):
+            ours = _json_is_ours(path)
+        else:
+            ours = suffix == ".ckpt" and _checkpoint_is_ours(path)
+        return ours or sha256_file(path) in _journal(path.parent).get(path.name, [])
+    except (OSError, ValueError, zipfile.BadZipFile):
         return False
 
 
@@ -110,6 +112,14 @@ def _json_is_ours(path: Path) -> bool:
         or ("depots" in doc and "frame" in doc)
         or str(doc.get("format", "")).startswith("marops-")  # an actor's sidecar
     )
+
+
+def _checkpoint_is_ours(path: Path) -> bool:
+    """A training checkpoint names its format (``marops-train-ckpt/N``) in the state it
+    holds: read from the archive's pickle as bytes, never unpickled."""
+    with zipfile.ZipFile(path) as archive:
+        pickles = [n for n in archive.namelist() if n.endswith("/data.pkl")]
+        return any(b"marops-train-ckpt/" in archive.read(n) for n in pickles[:1])
 
 
 def check_replaceable(paths: Iterable[Path]) -> None:
@@ -167,8 +177,10 @@ def _journal(folder: Path) -> dict[str, list[str]]:
         doc = json.loads((folder / JOURNAL).read_text(encoding="utf-8"))
     except (OSError, ValueError):
         return {}
-    files = doc.get("files") if isinstance(doc, dict) else None
-    if doc.get("format") != JOURNAL_FORMAT or not isinstance(files, dict):
+    if not isinstance(doc, dict) or doc.get("format") != JOURNAL_FORMAT:
+        return {}
+    files = doc.get("files")
+    if not isinstance(files, dict):
         return {}
     return {k: v for k, v in files.items() if isinstance(v, list)}
 

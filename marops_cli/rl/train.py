@@ -84,7 +84,7 @@ class Trainer:
             "baselines": self.baselines,
             "best": self.best,
         }
-        with output_set() as files:  # recorded as marops's, so the next run may replace it
+        with output_set() as files:  # complete or absent (docs/outputs.md)
             files.write_with(self.ckpt, lambda tmp: torch.save(state, tmp))
 
     def load_checkpoint(self) -> bool:

@@ -124,3 +124,12 @@ def test_no_output_replaces_an_input_reached_another_way(tmp_path: Path, link: s
             f.write_bytes(target, b"results")
     assert data.read_text() == "order_id\n1\n"
     assert not [p for p in out.iterdir() if p.name.endswith(".tmp")]
+
+
+def test_a_broken_journal_makes_nothing_marops_s(tmp_path: Path) -> None:
+    fig = tmp_path / "routes.png"
+    with output_set() as files:
+        files.write_bytes(fig, b"\x89PNG")
+    for text in ("[1, 2]", "not json", '{"format": "marops-files/1", "files": []}'):
+        (tmp_path / JOURNAL).write_text(text)
+        assert not written_by_marops(fig)
