@@ -232,6 +232,13 @@ class SimConfig(_Stage):
         "None = the method's own",
     )
     seed: int = Field(0, description="seed for random policies")
+    trust_actor: bool = Field(
+        False,
+        # Left out of dumps while off, so run identities and metadata stay as they were.
+        exclude_if=lambda on: not on,
+        description="load a TorchScript actor file without a weights file beside it, which "
+        "runs its code (--trust-actor; docs/method.md §6)",
+    )
 
 
 class PlannerConfig(_Stage):

@@ -106,6 +106,7 @@ def evaluate(
             "--mappo-policy", help="Trained MAPPO actor (.pt) (default: the shipped one)."
         ),
     ] = None,
+    trust_actor: o.TrustActor = False,
     against: Annotated[
         str | None,
         typer.Option(
@@ -146,7 +147,13 @@ def evaluate(
         mappo_policy=mappo_policy,
         hubs=hubs,
     )
-    cfg = make_config(config, data__year=year, data__strict=strict or None, sim__seed=seed)
+    cfg = make_config(
+        config,
+        data__year=year,
+        data__strict=strict or None,
+        sim__seed=seed,
+        sim__trust_actor=trust_actor or None,
+    )
     hub_list = _hubs(hubs, cfg)
     sweep = _sweep(alpha, drones, coverage, n_depots)
     days = parse_days(dates, cfg.data.year) if dates else None

@@ -51,6 +51,7 @@ def plan_window(
         ),
     ] = None,
     policy: o.Policy = None,
+    trust_actor: o.TrustActor = False,
     method: o.Method = "marops",
     alpha: o.Alpha = None,
     ordering: o.Ordering = None,
@@ -100,6 +101,7 @@ def plan_window(
         sim__drones=drones,
         sim__seed=seed,
         sim__policy=policy,
+        sim__trust_actor=trust_actor or None,
     )
     day = parse_day(date, cfg.data.year)
     res = plan(

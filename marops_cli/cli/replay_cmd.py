@@ -72,6 +72,7 @@ def replay_day(
     ] = None,
     method: o.Method = "marops",
     policy: o.Policy = None,
+    trust_actor: o.TrustActor = False,
     alpha: o.Alpha = None,
     ordering: o.Ordering = None,
     seed: o.Seed = None,
@@ -135,6 +136,7 @@ def replay_day(
         sim__drones=drones,
         sim__seed=seed,
         sim__policy=policy,
+        sim__trust_actor=trust_actor or None,
     )
     days = [parse_day(date, cfg.data.year)] if date else parse_days(dates or "", cfg.data.year)
     res = replay_days(
