@@ -51,8 +51,8 @@ class TrainResult:
     actor: Path
     """The TorchScript actor (``NAME.pt``)."""
     files: list[Path]
-    """The actor, its weights (``NAME.safetensors``), its sidecar (``NAME.json``), its curve (``NAME.curve.png``) when drawn,
-    and the checkpoint (``NAME.ckpt``)."""
+    """The actor, its weights (``NAME.safetensors``), its sidecar (``NAME.json``), its
+    curve (``NAME.curve.png``) when drawn, and the checkpoint (``NAME.ckpt``)."""
     sidecar: dict[str, Any]
     """The sidecar document (docs/method.md §6)."""
 

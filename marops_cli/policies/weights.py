@@ -45,7 +45,9 @@ def network_sizes(side: dict[str, Any], sidecar: Path) -> tuple[int, int, int]:
         value = side.get(key)
         if isinstance(value, bool) or not isinstance(value, int) or not 1 <= value <= bound:
             raise InputError(
-                f"expected a whole number from 1 to {bound}, got {value!r}", file=sidecar, column=key
+                f"expected a whole number from 1 to {bound}, got {value!r}",
+                file=sidecar,
+                column=key,
             )
         sizes.append(value)
     obs, logits, hidden = sizes
@@ -70,24 +72,12 @@ def load_weights(model_path: str | Path, side: dict[str, Any], sidecar: Path) ->
     expect = actor_shapes(*sizes)
     limit = 4 * sum(math.prod(s) for s in expect.values()) + (1 << 20)  # data + header
     if path.stat().st_size > limit:
-        raise InputError(f"larger than the network its sidecar describes ({limit:,} bytes)", file=path)
+        raise InputError(
+            f"larger than the network its sidecar describes ({limit:,} bytes)", file=path
+        )
     try:
         with safe_open(str(path), framework="pt", device="cpu") as f:
-            names = set(f.keys())
-            for name in sorted(names - expect.keys()):
-                raise InputError("a tensor the actor network does not have", file=path, column=name)
-            for name, shape in expect.items():
-                if name not in names:
-                    raise InputError("the actor network's tensor is missing", file=path, column=name)
-                part = f.get_slice(name)
-                got, dtype = tuple(part.get_shape()), part.get_dtype()
-                if dtype != "F32" or got != shape:
-                    raise InputError(
-                        f"expected float32 {list(shape)} (the sidecar's network), "
-                        f"got {dtype} {list(got)}",
-                        file=path,
-                        column=name,
-                    )
+            _check_tensors(f, expect, path)
             state = {name: f.get_tensor(name) for name in expect}
     except (SafetensorError, OSError, ValueError) as exc:
         first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
@@ -99,3 +89,23 @@ def load_weights(model_path: str | Path, side: dict[str, Any], sidecar: Path) ->
         actor = Actor(*sizes)
     actor.load_state_dict(state, assign=True)
     return actor.eval()
+
+
+def _check_tensors(f: Any, expect: dict[str, tuple[int, ...]], path: Path) -> None:
+    """Raise unless the open safetensors file ``f`` holds exactly the tensors of
+    ``expect``, float32 and of those shapes (read from its header, before any data)."""
+    names = set(f.keys())
+    extra = sorted(names - expect.keys())
+    if extra:
+        raise InputError("a tensor the actor network does not have", file=path, column=extra[0])
+    for name, shape in expect.items():
+        if name not in names:
+            raise InputError("the actor network's tensor is missing", file=path, column=name)
+        part = f.get_slice(name)
+        got, dtype = tuple(part.get_shape()), part.get_dtype()
+        if dtype != "F32" or got != shape:
+            raise InputError(
+                f"expected float32 {list(shape)} (the sidecar's network), got {dtype} {list(got)}",
+                file=path,
+                column=name,
+            )

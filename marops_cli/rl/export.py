@@ -48,7 +48,9 @@ def weights_bytes(actor: Actor) -> bytes:
     """The actor's weights as a safetensors file (names of its state dict, float32)."""
     from safetensors.torch import save
 
-    state = {k: v.detach().to("cpu", torch.float32).contiguous() for k, v in actor.state_dict().items()}
+    state = {
+        k: v.detach().to("cpu", torch.float32).contiguous() for k, v in actor.state_dict().items()
+    }
     return save(state)
 
 
