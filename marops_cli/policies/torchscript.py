@@ -19,7 +19,6 @@ from ..errors import InputError
 from .base import WindowView
 from .observation import OBS_VERSION, OBS_VERSIONS, n_choices, obs_dim
 from .recurrent import RecurrentPolicy
-from .weights import load_weights, weights_path
 
 
 def sidecar_path(model_path: str | Path) -> Path:
@@ -57,6 +56,9 @@ def read_sidecar(model_path: str | Path) -> dict[str, Any]:
 def load_module(path: Path, side: dict[str, Any], trust: bool) -> Any:
     """The actor of ``path`` in eval mode: rebuilt from the weights file beside it when
     there is one, else the TorchScript module, loaded only when ``trust`` is given."""
+    # Deferred: the network imports torch, which the other policies never pay for.
+    from .weights import load_weights, weights_path
+
     if weights_path(path).is_file():
         return load_weights(path, side, sidecar_path(path))
     if not trust:
