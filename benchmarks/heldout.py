@@ -60,7 +60,8 @@ def _job(task: tuple[Any, ...]) -> list[dict[str, Any]]:
     torch.set_num_threads(1)
     from marops_cli.config import PlannerConfig, override
     from marops_cli.data.reader import read_lade
-    from marops_cli.sim.jobs import METHODS, load_fleet, load_scenario, method_policy, replay
+    from marops_cli.methods import method as method_spec
+    from marops_cli.sim.jobs import load_fleet, load_scenario, method_policy, replay
 
     path, shape, history, n_dep, drones, alpha, method, policy = task
     base = PlannerConfig()
@@ -68,14 +69,14 @@ def _job(task: tuple[Any, ...]) -> list[dict[str, Any]]:
     days = table.days()[history:]
     cfg = override(
         base,
-        segment__method=METHODS[method][0],
+        segment__method=method_spec(method).segmentation,
         segment__n_depots=n_dep,
         sim__drones=drones,
         plan__alpha=alpha,
     )
     scn = load_scenario(path, cfg, replay_days=days, table=table)
     fleet = load_fleet(None, scn.depots, drones, cfg)
-    pol = method_policy(method, policy if METHODS[method][1] == "learned" else None, 0)
+    pol = method_policy(method, policy if method_spec(method).policy == "learned" else None, 0)
     rows = []
     for day in days:
         _, _, m = replay(scn, day, fleet, pol, method)

@@ -48,7 +48,7 @@ from marops_cli.plans.objective import WindowScore, lam_j, score_routes  # noqa:
 from marops_cli.plans.pool import finish_route  # noqa: E402
 from marops_cli.plans.pyvrp_routes import solve_window  # noqa: E402
 from marops_cli.plans.select import make_selector  # noqa: E402
-from marops_cli.plans.window import DroneRoute, WindowPlan, plan_window  # noqa: E402
+from marops_cli.plans.window import DroneRoute, WindowPlan, plan_routes  # noqa: E402
 from marops_cli.policies.base import Policy, WindowView, start_day  # noqa: E402
 from marops_cli.sim.jobs import load_scenario, method_policy  # noqa: E402
 from marops_cli.sim.state import DayState, default_fleet  # noqa: E402
@@ -103,7 +103,7 @@ def marops_routes(cfg: PlannerConfig, model: EnergyModel, scope: str = "range") 
     selector = make_selector(cfg.plan)
 
     def plan(view: WindowView, actions: np.ndarray) -> list[DroneRoute]:
-        return plan_window(view, actions, model, cfg.plan, selector, scope=scope).routes
+        return plan_routes(view, actions, model, cfg.plan, selector, scope=scope).routes
 
     return plan
 

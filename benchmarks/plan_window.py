@@ -1,4 +1,4 @@
-"""Wall time of one planning window (``plan_window``), split by stage; prints figures.
+"""Wall time of one planning window (``plan_routes``), split by stage; prints figures.
 
 Two scenarios, each planned ``--repeats`` times on the same window:
 
@@ -55,7 +55,7 @@ from marops_cli.plans.select import (  # noqa: E402
     make_selector,
     solve_highs_direct,
 )
-from marops_cli.plans.window import plan_window  # noqa: E402
+from marops_cli.plans.window import plan_routes  # noqa: E402
 from marops_cli.policies.base import WindowView  # noqa: E402
 from marops_cli.policies.baselines import GreedyPolicy  # noqa: E402
 from marops_cli.segment import segment_points  # noqa: E402
@@ -124,10 +124,10 @@ class Recording:
 def problem_of(
     view: WindowView, actions: np.ndarray, model: EnergyModel, cfg: PlannerConfig, scope: str
 ) -> SelectionProblem:
-    """The selection program ``plan_window`` builds for this window (caught on its way to
+    """The selection program ``plan_routes`` builds for this window (caught on its way to
     the selector, so it is the planner's own whatever its plan sets)."""
     rec = Recording(make_selector(cfg.plan))
-    plan_window(view, actions, model, cfg.plan, rec, scope)
+    plan_routes(view, actions, model, cfg.plan, rec, scope)
     assert rec.problem is not None
     return rec.problem
 
@@ -147,11 +147,11 @@ def bench(name: str, view: WindowView, cfg: PlannerConfig, repeats: int, profile
     )
     print(f"{'scope':>7} {'cands':>6} {'plans':>6} " + " ".join(f"{s:>8}" for s in STAGES))
     for scope in ("range", "global"):
-        plan_window(view, actions, model, cfg.plan, selector, scope)  # warm-up
+        plan_routes(view, actions, model, cfg.plan, selector, scope)  # warm-up
         times: dict[str, list[float]] = {s: [] for s in STAGES}
         for _ in range(repeats):
             c0 = time.process_time()
-            plan = plan_window(view, actions, model, cfg.plan, selector, scope)
+            plan = plan_routes(view, actions, model, cfg.plan, selector, scope)
             times["cpu"].append(time.process_time() - c0)  # less sensitive to a busy machine
             for s in STAGES[:-1]:
                 times[s].append(plan.timings[s])
@@ -167,7 +167,7 @@ def bench(name: str, view: WindowView, cfg: PlannerConfig, repeats: int, profile
             prof = cProfile.Profile()
             prof.enable()
             for _ in range(3):
-                plan_window(view, actions, model, cfg.plan, selector, scope)
+                plan_routes(view, actions, model, cfg.plan, selector, scope)
             prof.disable()
             buf = io.StringIO()
             pstats.Stats(prof, stream=buf).sort_stats("cumulative").print_stats(18)

@@ -20,6 +20,7 @@ from pathlib import Path
 sys.path = [p for p in sys.path if Path(p or ".").resolve() != Path(__file__).parent.resolve()]
 
 from marops_cli.config import PlannerConfig  # noqa: E402
+from marops_cli.methods import method as method_spec  # noqa: E402
 from marops_cli.sim.jobs import METHODS, load_fleet, load_scenario, method_policy, replay  # noqa: E402
 
 
@@ -39,7 +40,7 @@ def main() -> None:
     requests: list[int] = []
     for method in args.methods.split(","):
         mcfg = cfg.model_copy(deep=True)
-        mcfg.segment.method = METHODS[method][0]
+        mcfg.segment.method = method_spec(method).segmentation
         try:
             pol = method_policy(method, None, 0)
         except Exception as exc:  # a method without a trained actor yet

@@ -34,8 +34,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from marops_cli.config import PlannerConfig, override  # noqa: E402
 from marops_cli.data.reader import read_lade  # noqa: E402
+from marops_cli.methods import method as method_spec  # noqa: E402
 from marops_cli.rl.evaluate import method_table  # noqa: E402
-from marops_cli.sim.jobs import METHODS, load_fleet, load_scenario, method_policy, replay  # noqa: E402
+from marops_cli.sim.jobs import load_fleet, load_scenario, method_policy, replay  # noqa: E402
 
 DEFAULT_METHODS = "marops,squares,mappo,ops-random,greedy,ops-global,stay,myopic"
 COLUMNS = (
@@ -60,7 +61,7 @@ def run(args: argparse.Namespace) -> dict[str, dict[str, tuple[float, float]]]:
     for m in methods:
         cfg = override(
             base,
-            segment__method=METHODS[m][0],
+            segment__method=method_spec(m).segmentation,
             segment__n_depots=args.depots_n,
             sim__drones=args.drones,
             plan__alpha=args.alpha,
@@ -68,7 +69,9 @@ def run(args: argparse.Namespace) -> dict[str, dict[str, tuple[float, float]]]:
         )
         scn = load_scenario(args.data, cfg, replay_days=days, table=table)
         fleet = load_fleet(None, scn.depots, cfg.sim.drones, cfg)
-        pol = method_policy(m, args.policy if METHODS[m][1] == "learned" else None, cfg.sim.seed)
+        pol = method_policy(
+            m, args.policy if method_spec(m).policy == "learned" else None, cfg.sim.seed
+        )
         t0 = time.perf_counter()
         for day in days:
             _, _, metrics = replay(scn, day, fleet, pol, m)

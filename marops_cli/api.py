@@ -236,7 +236,7 @@ def replay_day(
     from .app.replay import ReplayOptions, check_options, replay_days
     from .data.dates import parse_day
     from .io.atomic import replacing_foreign_files
-    from .methods import METHODS
+    from .methods import method as method_spec
 
     opts = ReplayOptions(method, fmt, plot, geojson, force, keep_tables=True)
     check_options(opts)
@@ -246,7 +246,7 @@ def replay_day(
         data__strict=strict or None,
         data__tz=tz,
         segment__n_depots=n_depots,
-        segment__method=segment or METHODS[method][0],
+        segment__method=segment or method_spec(method).segmentation,
         plan__alpha=alpha,
         plan__ordering=ordering,
         sim__drones=drones,

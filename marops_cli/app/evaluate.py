@@ -211,7 +211,7 @@ def _run(
     prep: Prepared, config: EvaluateConfig, store: JobStore | None, progress: Progress
 ) -> Evaluation:
     """Run the jobs, one ``advance`` per replay (the ones resumed first, at once)."""
-    from ..evaluate import evaluate as run_evaluation
+    from ..evaluate import evaluate_jobs
 
     def done(n: int, total: int, job: Job) -> None:
         s = prep.settings[job.setting]
@@ -226,7 +226,7 @@ def _run(
     try:
         for _ in range(store.resumed if store is not None else 0):
             progress.advance()
-        return run_evaluation(prep, config.workers, done, store, config.scheduler)
+        return evaluate_jobs(prep, config.workers, done, store, config.scheduler)
     finally:
         progress.finish()
 

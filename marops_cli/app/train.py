@@ -108,7 +108,7 @@ def train(
     evaluation.
     """
     from ..rl.data import load_training_data
-    from ..rl.train import train as fit
+    from ..rl.train import train_actor
 
     out = Path(out)
     td = load_training_data(
@@ -121,7 +121,7 @@ def train(
     )
     report = _Report(progress)
     try:
-        side = fit(
+        side = train_actor(
             td,
             out,
             resume=setup.resume,

@@ -15,12 +15,12 @@ import typer.core
 
 from .. import __version__
 from .common import PLAIN, STATE
-from .evaluate_cmd import evaluate
-from .plan_window_cmd import plan_window
-from .replay_cmd import replay_day
-from .segment_cmd import segment
-from .synth_cmd import synth
-from .train_cmd import train
+from .evaluate_cmd import evaluate_command
+from .plan_window_cmd import plan_window_command
+from .replay_cmd import replay_day_command
+from .segment_cmd import segment_command
+from .synth_cmd import synth_command
+from .train_cmd import train_command
 
 app = typer.Typer(
     name="marops",
@@ -59,12 +59,12 @@ def _root(
     allow_replacing_foreign(False)  # each command decides (--force)
 
 
-app.command("synth")(synth)
-app.command("segment")(segment)
-app.command("plan-window")(plan_window)
-app.command("replay-day")(replay_day)
-app.command("train")(train)
-app.command("evaluate")(evaluate)
+app.command("synth")(synth_command)
+app.command("segment")(segment_command)
+app.command("plan-window")(plan_window_command)
+app.command("replay-day")(replay_day_command)
+app.command("train")(train_command)
+app.command("evaluate")(evaluate_command)
 
 
 def _terminate(signum: int, frame: object) -> None:

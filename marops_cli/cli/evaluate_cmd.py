@@ -38,7 +38,7 @@ if TYPE_CHECKING:
 
 
 @guarded
-def evaluate(
+def evaluate_command(
     data: o.Data,
     out: Annotated[Path, typer.Option("--out", help="Output folder.")],
     methods: Annotated[

@@ -30,7 +30,7 @@ if TYPE_CHECKING:
 
 
 @guarded
-def plan_window(
+def plan_window_command(
     data: o.Data,
     depots: Annotated[Path, typer.Option("--depots", help="depots.json from marops segment.")],
     date: Annotated[str, typer.Option("--date", help="Day to plan: 820, 0820 or 2022-08-20.")],

@@ -9,7 +9,7 @@ import typer
 
 from ..errors import InputError
 from ..io.atomic import allow_replacing_foreign
-from ..methods import METHODS
+from ..methods import method as method_spec
 from . import options as o
 from .common import (
     STATE,
@@ -40,7 +40,7 @@ METRIC_COLUMNS = (
 
 
 @guarded
-def replay_day(
+def replay_day_command(
     data: o.Data,
     out: Annotated[Path, typer.Option("--out", help="Output folder.")],
     date: Annotated[
@@ -130,7 +130,7 @@ def replay_day(
         data__strict=strict or None,
         data__tz=tz,
         segment__n_depots=n_depots,
-        segment__method=segment or METHODS[method][0],
+        segment__method=segment or method_spec(method).segmentation,
         plan__alpha=alpha,
         plan__ordering=ordering,
         sim__drones=drones,

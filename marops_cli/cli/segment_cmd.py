@@ -30,7 +30,7 @@ if TYPE_CHECKING:
 
 
 @guarded
-def segment(
+def segment_command(
     data: o.Data,
     out: Annotated[Path, typer.Option("--out", help="Where to write depots.json.")],
     n_depots: Annotated[

@@ -130,7 +130,7 @@ def _alpha_range(text: str | None) -> dict[str, Any]:
 
 
 @guarded
-def train(
+def train_command(
     data: Annotated[
         list[Path],
         typer.Argument(help="LaDe delivery exports (CSV or Parquet); several: several cities."),

@@ -1,12 +1,12 @@
 """Method comparison, sweeps and plots (paper §V, docs/method.md §7–9).
 
 ``prepare`` reads the data once and lists the jobs (day × method × setting ×
-repeat), ``evaluate`` runs them over worker processes, ``write_outputs`` writes
+repeat), ``evaluate_jobs`` runs them over worker processes, ``write_outputs`` writes
 ``results.parquet``, ``summary.csv``, ``summary.md`` and the figures together.
 """
 
 from ..sim.metrics import combined_cost
-from .evaluation import Evaluation, evaluate
+from .evaluation import Evaluation, evaluate_jobs
 from .paper import PAPER_NAMES, TABLE3, paper_table
 from .report import markdown_table, summary_markdown, sweep_table, table3, write_outputs
 from .runner import Prepared, check_methods, prepare, run
@@ -32,7 +32,7 @@ __all__ = [
     "Setting",
     "check_methods",
     "combined_cost",
-    "evaluate",
+    "evaluate_jobs",
     "expand_settings",
     "markdown_table",
     "paper_table",

@@ -23,7 +23,7 @@ class Evaluation:
     summary: pa.Table
 
 
-def evaluate(
+def evaluate_jobs(
     prep: Prepared,
     workers: int = 2,
     on_result: OnResult | None = None,

@@ -152,7 +152,9 @@ def prepare(
             continue  # a hub without requests on any of the days
         on_days = np.isin(table_h.delivery_day, np.array(chosen, dtype="datetime64[D]"))
         test_table = table_h.subset(on_days)  # workers need only the replayed days' rows
-        for key in sorted({(METHODS[m][0], s.depots_n) for m in methods for s in settings}):
+        for key in sorted(
+            {(method_spec(m).segmentation, s.depots_n) for m in methods for s in settings}
+        ):
             seg_cfg = override(cfg_h, segment__method=key[0], segment__n_depots=key[1])
             scn = load_scenario(path, seg_cfg, replay_days=chosen, table=table_h, hub=hub)
             scenarios[(hub, *key)] = Scenario(
@@ -207,7 +209,7 @@ def run_job(job: Job) -> dict[str, Any]:
     """Replay one job's day; the metrics record of ``day_metrics``."""
     prep: Prepared = _CTX["prep"]
     setting = prep.settings[job.setting]
-    base = prep.scenarios[(job.hub, METHODS[job.method][0], setting.depots_n)]
+    base = prep.scenarios[(job.hub, method_spec(job.method).segmentation, setting.depots_n)]
     # The area's config (its square, with --hubs) with the setting, method and seed.
     cfg = setting.config(base.cfg, job.method, job.seed)
     scn = Scenario(base.table, base.frame, base.depots, cfg, base.history_days, job.hub)

@@ -16,7 +16,7 @@ from typing import Any, TypeVar
 from ..config import PlannerConfig, override
 from ..data.dates import split_by_date
 from ..errors import InputError
-from ..sim.jobs import METHODS
+from ..methods import method as method_spec
 
 # Flag name -> (config field, label for tables and plots).
 SWEEP_FLAGS: dict[str, tuple[str, str]] = {
@@ -45,7 +45,9 @@ class Setting:
     def config(self, base: PlannerConfig, method: str, seed: int) -> PlannerConfig:
         """``base`` with this setting, the method's segmentation and ``seed`` applied."""
         fields = {cfg_field: getattr(self, flag) for flag, (cfg_field, _) in SWEEP_FLAGS.items()}
-        return override(base, segment__method=METHODS[method][0], sim__seed=seed, **fields)
+        return override(
+            base, segment__method=method_spec(method).segmentation, sim__seed=seed, **fields
+        )
 
 
 @dataclass(frozen=True)

@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 import pyarrow as pa
 
-from ..sim.jobs import METHODS
+from ..methods import method as method_spec
 from ..sim.metrics import combined_cost, metric_names
 from .runner import Prepared
 from .settings import Job
@@ -66,7 +66,7 @@ def key_columns(prep: Prepared, job: Job) -> dict[str, Any]:
     row: dict[str, Any] = {"setting": job.setting, **s.columns()}
     row["drones"] = prep.drones(job)  # a hub's own fleet size, with --hubs
     row["n_actions"] = prep.cfg.segment.n_actions
-    row["segmentation"] = METHODS[job.method][0]
+    row["segmentation"] = method_spec(job.method).segmentation
     row.update(
         hub=job.hub, method=job.method, repeat=job.repeat, seed=job.seed, day=job.day.isoformat()
     )

@@ -65,7 +65,7 @@ def drone_models(view: WindowView, model: EnergyModel) -> list[EnergyModel]:
     return list(view.drone_models)
 
 
-def plan_window(
+def plan_routes(
     view: WindowView,
     actions: np.ndarray,
     model: EnergyModel,

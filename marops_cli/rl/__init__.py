@@ -15,7 +15,7 @@ from .evaluate import daily_combined_costs, method_table
 from .export import write_actor
 from .networks import Actor, Critic
 from .ppo import gae, ppo_loss, ppo_update
-from .train import Trainer, train
+from .train import Trainer, train_actor
 
 __all__ = [
     "Actor",
@@ -32,6 +32,6 @@ __all__ = [
     "reward",
     "split_days",
     "squash",
-    "train",
+    "train_actor",
     "write_actor",
 ]

@@ -24,7 +24,7 @@ from ..policies.observation import (
 from ..policies.recurrent import RecurrentPolicy
 from ..segment.depots import Depots
 from ..sim.metrics import day_metrics, metric_names
-from ..sim.replay import replay_day
+from ..sim.replay import fly_day
 from ..sim.state import default_fleet
 from ..sim.step import WindowStep
 from .config import TrainConfig
@@ -172,6 +172,6 @@ def evaluate_day(
     """Replay ``day`` with ``policy`` and keep the metrics training reports."""
     how = WindowStep.of(policy, cfg)
     fleet = default_fleet(depots, cfg.sim.drones)
-    res = replay_day(day, depots, fleet, policy, cfg, method=method, how=how)
+    res = fly_day(day, depots, fleet, policy, cfg, method=method, how=how)
     m = day_metrics(res, how.model)
     return {"day": m["day"], "method": method, **{k: m[k] for k in EVAL_KEYS}}

@@ -30,7 +30,7 @@ from .ppo import make_batch, ppo_update
 from .rollout import Episode, derive_seed
 from .tasks import ActorDay, BaselineDay, RolloutWork, TrainEpisode
 
-__all__ = ["Trainer", "load_training_data", "split_days", "train"]
+__all__ = ["Trainer", "load_training_data", "split_days", "train_actor"]
 
 BASELINES = ("random", "greedy", "myopic", "global")  # on held-out days (ops-random, …, ops-global)
 _STREAM_DAYS, _STREAM_EPISODE, _STREAM_UPDATE, _STREAM_SCENARIO, _STREAM_ALPHA = 1, 2, 3, 4, 5
@@ -314,7 +314,7 @@ def _name_daily_cost(evals: list[dict[str, Any]], best: dict[str, Any] | None) -
         best["daily_combined_cost"] = best.pop("combined_cost")
 
 
-def train(
+def train_actor(
     td: TrainData,
     out: str | Path,
     *,

@@ -1,7 +1,7 @@
 """Day simulation: state, replay loop, metrics (docs/method.md §5, §8)."""
 
 from .metrics import day_metrics, gini
-from .replay import DayResult, replay_day
+from .replay import FlownDay, fly_day
 from .state import DayState, default_fleet
 
-__all__ = ["DayResult", "DayState", "day_metrics", "default_fleet", "gini", "replay_day"]
+__all__ = ["FlownDay", "DayState", "day_metrics", "default_fleet", "gini", "fly_day"]

@@ -34,7 +34,7 @@ from ..segment.run import history_points
 from .fleet import Fleet, as_fleet
 from .fleet import load_fleet as _load_fleet
 from .metrics import day_metrics
-from .replay import DayResult, replay_day
+from .replay import FlownDay, fly_day
 from .state import DayState
 from .step import WindowStep, plan_step
 
@@ -231,13 +231,13 @@ def replay(
     policy: Policy,
     method: str,
     on_window: Callable[[WindowPlan], None] | None = None,
-) -> tuple[DayResult, DayRequests, dict[str, object]]:
+) -> tuple[FlownDay, DayRequests, dict[str, object]]:
     """Replay ``day`` with the ``fleet`` (or drones at these depots, of the default type)
     and compute its metrics."""
     fl = as_fleet(fleet, scn.cfg.energy)
     reqs = prepare_day(scn.table, scn.frame, day, scn.cfg.data)
     how = WindowStep.of(policy, scn.cfg)
-    res = replay_day(
+    res = fly_day(
         reqs,
         scn.depots,
         fl.depot,

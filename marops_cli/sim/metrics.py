@@ -11,7 +11,7 @@ import numpy as np
 
 from ..energy import EnergyModel
 from .fleet import DEFAULT_TYPE, Fleet
-from .replay import DayResult
+from .replay import FlownDay
 
 CO2_G_PER_KWH = 125.0  # UK 2024 grid average, as the paper
 
@@ -162,7 +162,7 @@ def unservable(
 
 
 def day_metrics(
-    res: DayResult, model: EnergyModel, fleet: Fleet | None = None, hub: int = 0
+    res: FlownDay, model: EnergyModel, fleet: Fleet | None = None, hub: int = 0
 ) -> dict[str, Any]:
     """The ``metrics.json`` record of one replayed day (docs/outputs.md); ``fleet`` gives
     each drone's type (None: every drone is ``model``'s, the default type)."""

@@ -14,10 +14,10 @@ import numpy as np  # noqa: E402
 from ..data.table import DayRequests  # noqa: E402
 from ..plans.ranges import delays_h  # noqa: E402
 from ..segment.plot import draw_areas  # noqa: E402
-from .replay import DayResult  # noqa: E402
+from .replay import FlownDay  # noqa: E402
 
 
-def plot_day(res: DayResult, reqs: DayRequests, path: str | Path) -> None:
+def plot_day(res: FlownDay, reqs: DayRequests, path: str | Path) -> None:
     """One panel per window: areas, depots, pending requests coloured by delay, routes."""
     st = res.state
     n = len(res.plans)

@@ -19,7 +19,7 @@ from .step import WindowStep, fly_window
 
 
 @dataclass
-class DayResult:
+class FlownDay:
     method: str
     state: DayState
     plans: list[WindowPlan]
@@ -27,7 +27,7 @@ class DayResult:
     n_drones: int
 
 
-def replay_day(
+def fly_day(
     day: DayRequests,
     depots: Depots,
     drone_depot: np.ndarray,
@@ -38,7 +38,7 @@ def replay_day(
     how: WindowStep | None = None,
     on_window: Callable[[WindowPlan], None] | None = None,
     drone_models: Sequence[EnergyModel] | None = None,
-) -> DayResult:
+) -> FlownDay:
     """Plan every window of ``day``; ``on_window`` is called after each (for progress).
     ``how`` flies the windows (default: as ``policy`` flies under ``cfg``);
     ``drone_models`` are each drone's own (a mixed fleet), None: the step's model for all."""
@@ -56,4 +56,4 @@ def replay_day(
         if on_window is not None:
             on_window(plan)
     runtime = time.perf_counter() - t0
-    return DayResult(method, state, plans, runtime, int(len(drone_depot)))
+    return FlownDay(method, state, plans, runtime, int(len(drone_depot)))

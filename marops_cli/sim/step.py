@@ -20,7 +20,7 @@ from ..errors import RunError
 from ..plans.planner import Planner, make_planner
 from ..plans.select import Selector, make_selector
 from ..plans.view import WindowView
-from ..plans.window import WindowPlan, plan_window
+from ..plans.window import WindowPlan, plan_routes
 from ..policies.base import Policy, SlotActions
 from ..policies.direct import SlotSelector
 from .state import DayState
@@ -107,7 +107,7 @@ def plan_step(view: WindowView, actions: np.ndarray | SlotActions, how: WindowSt
             raise RunError("plan slots need the slot selector of the policy that picked them")
         selector = selector.picking(actions.slots)
         actions = actions.actions
-    return plan_window(
+    return plan_routes(
         view, actions, how.model, how.plan, selector, scope=how.scope, planner=how.planner
     )
 

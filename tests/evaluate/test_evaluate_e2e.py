@@ -14,7 +14,7 @@ from typer.testing import CliRunner
 
 from marops_cli.cli.app import app
 from marops_cli.config import PlannerConfig
-from marops_cli.evaluate import evaluate, expand_settings, prepare
+from marops_cli.evaluate import evaluate_jobs, expand_settings, prepare
 
 runner = CliRunner()
 METHODS = ["ops-random", "greedy"]
@@ -98,7 +98,7 @@ def test_results_recompute_to_summary(run_dir: Path) -> None:
 def test_workers_do_not_change_results(example_csv: Path, run_dir: Path) -> None:
     cfg = PlannerConfig()
     prep = prepare(example_csv, cfg, METHODS, expand_settings(cfg, alpha=ALPHAS), split="test")
-    one = evaluate(prep, workers=1).results
+    one = evaluate_jobs(prep, workers=1).results
     two = pq.read_table(run_dir / "results.parquet")
     keep = [c for c in one.column_names if c not in WALL_TIME]
     assert one.column_names == two.column_names

@@ -13,7 +13,7 @@ from typer.testing import CliRunner
 from marops_cli.cli.app import app
 from marops_cli.config import PlannerConfig
 from marops_cli.errors import InputError
-from marops_cli.evaluate import evaluate, expand_settings, prepare
+from marops_cli.evaluate import evaluate_jobs, expand_settings, prepare
 from marops_cli.evaluate.dataset import JobStore
 from marops_cli.evaluate.runner import run, run_identity
 from marops_cli.evaluate.tables import job_row, rows_table
@@ -29,7 +29,7 @@ def prep(example_csv: Path):
 
 
 def test_interrupted_run_resumes_to_the_same_rows(prep, tmp_path: Path) -> None:
-    full = evaluate(prep, workers=1).results
+    full = evaluate_jobs(prep, workers=1).results
     store = JobStore(tmp_path / "jobs", prep, run_identity(prep))
     store.open()
 
@@ -51,7 +51,7 @@ def test_interrupted_run_resumes_to_the_same_rows(prep, tmp_path: Path) -> None:
     again = JobStore(tmp_path / "jobs", prep, run_identity(prep))
     again.open()
     assert again.resumed == 2
-    rows = evaluate(prep, 1, lambda d, t, job: ran.append(job.index), again).results
+    rows = evaluate_jobs(prep, 1, lambda d, t, job: ran.append(job.index), again).results
     assert sorted(ran) == [2, 3]  # only the rest ran
     assert rows.drop_columns(WALL_TIME).equals(full.drop_columns(WALL_TIME), check_metadata=True)
     assert rows.schema == full.schema

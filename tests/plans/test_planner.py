@@ -1,4 +1,4 @@
-"""The planner is chosen once from the config; a given planner is the one plan_window uses."""
+"""The planner is chosen once from the config; a given planner is the one plan_routes uses."""
 
 from __future__ import annotations
 
@@ -15,7 +15,7 @@ from marops_cli.plans.planner import (
     make_planner,
 )
 from marops_cli.plans.view import FREE
-from marops_cli.plans.window import drone_models, plan_window
+from marops_cli.plans.window import drone_models, plan_routes
 
 from .test_window import hand_view
 
@@ -56,7 +56,7 @@ def test_a_given_planner_overrides_the_config(scope):
     model = EnergyModel()
     acts = np.array([0, FREE])  # the pool records FREE, the paper's planner flies it as stay
     paper = PlanConfig(planner="subsets")
-    given = plan_window(
+    given = plan_routes(
         hand_view(),
         acts,
         model,
@@ -65,7 +65,7 @@ def test_a_given_planner_overrides_the_config(scope):
         scope,
         planner=SubsetsPlanner(paper, scope),
     )
-    own = plan_window(hand_view(), acts, model, paper, MilpSelector(), scope)
+    own = plan_routes(hand_view(), acts, model, paper, MilpSelector(), scope)
     assert [(r.stops, r.end, r.action) for r in given.routes] == [
         (r.stops, r.end, r.action) for r in own.routes
     ]

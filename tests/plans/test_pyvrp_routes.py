@@ -12,7 +12,7 @@ from marops_cli.plans import MilpSelector
 from marops_cli.plans.objective import lam_j, score_routes
 from marops_cli.plans.pool import finish_route
 from marops_cli.plans.ranges import range_table
-from marops_cli.plans.window import plan_window
+from marops_cli.plans.window import plan_routes
 from marops_cli.policies.base import WindowView
 from marops_cli.segment.depots import Depots, nearest_candidates
 
@@ -116,7 +116,7 @@ def test_pool_with_pyvrp_columns_is_at_least_as_good_as_pyvrp() -> None:
 
     cfg = PlanConfig(pyvrp_iterations=200, pool_iterations=0)
     plans = [
-        plan_window(view, np.zeros(3, np.int64), model, cfg, MilpSelector(), "global")
+        plan_routes(view, np.zeros(3, np.int64), model, cfg, MilpSelector(), "global")
         for _ in range(2)
     ]
     assert [r.stops for r in plans[0].routes] == [r.stops for r in plans[1].routes]

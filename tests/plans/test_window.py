@@ -20,7 +20,7 @@ from marops_cli.plans.planner import _pool_tasks
 from marops_cli.plans.pool import build_pool
 from marops_cli.plans.ranges import pick_candidates, range_table
 from marops_cli.plans.view import FREE
-from marops_cli.plans.window import DroneRoute, check_routes, drone_models, plan_window
+from marops_cli.plans.window import DroneRoute, check_routes, drone_models, plan_routes
 from marops_cli.policies.base import WindowView
 from marops_cli.segment.depots import Depots, nearest_candidates
 
@@ -112,7 +112,7 @@ def test_hand_instance_fixture_is_what_the_comment_says():
 @pytest.mark.parametrize("backend", ["cvxpy", "highs"])
 def test_hand_instance_exact_order(model, backend):
     cfg = PlanConfig(alpha=0.2, planner="subsets")
-    plan = plan_window(hand_view(), np.array([0, 1]), model, cfg, MilpSelector(backend=backend))
+    plan = plan_routes(hand_view(), np.array([0, 1]), model, cfg, MilpSelector(backend=backend))
     r0, r1 = plan.routes
     assert plan.selection.status == "optimal" and not plan.selection.fallback
     assert plan.n_candidates == 5
@@ -137,7 +137,7 @@ def test_hand_instance_exact_order(model, backend):
 
 def test_hand_instance_greedy_order_is_the_papers(model):
     cfg = PlanConfig(alpha=0.2, ordering="greedy", planner="subsets")
-    plan = plan_window(hand_view(), np.array([0, 1]), model, cfg, MilpSelector())
+    plan = plan_routes(hand_view(), np.array([0, 1]), model, cfg, MilpSelector())
     r0, r1 = plan.routes
     assert r0.stops == (D, A)  # nearest first: 750 m < 1000 m
     assert_allclose(r0.energy_j, kj((750, 2.5), (1250, 2.0), (1000, 0.0)), rtol=HAND_RTOL)
@@ -151,7 +151,7 @@ def test_hand_instance_global_scope_lands_at_the_nearest_depot(model):
     last customer. Drone 1's last customer C is 1250 m from depot 0 and 1601 m from depot
     1, so it lands at 0: the same routes as in range scope; actions are ignored."""
     cfg = PlanConfig(alpha=0.2, planner="subsets")
-    plan = plan_window(hand_view(), np.array([1, 0]), model, cfg, MilpSelector(), "global")
+    plan = plan_routes(hand_view(), np.array([1, 0]), model, cfg, MilpSelector(), "global")
     r0, r1 = plan.routes
     assert (r0.start, r0.end, r0.action, r0.stops) == (0, 0, 0, (A, D))
     assert (r1.start, r1.end, r1.action, r1.stops) == (1, 0, 0, (B, C))
@@ -181,7 +181,7 @@ def test_hand_instance_selection_is_the_brute_force_optimum(model):
                 for p in itertools.permutations(mine)
             )
         best = min(best, total)
-    plan = plan_window(
+    plan = plan_routes(
         view, np.array([0, 1]), model, PlanConfig(alpha=0.2, planner="subsets"), MilpSelector()
     )
     assert_allclose(plan.selection.objective, best, rtol=1e-9)
@@ -197,7 +197,7 @@ def _without_requests(view: WindowView) -> WindowView:
 @pytest.mark.parametrize("scope", ["range", "global"])
 def test_no_pending_requests(model, scope):
     """Nothing to deliver: drones fly their action's transfer (range) or stay (global)."""
-    plan = plan_window(
+    plan = plan_routes(
         _without_requests(hand_view()), np.array([0, 1]), model, PlanConfig(), MilpSelector(), scope
     )
     assert plan.n_candidates == 0
@@ -235,7 +235,7 @@ def test_destination_out_of_reach_stays_and_plans_in_the_stay_range(model):
         pending_weight=np.array([1.0, 1.0]),
     )
     assert view.pending_area.tolist() == [1, 0]
-    plan = plan_window(
+    plan = plan_routes(
         view, np.array([1]), model, PlanConfig(max_parcels=1, planner="subsets"), MilpSelector()
     )
     (r,) = plan.routes
@@ -382,7 +382,7 @@ def expected_candidates(view: WindowView, acts: list, m_hat: int, scope: str, mo
 @given(instances())
 def test_window_invariants(model, inst):
     view, actions, cfg, scope, sel_name = inst
-    plan = plan_window(view, actions, model, cfg, _selector(sel_name), scope)
+    plan = plan_routes(view, actions, model, cfg, _selector(sel_name), scope)
     dep = view.depots
     pos = {int(i): p for p, i in enumerate(view.pending_idx)}  # day index -> pending position
     assert plan.t == view.t
@@ -485,7 +485,7 @@ def test_candidate_ties_by_hand() -> None:
 def test_pool_finds_the_hand_optimum(model):
     """On the hand instance the pool reaches the brute-force optimum: the same routes,
     order and energies as the hand answer above."""
-    plan = plan_window(hand_view(), np.array([0, 1]), model, PlanConfig(alpha=0.2), MilpSelector())
+    plan = plan_routes(hand_view(), np.array([0, 1]), model, PlanConfig(alpha=0.2), MilpSelector())
     r0, r1 = plan.routes
     assert (r0.start, r0.end, r0.stops) == (0, 0, (A, D))
     assert (r1.start, r1.end, r1.stops) == (1, 0, (B, C))
@@ -503,7 +503,7 @@ def test_pool_landing_nearest_by_hand(model):
     """Landing nearest the last customer: drone 1 ends its {B, C} route at depot 0 (C is
     1250 m from depot 0, 1601 m from depot 1) whatever its action says."""
     cfg = PlanConfig(alpha=0.2, landing="nearest")
-    plan = plan_window(hand_view(), np.array([0, 0]), model, cfg, MilpSelector())
+    plan = plan_routes(hand_view(), np.array([0, 0]), model, cfg, MilpSelector())
     assert [(r.stops, r.end) for r in plan.routes] == [((A, D), 0), ((B, C), 0)]
 
 
@@ -511,13 +511,13 @@ def test_free_action_lands_nearest_with_the_pool_and_stays_with_subsets(model):
     """FREE (-1) is the free landing: with destination landing configured, drone 1 still
     ends its {B, C} route at depot 0, nearest C; the paper's planner flies it as stay."""
     cfg = PlanConfig(alpha=0.2)
-    plan = plan_window(hand_view(), np.array([0, FREE]), model, cfg, MilpSelector())
+    plan = plan_routes(hand_view(), np.array([0, FREE]), model, cfg, MilpSelector())
     assert [(r.stops, r.end, r.action) for r in plan.routes] == [
         ((A, D), 0, 0),
         ((B, C), 0, FREE),
     ]
     subsets = cfg.model_copy(update={"planner": "subsets"})
-    plan = plan_window(hand_view(), np.array([0, FREE]), model, subsets, MilpSelector())
+    plan = plan_routes(hand_view(), np.array([0, FREE]), model, subsets, MilpSelector())
     assert [(r.end, r.action) for r in plan.routes] == [(0, 0), (1, 0)]
 
 
@@ -597,7 +597,7 @@ def test_pool_urgency_prefers_the_request_already_due(model, urgency):
     view.pending_due_s = view.pending_due_w * 1800.0
     view.pending_weight = np.array([2.0, 2.0])
     cfg = PlanConfig(alpha=0.5, pool_urgency=urgency)
-    (r,) = plan_window(view, np.array([0]), model, cfg, MilpSelector()).routes
+    (r,) = plan_routes(view, np.array([0]), model, cfg, MilpSelector()).routes
     assert r.stops == ((7,) if urgency == 0 else (8,))
     assert (r.start, r.end) == (0, 0)
     legs = [(900.0, 2.0), (900.0, 0.0)] if urgency == 0 else [(1000.0, 2.0), (1000.0, 0.0)]
@@ -608,7 +608,7 @@ def test_pool_urgency_prefers_the_request_already_due(model, urgency):
 @given(pool_instances())
 def test_pool_routes_never_break_payload_battery_or_one_visit(inst):
     view, actions, cfg, scope, sel_name, model = inst
-    plan = plan_window(view, actions, model, cfg, _selector(sel_name), scope)
+    plan = plan_routes(view, actions, model, cfg, _selector(sel_name), scope)
     dep = view.depots
     pos = {int(i): p for p, i in enumerate(view.pending_idx)}
     assert [r.drone for r in plan.routes] == list(range(view.n_drones))
@@ -682,7 +682,7 @@ def _busy_view(
 def test_pool_is_deterministic(model, scope):
     view = _busy_view(5, 40, (-1000, 3000), (0.1, 1.0))
     plans = [
-        plan_window(view, np.array([0, 1]), model, PlanConfig(), MilpSelector(), scope)
+        plan_routes(view, np.array([0, 1]), model, PlanConfig(), MilpSelector(), scope)
         for _ in range(2)
     ]
     a, b = ([(r.stops, r.end, r.energy_j) for r in p.routes] for p in plans)
@@ -702,7 +702,7 @@ def test_mixed_fleet_routes_keep_each_drones_own_limits(scope, planner):
     light = EnergyModel(EnergyConfig(max_payload_kg=1.0, battery_j=56_250.0, speed_ms=14.0))
     view.drone_models = (light, heavy, light, heavy)
     cfg = PlanConfig(planner=planner)
-    plan = plan_window(view, np.array([0, 1, FREE, 0]), heavy, cfg, MilpSelector(), scope)
+    plan = plan_routes(view, np.array([0, 1, FREE, 0]), heavy, cfg, MilpSelector(), scope)
     for r, own in zip(plan.routes, view.drone_models, strict=True):
         assert r.payload_kg <= own.max_payload_kg + 1e-9
         assert r.energy_j <= own.usable_j + 1e-6
@@ -716,5 +716,5 @@ def test_mixed_fleet_routes_keep_each_drones_own_limits(scope, planner):
     assert max(light_kg) <= 1.0 + 1e-9 < max(heavy_kg)
     # The same window with every drone heavy plans differently: the types matter.
     view.drone_models = None
-    same = plan_window(view, np.array([0, 1, FREE, 0]), heavy, cfg, MilpSelector(), scope)
+    same = plan_routes(view, np.array([0, 1, FREE, 0]), heavy, cfg, MilpSelector(), scope)
     assert [r.stops for r in same.routes] != [r.stops for r in plan.routes]

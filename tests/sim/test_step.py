@@ -20,7 +20,7 @@ from marops_cli.rl.config import TrainConfig
 from marops_cli.rl.env import DeliveryEnv, trained_step
 from marops_cli.segment.depots import Depots, nearest_candidates
 from marops_cli.sim.fleet import DroneType, Fleet
-from marops_cli.sim.replay import replay_day
+from marops_cli.sim.replay import fly_day
 from marops_cli.sim.state import DayState
 from marops_cli.sim.step import WindowStep, fly_window, plan_step
 
@@ -125,7 +125,7 @@ def test_an_environment_step_flies_the_replay_window(planner, scope, fleet, n_sl
     cfg.plan.pool_iterations = 20
     depots, day = tiny_depots(), tiny_day()
     policy = Scripted(scope, n_slots)
-    res = replay_day(
+    res = fly_day(
         day, depots, fleet.depot, policy, cfg, method="scripted", drone_models=fleet.models()
     )
     assert sum(len(r.stops) for p in res.plans for r in p.routes) > 0  # something is flown
@@ -154,8 +154,8 @@ def test_the_mixed_fleet_flies_its_own_types():
     cfg = PlannerConfig()
     depots, day = tiny_depots(), tiny_day()
     models = MIXED.models()
-    mixed = replay_day(day, depots, MIXED.depot, Scripted(), cfg, method="m", drone_models=models)
-    one = replay_day(day, depots, MIXED.depot, Scripted(), cfg, method="m")
+    mixed = fly_day(day, depots, MIXED.depot, Scripted(), cfg, method="m", drone_models=models)
+    one = fly_day(day, depots, MIXED.depot, Scripted(), cfg, method="m")
     routes = [r for p in mixed.plans for r in p.routes]
     for r in routes:
         assert r.payload_kg <= models[r.drone].max_payload_kg + 1e-9
