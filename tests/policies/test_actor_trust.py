@@ -245,8 +245,12 @@ def test_trust_actor_loads_a_benign_torchscript_only_file(
 
     path, _ = _valid(tmp_path)
     weights_path(path).unlink()  # TorchScript and sidecar only
-    args = ["replay-day", str(example_csv), "--date", "0811", "--policy", str(path)]
+    # Two days go to worker processes, which load the actor as the command was told to.
+    args = ["replay-day", str(example_csv), "--dates", "0811..0812", "--workers", "2"]
+    args += ["--policy", str(path)]
     fails_cleanly([*args, "--out", str(tmp_path / "refused")], tmp_path, "--trust-actor")
     res = CliRunner().invoke(app, [*args, "--trust-actor", "--out", str(tmp_path / "o")])
     assert res.exit_code == 0, res.output
-    assert (tmp_path / "o" / "metrics.json").is_file()
+    assert (tmp_path / "o" / "2022-08-12" / "metrics.json").is_file()
+    evaluate = ["evaluate", str(example_csv), "--methods", "marops", "--policy", str(path)]
+    fails_cleanly([*evaluate, "--out", str(tmp_path / "ev")], tmp_path, "--trust-actor")
