@@ -82,8 +82,9 @@ def load_module(path: Path, side: dict[str, Any], trust: bool) -> Any:
 
 
 class TorchScriptPolicy(RecurrentPolicy):
-    """Greedy (arg-max) actions of a recurrent TorchScript actor and its sidecar, flown by
-    the one drive of every recurrent actor (:class:`~.recurrent.RecurrentPolicy`)."""
+    """Greedy (arg-max) actions of a trained actor file and its sidecar (the network
+    rebuilt from its weights, or its TorchScript when trusted), flown by the one drive of
+    every recurrent actor (:class:`~.recurrent.RecurrentPolicy`)."""
 
     scope: Literal["range", "global"] = "range"
 

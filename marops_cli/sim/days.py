@@ -104,8 +104,8 @@ class ReplayWork:
 
     def _pol(self) -> Policy:
         if self._policy is None:
-            cfg = next(iter(self.areas.values()))[0].cfg
-            trust = cfg.sim.trust_actor
+            # --trust-actor, carried in every area's config (one run, one choice).
+            trust = any(scn.cfg.sim.trust_actor for scn, _ in self.areas.values())
             self._policy = method_policy(self.method, self.policy, self.seed, trust=trust)
         return self._policy
 
