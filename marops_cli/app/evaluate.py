@@ -111,7 +111,7 @@ def evaluate(
     )
     if config.scheduler is None and config.workers > 1:
         from ..evaluate.runner import worker_modules
-        from ..sim.jobs import loads_actor
+        from ..sim.scenario import loads_actor
         from ..workers import warm_up
 
         # The workers' fork server imports the planner (and torch for an actor) while
