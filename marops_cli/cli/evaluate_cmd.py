@@ -8,20 +8,18 @@ from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 
+from ..app.options import planner_config
 from ..data.dates import parse_days
 from ..errors import InputError
-from ..io.atomic import allow_replacing_foreign
 from ..methods import reference_names
 from . import options as o
 from .common import (
     STATE,
+    begin,
     emit_json,
     guarded,
     info,
-    make_config,
     refuse_overwriting_inputs,
-    require_input,
-    set_output,
     show_table,
     stopped,
     table,
@@ -40,7 +38,7 @@ if TYPE_CHECKING:
 @guarded
 def evaluate_command(
     data: o.Data,
-    out: Annotated[Path, typer.Option("--out", help="Output folder.")],
+    out: o.OutFolder,
     methods: Annotated[
         str | None,
         typer.Option(
@@ -70,21 +68,8 @@ def evaluate_command(
     n_depots: Annotated[
         str | None, typer.Option("--n-depots", help="Numbers of service areas: 8,16,32 [16].")
     ] = None,
-    workers: Annotated[
-        int,
-        typer.Option(
-            "--workers", min=1, help="Worker processes (with --scheduler local: the cluster's)."
-        ),
-    ] = 2,
-    scheduler: Annotated[
-        str | None,
-        typer.Option(
-            "--scheduler",
-            help="Run the jobs on a Dask cluster: its scheduler's address (tcp://HOST:8786), "
-            "or local for a cluster of --workers processes on this machine; needs "
-            "pip install 'marops[cluster]' (README.md, Sweeps on a cluster).",
-        ),
-    ] = None,
+    workers: o.Workers = 2,
+    scheduler: o.Scheduler = None,
     hubs: Annotated[
         Path | None,
         typer.Option(
@@ -126,13 +111,11 @@ def evaluate_command(
     as_json: o.Json = False,
 ) -> None:
     """Compare methods on held-out days (paper Table III); sweep flags given several values."""
-    set_output(quiet, as_json)
-    allow_replacing_foreign(force)
+    begin(data, quiet=quiet, as_json=as_json, force=force)
     # The library (pyarrow, matplotlib, the planner) loads here, so `marops --help` stays fast.
     from ..app.evaluate import EvaluateConfig
     from ..app.evaluate import evaluate as run_evaluation
 
-    require_input(data)
     _check_out(out)  # before any computing
     if scheduler is not None:
         from ..workers.cluster import require_distributed
@@ -146,7 +129,7 @@ def evaluate_command(
         mappo_policy=mappo_policy,
         hubs=hubs,
     )
-    cfg = make_config(config, data__year=year, data__strict=strict or None, sim__seed=seed)
+    cfg = planner_config(config, year=year, strict=strict, seed=seed)
     hub_list = _hubs(hubs, cfg)
     sweep = _sweep(alpha, drones, coverage, n_depots)
     days = parse_days(dates, cfg.data.year) if dates else None
