@@ -304,13 +304,12 @@ def evaluate(
 ) -> EvaluationResult:
     """``marops evaluate``: per-day results and their summary. Sweeps take "a,b,c"
     strings (``drones="4,8"``)."""
-    from .app.evaluate import EvaluateConfig
+    from .app.evaluate import EvaluateConfig, actor_paths, method_list, sweep_fields
     from .app.evaluate import evaluate as run
     from .app.inputs import in_memory, read_data
     from .app.options import planner_config
     from .data.dates import parse_days
     from .errors import InputError
-    from .evaluate import parse_values
     from .io.atomic import replacing_foreign_files
     from .segment.hubs import load_hubs
 
@@ -318,22 +317,17 @@ def evaluate(
     days = parse_days(dates, cfg.data.year) if dates else None
     if days and split:
         raise InputError("give at most one of dates or split")
-    actors = {k: Path(v) for k, v in (("learned", policy), ("direct", mappo_policy)) if v}
-    listed = [m.strip() for m in methods.split(",") if m.strip()] if methods else None
     spec = EvaluateConfig(
         cfg,
-        listed,
-        alpha=parse_values(alpha, float, "--alpha"),
-        drones=parse_values(drones, int, "--drones"),
-        coverage=parse_values(coverage, float, "--coverage"),
-        depots_n=parse_values(n_depots, int, "--n-depots"),
+        method_list(methods or None),
+        **sweep_fields(alpha, drones, coverage, n_depots),
         days=days,
         split=split or "test",
         repeats=repeats,
         workers=workers,
         scheduler=scheduler,
         hubs=load_hubs(hubs, cfg.data) if hubs is not None else None,
-        actors=actors,
+        actors=actor_paths(policy or None, mappo_policy or None),
         against=against,
         plots=plots,
         force=force,

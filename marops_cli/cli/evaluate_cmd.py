@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated, Any
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 
@@ -113,7 +113,7 @@ def evaluate_command(
     """Compare methods on held-out days (paper Table III); sweep flags given several values."""
     begin(data, quiet=quiet, as_json=as_json, force=force)
     # The library (pyarrow, matplotlib, the planner) loads here, so `marops --help` stays fast.
-    from ..app.evaluate import EvaluateConfig
+    from ..app.evaluate import EvaluateConfig, actor_paths, method_list, sweep_fields
     from ..app.evaluate import evaluate as run_evaluation
 
     _check_out(out)  # before any computing
@@ -131,15 +131,13 @@ def evaluate_command(
     )
     cfg = planner_config(config, year=year, strict=strict, seed=seed)
     hub_list = _hubs(hubs, cfg)
-    sweep = _sweep(alpha, drones, coverage, n_depots)
+    sweep = sweep_fields(alpha, drones, coverage, n_depots)
     days = parse_days(dates, cfg.data.year) if dates else None
     if days and split:
         raise InputError("give at most one of --dates or --split")
-    actors = {k: v for k, v in (("learned", policy), ("direct", mappo_policy)) if v is not None}
-    listed = [m.strip() for m in methods.split(",") if m.strip()] if methods is not None else None
     run = EvaluateConfig(
         cfg,
-        listed,
+        method_list(methods),
         **sweep,
         days=days,
         split=split or "test",
@@ -147,7 +145,7 @@ def evaluate_command(
         workers=workers,
         scheduler=scheduler,
         hubs=hub_list,
-        actors=actors,
+        actors=actor_paths(policy, mappo_policy),
         against=against,
         plots=plots,
         force=force,
@@ -171,20 +169,6 @@ def _hubs(path: Path | None, cfg: PlannerConfig) -> list[Hub] | None:
     from ..segment.hubs import load_hubs
 
     return load_hubs(path, cfg.data)
-
-
-def _sweep(
-    alpha: str | None, drones: str | None, coverage: str | None, n_depots: str | None
-) -> dict[str, Any]:
-    """The sweep flags' values (None: the config's), as ``EvaluateConfig`` fields."""
-    from ..evaluate import parse_values
-
-    return {
-        "alpha": parse_values(alpha, float, "--alpha"),
-        "drones": parse_values(drones, int, "--drones"),
-        "coverage": parse_values(coverage, float, "--coverage"),
-        "depots_n": parse_values(n_depots, int, "--n-depots"),
-    }
 
 
 def _emit_json(res: EvaluationResult) -> None:
