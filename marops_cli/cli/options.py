@@ -111,7 +111,8 @@ Workers = Annotated[
     typer.Option(
         "--workers",
         min=1,
-        help="Worker processes (with --scheduler local: the cluster's); a single job runs here.",
+        help="Worker processes (with --scheduler local: the cluster's); without --scheduler, "
+        "a single job runs here.",
     ),
 ]
 Scheduler = Annotated[
