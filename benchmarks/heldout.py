@@ -61,7 +61,7 @@ def _job(task: tuple[Any, ...]) -> list[dict[str, Any]]:
     from marops_cli.config import PlannerConfig, override
     from marops_cli.data.reader import read_lade
     from marops_cli.methods import method as method_spec
-    from marops_cli.sim.jobs import load_fleet, load_scenario, method_policy, replay
+    from marops_cli.sim.scenario import load_fleet, load_scenario, method_policy, replay
 
     path, shape, history, n_dep, drones, alpha, method, policy = task
     base = PlannerConfig()

@@ -50,7 +50,7 @@ from marops_cli.plans.pyvrp_routes import solve_window  # noqa: E402
 from marops_cli.plans.select import make_selector  # noqa: E402
 from marops_cli.plans.window import DroneRoute, WindowPlan, plan_routes  # noqa: E402
 from marops_cli.policies.base import Policy, WindowView, start_day  # noqa: E402
-from marops_cli.sim.jobs import load_scenario, method_policy  # noqa: E402
+from marops_cli.sim.scenario import load_scenario, method_policy  # noqa: E402
 from marops_cli.sim.state import DayState, default_fleet  # noqa: E402
 
 PYVRP_S = (0.01, 0.1, 1.0)

@@ -59,7 +59,7 @@ from marops_cli.plans.window import plan_routes  # noqa: E402
 from marops_cli.policies.base import WindowView  # noqa: E402
 from marops_cli.policies.baselines import GreedyPolicy  # noqa: E402
 from marops_cli.segment import segment_points  # noqa: E402
-from marops_cli.sim.jobs import load_scenario  # noqa: E402
+from marops_cli.sim.scenario import load_scenario  # noqa: E402
 from marops_cli.sim.state import DayState, default_fleet  # noqa: E402
 
 STAGES = ("candidates", "plans", "build", "solve", "total", "cpu")

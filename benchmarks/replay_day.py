@@ -21,7 +21,7 @@ sys.path = [p for p in sys.path if Path(p or ".").resolve() != Path(__file__).pa
 
 from marops_cli.config import PlannerConfig  # noqa: E402
 from marops_cli.methods import method as method_spec  # noqa: E402
-from marops_cli.sim.jobs import METHODS, load_fleet, load_scenario, method_policy, replay  # noqa: E402
+from marops_cli.sim.scenario import METHODS, load_fleet, load_scenario, method_policy, replay  # noqa: E402
 
 
 def main() -> None:

@@ -67,7 +67,7 @@ def _job(task: tuple[Any, ...]) -> list[dict[str, Any]]:
     os.environ["OMP_NUM_THREADS"] = "1"
     from marops_cli.config import PlannerConfig, override
     from marops_cli.data.reader import read_lade
-    from marops_cli.sim.jobs import load_fleet, load_scenario, method_policy, replay
+    from marops_cli.sim.scenario import load_fleet, load_scenario, method_policy, replay
 
     path, shape, drones, method, idle = task
     cfg = override(PlannerConfig(), segment__n_depots=16, sim__drones=drones)

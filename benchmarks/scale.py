@@ -58,7 +58,7 @@ from marops_cli.cli import app  # noqa: F401  (what the command line loads first
 t_cli = time.perf_counter()
 from marops_cli.config import PlannerConfig
 from marops_cli.data.reader import read_lade
-from marops_cli.sim.jobs import load_scenario, load_fleet, method_policy, replay
+from marops_cli.sim.scenario import load_scenario, load_fleet, method_policy, replay
 from marops_cli.data.dates import parse_day
 import datetime as dt
 cfg = PlannerConfig()

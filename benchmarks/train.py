@@ -36,7 +36,7 @@ from marops_cli.config import PlannerConfig, override  # noqa: E402
 from marops_cli.data.reader import read_lade  # noqa: E402
 from marops_cli.methods import method as method_spec  # noqa: E402
 from marops_cli.rl.evaluate import method_table  # noqa: E402
-from marops_cli.sim.jobs import load_fleet, load_scenario, method_policy, replay  # noqa: E402
+from marops_cli.sim.scenario import load_fleet, load_scenario, method_policy, replay  # noqa: E402
 
 DEFAULT_METHODS = "marops,squares,mappo,ops-random,greedy,ops-global,stay,myopic"
 COLUMNS = (

@@ -116,7 +116,7 @@ def evaluate(
     methods = list(config.methods) if config.methods is not None else default_methods(actors)
     if config.scheduler is None and config.workers > 1:
         from ..evaluate.runner import worker_modules
-        from ..sim.jobs import loads_actor
+        from ..sim.scenario import loads_actor
         from ..workers import warm_up
 
         # The workers' fork server imports the planner (and torch for an actor) while

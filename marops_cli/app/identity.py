@@ -12,7 +12,7 @@ from ..io import run_meta
 from ..io.meta import file_sha256
 
 if TYPE_CHECKING:
-    from ..sim.jobs import Scenario
+    from ..sim.scenario import Scenario
 
 
 def identity(

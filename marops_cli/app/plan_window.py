@@ -68,7 +68,7 @@ def plan_window(
     from ..io.tables import with_meta, write_route_files
     from ..sim.days import DayScope
     from ..sim.fleet import Fleet
-    from ..sim.jobs import (
+    from ..sim.scenario import (
         delivered_orders,
         load_fleet,
         load_scenario,

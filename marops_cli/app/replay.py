@@ -61,7 +61,7 @@ class ReplayOptions:
 
 def check_options(options: ReplayOptions) -> None:
     """Refuse options no replay can run with, before any work."""
-    from ..sim.jobs import METHODS
+    from ..sim.scenario import METHODS
 
     if options.scheduler is not None:
         from ..workers.cluster import require_distributed
@@ -107,7 +107,7 @@ def replay_days(
     already there with the same settings is kept; ``protect`` names more input files
     (flag -> path) the outputs must never replace."""
     check_options(options)
-    from ..sim.jobs import loads_actor, method_policy, replay_modules
+    from ..sim.scenario import loads_actor, method_policy, replay_modules
 
     several = len(days) > 1 if several is None else several
     if options.scheduler is None and options.workers > 1 and (len(days) > 1 or hubs is not None):
@@ -158,7 +158,7 @@ def _one_area(
     progress: Progress,
 ) -> ReplayResult:
     from ..data.prepare import prepare_day
-    from ..sim.jobs import load_scenario
+    from ..sim.scenario import load_scenario
 
     table = read_data(data, cfg.data)
     depots_path = Path(depots) if depots is not None else None

@@ -19,7 +19,7 @@ if TYPE_CHECKING:
     import pyarrow as pa
 
     from ..sim.days import DayJob, DayOutput, ReplayWork
-    from ..sim.jobs import Scenario
+    from ..sim.scenario import Scenario
 
 # Summed over days by ``aggregate_days``, in the order of ``total``.
 SUMMED = (
@@ -111,7 +111,7 @@ def make_area(
     kept only if it was made with these settings: every day is checked here, before
     anything is replayed or written."""
     from ..sim.fleet import Fleet
-    from ..sim.jobs import load_fleet
+    from ..sim.scenario import load_fleet
 
     cfg = scn.cfg
     drones = (

@@ -29,7 +29,7 @@ def replay_hubs(
     into ``out/hub-<id>/``, and the city's coverage into ``out/metrics.json``."""
     from ..data.prepare import check_days_in_file
     from ..segment.hubs import hub_areas, load_hubs
-    from ..sim.jobs import load_scenario
+    from ..sim.scenario import load_scenario
 
     hub_list = load_hubs(hubs_path, cfg.data)
     table = read_data(data, cfg.data)

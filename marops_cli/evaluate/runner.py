@@ -28,7 +28,7 @@ from ..errors import InputError
 from ..methods import Method, register
 from ..methods import method as method_spec
 from ..segment.hubs import Hub, hub_areas
-from ..sim.jobs import (
+from ..sim.scenario import (
     METHODS,
     Scenario,
     load_fleet,

@@ -21,7 +21,7 @@ from ..data.reader import read_lade
 from ..data.table import DayRequests, LadeTable
 from ..errors import InputError
 from ..io.meta import file_sha256
-from ..sim.jobs import load_scenario
+from ..sim.scenario import load_scenario
 from .config import TrainConfig
 from .rollout import TrainScenario, WorkerContext
 

@@ -26,7 +26,7 @@ from ..methods import Method, register
 from ..plans.window import WindowPlan
 from ..policies.base import Policy
 from .fleet import Fleet
-from .jobs import Scenario, method_policy, other_actor, replay, replay_modules, route_tables
+from .scenario import Scenario, method_policy, other_actor, replay, replay_modules, route_tables
 
 
 @dataclass(frozen=True)

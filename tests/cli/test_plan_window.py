@@ -22,7 +22,7 @@ from marops_cli.cli.app import app
 from marops_cli.config import PlannerConfig
 from marops_cli.energy import EnergyModel
 from marops_cli.io.tables import build_tables
-from marops_cli.sim.jobs import load_fleet, load_scenario, method_policy, plan_one_window
+from marops_cli.sim.scenario import load_fleet, load_scenario, method_policy, plan_one_window
 
 runner = CliRunner()
 DAY = dt.date(2022, 8, 11)

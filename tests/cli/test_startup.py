@@ -70,7 +70,7 @@ def test_replay_with_depots_loads_only_what_it_plans_with(
 
 def test_the_methods_that_load_torch_are_named() -> None:
     """Workers' fork server preloads torch only for a run that flies an actor."""
-    from marops_cli.sim.jobs import loads_actor
+    from marops_cli.sim.scenario import loads_actor
 
     assert loads_actor("marops") and loads_actor("squares") and loads_actor("mappo")
     assert not any(loads_actor(m) for m in ("stay", "myopic", "ops-global", "no-such"))

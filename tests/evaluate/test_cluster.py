@@ -199,7 +199,7 @@ def test_replay_days_on_a_local_cluster_are_the_days_planned_here(
 
 
 def test_a_replay_worker_with_another_actor_refuses_to_run() -> None:
-    """replay-day's day work checks the actor the same way (sim.jobs.other_actor)."""
+    """replay-day's day work checks the actor the same way (sim.scenario.other_actor)."""
     from marops_cli.data.reader import sha256_file
     from marops_cli.methods import method
     from marops_cli.policies.registry import default_policy_path

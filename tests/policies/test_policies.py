@@ -242,7 +242,7 @@ def test_mappo_flies_the_paper_planner_whatever_the_setting():
     planner under the route pool default; flight-range policies keep the setting."""
     from marops_cli.config import PlannerConfig
     from marops_cli.policies.direct import SlotSelector
-    from marops_cli.sim.jobs import method_policy
+    from marops_cli.sim.scenario import method_policy
     from marops_cli.sim.step import WindowStep
 
     cfg = PlannerConfig()
@@ -278,7 +278,7 @@ def test_policy_specs_parse_once_into_a_record(monkeypatch: pytest.MonkeyPatch) 
 
 def test_one_method_policy_takes_evaluate_actor_overrides(tmp_path: Path) -> None:
     """``actors`` replaces a method's shipped actor by policy kind; a given spec wins."""
-    from marops_cli.sim.jobs import method_policy
+    from marops_cli.sim.scenario import method_policy
 
     mine = _export(tmp_path)
     assert method_policy("marops", None, 0, actors={"learned": mine}).identity == mine

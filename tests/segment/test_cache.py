@@ -12,7 +12,7 @@ from marops_cli.config import PlannerConfig, override
 from marops_cli.data.frame import Frame
 from marops_cli.segment.cache import cache_dir, cached_depots, depots_key
 from marops_cli.segment.depots import Depots, nearest_candidates
-from marops_cli.sim.jobs import load_scenario
+from marops_cli.sim.scenario import load_scenario
 
 DAYS = [dt.date(2022, 8, 1), dt.date(2022, 8, 2)]
 FRAME = Frame(121.47, 31.23, 10.0)

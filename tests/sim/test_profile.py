@@ -10,7 +10,7 @@ from marops_cli.config import PlannerConfig
 from marops_cli.data.prepare import prepare_day
 from marops_cli.data.reader import read_lade
 from marops_cli.data.synth import SynthConfig, generate, write
-from marops_cli.sim.jobs import load_scenario
+from marops_cli.sim.scenario import load_scenario
 
 
 def test_profile_is_the_mean_history_day_of_visible_requests(tmp_path: Path) -> None:

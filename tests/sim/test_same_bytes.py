@@ -55,7 +55,7 @@ def test_every_method_and_evaluate_same_on_1_and_4_threads(example_csv: Path, tm
     same with one thread and with four, run from different folders."""
     import pyarrow.parquet as pq
 
-    from marops_cli.sim.jobs import METHODS
+    from marops_cli.sim.scenario import METHODS
 
     for method in METHODS:
         a = _replay(example_csv, _fresh(tmp_path / f"{method}1" / "x"), 1, method)

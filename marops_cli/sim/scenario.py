@@ -1,4 +1,6 @@
-"""The analyst's jobs as library calls: load a scenario, plan one window, replay a day.
+"""A study area ready to fly: the scenario (rows, study frame, depots), its fleet, the
+policy a method flies, and one window or one day of it, with its metrics and route
+tables. The use cases (``marops_cli/app/``) and evaluate's workers build on these.
 
 A *method* (docs/method.md §7) is a segmentation, a flight-range policy and a planning scope.
 """
