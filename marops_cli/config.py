@@ -1,7 +1,7 @@
 """One validated pydantic model per stage, gathered in :class:`PlannerConfig`.
 
 A TOML file with one table per stage (``[data]``, ``[segment]``, ``[energy]``,
-``[plan]``, ``[sim]``) loads into :class:`PlannerConfig`; command-line flags
+``[plan]``, ``[sim]``, ``[ops]``) loads into :class:`PlannerConfig`; command-line flags
 override single fields afterwards with :func:`override`.
 """
 
@@ -11,7 +11,15 @@ import tomllib
 from pathlib import Path
 from typing import Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    ValidationError,
+    ValidationInfo,
+    field_validator,
+    model_validator,
+)
 
 from .errors import InputError
 
@@ -241,6 +249,49 @@ class SimConfig(_Stage):
     )
 
 
+class OpsConfig(_Stage):
+    """The operating model: parcel stock, batteries and chargers, long flights
+    (docs/method.md, "Operating model"). The defaults are the paper's model."""
+
+    stock: Literal["any", "home"] = Field(
+        "any",
+        description="where parcels wait: any (the paper: every parcel at every depot) or "
+        "home (at the depot of its service area; a drone carries only its departure "
+        "depot's parcels)",
+    )
+    batteries_per_depot: int | None = Field(
+        None,
+        ge=0,
+        description="charged spare batteries each depot starts the day with; None: "
+        "unlimited swaps (the paper)",
+    )
+    chargers_per_depot: int = Field(
+        1, ge=0, description="batteries each depot charges at once (with batteries_per_depot)"
+    )
+    charge_power_w: float = Field(
+        100.0, gt=0, description="charging power of one charger, watts (with batteries_per_depot)"
+    )
+    busy: bool = Field(
+        False,
+        description="a route longer than the window keeps its drone for the windows it spans "
+        "(the paper's assumption 5 relaxed); false: every flight ends within its window",
+    )
+
+    @field_validator("chargers_per_depot")
+    @classmethod
+    def _check_chargers(cls, v: int, info: ValidationInfo) -> int:
+        if v == 0 and info.data.get("batteries_per_depot") is not None:
+            raise ValueError(
+                "expected >= 1 when batteries_per_depot is set (used batteries would never charge)"
+            )
+        return v
+
+    @property
+    def paper(self) -> bool:
+        """True when every option is the paper's: the operating model changes nothing."""
+        return self.stock == "any" and self.batteries_per_depot is None and not self.busy
+
+
 class PlannerConfig(_Stage):
     """Every stage's settings together; loadable from TOML with one table per stage."""
 
@@ -249,6 +300,7 @@ class PlannerConfig(_Stage):
     energy: EnergyConfig = Field(default_factory=EnergyConfig)
     plan: PlanConfig = Field(default_factory=PlanConfig)
     sim: SimConfig = Field(default_factory=SimConfig)
+    ops: OpsConfig = Field(default_factory=OpsConfig)
 
 
 def _validation_message(exc: ValidationError) -> str:

@@ -125,6 +125,7 @@ class RoutePoolPlanner:
             acts = np.zeros(view.n_drones, dtype=np.int64)
         else:
             acts = _reachable_actions(view, np.asarray(actions, dtype=np.int64), models)
+            acts = _grounded(view, acts)
         plan_sets, plan_ends, t_cand = _pool_plans(
             view, acts, model, models, self.cfg, self.scope, self.pyvrp_iterations()
         )
@@ -168,6 +169,29 @@ def _reachable_actions(
     return acts
 
 
+def _grounded(view: WindowView, acts: np.ndarray) -> np.ndarray:
+    """A drone that cannot fly this window (docs/method.md, "Operating model") stays."""
+    if view.drone_ready is None:
+        return acts
+    return np.where(view.drone_ready, acts, 0)
+
+
+_NONE = np.zeros(0, dtype=np.int64)
+
+
+def _own_range_candidates(
+    view: WindowView, rank: np.ndarray, rank_area: np.ndarray, u: int, s: int, a: int, m: int
+) -> np.ndarray:
+    """:func:`range_candidates` of drone ``u`` among the parcels stocked at its depot ``s``
+    (all of them under the paper's model); none when it cannot fly."""
+    if not view.ready(u):
+        return _NONE
+    if view.pending_stock is not None:
+        keep = view.pending_stock[rank] == s
+        rank, rank_area = rank[keep], rank_area[keep]
+    return range_candidates(view, rank, rank_area, s, a, m)
+
+
 def _drafted_candidates(
     view: WindowView, rank: np.ndarray, rank_area: np.ndarray, acts: np.ndarray, m_hat: int
 ) -> list[np.ndarray]:
@@ -181,8 +205,8 @@ def _drafted_candidates(
     """
     head = m_hat * (view.n_drones + 1)  # the most any drone can reach in the draft
     prefs = [
-        range_candidates(view, rank, rank_area, int(s), int(a), head)
-        for s, a in zip(view.drone_depot, acts, strict=True)
+        _own_range_candidates(view, rank, rank_area, u, int(s), int(a), head)
+        for u, (s, a) in enumerate(zip(view.drone_depot, acts, strict=True))
     ]
     return draft(prefs, view.pending_idx.size, m_hat)
 
@@ -191,7 +215,7 @@ def _range_plans(
     view: WindowView, actions: np.ndarray, models: list[EnergyModel], cfg: PlanConfig
 ) -> tuple[list[PlanSet], np.ndarray, np.ndarray, float]:
     dep = view.depots
-    acts = _reachable_actions(view, actions, models)
+    acts = _grounded(view, _reachable_actions(view, actions, models))
     t0 = time.perf_counter()
     rank = by_delay(view)
     rank_area = view.pending_area[rank]
@@ -203,8 +227,11 @@ def _range_plans(
         cands = []
         for u, s in enumerate(view.drone_depot):
             sa = (int(s), int(acts[u]))
+            if not view.ready(u):
+                cands.append(_NONE)
+                continue
             if sa not in by_key:
-                by_key[sa] = range_candidates(view, rank, rank_area, *sa, cfg.max_parcels)
+                by_key[sa] = _own_range_candidates(view, rank, rank_area, u, *sa, cfg.max_parcels)
             cands.append(by_key[sa])
     t_cand = time.perf_counter() - t0
     plan_sets: list[PlanSet] = []
@@ -247,16 +274,19 @@ def _global_plans(
     near, d_near = nearest_depot(pxy, dep.xy)
     # Each drone's pool positions, nearest its depot first (ties to the lower index).
     nearest = {int(s): np.lexsort((pool, d_pool[:, int(s)])) for s in set(view.drone_depot)}
+    if view.pending_stock is not None:  # only the parcels stocked at the drone's depot
+        nearest = {s: p[view.pending_stock[pool[p]] == s] for s, p in nearest.items()}
+    prefs = [nearest[int(s)] if view.ready(u) else _NONE for u, s in enumerate(view.drone_depot)]
     drafted = None
     if cfg.candidates == "draft":
-        drafted = draft([nearest[int(s)] for s in view.drone_depot], pool.size, cfg.max_parcels)
+        drafted = draft(prefs, pool.size, cfg.max_parcels)
     t_cand = time.perf_counter() - t0
     plan_sets, plan_ends = [], []
     done: dict[tuple[int, bytes, int], tuple[PlanSet, np.ndarray]] = {}  # same in, same out
     for u, s0 in enumerate(view.drone_depot):
         s, model = int(s0), models[u]
         e0 = float(model.energy_per_m(0.0))
-        sel = nearest[s][: cfg.max_parcels] if drafted is None else drafted[u]
+        sel = prefs[u][: cfg.max_parcels] if drafted is None else drafted[u]
         key = (s, sel.tobytes(), id(model))
         if key in done:
             plan_sets.append(done[key][0])
@@ -307,8 +337,12 @@ def _pool_tasks(
     for u, s0 in enumerate(view.drone_depot):
         s = int(s0)
         m = None if models is None else models[u]
+        if not view.ready(u):  # it stays: no request, its own depot
+            tasks.append(DroneTask(s, s, _NONE, m))
+            continue
+        stocked = view.stocked_at(s)
         if scope == "global":
-            tasks.append(DroneTask(s, -1, everything, m))
+            tasks.append(DroneTask(s, -1, everything if stocked is None else stocked, m))
             continue
         a = int(acts[u])
         free = a == FREE
@@ -318,6 +352,8 @@ def _pool_tasks(
             allowed = np.flatnonzero(view.ranges[s, a][view.pending_area]).astype(np.int64)
         else:  # the battery alone bounds what the drone can serve on its way
             allowed = everything
+        if stocked is not None:
+            allowed = np.intersect1d(allowed, stocked)
         fixed = cfg.landing == "destination" and not free
         tasks.append(DroneTask(s, dest if fixed else -1, allowed, m))
     return tasks

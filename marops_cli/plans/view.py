@@ -48,10 +48,27 @@ class WindowView:
     drone_models: tuple[EnergyModel, ...] | None = None
     """(U,) each drone's energy model, its type's (docs/method.md §5.1); None: one type,
     the planner's model."""
+    pending_stock: np.ndarray | None = None
+    """(P,) the depot each pending parcel is stocked at: a drone carries only its departure
+    depot's (docs/method.md, "Operating model"); None: every parcel at every depot (the
+    paper)."""
+    drone_ready: np.ndarray | None = None
+    """(U,) False where a drone cannot fly this window (still on a long flight, or no
+    charged battery at its depot): it gets only its empty plan and stays; None: all can."""
 
     @property
     def n_drones(self) -> int:
         return int(self.drone_depot.shape[0])
+
+    def stocked_at(self, s: int) -> np.ndarray | None:
+        """Pending positions a drone departing from depot ``s`` may carry; None: all."""
+        if self.pending_stock is None:
+            return None
+        return np.flatnonzero(self.pending_stock == s).astype(np.int64)
+
+    def ready(self, u: int) -> bool:
+        """Whether drone ``u`` can fly this window."""
+        return self.drone_ready is None or bool(self.drone_ready[u])
 
     def action_mask(self) -> np.ndarray:
         """``(U, A)`` True where the action exists (a depot has fewer candidates when N < A)."""

@@ -90,8 +90,42 @@ DAILY_COMBINED_COST = _M(
     "{:.3f}",
     True,
 )
+# What the operating model holds back (docs/method.md, "Operating model"): in a day's
+# record only when the day ran under a model other than the paper's, so the paper's
+# records and tables stay as they were.
+OPS_METRICS: tuple[MetricSpec, ...] = (
+    _M(
+        "battery_waits",
+        "count",
+        "Windows waited for a battery",
+        "{:.1f}",
+        "battery waits",
+        "{}",
+        True,
+    ),
+    _M("busy_windows", "count", "Windows on long flights", "{:.1f}", "busy", "{}", None),
+    _M("stock_left_total", "count", "Parcels left at depots", "{:.1f}", "stock left", "{}", True),
+    _M(
+        "stock_left_max",
+        "count",
+        "Most parcels left at a depot",
+        "{:.1f}",
+        "stock left max",
+        "{}",
+        True,
+    ),
+    _M(
+        "charged_min",
+        "count",
+        "Fewest charged spare batteries",
+        "{:.1f}",
+        "charged min",
+        "{}",
+        None,
+    ),
+)
 METRICS: dict[str, MetricSpec] = {
-    m.name: m for m in (*DAY_METRICS, COMBINED_COST, DAILY_COMBINED_COST)
+    m.name: m for m in (*DAY_METRICS, *OPS_METRICS, COMBINED_COST, DAILY_COMBINED_COST)
 }
 
 
@@ -159,6 +193,24 @@ def unservable(
         reach |= lifts & (alone <= m.usable_j)
     far = ~heavy & ~reach
     return int(heavy.sum()), int(far.sum())
+
+
+def ops_metrics(st: Any) -> dict[str, Any]:
+    """What the operating model held back on a day (``OPS_METRICS``, and ``stock_left``
+    per depot: its parcels still undelivered at the end of the day); empty under the
+    paper's model."""
+    ops = st.ops
+    if ops is None:
+        return {}
+    left = np.bincount(st.area[st.delivered_w < 0], minlength=len(st.depots))
+    return {
+        "battery_waits": int(ops.battery_waits),
+        "busy_windows": int(ops.busy_windows),
+        "stock_left": {str(i): int(n) for i, n in enumerate(left)},
+        "stock_left_total": int(left.sum()),
+        "stock_left_max": int(left.max(initial=0)),
+        "charged_min": ops.charged_min(),
+    }
 
 
 def day_metrics(
@@ -235,4 +287,5 @@ def day_metrics(
             "fallbacks": int(sum(s.fallback for s in sel)),
             "solve_s": float(sum(s.solve_s for s in sel)),
         },
+        **ops_metrics(st),
     }

@@ -44,7 +44,13 @@ def fly_day(
     ``drone_models`` are each drone's own (a mixed fleet), None: the step's model for all."""
     how = how or WindowStep.of(policy, cfg)
     state = DayState(
-        day, depots, drone_depot, cfg.plan.coverage, cfg.plan.ties, drone_models=drone_models
+        day,
+        depots,
+        drone_depot,
+        cfg.plan.coverage,
+        cfg.plan.ties,
+        drone_models=drone_models,
+        ops=how.ops,
     )
     start_day(policy, cfg, cfg.sim.seed)
     plans: list[WindowPlan] = []

@@ -1,4 +1,6 @@
-"""Day state (paper eqs. 1–3): which requests are visible, delivered, and where drones are."""
+"""Day state (paper eqs. 1–3): which requests are visible, delivered, and where drones are;
+under an operating model also batteries, chargers and drones on long flights
+(docs/method.md, "Operating model")."""
 
 from __future__ import annotations
 
@@ -6,6 +8,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from ..config import OpsConfig
 from ..data.table import DayRequests
 from ..energy import EnergyModel
 from ..plans.ranges import Ties, delays_h, range_table
@@ -13,6 +16,7 @@ from ..plans.window import WindowPlan
 from ..policies.base import WindowView
 from ..segment.depots import Depots
 from .fleet import default_fleet
+from .ops import Operations
 
 __all__ = ["DayState", "default_fleet"]
 
@@ -31,6 +35,7 @@ class DayState:
         coverage: float,
         ties: Ties = "nearest",
         drone_models: Sequence[EnergyModel] | None = None,
+        ops: OpsConfig | None = None,
     ) -> None:
         self.day = day
         self.depots = depots
@@ -45,6 +50,20 @@ class DayState:
         self.ties: Ties = ties
         self.delivered_w = np.full(len(day), -1, dtype=np.int64)
         self.arrive_s = np.full(len(day), np.nan)  # seconds from the delivering window's start
+        self.ops: Operations | None = None
+        if ops is not None:
+            self.operate(ops)
+
+    def operate(self, ops: OpsConfig) -> None:
+        """Run the day under ``ops`` (the paper's model: nothing is tracked). A state
+        keeps the model it started with: a different one is an error."""
+        if self.ops is not None:
+            if self.ops.cfg != ops:
+                raise ValueError("the day already runs under another operating model")
+            return
+        if not ops.paper:
+            n_depots = len(self.depots)
+            self.ops = Operations(ops, n_depots, self.drone_depot.size, self.day.n_windows)
 
     def pending(self, t: int) -> np.ndarray:
         """Indices of requests visible at window t and not yet delivered (eq. 1)."""
@@ -69,20 +88,43 @@ class DayState:
             ties=self.ties,
             pending_visible_w=self.day.visible_w[idx],
             drone_models=self.drone_models,
+            pending_stock=self.stock_depot(idx),
+            drone_ready=None if self.ops is None else self.ops.ready(t, self.drone_depot)[0],
         )
+
+    def stock_depot(self, idx: np.ndarray) -> np.ndarray | None:
+        """The depot each of requests ``idx`` is stocked at: its service area's under
+        ``stock = "home"``; None: every depot (the paper)."""
+        if self.ops is None or self.ops.cfg.stock != "home":
+            return None
+        return self.area[idx]
 
     def apply(self, plan: WindowPlan, speed_ms: float) -> None:
         """Deliver the plan's stops in window ``plan.t`` and move drones to their ends
-        (at ``speed_ms``, or each drone's own speed in a mixed fleet)."""
+        (at ``speed_ms``, or each drone's own speed in a mixed fleet); under an operating
+        model, swap batteries, keep drones on long flights and charge (docs/method.md,
+        "Operating model")."""
+        ops, t = self.ops, plan.t
+        if ops is not None:
+            ops.start_window(t, self.drone_depot)
+        w_s = self.day.window_s
         for r in plan.routes:
             speed = speed_ms if self.drone_models is None else self.drone_models[r.drone].speed_ms
             arrive = np.cumsum(r.legs_m) / speed
+            # Under busy drones a parcel counts in the window it arrives in; else every
+            # flight ends within its window (the paper's assumption 5).
+            late = (arrive // w_s).astype(np.int64) if ops is not None and ops.cfg.busy else None
             for j, i in enumerate(r.stops):
                 if self.delivered_w[i] >= 0:
                     raise RuntimeError(f"request {i} delivered twice")
-                self.delivered_w[i] = plan.t
-                self.arrive_s[i] = arrive[j]
+                k = 0 if late is None else int(late[j])
+                self.delivered_w[i] = t + k
+                self.arrive_s[i] = arrive[j] - k * w_s
+            if ops is not None:
+                ops.fly(t, r.drone, r.end, r.energy_j, float(arrive[-1]) / w_s)
             self.drone_depot[r.drone] = r.end
+        if ops is not None:
+            ops.end_window(t, w_s)
 
     def delivery_delay_h(self) -> np.ndarray:
         """Delivery delay of each request (docs/method.md §5); undelivered count to the end."""

@@ -9,12 +9,12 @@ that replay later flies it with.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Literal
 
 import numpy as np
 
-from ..config import PlanConfig, PlannerConfig
+from ..config import OpsConfig, PlanConfig, PlannerConfig
 from ..energy import EnergyModel
 from ..errors import RunError
 from ..plans.planner import Planner, make_planner
@@ -42,6 +42,9 @@ class WindowStep:
     that picks plans itself (the MAPPO baseline)."""
     scope: Literal["range", "global"] = "range"
     """``range``: the actions set the flight ranges; ``global``: the whole map."""
+    ops: OpsConfig = field(default_factory=OpsConfig)
+    """The operating model the windows are flown under (docs/method.md, "Operating
+    model"); the default is the paper's."""
     planner: Planner = field(init=False, repr=False, compare=False)
     """Builds the drones' plans: chosen once, from ``plan`` and ``scope``."""
 
@@ -69,6 +72,7 @@ class WindowStep:
             plan,
             selector or make_selector(cfg.plan),
             scope,
+            cfg.ops,
         )
 
     @classmethod
@@ -95,7 +99,7 @@ class WindowStep:
         if alpha == self.plan.alpha:
             return self
         plan = self.plan.model_copy(update={"alpha": alpha})
-        return WindowStep(self.model, plan, self.selector, self.scope)
+        return WindowStep(self.model, plan, self.selector, self.scope, self.ops)
 
 
 def plan_step(view: WindowView, actions: np.ndarray | SlotActions, how: WindowStep) -> WindowPlan:
@@ -107,6 +111,10 @@ def plan_step(view: WindowView, actions: np.ndarray | SlotActions, how: WindowSt
             raise RunError("plan slots need the slot selector of the policy that picked them")
         selector = selector.picking(actions.slots)
         actions = actions.actions
+    if how.ops.stock == "home" and view.pending_stock is None:
+        # A view built without the model (one window planned alone): parcels wait at the
+        # depot of their service area.
+        view = replace(view, pending_stock=view.pending_area)
     return plan_routes(
         view, actions, how.model, how.plan, selector, scope=how.scope, planner=how.planner
     )
@@ -122,6 +130,7 @@ def fly_window(
     """Plan window ``t`` of ``state`` with ``actions`` and apply the plan: its stops are
     delivered and the drones land where their routes end. ``view`` is ``state.view(t)``
     when the caller has it already (the one the policy saw)."""
+    state.operate(how.ops)
     plan = plan_step(state.view(t) if view is None else view, actions, how)
     state.apply(plan, how.model.speed_ms)
     return plan

@@ -13,6 +13,7 @@ from marops_cli.sim.metrics import (
     DAILY_COMBINED_COST,
     DAY_METRICS,
     METRICS,
+    OPS_METRICS,
     metric_names,
 )
 
@@ -20,7 +21,7 @@ DOCS = Path(__file__).resolve().parents[2] / "docs" / "outputs.md"
 
 
 def test_names_are_unique_and_unknown_names_fail() -> None:
-    names = [m.name for m in (*DAY_METRICS, COMBINED_COST, DAILY_COMBINED_COST)]
+    names = [m.name for m in (*DAY_METRICS, *OPS_METRICS, COMBINED_COST, DAILY_COMBINED_COST)]
     assert len(names) == len(set(names)) == len(METRICS)
     with pytest.raises(KeyError):
         metric_names("avg_delay")
@@ -33,11 +34,12 @@ def test_docs_describe_every_column_with_its_unit() -> None:
     for row in re.findall(r"^\| (`.+?) \| (.*?) \|", section, flags=re.M):
         for name in re.findall(r"`(\w+)`", row[0]):
             units[name] = row[1]
-    for m in (*DAY_METRICS, COMBINED_COST, DAILY_COMBINED_COST):
+    for m in (*DAY_METRICS, *OPS_METRICS, COMBINED_COST, DAILY_COMBINED_COST):
         assert f"`{m.name}`" in text, m.name
         if m.name in units:
             assert units[m.name] == m.unit, m.name
-    assert len(units.keys() & METRICS.keys()) == 21  # all but solver_* and the comparisons
+    # all but solver_* and the comparisons
+    assert len(units.keys() & METRICS.keys()) == 21 + len(OPS_METRICS)
 
 
 def test_summary_tables_follow_the_spec() -> None:
