@@ -105,3 +105,22 @@ Force = Annotated[
     bool,
     typer.Option("--force", help="Replace existing output files, even ones marops did not write."),
 ]
+OutFolder = Annotated[Path, typer.Option("--out", help="Output folder.")]
+Workers = Annotated[
+    int,
+    typer.Option(
+        "--workers",
+        min=1,
+        help="Worker processes (with --scheduler local: the cluster's); without --scheduler, "
+        "a single job runs here.",
+    ),
+]
+Scheduler = Annotated[
+    str | None,
+    typer.Option(
+        "--scheduler",
+        help="Run the jobs on a Dask cluster: its scheduler's address (tcp://HOST:8786), "
+        "or local for a cluster of --workers processes on this machine; needs "
+        "pip install 'marops[cluster]' (README.md, Sweeps on a cluster).",
+    ),
+]

@@ -85,14 +85,7 @@ class SlotSelector:
                 free = members[:, k]
             chosen[u] = k
             claimed |= free
-        return SelectionResult(
-            chosen,
-            problem.objective(chosen),
-            SelectionStatus.DIRECT,
-            False,
-            time.perf_counter() - t0,
-            0.0,
-        )
+        return SelectionResult.without_solver(problem, chosen, SelectionStatus.DIRECT, t0)
 
 
 class DirectPolicy(TorchScriptPolicy):
