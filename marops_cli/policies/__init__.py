@@ -1,4 +1,5 @@
-"""Flight-range policies: the protocol, baselines, landing rules, observation and TorchScript loader."""
+"""Flight-range policies: the protocol, baselines, landing rules, observation and the
+TorchScript loader."""
 
 from .base import Policy, WindowView
 from .baselines import GlobalPolicy, GreedyPolicy, MyopicPolicy, RandomPolicy, StayPolicy
