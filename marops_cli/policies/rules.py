@@ -3,8 +3,8 @@
 the parcels stocked where it departs (docs/method.md, "Operating model").
 
 Both choose among a drone's action candidates whose destination the empty drone can
-reach (the test the planner applies, ``_reachable_actions`` of plans/planner.py); a
-drone that cannot fly this window stays (action 0). Both are deterministic.
+reach (the planner's test, :func:`~marops_cli.plans.planner.can_reach`); a drone that
+cannot fly this window stays (action 0). Both are deterministic.
 """
 
 from __future__ import annotations
@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 
+from ..plans.planner import can_reach
 from .base import PolicyBase, WindowView
 
 if TYPE_CHECKING:
@@ -33,15 +34,11 @@ def waiting_per_depot(view: WindowView, weights: np.ndarray | None = None) -> np
 def reachable(view: WindowView, u: int, model: EnergyModel) -> np.ndarray:
     """``(A,)`` True where drone ``u``'s action leads to a destination it can reach empty;
     only action 0 (stay) for a drone that cannot fly this window."""
-    dep = view.depots
-    s = int(view.drone_depot[u])
-    ok = np.zeros(dep.candidates.shape[1], dtype=bool)
+    ok = np.zeros(view.depots.candidates.shape[1], dtype=bool)
     ok[0] = True
-    if not view.ready(u):
-        return ok
-    flight = np.hypot(*(dep.xy[dep.candidates[s]] - dep.xy[s]).T)
-    # The planner's test (plans/planner.py, _reachable_actions), so no choice turns to stay.
-    ok |= np.asarray(model.leg_energy_j(flight, 0.0)) <= model.usable_j
+    if view.ready(u):
+        # The planner's own test, so no choice of a rule turns into stay.
+        ok |= [can_reach(view, u, a, model) for a in range(ok.size)]
     return ok & view.action_mask()[u]
 
 
