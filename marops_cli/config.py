@@ -327,6 +327,15 @@ def load_config(path: str | Path | None) -> PlannerConfig:
         raise InputError(f"cannot read the config ({exc.strerror})", file=p) from exc
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
         raise InputError(f"not a valid TOML file ({exc})", file=p) from exc
+    sim = raw.get("sim")
+    if isinstance(sim, dict) and "trust_actor" in sim:
+        # A file from elsewhere never makes marops run code (docs/method.md §6): only the
+        # person at the command line grants trust to an actor file.
+        raise InputError(
+            "only the --trust-actor flag can trust an actor file, not a config file",
+            file=p,
+            column="sim.trust_actor",
+        )
     try:
         return PlannerConfig.model_validate(raw)
     except ValidationError as exc:

@@ -254,3 +254,14 @@ def test_trust_actor_loads_a_benign_torchscript_only_file(
     assert (tmp_path / "o" / "2022-08-12" / "metrics.json").is_file()
     evaluate = ["evaluate", str(example_csv), "--methods", "marops", "--policy", str(path)]
     fails_cleanly([*evaluate, "--out", str(tmp_path / "ev")], tmp_path, "--trust-actor")
+
+
+def test_a_config_file_cannot_grant_trust(tmp_path: Path) -> None:
+    """Only the person at the command line trusts an actor file: a config file saying
+    ``[sim] trust_actor = true`` is refused, naming the key."""
+    from marops_cli.config import load_config
+
+    cfg = tmp_path / "planner.toml"
+    cfg.write_text("[sim]\ntrust_actor = true\n", encoding="utf-8")
+    with pytest.raises(InputError, match=r"column 'sim.trust_actor': only the --trust-actor"):
+        load_config(cfg)
