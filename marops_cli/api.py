@@ -31,7 +31,6 @@ from typing import TYPE_CHECKING, Any
 if TYPE_CHECKING:  # pyarrow loads with the first call, so `import marops_cli` stays light
     import pyarrow as pa
 
-    from .config import PlannerConfig
 
 __all__ = [
     "DayResult",
@@ -64,13 +63,6 @@ class EvaluationResult:
     summary: pa.Table
     """Mean and std per setting and method."""
     folder: Path | None
-
-
-def _config(config: str | Path | None, **overrides: Any) -> PlannerConfig:
-    """The TOML config (or defaults) with the keyword options applied on top."""
-    from .config import load_config, override
-
-    return override(load_config(Path(config) if config is not None else None), **overrides)
 
 
 def _path(value: str | Path | None) -> Path | None:
@@ -124,26 +116,27 @@ def segment(
 ) -> dict[str, Any]:
     """``marops segment``: the depots document (``depots.json``; with ``hubs``, the
     hubs file) as a dictionary, written to ``out`` when given."""
-    from .app.inputs import parse_center
+    from .app.options import planner_config
     from .app.segment import segment as run
     from .app.segment import segment_hubs
     from .io.atomic import dumps_json
     from .io.ownership import replacing_foreign_files
 
-    flags: dict[str, Any] = dict(data__year=year, data__size_km=size_km)
-    flags["data__strict"] = strict or None
     with replacing_foreign_files(force):
         if hubs is not None:
-            tiling = segment_hubs(data, _config(config, **flags), hubs, days=dates, out=out)
+            cfg = planner_config(config, year=year, size_km=size_km, strict=strict)
+            tiling = segment_hubs(data, cfg, hubs, days=dates, out=out)
             return dict(json.loads(dumps_json(tiling.doc())))
-        cfg = _config(
+        cfg = planner_config(
             config,
-            **flags,
-            data__center=parse_center(center) if isinstance(center, str) else center,
-            segment__n_depots=n_depots,
-            segment__method=method,
-            segment__n_actions=actions,
-            segment__seed=seed,
+            year=year,
+            size_km=size_km,
+            center=center,
+            strict=strict,
+            n_depots=n_depots,
+            segmentation=method,
+            actions=actions,
+            segment_seed=seed,
         )
         res = run(data, cfg, days=dates, out=out, geojson=geojson, plot=plot)
     return dict(json.loads(dumps_json(res.doc())))  # as the file reads back
@@ -175,21 +168,22 @@ def plan_window(
 ) -> DayResult:
     """``marops plan-window``: one window's stops and routes, and its solver and window
     objective (``metrics``)."""
+    from .app.options import planner_config
     from .app.plan_window import plan_window as run
     from .data.dates import parse_day
     from .io.ownership import replacing_foreign_files
 
-    cfg = _config(
+    cfg = planner_config(
         config,
-        data__year=year,
-        data__strict=strict or None,
-        data__tz=tz,
-        plan__alpha=alpha,
-        plan__ordering=ordering,
-        plan__strict_cover=strict_cover or None,
-        sim__drones=drones,
-        sim__seed=seed,
-        sim__policy=policy,
+        year=year,
+        strict=strict,
+        tz=tz,
+        alpha=alpha,
+        ordering=ordering,
+        strict_cover=strict_cover,
+        drones=drones,
+        seed=seed,
+        policy=policy,
     )
     with replacing_foreign_files(force):
         res = run(
@@ -234,25 +228,25 @@ def replay_day(
     config: str | Path | None = None,
 ) -> DayResult:
     """``marops replay-day --date``: the day's stops, routes and metrics."""
-    from .app.replay import ReplayOptions, check_options, replay_days
+    from .app.replay import ReplayOptions, check_options, replay_config, replay_days
     from .data.dates import parse_day
     from .io.ownership import replacing_foreign_files
-    from .methods import method as method_spec
 
     opts = ReplayOptions(method, fmt, plot, geojson, force, keep_tables=True)
     check_options(opts)
-    cfg = _config(
+    cfg = replay_config(
         config,
-        data__year=year,
-        data__strict=strict or None,
-        data__tz=tz,
-        segment__n_depots=n_depots,
-        segment__method=segment or method_spec(method).segmentation,
-        plan__alpha=alpha,
-        plan__ordering=ordering,
-        sim__drones=drones,
-        sim__seed=seed,
-        sim__policy=policy,
+        method=method,
+        segment=segment,
+        year=year,
+        strict=strict,
+        tz=tz,
+        n_depots=n_depots,
+        alpha=alpha,
+        ordering=ordering,
+        drones=drones,
+        seed=seed,
+        policy=policy,
     )
     day = parse_day(str(date), cfg.data.year)
     with replacing_foreign_files(force):
@@ -311,35 +305,30 @@ def evaluate(
 ) -> EvaluationResult:
     """``marops evaluate``: per-day results and their summary. Sweeps take "a,b,c"
     strings (``drones="4,8"``)."""
-    from .app.evaluate import EvaluateConfig
+    from .app.evaluate import EvaluateConfig, actor_paths, method_list, sweep_fields
     from .app.evaluate import evaluate as run
     from .app.inputs import in_memory, read_data
+    from .app.options import planner_config
     from .data.dates import parse_days
     from .errors import InputError
-    from .evaluate import parse_values
     from .io.ownership import replacing_foreign_files
     from .segment.hubs import load_hubs
 
-    cfg = _config(config, data__year=year, data__strict=strict or None, sim__seed=seed)
+    cfg = planner_config(config, year=year, strict=strict, seed=seed)
     days = parse_days(dates, cfg.data.year) if dates else None
     if days and split:
         raise InputError("give at most one of dates or split")
-    actors = {k: Path(v) for k, v in (("learned", policy), ("direct", mappo_policy)) if v}
-    listed = [m.strip() for m in methods.split(",") if m.strip()] if methods else None
     spec = EvaluateConfig(
         cfg,
-        listed,
-        alpha=parse_values(alpha, float, "--alpha"),
-        drones=parse_values(drones, int, "--drones"),
-        coverage=parse_values(coverage, float, "--coverage"),
-        depots_n=parse_values(n_depots, int, "--n-depots"),
+        method_list(methods or None),
+        **sweep_fields(alpha, drones, coverage, n_depots),
         days=days,
         split=split or "test",
         repeats=repeats,
         workers=workers,
         scheduler=scheduler,
         hubs=load_hubs(hubs, cfg.data) if hubs is not None else None,
-        actors=actors,
+        actors=actor_paths(policy or None, mappo_policy or None),
         against=against,
         plots=plots,
         force=force,

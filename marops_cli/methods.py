@@ -24,8 +24,8 @@ class Method:
     policy: str
     """A policy spec (``PolicySpec.parse`` of marops_cli/policies/registry.py reads it):
     ``learned`` (the shipped actor), ``direct`` (the shipped MAPPO actor), ``global``,
-    ``random``, ``greedy``, ``stay``, ``myopic``, or an actor file. Text, so that this
-    registry stays light."""
+    ``random``, ``greedy``, ``backlog``, ``rebalance``, ``stay``, ``myopic``, or an actor
+    file. Text, so that this registry stays light."""
     summary: str
     in_default_evaluation: bool = True
     """In ``evaluate``'s list when ``--methods`` is not given (references are not)."""
@@ -45,6 +45,10 @@ for _m in (
     Method("ops-global", "kmeans", "global", "whole map, nearest-depot landing"),
     Method("ops-random", "kmeans", "random", "random neighbouring area"),
     Method("greedy", "kmeans", "greedy", "the area with most waiting delay per metre"),
+    # The operating model's landing rules (docs/method.md, "Operating model"): compared
+    # with --methods until the realistic model is the default.
+    Method("backlog", "kmeans", "backlog", "land where most waiting value per drone is", False),
+    Method("rebalance", "kmeans", "rebalance", "land to match the coming demand per depot", False),
     Method("squares", "squares", "learned", "learned flight range on a square grid"),
     Method("mappo", "kmeans", "direct", "the MAPPO actor picks plans, no optimiser"),
     Method("stay", "kmeans", "stay", "always back to the start depot", False),

@@ -14,7 +14,7 @@ import datetime as dt
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from ..config import PlannerConfig
 from ..data.table import LadeTable
@@ -29,7 +29,16 @@ if TYPE_CHECKING:
     from ..evaluate.dataset import JobStore
     from ..segment.hubs import Hub
 
-__all__ = ["JOBS", "EvaluateConfig", "EvaluationResult", "default_methods", "evaluate"]
+__all__ = [
+    "JOBS",
+    "EvaluateConfig",
+    "EvaluationResult",
+    "actor_paths",
+    "default_methods",
+    "evaluate",
+    "method_list",
+    "sweep_fields",
+]
 
 JOBS = "jobs"
 """The jobs dataset in the output folder: one file per finished replay (docs/outputs.md)."""
@@ -106,7 +115,11 @@ def evaluate(
         depots_n=config.depots_n,
     )
     actors = {k: Path(v) for k, v in config.actors.items()}
-    methods = list(config.methods) if config.methods is not None else default_methods(actors)
+    methods = (
+        list(config.methods)
+        if config.methods is not None
+        else default_methods(actors, trust=cfg.sim.trust_actor)
+    )
     if config.scheduler is None and config.workers > 1:
         from ..evaluate.runner import worker_modules
         from ..sim.scenario import loads_actor
@@ -139,21 +152,49 @@ def evaluate(
     return _evaluate_into(out, prep, config, progress)
 
 
-def default_methods(actors: dict[str, Path]) -> list[str]:
-    """Every method this build can run (learned ones need an actor), but the references
-    (stay, myopic), which are compared only when asked for."""
+def default_methods(actors: dict[str, Path], *, trust: bool = False) -> list[str]:
+    """Every method this build can run (learned ones need an actor; ``trust``:
+    ``cfg.sim.trust_actor``), but the references (stay, myopic), which are compared only
+    when asked for."""
     from ..evaluate import check_methods
     from ..methods import METHODS, method
 
     chosen = []
     for m in METHODS:
         try:
-            check_methods([m], actors)
+            check_methods([m], actors, trust=trust)
         except InputError:
             continue  # the default list skips what cannot run; a listed method errors
         if method(m).in_default_evaluation:
             chosen.append(m)
     return chosen
+
+
+def method_list(text: str | None) -> list[str] | None:
+    """``"marops, greedy"`` -> ``["marops", "greedy"]``; None: :func:`default_methods`."""
+    return [m.strip() for m in text.split(",") if m.strip()] if text is not None else None
+
+
+def sweep_fields(
+    alpha: str | None, drones: str | None, coverage: str | None, n_depots: str | None
+) -> dict[str, Any]:
+    """The sweep options' values (``"0.2,0.5"``; None: the config's) as
+    :class:`EvaluateConfig` fields; a bad value names its flag."""
+    from ..evaluate import parse_values
+
+    return {
+        "alpha": parse_values(alpha, float, "--alpha"),
+        "drones": parse_values(drones, int, "--drones"),
+        "coverage": parse_values(coverage, float, "--coverage"),
+        "depots_n": parse_values(n_depots, int, "--n-depots"),
+    }
+
+
+def actor_paths(policy: str | Path | None, mappo_policy: str | Path | None) -> dict[str, Path]:
+    """:attr:`EvaluateConfig.actors` of the options: ``policy`` replaces the shipped actor
+    of the learned methods (marops, squares), ``mappo_policy`` the direct one (mappo)."""
+    kinds = (("learned", policy), ("direct", mappo_policy))
+    return {kind: Path(path) for kind, path in kinds if path is not None}
 
 
 def _plan_line(prep: Prepared, config: EvaluateConfig) -> str:

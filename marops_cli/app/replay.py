@@ -21,6 +21,7 @@ from .inputs import (
     read_data,
 )
 from .messages import drop_report
+from .options import planner_config
 from .progress import SILENT, Progress
 from .replay_areas import SUMMED, DayTables, ReplayResult, Run, aggregate_days, make_area
 from .replay_areas import replay_areas as _replay_areas
@@ -32,6 +33,7 @@ __all__ = [
     "ReplayResult",
     "aggregate_days",
     "check_options",
+    "replay_config",
     "replay_days",
 ]
 
@@ -70,6 +72,18 @@ def check_options(options: ReplayOptions) -> None:
         raise InputError(
             f"unknown --method {options.method!r}: expected one of {', '.join(METHODS)}"
         )
+
+
+def replay_config(
+    config: str | Path | None, *, method: str = "marops", segment: str | None = None, **options: Any
+) -> PlannerConfig:
+    """The planner config of a replay's options (:func:`~marops_cli.app.options.planner_config`):
+    depots segmented here use ``segment``, else the method's own segmentation."""
+    from ..methods import method as method_spec
+
+    return planner_config(
+        config, segmentation=segment or method_spec(method).segmentation, **options
+    )
 
 
 def replay_days(
@@ -112,7 +126,8 @@ def replay_days(
         inputs.update({**(protect or {}), "fleet": fleet, "hubs": hubs})
         outputs = _outputs(folder, days, several, hubs is not None, options.fmt)
         protect_inputs(outputs, [_path(v) for v in inputs.values()])
-    pol = method_policy(options.method, cfg.sim.policy, cfg.sim.seed)  # a bad actor stops here
+    # A bad actor stops here.
+    pol = method_policy(options.method, cfg.sim.policy, cfg.sim.seed, trust=cfg.sim.trust_actor)
     keep = folder is None if options.keep_tables is None else options.keep_tables
     run = Run(
         pol,

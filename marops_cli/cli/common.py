@@ -1,7 +1,6 @@
 """Shared CLI plumbing: error handling, consoles, option parsing helpers.
 
-``parse_center``, ``require_input`` and ``protect_inputs`` live in the
-application layer
+``require_input`` and ``protect_inputs`` live in the application layer
 (marops_cli/app/inputs.py); they are imported here for the commands that use them."""
 
 from __future__ import annotations
@@ -18,22 +17,21 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
-from ..app.inputs import parse_center, protect_inputs, require_input
-from ..config import PlannerConfig, load_config, override
+from ..app.inputs import protect_inputs, require_input
 from ..errors import MaropsError
+from ..io.ownership import allow_replacing_foreign
 
 __all__ = [
     "PLAIN",
     "STATE",
+    "begin",
     "console",
     "emit_json",
     "guarded",
     "info",
     "is_terminal",
     "kv_table",
-    "make_config",
     "out",
-    "parse_center",
     "protect_inputs",
     "require_input",
     "set_output",
@@ -70,6 +68,14 @@ STATE: dict[str, bool] = {"debug": False, "quiet": False, "json": False}
 def set_output(quiet: bool = False, as_json: bool = False) -> None:
     """Apply a command's ``--quiet`` and ``--json`` (every invocation sets both)."""
     STATE["quiet"], STATE["json"] = bool(quiet), bool(as_json)
+
+
+def begin(data: Path, *, quiet: bool, as_json: bool, force: bool) -> None:
+    """A command's first steps: its ``--quiet`` and ``--json``, whether it may replace
+    files marops did not write (``--force``), and its data, which must exist."""
+    set_output(quiet, as_json)
+    allow_replacing_foreign(force)
+    require_input(data)
 
 
 def info(message: str) -> None:
@@ -153,11 +159,6 @@ def stopped(exc: KeyboardInterrupt, kept: str = "") -> NoReturn:
     how = "terminated" if term else "interrupted"
     typer.echo(f"marops: {how}; {kept}" if kept else f"marops: {how}", err=True)
     raise typer.Exit(143 if term else 130) from None
-
-
-def make_config(config: Path | None, **overrides: Any) -> PlannerConfig:
-    """The TOML config (or defaults) with command-line flags applied on top."""
-    return override(load_config(config), **overrides)
 
 
 def kv_table(title: str, rows: list[tuple[str, str]]) -> Table:

@@ -4,24 +4,22 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated, Any
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 
+from ..app.options import planner_config
 from ..data.dates import parse_days
 from ..errors import InputError
-from ..io.ownership import allow_replacing_foreign
 from ..methods import reference_names
 from . import options as o
 from .common import (
     STATE,
+    begin,
     emit_json,
     guarded,
     info,
-    make_config,
     protect_inputs,
-    require_input,
-    set_output,
     show_table,
     stopped,
     table,
@@ -40,7 +38,7 @@ if TYPE_CHECKING:
 @guarded
 def evaluate_command(
     data: o.Data,
-    out: Annotated[Path, typer.Option("--out", help="Output folder.")],
+    out: o.OutFolder,
     methods: Annotated[
         str | None,
         typer.Option(
@@ -70,21 +68,8 @@ def evaluate_command(
     n_depots: Annotated[
         str | None, typer.Option("--n-depots", help="Numbers of service areas: 8,16,32 [16].")
     ] = None,
-    workers: Annotated[
-        int,
-        typer.Option(
-            "--workers", min=1, help="Worker processes (with --scheduler local: the cluster's)."
-        ),
-    ] = 2,
-    scheduler: Annotated[
-        str | None,
-        typer.Option(
-            "--scheduler",
-            help="Run the jobs on a Dask cluster: its scheduler's address (tcp://HOST:8786), "
-            "or local for a cluster of --workers processes on this machine; needs "
-            "pip install 'marops[cluster]' (README.md, Sweeps on a cluster).",
-        ),
-    ] = None,
+    workers: o.Workers = 2,
+    scheduler: o.Scheduler = None,
     hubs: Annotated[
         Path | None,
         typer.Option(
@@ -106,6 +91,7 @@ def evaluate_command(
             "--mappo-policy", help="Trained MAPPO actor (.pt) (default: the shipped one)."
         ),
     ] = None,
+    trust_actor: o.TrustActor = False,
     against: Annotated[
         str | None,
         typer.Option(
@@ -126,13 +112,11 @@ def evaluate_command(
     as_json: o.Json = False,
 ) -> None:
     """Compare methods on held-out days (paper Table III); sweep flags given several values."""
-    set_output(quiet, as_json)
-    allow_replacing_foreign(force)
+    begin(data, quiet=quiet, as_json=as_json, force=force)
     # The library (pyarrow, matplotlib, the planner) loads here, so `marops --help` stays fast.
-    from ..app.evaluate import EvaluateConfig
+    from ..app.evaluate import EvaluateConfig, actor_paths, method_list, sweep_fields
     from ..app.evaluate import evaluate as run_evaluation
 
-    require_input(data)
     _check_out(out)  # before any computing
     if scheduler is not None:
         from ..workers.cluster import require_distributed
@@ -142,17 +126,15 @@ def evaluate_command(
         [out / n for n in ("results.parquet", "summary.csv", "summary.md", "paired.csv")],
         [data, config, policy, mappo_policy, hubs],
     )
-    cfg = make_config(config, data__year=year, data__strict=strict or None, sim__seed=seed)
+    cfg = planner_config(config, year=year, strict=strict, seed=seed, trust_actor=trust_actor)
     hub_list = _hubs(hubs, cfg)
-    sweep = _sweep(alpha, drones, coverage, n_depots)
+    sweep = sweep_fields(alpha, drones, coverage, n_depots)
     days = parse_days(dates, cfg.data.year) if dates else None
     if days and split:
         raise InputError("give at most one of --dates or --split")
-    actors = {k: v for k, v in (("learned", policy), ("direct", mappo_policy)) if v is not None}
-    listed = [m.strip() for m in methods.split(",") if m.strip()] if methods is not None else None
     run = EvaluateConfig(
         cfg,
-        listed,
+        method_list(methods),
         **sweep,
         days=days,
         split=split or "test",
@@ -160,7 +142,7 @@ def evaluate_command(
         workers=workers,
         scheduler=scheduler,
         hubs=hub_list,
-        actors=actors,
+        actors=actor_paths(policy, mappo_policy),
         against=against,
         plots=plots,
         force=force,
@@ -184,20 +166,6 @@ def _hubs(path: Path | None, cfg: PlannerConfig) -> list[Hub] | None:
     from ..segment.hubs import load_hubs
 
     return load_hubs(path, cfg.data)
-
-
-def _sweep(
-    alpha: str | None, drones: str | None, coverage: str | None, n_depots: str | None
-) -> dict[str, Any]:
-    """The sweep flags' values (None: the config's), as ``EvaluateConfig`` fields."""
-    from ..evaluate import parse_values
-
-    return {
-        "alpha": parse_values(alpha, float, "--alpha"),
-        "drones": parse_values(drones, int, "--drones"),
-        "coverage": parse_values(coverage, float, "--coverage"),
-        "depots_n": parse_values(n_depots, int, "--n-depots"),
-    }
 
 
 def _emit_json(res: EvaluationResult) -> None:

@@ -59,6 +59,15 @@ Policy = Annotated[
         "(torchscript:PATH or PATH.pt) [the method's own].",
     ),
 ]
+TrustActor = Annotated[
+    bool,
+    typer.Option(
+        "--trust-actor",
+        help="Load a TorchScript actor (.pt) that has no weights file (.safetensors) beside "
+        "it: this runs code of the file, so only for a file whose author you trust "
+        "(docs/method.md §6).",
+    ),
+]
 Seed = Annotated[
     int | None,
     typer.Option("--seed", envvar="MAROPS_SEED", help="Seed for random policies [0]."),
@@ -104,4 +113,23 @@ Format = Annotated[
 Force = Annotated[
     bool,
     typer.Option("--force", help="Replace existing output files, even ones marops did not write."),
+]
+OutFolder = Annotated[Path, typer.Option("--out", help="Output folder.")]
+Workers = Annotated[
+    int,
+    typer.Option(
+        "--workers",
+        min=1,
+        help="Worker processes (with --scheduler local: the cluster's); without --scheduler, "
+        "a single job runs here.",
+    ),
+]
+Scheduler = Annotated[
+    str | None,
+    typer.Option(
+        "--scheduler",
+        help="Run the jobs on a Dask cluster: its scheduler's address (tcp://HOST:8786), "
+        "or local for a cluster of --workers processes on this machine; needs "
+        "pip install 'marops[cluster]' (README.md, Sweeps on a cluster).",
+    ),
 ]

@@ -7,18 +7,16 @@ from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 
+from ..app.options import planner_config
 from ..errors import InputError
-from ..io.ownership import allow_replacing_foreign
 from . import options as o
 from .common import (
     STATE,
+    begin,
     emit_json,
     guarded,
     info,
-    make_config,
     protect_inputs,
-    require_input,
-    set_output,
     show_table,
     table,
 )
@@ -51,6 +49,7 @@ def plan_window_command(
         ),
     ] = None,
     policy: o.Policy = None,
+    trust_actor: o.TrustActor = False,
     method: o.Method = "marops",
     alpha: o.Alpha = None,
     ordering: o.Ordering = None,
@@ -67,13 +66,11 @@ def plan_window_command(
     as_json: o.Json = False,
 ) -> None:
     """Plan one time window: flight ranges, candidate plans, optimal plan selection."""
-    set_output(quiet, as_json)
-    allow_replacing_foreign(force)
+    begin(data, quiet=quiet, as_json=as_json, force=force)
     from ..app.inputs import check_format
     from ..app.plan_window import plan_window as plan
     from ..data.dates import parse_day
 
-    require_input(data)
     if out.suffix in (".parquet", ".json"):
         raise InputError(
             f"--out is a folder (it gets stops.{fmt} and routes.{fmt}), not a file: {out.name}"
@@ -85,17 +82,18 @@ def plan_window_command(
         [out / f"stops.{fmt}", out / f"routes.{fmt}", out / "routes.geojson"],
         [data, depots, fleet, delivered, config],
     )
-    cfg = make_config(
+    cfg = planner_config(
         config,
-        data__year=year,
-        data__strict=strict or None,
-        data__tz=tz,
-        plan__alpha=alpha,
-        plan__ordering=ordering,
-        plan__strict_cover=strict_cover or None,
-        sim__drones=drones,
-        sim__seed=seed,
-        sim__policy=policy,
+        year=year,
+        strict=strict,
+        tz=tz,
+        alpha=alpha,
+        ordering=ordering,
+        strict_cover=strict_cover,
+        drones=drones,
+        seed=seed,
+        policy=policy,
+        trust_actor=trust_actor,
     )
     day = parse_day(date, cfg.data.year)
     res = plan(

@@ -8,16 +8,12 @@ from typing import Annotated, Any
 import typer
 
 from ..errors import InputError
-from ..io.ownership import allow_replacing_foreign
-from ..methods import method as method_spec
 from . import options as o
 from .common import (
     STATE,
+    begin,
     emit_json,
     guarded,
-    make_config,
-    require_input,
-    set_output,
     show_table,
     table,
 )
@@ -42,7 +38,7 @@ METRIC_COLUMNS = (
 @guarded
 def replay_day_command(
     data: o.Data,
-    out: Annotated[Path, typer.Option("--out", help="Output folder.")],
+    out: o.OutFolder,
     date: Annotated[
         str | None, typer.Option("--date", help="One day to replay: 820, 0820 or 2022-08-20.")
     ] = None,
@@ -72,6 +68,7 @@ def replay_day_command(
     ] = None,
     method: o.Method = "marops",
     policy: o.Policy = None,
+    trust_actor: o.TrustActor = False,
     alpha: o.Alpha = None,
     ordering: o.Ordering = None,
     seed: o.Seed = None,
@@ -88,24 +85,8 @@ def replay_day_command(
             help="Replay days whose output already exists; replace files marops did not write.",
         ),
     ] = False,
-    workers: Annotated[
-        int,
-        typer.Option(
-            "--workers",
-            min=1,
-            help="Worker processes for several days or hubs (with --scheduler local: the "
-            "cluster's); one day of one area runs here.",
-        ),
-    ] = 2,
-    scheduler: Annotated[
-        str | None,
-        typer.Option(
-            "--scheduler",
-            help="Replay the days (and hubs) on a Dask cluster: its scheduler's address "
-            "(tcp://HOST:8786), or local; needs pip install 'marops[cluster]' (README.md, "
-            "Sweeps on a cluster).",
-        ),
-    ] = None,
+    workers: o.Workers = 2,
+    scheduler: o.Scheduler = None,
     year: o.Year = None,
     strict: o.Strict = False,
     config: o.Config = None,
@@ -113,28 +94,28 @@ def replay_day_command(
     as_json: o.Json = False,
 ) -> None:
     """Replay whole days window by window; write stops, routes and the paper's metrics."""
-    set_output(quiet, as_json)
-    allow_replacing_foreign(force)
-    from ..app.replay import ReplayOptions, check_options, replay_days
+    begin(data, quiet=quiet, as_json=as_json, force=force)
+    from ..app.replay import ReplayOptions, check_options, replay_config, replay_days
     from ..data.dates import parse_day, parse_days
 
-    require_input(data)
     if (date is None) == (dates is None):
         raise InputError("give exactly one of --date or --dates")
     opts = ReplayOptions(method, fmt, plot, geojson, force, workers, scheduler)
     check_options(opts)
-    cfg = make_config(
+    cfg = replay_config(
         config,
-        data__year=year,
-        data__strict=strict or None,
-        data__tz=tz,
-        segment__n_depots=n_depots,
-        segment__method=segment or method_spec(method).segmentation,
-        plan__alpha=alpha,
-        plan__ordering=ordering,
-        sim__drones=drones,
-        sim__seed=seed,
-        sim__policy=policy,
+        method=method,
+        segment=segment,
+        year=year,
+        strict=strict,
+        tz=tz,
+        n_depots=n_depots,
+        alpha=alpha,
+        ordering=ordering,
+        drones=drones,
+        seed=seed,
+        policy=policy,
+        trust_actor=trust_actor,
     )
     days = [parse_day(date, cfg.data.year)] if date else parse_days(dates or "", cfg.data.year)
     res = replay_days(

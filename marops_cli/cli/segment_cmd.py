@@ -7,19 +7,16 @@ from typing import TYPE_CHECKING, Annotated
 
 import typer
 
+from ..app.options import planner_config
 from ..errors import InputError
-from ..io.ownership import allow_replacing_foreign
 from . import options as o
 from .common import (
     STATE,
+    begin,
     emit_json,
     guarded,
     info,
-    make_config,
-    parse_center,
     protect_inputs,
-    require_input,
-    set_output,
     show_table,
     table,
 )
@@ -84,11 +81,9 @@ def segment_command(
 ) -> None:
     """Cluster a LaDe export into depots and service areas (k-means or squares), or tile
     a city into hubs (--hubs)."""
-    set_output(quiet, as_json)
-    allow_replacing_foreign(force)
+    begin(data, quiet=quiet, as_json=as_json, force=force)
     from ..app.segment import segment as segment_data
 
-    require_input(data)
     if hubs is not None:
         _segment_hubs(data, out, hubs, size_km, dates, year, strict, config)
         return
@@ -96,16 +91,16 @@ def segment_command(
         raise InputError(f"--out names the depots file, e.g. depots.json; got {out.name}")
     gj_path, png_path = out.with_suffix(".geojson"), out.with_suffix(".png")
     protect_inputs([out, gj_path, png_path], [data, config])
-    cfg = make_config(
+    cfg = planner_config(
         config,
-        data__year=year,
-        data__size_km=size_km,
-        data__center=parse_center(center),
-        data__strict=strict or None,
-        segment__n_depots=n_depots,
-        segment__method=method,
-        segment__n_actions=actions,
-        segment__seed=seed,
+        year=year,
+        size_km=size_km,
+        center=center,
+        strict=strict,
+        n_depots=n_depots,
+        segmentation=method,
+        actions=actions,
+        segment_seed=seed,
     )
     res = segment_data(
         data, cfg, days=dates, out=out, geojson=geojson, plot=plot, progress=Terminal()
@@ -155,7 +150,7 @@ def _segment_hubs(  # type: ignore[no-untyped-def]
     if out.suffix != ".json":
         raise InputError(f"--out names the hubs file, e.g. hubs.json; got {out.name}")
     protect_inputs([out], [data, config])
-    cfg = make_config(config, data__year=year, data__size_km=size_km, data__strict=strict or None)
+    cfg = planner_config(config, year=year, size_km=size_km, strict=strict)
     res = segment_hubs(data, cfg, hubs, days=dates, out=out, progress=Terminal())
     held, total = sum(h.orders for h in res.hubs), res.total
     t = table(

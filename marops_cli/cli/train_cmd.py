@@ -19,6 +19,7 @@ from rich.progress import (
     TimeRemainingColumn,
 )
 
+from ..app.options import planner_config
 from ..data.dates import parse_days
 from ..errors import InputError
 from ..io.ownership import allow_replacing_foreign
@@ -27,7 +28,6 @@ from .common import (
     console,
     guarded,
     is_terminal,
-    make_config,
     protect_inputs,
     require_input,
     show_table,
@@ -201,12 +201,12 @@ def train_command(
     allow_replacing_foreign(force)
     protect_inputs(actor_files(out), [*data, config])  # before the long work
     fleets, depot_counts = _sizes(drones, "--drones"), _sizes(n_depots, "--n-depots")
-    cfg = make_config(
+    cfg = planner_config(
         config,
-        data__year=year,
-        plan__alpha=alpha,
-        sim__drones=fleets[0] if fleets else None,
-        segment__n_depots=depot_counts[0] if depot_counts else None,
+        year=year,
+        alpha=alpha,
+        drones=fleets[0] if fleets else None,
+        n_depots=depot_counts[0] if depot_counts else None,
     )
     tcfg = _train_config(
         method=method,

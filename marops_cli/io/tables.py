@@ -21,15 +21,21 @@ from ..segment.depots import Depots
 DEFAULT_TZ = "Asia/Shanghai"  # LaDe's times are Shanghai local time
 
 
+# The columns that open both tables: the hub, day, window and drone a row belongs to.
+_KEY_COLUMNS = ("hub", "day", "window", "window_start", "drone")
+
+
+def _key_fields(tz: str) -> list[tuple[str, pa.DataType]]:
+    """The types of :data:`_KEY_COLUMNS`; timestamps local to zone ``tz``."""
+    types = (pa.int32(), pa.date32(), pa.int32(), pa.timestamp("s", tz=tz), pa.int32())
+    return list(zip(_KEY_COLUMNS, types, strict=True))
+
+
 def stops_schema(tz: str = DEFAULT_TZ) -> pa.Schema:
     """The stops table (docs/outputs.md); timestamps are local times of zone ``tz``."""
     return pa.schema(
         [
-            ("hub", pa.int32()),
-            ("day", pa.date32()),
-            ("window", pa.int32()),
-            ("window_start", pa.timestamp("s", tz=tz)),
-            ("drone", pa.int32()),
+            *_key_fields(tz),
             ("seq", pa.int32()),
             ("kind", pa.string()),
             ("depot", pa.int32()),
@@ -55,11 +61,7 @@ def routes_schema(tz: str = DEFAULT_TZ) -> pa.Schema:
     """The routes table (docs/outputs.md)."""
     return pa.schema(
         [
-            ("hub", pa.int32()),
-            ("day", pa.date32()),
-            ("window", pa.int32()),
-            ("window_start", pa.timestamp("s", tz=tz)),
-            ("drone", pa.int32()),
+            *_key_fields(tz),
             ("drone_type", pa.string()),
             ("start_depot", pa.int32()),
             ("end_depot", pa.int32()),
@@ -104,6 +106,7 @@ def build_tables(
     for plan in plans:
         ws = day.window_start(plan.t).replace(tzinfo=zone)
         for r in plan.routes:
+            key = (hub, day_s, plan.t, ws, r.drone)
             n = len(r.stops)
             nodes = [("start", r.start, None)] + [("customer", None, i) for i in r.stops]
             nodes.append(("end", r.end, None))
@@ -116,11 +119,7 @@ def build_tables(
             on_board = np.concatenate([np.cumsum(w[::-1])[::-1], [0.0]]) if n else np.zeros(1)
             on_board = np.append(on_board, 0.0)
             for seq, (kind, dep, i) in enumerate(nodes):
-                stops["hub"].append(hub)
-                stops["day"].append(day_s)
-                stops["window"].append(plan.t)
-                stops["window_start"].append(ws)
-                stops["drone"].append(r.drone)
+                _append(stops, key)
                 stops["seq"].append(seq)
                 stops["kind"].append(kind)
                 stops["depot"].append(dep)
@@ -149,11 +148,7 @@ def build_tables(
                 stops["leg_j"].append(float(leg_j[seq]))
                 stops["payload_kg"].append(float(on_board[seq]))
                 stops["method"].append(method)
-            routes["hub"].append(hub)
-            routes["day"].append(day_s)
-            routes["window"].append(plan.t)
-            routes["window_start"].append(ws)
-            routes["drone"].append(r.drone)
+            _append(routes, key)
             routes["drone_type"].append("default" if drone_types is None else drone_types[r.drone])
             routes["start_depot"].append(r.start)
             routes["end_depot"].append(r.end)
@@ -168,6 +163,12 @@ def build_tables(
         pa.Table.from_pydict(stops, schema=s_schema),
         pa.Table.from_pydict(routes, schema=r_schema),
     )
+
+
+def _append(columns: dict[str, list[Any]], key: tuple[Any, ...]) -> None:
+    """A row's :data:`_KEY_COLUMNS` values onto the columns being built."""
+    for name, value in zip(_KEY_COLUMNS, key, strict=True):
+        columns[name].append(value)
 
 
 def with_meta(table: pa.Table, meta: dict[str, Any]) -> pa.Table:

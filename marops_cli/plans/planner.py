@@ -36,6 +36,7 @@ __all__ = [
     "PyvrpPoolPlanner",
     "RoutePoolPlanner",
     "SubsetsPlanner",
+    "can_reach",
     "make_planner",
 ]
 
@@ -156,17 +157,21 @@ def _reachable_actions(
 ) -> np.ndarray:
     """Actions whose destination the empty drone cannot reach become 0 (stay); FREE stays
     FREE (an idle free drone stays where it is)."""
-    dep = view.depots
     acts = np.asarray(actions, dtype=np.int64).copy()
-    for u, s in enumerate(view.drone_depot):
-        if acts[u] == FREE:
-            continue
-        d = int(dep.candidates[int(s), acts[u]])
-        flight = float(np.hypot(*(dep.xy[d] - dep.xy[int(s)])))
-        # The same test build_plans applies to the empty plan, so it never raises.
-        if float(models[u].leg_energy_j(flight, 0.0)) > models[u].usable_j:
+    for u in range(view.n_drones):
+        if acts[u] != FREE and not can_reach(view, u, int(acts[u]), models[u]):
             acts[u] = 0
     return acts
+
+
+def can_reach(view: WindowView, u: int, action: int, model: EnergyModel) -> bool:
+    """Whether drone ``u`` (energy ``model``) reaches its action's destination empty."""
+    dep = view.depots
+    s = int(view.drone_depot[u])
+    d = int(dep.candidates[s, action])
+    flight = float(np.hypot(*(dep.xy[d] - dep.xy[s])))
+    # The same test build_plans applies to the empty plan, so it never raises.
+    return float(model.leg_energy_j(flight, 0.0)) <= model.usable_j
 
 
 def _grounded(view: WindowView, acts: np.ndarray) -> np.ndarray:

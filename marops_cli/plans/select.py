@@ -155,6 +155,18 @@ class SelectionResult:
     solves: tuple[SolveVerdict, ...] = field(default=())
     """Each solve in order: the strict cover's when tried, then the relaxed program's."""
 
+    @classmethod
+    def without_solver(
+        cls,
+        problem: SelectionProblem,
+        chosen: NDArray[np.int64],
+        status: SelectionStatus,
+        t0: float,
+    ) -> SelectionResult:
+        """A selection a rule made (no program built or solved) from ``t0`` on: its
+        objective, and the time since ``t0`` as its solve time."""
+        return cls(chosen, problem.objective(chosen), status, False, time.perf_counter() - t0, 0.0)
+
     @property
     def status_text(self) -> str:
         """The status in words, as printed, e.g. ``"optimal"``, ``"strict cover: optimal"``
@@ -372,14 +384,7 @@ class GreedySelector:
     def select(self, problem: SelectionProblem) -> SelectionResult:
         t0 = time.perf_counter()
         chosen = greedy_select(problem)
-        return SelectionResult(
-            chosen,
-            problem.objective(chosen),
-            SelectionStatus.GREEDY,
-            False,
-            time.perf_counter() - t0,
-            0.0,
-        )
+        return SelectionResult.without_solver(problem, chosen, SelectionStatus.GREEDY, t0)
 
 
 @dataclass

@@ -1,12 +1,15 @@
-"""Flight-range policies: the protocol, baselines, observation and TorchScript loader."""
+"""Flight-range policies: the protocol, baselines, landing rules, observation, the actor
+network and the loader of trained actor files."""
 
 from .base import Policy, WindowView
 from .baselines import GlobalPolicy, GreedyPolicy, MyopicPolicy, RandomPolicy, StayPolicy
 from .observation import OBS_VERSION, ObsVersion, obs_dim, observe
 from .registry import PolicySpec, make_policy
+from .rules import BacklogPolicy, RebalancePolicy
 
 __all__ = [
     "OBS_VERSION",
+    "BacklogPolicy",
     "GlobalPolicy",
     "GreedyPolicy",
     "MyopicPolicy",
@@ -14,6 +17,7 @@ __all__ = [
     "Policy",
     "PolicySpec",
     "RandomPolicy",
+    "RebalancePolicy",
     "StayPolicy",
     "WindowView",
     "make_policy",

@@ -84,17 +84,12 @@ class GreedyPolicy(PolicyBase):
         return out
 
 
-class GlobalPolicy(PolicyBase):
-    """Whole-map planning (OPS-global): no flight range; the planner picks destinations."""
+class GlobalPolicy(StayPolicy):
+    """Whole-map planning (OPS-global): no flight range; the planner picks destinations,
+    so every drone's action is stay, as :class:`StayPolicy`'s."""
 
     name = "global"
     scope: Literal["range", "global"] = "global"
-
-    def reset(self, seed: int) -> None:
-        pass
-
-    def act(self, view: WindowView) -> np.ndarray:
-        return np.zeros(view.n_drones, dtype=np.int64)
 
 
 class MyopicPolicy(PolicyBase):

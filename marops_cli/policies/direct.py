@@ -85,14 +85,7 @@ class SlotSelector:
                 free = members[:, k]
             chosen[u] = k
             claimed |= free
-        return SelectionResult(
-            chosen,
-            problem.objective(chosen),
-            SelectionStatus.DIRECT,
-            False,
-            time.perf_counter() - t0,
-            0.0,
-        )
+        return SelectionResult.without_solver(problem, chosen, SelectionStatus.DIRECT, t0)
 
 
 class DirectPolicy(TorchScriptPolicy):
@@ -106,6 +99,6 @@ class DirectPolicy(TorchScriptPolicy):
     scope: Literal["range", "global"] = "range"
     planner: str | None = SLOT_PLANNER  # its slots rank the paper's subset plans
 
-    def __init__(self, path: str | Path) -> None:
-        super().__init__(path, slots=SlotSelector)
+    def __init__(self, path: str | Path, *, trust: bool = False) -> None:
+        super().__init__(path, slots=SlotSelector, trust=trust)
         self.name = f"mappo:{self.path.name}"

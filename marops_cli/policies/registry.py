@@ -12,14 +12,26 @@ from typing import Literal
 from ..errors import InputError
 from .base import Policy
 from .baselines import GlobalPolicy, GreedyPolicy, MyopicPolicy, RandomPolicy, StayPolicy
+from .rules import BacklogPolicy, RebalancePolicy
 
-SIMPLE = ("stay", "random", "greedy", "global", "myopic")
+SIMPLE = ("stay", "random", "greedy", "global", "myopic", "backlog", "rebalance")
 DEFAULT_POLICY_NAME = "marops-basic.pt"
 DEFAULT_MAPPO_NAME = "mappo-basic.pt"
 SHIPPED = {"learned": DEFAULT_POLICY_NAME, "direct": DEFAULT_MAPPO_NAME}
 """A method's shipped actor, by policy kind: the flight-range actor, the MAPPO actor."""
 
-Kind = Literal["stay", "random", "greedy", "global", "myopic", "learned", "direct", "torchscript"]
+Kind = Literal[
+    "stay",
+    "random",
+    "greedy",
+    "global",
+    "myopic",
+    "backlog",
+    "rebalance",
+    "learned",
+    "direct",
+    "torchscript",
+]
 
 
 @dataclass(frozen=True)
@@ -33,7 +45,8 @@ class PolicySpec:
 
     @classmethod
     def parse(cls, spec: str) -> PolicySpec:
-        """``stay``, ``random``, ``greedy``, ``global``, ``myopic``, ``learned``,
+        """``stay``, ``random``, ``greedy``, ``global``, ``myopic``, ``backlog``,
+        ``rebalance``, ``learned``,
         ``direct``, ``torchscript:PATH`` or a ``.pt`` path."""
         if spec in SIMPLE or spec in SHIPPED:
             return cls(spec)  # type: ignore[arg-type]
@@ -85,9 +98,11 @@ def default_policy_path(name: str = DEFAULT_POLICY_NAME) -> Path | None:
     return path if path.is_file() else None
 
 
-def make_policy(spec: str | PolicySpec, seed: int = 0) -> Policy:
+def make_policy(spec: str | PolicySpec, seed: int = 0, *, trust: bool = False) -> Policy:
     """The policy of ``spec`` (a :class:`PolicySpec` or its text, see
-    :meth:`PolicySpec.parse`); ``seed`` seeds the random baseline."""
+    :meth:`PolicySpec.parse`); ``seed`` seeds the random baseline. A trained actor loads
+    from its weights file; ``trust`` (``--trust-actor``) lets a TorchScript file without
+    one load, running its code (docs/method.md §6, "Trust model of actor files")."""
     if isinstance(spec, str):
         spec = PolicySpec.parse(spec)
     resolved = spec.shipped()
@@ -104,11 +119,15 @@ def make_policy(spec: str | PolicySpec, seed: int = 0) -> Policy:
         return GlobalPolicy()
     if spec.kind == "myopic":
         return MyopicPolicy()
+    if spec.kind == "backlog":
+        return BacklogPolicy()
+    if spec.kind == "rebalance":
+        return RebalancePolicy()
     from .torchscript import TorchScriptPolicy, read_sidecar
 
     assert spec.path is not None
     if "plan_slots" in read_sidecar(spec.path):  # a MAPPO actor: destination x plan slot
         from .direct import DirectPolicy
 
-        return DirectPolicy(Path(spec.path))
-    return TorchScriptPolicy(Path(spec.path))
+        return DirectPolicy(Path(spec.path), trust=trust)
+    return TorchScriptPolicy(Path(spec.path), trust=trust)

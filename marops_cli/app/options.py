@@ -1,0 +1,46 @@
+"""The planner config of the use cases' options: which option sets which config field,
+one mapping for the commands' flags and the Python API's keyword arguments."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+from ..config import PlannerConfig, load_config, override
+from .inputs import parse_center
+
+# Option name -> config field (``stage__field`` of marops_cli/config.py).
+FIELDS = {
+    "year": "data__year",
+    "strict": "data__strict",
+    "tz": "data__tz",
+    "size_km": "data__size_km",
+    "center": "data__center",
+    "n_depots": "segment__n_depots",
+    "segmentation": "segment__method",
+    "actions": "segment__n_actions",
+    "segment_seed": "segment__seed",
+    "alpha": "plan__alpha",
+    "ordering": "plan__ordering",
+    "strict_cover": "plan__strict_cover",
+    "drones": "sim__drones",
+    "seed": "sim__seed",
+    "policy": "sim__policy",
+    "trust_actor": "sim__trust_actor",
+}
+
+
+def planner_config(config: str | Path | None, **options: Any) -> PlannerConfig:
+    """The TOML config (or the defaults) with the options applied on top: an option left
+    unset (None) or a switch left off (False) keeps the config's value; ``center`` may be
+    ``"LNG,LAT"`` text. An unknown option name is a ``TypeError``."""
+    unknown = set(options) - set(FIELDS)
+    if unknown:
+        raise TypeError(f"not planner options: {sorted(unknown)}")
+    if isinstance(options.get("center"), str):  # a bad centre is named before the file is read
+        options["center"] = parse_center(options["center"])
+    overrides = {
+        FIELDS[name]: (value or None) if isinstance(value, bool) else value
+        for name, value in options.items()
+    }
+    return override(load_config(Path(config) if config is not None else None), **overrides)
