@@ -37,8 +37,6 @@ __all__ = [
     "replay_days",
 ]
 
-_OUTPUT_NAMES = ("metrics.json", "routes.png", "routes.geojson")
-
 
 @dataclass(frozen=True)
 class ReplayOptions:
@@ -124,7 +122,7 @@ def replay_days(
     if folder is not None:
         inputs = {"data": None if in_memory(data) else Path(data), "depots": depots}
         inputs.update({**(protect or {}), "fleet": fleet, "hubs": hubs})
-        outputs = _outputs(folder, days, several, hubs is not None, options.fmt)
+        outputs = _outputs(folder, days, several, hubs is not None, options)
         protect_inputs(outputs, [_path(v) for v in inputs.values()])
     # A bad actor stops here.
     pol = method_policy(options.method, cfg.sim.policy, cfg.sim.seed, trust=cfg.sim.trust_actor)
@@ -183,9 +181,13 @@ def _path(value: Any) -> Path | None:
     return Path(value) if isinstance(value, str | Path) else None
 
 
-def _outputs(out: Path, days: list[dt.date], several: bool, hubs: bool, fmt: str) -> list[Path]:
+def _outputs(
+    out: Path, days: list[dt.date], several: bool, hubs: bool, options: ReplayOptions
+) -> list[Path]:
     """Every file a replay into ``out`` may write (hub folders: those there already)."""
-    names = (f"stops.{fmt}", f"routes.{fmt}", *_OUTPUT_NAMES)
+    fmt = options.fmt
+    names = [f"stops.{fmt}", f"routes.{fmt}", "metrics.json"]
+    names += ["routes.png"] * options.plot + ["routes.geojson"] * options.geojson
     folders = [out, *(out / d.isoformat() for d in days)] if several else [out]
     if hubs:  # out/hub-<id>/ below the city's metrics.json
         areas = [p for p in out.glob("hub-*") if p.is_dir()] if out.is_dir() else []

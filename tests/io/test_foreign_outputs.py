@@ -54,3 +54,17 @@ def test_a_foreign_file_where_a_command_writes(
     argv = [a.format(out=out, data=example_csv) for a in args]
     fails_cleanly(argv, out, str(foreign), "not written by marops")
     assert foreign.read_bytes() == b"someone's own file"
+
+
+def test_a_file_no_option_asks_for_is_no_obstacle(example_csv: Path, tmp_path: Path) -> None:
+    from typer.testing import CliRunner
+
+    from marops_cli.cli.app import app
+
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "routes.png").write_bytes(b"a user's map")  # replay-day without --plot
+    args = ["replay-day", str(example_csv), "--date", E, "--method", "stay", "--out", str(out)]
+    res = CliRunner().invoke(app, args)
+    assert res.exit_code == 0, res.output
+    assert (out / "routes.png").read_bytes() == b"a user's map"
