@@ -39,7 +39,7 @@ from marops_cli.errors import InputError  # noqa: E402
 from marops_cli.evaluate import (  # noqa: E402
     PAPER_NAMES,
     check_methods,
-    evaluate,
+    evaluate_jobs,
     expand_settings,
     markdown_table,
     paper_table,
@@ -479,7 +479,7 @@ def run_all(
         flags, workers = runs[name]
         prep = prepare(args.data, cfg, methods, expand_settings(cfg, **flags), split="test")
         t0 = time.perf_counter()
-        ev = evaluate(prep, workers=workers)
+        ev = evaluate_jobs(prep, workers=workers)
         write_outputs(out, prep, ev.results, ev.summary)
         print(f"{name}: {len(prep.jobs)} replays in {time.perf_counter() - t0:.0f} s -> {out}")
     done = [n for n in RUNS if (args.out / n / "results.parquet").is_file()]
