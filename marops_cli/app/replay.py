@@ -37,7 +37,7 @@ __all__ = [
     "replay_days",
 ]
 
-_OUTPUT_NAMES = ("metrics.json", "routes.png", "routes.geojson")
+_OUTPUT_NAMES = ("metrics.json", "routes.png", "operations.png", "routes.geojson")
 
 
 @dataclass(frozen=True)
