@@ -116,7 +116,7 @@ def plot_operations(res: FlownDay, reqs: DayRequests, path: str | Path) -> None:
         bottom.bar(windows, waits, color="tab:red", alpha=0.6, label="drones waiting for a battery")
         busy = (ops.held_w == BUSY).sum(axis=1)
         bottom.plot(windows, busy, "--", color="tab:gray", label="drones on long flights")
-        bottom.legend(fontsize=7, loc="upper right")
+        bottom.legend(fontsize=7, loc="best")
     else:
         bottom.text(
             0.5,
@@ -126,7 +126,7 @@ def plot_operations(res: FlownDay, reqs: DayRequests, path: str | Path) -> None:
             va="center",
             transform=bottom.transAxes,
         )
-    bottom.set_ylabel("batteries, drones")
+    bottom.set_ylabel("batteries, drones (count)")
     bottom.grid(alpha=0.3)
     step = max(1, n_w // 12)
     ticks = windows[::step]
