@@ -240,6 +240,13 @@ class SimConfig(_Stage):
         "None = the method's own",
     )
     seed: int = Field(0, description="seed for random policies")
+    trust_actor: bool = Field(
+        False,
+        # Left out of dumps while off, so run identities and metadata stay as they were.
+        exclude_if=lambda on: not on,
+        description="load a TorchScript actor file without a weights file beside it, which "
+        "runs its code (--trust-actor; docs/method.md §6)",
+    )
 
 
 class OpsConfig(_Stage):
@@ -320,6 +327,15 @@ def load_config(path: str | Path | None) -> PlannerConfig:
         raise InputError(f"cannot read the config ({exc.strerror})", file=p) from exc
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
         raise InputError(f"not a valid TOML file ({exc})", file=p) from exc
+    sim = raw.get("sim")
+    if isinstance(sim, dict) and "trust_actor" in sim:
+        # A file from elsewhere never makes marops run code (docs/method.md §6): only the
+        # person at the command line grants trust to an actor file.
+        raise InputError(
+            "only the --trust-actor flag can trust an actor file, not a config file",
+            file=p,
+            column="sim.trust_actor",
+        )
     try:
         return PlannerConfig.model_validate(raw)
     except ValidationError as exc:

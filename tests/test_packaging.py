@@ -23,7 +23,7 @@ def test_every_subpackage_is_listed_for_the_wheel():
     }
     assert on_disk <= listed, f"not in pyproject's packages: {sorted(on_disk - listed)}"
     assert setup["package-dir"] == {"marops_cli.shipped": "policies"}
-    assert "*.pt" in setup["package-data"]["marops_cli.shipped"]
+    assert {"*.pt", "*.safetensors"} <= set(setup["package-data"]["marops_cli.shipped"])
 
 
 def test_shipped_actors_are_found_through_the_package(monkeypatch):
@@ -32,4 +32,5 @@ def test_shipped_actors_are_found_through_the_package(monkeypatch):
         path = default_policy_path(name)
         assert path is not None and path.is_file()
         assert path.with_suffix(".json").is_file()
+        assert path.with_suffix(".safetensors").is_file()  # the weights every command loads
         assert path.read_bytes() == (ROOT / "policies" / name).read_bytes()

@@ -113,7 +113,11 @@ def evaluate(
         depots_n=config.depots_n,
     )
     actors = {k: Path(v) for k, v in config.actors.items()}
-    methods = list(config.methods) if config.methods is not None else default_methods(actors)
+    methods = (
+        list(config.methods)
+        if config.methods is not None
+        else default_methods(actors, trust=cfg.sim.trust_actor)
+    )
     if config.scheduler is None and config.workers > 1:
         from ..evaluate.runner import worker_modules
         from ..sim.scenario import loads_actor
@@ -146,16 +150,17 @@ def evaluate(
     return _evaluate_into(out, prep, config, progress)
 
 
-def default_methods(actors: dict[str, Path]) -> list[str]:
-    """Every method this build can run (learned ones need an actor), but the references
-    (stay, myopic), which are compared only when asked for."""
+def default_methods(actors: dict[str, Path], *, trust: bool = False) -> list[str]:
+    """Every method this build can run (learned ones need an actor; ``trust``:
+    ``cfg.sim.trust_actor``), but the references (stay, myopic), which are compared only
+    when asked for."""
     from ..evaluate import check_methods
     from ..methods import METHODS, method
 
     chosen = []
     for m in METHODS:
         try:
-            check_methods([m], actors)
+            check_methods([m], actors, trust=trust)
         except InputError:
             continue  # the default list skips what cannot run; a listed method errors
         if method(m).in_default_evaluation:

@@ -26,6 +26,7 @@ FIELDS = {
     "drones": "sim__drones",
     "seed": "sim__seed",
     "policy": "sim__policy",
+    "trust_actor": "sim__trust_actor",
 }
 
 

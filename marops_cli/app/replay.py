@@ -126,7 +126,8 @@ def replay_days(
         inputs.update({**(protect or {}), "fleet": fleet, "hubs": hubs})
         outputs = _outputs(folder, days, several, hubs is not None, options.fmt)
         refuse_overwriting_inputs(outputs, **{k: _path(v) for k, v in inputs.items()})
-    pol = method_policy(options.method, cfg.sim.policy, cfg.sim.seed)  # a bad actor stops here
+    # A bad actor stops here.
+    pol = method_policy(options.method, cfg.sim.policy, cfg.sim.seed, trust=cfg.sim.trust_actor)
     keep = folder is None if options.keep_tables is None else options.keep_tables
     run = Run(
         pol,

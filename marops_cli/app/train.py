@@ -51,8 +51,8 @@ class TrainResult:
     actor: Path
     """The TorchScript actor (``NAME.pt``)."""
     files: list[Path]
-    """The actor, its sidecar (``NAME.json``), its curve (``NAME.curve.png``) when drawn,
-    and the checkpoint (``NAME.ckpt``)."""
+    """The actor, its weights (``NAME.safetensors``), its sidecar (``NAME.json``), its
+    curve (``NAME.curve.png``) when drawn, and the checkpoint (``NAME.ckpt``)."""
     sidecar: dict[str, Any]
     """The sidecar document (docs/method.md §6)."""
 
@@ -86,9 +86,10 @@ class Note(str):
 
 
 def actor_files(out: Path) -> list[Path]:
-    """Every file a run writes for the actor ``out``: ``NAME.pt``, ``.json``, ``.ckpt``,
-    ``.curve.png``."""
-    return [out, *(out.with_suffix(x) for x in (".json", ".ckpt", ".curve.png"))]
+    """Every file a run writes for the actor ``out``: ``NAME.pt``, ``.safetensors``,
+    ``.json``, ``.ckpt``, ``.curve.png``."""
+    suffixes = (".safetensors", ".json", ".ckpt", ".curve.png")
+    return [out, *(out.with_suffix(x) for x in suffixes)]
 
 
 def train(
@@ -131,7 +132,7 @@ def train(
     finally:
         if report.started:
             progress.finish()
-    files = [out, out.with_suffix(".json")]
+    files = [out, out.with_suffix(".safetensors"), out.with_suffix(".json")]
     if side.get("learning_curve"):  # drawn from it (rl/export.py)
         files.append(out.with_suffix(".curve.png"))
     files.append(out.with_suffix(".ckpt"))

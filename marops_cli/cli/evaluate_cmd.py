@@ -91,6 +91,7 @@ def evaluate_command(
             "--mappo-policy", help="Trained MAPPO actor (.pt) (default: the shipped one)."
         ),
     ] = None,
+    trust_actor: o.TrustActor = False,
     against: Annotated[
         str | None,
         typer.Option(
@@ -129,7 +130,7 @@ def evaluate_command(
         mappo_policy=mappo_policy,
         hubs=hubs,
     )
-    cfg = planner_config(config, year=year, strict=strict, seed=seed)
+    cfg = planner_config(config, year=year, strict=strict, seed=seed, trust_actor=trust_actor)
     hub_list = _hubs(hubs, cfg)
     sweep = sweep_fields(alpha, drones, coverage, n_depots)
     days = parse_days(dates, cfg.data.year) if dates else None

@@ -59,6 +59,15 @@ Policy = Annotated[
         "(torchscript:PATH or PATH.pt) [the method's own].",
     ),
 ]
+TrustActor = Annotated[
+    bool,
+    typer.Option(
+        "--trust-actor",
+        help="Load a TorchScript actor (.pt) that has no weights file (.safetensors) beside "
+        "it: this runs code of the file, so only for a file whose author you trust "
+        "(docs/method.md §6).",
+    ),
+]
 Seed = Annotated[
     int | None,
     typer.Option("--seed", envvar="MAROPS_SEED", help="Seed for random policies [0]."),

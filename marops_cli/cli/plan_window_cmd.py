@@ -49,6 +49,7 @@ def plan_window_command(
         ),
     ] = None,
     policy: o.Policy = None,
+    trust_actor: o.TrustActor = False,
     method: o.Method = "marops",
     alpha: o.Alpha = None,
     ordering: o.Ordering = None,
@@ -96,6 +97,7 @@ def plan_window_command(
         drones=drones,
         seed=seed,
         policy=policy,
+        trust_actor=trust_actor,
     )
     day = parse_day(date, cfg.data.year)
     res = plan(

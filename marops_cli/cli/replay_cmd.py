@@ -68,6 +68,7 @@ def replay_day_command(
     ] = None,
     method: o.Method = "marops",
     policy: o.Policy = None,
+    trust_actor: o.TrustActor = False,
     alpha: o.Alpha = None,
     ordering: o.Ordering = None,
     seed: o.Seed = None,
@@ -114,6 +115,7 @@ def replay_day_command(
         drones=drones,
         seed=seed,
         policy=policy,
+        trust_actor=trust_actor,
     )
     days = [parse_day(date, cfg.data.year)] if date else parse_days(dates or "", cfg.data.year)
     res = replay_days(

@@ -75,8 +75,11 @@ class Prepared:
 ACTOR_FLAGS = {"learned": "--policy", "direct": "--mappo-policy"}
 
 
-def check_methods(methods: Sequence[str], actors: dict[str, Path] | None = None) -> dict[str, Path]:
-    """Load every method's policy once; fail with one line naming what is missing.
+def check_methods(
+    methods: Sequence[str], actors: dict[str, Path] | None = None, *, trust: bool = False
+) -> dict[str, Path]:
+    """Load every method's policy once (``trust``: ``cfg.sim.trust_actor``); fail with one
+    line naming what is missing.
 
     Returns the trained actor file of each method that runs one.
     """
@@ -91,7 +94,7 @@ def check_methods(methods: Sequence[str], actors: dict[str, Path] | None = None)
     files: dict[str, Path] = {}
     for m in methods:
         try:
-            pol = method_policy(m, None, 0, actors=actors)
+            pol = method_policy(m, None, 0, actors=actors, trust=trust)
         except InputError as exc:
             flag = ACTOR_FLAGS.get(method_spec(m).policy)
             if flag is None:
@@ -127,7 +130,8 @@ def prepare(
     """
     methods = list(dict.fromkeys(methods))
     actors = {k: Path(v) for k, v in (actors or {}).items()}
-    actor_files = check_methods(methods, actors)  # fails here, not in a worker
+    # Fails here, not in a worker.
+    actor_files = check_methods(methods, actors, trust=cfg.sim.trust_actor)
     check_settings(cfg, settings, methods)
     if repeats < 1:
         raise InputError(f"--repeats expects at least 1, got {repeats}")
@@ -211,7 +215,9 @@ def run_job(job: Job) -> dict[str, Any]:
     scn = Scenario(base.table, base.frame, base.depots, cfg, base.history_days, job.hub)
     key = (job.method, job.seed)
     if key not in _CTX["policies"]:
-        _CTX["policies"][key] = method_policy(job.method, None, job.seed, actors=prep.actors)
+        _CTX["policies"][key] = method_policy(
+            job.method, None, job.seed, actors=prep.actors, trust=cfg.sim.trust_actor
+        )
     fleet = load_fleet(None, base.depots, prep.drones(job), cfg)
     _, _, metrics = replay(scn, job.day, fleet, _CTX["policies"][key], job.method)
     return metrics
@@ -244,7 +250,8 @@ class EvaluateWork:
         machine with another marops version or another actor file at that path would give
         other rows under the same run identity."""
         for method, sha in self.actors.items():
-            policy = method_policy(method, None, 0, actors=self.prep.actors)
+            trust = self.prep.cfg.sim.trust_actor
+            policy = method_policy(method, None, 0, actors=self.prep.actors, trust=trust)
             problem = other_actor(method, policy, sha)
             if problem is not None:
                 return problem

@@ -56,7 +56,7 @@ def written_by_marops(path: Path) -> bool:
     except (OSError, ValueError):
         return False
     # figures, summaries, journals and actor files: named by the command, so ours
-    return suffix in (".png", ".csv", ".md", ".jsonl", ".pt", ".ckpt")
+    return suffix in (".png", ".csv", ".md", ".jsonl", ".pt", ".safetensors", ".ckpt")
 
 
 def check_replaceable(paths: list[Path]) -> None:

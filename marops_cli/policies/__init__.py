@@ -1,5 +1,5 @@
-"""Flight-range policies: the protocol, baselines, landing rules, observation and the
-TorchScript loader."""
+"""Flight-range policies: the protocol, baselines, landing rules, observation, the actor
+network and the loader of trained actor files."""
 
 from .base import Policy, WindowView
 from .baselines import GlobalPolicy, GreedyPolicy, MyopicPolicy, RandomPolicy, StayPolicy

@@ -99,6 +99,6 @@ class DirectPolicy(TorchScriptPolicy):
     scope: Literal["range", "global"] = "range"
     planner: str | None = SLOT_PLANNER  # its slots rank the paper's subset plans
 
-    def __init__(self, path: str | Path) -> None:
-        super().__init__(path, slots=SlotSelector)
+    def __init__(self, path: str | Path, *, trust: bool = False) -> None:
+        super().__init__(path, slots=SlotSelector, trust=trust)
         self.name = f"mappo:{self.path.name}"

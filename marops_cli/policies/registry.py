@@ -98,9 +98,11 @@ def default_policy_path(name: str = DEFAULT_POLICY_NAME) -> Path | None:
     return path if path.is_file() else None
 
 
-def make_policy(spec: str | PolicySpec, seed: int = 0) -> Policy:
+def make_policy(spec: str | PolicySpec, seed: int = 0, *, trust: bool = False) -> Policy:
     """The policy of ``spec`` (a :class:`PolicySpec` or its text, see
-    :meth:`PolicySpec.parse`); ``seed`` seeds the random baseline."""
+    :meth:`PolicySpec.parse`); ``seed`` seeds the random baseline. A trained actor loads
+    from its weights file; ``trust`` (``--trust-actor``) lets a TorchScript file without
+    one load, running its code (docs/method.md §6, "Trust model of actor files")."""
     if isinstance(spec, str):
         spec = PolicySpec.parse(spec)
     resolved = spec.shipped()
@@ -127,5 +129,5 @@ def make_policy(spec: str | PolicySpec, seed: int = 0) -> Policy:
     if "plan_slots" in read_sidecar(spec.path):  # a MAPPO actor: destination x plan slot
         from .direct import DirectPolicy
 
-        return DirectPolicy(Path(spec.path))
-    return TorchScriptPolicy(Path(spec.path))
+        return DirectPolicy(Path(spec.path), trust=trust)
+    return TorchScriptPolicy(Path(spec.path), trust=trust)

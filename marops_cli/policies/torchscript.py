@@ -1,8 +1,10 @@
-"""A trained actor exported as TorchScript, with its JSON sidecar (docs/method.md §6).
+"""A trained actor file with its JSON sidecar (docs/method.md §6).
 
-The module's contract is ``forward(obs, hidden) -> (logits, hidden)`` with
-``obs`` of shape ``(U, obs_dim)`` and ``hidden`` of shape ``(U, hidden_size)``.
-Loading needs torch only: no training code is imported.
+The actor's contract is ``forward(obs, hidden) -> (logits, hidden)`` with ``obs`` of
+shape ``(U, obs_dim)`` and ``hidden`` of shape ``(U, hidden_size)``. Its weights load as
+data from the safetensors file beside it (:mod:`.weights`); the TorchScript file itself,
+which runs its author's code when loaded, only with ``trust`` (``--trust-actor``) and no
+weights file. Loading needs torch only: no training code is imported.
 """
 
 from __future__ import annotations
@@ -51,17 +53,51 @@ def read_sidecar(model_path: str | Path) -> dict[str, Any]:
     return doc
 
 
+def load_module(path: Path, side: dict[str, Any], trust: bool) -> Any:
+    """The actor of ``path`` in eval mode: rebuilt from the weights file beside it when
+    there is one, else the TorchScript module, loaded only when ``trust`` is given."""
+    # Deferred: the network imports torch, which the other policies never pay for.
+    from .weights import load_weights, weights_path
+
+    if weights_path(path).is_file():
+        return load_weights(path, side, sidecar_path(path))
+    if not trust:
+        raise InputError(
+            f"no weights file {weights_path(path).name} beside this actor, and loading "
+            "TorchScript runs its author's code: pass --trust-actor if you trust its author, "
+            "or re-export it with marops train",
+            file=path,
+        )
+    import torch  # deferred: importing torch costs a second the other policies never pay
+
+    try:
+        with warnings.catch_warnings():
+            # torch 2.13 marks TorchScript deprecated; the format is our artifact contract.
+            warnings.simplefilter("ignore", DeprecationWarning)
+            module = torch.jit.load(str(path), map_location="cpu")
+    except (RuntimeError, ValueError) as exc:
+        raise InputError(f"not a TorchScript module ({exc})", file=path) from exc
+    module.eval()
+    return module
+
+
 class TorchScriptPolicy(RecurrentPolicy):
-    """Greedy (arg-max) actions of a recurrent TorchScript actor and its sidecar, flown by
-    the one drive of every recurrent actor (:class:`~.recurrent.RecurrentPolicy`)."""
+    """Greedy (arg-max) actions of a trained actor file and its sidecar (the network
+    rebuilt from its weights, or its TorchScript when trusted), flown by the one drive of
+    every recurrent actor (:class:`~.recurrent.RecurrentPolicy`)."""
 
     scope: Literal["range", "global"] = "range"
 
-    def __init__(self, path: str | Path, *, slots: Callable[[int], Any] | None = None) -> None:
+    def __init__(
+        self,
+        path: str | Path,
+        *,
+        slots: Callable[[int], Any] | None = None,
+        trust: bool = False,
+    ) -> None:
         """``slots`` makes the selector of an actor with plan slots (the MAPPO baseline:
-        its sidecar names ``plan_slots``) from their number."""
-        import torch  # deferred: importing torch costs a second the other policies never pay
-
+        its sidecar names ``plan_slots``) from their number; ``trust`` lets a TorchScript
+        file without a weights file beside it load (and run its code)."""
         self.path = Path(path)
         if not self.path.is_file():
             raise InputError("policy file not found", file=self.path)
@@ -69,14 +105,7 @@ class TorchScriptPolicy(RecurrentPolicy):
         if slots is not None and "plan_slots" not in self.sidecar:
             raise InputError("not a MAPPO actor: its sidecar has no plan_slots", file=self.path)
         n_slots = int(self.sidecar["plan_slots"]) if slots is not None else 1
-        try:
-            with warnings.catch_warnings():
-                # torch 2.13 marks TorchScript deprecated; the format is our artifact contract.
-                warnings.simplefilter("ignore", DeprecationWarning)
-                module = torch.jit.load(str(self.path), map_location="cpu")
-        except (RuntimeError, ValueError) as exc:
-            raise InputError(f"not a TorchScript module ({exc})", file=self.path) from exc
-        module.eval()
+        module = load_module(self.path, self.sidecar, trust)
         super().__init__(
             module,
             int(self.sidecar["n_actions"]),

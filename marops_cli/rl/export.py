@@ -1,8 +1,11 @@
-"""The trained actor as a self-describing artifact: TorchScript + JSON sidecar (docs/method.md §6).
+"""The trained actor as a self-describing artifact: TorchScript, weights and JSON sidecar
+(docs/method.md §6).
 
 ``X.pt`` holds ``forward(obs, hidden) -> (logits, hidden)`` and loads with plain
-``torch.jit.load``; ``X.json`` says how to feed it (observation version, number
-of actions, hidden size) and how it was made (data hash, command, seed, config,
+``torch.jit.load`` (which runs the file's code: marops does so only with
+``--trust-actor``); ``X.safetensors`` holds the same weights as data, which marops
+rebuilds into the known network; ``X.json`` says how to feed it (observation version,
+number of actions, network sizes) and how it was made (data hash, command, seed, config,
 held-out metrics), so anyone can check or re-train it; ``X.curve.png`` draws the
 training curve.
 """
@@ -18,9 +21,8 @@ import torch
 
 from ..io.atomic import output_set
 from ..policies.observation import OBS_VERSION, ObsVersion
+from ..policies.weights import ACTOR_FORMAT, weights_path
 from .networks import Actor
-
-ARTIFACT_FORMAT = "marops-actor/1"
 
 
 def script_actor(actor: Actor) -> torch.jit.ScriptModule:
@@ -42,15 +44,26 @@ def actor_bytes(actor: Actor) -> bytes:
     return buf.getvalue()
 
 
+def weights_bytes(actor: Actor) -> bytes:
+    """The actor's weights as a safetensors file (names of its state dict, float32)."""
+    from safetensors.torch import save
+
+    state = {
+        k: v.detach().to("cpu", torch.float32).contiguous() for k, v in actor.state_dict().items()
+    }
+    return save(state)
+
+
 def write_actor(actor: Actor, path: str | Path, sidecar: dict[str, Any]) -> dict[str, Any]:
-    """Write ``path`` (TorchScript) and its ``.json`` sidecar together, atomically.
+    """Write ``path`` (TorchScript), its ``.safetensors`` weights and its ``.json`` sidecar
+    together, atomically.
 
     The sidecar gets the fields the loader requires (``obs_version``, ``n_actions``,
     ``hidden_size``) on top of ``sidecar``; returns the document written.
     """
     path = Path(path)
     doc = {
-        "format": ARTIFACT_FORMAT,
+        "format": ACTOR_FORMAT,
         "obs_version": int(OBS_VERSION),
         "obs_dim": actor.encoder.in_features,
         "n_logits": actor.head.out_features,
@@ -63,6 +76,7 @@ def write_actor(actor: Actor, path: str | Path, sidecar: dict[str, Any]) -> dict
         doc["n_actions"] = actor.head.out_features - (1 if free else 0)
     with output_set() as files:
         files.write_bytes(path, actor_bytes(actor))
+        files.write_bytes(weights_path(path), weights_bytes(actor))
         files.write_json(path.with_suffix(".json"), doc)
         if doc.get("learning_curve"):
             from .curve import curve_png

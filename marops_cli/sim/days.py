@@ -106,7 +106,9 @@ class ReplayWork:
 
     def _pol(self) -> Policy:
         if self._policy is None:
-            self._policy = method_policy(self.method, self.policy, self.seed)
+            # --trust-actor, carried in every area's config (one run, one choice).
+            trust = any(scn.cfg.sim.trust_actor for scn, _ in self.areas.values())
+            self._policy = method_policy(self.method, self.policy, self.seed, trust=trust)
         return self._policy
 
     def run(self, job: DayJob, on_window: Callable[[WindowPlan], None] | None = None) -> DayOutput:

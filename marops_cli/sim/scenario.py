@@ -86,11 +86,16 @@ def other_actor(method: str, policy: Policy, sha256: str) -> str | None:
 
 
 def method_policy(
-    method: str, policy: str | None, seed: int, *, actors: Mapping[str, Path] | None = None
+    method: str,
+    policy: str | None,
+    seed: int,
+    *,
+    actors: Mapping[str, Path] | None = None,
+    trust: bool = False,
 ) -> Policy:
     """The policy a method runs: ``policy`` (a spec) when given, else the method's own,
     whose shipped actor ``actors`` replaces by policy kind (``learned``, ``direct``:
-    evaluate's ``--policy`` and ``--mappo-policy``)."""
+    evaluate's ``--policy`` and ``--mappo-policy``); ``trust``: ``cfg.sim.trust_actor``."""
     if method not in METHODS:
         raise InputError(f"unknown method {method!r}: expected one of {', '.join(METHODS)}")
     spec = PolicySpec.parse(policy or method_spec(method).policy)
@@ -100,7 +105,7 @@ def method_policy(
     if resolved is None:
         why = _NOT_SHIPPED[spec.kind].format(name=SHIPPED[spec.kind])
         raise InputError(f"method {method!r} {why}")
-    return make_policy(resolved, seed)
+    return make_policy(resolved, seed, trust=trust)
 
 
 @dataclass

@@ -1,5 +1,6 @@
-"""Actor files of another model are one-line errors naming the file (exit 2), found by
-one probe call before any planning; an actor that outputs NaN stops the run."""
+"""Trusted TorchScript actor files (``--trust-actor``, no weights file beside them) of
+another model are one-line errors naming the file (exit 2), found by one probe call before
+any planning; an actor that outputs NaN stops the run."""
 
 from __future__ import annotations
 
@@ -48,7 +49,7 @@ def test_bad_actor_file_is_one_line(example_csv: Path, tmp_path: Path, case, fai
     make, side, needle = CASES[case]
     path = _actor(tmp_path, make(), **side)
     args = ["replay-day", str(example_csv), "--date", "0811", "--method", "marops"]
-    args += ["--policy", str(path), "--out", str(tmp_path / "out")]
+    args += ["--policy", str(path), "--trust-actor", "--out", str(tmp_path / "out")]
     line = fails_cleanly(args, tmp_path, "actor.")
     if case == "non-numeric observation version":
         assert "obs_version" in line and "'three'" in line
@@ -63,7 +64,8 @@ def test_an_actor_that_outputs_nan_stops_the_run(example_csv: Path, tmp_path: Pa
 
     path = _actor(tmp_path, Shaped(4, 8, float("nan")))
     args = ["replay-day", str(example_csv), "--date", "0811", "--method", "marops"]
-    res = CliRunner().invoke(app, [*args, "--policy", str(path), "--out", str(tmp_path / "o")])
+    args += ["--policy", str(path), "--trust-actor"]
+    res = CliRunner().invoke(app, [*args, "--out", str(tmp_path / "o")])
     assert res.exit_code == 1
     assert "actor.pt: the actor returned NaN or infinite logits" in res.stderr
     assert not (tmp_path / "o").exists()

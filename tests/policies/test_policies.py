@@ -95,7 +95,8 @@ def test_observation_is_layout_independent_in_shape() -> None:
 
 
 class _TinyActor(torch.nn.Module):
-    """forward(obs, hidden) -> (logits, hidden), untrained."""
+    """forward(obs, hidden) -> (logits, hidden), untrained; a TorchScript file without
+    weights, so it loads only as trusted."""
 
     def __init__(self, n_obs: int, n_actions: int, hidden: int) -> None:
         super().__init__()
@@ -120,8 +121,8 @@ def _export(tmp_path: Path, n_actions: int = 3, version: int = 2) -> Path:
 def test_torchscript_actor_loads_and_acts_deterministically(tmp_path: Path) -> None:
     path = _export(tmp_path)
     view = _view([1.0, 0.5], [(4000.0, 0.0), (2000.0, 50.0)], [0, 1, 2])
-    p1 = make_policy(f"torchscript:{path}")
-    p2 = TorchScriptPolicy(path)
+    p1 = make_policy(f"torchscript:{path}", trust=True)
+    p2 = TorchScriptPolicy(path, trust=True)
     first = p1.act(view)
     assert first.shape == (3,) and ((first >= 0) & (first < 3)).all()
     assert np.array_equal(first, p2.act(view))
@@ -139,7 +140,7 @@ def test_torchscript_actor_loads_and_acts_deterministically(tmp_path: Path) -> N
 def test_torchscript_actor_mismatches_are_input_errors(tmp_path: Path) -> None:
     view = _view([1.0], [(4000.0, 0.0)], [0])
     with pytest.raises(InputError, match="expects 4 actions"):
-        TorchScriptPolicy(_export(tmp_path, n_actions=4)).act(view)
+        TorchScriptPolicy(_export(tmp_path, n_actions=4), trust=True).act(view)
     with pytest.raises(InputError, match="observation version"):
         TorchScriptPolicy(_export(tmp_path, version=OBS_VERSION + 7))
     (tmp_path / "tiny.json").unlink()
@@ -225,7 +226,7 @@ def test_myopic_takes_the_best_plan_and_spreads_drones() -> None:
 def test_version3_actor_chooses_drone_by_drone(tmp_path: Path) -> None:
     path = _export(tmp_path, version=3)
     view = _view([1.0, 0.5], [(4000.0, 0.0), (2000.0, 50.0)], [0, 0, 2])
-    pol = make_policy(f"torchscript:{path}")
+    pol = make_policy(f"torchscript:{path}", trust=True)
     acts = pol.act(view)
     # The same choices by hand: observe drone by drone, arg-max of the module's logits.
     module = torch.jit.load(str(path))
@@ -281,7 +282,8 @@ def test_one_method_policy_takes_evaluate_actor_overrides(tmp_path: Path) -> Non
     from marops_cli.sim.scenario import method_policy
 
     mine = _export(tmp_path)
-    assert method_policy("marops", None, 0, actors={"learned": mine}).identity == mine
+    trusted = method_policy("marops", None, 0, actors={"learned": mine}, trust=True)
+    assert trusted.identity == mine
     assert method_policy("marops", None, 0, actors={"direct": mine}).identity != mine
     assert isinstance(method_policy("marops", "greedy", 0, actors={"learned": mine}), GreedyPolicy)
     with pytest.raises(InputError, match="unknown method 'nope'"):

@@ -83,7 +83,8 @@ def test_smoke_writes_actor_sidecar_checkpoint(
     res = run_training(tiny_csv, setup, out, progress=rec)
     side, events = res.sidecar, rec.events
     assert out.is_file() and out.with_suffix(".ckpt").is_file()
-    assert res.files == [out, *(out.with_suffix(x) for x in (".json", ".curve.png", ".ckpt"))]
+    beside = (".safetensors", ".json", ".curve.png", ".ckpt")
+    assert res.files == [out, *(out.with_suffix(x) for x in beside)]
     assert all(f.is_file() for f in res.files) and len(res.curve) == 2
     assert res.heldout == side["heldout"] and rec.advances == rec.total == 4  # one per episode
     doc = json.loads(out.with_suffix(".json").read_text())

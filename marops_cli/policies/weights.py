@@ -1,0 +1,111 @@
+"""An actor's weights as data: ``NAME.safetensors`` beside ``NAME.pt``, rebuilt into the
+known network (:class:`~.network.Actor`) from the sizes its sidecar gives.
+
+Nothing of the file runs: a safetensors file is a JSON header and raw numbers. Every
+tensor's name, shape and dtype is checked against the network the sidecar describes, and
+the sizes against the bounds below, before anything is allocated (docs/method.md §6,
+"Trust model of actor files").
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+from ..errors import InputError
+from .network import Actor, actor_shapes
+
+ACTOR_FORMAT = "marops-actor/1"
+"""The sidecar's ``format`` of an actor whose weights rebuild :class:`~.network.Actor`."""
+# Bounds on the network a sidecar may describe, so that a hostile sidecar cannot make the
+# loader allocate gigabytes; the shipped actors have 64 units and at most 99 features.
+MAX_SIZES = {"obs_dim": 100_000, "n_logits": 100_000, "hidden_size": 4096}
+MAX_PARAMETERS = 1 << 25
+"""At most 33,554,432 weights (128 MiB of float32)."""
+
+
+def weights_path(model_path: str | Path) -> Path:
+    """``policies/marops-basic.pt`` -> ``policies/marops-basic.safetensors``."""
+    return Path(model_path).with_suffix(".safetensors")
+
+
+def network_sizes(side: dict[str, Any], sidecar: Path) -> tuple[int, int, int]:
+    """``(obs_dim, n_logits, hidden_size)`` of the sidecar ``side`` (read from the file
+    ``sidecar``), each a whole number within :data:`MAX_SIZES`."""
+    if side.get("format") != ACTOR_FORMAT:
+        raise InputError(
+            f"expected format {ACTOR_FORMAT!r} to rebuild the network from its weights, "
+            f"got {side.get('format')!r}",
+            file=sidecar,
+            column="format",
+        )
+    sizes = []
+    for key, bound in MAX_SIZES.items():
+        value = side.get(key)
+        if isinstance(value, bool) or not isinstance(value, int) or not 1 <= value <= bound:
+            raise InputError(
+                f"expected a whole number from 1 to {bound}, got {value!r}",
+                file=sidecar,
+                column=key,
+            )
+        sizes.append(value)
+    obs, logits, hidden = sizes
+    n = sum(math.prod(s) for s in actor_shapes(obs, logits, hidden).values())
+    if n > MAX_PARAMETERS:
+        raise InputError(
+            f"the network it describes has {n:,} weights, more than the bound {MAX_PARAMETERS:,}",
+            file=sidecar,
+            column="hidden_size",
+        )
+    return obs, logits, hidden
+
+
+def load_weights(model_path: str | Path, side: dict[str, Any], sidecar: Path) -> Actor:
+    """The actor of ``model_path``'s weights file, in eval mode, after checking each
+    tensor against the network of the sidecar ``side``."""
+    import torch
+    from safetensors import SafetensorError, safe_open
+
+    path = weights_path(model_path)
+    sizes = network_sizes(side, sidecar)
+    expect = actor_shapes(*sizes)
+    limit = 4 * sum(math.prod(s) for s in expect.values()) + (1 << 20)  # data + header
+    if path.stat().st_size > limit:
+        raise InputError(
+            f"larger than the network its sidecar describes ({limit:,} bytes)", file=path
+        )
+    try:
+        with safe_open(str(path), framework="pt", device="cpu") as f:
+            _check_tensors(f, expect, path)
+            state = {name: f.get_tensor(name) for name in expect}
+    except (SafetensorError, OSError, ValueError) as exc:
+        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        raise InputError(f"not a safetensors weights file ({first})", file=path) from None
+    for name, tensor in state.items():
+        if not bool(torch.isfinite(tensor).all()):
+            raise InputError("NaN or infinite weights", file=path, column=name)
+    with torch.device("meta"):  # no allocation, no initialisation: the weights replace them
+        actor = Actor(*sizes)
+    actor.load_state_dict(state, assign=True)
+    return actor.eval()
+
+
+def _check_tensors(f: Any, expect: dict[str, tuple[int, ...]], path: Path) -> None:
+    """Raise unless the open safetensors file ``f`` holds exactly the tensors of
+    ``expect``, float32 and of those shapes (read from its header, before any data)."""
+    names = set(f.keys())
+    extra = sorted(names - expect.keys())
+    if extra:
+        raise InputError("a tensor the actor network does not have", file=path, column=extra[0])
+    for name, shape in expect.items():
+        if name not in names:
+            raise InputError("the actor network's tensor is missing", file=path, column=name)
+        part = f.get_slice(name)
+        got, dtype = tuple(part.get_shape()), part.get_dtype()
+        if dtype != "F32" or got != shape:
+            raise InputError(
+                f"expected float32 {list(shape)} (the sidecar's network), got {dtype} {list(got)}",
+                file=path,
+                column=name,
+            )

@@ -1,0 +1,267 @@
+"""Actor files never run code unless trusted (docs/method.md §6, "Trust model of actor
+files"): the weights load as data from ``NAME.safetensors``; a TorchScript file, which
+runs its author's code when loaded, only with ``--trust-actor``."""
+
+from __future__ import annotations
+
+import json
+import os
+import pickle
+from collections.abc import Callable
+from pathlib import Path
+
+import pytest
+import torch
+from safetensors.torch import save_file
+
+from marops_cli.errors import InputError
+from marops_cli.policies.network import Actor
+from marops_cli.policies.observation import n_choices, obs_dim
+from marops_cli.policies.registry import make_policy
+from marops_cli.policies.torchscript import TorchScriptPolicy
+from marops_cli.policies.weights import MAX_SIZES, weights_path
+from marops_cli.rl.export import write_actor
+
+# torch 2.13 deprecates TorchScript; the tests still need it to build hostile files.
+pytestmark = pytest.mark.filterwarnings("ignore:`torch.jit:DeprecationWarning")
+
+N_ACTIONS = 4
+WIDTH = obs_dim(N_ACTIONS)  # the current observation version, as plan-window flies it
+LOGITS = n_choices(N_ACTIONS)
+HIDDEN = 8
+SIDECAR = {
+    "format": "marops-actor/1",
+    "obs_version": 4,
+    "n_actions": N_ACTIONS,
+    "obs_dim": WIDTH,
+    "n_logits": LOGITS,
+    "hidden_size": HIDDEN,
+}
+
+
+class WritesOnLoad(torch.nn.Module):
+    """Creates ``target`` when TorchScript restores it (``__setstate__``)."""
+
+    def __init__(self, target: str) -> None:
+        super().__init__()
+        self.target = target
+
+    def forward(self, obs: torch.Tensor, h: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        return obs[:, :5], h
+
+    @torch.jit.export
+    def __getstate__(self) -> tuple[str, bool]:
+        return (self.target, self.training)
+
+    @torch.jit.export
+    def __setstate__(self, state: tuple[str, bool]) -> None:
+        self.target = state[0]
+        planted = torch.from_file(self.target, shared=True, size=16)
+        self.training = state[1] and planted.numel() > 0  # used, so the JIT keeps the call
+
+
+class WritesOnForward(torch.nn.Module):
+    """Creates ``target`` on every call, the probe call included."""
+
+    def __init__(self, target: str) -> None:
+        super().__init__()
+        self.target = target
+
+    def forward(self, obs: torch.Tensor, h: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        planted = torch.from_file(self.target, shared=True, size=1)
+        return obs[:, :5] + 0.0 * planted.sum(), h
+
+
+class SystemOnUnpickle:
+    """A plain pickle whose loading runs a shell command touching ``target``."""
+
+    def __init__(self, target: Path) -> None:
+        self.target = target
+
+    def __reduce__(self) -> tuple[Callable[[str], int], tuple[str]]:
+        return (os.system, (f"touch '{self.target}'",))
+
+
+def _torchscript(module: torch.nn.Module, path: Path) -> Path:
+    torch.jit.save(torch.jit.script(module), str(path))
+    return path
+
+
+def _hostile(kind: str, folder: Path, target: Path) -> Path:
+    """A hostile ``evil.pt`` in ``folder`` whose payload creates ``target``."""
+    path = folder / "evil.pt"
+    if kind == "pickle":
+        path.write_bytes(pickle.dumps(SystemOnUnpickle(target)))
+        return path
+    cls = WritesOnLoad if kind == "setstate" else WritesOnForward
+    return _torchscript(cls(str(target)), path)
+
+
+def test_the_hostile_files_do_write_when_loaded_as_trusted(tmp_path: Path) -> None:
+    """The payloads work: plain torch.jit.load (and a call) writes the attacker's file."""
+    on_load, on_forward = tmp_path / "a.pth", tmp_path / "b.pth"
+    torch.jit.load(str(_torchscript(WritesOnLoad(str(on_load)), tmp_path / "l.pt")))
+    assert on_load.exists()
+    module = torch.jit.load(str(_torchscript(WritesOnForward(str(on_forward)), tmp_path / "f.pt")))
+    assert not on_forward.exists()
+    module(torch.zeros(2, WIDTH), torch.zeros(2, HIDDEN))
+    assert on_forward.exists()
+    planted = tmp_path / "c.pth"
+    pickle.loads(pickle.dumps(SystemOnUnpickle(planted)))
+    assert planted.exists()
+
+
+def _bad_weights(path: Path) -> None:
+    """A weights file whose encoder is not the sidecar's (16 features, not WIDTH)."""
+    state = {k: v.contiguous() for k, v in Actor(16, LOGITS, HIDDEN).state_dict().items()}
+    save_file(state, str(weights_path(path)))
+
+
+BESIDE = ("nothing", "sidecar", "sidecar and other weights")
+
+
+@pytest.mark.parametrize("beside", BESIDE)
+@pytest.mark.parametrize("kind", ["setstate", "forward", "pickle"])
+@pytest.mark.parametrize("command", ["plan-window", "replay-day"])
+def test_a_hostile_actor_file_runs_nothing(
+    example_csv: Path, tmp_path: Path, fails_cleanly, command: str, kind: str, beside: str
+) -> None:
+    folder, victim = tmp_path / "actor", tmp_path / "victim"
+    folder.mkdir()
+    victim.mkdir()
+    target = victim / "planted.pth"
+    path = _hostile(kind, folder, target)
+    needles = [str(path.with_suffix(".json")), "not found"]  # the sidecar is read first
+    if beside != "nothing":
+        path.with_suffix(".json").write_text(json.dumps(SIDECAR))
+    if beside == "sidecar":
+        needles = [str(path), "--trust-actor"]
+    if beside == "sidecar and other weights":
+        _bad_weights(path)
+        needles = [str(weights_path(path)), "encoder.weight"]
+    out = tmp_path / "out"
+    args = [command, str(example_csv), "--date", "0811", "--policy", str(path), "--out", str(out)]
+    if command == "plan-window":
+        args += ["--window", "20", "--depots", str(tmp_path / "depots.json")]
+    fails_cleanly(args, tmp_path, *needles)
+    assert not target.exists(), "the actor file's payload ran"
+    assert list(victim.iterdir()) == []
+
+
+def test_even_trusted_a_plain_pickle_is_never_unpickled(
+    example_csv: Path, tmp_path: Path, fails_cleanly
+) -> None:
+    target = tmp_path / "victim.pth"
+    path = _hostile("pickle", tmp_path, target)
+    path.with_suffix(".json").write_text(json.dumps(SIDECAR))
+    args = ["replay-day", str(example_csv), "--date", "0811", "--policy", str(path)]
+    args += ["--trust-actor", "--out", str(tmp_path / "out")]
+    fails_cleanly(args, tmp_path, str(path), "not a TorchScript module")
+    assert not target.exists()
+
+
+def _valid(tmp_path: Path, seed: int = 0) -> tuple[Path, Actor]:
+    torch.manual_seed(seed)
+    actor = Actor(WIDTH, LOGITS, HIDDEN)
+    with torch.no_grad():  # non-trivial logits: the head starts near zero
+        actor.head.weight.normal_(0.0, 1.0)
+    path = tmp_path / "mine.pt"
+    write_actor(actor, path, {})
+    return path, actor
+
+
+def test_a_valid_actor_loads_as_data_with_the_actions_of_its_torchscript(tmp_path: Path) -> None:
+    path, _ = _valid(tmp_path)
+    assert weights_path(path).is_file()
+    pol = make_policy(f"torchscript:{path}")
+    assert isinstance(pol._module, Actor), "rebuilt from the weights, not TorchScript"
+    scripted = torch.jit.load(str(path))
+    obs = torch.rand(6, WIDTH, generator=torch.Generator().manual_seed(1)) * 3.0
+    h = torch.zeros(6, HIDDEN)
+    with torch.no_grad():
+        for _ in range(3):  # the hidden state carries over steps
+            got, got_h = pol._module(obs, h)
+            want, want_h = scripted(obs, h)
+            assert torch.equal(got, want) and torch.equal(got_h, want_h)
+            h = got_h
+    assert got.argmax(1).tolist() == want.argmax(1).tolist()
+
+
+def _load_error(path: Path) -> str:
+    with pytest.raises(InputError) as err:
+        TorchScriptPolicy(path)
+    return str(err.value)
+
+
+def test_a_sidecar_that_does_not_describe_the_weights_is_refused(tmp_path: Path) -> None:
+    path, _ = _valid(tmp_path)
+    side = json.loads(path.with_suffix(".json").read_text())
+    path.with_suffix(".json").write_text(json.dumps({**side, "hidden_size": 16}))
+    line = _load_error(path)
+    assert str(weights_path(path)) in line and "'encoder.weight'" in line
+    assert "[16, " in line and f"[{HIDDEN}, {WIDTH}]" in line
+
+
+@pytest.mark.parametrize(
+    ("change", "key"),
+    [
+        ({"hidden_size": MAX_SIZES["hidden_size"] + 1}, "hidden_size"),
+        ({"obs_dim": 10**9}, "obs_dim"),
+        ({"n_logits": "many"}, "n_logits"),
+        ({"obs_dim": 100_000, "hidden_size": 4096}, "hidden_size"),  # too many weights
+        ({"format": "pickle"}, "format"),
+    ],
+)
+def test_sizes_beyond_the_bounds_are_refused_before_allocating(
+    tmp_path: Path, change: dict, key: str
+) -> None:
+    path, _ = _valid(tmp_path)
+    side = json.loads(path.with_suffix(".json").read_text())
+    path.with_suffix(".json").write_text(json.dumps({**side, **change}))
+    line = _load_error(path)
+    assert str(path.with_suffix(".json")) in line and f"'{key}'" in line
+
+
+def test_weights_with_other_tensors_or_dtypes_are_refused(tmp_path: Path) -> None:
+    path, actor = _valid(tmp_path)
+    state = {k: v.contiguous() for k, v in actor.state_dict().items()}
+    save_file({**state, "extra": torch.zeros(2)}, str(weights_path(path)))
+    assert "'extra'" in _load_error(path)
+    save_file({**state, "head.bias": state["head.bias"].double()}, str(weights_path(path)))
+    assert "'head.bias'" in _load_error(path) and "F64" in _load_error(path)
+    del state["gru.bias_hh"]
+    save_file(state, str(weights_path(path)))
+    assert "'gru.bias_hh'" in _load_error(path)
+    weights_path(path).write_bytes(b"\xff" * 64)
+    assert "not a safetensors weights file" in _load_error(path)
+
+
+def test_trust_actor_loads_a_benign_torchscript_only_file(
+    example_csv: Path, tmp_path: Path, fails_cleanly
+) -> None:
+    from typer.testing import CliRunner
+
+    from marops_cli.cli.app import app
+
+    path, _ = _valid(tmp_path)
+    weights_path(path).unlink()  # TorchScript and sidecar only
+    # Two days go to worker processes, which load the actor as the command was told to.
+    args = ["replay-day", str(example_csv), "--dates", "0811..0812", "--workers", "2"]
+    args += ["--policy", str(path)]
+    fails_cleanly([*args, "--out", str(tmp_path / "refused")], tmp_path, "--trust-actor")
+    res = CliRunner().invoke(app, [*args, "--trust-actor", "--out", str(tmp_path / "o")])
+    assert res.exit_code == 0, res.output
+    assert (tmp_path / "o" / "2022-08-12" / "metrics.json").is_file()
+    evaluate = ["evaluate", str(example_csv), "--methods", "marops", "--policy", str(path)]
+    fails_cleanly([*evaluate, "--out", str(tmp_path / "ev")], tmp_path, "--trust-actor")
+
+
+def test_a_config_file_cannot_grant_trust(tmp_path: Path) -> None:
+    """Only the person at the command line trusts an actor file: a config file saying
+    ``[sim] trust_actor = true`` is refused, naming the key."""
+    from marops_cli.config import load_config
+
+    cfg = tmp_path / "planner.toml"
+    cfg.write_text("[sim]\ntrust_actor = true\n", encoding="utf-8")
+    with pytest.raises(InputError, match=r"column 'sim.trust_actor': only the --trust-actor"):
+        load_config(cfg)
