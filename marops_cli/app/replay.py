@@ -187,7 +187,7 @@ def _outputs(
     """Every file a replay into ``out`` may write (hub folders: those there already)."""
     fmt = options.fmt
     names = [f"stops.{fmt}", f"routes.{fmt}", "metrics.json"]
-    names += ["routes.png"] * options.plot + ["routes.geojson"] * options.geojson
+    names += ["routes.png", "operations.png"] * options.plot + ["routes.geojson"] * options.geojson
     folders = [out, *(out / d.isoformat() for d in days)] if several else [out]
     if hubs:  # out/hub-<id>/ below the city's metrics.json
         areas = [p for p in out.glob("hub-*") if p.is_dir()] if out.is_dir() else []

@@ -40,13 +40,14 @@ SUMMED = (
 @dataclass(frozen=True)
 class DayTables:
     """A replayed day's stops and routes tables (with their ``marops`` metadata, as in
-    the files) and, when drawn, its PNG."""
+    the files) and, when drawn, its PNGs (``routes.png``, ``operations.png``)."""
 
     hub: int
     day: dt.date
     stops: pa.Table
     routes: pa.Table
     png: bytes | None = None
+    ops_png: bytes | None = None
 
 
 @dataclass(frozen=True)
@@ -300,13 +301,20 @@ def _finish_day(
             write_route_files(files, folder, out.stops, out.routes, meta, run.fmt, run.geojson)
             if out.png is not None:
                 files.write_bytes(folder / "routes.png", out.png)
+            if out.ops_png is not None:
+                files.write_bytes(folder / "operations.png", out.ops_png)
             # metrics.json is renamed last: its presence means the day is complete.
             stamped = dict(meta, **run_meta(command="replay-day"), settings=area.identity)
             files.write_json(folder / "metrics.json", {"meta": stamped, "days": [out.metrics]})
     if not run.keep_tables:
         return out.metrics, None
     tables = DayTables(
-        area.scn.hub, day, with_meta(out.stops, meta), with_meta(out.routes, meta), out.png
+        area.scn.hub,
+        day,
+        with_meta(out.stops, meta),
+        with_meta(out.routes, meta),
+        out.png,
+        out.ops_png,
     )
     return out.metrics, tables
 

@@ -158,6 +158,48 @@ def unfairness_figure(summary: pa.Table, methods: Sequence[str], held: dict[str,
     return fig
 
 
+ACTIONS = metric_names("actions_stay", "actions_move", "actions_free")
+"""The decision shares the actions figure stacks (docs/outputs.md, "Day metrics")."""
+
+
+def actions_figure(summary: pa.Table, methods: Sequence[str], held: dict[str, float]) -> Figure:
+    """Per method at the base setting: the shares of its decisions to stay, move and
+    land freely (stacked bars), and beside them its windows waited for a battery per day
+    (under an operating model; else the panel says there were none to wait for)."""
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(2.4 * len(methods) + 3.0, 3.8), dpi=100, layout="constrained")
+    shares, waits = fig.subplots(1, 2)
+    rows = _slice(summary, "", held)
+    method = np.asarray(summary.column("method").to_pylist(), dtype=object)
+    pick = [int(np.flatnonzero(rows & (method == m))[0]) for m in methods]
+    bottom = np.zeros(len(methods))
+    for name, colour in zip(ACTIONS, ("tab:gray", "tab:orange", "tab:blue"), strict=True):
+        mean = summary.column(f"{name}_mean").to_numpy()[pick].astype(float)
+        shares.bar(list(methods), mean, bottom=bottom, color=colour, label=_kind(name))
+        bottom += mean
+    shares.set_ylim(0, 1)
+    shares.set_ylabel("share of decisions")
+    shares.legend(fontsize=8, loc="lower right")
+    shares.set_title(_held_text("", held), fontsize=9)
+    if "battery_waits_mean" in summary.column_names:
+        mean = summary.column("battery_waits_mean").to_numpy()[pick].astype(float)
+        std = summary.column("battery_waits_std").to_numpy()[pick].astype(float)
+        waits.bar(list(methods), mean, yerr=std, capsize=4, color="tab:red", alpha=0.8)
+    else:
+        waits.text(0.5, 0.5, "the paper's model:\nno battery waits", ha="center", va="center")
+        waits.set_xticks([])
+    waits.set_ylabel("windows waited for a battery per day")
+    for ax in (shares, waits):
+        ax.tick_params(axis="x", labelrotation=30, labelsize=8)
+        ax.grid(axis="y", alpha=0.3)
+    return fig
+
+
+def _kind(metric: str) -> str:
+    return {"stay": "stay", "move": "move", "free": "free landing"}[metric.split("_")[1]]
+
+
 def save_png(fig: Figure, path: str | Path) -> None:
     """Write ``fig`` as PNG (the path may be a temporary without the suffix)."""
     fig.savefig(path, format="png")

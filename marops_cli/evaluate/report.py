@@ -13,7 +13,7 @@ import pyarrow.csv as pacsv
 from ..io import file_sha256, output_set, run_meta
 from ..io.tables import with_meta, write_parquet
 from ..sim.metrics import metric_specs
-from .plots import base_values, save_png, sweep_figure, unfairness_figure
+from .plots import actions_figure, base_values, save_png, sweep_figure, unfairness_figure
 from .runner import Prepared
 from .settings import Setting, swept_flags
 from .tables import SUMMARY_METRICS
@@ -103,7 +103,8 @@ def summary_markdown(summary: pa.Table, prep: Prepared) -> str:
 
 
 def figures(summary: pa.Table, results: pa.Table, prep: Prepared) -> dict[str, Any]:
-    """File name -> figure: one per swept flag, and the delay-unfairness bars."""
+    """File name -> figure: one per swept flag, the delay-unfairness bars and the
+    methods' decisions and battery waits."""
     cfg = prep.cfg
     base = Setting(cfg.plan.alpha, cfg.sim.drones, cfg.plan.coverage, cfg.segment.n_depots)
     held = base_values(prep.settings, base)
@@ -112,6 +113,7 @@ def figures(summary: pa.Table, results: pa.Table, prep: Prepared) -> dict[str, A
         for flag in swept_flags(prep.settings)
     }
     figs["unfairness.png"] = unfairness_figure(summary, prep.methods, held)
+    figs["actions.png"] = actions_figure(summary, prep.methods, held)
     return figs
 
 

@@ -44,6 +44,13 @@ SUMMARY_METRICS = metric_names(
     "battery_frac_mean",
     "battery_frac_max",
     "solver_fallbacks",
+    "actions_stay",
+    "actions_move",
+    "actions_free",
+    "waiting_max",
+    # under an operating model only (the summary leaves out a column no row has)
+    "actions_idle",
+    "battery_waits",
 )
 DEPOT_LOAD_PREFIX = "depot_load_kg_"
 

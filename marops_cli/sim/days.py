@@ -55,13 +55,15 @@ class DayScope:
 
 @dataclass
 class DayOutput:
-    """A replayed day: its metrics, route tables, scope and (with ``plot``) the PNG."""
+    """A replayed day: its metrics, route tables, scope and (with ``plot``) its PNGs: the
+    routes map and the operations over the day."""
 
     metrics: dict[str, Any]
     stops: pa.Table
     routes: pa.Table
     scope: DayScope
     png: bytes | None = None
+    ops_png: bytes | None = None
 
 
 def only_days(scn: Scenario, days: list[dt.date]) -> Scenario:
@@ -114,14 +116,16 @@ class ReplayWork:
         res, reqs, metrics = replay(scn, job.day, fleet, self._pol(), self.method, on_window)
         stops, routes = route_tables(scn, reqs, res.plans, fleet, self.method)
         scope = DayScope.of(reqs)
-        png = None
+        png = ops_png = None
         if self.plot:
-            from .plot import plot_day
+            from .plot import plot_day, plot_operations
 
-            buf = io.BytesIO()  # matplotlib writes the same PNG bytes to a buffer
+            # matplotlib writes the same PNG bytes to a buffer
+            buf, ops_buf = io.BytesIO(), io.BytesIO()
             plot_day(res, reqs, buf)  # type: ignore[arg-type]
-            png = buf.getvalue()
-        return DayOutput(metrics, stops, routes, scope, png)
+            plot_operations(res, reqs, ops_buf)  # type: ignore[arg-type]
+            png, ops_png = buf.getvalue(), ops_buf.getvalue()
+        return DayOutput(metrics, stops, routes, scope, png, ops_png)
 
     def refuse(self) -> str | None:
         """Why this machine would not run the actor the command resolved, or None."""

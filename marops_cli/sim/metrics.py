@@ -10,6 +10,7 @@ from typing import Any
 import numpy as np
 
 from ..energy import EnergyModel
+from ..plans.view import FREE
 from .fleet import DEFAULT_TYPE, Fleet
 from .replay import FlownDay
 
@@ -72,6 +73,18 @@ DAY_METRICS: tuple[MetricSpec, ...] = (
     _M("objective_j_mj", "MJ", "Day objective J (MJ)", "{:.2f}", "J MJ", "{:.2f}", True),
     _M("objective_g_mj", "MJ", "Day objective G (MJ)", "{:.2f}", "G MJ", "{:.2f}", False),
     _M("delivered_share", "0–1", "Delivered share", "{:.3f}", "delivered share", "{:.3f}", False),
+    _M("actions_stay", "0–1", "Decisions to stay", "{:.3f}", "stay", "{:.3f}", None),
+    _M("actions_move", "0–1", "Decisions to move", "{:.3f}", "move", "{:.3f}", None),
+    _M("actions_free", "0–1", "Decisions to land freely", "{:.3f}", "free", "{:.3f}", None),
+    _M(
+        "waiting_max",
+        "count",
+        "Most parcels waiting at a depot",
+        "{:.1f}",
+        "waiting max",
+        "{}",
+        None,
+    ),
     _M("solver_calls", "count", "Selection programs per day", "{:.1f}", "solves", "{}", None),
     _M("solver_fallbacks", "count", "Solver fallbacks per day", "{:.1f}", "fallbacks", "{}", True),
     _M("solver_solve_s", "s", "Selection solve time (s)", "{:.2f}", "solve s", "{:.3f}", True),
@@ -94,6 +107,7 @@ DAILY_COMBINED_COST = _M(
 # record only when the day ran under a model other than the paper's, so the paper's
 # records and tables stay as they were.
 OPS_METRICS: tuple[MetricSpec, ...] = (
+    _M("actions_idle", "0–1", "Drone-windows held back", "{:.3f}", "idle", "{:.3f}", None),
     _M(
         "battery_waits",
         "count",
@@ -204,6 +218,7 @@ def ops_metrics(st: Any) -> dict[str, Any]:
         return {}
     left = np.bincount(st.area[st.delivered_w < 0], minlength=len(st.depots))
     return {
+        "actions_idle": float(np.mean(ops.held_w != 0)) if ops.held_w.size else 0.0,
         "battery_waits": int(ops.battery_waits),
         "busy_windows": int(ops.busy_windows),
         "stock_left": {str(i): int(n) for i, n in enumerate(left)},
@@ -211,6 +226,32 @@ def ops_metrics(st: Any) -> dict[str, Any]:
         "stock_left_max": int(left.max(initial=0)),
         "charged_min": ops.charged_min(),
     }
+
+
+ACTION_KINDS = ("stay", "move", "free")
+"""What a drone that could fly decided in a window (docs/outputs.md, "Day metrics"): stay
+(action 0), move (to another candidate depot) or land freely (``FREE``, and every
+decision under the ``global`` scope, whose routes land nearest their last customer)."""
+
+
+def action_shares(res: FlownDay) -> dict[str, float]:
+    """The share of each :data:`ACTION_KINDS` among the day's decisions of drones that
+    could fly (``actions_stay``, ``actions_move``, ``actions_free``; they sum to 1, or are
+    all 0 without a decision). The action is the one flown (``DroneRoute.action``: a
+    destination out of reach flies as stay); drones held back by the operating model
+    (busy, or waiting for a battery) decide nothing and count in ``actions_idle``."""
+    held = None if res.state.ops is None else res.state.ops.held_w
+    counts = dict.fromkeys(ACTION_KINDS, 0)
+    for plan in res.plans:
+        for r in plan.routes:
+            if held is not None and plan.t < held.shape[0] and held[plan.t, r.drone]:
+                continue
+            if res.scope == "global" or r.action == FREE:
+                counts["free"] += 1
+            else:
+                counts["stay" if r.action == 0 else "move"] += 1
+    n = sum(counts.values())
+    return {f"actions_{k}": c / n if n else 0.0 for k, c in counts.items()}
 
 
 def day_metrics(
@@ -282,6 +323,8 @@ def day_metrics(
         "objective_j_mj": sum(s.J for s in scores) / 1e6,
         "objective_g_mj": sum(s.G for s in scores) / 1e6,
         "delivered_share": float(delivered.mean()) if delivered.size else 1.0,
+        **action_shares(res),
+        "waiting_max": int(st.waiting_w.max(initial=0)),
         "solver": {
             "calls": len(sel),
             "fallbacks": int(sum(s.fallback for s in sel)),

@@ -23,9 +23,11 @@ import numpy as np
 
 from ..config import OpsConfig
 
-__all__ = ["Operations"]
+__all__ = ["BUSY", "WAITING", "Operations"]
 
 _EPS = 1e-9
+BUSY = 1  # a drone still on a long flight
+WAITING = 2  # a drone waiting for a charged battery
 
 
 class Operations:
@@ -46,6 +48,9 @@ class Operations:
         self.busy_windows = 0
         self.charged_w = np.zeros((n_windows, n_depots), dtype=np.int64)
         """Spare charged batteries per depot after each window's swaps."""
+        self.held_w = np.zeros((n_windows, n_drones), dtype=np.int8)
+        """Per window and drone, why it could not fly: 0 it could, ``BUSY`` on a long
+        flight, ``WAITING`` for a charged battery."""
         self._flying = np.ones(n_drones, dtype=bool)
 
     def ready(self, t: int, drone_depot: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -75,6 +80,7 @@ class Operations:
             self.has_battery[u] = True
         if t < self.charged_w.shape[0]:
             self.charged_w[t] = self.charged
+            self.held_w[t] = np.where(~free, BUSY, np.where(ready, 0, WAITING))
         self._flying = ready
 
     def fly(self, t: int, drone: int, end: int, energy_j: float, span_windows: float) -> None:

@@ -1,4 +1,5 @@
-"""Small-multiples map of a replayed day, like the paper's trajectory figure."""
+"""Figures of a replayed day: a small-multiples map like the paper's trajectory figure,
+and its operations over the day."""
 
 from __future__ import annotations
 
@@ -14,6 +15,7 @@ import numpy as np  # noqa: E402
 from ..data.table import DayRequests  # noqa: E402
 from ..plans.ranges import delays_h  # noqa: E402
 from ..segment.plot import draw_areas  # noqa: E402
+from .ops import BUSY, WAITING  # noqa: E402
 from .replay import FlownDay  # noqa: E402
 
 
@@ -73,5 +75,66 @@ def plot_day(res: FlownDay, reqs: DayRequests, path: str | Path) -> None:
     if sc is not None:
         fig.colorbar(sc, ax=axes.ravel().tolist(), shrink=0.6, label="delay (h)")
     fig.suptitle(f"{reqs.day.isoformat()} — {res.method}, {res.n_drones} drones", fontsize=11)
+    fig.savefig(path, format="png")
+    plt.close(fig)
+
+
+def plot_operations(res: FlownDay, reqs: DayRequests, path: str | Path) -> None:
+    """The day's operations (docs/outputs.md): parcels waiting per depot at the start of
+    each window (a heatmap), and over the day the spare charged batteries (all depots)
+    and the drones waiting for one; the battery line only under an operating model that
+    limits batteries."""
+    st = res.state
+    waiting = st.waiting_w
+    n_w, n_dep = waiting.shape
+    ops = st.ops
+    fig, (top, bottom) = plt.subplots(
+        2,
+        1,
+        figsize=(max(6.0, 0.35 * n_w + 2.5), 3.0 + 0.18 * n_dep + 2.6),
+        dpi=90,
+        sharex=True,
+        height_ratios=[max(2.0, 0.18 * n_dep + 1.0), 2.0],
+        constrained_layout=True,
+    )
+    im = top.imshow(
+        waiting.T,
+        aspect="auto",
+        origin="lower",
+        cmap="viridis",
+        interpolation="nearest",
+        extent=(-0.5, n_w - 0.5, -0.5, n_dep - 0.5),
+    )
+    fig.colorbar(im, ax=top, label="parcels waiting")
+    top.set_ylabel("depot")
+    top.set_title("parcels waiting per depot at the start of each window", fontsize=9)
+    windows = np.arange(n_w)
+    if ops is not None and ops.limited:
+        bottom.plot(windows, ops.charged_w.sum(axis=1), "-o", ms=3, label="spare charged batteries")
+    if ops is not None:
+        waits = (ops.held_w == WAITING).sum(axis=1)
+        bottom.bar(windows, waits, color="tab:red", alpha=0.6, label="drones waiting for a battery")
+        busy = (ops.held_w == BUSY).sum(axis=1)
+        bottom.plot(windows, busy, "--", color="tab:gray", label="drones on long flights")
+        bottom.legend(fontsize=7, loc="best")
+    else:
+        bottom.text(
+            0.5,
+            0.5,
+            "the paper's model: a charged battery every window",
+            ha="center",
+            va="center",
+            transform=bottom.transAxes,
+        )
+    bottom.set_ylabel("batteries, drones (count)")
+    bottom.grid(alpha=0.3)
+    step = max(1, n_w // 12)
+    ticks = windows[::step]
+    bottom.set_xticks(ticks)
+    bottom.set_xticklabels([reqs.window_start(int(w)).strftime("%H:%M") for w in ticks], fontsize=7)
+    bottom.set_xlabel("window start (local time)")
+    fig.suptitle(
+        f"{reqs.day.isoformat()} — {res.method}, {res.n_drones} drones: operations", fontsize=11
+    )
     fig.savefig(path, format="png")
     plt.close(fig)

@@ -25,6 +25,8 @@ class FlownDay:
     plans: list[WindowPlan]
     runtime_s: float
     n_drones: int
+    scope: str = "range"
+    """The step's scope: under ``global`` every drone that flies lands freely."""
 
 
 def fly_day(
@@ -62,4 +64,4 @@ def fly_day(
         if on_window is not None:
             on_window(plan)
     runtime = time.perf_counter() - t0
-    return FlownDay(method, state, plans, runtime, int(len(drone_depot)))
+    return FlownDay(method, state, plans, runtime, int(len(drone_depot)), how.scope)

@@ -50,6 +50,9 @@ class DayState:
         self.ties: Ties = ties
         self.delivered_w = np.full(len(day), -1, dtype=np.int64)
         self.arrive_s = np.full(len(day), np.nan)  # seconds from the delivering window's start
+        self.waiting_w = np.zeros((day.n_windows, len(depots)), dtype=np.int64)
+        """Parcels waiting per depot at the start of each window: its stock under
+        ``stock = "home"``, else the pending requests of its service area."""
         self.ops: Operations | None = None
         if ops is not None:
             self.operate(ops)
@@ -105,6 +108,10 @@ class DayState:
         model, swap batteries, keep drones on long flights and charge (docs/method.md,
         "Operating model")."""
         ops, t = self.ops, plan.t
+        if t < self.waiting_w.shape[0]:
+            # Stock is the service area's under every model so far (stock_depot).
+            waiting = self.area[self.pending(t)]
+            self.waiting_w[t] = np.bincount(waiting, minlength=self.waiting_w.shape[1])
         if ops is not None:
             ops.start_window(t, self.drone_depot)
         w_s = self.day.window_s

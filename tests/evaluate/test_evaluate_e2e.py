@@ -36,6 +36,7 @@ def run_dir(example_csv: Path, tmp_path_factory: pytest.TempPathFactory) -> Path
 def test_files_and_metadata(run_dir: Path) -> None:
     names = {p.name for p in run_dir.iterdir()}
     assert {"results.parquet", "summary.csv", "summary.md", "alpha.png", "unfairness.png"} <= names
+    assert (run_dir / "actions.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert "drones.png" not in names  # only swept flags get a figure
     assert not [n for n in names if n.endswith(".tmp")]
     table = pq.read_table(run_dir / "results.parquet")

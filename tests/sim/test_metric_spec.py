@@ -39,7 +39,7 @@ def test_docs_describe_every_column_with_its_unit() -> None:
         if m.name in units:
             assert units[m.name] == m.unit, m.name
     # all but solver_* and the comparisons
-    assert len(units.keys() & METRICS.keys()) == 21 + len(OPS_METRICS)
+    assert len(units.keys() & METRICS.keys()) == 25 + len(OPS_METRICS)
 
 
 def test_summary_tables_follow_the_spec() -> None:
@@ -63,8 +63,14 @@ def test_summary_tables_follow_the_spec() -> None:
         ("objective_j_mj", "Day objective J (MJ)", "{:.2f}"),
         ("objective_g_mj", "Day objective G (MJ)", "{:.2f}"),
         ("battery_frac_mean", "Battery used per flight", "{:.2f}"),
+        ("actions_stay", "Decisions to stay", "{:.3f}"),
+        ("actions_move", "Decisions to move", "{:.3f}"),
+        ("actions_free", "Decisions to land freely", "{:.3f}"),
+        ("waiting_max", "Most parcels waiting at a depot", "{:.1f}"),
+        ("actions_idle", "Drone-windows held back", "{:.3f}"),
+        ("battery_waits", "Windows waited for a battery", "{:.1f}"),
     ]
-    assert set(SUMMARY_METRICS) <= METRICS.keys() and len(SUMMARY_METRICS) == 16
+    assert set(SUMMARY_METRICS) <= METRICS.keys() and len(SUMMARY_METRICS) == 22
     assert PAIRED_METRICS == {
         "objective_j_mj": True,
         "delivered_share": False,

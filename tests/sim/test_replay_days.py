@@ -152,7 +152,8 @@ def test_days_on_workers_are_the_days_planned_here(example_csv: Path, tmp_path: 
     for day in ("2022-08-10", "2022-08-11", "2022-08-12"):
         for name in ("stops.parquet", "routes.parquet"):
             assert (outs["1"] / day / name).read_bytes() == (outs["2"] / day / name).read_bytes()
-        assert (outs["2"] / day / "routes.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+        for png in ("routes.png", "operations.png"):
+            assert (outs["2"] / day / png).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     a, b = (json.loads((o / "metrics.json").read_text()) for o in outs.values())
     drop = {"runtime_s", "solver"}  # wall times (the solver's among its counts)
     assert [{k: v for k, v in d.items() if k not in drop} for d in a["days"]] == [
