@@ -24,8 +24,17 @@ from pydantic import (
 from .errors import InputError
 
 
+MAX_DRONES = 1000
+"""The most drones one study area plans for (``--drones``, a fleet file, a hub's
+``drones``): a window of 1000 drones plans in seconds; a larger fleet is refused up
+front rather than planned for hours (docs/config.md)."""
+
+MAX_SEED = 2**32 - 1  # the seeds numpy and scikit-learn accept
+
+
 class _Stage(BaseModel):
-    model_config = ConfigDict(extra="forbid", validate_assignment=True)
+    # Every number is finite (no inf, no NaN) and in the range docs/config.md gives.
+    model_config = ConfigDict(extra="forbid", validate_assignment=True, allow_inf_nan=False)
 
 
 def _parse_hhmm(value: str) -> int:
@@ -48,23 +57,35 @@ class DataConfig(_Stage):
     center: tuple[float, float] | None = Field(
         None, description="study-area centre (lng, lat); default: the densest square"
     )
-    grid_m: float = Field(250.0, gt=0, description="grid step used to find the densest square")
+    grid_m: float = Field(
+        250.0, ge=10, le=10_000, description="grid step used to find the densest square"
+    )
     service_start: str = Field("09:00", description="start of service hours, HH:MM")
     service_end: str = Field("17:00", description="end of service hours, HH:MM")
     window_min: float | None = Field(
-        None, gt=0, description="window length in minutes (default 30)"
+        None, ge=1, le=24 * 60, description="window length in minutes (default 30)"
     )
     windows: int | None = Field(
-        None, gt=0, description="number of windows over service hours (sets the length)"
+        None,
+        ge=1,
+        le=24 * 60,
+        description="number of windows over service hours (sets the length)",
     )
     strict: bool = Field(False, description="treat any dropped row as an error")
     tz: str = Field(
         "Asia/Shanghai", description="time zone of the file's local times (LaDe: Shanghai)"
     )
-    weight_median_kg: float = Field(0.5, gt=0)
-    weight_sigma: float = Field(0.6, ge=0)
-    weight_min_kg: float = Field(0.1, gt=0)
-    weight_max_kg: float = Field(2.5, gt=0)
+    weight_median_kg: float = Field(0.5, gt=0, le=500)
+    weight_sigma: float = Field(0.6, ge=0, le=5)
+    weight_min_kg: float = Field(0.1, gt=0, le=500)
+    weight_max_kg: float = Field(2.5, gt=0, le=500)
+
+    @field_validator("center")
+    @classmethod
+    def _check_center(cls, v: tuple[float, float] | None) -> tuple[float, float] | None:
+        if v is not None and not (-180 <= v[0] <= 180 and -90 <= v[1] <= 90):
+            raise ValueError(f"expected (lng, lat) within -180..180, -90..90, got {v}")
+        return v
 
     @field_validator("tz")
     @classmethod
@@ -127,9 +148,11 @@ class SegmentConfig(_Stage):
 
     method: Literal["kmeans", "squares"] = Field("kmeans", description="segmentation method")
     n_depots: int = Field(16, ge=1, le=4096, description="number of depots / service areas")
-    n_actions: int = Field(4, ge=1, description="action candidates per depot (itself first)")
-    seed: int = Field(0, description="k-means random_state")
-    n_init: int = Field(4, ge=1, description="k-means restarts")
+    n_actions: int = Field(
+        4, ge=1, le=4096, description="action candidates per depot (itself first)"
+    )
+    seed: int = Field(0, ge=0, le=MAX_SEED, description="k-means random_state")
+    n_init: int = Field(4, ge=1, le=1000, description="k-means restarts")
 
     @model_validator(mode="after")
     def _check(self) -> SegmentConfig:
@@ -146,20 +169,26 @@ class SegmentConfig(_Stage):
 class EnergyConfig(_Stage):
     """Drone parameters (docs/method.md §3)."""
 
-    body_kg: float = Field(2.0, gt=0)
-    battery_kg: float = Field(1.0, gt=0)
-    rotor_diameter_m: float = Field(0.5, gt=0)
-    rotors: int = Field(4, ge=1)
-    speed_ms: float = Field(10.0, gt=0, description="ground speed = airspeed (no wind)")
+    body_kg: float = Field(2.0, gt=0, le=500)
+    battery_kg: float = Field(1.0, gt=0, le=500)
+    rotor_diameter_m: float = Field(0.5, gt=0, le=10)
+    rotors: int = Field(4, ge=1, le=32)
+    speed_ms: float = Field(10.0, gt=0, le=100, description="ground speed = airspeed (no wind)")
     efficiency: float = Field(0.8, gt=0, le=1)
-    air_density: float = Field(1.225, gt=0)
-    g: float = Field(9.81, gt=0)
-    cda_m2: float = Field(0.092951, ge=0, description="drag area of body and battery")
-    parcel_cda_m2: float = Field(0.0, ge=0, description="extra drag area per kg of parcels")
-    max_payload_kg: float = Field(2.5, gt=0)
-    battery_j: float = Field(225_000.0, gt=0, description="battery capacity in joules")
+    air_density: float = Field(1.225, ge=0.1, le=2)
+    g: float = Field(9.81, ge=1, le=30)
+    cda_m2: float = Field(0.092951, ge=0, le=10, description="drag area of body and battery")
+    parcel_cda_m2: float = Field(
+        0.0, ge=0, le=1, description="extra drag area per kg of parcels"
+    )
+    max_payload_kg: float = Field(2.5, gt=0, le=500)
+    battery_j: float = Field(
+        225_000.0, gt=0, le=100e6, description="battery capacity in joules"
+    )
     reserve: float = Field(0.25, ge=0, lt=1, description="fraction of capacity kept unused")
-    table_step_kg: float = Field(0.001, gt=0, description="payload lookup-table step")
+    table_step_kg: float = Field(
+        0.001, ge=1e-4, le=0.1, description="payload lookup-table step"
+    )
 
     @property
     def usable_j(self) -> float:
@@ -203,6 +232,7 @@ class PlanConfig(_Stage):
     pyvrp_iterations: int = Field(
         0,
         ge=0,
+        le=1_000_000,
         description="pool planner: iterations of PyVRP per window whose routes join the pool "
         "(0 = off; needs the pyvrp extra; an iteration count keeps results machine-independent)",
     )
@@ -226,20 +256,22 @@ class PlanConfig(_Stage):
         description="plan selection: highs (the boolean program passed to HiGHS directly), "
         "cvxpy (the same program modelled in cvxpy, solved by HiGHS) or greedy",
     )
-    time_limit_s: float = Field(2.0, gt=0, description="solver time limit per window")
+    time_limit_s: float = Field(
+        2.0, gt=0, le=3600, description="solver time limit per window"
+    )
     strict_cover: bool = Field(False, description="paper's exact cover when feasible")
 
 
 class SimConfig(_Stage):
     """Day replay (docs/method.md §5)."""
 
-    drones: int = Field(8, ge=1, description="fleet size")
+    drones: int = Field(8, ge=1, le=MAX_DRONES, description="fleet size")
     policy: str | None = Field(
         None,
         description="flight-range policy (stay, random, greedy, global, torchscript:PATH); "
         "None = the method's own",
     )
-    seed: int = Field(0, description="seed for random policies")
+    seed: int = Field(0, ge=0, le=MAX_SEED, description="seed for random policies")
     trust_actor: bool = Field(
         False,
         # Left out of dumps while off, so run identities and metadata stay as they were.
@@ -262,14 +294,21 @@ class OpsConfig(_Stage):
     batteries_per_depot: int | None = Field(
         None,
         ge=0,
+        le=10_000,
         description="charged spare batteries each depot starts the day with; None: "
         "unlimited swaps (the paper)",
     )
     chargers_per_depot: int = Field(
-        1, ge=0, description="batteries each depot charges at once (with batteries_per_depot)"
+        1,
+        ge=0,
+        le=10_000,
+        description="batteries each depot charges at once (with batteries_per_depot)",
     )
     charge_power_w: float = Field(
-        100.0, gt=0, description="charging power of one charger, watts (with batteries_per_depot)"
+        100.0,
+        gt=0,
+        le=1e6,
+        description="charging power of one charger, watts (with batteries_per_depot)",
     )
     busy: bool = Field(
         False,
@@ -303,12 +342,45 @@ class PlannerConfig(_Stage):
     ops: OpsConfig = Field(default_factory=OpsConfig)
 
 
+STAGES: dict[str, type[_Stage]] = {
+    name: field.annotation  # type: ignore[misc]
+    for name, field in PlannerConfig.model_fields.items()
+}
+
+
+def value_range(stage: str, name: str) -> str | None:
+    """The documented range of a numeric setting, as docs/config.md writes it
+    (``0 < x ≤ 500``, ``1 ≤ x ≤ 1440``); None for a setting without bounds."""
+    field = STAGES[stage].model_fields[name]
+    low = high = ""
+    for m in field.metadata:
+        for attr, text in (("gt", "{} < "), ("ge", "{} ≤ ")):
+            if getattr(m, attr, None) is not None:
+                low = text.format(_number(getattr(m, attr)))
+        for attr, text in (("lt", " < {}"), ("le", " ≤ {}")):
+            if getattr(m, attr, None) is not None:
+                high = text.format(_number(getattr(m, attr)))
+    return f"{low}x{high}" if low or high else None
+
+
+def _number(v: float) -> str:
+    short = f"{v:g}".replace("e+0", "e").replace("e+", "e")
+    if float(short) == v and (not float(v).is_integer() or "e" in short):
+        return short  # 0.25, 1e8
+    return str(int(v))  # 1440, 4294967295
+
+
 def _validation_message(exc: ValidationError) -> str:
     err = exc.errors()[0]
     loc = ".".join(str(p) for p in err["loc"])
     msg = str(err["msg"]).removeprefix("Value error, ")
     if "input" in err and not isinstance(err["input"], dict | list):
         msg = f"{msg}, got {err['input']!r}"
+    path = [str(p) for p in err["loc"]]
+    if len(path) >= 2 and path[0] in STAGES and path[1] in STAGES[path[0]].model_fields:
+        rng = value_range(path[0], path[1])
+        if rng is not None and err["type"] not in ("extra_forbidden", "missing"):
+            msg = f"{msg} (expected {rng.replace('x', path[1])}, docs/config.md)"
     return f"{loc}: {msg}" if loc else msg
 
 
@@ -340,6 +412,17 @@ def load_config(path: str | Path | None) -> PlannerConfig:
         return PlannerConfig.model_validate(raw)
     except ValidationError as exc:
         raise InputError(f"invalid setting {_validation_message(exc)}", file=p) from exc
+
+
+def sets_key(path: str | Path, key: str) -> bool:
+    """Whether the TOML config at ``path`` sets ``key`` (``stage.field``)."""
+    stage, _, name = key.partition(".")
+    try:
+        raw = tomllib.loads(Path(path).read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError):
+        return False
+    table = raw.get(stage)
+    return isinstance(table, dict) and name in table
 
 
 def override(cfg: PlannerConfig, **fields: Any) -> PlannerConfig:

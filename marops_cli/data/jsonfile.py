@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 from typing import Any
 
@@ -23,10 +24,11 @@ def read_json(path: str | Path, what: str) -> Any:
 
 
 def json_number(value: Any, path: str | Path, column: str, *, whole: bool = False) -> float:
-    """``value`` from a JSON or TOML input as a number (``whole``: a whole one); anything
-    else is an :class:`InputError` naming the file and the key."""
+    """``value`` from a JSON or TOML input as a finite number (``whole``: a whole one);
+    anything else (text, NaN, infinity) is an :class:`InputError` naming the file and the
+    key."""
     kind = "whole number" if whole else "number"
     ok = isinstance(value, int | float) and not isinstance(value, bool)
-    if not ok or (whole and int(value) != value):
+    if not ok or not math.isfinite(value) or (whole and int(value) != value):
         raise InputError(f"expected a {kind}, got {value!r}", file=path, column=column)
     return float(value)

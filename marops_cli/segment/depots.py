@@ -11,6 +11,10 @@ import numpy as np
 from ..data.frame import Frame
 from ..errors import InputError
 
+MAX_DEPOT_OFFSET_M = 1_000_000.0
+"""How far from its study frame's centre a depot of a depots file may lie (docs/config.md):
+any real service area is far closer; a farther one is a bad file, not a depot."""
+
 
 def nearest_depot(xy: np.ndarray, depots_xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Each point's nearest depot and the distance to it (m); ties go to the lower depot id.
@@ -114,7 +118,9 @@ class Depots:
     def from_dict(cls, doc: dict[str, Any], source: str = "depots.json") -> Depots:
         try:
             frame = Frame(**{k: float(v) for k, v in doc["frame"].items()})
-            rows = sorted(doc["depots"], key=lambda d: int(d["id"]))
+            listed = list(doc["depots"])
+            order = sorted(range(len(listed)), key=lambda i: int(listed[i]["id"]))
+            rows = [listed[i] for i in order]
             xy = np.array([[float(d["x_m"]), float(d["y_m"])] for d in rows], dtype=np.float64)
             n_hist = np.array([int(d.get("n_history", 0)) for d in rows], dtype=np.int64)
             cand = np.array(
@@ -122,7 +128,7 @@ class Depots:
                 dtype=np.int64,
             )
             method = str(doc.get("method", "kmeans"))
-        except (KeyError, TypeError, ValueError) as exc:
+        except (KeyError, TypeError, ValueError, OverflowError) as exc:
             raise InputError(
                 f"not a marops depots file (missing or bad {exc})", file=source
             ) from exc
@@ -135,8 +141,19 @@ class Depots:
                 file=source,
                 column="depots",
             )
+        far = np.argwhere(np.abs(xy) > MAX_DEPOT_OFFSET_M)
+        if far.size:
+            i, axis = (int(v) for v in far[0])
+            raise InputError(
+                f"depot {i} lies {abs(xy[i, axis]) / 1000:.3g} km from the study frame's centre, "
+                f"more than {MAX_DEPOT_OFFSET_M / 1000:.0f} km (docs/config.md)",
+                file=source,
+                column=f"depots[{order[i]}].{'xy'[axis]}_m",
+            )
         if not all(np.isfinite([frame.center_lng, frame.center_lat, frame.size_km])) or not (
-            -180 <= frame.center_lng <= 180 and -90 <= frame.center_lat <= 90 and frame.size_km > 0
+            -180 <= frame.center_lng <= 180
+            and -90 <= frame.center_lat <= 90
+            and 0 < frame.size_km <= 200
         ):
             raise InputError(
                 "the study frame is not a valid centre and size", file=source, column="frame"

@@ -18,12 +18,12 @@ from typing import Any
 
 import numpy as np
 
-from ..config import DataConfig, PlannerConfig, override
+from ..config import MAX_DRONES, DataConfig, PlannerConfig, override
 from ..data.frame import Frame, hub_squares
 from ..data.jsonfile import json_number, read_json
 from ..data.prepare import check_days_in_file, prepare_day
 from ..data.table import LadeTable
-from ..errors import InputError
+from ..errors import InputError, naming
 
 __all__ = ["Hub", "HubArea", "find_hubs", "hub_areas", "hub_owner", "hubs_doc", "load_hubs"]
 
@@ -57,9 +57,12 @@ def find_hubs(
         mask = np.ones(len(table), dtype=bool)
     if not mask.any():
         raise InputError("no requests to place hubs on", file=table.source.path)
-    squares = hub_squares(
-        table.lng[mask], table.lat[mask], cfg.size_km, cfg.grid_m, n_hubs, min_share
-    )
+    try:
+        squares = hub_squares(
+            table.lng[mask], table.lat[mask], cfg.size_km, cfg.grid_m, n_hubs, min_share
+        )
+    except InputError as exc:
+        raise naming(exc, table.source.path) from None
     hubs = [Hub(i, f, n) for i, (f, n) in enumerate(squares)]
     return hubs, int(mask.sum())
 
@@ -110,8 +113,12 @@ def load_hubs(path: str | Path, cfg: DataConfig) -> list[Hub]:
         drones = (
             int(json_number(h["drones"], p, f"{col}.drones", whole=True)) if "drones" in h else None
         )
-        if drones is not None and drones < 1:
-            raise InputError("a hub needs at least one drone", file=p, column=f"{col}.drones")
+        if drones is not None and not 1 <= drones <= MAX_DRONES:
+            raise InputError(
+                f"a hub's fleet is 1..{MAX_DRONES} drones (docs/config.md)",
+                file=p,
+                column=f"{col}.drones",
+            )
         orders = (
             int(json_number(h["orders"], p, f"{col}.orders", whole=True)) if "orders" in h else 0
         )

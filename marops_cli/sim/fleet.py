@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 from pydantic import ValidationError
 
-from ..config import EnergyConfig
+from ..config import MAX_DRONES, EnergyConfig
 from ..data.jsonfile import json_number
 from ..energy import EnergyModel
 from ..errors import InputError
@@ -194,6 +194,16 @@ def load_fleet(
     return Fleet(depot, kind, types)
 
 
+def _check_size(n: int, path: Path, column: str) -> None:
+    if n > MAX_DRONES:
+        raise InputError(
+            f"a fleet of {n} drones is more than the {MAX_DRONES} one study area plans for "
+            "(docs/config.md)",
+            file=path,
+            column=column,
+        )
+
+
 def _type_index(name: Any, types: tuple[DroneType, ...], path: Path, column: str) -> int:
     names = [t.name for t in types]
     if name not in names:
@@ -214,6 +224,7 @@ def _from_counts(counts: Any, types: tuple[DroneType, ...], path: Path) -> np.nd
         n = _int(c, path, col)
         if n < 0:
             raise InputError("a count cannot be negative", file=path, column=col)
+        _check_size(len(kind) + n, path, col)  # before the list is made
         kind += [k] * n
     return np.array(kind, dtype=np.int64)
 
@@ -224,6 +235,7 @@ def _from_drones(
     """Each drone's depot and type index, from ``drones`` (depot ids or {depot, type})."""
     if not isinstance(items, list):
         raise InputError("'drones' must be a list", file=path, column="drones")
+    _check_size(len(items), path, "drones")
     depot, kind = [], []
     for u, d in enumerate(items):
         col = f"drones[{u}]"
