@@ -45,6 +45,26 @@ class InputError(MaropsError):
         return f"{prefix}: {self.message}" if prefix else self.message
 
 
+class SettingError(InputError):
+    """A setting (``stage.key`` of docs/config.md) that the data cannot meet, such as more
+    depots than the study area has points. The culprit is the setting, not the data: it
+    names the key (as ``column``), and the command names the config file or option that
+    set it (marops_cli/cli/common.py); ``{data}`` in the message becomes the data file's
+    name."""
+
+    def __init__(self, message: str, *, key: str, file: str | Path | None = None) -> None:
+        super().__init__(message, file=file, column=key)
+
+    @property
+    def key(self) -> str:
+        return str(self.column)
+
+    def format(self) -> str:
+        if self.file is None:
+            return f"setting {self.column}: {self.message}"
+        return f"{self.file}, key '{self.column}': {self.message}"
+
+
 class RunError(MaropsError):
     """The run failed for a reason other than the input (exit code 1)."""
 
@@ -52,7 +72,10 @@ class RunError(MaropsError):
 
 
 def naming(exc: InputError, file: str | Path) -> InputError:
-    """``exc`` naming ``file`` when it named no file (an error about the data's content)."""
+    """``exc`` naming ``file`` when it named no file (an error about the data's content);
+    a :class:`SettingError` keeps blaming its setting and names ``file`` as the data."""
+    if isinstance(exc, SettingError):
+        return SettingError(exc.message.replace("{data}", Path(file).name), key=exc.key)
     if exc.file is not None:
         return exc
     return InputError(exc.message, file=file, row=exc.row, column=exc.column)

@@ -135,6 +135,7 @@ def guarded(fn: F) -> F:
         except MaropsError as exc:
             if STATE["debug"]:
                 raise
+            exc = _blame_setting(exc, kwargs)
             typer.echo(f"marops: error: {exc}", err=True)
             raise typer.Exit(exc.exit_code) from None
         except OSError as exc:
@@ -148,6 +149,20 @@ def guarded(fn: F) -> F:
             stopped(exc, "; ".join(getattr(exc, "__notes__", ())))
 
     return wrapper  # type: ignore[return-value]
+
+
+def _blame_setting(exc: MaropsError, options: dict[str, Any]) -> MaropsError:
+    """A setting the data cannot meet names the config file that set it, unless the
+    command's option of that name did (docs/config.md)."""
+    from ..config import sets_key
+    from ..errors import SettingError
+
+    if not isinstance(exc, SettingError) or exc.file is not None:
+        return exc
+    config = options.get("config")
+    if options.get(exc.key.split(".")[-1]) is None and config and sets_key(config, exc.key):
+        return SettingError(exc.message, key=exc.key, file=config)
+    return exc
 
 
 def stopped(exc: KeyboardInterrupt, kept: str = "") -> NoReturn:

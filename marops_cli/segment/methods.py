@@ -6,23 +6,24 @@ import numpy as np
 
 from ..config import SegmentConfig
 from ..data.frame import Frame
-from ..errors import InputError
+from ..errors import SettingError
 from .depots import Depots, nearest_candidates
 
 
 def kmeans_depots(x: np.ndarray, y: np.ndarray, frame: Frame, cfg: SegmentConfig) -> Depots:
     """Depots at the k-means centroids of the history customer locations."""
     pts = np.column_stack([x, y]).astype(np.float64)
-    if pts.shape[0] < cfg.n_depots:
-        raise InputError(
-            f"only {pts.shape[0]} history requests in the study area, "
-            f"fewer than the {cfg.n_depots} depots asked for"
-        )
     distinct = np.unique(pts, axis=0).shape[0]
     if distinct < cfg.n_depots:
-        raise InputError(
-            f"only {distinct} distinct history locations in the study area, fewer than the "
-            f"{cfg.n_depots} depots asked for (--n-depots)"
+        held = (
+            f"{pts.shape[0]} history requests"
+            if pts.shape[0] < cfg.n_depots
+            else f"{distinct} distinct history locations"
+        )
+        raise SettingError(
+            f"{cfg.n_depots} depots asked for, but the study area of {{data}} holds only "
+            f"{held} (--n-depots)",
+            key="segment.n_depots",
         )
     # Imported here: scikit-learn (and the scipy.stats it pulls in) costs most of a
     # second that a replay with a depots file never needs.

@@ -145,6 +145,7 @@ def load_scenario(
     history = unseen or all_days
     if depots_path is not None:
         depots = Depots.load(depots_path)
+        _check_depots_area(table, depots, depots_path)
         if depots.n_actions != cfg.segment.n_actions:
             depots = depots.with_actions(cfg.segment.n_actions)
         depots.arrivals = arrival_profile(table, depots, unseen, cfg) if unseen else None
@@ -164,6 +165,20 @@ def load_scenario(
     # The profile never sees a replayed day: with no other day there is none (zeros).
     depots.arrivals = arrival_profile(table, depots, unseen, cfg) if unseen else None
     return Scenario(table, frame, depots, cfg, history, hub)
+
+
+def _check_depots_area(table: LadeTable, depots: Depots, path: str | Path) -> None:
+    """A depots file whose study area holds none of the file's requests was made for
+    another area: the depots file is the culprit, not the data."""
+    f = depots.frame
+    if len(table) and not f.contains(*f.to_xy(table.lng, table.lat)).any():
+        raise InputError(
+            f"its study area ({f.size_km:g} km square around {f.center_lng:.5f}, "
+            f"{f.center_lat:.5f}) holds none of the requests of {table.source.name}: "
+            "depots of another area?",
+            file=path,
+            column="frame",
+        )
 
 
 def arrival_profile(

@@ -1,0 +1,95 @@
+"""Every number a run accepts is finite and in the range docs/config.md gives; a setting
+the data cannot meet blames the setting, not the data file."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import pytest
+
+from marops_cli.config import STAGES, PlannerConfig, load_config, value_range
+from marops_cli.data.jsonfile import json_number
+from marops_cli.errors import InputError
+
+ROOT = Path(__file__).resolve().parents[1]
+NUMERIC = [
+    (stage, name)
+    for stage, model in STAGES.items()
+    for name in model.model_fields
+    if value_range(stage, name) is not None
+]
+
+
+def _docs_rows() -> dict[str, str]:
+    text = (ROOT / "docs" / "config.md").read_text(encoding="utf-8")
+    return {m.group(1): m.group(0) for m in re.finditer(r"^\| `([\w.]+)` \|.*$", text, re.M)}
+
+
+@pytest.mark.parametrize(("stage", "name"), NUMERIC, ids=[f"{s}.{n}" for s, n in NUMERIC])
+def test_the_docs_give_each_numbers_range(stage: str, name: str) -> None:
+    row = _docs_rows().get(f"{stage}.{name}")
+    assert row is not None, f"docs/config.md has no row for {stage}.{name}"
+    assert f"| {value_range(stage, name)} |" in row, row
+
+
+def test_the_defaults_and_examples_are_inside_the_ranges() -> None:
+    PlannerConfig()  # validates
+    for path in sorted((ROOT / "examples").glob("*.toml")):
+        if path.name != "fleet.toml":
+            load_config(path)
+
+
+@pytest.mark.parametrize("value", [float("inf"), float("-inf"), float("nan"), 1e400])
+def test_a_json_number_is_finite(value: float) -> None:
+    with pytest.raises(InputError, match="expected a number"):
+        json_number(value, "f.json", "hubs[0].drones")
+
+
+@pytest.mark.parametrize(
+    ("flag", "value", "key"),
+    [("--drones", "100000", "sim.drones"), ("--alpha", "inf", "plan.alpha")],
+)
+def test_an_option_out_of_range_is_refused_up_front(
+    example_csv: Path, tmp_path: Path, fails_cleanly, flag: str, value: str, key: str
+) -> None:
+    args = ["replay-day", str(example_csv), "--date", "0811", "--method", "stay", flag, value]
+    fails_cleanly([*args, "--out", str(tmp_path / "o")], tmp_path, key, "docs/config.md")
+
+
+def test_a_hub_fleet_above_the_cap_names_the_key(tmp_path: Path) -> None:
+    from marops_cli.config import DataConfig
+    from marops_cli.segment.hubs import load_hubs
+
+    hubs = tmp_path / "hubs.json"
+    hubs.write_text('[{"center_lng": 121.4, "center_lat": 31.2, "drones": 5000}]')
+    with pytest.raises(InputError, match=r"hubs\[0\]\.drones"):
+        load_hubs(hubs, DataConfig())
+
+
+@pytest.fixture
+def few_points(tmp_path: Path) -> Path:
+    from .bad_corpus import HEADER, _rows
+
+    data = tmp_path / "few.csv"
+    data.write_text("\n".join([HEADER, *_rows()]) + "\n", encoding="utf-8")
+    return data
+
+
+@pytest.mark.parametrize("command", ["segment", "replay-day"])
+def test_more_depots_than_points_blames_the_config_key(
+    few_points: Path, tmp_path: Path, fails_cleanly, command: str
+) -> None:
+    config = tmp_path / "many.toml"
+    config.write_text("[segment]\nn_depots = 100\n")
+    out = tmp_path / "out"
+    args = [command, str(few_points), "--out", str(out / "d.json" if command == "segment" else out)]
+    if command == "replay-day":
+        args += ["--date", "0811", "--method", "stay"]
+    line = fails_cleanly([*args, "--config", str(config)], tmp_path, "key 'segment.n_depots'")
+    assert line.startswith(f"marops: error: {config}, "), line
+    assert "few.csv holds only 40 history requests" in line
+    # Set by the option, the option is the culprit.
+    line = fails_cleanly([*args, "--config", str(config), "--n-depots", "50"], tmp_path)
+    assert "setting segment.n_depots: 50 depots asked for" in line
+    assert str(config) not in line
