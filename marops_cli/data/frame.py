@@ -13,6 +13,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..errors import InputError
+
 EARTH_RADIUS_M = 6_371_008.8  # mean Earth radius (IUGG)
 
 
@@ -74,6 +76,13 @@ def _square_grid(
     x, y = ref.to_xy(lng, lat)
     # Points far from the bulk (another city, a bad fix) would only blow up the grid.
     keep = (np.abs(x) <= 150_000) & (np.abs(y) <= 150_000)
+    if not keep.any():
+        raise InputError(
+            "the requests are scattered: none lies within 150 km of their median position "
+            f"({ref.center_lng:.3f}, {ref.center_lat:.3f}); set [data] center or --center "
+            "to place the study area",
+            column="lng",
+        )
     x, y = x[keep], y[keep]
     x0, y0 = float(x.min()), float(y.min())
     ix = np.floor((x - x0) / grid_m).astype(np.int64)

@@ -18,7 +18,7 @@ import numpy as np
 from scipy.special import ndtri
 
 from ..config import DataConfig
-from ..errors import InputError
+from ..errors import InputError, naming
 from .dates import format_days
 from .frame import Frame, densest_square
 from .table import DayRequests, LadeTable
@@ -84,7 +84,10 @@ def study_frame(
         lng, lat = table.lng[mask], table.lat[mask]
     if lng.size == 0:
         raise InputError("no requests to place a study area on", file=table.source.path)
-    return densest_square(lng, lat, cfg.size_km, cfg.grid_m)
+    try:
+        return densest_square(lng, lat, cfg.size_km, cfg.grid_m)
+    except InputError as exc:
+        raise naming(exc, table.source.path) from None
 
 
 def _windows(offset_s: np.ndarray, window_s: float, n_windows: int) -> np.ndarray:

@@ -88,8 +88,27 @@ def _sniff(path: Path) -> tuple[str, str | None]:
     except UnicodeDecodeError as exc:
         # A cut multi-byte character at the end of the sample is fine; bytes before it are not.
         if exc.start < len(head) - 4:
-            raise InputError("not a CSV or Parquet file (not UTF-8 text)", file=path) from exc
+            raise _not_utf8(head, exc.start, path) from exc
     return "csv", None
+
+
+def _not_utf8(head: bytes, at: int, path: Path) -> InputError:
+    """Where the first byte that is not UTF-8 lies in ``head`` (the file's first bytes):
+    its row, its column (from the header line), its byte offset in the file."""
+    lines = head[:at].split(b"\n")
+    row = len(lines)
+    column = None
+    if row > 1:
+        names = next(csv.reader([head.split(b"\n", 1)[0].decode("utf-8", "replace")]), [])
+        index = next(csv.reader([lines[-1].decode("utf-8", "replace")]), [""])
+        k = len(index) - 1
+        column = names[k].strip() if 0 <= k < len(names) else None
+    return InputError(
+        f"not UTF-8 text: byte 0x{head[at]:02X} at byte offset {at} (save the file as UTF-8)",
+        file=path,
+        row=row,
+        column=column,
+    )
 
 
 def _csv_header(path: Path, compression: str | None) -> list[str]:
@@ -212,6 +231,26 @@ def _numbers(column: pa.ChunkedArray) -> np.ndarray:
         ok = pc.fill_null(pc.match_substring_regex(text, num), False)
         values = pc.if_else(ok, text, pa.scalar(None, pa.string())).cast(pa.float64())
     return values.to_numpy(zero_copy_only=False)
+
+
+def _check_number_types(table: pa.Table, path: Path) -> None:
+    """Columns of numbers hold numbers or text (a Parquet file's booleans or dates in
+    ``lng`` would otherwise read as 0/1 or fail late)."""
+    for name in ("lng", "lat", "weight_kg"):
+        if name not in table.column_names:
+            continue
+        t = table.schema.field(name).type
+        if not (
+            pa.types.is_integer(t)
+            or pa.types.is_floating(t)
+            or pa.types.is_decimal(t)
+            or pa.types.is_string(t)
+            or pa.types.is_large_string(t)
+            or pa.types.is_null(t)
+        ):
+            raise InputError(
+                f"expected a column of numbers, got a column of type {t}", file=path, column=name
+            )
 
 
 def _strings(column: pa.ChunkedArray) -> np.ndarray:
@@ -409,6 +448,7 @@ def _lade_table(
     """The kept rows of ``table`` (all columns read) and its drop report; ``where``
     names it in errors, ``source()`` is its identity."""
     path = Path(where)
+    _check_number_types(table, path)
     parsed = _check_errors(table, path, cfg)
     code, lng, lat = _drop_reasons(table, parsed)
     pa.default_memory_pool().release_unused()
