@@ -76,13 +76,74 @@ def connect(scheduler: str, workers: int) -> Iterator[Any]:
         finally:
             cluster.close()
         return
+    _probe(scheduler)
     try:
         client = distributed.Client(scheduler, timeout=CONNECT_TIMEOUT_S)
-    except (OSError, TimeoutError, ValueError, TypeError) as exc:
-        why = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-        raise InputError(f"--scheduler {scheduler}: no Dask scheduler answered ({why})") from None
+    except Exception as exc:  # whatever the handshake met, one line (MemoryError included)
+        raise InputError(
+            f"--scheduler {scheduler}: no Dask scheduler answered ({_why(exc)})"
+        ) from None
     with client:
         yield client
+
+
+def _why(exc: BaseException) -> str:
+    text = str(exc).strip()
+    return text.splitlines()[0] if text else type(exc).__name__
+
+
+_MAX_HANDSHAKE_BYTES = 1 << 20  # a Dask handshake is a few dozen bytes
+
+
+def _probe(scheduler: str) -> None:
+    """Refuse, within ``CONNECT_TIMEOUT_S``, an address where no Dask scheduler listens.
+
+    A Dask scheduler speaks first: on a new TCP connection it sends its handshake, a
+    message whose first 8 bytes are its length (little-endian). A web server (or anything
+    else) waits for a request, sends a banner, or answers the client's handshake with
+    text that Dask would read as a length of exabytes; the probe sends nothing and judges
+    the first bytes, so nothing is allocated and nothing waits past the timeout. Only
+    ``tcp://`` addresses are probed (TLS and others go straight to Dask).
+    """
+    import socket
+
+    from distributed.comm.addressing import parse_address, parse_host_port
+
+    try:
+        scheme, location = parse_address(scheduler, strict=False)
+        if scheme != "tcp":
+            return
+        host, port = parse_host_port(location)
+    except (ValueError, TypeError) as exc:
+        raise InputError(
+            f"--scheduler {scheduler}: not a scheduler address ({_why(exc)})"
+        ) from None
+    first = b""
+    try:
+        with socket.create_connection((host, port), timeout=CONNECT_TIMEOUT_S) as sock:
+            sock.settimeout(CONNECT_TIMEOUT_S)
+            while len(first) < 8:
+                chunk = sock.recv(8 - len(first))
+                if not chunk:
+                    break
+                first += chunk
+    except TimeoutError:
+        pass  # judged below: it said too little
+    except OSError as exc:
+        raise InputError(
+            f"--scheduler {scheduler}: no Dask scheduler answered ({_why(exc)})"
+        ) from None
+    if len(first) < 8:
+        heard = f"it sent {first!r}" if first else "it sent nothing"
+        raise InputError(
+            f"--scheduler {scheduler}: not a Dask scheduler ({heard} within "
+            f"{CONNECT_TIMEOUT_S} s of connecting; a Dask scheduler speaks first)"
+        )
+    if not 0 < int.from_bytes(first, "little") < _MAX_HANDSHAKE_BYTES:
+        raise InputError(
+            f"--scheduler {scheduler}: not a Dask scheduler (it sent {first!r}, "
+            "not a Dask handshake)"
+        )
 
 
 _ONE_AT_A_TIME = threading.Lock()  # per cluster worker process

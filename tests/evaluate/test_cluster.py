@@ -5,11 +5,14 @@ run refused, and one line when distributed is missing (README.md "Sweeps on a cl
 from __future__ import annotations
 
 import csv
+import http.server
 import io
 import shutil
 import signal
+import socketserver
 import subprocess
 import sys
+import threading
 from pathlib import Path
 
 import pyarrow.dataset as ds
@@ -148,6 +151,54 @@ def test_unreachable_scheduler_is_one_line_and_writes_nothing(
     args = _evaluate(example_csv, tmp_path / "ev", "--scheduler", "tcp://127.0.0.1:9", "-q")
     fails_cleanly(args, tmp_path, "--scheduler tcp://127.0.0.1:9", "no Dask scheduler answered")
     assert not (tmp_path / "ev").exists()
+
+
+class _Silent(socketserver.BaseRequestHandler):
+    """Waits for a request, as a web server does."""
+
+    def handle(self) -> None:
+        self.request.recv(1 << 16)
+        self.request.sendall(b"HTTP/1.0 400 Bad request\r\n\r\n")
+
+
+class _Banner(socketserver.BaseRequestHandler):
+    """Speaks first, but not Dask (SSH, SMTP and the like)."""
+
+    def handle(self) -> None:
+        self.request.sendall(b"SSH-2.0-OpenSSH_9.6\r\n")
+
+
+@pytest.mark.parametrize("handler", [http.server.SimpleHTTPRequestHandler, _Silent, _Banner])
+def test_a_scheduler_address_that_is_no_dask_scheduler_is_one_line_in_time(
+    example_csv: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, fails_cleanly, handler
+) -> None:
+    """A web server (or anything else) at --scheduler: refused within the connect
+    timeout, nothing allocated from its answer, nothing written."""
+    pytest.importorskip("distributed")
+    from marops_cli.workers import cluster
+
+    monkeypatch.setattr(cluster, "CONNECT_TIMEOUT_S", 1)
+    server = socketserver.ThreadingTCPServer(("127.0.0.1", 0), handler)
+    server.daemon_threads = True
+    threading.Thread(target=server.serve_forever, daemon=True).start()
+    try:
+        address = f"tcp://127.0.0.1:{server.server_address[1]}"
+        args = _evaluate(example_csv, tmp_path / "ev", "--scheduler", address, "-q")
+        fails_cleanly(args, tmp_path, f"--scheduler {address}", "not a Dask scheduler")
+    finally:
+        server.shutdown()
+        server.server_close()
+    assert not (tmp_path / "ev").exists()
+
+
+def test_a_dask_scheduler_passes_the_probe() -> None:
+    distributed = pytest.importorskip("distributed")
+    from marops_cli.workers.cluster import _probe
+
+    with distributed.LocalCluster(
+        n_workers=0, processes=False, dashboard_address=None, silence_logs=50
+    ) as c:
+        _probe(c.scheduler_address)  # no error
 
 
 def test_a_worker_with_another_actor_refuses_to_run(
