@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import gzip
 import json
+import pickle
 import sys
 from collections.abc import Callable
 from pathlib import Path
@@ -104,6 +105,16 @@ DATA: dict[str, Callable[[Path], None]] = {
         [HEADER]
         + [row(i, lng=f"{-170 + 8.5 * i:.3f}", lat=f"{-60 + 3 * i:.3f}") for i in range(40)]
     ),
+    # An even count with no point at the median position: none within 150 km of it.
+    "world_scattered.csv": _csv(
+        [HEADER]
+        + [row(i, lng=f"{-170.3 + 8.7 * i:.3f}", lat=f"{-60.3 + 3.1 * i:.3f}") for i in range(40)]
+    ),
+    "bool_lng.parquet": _parquet({**GOOD_PQ, "lng": [True] * 40}),
+    "latin1_city.csv": _bytes(
+        ("\n".join([HEADER, *_rows()[:3], row(3).replace("Shanghai", "Sh\xe0ngh\xe0i")]) + "\n")
+        .encode("latin-1")
+    ),
 }
 CONFIG: dict[str, Callable[[Path], None]] = {
     "not_toml.toml": _text("[plan\nalpha = "),
@@ -113,6 +124,17 @@ CONFIG: dict[str, Callable[[Path], None]] = {
     "unknown_stage.toml": _text("[planner]\nalpha = 0.5\n"),
     "bad_tz.toml": _text('[data]\ntz = "Mars/Olympus"\n'),
     "bad_hours.toml": _text('[data]\nservice_start = "25:00"\n'),
+    # Impossible numbers (docs/config.md): each named by its key.
+    "payload_inf.toml": _text("[energy]\nmax_payload_kg = inf\n"),
+    "window_1e-9.toml": _text("[data]\nwindow_min = 1e-9\n"),
+    "battery_inf.toml": _text("[energy]\nbattery_j = inf\n"),
+    "speed_inf.toml": _text("[energy]\nspeed_ms = inf\n"),
+    "weight_sigma_inf.toml": _text("[data]\nweight_sigma = inf\n"),
+    "cda_inf.toml": _text("[energy]\ncda_m2 = inf\n"),
+    "alpha_nan.toml": _text("[plan]\nalpha = nan\n"),
+    "speed_supersonic.toml": _text("[energy]\nspeed_ms = 400.0\n"),
+    "drones_100000.toml": _text("[sim]\ndrones = 100000\n"),
+    "center_off_earth.toml": _text("[data]\ncenter = [500.0, 31.2]\n"),
 }
 FRAME = {"center_lng": 121.44, "center_lat": 31.22, "size_km": 10.0}
 DEPOT = {"id": 0, "x_m": 0.0, "y_m": 0.0, "lng": 121.44, "lat": 31.22, "n_history": 3}
@@ -139,7 +161,64 @@ DEPOTS: dict[str, Callable[[Path], None]] = {
     "bad_frame.json": _json(
         {"frame": {**FRAME, "center_lat": 123.0}, "depots": [DEPOT], "candidates": {"0": [0]}}
     ),
+    "far_depot.json": _json(
+        {"frame": FRAME, "depots": [{**DEPOT, "x_m": -1e12}], "candidates": {"0": [0]}}
+    ),
+    "infinite_frame.json": _text(
+        json.dumps({"frame": FRAME, "depots": [DEPOT], "candidates": {"0": [0]}}).replace(
+            '"size_km": 10.0', '"size_km": Infinity'
+        )
+    ),
+    "huge_history.json": _json(
+        {"frame": FRAME, "depots": [{**DEPOT, "n_history": 1e300}], "candidates": {"0": [0]}}
+    ),
+    "other_city.json": _json(
+        {
+            "frame": {**FRAME, "center_lng": 116.40, "center_lat": 39.90},
+            "depots": [DEPOT],
+            "candidates": {"0": [0]},
+        }
+    ),
 }
+def _writes_on_load(p: Path) -> None:
+    """A TorchScript actor whose loading creates ``planted.pth`` beside it (its
+    ``__setstate__`` maps a file with ``torch.from_file(..., shared=True)``)."""
+    import torch
+
+    class WritesOnLoad(torch.nn.Module):
+        def __init__(self, target: str) -> None:
+            super().__init__()
+            self.target = target
+
+        def forward(self, obs: torch.Tensor, h: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+            return obs[:, :5], h
+
+        @torch.jit.export
+        def __getstate__(self) -> tuple[str, bool]:
+            return (self.target, self.training)
+
+        @torch.jit.export
+        def __setstate__(self, state: tuple[str, bool]) -> None:
+            self.target = state[0]
+            planted = torch.from_file(self.target, shared=True, size=16)
+            self.training = state[1] and planted.numel() > 0
+
+    module = torch.jit.script(WritesOnLoad(str(p.parent / "planted.pth")))
+    torch.jit.save(module, str(p))
+
+
+class _System:
+    """Unpickling runs ``touch planted.pth`` beside the file."""
+
+    def __init__(self, target: Path) -> None:
+        self.target = target
+
+    def __reduce__(self) -> tuple[Callable[[str], int], tuple[str]]:
+        import os
+
+        return (os.system, (f"touch '{self.target}'",))
+
+
 SIDE = {"obs_version": 3, "n_actions": 4, "hidden_size": 64}
 POLICY: dict[str, Callable[[Path], None]] = {
     "no_sidecar.pt": _bytes(b"PK\x03\x04not torchscript"),
@@ -148,6 +227,10 @@ POLICY: dict[str, Callable[[Path], None]] = {
     "sidecar_lacks_field.pt": _bytes(b"x"),
     "sidecar_text_version.pt": _bytes(b"x"),
     "sidecar_old_version.pt": _bytes(b"x"),
+    # Hostile actors (docs/method.md §6): refused before anything runs.
+    "evil_on_load.pt": _writes_on_load,
+    "evil_on_load_alone.pt": _writes_on_load,
+    "evil_pickle.pt": lambda p: p.write_bytes(pickle.dumps(_System(p.parent / "planted.pth"))),
 }
 SIDECARS: dict[str, Callable[[Path], None]] = {
     "not_torchscript.json": _json(SIDE),
@@ -155,6 +238,8 @@ SIDECARS: dict[str, Callable[[Path], None]] = {
     "sidecar_lacks_field.json": _json({"obs_version": 3, "n_actions": 4}),
     "sidecar_text_version.json": _json({**SIDE, "obs_version": "three"}),
     "sidecar_old_version.json": _json({**SIDE, "obs_version": 1}),
+    "evil_on_load.json": _json(SIDE),
+    "evil_pickle.json": _json(SIDE),
 }
 FLEET: dict[str, Callable[[Path], None]] = {
     "fleet_not_json.json": _text("[1, 2"),
@@ -162,6 +247,42 @@ FLEET: dict[str, Callable[[Path], None]] = {
     "fleet_negative.json": _json([-1]),
     "fleet_words.json": _json(["north"]),
     "fleet_empty.json": _json([]),
+    "fleet_inf_battery.json": _json(
+        {"types": {"big": {"battery_j": float("inf")}}, "counts": {"big": 2}}
+    ),
+    "fleet_inf_battery.toml": _text("[types.big]\nbattery_j = inf\n\n[counts]\nbig = 2\n"),
+    "fleet_slow.json": _json({"types": {"slow": {"speed_ms": 0.0}}, "counts": {"slow": 1}}),
+    "fleet_100000.json": _json({"counts": {"default": 100_000}}),
+    "fleet_inf_count.json": _json({"counts": {"default": float("inf")}}),
+    "fleet_too_long.json": _json([0] * 1001),
+}
+# What the one line names besides the file: the key, row or column at fault (any of a
+# tuple: with a depots file, scattered data lie outside its study area).
+NEEDLES: dict[str, str | tuple[str, ...]] = {
+    "world_scattered.csv": ("column 'lng'", "holds none of the requests of world_scattered.csv"),
+    "bool_lng.parquet": "column 'lng'",
+    "latin1_city.csv": "row 5, column 'city'",
+    "payload_inf.toml": "energy.max_payload_kg",
+    "window_1e-9.toml": "data.window_min",
+    "battery_inf.toml": "energy.battery_j",
+    "speed_inf.toml": "energy.speed_ms",
+    "weight_sigma_inf.toml": "data.weight_sigma",
+    "cda_inf.toml": "energy.cda_m2",
+    "alpha_nan.toml": "plan.alpha",
+    "speed_supersonic.toml": "energy.speed_ms",
+    "drones_100000.toml": "sim.drones",
+    "center_off_earth.toml": "data.center",
+    "far_depot.json": "depots[0].x_m",
+    "infinite_frame.json": "frame",
+    "other_city.json": "frame",
+    "fleet_inf_battery.json": "types.big.battery_j",
+    "fleet_inf_battery.toml": "types.big.battery_j",
+    "fleet_slow.json": "types.slow.speed_ms",
+    "fleet_100000.json": "counts.default",
+    "fleet_inf_count.json": "counts.default",
+    "fleet_too_long.json": "'drones'",
+    "evil_on_load.pt": "--trust-actor",
+    "evil_on_load_alone.pt": "not found",
 }
 KINDS = {"data": DATA, "config": CONFIG, "depots": DEPOTS, "policy": POLICY, "fleet": FLEET}
 

@@ -11,7 +11,7 @@ from typer.testing import CliRunner
 
 from marops_cli.cli.app import app
 
-from .bad_corpus import KINDS, write_corpus
+from .bad_corpus import KINDS, NEEDLES, write_corpus
 
 E = "0811"
 
@@ -135,5 +135,7 @@ def test_bad_input(corpus, good, tmp_path: Path, fails_cleanly, kind: str, name:
     line = fails_cleanly(args, tmp_path)
     named = bad.name in line or bad.with_suffix(".json").name in line
     assert named or (kind == "data" and "2022-08-11" in line), line
+    needles = NEEDLES.get(name, "")
+    assert any(n in line for n in ((needles,) if isinstance(needles, str) else needles)), line
     assert _hashes(bad.parent) == before
     assert not out.exists()
