@@ -181,6 +181,7 @@ class Runner:
         # cache lives (and dies) with the work folder.
         env = {k: v for k, v in os.environ.items() if not k.startswith("MAROPS_")}
         env["MAROPS_CACHE_DIR"] = str(work / "cache")
+        env["XDG_DATA_HOME"] = str(work / "data")  # the record of trained actors stays here
         return cls(work=work, marops=exe, env=env)
 
     def __call__(self, *args: str) -> None:

@@ -25,6 +25,19 @@ def _own_depots_cache(tmp_path_factory: pytest.TempPathFactory) -> Iterator[None
         os.environ["MAROPS_CACHE_DIR"] = old
 
 
+@pytest.fixture(scope="session", autouse=True)
+def _own_data_home(tmp_path_factory: pytest.TempPathFactory) -> Iterator[None]:
+    """The test run's installation record of trained actors is its own (never the
+    user's: marops_cli/policies/installation.py), shared by the processes it starts."""
+    old = os.environ.get("XDG_DATA_HOME")
+    os.environ["XDG_DATA_HOME"] = str(tmp_path_factory.mktemp("data-home"))
+    yield
+    if old is None:
+        os.environ.pop("XDG_DATA_HOME", None)
+    else:
+        os.environ["XDG_DATA_HOME"] = old
+
+
 @pytest.fixture(scope="session")
 def example_csv() -> Path:
     assert EXAMPLE.is_file(), "examples/shanghai_synth.csv is part of the repository"

@@ -53,28 +53,40 @@ def read_sidecar(model_path: str | Path) -> dict[str, Any]:
     return doc
 
 
+MAX_TORCHSCRIPT_BYTES = 1 << 30
+"""A TorchScript actor is read whole (hashed and loaded from the same bytes): at most 1 GiB."""
+
+
 def load_module(path: Path, side: dict[str, Any], trust: bool) -> Any:
     """The actor of ``path`` in eval mode: rebuilt from the weights file beside it when
-    there is one, else the TorchScript module, loaded only when ``trust`` is given."""
+    there is one, else the TorchScript module, loaded only when ``trust`` is given or
+    this installation trained it (:mod:`.installation`)."""
     # Deferred: the network imports torch, which the other policies never pay for.
+    from .installation import trained_here
     from .weights import load_weights, weights_path
 
     if weights_path(path).is_file():
         return load_weights(path, side, sidecar_path(path))
-    if not trust:
+    if path.stat().st_size > MAX_TORCHSCRIPT_BYTES:
+        raise InputError(f"larger than {MAX_TORCHSCRIPT_BYTES:,} bytes", file=path)
+    # The bytes judged are the bytes loaded: the file cannot change in between.
+    data = path.read_bytes()
+    if not trust and not trained_here(data):
         raise InputError(
-            f"no weights file {weights_path(path).name} beside this actor, and loading "
-            "TorchScript runs its author's code: pass --trust-actor if you trust its author, "
-            "or re-export it with marops train",
+            f"no weights file {weights_path(path).name} beside this actor, this installation "
+            "did not train it, and loading TorchScript runs its author's code: pass "
+            "--trust-actor if you trust its author, or re-export it with marops train",
             file=path,
         )
+    import io
+
     import torch  # deferred: importing torch costs a second the other policies never pay
 
     try:
         with warnings.catch_warnings():
             # torch 2.13 marks TorchScript deprecated; the format is our artifact contract.
             warnings.simplefilter("ignore", DeprecationWarning)
-            module = torch.jit.load(str(path), map_location="cpu")
+            module = torch.jit.load(io.BytesIO(data), map_location="cpu")
     except (RuntimeError, ValueError) as exc:
         raise InputError(f"not a TorchScript module ({exc})", file=path) from exc
     module.eval()

@@ -82,6 +82,7 @@ def load_weights(model_path: str | Path, side: dict[str, Any], sidecar: Path) ->
     except (SafetensorError, OSError, ValueError) as exc:
         first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         raise InputError(f"not a safetensors weights file ({first})", file=path) from None
+    _check_digest(path, side, sidecar)  # a well-formed file, but is it this actor's?
     for name, tensor in state.items():
         if not bool(torch.isfinite(tensor).all()):
             raise InputError("NaN or infinite weights", file=path, column=name)
@@ -89,6 +90,27 @@ def load_weights(model_path: str | Path, side: dict[str, Any], sidecar: Path) ->
         actor = Actor(*sizes)
     actor.load_state_dict(state, assign=True)
     return actor.eval()
+
+
+def _check_digest(path: Path, side: dict[str, Any], sidecar: Path) -> None:
+    """The weights are the ones the sidecar was written with (``weights_sha256``, written
+    by marops train; sidecars from before it have none)."""
+    want = side.get("weights_sha256")
+    if want is None:
+        return
+    import hashlib
+
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        while block := f.read(1 << 20):
+            h.update(block)
+    if h.hexdigest() != want:
+        raise InputError(
+            f"its weights_sha256 is not the SHA-256 of {path.name}: weights and sidecar "
+            "come from different actors",
+            file=sidecar,
+            column="weights_sha256",
+        )
 
 
 def _check_tensors(f: Any, expect: dict[str, tuple[int, ...]], path: Path) -> None:

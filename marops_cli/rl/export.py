@@ -20,6 +20,7 @@ from typing import Any
 import torch
 
 from ..io.atomic import output_set
+from ..policies.installation import record_trained, sha256_bytes
 from ..policies.observation import OBS_VERSION, ObsVersion
 from ..policies.weights import ACTOR_FORMAT, weights_path
 from .networks import Actor
@@ -56,18 +57,22 @@ def weights_bytes(actor: Actor) -> bytes:
 
 def write_actor(actor: Actor, path: str | Path, sidecar: dict[str, Any]) -> dict[str, Any]:
     """Write ``path`` (TorchScript), its ``.safetensors`` weights and its ``.json`` sidecar
-    together, atomically.
+    together, atomically, and notes the TorchScript file in this installation's record
+    of the actors it trained (marops_cli/policies/installation.py).
 
     The sidecar gets the fields the loader requires (``obs_version``, ``n_actions``,
-    ``hidden_size``) on top of ``sidecar``; returns the document written.
+    ``hidden_size``) and the weights' SHA-256 (``weights_sha256``, checked on loading)
+    on top of ``sidecar``; returns the document written.
     """
     path = Path(path)
+    script, weights = actor_bytes(actor), weights_bytes(actor)
     doc = {
         "format": ACTOR_FORMAT,
         "obs_version": int(OBS_VERSION),
         "obs_dim": actor.encoder.in_features,
         "n_logits": actor.head.out_features,
         "hidden_size": actor.hidden_size,
+        "weights_sha256": sha256_bytes(weights),
         "torch": torch.__version__,
         **sidecar,
     }
@@ -75,11 +80,12 @@ def write_actor(actor: Actor, path: str | Path, sidecar: dict[str, Any]) -> dict
         free = int(doc["obs_version"]) >= ObsVersion.ANTICIPATION
         doc["n_actions"] = actor.head.out_features - (1 if free else 0)
     with output_set() as files:
-        files.write_bytes(path, actor_bytes(actor))
-        files.write_bytes(weights_path(path), weights_bytes(actor))
+        files.write_bytes(path, script)
+        files.write_bytes(weights_path(path), weights)
         files.write_json(path.with_suffix(".json"), doc)
         if doc.get("learning_curve"):
             from .curve import curve_png
 
             files.write_bytes(path.with_suffix(".curve.png"), curve_png(doc))
+    record_trained(script, path)
     return doc

@@ -237,7 +237,7 @@ def test_weights_with_other_tensors_or_dtypes_are_refused(tmp_path: Path) -> Non
 
 
 def test_trust_actor_loads_a_benign_torchscript_only_file(
-    example_csv: Path, tmp_path: Path, fails_cleanly
+    example_csv: Path, tmp_path: Path, fails_cleanly, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     from typer.testing import CliRunner
 
@@ -245,6 +245,8 @@ def test_trust_actor_loads_a_benign_torchscript_only_file(
 
     path, _ = _valid(tmp_path)
     weights_path(path).unlink()  # TorchScript and sidecar only
+    # As on another installation, which did not train it.
+    monkeypatch.setenv("XDG_DATA_HOME", str(tmp_path / "elsewhere"))
     # Two days go to worker processes, which load the actor as the command was told to.
     args = ["replay-day", str(example_csv), "--dates", "0811..0812", "--workers", "2"]
     args += ["--policy", str(path)]
@@ -265,3 +267,55 @@ def test_a_config_file_cannot_grant_trust(tmp_path: Path) -> None:
     cfg.write_text("[sim]\ntrust_actor = true\n", encoding="utf-8")
     with pytest.raises(InputError, match=r"column 'sim.trust_actor': only the --trust-actor"):
         load_config(cfg)
+
+
+def test_an_actor_this_installation_trained_loads_without_the_flag(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """marops train records the SHA-256 of each TorchScript file it writes, under
+    $XDG_DATA_HOME/marops only; a file of those bytes loads without --trust-actor, on
+    another installation (another record) it does not."""
+    from marops_cli.policies.installation import record_path
+
+    home = tmp_path / "home"
+    monkeypatch.setenv("XDG_DATA_HOME", str(home))
+    path, _ = _valid(tmp_path)
+    weights_path(path).unlink()
+    assert record_path() == home / "marops" / "trained-actors.jsonl"
+    assert [p.relative_to(home).as_posix() for p in home.rglob("*")] == [
+        "marops",
+        "marops/trained-actors.jsonl",
+    ]
+    pol = make_policy(f"torchscript:{path}")
+    assert not isinstance(pol._module, Actor), "its TorchScript, trusted as trained here"
+    path.write_bytes(path.read_bytes() + b"\0")  # other bytes: not the file trained here
+    assert "--trust-actor" in _load_error(path)
+    monkeypatch.setenv("XDG_DATA_HOME", str(tmp_path / "elsewhere"))
+    path.write_bytes(path.read_bytes()[:-1])
+    assert "this installation did not train it" in _load_error(path)
+
+
+def test_a_torn_or_foreign_record_line_grants_nothing(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from marops_cli.policies.installation import record_path, trained_here
+
+    monkeypatch.setenv("XDG_DATA_HOME", str(tmp_path))
+    record_path().parent.mkdir(parents=True)
+    record_path().write_text('{"sha256": "ab\n[1, 2]\nnot json\n', encoding="utf-8")
+    assert not trained_here(b"x")
+
+
+def test_weights_that_are_not_the_sidecars_are_refused(tmp_path: Path) -> None:
+    """The sidecar records the weights' SHA-256: other weights of the same shapes (another
+    actor's) are refused, naming the sidecar's key."""
+    import hashlib
+
+    path, _ = _valid(tmp_path)
+    side = json.loads(path.with_suffix(".json").read_text())
+    assert side["weights_sha256"] == hashlib.sha256(weights_path(path).read_bytes()).hexdigest()
+    (tmp_path / "other").mkdir()
+    other, _ = _valid(tmp_path / "other", seed=7)
+    weights_path(path).write_bytes(weights_path(other).read_bytes())
+    line = _load_error(path)
+    assert str(path.with_suffix(".json")) in line and "'weights_sha256'" in line
