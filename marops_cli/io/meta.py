@@ -10,6 +10,7 @@ from .. import __version__
 from ..config import PlannerConfig
 from ..data.reader import sha256_file
 from ..data.table import SourceInfo
+from ..policies.weights import weights_path
 
 # One file hash for every file marops identifies (inputs, depots, actors).
 file_sha256 = sha256_file
@@ -39,10 +40,7 @@ def run_meta(
     if source is not None:
         meta["input"] = source.to_dict()
     if policy is not None:
-        p = Path(str(policy))
-        meta["policy"] = (
-            {"name": p.name, "sha256": file_sha256(p)} if p.is_file() else {"name": str(policy)}
-        )
+        meta["policy"] = policy_identity(policy)
     if method is not None:
         meta["method"] = method
     if seed is not None:
@@ -50,3 +48,16 @@ def run_meta(
     if extra:
         meta.update(extra)
     return meta
+
+
+def policy_identity(policy: str | Path) -> dict[str, Any]:
+    """A policy as outputs record it: its name; for an actor file its SHA-256 and, when
+    the actor loads from the weights file beside it, that file's (``weights_sha256``):
+    the numbers that actually ran (docs/method.md §6)."""
+    p = Path(str(policy))
+    if not p.is_file():
+        return {"name": str(policy)}
+    out = {"name": p.name, "sha256": file_sha256(p)}
+    if weights_path(p).is_file():
+        out["weights_sha256"] = file_sha256(weights_path(p))
+    return out

@@ -319,3 +319,21 @@ def test_weights_that_are_not_the_sidecars_are_refused(tmp_path: Path) -> None:
     weights_path(path).write_bytes(weights_path(other).read_bytes())
     line = _load_error(path)
     assert str(path.with_suffix(".json")) in line and "'weights_sha256'" in line
+
+
+def test_outputs_record_the_weights_that_ran(tmp_path: Path) -> None:
+    """The run identity in every output's metadata holds the weights file's SHA-256
+    beside the actor file's, so other weights never pass for the same run."""
+    import hashlib
+
+    from marops_cli.io.meta import run_meta
+
+    path, _ = _valid(tmp_path)
+    policy = run_meta(command="replay-day", policy=path, stamp=False)["policy"]
+    assert policy == {
+        "name": "mine.pt",
+        "sha256": hashlib.sha256(path.read_bytes()).hexdigest(),
+        "weights_sha256": hashlib.sha256(weights_path(path).read_bytes()).hexdigest(),
+    }
+    weights_path(path).unlink()  # a TorchScript-only actor: its file is what runs
+    assert "weights_sha256" not in run_meta(command="x", policy=path)["policy"]
