@@ -23,7 +23,6 @@ from pydantic import (
 
 from .errors import InputError
 
-
 MAX_DRONES = 1000
 """The most drones one study area plans for (``--drones``, a fleet file, a hub's
 ``drones``): a window of 1000 drones plans in seconds; a larger fleet is refused up
@@ -178,17 +177,11 @@ class EnergyConfig(_Stage):
     air_density: float = Field(1.225, ge=0.1, le=2)
     g: float = Field(9.81, ge=1, le=30)
     cda_m2: float = Field(0.092951, ge=0, le=10, description="drag area of body and battery")
-    parcel_cda_m2: float = Field(
-        0.0, ge=0, le=1, description="extra drag area per kg of parcels"
-    )
+    parcel_cda_m2: float = Field(0.0, ge=0, le=1, description="extra drag area per kg of parcels")
     max_payload_kg: float = Field(2.5, gt=0, le=500)
-    battery_j: float = Field(
-        225_000.0, gt=0, le=100e6, description="battery capacity in joules"
-    )
+    battery_j: float = Field(225_000.0, gt=0, le=100e6, description="battery capacity in joules")
     reserve: float = Field(0.25, ge=0, lt=1, description="fraction of capacity kept unused")
-    table_step_kg: float = Field(
-        0.001, ge=1e-4, le=0.1, description="payload lookup-table step"
-    )
+    table_step_kg: float = Field(0.001, ge=1e-4, le=0.1, description="payload lookup-table step")
 
     @property
     def usable_j(self) -> float:
@@ -256,9 +249,7 @@ class PlanConfig(_Stage):
         description="plan selection: highs (the boolean program passed to HiGHS directly), "
         "cvxpy (the same program modelled in cvxpy, solved by HiGHS) or greedy",
     )
-    time_limit_s: float = Field(
-        2.0, gt=0, le=3600, description="solver time limit per window"
-    )
+    time_limit_s: float = Field(2.0, gt=0, le=3600, description="solver time limit per window")
     strict_cover: bool = Field(False, description="paper's exact cover when feasible")
 
 

@@ -112,8 +112,9 @@ DATA: dict[str, Callable[[Path], None]] = {
     ),
     "bool_lng.parquet": _parquet({**GOOD_PQ, "lng": [True] * 40}),
     "latin1_city.csv": _bytes(
-        ("\n".join([HEADER, *_rows()[:3], row(3).replace("Shanghai", "Sh\xe0ngh\xe0i")]) + "\n")
-        .encode("latin-1")
+        (
+            "\n".join([HEADER, *_rows()[:3], row(3).replace("Shanghai", "Sh\xe0ngh\xe0i")]) + "\n"
+        ).encode("latin-1")
     ),
 }
 CONFIG: dict[str, Callable[[Path], None]] = {
@@ -180,6 +181,8 @@ DEPOTS: dict[str, Callable[[Path], None]] = {
         }
     ),
 }
+
+
 def _writes_on_load(p: Path) -> None:
     """A TorchScript actor whose loading creates ``planted.pth`` beside it (its
     ``__setstate__`` maps a file with ``torch.from_file(..., shared=True)``)."""

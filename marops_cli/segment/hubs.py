@@ -122,6 +122,8 @@ def load_hubs(path: str | Path, cfg: DataConfig) -> list[Hub]:
         orders = (
             int(json_number(h["orders"], p, f"{col}.orders", whole=True)) if "orders" in h else 0
         )
+        if orders < 0:
+            raise InputError("a count of orders cannot be negative", file=p, column=f"{col}.orders")
         hubs.append(Hub(i, Frame(lng, lat, cfg.size_km if size is None else size), orders, drones))
     return hubs
 
