@@ -240,6 +240,8 @@ def _check_number_types(table: pa.Table, path: Path) -> None:
         if name not in table.column_names:
             continue
         t = table.schema.field(name).type
+        if pa.types.is_dictionary(t):  # a categorical column: judged by its values
+            t = t.value_type
         if not (
             pa.types.is_integer(t)
             or pa.types.is_floating(t)
