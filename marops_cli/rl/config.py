@@ -15,7 +15,7 @@ class TrainConfig(BaseModel):
     (``policies/README.md``).
     """
 
-    model_config = ConfigDict(extra="forbid", validate_assignment=True)
+    model_config = ConfigDict(extra="forbid", validate_assignment=True, allow_inf_nan=False)
 
     method: Literal["marops", "mappo"] = Field(
         "marops", description="marops: actions pick a destination; mappo: destination × plan slot"
