@@ -10,7 +10,6 @@ from .. import __version__
 from ..config import PlannerConfig
 from ..data.reader import sha256_file
 from ..data.table import SourceInfo
-from ..policies.weights import weights_path
 
 # One file hash for every file marops identifies (inputs, depots, actors).
 file_sha256 = sha256_file
@@ -57,6 +56,8 @@ def policy_identity(policy: str | Path) -> dict[str, Any]:
     p = Path(str(policy))
     if not p.is_file():
         return {"name": str(policy)}
+    from ..policies.weights import weights_path  # deferred: it imports torch
+
     out = {"name": p.name, "sha256": file_sha256(p)}
     if weights_path(p).is_file():
         out["weights_sha256"] = file_sha256(weights_path(p))
