@@ -93,3 +93,19 @@ def test_more_depots_than_points_blames_the_config_key(
     line = fails_cleanly([*args, "--config", str(config), "--n-depots", "50"], tmp_path)
     assert "setting segment.n_depots: 50 depots asked for" in line
     assert str(config) not in line
+
+
+def test_a_fleet_types_number_out_of_range_names_key_and_range(tmp_path: Path) -> None:
+    from marops_cli.config import EnergyConfig
+    from marops_cli.segment.depots import Depots
+    from marops_cli.sim.fleet import load_fleet
+
+    from .bad_corpus import DEPOT, FRAME
+
+    depots = Depots.from_dict({"frame": FRAME, "depots": [DEPOT], "candidates": {"0": [0]}})
+    fleet = tmp_path / "fleet.toml"
+    fleet.write_text("[types.jet]\nspeed_ms = 400.0\n\n[counts]\njet = 1\n")
+    with pytest.raises(InputError) as err:
+        load_fleet(fleet, depots, 8, EnergyConfig())
+    line = str(err.value)
+    assert "column 'types.jet.speed_ms'" in line and "0 < speed_ms ≤ 100" in line

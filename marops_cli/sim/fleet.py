@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 from pydantic import ValidationError
 
-from ..config import MAX_DRONES, EnergyConfig
+from ..config import MAX_DRONES, EnergyConfig, value_range
 from ..data.jsonfile import json_number
 from ..energy import EnergyModel
 from ..errors import InputError
@@ -150,6 +150,9 @@ def _types(doc: dict[str, Any], base: EnergyConfig, path: Path) -> tuple[DroneTy
             err = exc.errors()[0]
             field = ".".join(str(p) for p in err["loc"])
             msg = str(err["msg"]).removeprefix("Value error, ")
+            rng = value_range("energy", field) if field in EnergyConfig.model_fields else None
+            if rng is not None:
+                msg += f" (expected {rng.replace('x', field)}, docs/config.md)"
             raise InputError(
                 f"invalid drone parameter: {msg}", file=path, column=f"{key}.{field}"
             ) from exc
