@@ -251,31 +251,41 @@ class SimConfig(_Stage):
 
 class OpsConfig(_Stage):
     """The operating model: parcel stock, batteries and chargers, long flights
-    (docs/method.md, "Operating model"). The defaults are the paper's model."""
+    (docs/method.md §5.2, "Operating model"). The defaults are the realistic model;
+    ``examples/paper.toml`` sets the paper's."""
 
     stock: Literal["any", "home"] = Field(
-        "any",
-        description="where parcels wait: any (the paper: every parcel at every depot) or "
-        "home (at the depot of its service area; a drone carries only its departure "
-        "depot's parcels)",
+        "home",
+        description="where parcels wait: home (at the depot of its service area; a drone "
+        "carries only its departure depot's parcels) or any (the paper: every parcel at "
+        "every depot)",
     )
     batteries_per_depot: int | None = Field(
-        None,
+        2,
         ge=0,
-        description="charged spare batteries each depot starts the day with; None: "
-        "unlimited swaps (the paper)",
+        description='charged spare batteries each depot starts the day with; "unlimited" '
+        "(None): a charged battery whenever one is needed (the paper)",
     )
     chargers_per_depot: int = Field(
         1, ge=0, description="batteries each depot charges at once (with batteries_per_depot)"
     )
     charge_power_w: float = Field(
-        100.0, gt=0, description="charging power of one charger, watts (with batteries_per_depot)"
+        62.5,
+        gt=0,
+        description="charging power of one charger, watts (with batteries_per_depot): the "
+        "default 225 kJ battery full in one hour",
     )
     busy: bool = Field(
-        False,
+        True,
         description="a route longer than the window keeps its drone for the windows it spans "
         "(the paper's assumption 5 relaxed); false: every flight ends within its window",
     )
+
+    @field_validator("batteries_per_depot", mode="before")
+    @classmethod
+    def _unlimited(cls, v: Any) -> Any:
+        # TOML has no null: the paper's unlimited swaps are spelled "unlimited".
+        return None if v == "unlimited" else v
 
     @field_validator("chargers_per_depot")
     @classmethod
@@ -285,6 +295,11 @@ class OpsConfig(_Stage):
                 "expected >= 1 when batteries_per_depot is set (used batteries would never charge)"
             )
         return v
+
+    @classmethod
+    def paper_model(cls) -> OpsConfig:
+        """The paper's operating model (``examples/paper-ops.toml``)."""
+        return cls(stock="any", batteries_per_depot=None, busy=False)
 
     @property
     def paper(self) -> bool:

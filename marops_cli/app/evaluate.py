@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from ..config import PlannerConfig
+from ..config import OpsConfig, PlannerConfig
 from ..data.table import LadeTable
 from ..errors import InputError
 from .messages import drop_report
@@ -118,7 +118,7 @@ def evaluate(
     methods = (
         list(config.methods)
         if config.methods is not None
-        else default_methods(actors, trust=cfg.sim.trust_actor)
+        else default_methods(actors, trust=cfg.sim.trust_actor, ops=cfg.ops)
     )
     if config.scheduler is None and config.workers > 1:
         from ..evaluate.runner import worker_modules
@@ -152,7 +152,9 @@ def evaluate(
     return _evaluate_into(out, prep, config, progress)
 
 
-def default_methods(actors: dict[str, Path], *, trust: bool = False) -> list[str]:
+def default_methods(
+    actors: dict[str, Path], *, trust: bool = False, ops: OpsConfig | None = None
+) -> list[str]:
     """Every method this build can run (learned ones need an actor; ``trust``:
     ``cfg.sim.trust_actor``), but the references (stay, myopic), which are compared only
     when asked for."""
@@ -162,7 +164,7 @@ def default_methods(actors: dict[str, Path], *, trust: bool = False) -> list[str
     chosen = []
     for m in METHODS:
         try:
-            check_methods([m], actors, trust=trust)
+            check_methods([m], actors, trust=trust, ops=ops)
         except InputError:
             continue  # the default list skips what cannot run; a listed method errors
         if method(m).in_default_evaluation:

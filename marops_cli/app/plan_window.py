@@ -81,7 +81,9 @@ def plan_window(
     )
 
     check_format(fmt)
-    pol = method_policy(method, cfg.sim.policy, cfg.sim.seed, trust=cfg.sim.trust_actor)
+    pol = method_policy(
+        method, cfg.sim.policy, cfg.sim.seed, trust=cfg.sim.trust_actor, ops=cfg.ops
+    )
     # Every input is checked before anything is said about the data (the drop report
     # comes after the plan): an error is the only line a failed run prints.
     done = delivered_orders(delivered) if delivered is not None else None

@@ -125,7 +125,9 @@ def replay_days(
         outputs = _outputs(folder, days, several, hubs is not None, options)
         protect_inputs(outputs, [_path(v) for v in inputs.values()])
     # A bad actor stops here.
-    pol = method_policy(options.method, cfg.sim.policy, cfg.sim.seed, trust=cfg.sim.trust_actor)
+    pol = method_policy(
+        options.method, cfg.sim.policy, cfg.sim.seed, trust=cfg.sim.trust_actor, ops=cfg.ops
+    )
     keep = folder is None if options.keep_tables is None else options.keep_tables
     run = Run(
         pol,

@@ -91,8 +91,9 @@ class _Reporter:
         if e is None:  # an episode of an update before its last: nothing to show yet
             return
         if self.progress is not None:
-            self.progress.update(self.task, completed=e["episode"], reward=f"{e['reward']:.3f}")
-        elif e["episode"] % self.every < 8 or e["episode"] <= 8:
+            shown = e["reward"] if "reward" in e else e["cost"]
+            self.progress.update(self.task, completed=e["episode"], reward=f"{shown:.3f}")
+        elif e["episode"] % self.every < 8 or e["episode"] <= 8 or "cost" in e:
             eta = self.eta_s(int(e["episode"]))
             left = f", about {eta / 60:.1f} min left" if eta is not None else ""
             typer.echo(f"[{time.perf_counter() - self.t0:7.0f}s] {text}{left}", err=True)
@@ -147,6 +148,14 @@ def train_command(
     method: Annotated[
         str, typer.Option("--method", help="marops (destinations) or mappo (plans directly).")
     ] = "marops",
+    algorithm: Annotated[
+        str,
+        typer.Option(
+            "--algorithm",
+            help="ppo (the recurrent actor, paper) or es (the landing actor of an operating "
+            "model; writes NAME.safetensors + .json) [ppo].",
+        ),
+    ] = "ppo",
     workers: Annotated[int, typer.Option("--workers", help="Rollout processes.")] = 2,
     resume: Annotated[
         bool, typer.Option("--resume/--no-resume", help="Continue from NAME.ckpt if present.")
@@ -196,10 +205,11 @@ def train_command(
 
     for path in data:
         require_input(path)
-    if out.suffix != ".pt":
-        raise InputError("--out must name a .pt file (the sidecar goes beside it)", file=out)
+    if out.suffix != (".safetensors" if algorithm == "es" else ".pt"):
+        want = "a .safetensors file (--algorithm es)" if algorithm == "es" else "a .pt file"
+        raise InputError(f"--out must name {want} (the sidecar goes beside it)", file=out)
     allow_replacing_foreign(force)
-    protect_inputs(actor_files(out), [*data, config])  # before the long work
+    protect_inputs(actor_files(out, algorithm), [*data, config])  # before the long work
     fleets, depot_counts = _sizes(drones, "--drones"), _sizes(n_depots, "--n-depots")
     cfg = planner_config(
         config,
@@ -209,6 +219,7 @@ def train_command(
         n_depots=depot_counts[0] if depot_counts else None,
     )
     tcfg = _train_config(
+        algorithm=algorithm,
         method=method,
         episodes=episodes,
         seed=seed,
@@ -228,7 +239,7 @@ def train_command(
         data_origin=data_origin,
     )
     res = run_training(data, setup, out, progress=_Reporter(tcfg.checkpoint_every))
-    console.print(f"wrote {out} and {out.with_suffix('.json')} ({res.training_time_s:.0f} s)")
+    console.print(f"wrote {res.actor} and {out.with_suffix('.json')} ({res.training_time_s:.0f} s)")
     if res.heldout:
         _print_heldout(res.heldout)
 
@@ -248,7 +259,9 @@ def _print_heldout(heldout: dict[str, Any]) -> None:
     """The exported actor's held-out days beside the baselines' (mean over days)."""
     from ..sim.metrics import metric_specs
 
-    specs = metric_specs("mean_energy_kj", "avg_delay_h", "daily_combined_cost")
+    first = next(iter(heldout["methods"].values()))
+    names = ("mean_energy_kj", "avg_delay_h", "daily_combined_cost", "objective_j_mj")
+    specs = metric_specs(*[n for n in names if n in first])
     t = table("held-out days (mean over days)")
     t.add_column("method", justify="left")
     for s in specs:
