@@ -69,23 +69,36 @@ def _path(value: str | Path | None) -> Path | None:
     return Path(value) if value is not None else None
 
 
-def read_lade(data: Any, *, year: int = 2022, strict: bool = False) -> pa.Table:
+def read_lade(
+    data: Any, *, year: int = 2022, strict: bool = False, tz: str | None = None
+) -> pa.Table:
     """The kept rows of a LaDe export (a path, a DataFrame or a Table) as a table
-    (``order_id``, ``lng``, ``lat``, ``accept_time`` and ``delivery_time`` as local
-    times, ``row``, ``weight_kg`` when the data has it); the rows dropped and why are
-    in the metadata ``marops.drop_report``."""
+    (``order_id``, ``lng``, ``lat``, ``accept_time`` and ``delivery_time``, ``row``,
+    ``weight_kg`` when the data has it); the rows dropped and why are in the metadata
+    ``marops.drop_report``. The times are the data's local times with their zone ``tz``
+    (default ``Asia/Shanghai``, as LaDe's are): ``timestamp[s, tz=…]``, like every
+    output's times (docs/outputs.md, "Types")."""
     import pyarrow as pa
+    import pyarrow.compute as pc
 
     from .app.inputs import read_data
     from .config import DataConfig
 
-    table = read_data(data, DataConfig(year=year, strict=strict))
+    cfg = DataConfig(year=year, strict=strict, **({"tz": tz} if tz is not None else {}))
+    table = read_data(data, cfg)
+
+    def local(seconds: Any) -> pa.Array:
+        # The reader's seconds are wall-clock times of the zone; a time a clock change
+        # makes ambiguous or skips is taken as the earlier one, as the outputs take it.
+        wall = pa.array(seconds.astype("datetime64[s]"))
+        return pc.assume_timezone(wall, cfg.tz, ambiguous="earliest", nonexistent="earliest")
+
     cols: dict[str, Any] = {
         "order_id": table.order_id.astype(str),
         "lng": table.lng,
         "lat": table.lat,
-        "accept_time": pa.array(table.accept_s.astype("datetime64[s]")),  # local, naive
-        "delivery_time": pa.array(table.delivery_s.astype("datetime64[s]")),
+        "accept_time": local(table.accept_s),
+        "delivery_time": local(table.delivery_s),
         "row": table.row,  # 1-based row in the file (header = row 1)
     }
     if table.weight_kg is not None:
