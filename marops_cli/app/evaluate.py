@@ -70,7 +70,9 @@ class EvaluateConfig:
     actors: dict[str, Path] = field(default_factory=dict)
     """Policy kind (``learned``, ``direct``) -> trained actor replacing the shipped one."""
     against: str | None = None
-    """Reference method of the paired comparison (``paired``); None: none."""
+    """Reference method of the paired comparison (``paired``); None: none. Without a
+    list of ``methods`` it joins the default ones (``myopic``, a reference, is not
+    among them); with one, it must be in it."""
     plots: bool = True
     force: bool = False
     """Clear another evaluation's jobs found in the output folder."""
@@ -120,6 +122,13 @@ def evaluate(
         if config.methods is not None
         else default_methods(actors, trust=cfg.sim.trust_actor)
     )
+    if config.against is not None and config.against not in methods:
+        if config.methods is not None:  # a list given: the reference is one of it
+            raise InputError(
+                f"--against {config.against!r} is not among --methods ({', '.join(methods)}); "
+                "add it to --methods"
+            )
+        methods.append(config.against)  # the default methods and the reference
     if config.scheduler is None and config.workers > 1:
         from ..evaluate.runner import worker_modules
         from ..sim.scenario import loads_actor
@@ -128,10 +137,6 @@ def evaluate(
         # The workers' fork server imports the planner (and torch for an actor) while
         # this process reads the file and segments it.
         warm_up(worker_modules(actor=any(loads_actor(m) for m in methods)))
-    if config.against is not None and config.against not in methods:
-        raise InputError(
-            f"--against {config.against!r} is not among the methods compared ({', '.join(methods)})"
-        )
     prep = prepare(
         data,
         cfg,

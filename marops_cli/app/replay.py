@@ -8,9 +8,9 @@ import datetime as dt
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, get_args
 
-from ..config import PlannerConfig
+from ..config import PlannerConfig, SegmentConfig
 from ..errors import InputError
 from .inputs import (
     Data,
@@ -79,6 +79,9 @@ def replay_config(
     depots segmented here use ``segment``, else the method's own segmentation."""
     from ..methods import method as method_spec
 
+    kinds = get_args(SegmentConfig.model_fields["method"].annotation)
+    if segment is not None and segment not in kinds:
+        raise InputError(f"--segment expects {' or '.join(kinds)}, got {segment!r}")
     return planner_config(
         config, segmentation=segment or method_spec(method).segmentation, **options
     )

@@ -66,7 +66,7 @@ def plan_window_command(
     as_json: o.Json = False,
 ) -> None:
     """Plan one time window: flight ranges, candidate plans, optimal plan selection."""
-    begin(data, quiet=quiet, as_json=as_json, force=force)
+    data = begin(data, quiet=quiet, as_json=as_json, force=force)
     from ..app.inputs import check_format
     from ..app.plan_window import plan_window as plan
     from ..data.dates import parse_day
@@ -117,13 +117,21 @@ def plan_window_command(
 
 
 def _json_doc(res: PlannedWindow, day: str, window: int) -> dict[str, Any]:
-    """``--json``: the window's files, solver, objective and routes."""
-    order_id = res.requests.order_id
+    """``--json``: the window's files, the rows dropped, the day's orders planned and
+    left out, solver, objective and routes."""
+    order_id, scope = res.requests.order_id, res.scope
     return {
         "command": "plan-window",
         "day": day,
         "window": window,
         "files": [str(p) for p in res.files],
+        "rows": res.report.to_dict(),
+        "orders": {
+            "due": scope.orders_due,
+            "planned": scope.planned,
+            "outside_area": scope.outside_area,
+            "outside_hours": scope.outside_hours,
+        },
         "solver": res.solver,
         "objective": res.objective,
         "routes": [
