@@ -207,6 +207,8 @@ def train_command(
     from ..app.train import train as run_training
 
     for path in data:
+        if str(path) == "-":  # training reads each city's file several times
+            raise InputError("train reads files (one per city), not standard input (-)")
         require_input(path)
     if out.suffix != ".pt":
         raise InputError("--out must name a .pt file (the sidecar goes beside it)", file=out)

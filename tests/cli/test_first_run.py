@@ -93,6 +93,8 @@ def test_empty_standard_input_is_one_line(tmp_path: Path, fails_cleanly) -> None
         tmp_path,
         "standard input",
     )
+    out = str(tmp_path / "a.pt")
+    fails_cleanly(["train", "-", "--out", out], tmp_path, "standard input")
 
 
 # Every command that writes, with --out under a file: one line naming the path, exit 2,
