@@ -187,3 +187,24 @@ def _csv_rows(path: Path) -> list[dict]:
 
     with path.open() as fh:
         return list(csv.DictReader(fh))
+
+
+def test_a_foreign_report_stops_the_run_before_the_work(example_csv: Path, tmp_path: Path) -> None:
+    out = tmp_path / "day"
+    out.mkdir()
+    (out / "report.html").write_text("someone's page")
+    res = runner.invoke(
+        app, ["replay-day", str(example_csv), "--date", "0811", "--report", "--out", str(out)]
+    )
+    assert res.exit_code == 2 and "report.html" in res.output
+    assert sorted(p.name for p in out.iterdir()) == ["report.html"]  # nothing computed
+
+
+def test_the_api_writes_the_same_page(day_run: Path, depots_json: Path, tmp_path: Path) -> None:
+    from marops_cli import api
+
+    copy = tmp_path / "copy"
+    shutil.copytree(day_run, copy)
+    (copy / "report.html").unlink()
+    assert api.report(copy, depots=depots_json) == [copy / "report.html"]
+    assert (copy / "report.html").read_bytes() == (day_run / "report.html").read_bytes()
