@@ -9,10 +9,15 @@ from typing import Any
 
 from ..data.frame import Frame
 
-TILE_URL = "https://basemaps.cartocdn.com/light_all/{z}/{x}/{y}.png"
-"""Light raster tiles of OpenStreetMap data (no key, no referrer needed)."""
-TILE_HOST = TILE_URL.split("/{z}")[0]
-ATTRIBUTION = "© OpenStreetMap contributors © CARTO"
+TILE_URL = (
+    "https://server.arcgisonline.com/ArcGIS/rest/services/Canvas/World_Light_Gray_Base/"
+    "MapServer/tile/{z}/{y}/{x}"
+)
+"""Esri's light grey canvas: raster tiles that need no key and no referrer (a page opened
+from a file sends none), quiet enough for the routes to stand out."""
+TILE_HOST = "https://server.arcgisonline.com/"
+ATTRIBUTION = "Tiles © Esri — Esri, DeLorme, NAVTEQ"
+_MAX_ZOOM = 16  # the canvas's deepest tiles
 _MAX_TILES_ACROSS = 4
 
 
@@ -43,7 +48,7 @@ def tile_images(frame: Frame) -> list[dict[str, Any]]:
     at most four across, each stretched over its longitude and latitude span (a tile's
     Mercator rows are close to linear in latitude over a few kilometres)."""
     west, south, east, north = extent(frame)
-    z = 18
+    z = _MAX_ZOOM
     while z > 1:
         x0, y0 = _tile(west, north, z)
         x1, y1 = _tile(east, south, z)
