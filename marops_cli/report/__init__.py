@@ -8,8 +8,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from .folder import is_evaluation, metrics, route_files, route_files_exist, sub_reports
-from .index import REPORT
+from .folder import REPORT, is_evaluation, metrics, route_files, route_files_exist, sub_reports
 from .page import EXTRA, Page, require_plotly
 
 if TYPE_CHECKING:

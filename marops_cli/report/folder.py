@@ -11,6 +11,8 @@ from typing import Any
 
 from ..errors import InputError
 
+REPORT = "report.html"
+"""The page's name in each output folder."""
 _TIMES = ("window_start", "arrive_time")
 
 

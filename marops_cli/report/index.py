@@ -6,9 +6,9 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
+from .folder import REPORT
 from .page import Page
 
-REPORT = "report.html"
 _COLUMNS = (
     ("delivered", "{}"),
     ("undelivered", "{}"),
