@@ -52,6 +52,7 @@ def _browser(binary: str, width: int, height: int) -> Iterator[str]:
         "--no-default-browser-check",
         "--disable-extensions",
         "--disable-background-networking",
+        "--disable-dev-shm-usage",  # containers give /dev/shm a few MB
         "about:blank",
     ]
     if os.geteuid() == 0:  # Chromium's sandbox refuses root (CI containers)

@@ -209,3 +209,21 @@ def test_the_api_writes_the_same_page(day_run: Path, depots_json: Path, tmp_path
     (copy / "report.html").unlink()
     assert api.report(copy, depots=depots_json) == [copy / "report.html"]
     assert (copy / "report.html").read_bytes() == (day_run / "report.html").read_bytes()
+
+
+def test_a_city_run_reports_each_hub_and_the_city(
+    example_csv: Path, small_config: Path, tmp_path: Path
+) -> None:
+    hubs = tmp_path / "hubs.json"
+    invoke("segment", example_csv, "--hubs", 2, "--dates", "0801..0810", "--out", hubs, "--quiet")
+    out = tmp_path / "city"
+    invoke(
+        "replay-day", example_csv, "--hubs", hubs, "--date", "0811", "--drones", 2,
+        "--config", small_config, "--workers", 1, "--report", "--out", out, "--quiet",
+    )  # fmt: skip
+    city = (out / "report.html").read_text(encoding="utf-8")
+    assert "The city&#x27;s coverage" in city or "The city's coverage" in city
+    for hub in (0, 1):
+        assert f'href="hub-{hub}/report.html"' in city
+        data, _ = figure((out / f"hub-{hub}" / "report.html").read_text(encoding="utf-8"), "map")
+        assert sum(t.get("name") == "service areas" for t in data) > 0  # the hub's own depots
