@@ -16,7 +16,9 @@ from .common import STATE, emit_json, guarded, info, set_output
 def report_command(
     folder: Annotated[
         Path,
-        typer.Argument(help="Output folder of replay-day, plan-window or evaluate (its --out)."),
+        typer.Argument(
+            metavar="DIR", help="Output folder of replay-day, plan-window or evaluate (its --out)."
+        ),
     ],
     depots: Annotated[
         Path | None,
