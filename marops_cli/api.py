@@ -39,6 +39,7 @@ __all__ = [
     "plan_window",
     "read_lade",
     "replay_day",
+    "report",
     "segment",
 ]
 
@@ -176,6 +177,7 @@ def plan_window(
     tz: str | None = None,
     fmt: str = "parquet",
     geojson: bool = False,
+    report: bool = False,
     force: bool = False,
     config: str | Path | None = None,
 ) -> DayResult:
@@ -211,6 +213,7 @@ def plan_window(
             out=_path(out),
             fmt=fmt,
             geojson=geojson,
+            report=report,
         )
     metrics = {"solver": res.solver, "objective": res.objective}
     return DayResult(res.stops, res.routes, metrics, _path(out))
@@ -237,6 +240,7 @@ def replay_day(
     fmt: str = "parquet",
     geojson: bool = False,
     plot: bool = False,
+    report: bool = False,
     force: bool = False,
     config: str | Path | None = None,
 ) -> DayResult:
@@ -245,7 +249,7 @@ def replay_day(
     from .data.dates import parse_day
     from .io.ownership import replacing_foreign_files
 
-    opts = ReplayOptions(method, fmt, plot, geojson, force, keep_tables=True)
+    opts = ReplayOptions(method, fmt, plot, geojson, force, keep_tables=True, report=report)
     check_options(opts)
     cfg = replay_config(
         config,
@@ -310,6 +314,7 @@ def evaluate(
     mappo_policy: str | Path | None = None,
     against: str | None = None,
     plots: bool = True,
+    report: bool = False,
     seed: int | None = None,
     year: int | None = None,
     strict: bool = False,
@@ -345,8 +350,21 @@ def evaluate(
         against=against,
         plots=plots,
         force=force,
+        report=report,
     )
     source = read_data(data, cfg.data) if in_memory(data) else Path(data)
     with replacing_foreign_files(force):
         res = run(source, spec, out=_path(out))
     return EvaluationResult(res.results, res.summary, res.folder)
+
+
+def report(
+    folder: str | Path, *, depots: str | Path | None = None, force: bool = False
+) -> list[Path]:
+    """``marops report``: write ``report.html`` into an earlier run's output folder (and
+    its day and hub folders; docs/report.md); the files written."""
+    from .app.report import make_report
+    from .io.ownership import replacing_foreign_files
+
+    with replacing_foreign_files(force):
+        return make_report(folder, depots=depots)

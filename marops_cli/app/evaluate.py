@@ -76,6 +76,8 @@ class EvaluateConfig:
     plots: bool = True
     force: bool = False
     """Clear another evaluation's jobs found in the output folder."""
+    report: bool = False
+    """Write report.html into the output folder (docs/report.md)."""
 
 
 @dataclass(frozen=True)
@@ -106,7 +108,9 @@ def evaluate(
     and write its tables and figures."""
     from ..evaluate import expand_settings, prepare
     from ..io.ownership import register_inputs
+    from .report import check_report
 
+    check_report(config.report and out is not None)
     register_inputs([data, *config.actors.values()])  # never an output
     cfg = config.planner
     settings = expand_settings(
@@ -247,6 +251,10 @@ def _evaluate_into(
         paired = _paired(ev, config.against)
         if paired is not None:
             files.append(_write_paired(out, paired))
+        if config.report:
+            from ..report import write_reports
+
+            files += write_reports(out)
     return EvaluationResult(ev.results, ev.summary, paired, prep.days, files, out)
 
 

@@ -63,11 +63,13 @@ def plan_window(
     out: str | Path | None = None,
     fmt: str = "parquet",
     geojson: bool = False,
+    report: bool = False,
     progress: Progress = SILENT,
 ) -> PlannedWindow:
     """Plan window ``window`` of ``day`` with the depots of ``depots`` and the fleet of a
     fleet file (else ``cfg.sim.drones`` drones), leaving out the orders an earlier stops
-    file (``delivered``) delivered; with ``out`` write its route files there."""
+    file (``delivered``) delivered; with ``out`` write its route files there (and with
+    ``report`` its report.html, docs/report.md)."""
     from ..io import folder_lock, output_set
     from ..io.ownership import register_inputs
 
@@ -83,8 +85,10 @@ def plan_window(
         plan_one_window,
         route_tables,
     )
+    from .report import check_report
 
     check_format(fmt)
+    check_report(report and out is not None)
     pol = method_policy(method, cfg.sim.policy, cfg.sim.seed, trust=cfg.sim.trust_actor)
     # Every input is checked before anything is said about the data (the drop report
     # comes after the plan): an error is the only line a failed run prints.
@@ -109,8 +113,13 @@ def plan_window(
     meta = _meta(scn, cfg, pol, method, day, window, plan, Path(depots), drones)
     written: list[Path] = []
     if out is not None:
-        with folder_lock(out), output_set() as files:
-            written = write_route_files(files, Path(out), stops, routes, meta, fmt, geojson)
+        with folder_lock(out):
+            with output_set() as files:
+                written = write_route_files(files, Path(out), stops, routes, meta, fmt, geojson)
+            if report:  # from the files just written, as `marops report` reads them
+                from ..report import write_reports
+
+                written += write_reports(Path(out), scn.depots)
     stops, routes = with_meta(stops, meta), with_meta(routes, meta)
     return PlannedWindow(plan, reqs, drones, stops, routes, meta, written, scn.table.report, scope)
 

@@ -55,12 +55,16 @@ class ReplayOptions:
     """A Dask scheduler's address, or ``local``."""
     keep_tables: bool | None = None
     """Keep every replayed day's tables in the result [only when nothing is written]."""
+    report: bool = False
+    """Write report.html into each folder written (docs/report.md)."""
 
 
 def check_options(options: ReplayOptions) -> None:
     """Refuse options no replay can run with, before any work."""
     from ..sim.scenario import METHODS
+    from .report import check_report
 
+    check_report(options.report)
     if options.scheduler is not None:
         from ..workers.cluster import require_distributed
 
@@ -140,6 +144,7 @@ def replay_days(
         options.workers,
         options.scheduler,
         keep,
+        options.report,
     )
     if hubs is not None:
         from .replay_hubs import replay_hubs
@@ -191,6 +196,7 @@ def _outputs(
     fmt = options.fmt
     names = [f"stops.{fmt}", f"routes.{fmt}", "metrics.json"]
     names += ["routes.png", "operations.png"] * options.plot + ["routes.geojson"] * options.geojson
+    names += ["report.html"] * options.report
     folders = [out, *(out / d.isoformat() for d in days)] if several else [out]
     if hubs:  # out/hub-<id>/ below the city's metrics.json
         areas = [p for p in out.glob("hub-*") if p.is_dir()] if out.is_dir() else []

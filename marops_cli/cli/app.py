@@ -18,6 +18,7 @@ from .common import PLAIN, STATE
 from .evaluate_cmd import evaluate_command
 from .plan_window_cmd import plan_window_command
 from .replay_cmd import replay_day_command
+from .report_cmd import report_command
 from .segment_cmd import segment_command
 from .synth_cmd import synth_command
 from .train_cmd import train_command
@@ -73,6 +74,7 @@ app.command("plan-window", cls=Command)(plan_window_command)
 app.command("replay-day", cls=Command)(replay_day_command)
 app.command("train", cls=Command)(train_command)
 app.command("evaluate", cls=Command)(evaluate_command)
+app.command("report", cls=Command)(report_command)
 
 
 def _terminate(signum: int, frame: object) -> None:

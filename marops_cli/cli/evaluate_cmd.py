@@ -108,6 +108,7 @@ def evaluate_command(
     plots: Annotated[
         bool, typer.Option("--plot/--no-plot", help="Draw the figures (PNG) into --out.")
     ] = True,
+    report: o.Report = False,
     seed: o.Seed = None,
     year: o.Year = None,
     strict: o.Strict = False,
@@ -128,7 +129,8 @@ def evaluate_command(
 
         require_distributed()
     protect_inputs(
-        [out / n for n in ("results.parquet", "summary.csv", "summary.md", "paired.csv")],
+        [out / n for n in ("results.parquet", "summary.csv", "summary.md", "paired.csv")]
+        + [out / "report.html"] * report,
         [data, config, policy, mappo_policy, hubs],
     )
     cfg = planner_config(config, year=year, strict=strict, seed=seed, trust_actor=trust_actor)
@@ -151,6 +153,7 @@ def evaluate_command(
         against=against,
         plots=plots,
         force=force,
+        report=report,
     )
     try:
         res = run_evaluation(data, run, out=out, progress=Terminal(remaining=True))

@@ -145,3 +145,11 @@ Scheduler = Annotated[
         "pip install 'marops[cluster]' (README.md, Sweeps on a cluster).",
     ),
 ]
+Report = Annotated[
+    bool,
+    typer.Option(
+        "--report",
+        help="Also write report.html: an interactive page of the run that opens offline "
+        "(docs/report.md; needs pip install 'marops[report]').",
+    ),
+]

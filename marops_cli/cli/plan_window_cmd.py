@@ -61,6 +61,7 @@ def plan_window_command(
     config: o.Config = None,
     fmt: o.Format = "parquet",
     geojson: o.Geojson = False,
+    report: o.Report = False,
     tz: o.Tz = None,
     quiet: o.Quiet = False,
     as_json: o.Json = False,
@@ -79,7 +80,8 @@ def plan_window_command(
         raise InputError("--out must be a folder; this is a file", file=out)
     check_format(fmt)
     protect_inputs(
-        [out / f"stops.{fmt}", out / f"routes.{fmt}", out / "routes.geojson"],
+        [out / f"stops.{fmt}", out / f"routes.{fmt}", out / "routes.geojson"]
+        + [out / "report.html"] * report,
         [data, depots, fleet, delivered, config],
     )
     cfg = planner_config(
@@ -108,6 +110,7 @@ def plan_window_command(
         out=out,
         fmt=fmt,
         geojson=geojson,
+        report=report,
         progress=Terminal(),
     )
     _summary(res)

@@ -14,6 +14,7 @@ from .common import (
     begin,
     emit_json,
     guarded,
+    info,
     show_table,
     table,
 )
@@ -76,6 +77,7 @@ def replay_day_command(
     seed: o.Seed = None,
     fmt: o.Format = "parquet",
     geojson: o.Geojson = False,
+    report: o.Report = False,
     tz: o.Tz = None,
     plot: Annotated[
         bool, typer.Option("--plot", help="Draw each day's windows, areas and routes (PNG).")
@@ -102,7 +104,7 @@ def replay_day_command(
 
     if (date is None) == (dates is None):
         raise InputError("give exactly one of --date or --dates")
-    opts = ReplayOptions(method, fmt, plot, geojson, force, workers, scheduler)
+    opts = ReplayOptions(method, fmt, plot, geojson, force, workers, scheduler, report=report)
     check_options(opts)
     cfg = replay_config(
         config,
@@ -134,8 +136,11 @@ def replay_day_command(
         progress=Terminal(),
     )
     _print_metrics(res.days, hubs is not None)
+    if report:
+        info(f"wrote {out / 'report.html'} (docs/report.md)")
     if STATE["json"]:
         doc = {"out": str(out), "metrics": str(out / "metrics.json"), "days": res.days}
+        doc.update({"report": str(out / "report.html")} if report else {})
         emit_json({"command": "replay-day", **doc})
 
 
