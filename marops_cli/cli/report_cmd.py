@@ -24,7 +24,7 @@ def report_command(
         Path | None,
         typer.Option(
             "--depots",
-            help="The run's depots.json: draw every depot and the service areas [the depots "
+            help="The run's depots.json: draw every depot and the service areas [default: the depots "
             "the routes use].",
         ),
     ] = None,
