@@ -24,8 +24,8 @@ def report_command(
         Path | None,
         typer.Option(
             "--depots",
-            help="The run's depots.json: draw every depot and the service areas [default: the depots "
-            "the routes use].",
+            help="The run's depots.json: draw every depot and the service areas "
+            "[default: the depots the routes use].",
         ),
     ] = None,
     force: o.Force = False,
