@@ -318,9 +318,12 @@ class PlannerConfig(_Stage):
     ops: OpsConfig = Field(default_factory=OpsConfig)
 
 
-def _validation_message(exc: ValidationError) -> str:
+def _validation_message(exc: ValidationError, names: dict[str, str] | None = None) -> str:
+    """``plan.alpha: Input should be …, got 1.5``; ``names`` says what to call a field
+    (``{"plan.alpha": "--alpha"}``)."""
     err = exc.errors()[0]
     loc = ".".join(str(p) for p in err["loc"])
+    loc = (names or {}).get(loc, loc)
     msg = str(err["msg"]).removeprefix("Value error, ")
     if "input" in err and not isinstance(err["input"], dict | list):
         msg = f"{msg}, got {err['input']!r}"
@@ -357,8 +360,12 @@ def load_config(path: str | Path | None) -> PlannerConfig:
         raise InputError(f"invalid setting {_validation_message(exc)}", file=p) from exc
 
 
-def override(cfg: PlannerConfig, **fields: Any) -> PlannerConfig:
-    """Return a copy with ``stage__field=value`` overrides applied (None = keep)."""
+def override(
+    cfg: PlannerConfig, names: dict[str, str] | None = None, **fields: Any
+) -> PlannerConfig:
+    """Return a copy with ``stage__field=value`` overrides applied (None = keep); an
+    invalid value's error calls the field by its name in ``names`` (``stage__field`` ->
+    the flag that set it, ``--alpha``), else ``stage.field``."""
     data = cfg.model_dump()
     for key, value in fields.items():
         if value is None:
@@ -368,4 +375,5 @@ def override(cfg: PlannerConfig, **fields: Any) -> PlannerConfig:
     try:
         return PlannerConfig.model_validate(data)
     except ValidationError as exc:
-        raise InputError(f"invalid option {_validation_message(exc)}") from exc
+        dotted = {k.replace("__", "."): v for k, v in (names or {}).items()}
+        raise InputError(f"invalid option {_validation_message(exc, dotted)}") from exc

@@ -134,14 +134,23 @@ def _alpha_range(text: str | None) -> dict[str, Any]:
 def train_command(
     data: Annotated[
         list[Path],
-        typer.Argument(help="LaDe delivery exports (CSV or Parquet); several: several cities."),
+        typer.Argument(
+            metavar="DATA", help="LaDe delivery exports (CSV or Parquet); several: several cities."
+        ),
     ],
-    out: Annotated[Path, typer.Option("--out", help="Actor to write: policies/NAME.pt (+ .json).")],
+    out: Annotated[
+        Path,
+        typer.Option(
+            "--out",
+            help="Actor to write: policies/NAME.pt, and beside it its weights "
+            "(.safetensors), sidecar (.json), curve (.curve.png) and checkpoint (.ckpt).",
+        ),
+    ],
     days: Annotated[
         str | None,
         typer.Option(
             "--dates",
-            help="Training days (0801..0824); the rest are held out (default: first 80 %).",
+            help="Training days (0801..0824); the rest are held out [default: the first 80 %].",
         ),
     ] = None,
     episodes: Annotated[int, typer.Option("--episodes", help="Training episodes (days).")] = 2000,
@@ -164,11 +173,14 @@ def train_command(
     drones: Annotated[
         str | None,
         typer.Option(
-            "--drones", envvar="MAROPS_DRONES", help="Fleet size, or sizes to train on (8,16) [8]."
+            "--drones",
+            envvar="MAROPS_DRONES",
+            help="Fleet size, or sizes to train on (8,16) [default: 8].",
         ),
     ] = None,
     n_depots: Annotated[
-        str | None, typer.Option("--n-depots", help="Depots, or counts to train on (16,25) [16].")
+        str | None,
+        typer.Option("--n-depots", help="Depots, or counts to train on (16,25) [default: 16]."),
     ] = None,
     alpha_range: Annotated[
         str | None,
@@ -183,7 +195,7 @@ def train_command(
         typer.Option(
             "--obs-version",
             help="Observation version of the flight-range actor: 4, or 5 (adds the drone's own "
-            "type: payload, battery, speed; for mixed fleets) [4].",
+            "type: payload, battery, speed; for mixed fleets) [default: 4].",
         ),
     ] = 4,
     seed: Annotated[int, typer.Option("--seed", help="Training seed; same seed, same actor.")] = 0,
@@ -204,6 +216,8 @@ def train_command(
     from ..app.train import train as run_training
 
     for path in data:
+        if str(path) == "-":  # training reads each city's file several times
+            raise InputError("train reads files (one per city), not standard input (-)")
         require_input(path)
     if out.suffix != (".safetensors" if algorithm == "es" else ".pt"):
         want = "a .safetensors file (--algorithm es)" if algorithm == "es" else "a .pt file"
@@ -239,7 +253,7 @@ def train_command(
         data_origin=data_origin,
     )
     res = run_training(data, setup, out, progress=_Reporter(tcfg.checkpoint_every))
-    console.print(f"wrote {res.actor} and {out.with_suffix('.json')} ({res.training_time_s:.0f} s)")
+    console.print(f"wrote {', '.join(map(str, res.files))} ({res.training_time_s:.0f} s)")
     if res.heldout:
         _print_heldout(res.heldout)
 

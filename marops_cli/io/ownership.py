@@ -3,7 +3,7 @@ a run's inputs, and only where it can write.
 
 A file is marops's when its content says so (a Parquet file's ``marops`` metadata, a
 JSON document's marops ``meta``, a training checkpoint's format) or, for files that
-carry no metadata (CSV, PNG, Markdown, actors), when the folder's journal
+carry no metadata (CSV, PNG, Markdown, HTML, actors), when the folder's journal
 ``.marops-files.json`` lists it with the SHA-256 of what is there now. A file edited
 since is not marops's any more. The name never decides.
 """
