@@ -33,7 +33,7 @@ import numpy as np  # noqa: E402
 import pyarrow as pa  # noqa: E402
 import pyarrow.parquet as pq  # noqa: E402
 
-from marops_cli.config import PlannerConfig, override  # noqa: E402
+from marops_cli.config import OpsConfig, PlannerConfig, override  # noqa: E402
 from marops_cli.data.synth import SynthConfig, generate, write  # noqa: E402
 from marops_cli.errors import InputError  # noqa: E402
 from marops_cli.evaluate import (  # noqa: E402
@@ -60,6 +60,7 @@ COMMAND = ".venv/bin/python benchmarks/evaluate.py"
 RUNS: dict[str, tuple[dict[str, list], int]] = {
     "basic": ({}, 1),
     "pool": ({}, 1),
+    "operations": ({}, 1),
     "alpha": ({"alpha": [0.2, 0.5, 0.6, 0.7, 0.8, 0.9, 1.0]}, 2),
     "drones": ({"drones": [4, 8, 12, 16, 20]}, 2),
     "coverage": ({"coverage": [0.25, 0.5, 0.75, 1.0]}, 2),
@@ -68,12 +69,26 @@ RUNS: dict[str, tuple[dict[str, list], int]] = {
 FLAG_OF = {"alpha": "alpha", "drones": "drones", "coverage": "coverage", "areas": "depots_n"}
 
 
-def available_methods() -> list[str]:
-    """The paper's methods, greedy, stay and myopic, as far as this build can run them."""
+PAPER_METHODS = [
+    "marops",
+    "ops-global",
+    "ops-random",
+    "mappo",
+    "squares",
+    "greedy",
+    "stay",
+    "myopic",
+]
+OPS_METHODS = ["marops", "ops-global", "backlog", "rebalance", "ops-random", "greedy"]
+"""The "operations" run's methods: the landing actor, the rules it must beat, two baselines."""
+
+
+def available_methods(names: list[str], ops: OpsConfig | None = None) -> list[str]:
+    """The methods of ``names`` this build can run under the operating model ``ops``."""
     chosen = []
-    for m in ["marops", "ops-global", "ops-random", "mappo", "squares", "greedy", "stay", "myopic"]:
+    for m in names:
         try:
-            check_methods([m], None)
+            check_methods([m], None, ops=ops)
         except InputError as exc:
             print(f"{m}: left out ({exc})")
             continue
@@ -312,6 +327,10 @@ def write_page(doc: Path, results: dict[str, pa.Table]) -> None:
         "- Basic scenario: 16 k-means areas, 8 drones, 4 actions, coverage 0.25, α = 0.5, "
         "16 windows of 30 min, M̂ = 5, 2.5 kg payload; 1 repeat per day (the baselines are "
         "deterministic but ops-random, which is seeded).",
+        "- Operating model: the paper's (every parcel at every depot, unlimited battery "
+        "swaps, flights within their window: `[ops]` of `examples/paper.toml`) for every "
+        'table but the section "The realistic operating model (the default)", which flies '
+        "the default model (docs/method.md §5.2).",
         f"- Methods run: {', '.join(methods)}."
         + (
             f" Not run: {', '.join(missing)}, which need the trained actors "
@@ -366,9 +385,10 @@ def write_page(doc: Path, results: dict[str, pa.Table]) -> None:
             "",
             "The tables above use the paper's planner (`--config examples/paper.toml`: each "
             "drone's M̂ = 5 most delayed requests, every subset). The same days with the default "
-            "route pool planner (docs/method.md §4.4), `marops evaluate synth50.csv --split "
-            "test`; the flight-range actor was trained on the route pool, the MAPPO actor "
-            "for the paper's planner:",
+            "route pool planner (docs/method.md §4.4), still under the paper's operating model, "
+            "`marops evaluate synth50.csv --split test --config examples/paper-ops.toml`; the "
+            "flight-range actor was trained on the route pool, the MAPPO actor for the paper's "
+            "planner:",
             "",
             markdown_table(summaries["pool"], 0),
             "",
@@ -402,6 +422,8 @@ def write_page(doc: Path, results: dict[str, pa.Table]) -> None:
             "the paper's subset plans whatever the planner setting (its actor ranks them).",
         ]
         lines += pool_paired(results["pool"], methods)
+    if "operations" in summaries:
+        lines += operations_section(results["operations"], summaries["operations"])
     for name in ("alpha", "drones", "coverage", "areas"):
         if name not in summaries:
             continue
@@ -418,6 +440,59 @@ def write_page(doc: Path, results: dict[str, pa.Table]) -> None:
         if why:
             lines += ["", why]
     doc.write_text("\n".join(lines) + "\n", encoding="utf-8")
+
+
+def operations_section(res: Any, summary: Any) -> list[str]:
+    """The realistic operating model (the default): the table, then the landing actor
+    against each rule and against the best rule of each day, paired with bootstrap CIs."""
+    from marops_cli.evaluate.paired import bootstrap_ci
+
+    t = res.to_pydict()
+    methods = list(dict.fromkeys(t["method"]))
+    lines = [
+        "",
+        "## The realistic operating model (the default)",
+        "",
+        "The same days under the default operating model (docs/method.md §5.2: parcels wait "
+        "at their area's depot, 2 spare batteries and one 62.5 W charger per depot, long "
+        "flights keep their drones) with the default route pool planner, `marops evaluate "
+        f"synth50.csv --split test --methods {','.join(methods)}`. `marops` flies the landing "
+        "actor (docs/method.md §6.1), trained on other cities (policies/README.md):",
+        "",
+        markdown_table(summary, 0),
+    ]
+    rules = [m for m in ("ops-global", "backlog", "rebalance") if m in methods]
+    if "marops" not in methods or not rules:
+        return lines
+    keys = ("objective_j_mj", "avg_delay_h", "mean_energy_kj", "delivered_share")
+    row = {(d, m): i for i, (d, m) in enumerate(zip(t["day"], t["method"], strict=True))}
+    days = sorted({d for d, m in row if m == "marops"})
+    lines += [
+        "",
+        "marops − reference on the same days (mean and bootstrap 95 % CI over the "
+        f"{len(days)} days; `*`: the interval excludes 0); `best rule` is, each day, the rule "
+        "with the lowest day J:",
+        "",
+        "| reference | Δ day J MJ | Δ delay h | Δ energy kJ/drone | Δ delivered share |",
+        "|---|---|---|---|---|",
+    ]
+    for ref in [*rules, "best rule"]:
+        cells = []
+        for k in keys:
+            d = []
+            for day in days:
+                if ref == "best rule":
+                    b = min(rules, key=lambda m, day=day: t["objective_j_mj"][row[(day, m)]])
+                else:
+                    b = ref
+                d.append(t[k][row[(day, "marops")]] - t[k][row[(day, b)]])
+            arr = np.array(d, dtype=float)
+            lo, hi = bootstrap_ci(arr)
+            star = " *" if hi < 0 or lo > 0 else ""
+            nd = {"objective_j_mj": 2, "avg_delay_h": 3, "mean_energy_kj": 1}.get(k, 4)
+            cells.append(f"{arr.mean():+.{nd}f} [{lo:+.{nd}f}, {hi:+.{nd}f}]{star}")
+        lines.append(f"| {ref} | " + " | ".join(cells) + " |")
+    return lines
 
 
 def pool_paired(res: Any, methods: list[str]) -> list[str]:
@@ -473,15 +548,24 @@ def run_all(
     """Make the runs ``args.runs`` names (``synth``'s file first, if missing), then the page."""
     if not args.data.is_file():
         write(generate(synth), args.data)
-    methods = args.methods.split(",") if args.methods else available_methods()
-    paper = override(PlannerConfig(), plan__planner="subsets")
+    methods = args.methods.split(",") if args.methods else available_methods(PAPER_METHODS)
+    pool = PlannerConfig(ops=OpsConfig.paper_model())  # the paper's model
+    paper = override(pool, plan__planner="subsets")  # and its planner: examples/paper.toml
     for name in args.runs.split(","):
-        cfg = PlannerConfig() if name == "pool" else paper
+        cfg = {"pool": pool, "operations": PlannerConfig()}.get(name, paper)
         out = args.out / name
         if args.reuse and (out / "results.parquet").is_file():
             continue
         flags, workers = runs[name]
-        prep = prepare(args.data, cfg, methods, expand_settings(cfg, **flags), split="test")
+        run_methods = methods
+        if name == "operations":
+            run_methods = (
+                args.ops_methods.split(",")
+                if args.ops_methods
+                else (available_methods(OPS_METHODS, cfg.ops))
+            )
+        settings = expand_settings(cfg, **flags)
+        prep = prepare(args.data, cfg, run_methods, settings, split="test")
         t0 = time.perf_counter()
         ev = evaluate_jobs(prep, workers=workers)
         write_outputs(out, prep, ev.results, ev.summary)
@@ -498,6 +582,9 @@ def main() -> None:
     ap.add_argument("--out", type=Path, default=ROOT / "build/evaluate")
     ap.add_argument("--doc", type=Path, default=ROOT / "docs/results.md")
     ap.add_argument("--methods", default=None, help="comma-separated [all this build can run]")
+    ap.add_argument(
+        "--ops-methods", default=None, help="the operations run's methods [OPS_METHODS]"
+    )
     ap.add_argument("--runs", default=",".join(RUNS), help="which runs [all]")
     ap.add_argument("--reuse", action="store_true", help="keep runs whose results exist")
     ap.add_argument("--smoke", action="store_true", help="every run, least input (CI)")
@@ -509,6 +596,7 @@ def main() -> None:
         tmp = Path(d)
         args.data, args.out, args.doc = tmp / "synth.csv", tmp, tmp / "results.md"
         args.methods = args.methods or "marops,ops-global,greedy"
+        args.ops_methods = args.ops_methods or "marops,backlog,rebalance"
         runs = {n: ({k: v[:2] for k, v in f.items()}, 1) for n, (f, _) in RUNS.items()}
         run_all(args, runs, SynthConfig(days=10, seed=23, orders_per_day=600.0))
 

@@ -35,6 +35,10 @@ import numpy as np  # noqa: E402
 SHAPES = ("hubs", "river", "corridor", "polycentric")
 SEEDS = {"hubs": 41, "river": 42, "corridor": 43, "polycentric": 44}
 KEYS = ("objective_j_mj", "avg_delay_h", "mean_energy_kj", "delivered_share")
+OPS_KEYS = ("battery_waits", "busy_windows", "stock_left_total", "stock_left_max", "charged_min")
+BEST = "best rule"
+"""The per-day best of the reference methods by day J (``--against``), a method of its own
+in the paired tables: beating it on a day means beating every reference that day."""
 
 
 def held_out_cities(shapes: list[str], days: int, prefix: str) -> dict[str, Path]:
@@ -58,13 +62,13 @@ def _job(task: tuple[Any, ...]) -> list[dict[str, Any]]:
     import torch
 
     torch.set_num_threads(1)
-    from marops_cli.config import PlannerConfig, override
+    from marops_cli.config import PlannerConfig, load_config, override
     from marops_cli.data.reader import read_lade
     from marops_cli.methods import method as method_spec
     from marops_cli.sim.scenario import load_fleet, load_scenario, method_policy, replay
 
-    path, shape, history, n_dep, drones, alpha, method, policy = task
-    base = PlannerConfig()
+    path, shape, history, n_dep, drones, alpha, method, policy, config = task
+    base = PlannerConfig() if config is None else load_config(Path(config))
     table = read_lade(path, base.data)
     days = table.days()[history:]
     cfg = override(
@@ -76,10 +80,11 @@ def _job(task: tuple[Any, ...]) -> list[dict[str, Any]]:
     )
     scn = load_scenario(path, cfg, replay_days=days, table=table)
     fleet = load_fleet(None, scn.depots, drones, cfg)
-    pol = method_policy(method, policy if method_spec(method).policy == "learned" else None, 0)
+    learned = method_spec(method).policy == "learned"
+    pol = method_policy(method, policy if learned else None, 0, ops=cfg.ops)
     rows = []
     for day in days:
-        _, _, m = replay(scn, day, fleet, pol, method)
+        res, _, m = replay(scn, day, fleet, pol, method)
         rows.append(
             {
                 "shape": shape,
@@ -89,9 +94,25 @@ def _job(task: tuple[Any, ...]) -> list[dict[str, Any]]:
                 "method": method,
                 "day": str(m["day"]),
                 **{k: float(m[k]) for k in KEYS},
+                **{k: m[k] for k in OPS_KEYS if m.get(k) is not None},
+                "choices": choices(res),
             }
         )
     return rows
+
+
+def choices(res: Any) -> dict[str, int]:
+    """How often each action index was flown (``free``: the free landing) by the drones
+    that could fly (the operating model's held-back drones decide nothing)."""
+    held = None if res.state.ops is None else res.state.ops.held_w
+    out: dict[str, int] = {}
+    for plan in res.plans:
+        for r in plan.routes:
+            if held is not None and plan.t < held.shape[0] and held[plan.t, r.drone]:
+                continue
+            key = "free" if res.scope == "global" or r.action < 0 else str(int(r.action))
+            out[key] = out.get(key, 0) + 1
+    return out
 
 
 def _ci(d: np.ndarray) -> tuple[float, float, float]:
@@ -136,13 +157,22 @@ def _fmt(ci: tuple[float, float, float], nd: int) -> str:
     return f"{m:+.{nd}f} [{lo:+.{nd}f}, {hi:+.{nd}f}]{star}"
 
 
+def _pct(g: dict[str, Any], key: str) -> str:
+    """The paired difference of ``key`` as a percentage of the reference's mean."""
+    base = g[key + "_b"]
+    if not base:
+        return "-"
+    m, lo, hi = (100.0 * x / abs(base) for x in g[key])
+    return _fmt((m, lo, hi), 1)
+
+
 def print_paired(rows: list[dict[str, Any]], methods: tuple[str, ...], markdown: bool) -> None:
     """Per shape and setting, the actor minus each reference, paired per day (α 0.5)."""
     a, refs = methods[0], methods[1:]
     at05 = [r for r in rows if r["alpha"] == 0.5]
     sep = " | " if markdown else "  "
-    head = ["shape", "areas", "drones", "days", "Δ day J MJ", "Δ delay h", "Δ energy kJ/drone",
-            "Δ delivered share", "J better"]  # fmt: skip
+    head = ["shape", "areas", "drones", "days", "Δ day J MJ", "Δ J %", "Δ delay h",
+            "Δ energy kJ/drone", "Δ energy %", "Δ delivered share", "J better"]  # fmt: skip
     for b in refs:
         print(f"\n{a} − {b}, paired per day, mean [95 % bootstrap CI] (* excludes 0), α = 0.5")
         if markdown:
@@ -160,11 +190,64 @@ def print_paired(rows: list[dict[str, Any]], methods: tuple[str, ...], markdown:
         for g in groups:
             cells = [
                 str(g["shape"]), str(g["n_depots"]), str(g["drones"]), str(g["days"]),
-                _fmt(g["objective_j_mj"], 2), _fmt(g["avg_delay_h"], 3),
-                _fmt(g["mean_energy_kj"], 1), _fmt(g["delivered_share"], 4),
+                _fmt(g["objective_j_mj"], 2), _pct(g, "objective_j_mj"),
+                _fmt(g["avg_delay_h"], 3), _fmt(g["mean_energy_kj"], 1),
+                _pct(g, "mean_energy_kj"), _fmt(g["delivered_share"], 4),
                 f"{g['j_better_days']}/{g['days']}",
             ]  # fmt: skip
             print(("| " + " | ".join(cells) + " |") if markdown else sep.join(cells))
+
+
+def with_best(rows: list[dict[str, Any]], refs: list[str]) -> list[dict[str, Any]]:
+    """``rows`` plus, per (city, setting, α, day), the row of the reference with the lowest
+    day J that day as method :data:`BEST` (its ``rule`` says which)."""
+    out = list(rows)
+    by: dict[tuple, list[dict[str, Any]]] = {}
+    for r in rows:
+        if r["method"] in refs:
+            key = (r["shape"], r["n_depots"], r["drones"], r["alpha"], r["day"])
+            by.setdefault(key, []).append(r)
+    for group in by.values():
+        if len(group) == len(refs):
+            best = min(group, key=lambda r: r["objective_j_mj"])
+            out.append({**best, "method": BEST, "rule": best["method"]})
+    return out
+
+
+def print_choices(rows: list[dict[str, Any]], method: str, markdown: bool) -> None:
+    """Per shape, the share of each action ``method`` flew (α 0.5) and the largest."""
+    print(f"\n{method}'s decisions per shape (share of each action; the largest must stay <= 0.9)")
+    shapes = sorted({r["shape"] for r in rows})
+    for shape in [*shapes, "all"]:
+        total: dict[str, int] = {}
+        for r in rows:
+            if r["method"] == method and r["alpha"] == 0.5 and shape in ("all", r["shape"]):
+                for k, n in r["choices"].items():
+                    total[k] = total.get(k, 0) + n
+        n = sum(total.values())
+        if not n:
+            continue
+        shares = {k: total[k] / n for k in sorted(total, key=lambda k: (k == "free", k))}
+        cells = ", ".join(f"{k}: {v:.3f}" for k, v in shares.items())
+        line = f"{shape}: {n} decisions; {cells}; largest {max(shares.values()):.3f}"
+        print(f"- {line}" if markdown else line)
+
+
+def print_operations(rows: list[dict[str, Any]], methods: tuple[str, ...], markdown: bool) -> None:
+    """Per method, what the operating model held back (α 0.5, mean per day): windows drones
+    waited for a battery, parcels left at the depots at the day's end, the most at one."""
+    if not any("battery_waits" in r for r in rows):
+        return
+    print(
+        "\noperating model per method (mean per day): battery waits, busy drone-windows, "
+        "parcels left at depots at the end, most at one depot, fewest spare batteries"
+    )
+    for m in methods:
+        rs = [r for r in rows if r["method"] == m and r["alpha"] == 0.5]
+        if not rs:
+            continue
+        cells = [f"{k} {np.mean([float(r.get(k) or 0) for r in rs]):.1f}" for k in OPS_KEYS]
+        print(("- " if markdown else "") + f"{m}: " + ", ".join(cells))
 
 
 def print_sweep(rows: list[dict[str, Any]], methods: tuple[str, ...], markdown: bool) -> None:
@@ -224,6 +307,9 @@ def main() -> None:
     ap.add_argument("--alphas", default="0.2,0.5,0.8", help="α sweep (16 areas, 8 drones)")
     ap.add_argument("--policy", default=None, help="actor file [the shipped one]")
     ap.add_argument(
+        "--config", default=None, help="config TOML, e.g. an operating model [the defaults]"
+    )
+    ap.add_argument(
         "--against", default="myopic", help="reference methods, comma-separated (myopic,ops-global)"
     )
     ap.add_argument("--workers", type=int, default=2)
@@ -252,20 +338,31 @@ def main() -> None:
         for n in depots:
             for u in drones:
                 for m in methods:
-                    tasks.append((str(files[s]), s, args.history, n, u, 0.5, m, args.policy))
+                    tasks.append(
+                        (str(files[s]), s, args.history, n, u, 0.5, m, args.policy, args.config)
+                    )
         for a in alphas:
             if a == 0.5 and 16 in depots and 8 in drones:
                 continue  # already in the settings above
             for m in methods:
-                tasks.append((str(files[s]), s, args.history, 16, 8, a, m, args.policy))
+                tasks.append(
+                    (str(files[s]), s, args.history, 16, 8, a, m, args.policy, args.config)
+                )
     t0 = time.perf_counter()
     with mp.get_context("spawn").Pool(args.workers) as pool:
         rows = [r for part in pool.map(_job, tasks, chunksize=1) for r in part]
     print(f"{len(rows)} day replays in {time.perf_counter() - t0:.0f} s", file=sys.stderr)
     if args.json:
         Path(args.json).write_text(json.dumps(rows, indent=1))
-    print_paired(rows, methods, args.markdown)
-    print_sweep(rows, methods, args.markdown)
+    if len(refs) > 1:
+        rows = with_best(rows, refs)
+        print_paired(rows, ("marops", BEST, *refs), args.markdown)
+        print_sweep(rows, ("marops", *refs), args.markdown)
+    else:
+        print_paired(rows, methods, args.markdown)
+        print_sweep(rows, methods, args.markdown)
+    print_choices(rows, "marops", args.markdown)
+    print_operations(rows, methods, args.markdown)
 
 
 if __name__ == "__main__":

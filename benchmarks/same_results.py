@@ -38,11 +38,15 @@ ROOT = Path(__file__).resolve().parents[1]
 DEFAULT_FILE = ROOT / "tests" / "golden" / "same_results.json"
 EXAMPLE = ROOT / "examples" / "shanghai_synth.csv"
 FLEET = ROOT / "examples" / "fleet.toml"
+PAPER_OPS = ROOT / "examples" / "paper-ops.toml"
+"""The paper's operating model: the cases recorded before the realistic model became the
+default fly it, so their fingerprints still hold (docs/decisions.md, "Same results")."""
 
 METHODS = ("marops", "ops-global", "ops-random", "greedy", "squares", "mappo", "stay", "myopic")
 # City shape -> synth seed; 600 orders a day over 3 days, the first two replayed (the
 # third is the history the depots are segmented on).
 SHAPES = {"hubs": 1, "river": 2, "corridor": 3}
+OPS_METHODS = ("marops", "ops-global", "backlog", "rebalance")  # under the realistic model
 SYNTH_ORDERS = "600"
 SYNTH_DAYS = "3"
 REPLAY_DAYS = "0801..0802"
@@ -171,6 +175,8 @@ class Runner:
     marops: str
     env: dict[str, str] = field(default_factory=dict)
     made: set[str] = field(default_factory=set)
+    paper: bool = True
+    """Fly the paper's operating model (``--config examples/paper-ops.toml``)."""
 
     @classmethod
     def create(cls, work: Path) -> Runner:
@@ -186,6 +192,8 @@ class Runner:
 
     def __call__(self, *args: str) -> None:
         cmd = [self.marops, *args]
+        if self.paper and args[0] != "synth" and "--config" not in args:
+            cmd += ["--config", str(PAPER_OPS)]
         proc = subprocess.run(
             cmd, cwd=self.work, env=self.env, capture_output=True, text=True, check=False
         )
@@ -199,8 +207,19 @@ class Runner:
         name = f"synth-{shape}.csv"
         if name not in self.made:
             (self.work / name).unlink(missing_ok=True)  # from an earlier run in a kept folder
-            self("synth", "--out", name, "--days", SYNTH_DAYS, "--seed", str(SHAPES[shape]),
-                 "--orders-per-day", SYNTH_ORDERS, "--shape", shape)
+            self(
+                "synth",
+                "--out",
+                name,
+                "--days",
+                SYNTH_DAYS,
+                "--seed",
+                str(SHAPES[shape]),
+                "--orders-per-day",
+                SYNTH_ORDERS,
+                "--shape",
+                shape,
+            )
             self.made.add(name)
         return name
 
@@ -216,8 +235,18 @@ def case_example(run: Runner, out: str) -> dict[str, Any]:
 def case_synth(shape: str, method: str) -> Callable[[Runner, str], dict[str, Any]]:
     def case(run: Runner, out: str) -> dict[str, Any]:
         data = run.synth(shape)
-        run("replay-day", data, "--dates", REPLAY_DAYS, "--method", method, "--out", out,
-            "--workers", "1")
+        run(
+            "replay-day",
+            data,
+            "--dates",
+            REPLAY_DAYS,
+            "--method",
+            method,
+            "--out",
+            out,
+            "--workers",
+            "1",
+        )
         return tree_fingerprints(run.work / out, ROUTE_FILES)
 
     return case
@@ -231,35 +260,126 @@ def case_fleet(run: Runner, out: str) -> dict[str, Any]:
 def case_hubs(run: Runner, out: str) -> dict[str, Any]:
     data = "synth-polycentric.csv"
     (run.work / data).unlink(missing_ok=True)
-    run("synth", "--out", data, "--days", "3", "--seed", "4", "--orders-per-day", "1200",
-        "--shape", "polycentric")
+    run(
+        "synth",
+        "--out",
+        data,
+        "--days",
+        "3",
+        "--seed",
+        "4",
+        "--orders-per-day",
+        "1200",
+        "--shape",
+        "polycentric",
+    )
     run("segment", data, "--hubs", "auto", "--out", f"{out}/hubs.json")
-    run("replay-day", data, "--hubs", f"{out}/hubs.json", "--dates", "0802..0803",
-        "--out", f"{out}/replay", "--workers", "1")
+    run(
+        "replay-day",
+        data,
+        "--hubs",
+        f"{out}/hubs.json",
+        "--dates",
+        "0802..0803",
+        "--out",
+        f"{out}/replay",
+        "--workers",
+        "1",
+    )
     return tree_fingerprints(run.work / out, ROUTE_FILES)
 
 
 def case_evaluate(run: Runner, out: str) -> dict[str, Any]:
     data = run.synth("river")
-    run("evaluate", data, "--out", out, "--methods", "marops,greedy", "--dates", "0802..0803",
-        "--workers", "1", "--no-plot", "--seed", "0")
+    run(
+        "evaluate",
+        data,
+        "--out",
+        out,
+        "--methods",
+        "marops,greedy",
+        "--dates",
+        "0802..0803",
+        "--workers",
+        "1",
+        "--no-plot",
+        "--seed",
+        "0",
+    )
     return tree_fingerprints(run.work / out, ("results.parquet",))
 
 
 def case_train(run: Runner, out: str) -> dict[str, Any]:
     data = run.synth("hubs")
-    run("train", data, "--out", f"{out}/actor.pt", "--episodes", "20", "--workers", "1",
-        "--seed", "0", "--dates", "0801..0802", "--eval-days", "1", "--no-resume")
+    run(
+        "train",
+        data,
+        "--out",
+        f"{out}/actor.pt",
+        "--episodes",
+        "20",
+        "--workers",
+        "1",
+        "--seed",
+        "0",
+        "--dates",
+        "0801..0802",
+        "--eval-days",
+        "1",
+        "--no-resume",
+    )
     return tree_fingerprints(run.work / out, ("actor.pt", "actor.json"))
 
 
+def case_train_es(run: Runner, out: str) -> dict[str, Any]:
+    data = run.synth("hubs")
+    run(
+        "train",
+        data,
+        "--algorithm",
+        "es",
+        "--out",
+        f"{out}/land.safetensors",
+        "--episodes",
+        "60",
+        "--workers",
+        "1",
+        "--seed",
+        "0",
+        "--dates",
+        "0801..0802",
+        "--eval-days",
+        "1",
+        "--no-resume",
+    )
+    return tree_fingerprints(run.work / out, ("land.safetensors", "land.json"))
+
+
+def realistic(case: Callable[[Runner, str], dict[str, Any]]) -> Callable[[Runner, str], Any]:
+    """``case`` under the default (realistic) operating model."""
+
+    def flown(run: Runner, out: str) -> dict[str, Any]:
+        run.paper = False
+        try:
+            return case(run, out)
+        finally:
+            run.paper = True
+
+    return flown
+
+
 def all_cases() -> dict[str, Callable[[Runner, str], dict[str, Any]]]:
-    """Every case by name, in the order they run."""
+    """Every case by name, in the order they run: the paper's operating model, then the
+    default (realistic) one, ``ops-*``."""
     cases: dict[str, Callable[[Runner, str], dict[str, Any]]] = {"example": case_example}
     for shape in SHAPES:
         for method in METHODS:
             cases[f"synth-{shape}-{method}"] = case_synth(shape, method)
     cases.update(fleet=case_fleet, hubs=case_hubs, evaluate=case_evaluate, train=case_train)
+    cases["ops-example"] = realistic(case_example)
+    for method in OPS_METHODS:
+        cases[f"ops-synth-river-{method}"] = realistic(case_synth("river", method))
+    cases["ops-train"] = realistic(case_train_es)
     return cases
 
 
@@ -268,8 +388,9 @@ def select(names: list[str], patterns: list[str] | None) -> list[str]:
     if not patterns:
         return names
     chosen = [n for n in names if any(fnmatch.fnmatch(n, p) or n.startswith(p) for p in patterns)]
-    unknown = [p for p in patterns if not any(fnmatch.fnmatch(n, p) or n.startswith(p)
-                                              for n in names)]
+    unknown = [
+        p for p in patterns if not any(fnmatch.fnmatch(n, p) or n.startswith(p) for n in names)
+    ]
     if unknown:
         sys.exit(f"no case matches {', '.join(unknown)}; cases: {', '.join(names)}")
     return chosen
@@ -338,8 +459,14 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     mode = ap.add_mutually_exclusive_group()
     mode.add_argument("--record", type=Path, metavar="FILE", help="write the fingerprints")
-    mode.add_argument("--check", type=Path, metavar="FILE", nargs="?", const=DEFAULT_FILE,
-                      help=f"compare with FILE [{DEFAULT_FILE.relative_to(ROOT)}]")
+    mode.add_argument(
+        "--check",
+        type=Path,
+        metavar="FILE",
+        nargs="?",
+        const=DEFAULT_FILE,
+        help=f"compare with FILE [{DEFAULT_FILE.relative_to(ROOT)}]",
+    )
     mode.add_argument("--list", action="store_true", help="print the case names")
     ap.add_argument("--only", nargs="+", metavar="NAME", help="cases (names, prefixes, globs)")
     ap.add_argument("--smoke", action="store_true", help=f"only {', '.join(SMOKE)}")

@@ -18,6 +18,7 @@ scenario (8 drones, 16 areas, a 20-day ``marops synth --seed 11`` file, 2 worker
 held-out evaluations every 200 episodes included) and prints the figure:
 
     python benchmarks/train.py --time-training 2000
+    python benchmarks/train.py --time-training 2000 --algorithm es   # the landing actor
 
 ``--smoke`` runs both on the least input (2 training episodes on one worker; the table
 over one held-out day), so CI sees the script keep up with the library.
@@ -31,8 +32,9 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+PAPER_OPS = Path(__file__).resolve().parents[1] / "examples" / "paper-ops.toml"
 
-from marops_cli.config import PlannerConfig, override  # noqa: E402
+from marops_cli.config import OpsConfig, PlannerConfig, override  # noqa: E402
 from marops_cli.data.reader import read_lade  # noqa: E402
 from marops_cli.methods import method as method_spec  # noqa: E402
 from marops_cli.rl.evaluate import method_table  # noqa: E402
@@ -53,7 +55,7 @@ COLUMNS = (
 
 
 def run(args: argparse.Namespace) -> dict[str, dict[str, tuple[float, float]]]:
-    base = PlannerConfig()
+    base = PlannerConfig(ops=OpsConfig.paper_model())  # the paper's actors' model
     table = read_lade(args.data, base.data)
     days = table.days()[args.history :]
     methods = [m.strip() for m in args.methods.split(",") if m.strip()]
@@ -70,7 +72,10 @@ def run(args: argparse.Namespace) -> dict[str, dict[str, tuple[float, float]]]:
         scn = load_scenario(args.data, cfg, replay_days=days, table=table)
         fleet = load_fleet(None, scn.depots, cfg.sim.drones, cfg)
         pol = method_policy(
-            m, args.policy if method_spec(m).policy == "learned" else None, cfg.sim.seed
+            m,
+            args.policy if method_spec(m).policy == "learned" else None,
+            cfg.sim.seed,
+            ops=cfg.ops,
         )
         t0 = time.perf_counter()
         for day in days:
@@ -80,27 +85,31 @@ def run(args: argparse.Namespace) -> dict[str, dict[str, tuple[float, float]]]:
     return method_table(rows)
 
 
-def time_training(episodes: int, workers: int, smoke: bool = False) -> None:
-    """Train the flight-range actor for ``episodes`` on the basic scenario; print the time
-    (``smoke``: on 5 days of a third of the orders, the least that trains)."""
+def time_training(episodes: int, workers: int, smoke: bool = False, algorithm: str = "ppo") -> None:
+    """Train an actor for ``episodes`` on the basic scenario; print the time (``smoke``: on
+    5 days of a third of the orders, the least that trains). ``ppo``: the recurrent actor
+    under the paper's operating model; ``es``: the landing actor under the default one."""
     import json
     import subprocess
     import tempfile
 
     with tempfile.TemporaryDirectory(prefix="marops-train-time-") as d:
-        data, out = Path(d) / "train.csv", Path(d) / "a.pt"
+        data = Path(d) / "train.csv"
+        out = Path(d) / ("a.safetensors" if algorithm == "es" else "a.pt")
+        how = ["--algorithm", "es"] if algorithm == "es" else ["--config", str(PAPER_OPS)]
         exe = Path(sys.executable).with_name("marops")  # the venv's entry point
         marops = [str(exe) if exe.exists() else "marops"]
         size = ["--days", "5", "--orders-per-day", "600"] if smoke else ["--days", "20"]
         subprocess.run([*marops, "synth", *size, "--seed", "11", "--out", str(data)], check=True)
         cmd = [*marops, "train", str(data), "--episodes", str(episodes), "--workers",
-               str(workers), "--no-resume", "--out", str(out)]  # fmt: skip
+               str(workers), "--no-resume", "--out", str(out), *how]  # fmt: skip
         t0 = time.perf_counter()
         subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)
         wall = time.perf_counter() - t0
         side = json.loads(out.with_suffix(".json").read_text())
     print(
-        f"marops train, {episodes} episodes, {workers} workers: {wall:.0f} s wall "
+        f"marops train --algorithm {algorithm}, {episodes} episodes, {workers} workers: "
+        f"{wall:.0f} s wall "
         f"({wall / 60:.1f} min, {wall / episodes:.3f} s per episode); "
         f"training_time_s {side['training_time_s']:.0f} s (rollouts, updates, evaluations)"
     )
@@ -132,6 +141,7 @@ def smoke(args: argparse.Namespace) -> None:
     from marops_cli.data.synth import SynthConfig, generate, write
 
     time_training(2, 1, smoke=True)
+    time_training(2, 1, smoke=True, algorithm="es")
     with tempfile.TemporaryDirectory(prefix="marops-train-smoke-") as d:
         start = dt.date(2022, 9, 1)
         cfg = SynthConfig(days=args.history + 1, seed=23, start=start, orders_per_day=600.0)
@@ -144,6 +154,9 @@ def main() -> None:
     ap.add_argument("--time-training", type=int, default=0, metavar="N",
                     help="time marops train for N episodes instead")  # fmt: skip
     ap.add_argument("--workers", type=int, default=2, help="--time-training: rollout workers")
+    ap.add_argument(
+        "--algorithm", default="ppo", choices=["ppo", "es"], help="--time-training: which actor"
+    )
     ap.add_argument("--data", help="LaDe-shaped CSV (e.g. marops synth --seed 23)")
     ap.add_argument("--history", type=int, default=4, help="first days used only for depots")
     ap.add_argument("--methods", default=DEFAULT_METHODS)
@@ -160,7 +173,7 @@ def main() -> None:
     if args.smoke:
         smoke(args)
     elif args.time_training:
-        time_training(args.time_training, args.workers)
+        time_training(args.time_training, args.workers, algorithm=args.algorithm)
     elif not args.data:
         ap.error("--data is required (or --time-training N)")
     else:

@@ -39,6 +39,7 @@ __all__ = [
     "plan_window",
     "read_lade",
     "replay_day",
+    "report",
     "segment",
 ]
 
@@ -69,23 +70,36 @@ def _path(value: str | Path | None) -> Path | None:
     return Path(value) if value is not None else None
 
 
-def read_lade(data: Any, *, year: int = 2022, strict: bool = False) -> pa.Table:
+def read_lade(
+    data: Any, *, year: int = 2022, strict: bool = False, tz: str | None = None
+) -> pa.Table:
     """The kept rows of a LaDe export (a path, a DataFrame or a Table) as a table
-    (``order_id``, ``lng``, ``lat``, ``accept_time`` and ``delivery_time`` as local
-    times, ``row``, ``weight_kg`` when the data has it); the rows dropped and why are
-    in the metadata ``marops.drop_report``."""
+    (``order_id``, ``lng``, ``lat``, ``accept_time`` and ``delivery_time``, ``row``,
+    ``weight_kg`` when the data has it); the rows dropped and why are in the metadata
+    ``marops.drop_report``. The times are the data's local times with their zone ``tz``
+    (default ``Asia/Shanghai``, as LaDe's are): ``timestamp[s, tz=…]``, like every
+    output's times (docs/outputs.md, "Types")."""
     import pyarrow as pa
+    import pyarrow.compute as pc
 
     from .app.inputs import read_data
     from .config import DataConfig
 
-    table = read_data(data, DataConfig(year=year, strict=strict))
+    cfg = DataConfig(year=year, strict=strict, **({"tz": tz} if tz is not None else {}))
+    table = read_data(data, cfg)
+
+    def local(seconds: Any) -> pa.Array:
+        # The reader's seconds are wall-clock times of the zone; a time a clock change
+        # makes ambiguous or skips is taken as the earlier one, as the outputs take it.
+        wall = pa.array(seconds.astype("datetime64[s]"))
+        return pc.assume_timezone(wall, cfg.tz, ambiguous="earliest", nonexistent="earliest")
+
     cols: dict[str, Any] = {
         "order_id": table.order_id.astype(str),
         "lng": table.lng,
         "lat": table.lat,
-        "accept_time": pa.array(table.accept_s.astype("datetime64[s]")),  # local, naive
-        "delivery_time": pa.array(table.delivery_s.astype("datetime64[s]")),
+        "accept_time": local(table.accept_s),
+        "delivery_time": local(table.delivery_s),
         "row": table.row,  # 1-based row in the file (header = row 1)
     }
     if table.weight_kg is not None:
@@ -163,6 +177,7 @@ def plan_window(
     tz: str | None = None,
     fmt: str = "parquet",
     geojson: bool = False,
+    report: bool = False,
     force: bool = False,
     config: str | Path | None = None,
 ) -> DayResult:
@@ -198,6 +213,7 @@ def plan_window(
             out=_path(out),
             fmt=fmt,
             geojson=geojson,
+            report=report,
         )
     metrics = {"solver": res.solver, "objective": res.objective}
     return DayResult(res.stops, res.routes, metrics, _path(out))
@@ -224,6 +240,7 @@ def replay_day(
     fmt: str = "parquet",
     geojson: bool = False,
     plot: bool = False,
+    report: bool = False,
     force: bool = False,
     config: str | Path | None = None,
 ) -> DayResult:
@@ -232,7 +249,7 @@ def replay_day(
     from .data.dates import parse_day
     from .io.ownership import replacing_foreign_files
 
-    opts = ReplayOptions(method, fmt, plot, geojson, force, keep_tables=True)
+    opts = ReplayOptions(method, fmt, plot, geojson, force, keep_tables=True, report=report)
     check_options(opts)
     cfg = replay_config(
         config,
@@ -297,6 +314,7 @@ def evaluate(
     mappo_policy: str | Path | None = None,
     against: str | None = None,
     plots: bool = True,
+    report: bool = False,
     seed: int | None = None,
     year: int | None = None,
     strict: bool = False,
@@ -332,8 +350,21 @@ def evaluate(
         against=against,
         plots=plots,
         force=force,
+        report=report,
     )
     source = read_data(data, cfg.data) if in_memory(data) else Path(data)
     with replacing_foreign_files(force):
         res = run(source, spec, out=_path(out))
     return EvaluationResult(res.results, res.summary, res.folder)
+
+
+def report(
+    folder: str | Path, *, depots: str | Path | None = None, force: bool = False
+) -> list[Path]:
+    """``marops report``: write ``report.html`` into an earlier run's output folder (and
+    its day and hub folders; docs/report.md); the files written."""
+    from .app.report import make_report
+    from .io.ownership import replacing_foreign_files
+
+    with replacing_foreign_files(force):
+        return make_report(folder, depots=depots)

@@ -274,20 +274,21 @@ class SimConfig(_Stage):
 
 class OpsConfig(_Stage):
     """The operating model: parcel stock, batteries and chargers, long flights
-    (docs/method.md, "Operating model"). The defaults are the paper's model."""
+    (docs/method.md §5.2, "Operating model"). The defaults are the realistic model;
+    ``examples/paper.toml`` sets the paper's."""
 
     stock: Literal["any", "home"] = Field(
-        "any",
-        description="where parcels wait: any (the paper: every parcel at every depot) or "
-        "home (at the depot of its service area; a drone carries only its departure "
-        "depot's parcels)",
+        "home",
+        description="where parcels wait: home (at the depot of its service area; a drone "
+        "carries only its departure depot's parcels) or any (the paper: every parcel at "
+        "every depot)",
     )
     batteries_per_depot: int | None = Field(
-        None,
+        2,
         ge=0,
         le=10_000,
-        description="charged spare batteries each depot starts the day with; None: "
-        "unlimited swaps (the paper)",
+        description='charged spare batteries each depot starts the day with; "unlimited" '
+        "(None): a charged battery whenever one is needed (the paper)",
     )
     chargers_per_depot: int = Field(
         1,
@@ -296,16 +297,23 @@ class OpsConfig(_Stage):
         description="batteries each depot charges at once (with batteries_per_depot)",
     )
     charge_power_w: float = Field(
-        100.0,
+        62.5,
         gt=0,
         le=1e6,
-        description="charging power of one charger, watts (with batteries_per_depot)",
+        description="charging power of one charger, watts (with batteries_per_depot): the "
+        "default 225 kJ battery full in one hour",
     )
     busy: bool = Field(
-        False,
+        True,
         description="a route longer than the window keeps its drone for the windows it spans "
         "(the paper's assumption 5 relaxed); false: every flight ends within its window",
     )
+
+    @field_validator("batteries_per_depot", mode="before")
+    @classmethod
+    def _unlimited(cls, v: Any) -> Any:
+        # TOML has no null: the paper's unlimited swaps are spelled "unlimited".
+        return None if v == "unlimited" else v
 
     @field_validator("chargers_per_depot")
     @classmethod
@@ -315,6 +323,11 @@ class OpsConfig(_Stage):
                 "expected >= 1 when batteries_per_depot is set (used batteries would never charge)"
             )
         return v
+
+    @classmethod
+    def paper_model(cls) -> OpsConfig:
+        """The paper's operating model (``examples/paper-ops.toml``)."""
+        return cls(stock="any", batteries_per_depot=None, busy=False)
 
     @property
     def paper(self) -> bool:
@@ -361,9 +374,12 @@ def _number(v: float) -> str:
     return str(int(v))  # 1440, 4294967295
 
 
-def _validation_message(exc: ValidationError) -> str:
+def _validation_message(exc: ValidationError, names: dict[str, str] | None = None) -> str:
+    """``plan.alpha: Input should be …, got 1.5``; ``names`` says what to call a field
+    (``{"plan.alpha": "--alpha"}``)."""
     err = exc.errors()[0]
     loc = ".".join(str(p) for p in err["loc"])
+    loc = (names or {}).get(loc, loc)
     msg = str(err["msg"]).removeprefix("Value error, ")
     if "input" in err and not isinstance(err["input"], dict | list):
         msg = f"{msg}, got {err['input']!r}"
@@ -416,8 +432,12 @@ def sets_key(path: str | Path, key: str) -> bool:
     return isinstance(table, dict) and name in table
 
 
-def override(cfg: PlannerConfig, **fields: Any) -> PlannerConfig:
-    """Return a copy with ``stage__field=value`` overrides applied (None = keep)."""
+def override(
+    cfg: PlannerConfig, names: dict[str, str] | None = None, **fields: Any
+) -> PlannerConfig:
+    """Return a copy with ``stage__field=value`` overrides applied (None = keep); an
+    invalid value's error calls the field by its name in ``names`` (``stage__field`` ->
+    the flag that set it, ``--alpha``), else ``stage.field``."""
     data = cfg.model_dump()
     for key, value in fields.items():
         if value is None:
@@ -427,4 +447,5 @@ def override(cfg: PlannerConfig, **fields: Any) -> PlannerConfig:
     try:
         return PlannerConfig.model_validate(data)
     except ValidationError as exc:
-        raise InputError(f"invalid option {_validation_message(exc)}") from exc
+        dotted = {k.replace("__", "."): v for k, v in (names or {}).items()}
+        raise InputError(f"invalid option {_validation_message(exc, dotted)}") from exc

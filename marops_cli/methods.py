@@ -45,10 +45,10 @@ for _m in (
     Method("ops-global", "kmeans", "global", "whole map, nearest-depot landing"),
     Method("ops-random", "kmeans", "random", "random neighbouring area"),
     Method("greedy", "kmeans", "greedy", "the area with most waiting delay per metre"),
-    # The operating model's landing rules (docs/method.md, "Operating model"): compared
-    # with --methods until the realistic model is the default.
-    Method("backlog", "kmeans", "backlog", "land where most waiting value per drone is", False),
-    Method("rebalance", "kmeans", "rebalance", "land to match the coming demand per depot", False),
+    # The operating model's landing rules (docs/method.md, "Operating model"): the
+    # learned actor's strongest non-learned rivals there.
+    Method("backlog", "kmeans", "backlog", "land where most waiting value per drone is"),
+    Method("rebalance", "kmeans", "rebalance", "land to match the coming demand per depot"),
     Method("squares", "squares", "learned", "learned flight range on a square grid"),
     Method("mappo", "kmeans", "direct", "the MAPPO actor picks plans, no optimiser"),
     Method("stay", "kmeans", "stay", "always back to the start depot", False),

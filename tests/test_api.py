@@ -46,6 +46,13 @@ def test_api_runs_what_the_cli_runs(example_csv: Path, tmp_path: Path, capsys) -
     assert day.routes.equals(from_file.cast(day.routes.schema))
     assert day.routes.schema.metadata == from_file.schema.metadata
     assert day.folder == tmp_path / "api"
+    # pandas reads the stops' nullable integers as integers, from the file and in memory
+    # (docs/outputs.md, "Integers"); a column without a missing value stays int32.
+    pd = pytest.importorskip("pandas")
+    for stops in (pd.read_parquet(tmp_path / "cli" / "stops.parquet"), day.stops.to_pandas()):
+        assert str(stops["depot"].dtype) == "Int32" and str(stops["due_window"].dtype) == "Int32"
+        assert stops["depot"].isna().any() and stops["due_window"].isna().any()
+        assert str(stops["window"].dtype) == "int32" and str(stops["seq"].dtype) == "int32"
 
     window = marops.plan_window(example_csv, tmp_path / "depots.json", "0811", 5)
     assert window.folder is None  # a temporary folder, gone
@@ -53,6 +60,23 @@ def test_api_runs_what_the_cli_runs(example_csv: Path, tmp_path: Path, capsys) -
     assert window.metrics["objective"]["G"] > 0
     captured = capsys.readouterr()
     assert captured.out == ""  # nothing printed by the API
+
+
+def test_read_lade_times_carry_their_zone(example_csv: Path) -> None:
+    import pyarrow as pa
+
+    rows = marops.read_lade(example_csv)
+    for name in ("accept_time", "delivery_time"):
+        assert rows.schema.field(name).type == pa.timestamp("s", tz="Asia/Shanghai")
+    first = rows.slice(0, 1).to_pylist()[0]  # the file's first row: 08-01 07:20:15 local
+    assert first["accept_time"].isoformat() == "2022-08-01T07:20:15+08:00"
+    # The zone-aware rows read back as the same rows (the reader takes zone-aware times).
+    keep = ["order_id", "lng", "lat", "accept_time", "delivery_time"]
+    again = marops.read_lade(rows.select(keep))
+    assert again.column("accept_time").equals(rows.column("accept_time"))
+    assert again.column("delivery_time").equals(rows.column("delivery_time"))
+    utc = marops.read_lade(example_csv, tz="UTC").slice(0, 1).to_pylist()[0]
+    assert utc["accept_time"].isoformat() == "2022-08-01T07:20:15+00:00"
 
 
 def test_api_raises_input_errors(example_csv: Path, tmp_path: Path) -> None:

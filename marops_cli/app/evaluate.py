@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from ..config import PlannerConfig
+from ..config import OpsConfig, PlannerConfig
 from ..data.table import LadeTable
 from ..errors import InputError
 from .messages import drop_report
@@ -70,10 +70,14 @@ class EvaluateConfig:
     actors: dict[str, Path] = field(default_factory=dict)
     """Policy kind (``learned``, ``direct``) -> trained actor replacing the shipped one."""
     against: str | None = None
-    """Reference method of the paired comparison (``paired``); None: none."""
+    """Reference method of the paired comparison (``paired``); None: none. Without a
+    list of ``methods`` it joins the default ones (``myopic``, a reference, is not
+    among them); with one, it must be in it."""
     plots: bool = True
     force: bool = False
     """Clear another evaluation's jobs found in the output folder."""
+    report: bool = False
+    """Write report.html into the output folder (docs/report.md)."""
 
 
 @dataclass(frozen=True)
@@ -104,7 +108,9 @@ def evaluate(
     and write its tables and figures."""
     from ..evaluate import expand_settings, prepare
     from ..io.ownership import register_inputs
+    from .report import check_report
 
+    check_report(config.report and out is not None)
     register_inputs([data, *config.actors.values()])  # never an output
     cfg = config.planner
     settings = expand_settings(
@@ -118,8 +124,15 @@ def evaluate(
     methods = (
         list(config.methods)
         if config.methods is not None
-        else default_methods(actors, trust=cfg.sim.trust_actor)
+        else default_methods(actors, trust=cfg.sim.trust_actor, ops=cfg.ops)
     )
+    if config.against is not None and config.against not in methods:
+        if config.methods is not None:  # a list given: the reference is one of it
+            raise InputError(
+                f"--against {config.against!r} is not among --methods ({', '.join(methods)}); "
+                "add it to --methods"
+            )
+        methods.append(config.against)  # the default methods and the reference
     if config.scheduler is None and config.workers > 1:
         from ..evaluate.runner import worker_modules
         from ..sim.scenario import loads_actor
@@ -128,10 +141,6 @@ def evaluate(
         # The workers' fork server imports the planner (and torch for an actor) while
         # this process reads the file and segments it.
         warm_up(worker_modules(actor=any(loads_actor(m) for m in methods)))
-    if config.against is not None and config.against not in methods:
-        raise InputError(
-            f"--against {config.against!r} is not among the methods compared ({', '.join(methods)})"
-        )
     prep = prepare(
         data,
         cfg,
@@ -152,7 +161,9 @@ def evaluate(
     return _evaluate_into(out, prep, config, progress)
 
 
-def default_methods(actors: dict[str, Path], *, trust: bool = False) -> list[str]:
+def default_methods(
+    actors: dict[str, Path], *, trust: bool = False, ops: OpsConfig | None = None
+) -> list[str]:
     """Every method this build can run (learned ones need an actor; ``trust``:
     ``cfg.sim.trust_actor``), but the references (stay, myopic), which are compared only
     when asked for."""
@@ -162,7 +173,7 @@ def default_methods(actors: dict[str, Path], *, trust: bool = False) -> list[str
     chosen = []
     for m in METHODS:
         try:
-            check_methods([m], actors, trust=trust)
+            check_methods([m], actors, trust=trust, ops=ops)
         except InputError:
             continue  # the default list skips what cannot run; a listed method errors
         if method(m).in_default_evaluation:
@@ -242,6 +253,10 @@ def _evaluate_into(
         paired = _paired(ev, config.against)
         if paired is not None:
             files.append(_write_paired(out, paired))
+        if config.report:
+            from ..report import write_reports
+
+            files += write_reports(out)
     return EvaluationResult(ev.results, ev.summary, paired, prep.days, files, out)
 
 

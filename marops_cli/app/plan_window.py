@@ -16,16 +16,18 @@ from .progress import SILENT, Progress
 if TYPE_CHECKING:
     import pyarrow as pa
 
-    from ..data.table import DayRequests
+    from ..data.table import DayRequests, DropReport
     from ..plans.window import WindowPlan
+    from ..sim.days import DayScope
     from ..sim.fleet import Fleet
 
 
 @dataclass(frozen=True)
 class PlannedWindow:
     """A planned window: the plan, the day's requests it was planned from, the fleet,
-    its stops and routes tables (with their ``marops`` metadata, as in the files), and
-    the files written."""
+    its stops and routes tables (with their ``marops`` metadata, as in the files), the
+    files written, the rows the data dropped (``report``) and the day's orders planned
+    and left out (``scope``)."""
 
     plan: WindowPlan
     requests: DayRequests
@@ -34,6 +36,8 @@ class PlannedWindow:
     routes: pa.Table
     meta: dict[str, Any]
     files: list[Path]
+    report: DropReport
+    scope: DayScope
 
     @property
     def solver(self) -> dict[str, Any]:
@@ -59,11 +63,13 @@ def plan_window(
     out: str | Path | None = None,
     fmt: str = "parquet",
     geojson: bool = False,
+    report: bool = False,
     progress: Progress = SILENT,
 ) -> PlannedWindow:
     """Plan window ``window`` of ``day`` with the depots of ``depots`` and the fleet of a
     fleet file (else ``cfg.sim.drones`` drones), leaving out the orders an earlier stops
-    file (``delivered``) delivered; with ``out`` write its route files there."""
+    file (``delivered``) delivered; with ``out`` write its route files there (and with
+    ``report`` its report.html, docs/report.md)."""
     from ..io import folder_lock, output_set
     from ..io.ownership import register_inputs
 
@@ -79,9 +85,13 @@ def plan_window(
         plan_one_window,
         route_tables,
     )
+    from .report import check_report
 
     check_format(fmt)
-    pol = method_policy(method, cfg.sim.policy, cfg.sim.seed, trust=cfg.sim.trust_actor)
+    check_report(report and out is not None)
+    pol = method_policy(
+        method, cfg.sim.policy, cfg.sim.seed, trust=cfg.sim.trust_actor, ops=cfg.ops
+    )
     # Every input is checked before anything is said about the data (the drop report
     # comes after the plan): an error is the only line a failed run prints.
     done = delivered_orders(delivered) if delivered is not None else None
@@ -98,17 +108,22 @@ def plan_window(
         fleet if isinstance(fleet, Fleet) else load_fleet(fleet, scn.depots, cfg.sim.drones, cfg)
     )
     plan, reqs = plan_one_window(scn, day, window, drones, pol, done)
+    scope = DayScope.of(reqs)
     drop_report(progress, scn.table.report, data_name(data))
-    day_scope(progress, DayScope.of(reqs), cfg)
+    day_scope(progress, scope, cfg)
     stops, routes = route_tables(scn, reqs, [plan], drones, method)
     meta = _meta(scn, cfg, pol, method, day, window, plan, Path(depots), drones)
     written: list[Path] = []
     if out is not None:
-        with folder_lock(out), output_set() as files:
-            written = write_route_files(files, Path(out), stops, routes, meta, fmt, geojson)
-    return PlannedWindow(
-        plan, reqs, drones, with_meta(stops, meta), with_meta(routes, meta), meta, written
-    )
+        with folder_lock(out):
+            with output_set() as files:
+                written = write_route_files(files, Path(out), stops, routes, meta, fmt, geojson)
+            if report:  # from the files just written, as `marops report` reads them
+                from ..report import write_reports
+
+                written += write_reports(Path(out), scn.depots)
+    stops, routes = with_meta(stops, meta), with_meta(routes, meta)
+    return PlannedWindow(plan, reqs, drones, stops, routes, meta, written, scn.table.report, scope)
 
 
 def _meta(

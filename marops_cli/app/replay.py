@@ -8,9 +8,9 @@ import datetime as dt
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, get_args
 
-from ..config import PlannerConfig
+from ..config import PlannerConfig, SegmentConfig
 from ..errors import InputError
 from .inputs import (
     Data,
@@ -55,12 +55,16 @@ class ReplayOptions:
     """A Dask scheduler's address, or ``local``."""
     keep_tables: bool | None = None
     """Keep every replayed day's tables in the result [only when nothing is written]."""
+    report: bool = False
+    """Write report.html into each folder written (docs/report.md)."""
 
 
 def check_options(options: ReplayOptions) -> None:
     """Refuse options no replay can run with, before any work."""
     from ..sim.scenario import METHODS
+    from .report import check_report
 
+    check_report(options.report)
     if options.scheduler is not None:
         from ..workers.cluster import require_distributed
 
@@ -79,6 +83,9 @@ def replay_config(
     depots segmented here use ``segment``, else the method's own segmentation."""
     from ..methods import method as method_spec
 
+    kinds = get_args(SegmentConfig.model_fields["method"].annotation)
+    if segment is not None and segment not in kinds:
+        raise InputError(f"--segment expects {' or '.join(kinds)}, got {segment!r}")
     return planner_config(
         config, segmentation=segment or method_spec(method).segmentation, **options
     )
@@ -125,7 +132,9 @@ def replay_days(
         outputs = _outputs(folder, days, several, hubs is not None, options)
         protect_inputs(outputs, [_path(v) for v in inputs.values()])
     # A bad actor stops here.
-    pol = method_policy(options.method, cfg.sim.policy, cfg.sim.seed, trust=cfg.sim.trust_actor)
+    pol = method_policy(
+        options.method, cfg.sim.policy, cfg.sim.seed, trust=cfg.sim.trust_actor, ops=cfg.ops
+    )
     keep = folder is None if options.keep_tables is None else options.keep_tables
     run = Run(
         pol,
@@ -137,6 +146,7 @@ def replay_days(
         options.workers,
         options.scheduler,
         keep,
+        options.report,
     )
     if hubs is not None:
         from .replay_hubs import replay_hubs
@@ -188,6 +198,7 @@ def _outputs(
     fmt = options.fmt
     names = [f"stops.{fmt}", f"routes.{fmt}", "metrics.json"]
     names += ["routes.png", "operations.png"] * options.plot + ["routes.geojson"] * options.geojson
+    names += ["report.html"] * options.report
     folders = [out, *(out / d.isoformat() for d in days)] if several else [out]
     if hubs:  # out/hub-<id>/ below the city's metrics.json
         areas = [p for p in out.glob("hub-*") if p.is_dir()] if out.is_dir() else []

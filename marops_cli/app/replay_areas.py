@@ -75,6 +75,8 @@ class Run:
     workers: int
     scheduler: str | None
     keep_tables: bool
+    report: bool = False
+    """Write report.html into each folder (docs/report.md)."""
 
 
 @dataclass
@@ -200,6 +202,10 @@ def _collect(
                     a.out / "metrics.json",
                     {"meta": meta, "days": rows, "total": aggregate_days(rows)},
                 )
+        if run.report and a.out is not None:
+            from ..report import write_reports
+
+            write_reports(a.out, a.scn.depots)
         per_area.append(rows)
     return per_area, tables
 

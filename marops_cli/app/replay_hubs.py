@@ -65,6 +65,10 @@ def replay_hubs(
                 out / "metrics.json",
                 {"meta": meta, "city": city, "days": all_metrics, "total": total},
             )
+        if run.report:  # the city's page; each hub's was written with its days
+            from ..report import write_reports
+
+            write_reports(out, below=False)
     progress.message(
         f"city: {city['planned']:,} of {city['orders_due']:,} orders due planned in "
         f"{len(hub_list)} hubs ({100 * city['covered_share']:.1f} %), "

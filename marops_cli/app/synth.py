@@ -49,7 +49,8 @@ def synth(
         cfg = SynthConfig(**fields)  # type: ignore[arg-type]
     except ValidationError as exc:
         err = exc.errors()[0]
-        raise InputError(f"invalid option {err['loc'][0]}: {err['msg']}") from None
+        name = "--" + str(err["loc"][0]).replace("_", "-")  # the flag (and keyword) that set it
+        raise InputError(f"invalid option {name}: {err['msg']}") from None
     if out is None:
         return Synthesized(generate(cfg), first, None)
     from ..io import output_set

@@ -49,7 +49,8 @@ class TrainResult:
     """The trained actor's files and what the run measured."""
 
     actor: Path
-    """The TorchScript actor (``NAME.pt``)."""
+    """The TorchScript actor (``NAME.pt``); the landing actor's weights file
+    (``NAME.safetensors``)."""
     files: list[Path]
     """The actor, its weights (``NAME.safetensors``), its sidecar (``NAME.json``), its
     curve (``NAME.curve.png``) when drawn, and the checkpoint (``NAME.ckpt``)."""
@@ -85,9 +86,12 @@ class Note(str):
         return note
 
 
-def actor_files(out: Path) -> list[Path]:
+def actor_files(out: Path, algorithm: str = "ppo") -> list[Path]:
     """Every file a run writes for the actor ``out``: ``NAME.pt``, ``.safetensors``,
-    ``.json``, ``.ckpt``, ``.curve.png``."""
+    ``.json``, ``.ckpt``, ``.curve.png``; the landing actor (``es``) only
+    ``NAME.safetensors``, ``.json`` and ``.ckpt``."""
+    if algorithm == "es":
+        return [out.with_suffix(x) for x in (".safetensors", ".json", ".ckpt")]
     suffixes = (".safetensors", ".json", ".ckpt", ".curve.png")
     return [out, *(out.with_suffix(x) for x in suffixes)]
 
@@ -113,7 +117,7 @@ def train(
 
     out = Path(out)
     register_inputs([data] if isinstance(data, str | Path) else list(data))
-    check_outputs(actor_files(out))  # before the long work, not after it
+    check_outputs(actor_files(out, setup.train.algorithm))  # before the long work
     td = load_training_data(
         data,
         setup.planner,
@@ -135,6 +139,9 @@ def train(
     finally:
         if report.started:
             progress.finish()
+    if setup.train.algorithm == "es":
+        files = actor_files(out, "es")
+        return TrainResult(files[0], files, side)
     files = [out, out.with_suffix(".safetensors"), out.with_suffix(".json")]
     if side.get("learning_curve"):  # drawn from it (rl/export.py)
         files.append(out.with_suffix(".curve.png"))
@@ -177,6 +184,11 @@ def _start_line(e: dict[str, Any]) -> str:
 
 
 def _update_line(e: dict[str, Any]) -> str:
+    if "cost" in e:  # the landing actor's generation (rl/es.py)
+        return (
+            f"episode {e['episode']}: generation {e['generation']}, "
+            f"cost {e['cost']:.3f} (1: the best rule's)"
+        )
     return (
         f"episode {e['episode']}: reward {e['reward']:.3f}, "
         f"day delay {e['delay_h']:.0f} h, "
@@ -185,6 +197,13 @@ def _update_line(e: dict[str, Any]) -> str:
 
 
 def _eval_line(e: dict[str, Any]) -> str:
+    if "cost" in e:
+        a, b = e["methods"]["marops"], e["methods"]["best rule"]
+        return (
+            f"episode {e['episode']}: held-out cost {e['cost']:.3f}; day J "
+            f"{a['objective_j_mj']:.1f} MJ against the best rule's {b['objective_j_mj']:.1f}, "
+            f"energy {a['mean_energy_kj']:.0f} against {b['mean_energy_kj']:.0f} kJ/drone"
+        )
     parts = [
         f"{m} {v['mean_energy_kj']:.0f} kJ {v['avg_delay_h']:.2f} h "
         f"daily cost {v['daily_combined_cost']:.3f}"

@@ -18,18 +18,21 @@ from .common import PLAIN, STATE
 from .evaluate_cmd import evaluate_command
 from .plan_window_cmd import plan_window_command
 from .replay_cmd import replay_day_command
+from .report_cmd import report_command
 from .segment_cmd import segment_command
 from .synth_cmd import synth_command
 from .train_cmd import train_command
+from .usage import Command, Group
 
 app = typer.Typer(
     name="marops",
+    cls=Group,
     help="Operations planner for drone last-mile delivery (MAR-OPS): LaDe export -> depots -> "
     "flight ranges -> energy-aware multi-parcel routes, window by window.",
     no_args_is_help=True,
     add_completion=False,
     pretty_exceptions_enable=False,
-    # Help texts give defaults as "[kmeans]": rich markup would take them for style tags
+    # Help texts give defaults as "[default: kmeans]": rich markup would take them for style tags
     # and drop them; markdown keeps them and the rich panels.
     rich_markup_mode="markdown",
     context_settings={"help_option_names": ["-h", "--help"]},
@@ -45,11 +48,17 @@ def _version(value: bool) -> None:
 @app.callback()
 def _root(
     debug: Annotated[
-        bool, typer.Option("--debug", help="Show a full traceback when something fails.")
+        bool,
+        typer.Option(
+            "--debug",
+            help="Show a full traceback when something fails (before or after the command).",
+        ),
     ] = False,
     version: Annotated[
         bool,
-        typer.Option("--version", callback=_version, is_eager=True, help="Print the version."),
+        typer.Option(
+            "--version", "-V", callback=_version, is_eager=True, help="Print the version."
+        ),
     ] = False,
 ) -> None:
     """Operations planner for drone last-mile delivery."""
@@ -59,12 +68,13 @@ def _root(
     new_run()  # each command decides (--force) and registers its inputs
 
 
-app.command("synth")(synth_command)
-app.command("segment")(segment_command)
-app.command("plan-window")(plan_window_command)
-app.command("replay-day")(replay_day_command)
-app.command("train")(train_command)
-app.command("evaluate")(evaluate_command)
+app.command("synth", cls=Command)(synth_command)
+app.command("segment", cls=Command)(segment_command)
+app.command("plan-window", cls=Command)(plan_window_command)
+app.command("replay-day", cls=Command)(replay_day_command)
+app.command("train", cls=Command)(train_command)
+app.command("evaluate", cls=Command)(evaluate_command)
+app.command("report", cls=Command)(report_command)
 
 
 def _terminate(signum: int, frame: object) -> None:

@@ -18,7 +18,7 @@ from rich.console import Console
 from rich.table import Table
 
 from ..app.inputs import protect_inputs, require_input
-from ..errors import MaropsError
+from ..errors import InputError, MaropsError
 from ..io.ownership import allow_replacing_foreign
 
 __all__ = [
@@ -70,12 +70,43 @@ def set_output(quiet: bool = False, as_json: bool = False) -> None:
     STATE["quiet"], STATE["json"] = bool(quiet), bool(as_json)
 
 
-def begin(data: Path, *, quiet: bool, as_json: bool, force: bool) -> None:
+def begin(data: Path, *, quiet: bool, as_json: bool, force: bool) -> Path:
     """A command's first steps: its ``--quiet`` and ``--json``, whether it may replace
-    files marops did not write (``--force``), and its data, which must exist."""
+    files marops did not write (``--force``), and its data, which must exist. Returns
+    the data file to read: ``data``, or for ``-`` what came on standard input."""
     set_output(quiet, as_json)
     allow_replacing_foreign(force)
+    if str(data) == STDIN:
+        data = stdin_file()
     require_input(data)
+    return data
+
+
+STDIN = "-"
+"""The data path that means standard input."""
+
+
+def stdin_file() -> Path:
+    """Standard input copied into a file of its own (``stdin``, in a temporary folder
+    removed when marops exits), so it is read as a file is: CSV, CSV.gz or Parquet told
+    by its first bytes, hashed for the depots cache, read again by worker processes."""
+    import atexit
+    import shutil
+    import tempfile
+
+    if sys.stdin is None or sys.stdin.isatty():
+        raise InputError(
+            "DATA - reads the LaDe export from standard input, which is a terminal; "
+            "pipe it in (marops CMD - … < lade.csv)"
+        )
+    folder = Path(tempfile.mkdtemp(prefix="marops-stdin-"))
+    atexit.register(shutil.rmtree, folder, True)
+    path = folder / "stdin"
+    with path.open("wb") as fh:
+        shutil.copyfileobj(sys.stdin.buffer, fh, 1 << 20)
+    if path.stat().st_size == 0:
+        raise InputError("DATA - reads standard input, and it is empty")
+    return path
 
 
 def info(message: str) -> None:
@@ -116,10 +147,19 @@ def table(title: str, **kwargs: Any) -> Table:
     return Table(title=title, title_justify="left", **kwargs)
 
 
-def show_table(t: Table) -> None:
-    """Print a result table on stdout unless ``--json`` replaces it."""
-    if not STATE["json"]:
+def show_table(t: Table, keys: int = 1) -> None:
+    """Print a result table on stdout unless ``--json`` replaces it. On a terminal it
+    fits the width with every cell whole: the columns that do not fit beside the first
+    ``keys`` (which name a row) go on to further tables (marops_cli/cli/fit.py)."""
+    if STATE["json"]:
+        return
+    if PLAIN:  # a log keeps lines whole however long
         out.print(t)
+        return
+    from .fit import fit_table
+
+    for part in fit_table(t, out.width, keys):
+        out.print(part)
 
 
 F = TypeVar("F", bound=Callable[..., Any])

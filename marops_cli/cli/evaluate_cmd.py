@@ -44,7 +44,7 @@ def evaluate_command(
         typer.Option(
             "--methods",
             help=f"Methods to compare, comma-separated: {o.METHOD_NAMES} (docs/method.md §7) "
-            f"(default: every one this build can run but the references {reference_names()}).",
+            f"[default: every one this build can run but the references {reference_names()}].",
         ),
     ] = None,
     dates: Annotated[
@@ -54,19 +54,23 @@ def evaluate_command(
         str | None,
         typer.Option(
             "--split",
-            help="test: the last 20 % of the file's dates; train: the rest (default test).",
+            help="test: the last 20 % of the file's dates; train: the rest [default: test].",
         ),
     ] = None,
     repeats: Annotated[int, typer.Option("--repeats", min=1, help="Runs per day (seed + r).")] = 1,
-    drones: Annotated[str | None, typer.Option("--drones", help="Fleet sizes: 4,8,16 [8].")] = None,
+    drones: Annotated[
+        str | None, typer.Option("--drones", help="Fleet sizes: 4,8,16 [default: 8].")
+    ] = None,
     alpha: Annotated[
-        str | None, typer.Option("--alpha", help="Trade-off weights: 0.2,0.5,0.8 [0.5].")
+        str | None, typer.Option("--alpha", help="Trade-off weights: 0.2,0.5,0.8 [default: 0.5].")
     ] = None,
     coverage: Annotated[
-        str | None, typer.Option("--coverage", help="Flying coverage densities: 0.25,0.5 [0.25].")
+        str | None,
+        typer.Option("--coverage", help="Flying coverage densities: 0.25,0.5 [default: 0.25]."),
     ] = None,
     n_depots: Annotated[
-        str | None, typer.Option("--n-depots", help="Numbers of service areas: 8,16,32 [16].")
+        str | None,
+        typer.Option("--n-depots", help="Numbers of service areas: 8,16,32 [default: 16]."),
     ] = None,
     workers: o.Workers = 2,
     scheduler: o.Scheduler = None,
@@ -75,20 +79,20 @@ def evaluate_command(
         typer.Option(
             "--hubs",
             help="hubs.json from marops segment --hubs: evaluate every hub of the city "
-            "(each with its own depots and fleet; rows keyed by hub) [one study area].",
+            "(each with its own depots and fleet; rows keyed by hub) [default: one study area].",
         ),
     ] = None,
     policy: Annotated[
         Path | None,
         typer.Option(
             "--policy",
-            help="Trained actor (.pt) for marops and squares (default: the shipped one).",
+            help="Trained actor (.pt) for marops and squares [default: the shipped one].",
         ),
     ] = None,
     mappo_policy: Annotated[
         Path | None,
         typer.Option(
-            "--mappo-policy", help="Trained MAPPO actor (.pt) (default: the shipped one)."
+            "--mappo-policy", help="Trained MAPPO actor (.pt) [default: the shipped one]."
         ),
     ] = None,
     trust_actor: o.TrustActor = False,
@@ -97,12 +101,14 @@ def evaluate_command(
         typer.Option(
             "--against",
             help="Reference method: each method's per-day difference to it, with a bootstrap "
-            "95 % CI, into paired.csv and a table.",
+            "95 % CI, into paired.csv and a table; it joins the default --methods, and must "
+            "be among methods listed with --methods.",
         ),
     ] = None,
     plots: Annotated[
         bool, typer.Option("--plot/--no-plot", help="Draw the figures (PNG) into --out.")
     ] = True,
+    report: o.Report = False,
     seed: o.Seed = None,
     year: o.Year = None,
     strict: o.Strict = False,
@@ -112,7 +118,7 @@ def evaluate_command(
     as_json: o.Json = False,
 ) -> None:
     """Compare methods on held-out days (paper Table III); sweep flags given several values."""
-    begin(data, quiet=quiet, as_json=as_json, force=force)
+    data = begin(data, quiet=quiet, as_json=as_json, force=force)
     # The library (pyarrow, matplotlib, the planner) loads here, so `marops --help` stays fast.
     from ..app.evaluate import EvaluateConfig, actor_paths, method_list, sweep_fields
     from ..app.evaluate import evaluate as run_evaluation
@@ -123,7 +129,8 @@ def evaluate_command(
 
         require_distributed()
     protect_inputs(
-        [out / n for n in ("results.parquet", "summary.csv", "summary.md", "paired.csv")],
+        [out / n for n in ("results.parquet", "summary.csv", "summary.md", "paired.csv")]
+        + [out / "report.html"] * report,
         [data, config, policy, mappo_policy, hubs],
     )
     cfg = planner_config(config, year=year, strict=strict, seed=seed, trust_actor=trust_actor)
@@ -146,6 +153,7 @@ def evaluate_command(
         against=against,
         plots=plots,
         force=force,
+        report=report,
     )
     try:
         res = run_evaluation(data, run, out=out, progress=Terminal(remaining=True))
@@ -153,7 +161,7 @@ def evaluate_command(
         stopped(exc, "; ".join(getattr(exc, "__notes__", ())))
     _print_tables(res.summary)
     if res.paired is not None:
-        _print_paired(res.paired, len(res.days))
+        _print_paired(res.paired, res.summary, len(res.days))
     info(f"wrote {', '.join(str(p) for p in res.files)}")
     if STATE["json"]:
         _emit_json(res)
@@ -181,8 +189,10 @@ def _emit_json(res: EvaluationResult) -> None:
     )
 
 
-def _print_paired(paired: pa.Table, n_days: int) -> None:
+def _print_paired(paired: pa.Table, summary: pa.Table, n_days: int) -> None:
+    """One row per setting (named by its values: ``α=0.3``), method and metric."""
     from ..evaluate.paired import MIN_DAYS, verdict
+    from ..evaluate.tables import setting_label
 
     rows = paired.to_pylist()
     if not rows:
@@ -193,11 +203,16 @@ def _print_paired(paired: pa.Table, n_days: int) -> None:
             "the intervals are wide and the verdicts fragile"
         )
     t = table(f"paired against {rows[0]['against']}: per-day difference, bootstrap 95 % CI")
-    for col in ("setting", "method", "metric", "days", "mean diff", "95 % CI", "days better", ""):
-        t.add_column(col, justify="left" if col in ("method", "metric", "") else "right")
+    cols = ("setting", "method", "metric", "days", "mean diff", "95 % CI", "days better", "verdict")
+    for col in cols:
+        t.add_column(
+            col,
+            justify="right" if col in ("days", "mean diff", "95 % CI", "days better") else "left",
+        )
+    labels = {s: setting_label(summary, s) for s in {r["setting"] for r in rows}}
     for r in rows:
         t.add_row(
-            str(r["setting"]),
+            labels[r["setting"]],
             r["method"],
             r["metric"],
             str(r["days"]),
@@ -206,7 +221,7 @@ def _print_paired(paired: pa.Table, n_days: int) -> None:
             f"{r['days_better']}/{r['days']}",
             verdict(r),
         )
-    show_table(t)
+    show_table(t, keys=3)
 
 
 def _check_out(out: Path) -> None:

@@ -10,7 +10,13 @@ import typer
 from ..methods import method_names
 
 METHOD_NAMES = method_names()  # every registered method (marops_cli/methods.py)
-Data = Annotated[Path, typer.Argument(help="LaDe delivery export (CSV or Parquet).")]
+Data = Annotated[
+    Path,
+    typer.Argument(
+        metavar="DATA",
+        help="LaDe delivery export (CSV or Parquet); - reads it from standard input.",
+    ),
+]
 Config = Annotated[
     Path | None,
     typer.Option(
@@ -21,13 +27,13 @@ Method = Annotated[
     str,
     typer.Option(
         "--method",
-        help=f"One of {METHOD_NAMES} (docs/method.md §7) [marops].",
+        help=f"One of {METHOD_NAMES} (docs/method.md §7) [default: marops].",
         show_default=False,
     ),
 ]
 Year = Annotated[
     int | None,
-    typer.Option("--year", envvar="MAROPS_YEAR", help="Year of the MM-DD times [2022]."),
+    typer.Option("--year", envvar="MAROPS_YEAR", help="Year of the MM-DD times [default: 2022]."),
 ]
 Strict = Annotated[
     bool, typer.Option("--strict", help="Make any bad row an error instead of dropping it.")
@@ -37,18 +43,19 @@ Alpha = Annotated[
     typer.Option(
         "--alpha",
         envvar="MAROPS_ALPHA",
-        help="Trade-off weight in (0, 1]: higher saves energy, lower delay [0.5].",
+        help="Trade-off weight in (0, 1]: higher saves energy, lower delay [default: 0.5].",
     ),
 ]
 Drones = Annotated[
-    int | None, typer.Option("--drones", envvar="MAROPS_DRONES", help="Fleet size [8].")
+    int | None, typer.Option("--drones", envvar="MAROPS_DRONES", help="Fleet size [default: 8].")
 ]
 FleetFile = Annotated[
     Path | None,
     typer.Option(
         "--fleet",
         help="Fleet file (TOML or JSON): each drone's depot and type, or drones per type "
-        "(docs/outputs.md) [--drones drones of the [energy] type over the busiest depots].",
+        "(docs/outputs.md) [default: --drones drones of the [energy] type over the busiest "
+        "depots].",
     ),
 ]
 Policy = Annotated[
@@ -56,7 +63,7 @@ Policy = Annotated[
     typer.Option(
         "--policy",
         help="Flight-range policy: stay, random, greedy, global, or a trained actor "
-        "(torchscript:PATH or PATH.pt) [the method's own].",
+        "(torchscript:PATH or PATH.pt) [default: the method's own].",
     ),
 ]
 TrustActor = Annotated[
@@ -70,12 +77,13 @@ TrustActor = Annotated[
 ]
 Seed = Annotated[
     int | None,
-    typer.Option("--seed", envvar="MAROPS_SEED", help="Seed for random policies [0]."),
+    typer.Option("--seed", envvar="MAROPS_SEED", help="Seed for random policies [default: 0]."),
 ]
 Ordering = Annotated[
     str | None,
     typer.Option(
-        "--ordering", help="Visiting order: exact (energy-optimal) or greedy (paper) [exact]."
+        "--ordering",
+        help="Visiting order: exact (energy-optimal) or greedy (paper) [default: exact].",
     ),
 ]
 StrictCover = Annotated[
@@ -99,7 +107,9 @@ Json = Annotated[
 Tz = Annotated[
     str | None,
     typer.Option(
-        "--tz", envvar="MAROPS_TZ", help="Time zone of the data's local times [Asia/Shanghai]."
+        "--tz",
+        envvar="MAROPS_TZ",
+        help="Time zone of the data's local times [default: Asia/Shanghai].",
     ),
 ]
 Geojson = Annotated[
@@ -108,7 +118,9 @@ Geojson = Annotated[
 ]
 Format = Annotated[
     str,
-    typer.Option("--format", help="Route files: parquet or json [parquet].", show_default=False),
+    typer.Option(
+        "--format", help="Route files: parquet or json [default: parquet].", show_default=False
+    ),
 ]
 Force = Annotated[
     bool,
@@ -131,5 +143,13 @@ Scheduler = Annotated[
         help="Run the jobs on a Dask cluster: its scheduler's address (tcp://HOST:8786), "
         "or local for a cluster of --workers processes on this machine; needs "
         "pip install 'marops[cluster]' (README.md, Sweeps on a cluster).",
+    ),
+]
+Report = Annotated[
+    bool,
+    typer.Option(
+        "--report",
+        help="Also write report.html: an interactive page of the run that opens offline "
+        "(docs/report.md; needs pip install 'marops[report]').",
     ),
 ]

@@ -61,12 +61,13 @@ def plan_window_command(
     config: o.Config = None,
     fmt: o.Format = "parquet",
     geojson: o.Geojson = False,
+    report: o.Report = False,
     tz: o.Tz = None,
     quiet: o.Quiet = False,
     as_json: o.Json = False,
 ) -> None:
     """Plan one time window: flight ranges, candidate plans, optimal plan selection."""
-    begin(data, quiet=quiet, as_json=as_json, force=force)
+    data = begin(data, quiet=quiet, as_json=as_json, force=force)
     from ..app.inputs import check_format
     from ..app.plan_window import plan_window as plan
     from ..data.dates import parse_day
@@ -79,7 +80,8 @@ def plan_window_command(
         raise InputError("--out must be a folder; this is a file", file=out)
     check_format(fmt)
     protect_inputs(
-        [out / f"stops.{fmt}", out / f"routes.{fmt}", out / "routes.geojson"],
+        [out / f"stops.{fmt}", out / f"routes.{fmt}", out / "routes.geojson"]
+        + [out / "report.html"] * report,
         [data, depots, fleet, delivered, config],
     )
     cfg = planner_config(
@@ -108,6 +110,7 @@ def plan_window_command(
         out=out,
         fmt=fmt,
         geojson=geojson,
+        report=report,
         progress=Terminal(),
     )
     _summary(res)
@@ -117,13 +120,21 @@ def plan_window_command(
 
 
 def _json_doc(res: PlannedWindow, day: str, window: int) -> dict[str, Any]:
-    """``--json``: the window's files, solver, objective and routes."""
-    order_id = res.requests.order_id
+    """``--json``: the window's files, the rows dropped, the day's orders planned and
+    left out, solver, objective and routes."""
+    order_id, scope = res.requests.order_id, res.scope
     return {
         "command": "plan-window",
         "day": day,
         "window": window,
         "files": [str(p) for p in res.files],
+        "rows": res.report.to_dict(),
+        "orders": {
+            "due": scope.orders_due,
+            "planned": scope.planned,
+            "outside_area": scope.outside_area,
+            "outside_hours": scope.outside_hours,
+        },
         "solver": res.solver,
         "objective": res.objective,
         "routes": [

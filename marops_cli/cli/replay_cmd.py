@@ -14,6 +14,7 @@ from .common import (
     begin,
     emit_json,
     guarded,
+    info,
     show_table,
     table,
 )
@@ -47,14 +48,16 @@ def replay_day_command(
         typer.Option("--dates", help="Several days: 0820,0821 or 0820..0827 (one folder each)."),
     ] = None,
     depots: Annotated[
-        Path | None, typer.Option("--depots", help="depots.json [segment the other days].")
+        Path | None, typer.Option("--depots", help="depots.json [default: segment the other days].")
     ] = None,
     n_depots: Annotated[
-        int | None, typer.Option("--n-depots", help="Depots when segmenting here [16].")
+        int | None, typer.Option("--n-depots", help="Depots when segmenting here [default: 16].")
     ] = None,
     segment: Annotated[
         str | None,
-        typer.Option("--segment", help="kmeans or squares when segmenting here [the method's]."),
+        typer.Option(
+            "--segment", help="kmeans or squares when segmenting here [default: the method's]."
+        ),
     ] = None,
     drones: o.Drones = None,
     fleet: o.FleetFile = None,
@@ -63,7 +66,7 @@ def replay_day_command(
         typer.Option(
             "--hubs",
             help="hubs.json from marops segment --hubs: replay every hub of the city, one "
-            "folder each, and report the city's coverage [one study area].",
+            "folder each, and report the city's coverage [default: one study area].",
         ),
     ] = None,
     method: o.Method = "marops",
@@ -74,6 +77,7 @@ def replay_day_command(
     seed: o.Seed = None,
     fmt: o.Format = "parquet",
     geojson: o.Geojson = False,
+    report: o.Report = False,
     tz: o.Tz = None,
     plot: Annotated[
         bool, typer.Option("--plot", help="Draw each day's windows, areas and routes (PNG).")
@@ -94,13 +98,13 @@ def replay_day_command(
     as_json: o.Json = False,
 ) -> None:
     """Replay whole days window by window; write stops, routes and the paper's metrics."""
-    begin(data, quiet=quiet, as_json=as_json, force=force)
+    data = begin(data, quiet=quiet, as_json=as_json, force=force)
     from ..app.replay import ReplayOptions, check_options, replay_config, replay_days
     from ..data.dates import parse_day, parse_days
 
     if (date is None) == (dates is None):
         raise InputError("give exactly one of --date or --dates")
-    opts = ReplayOptions(method, fmt, plot, geojson, force, workers, scheduler)
+    opts = ReplayOptions(method, fmt, plot, geojson, force, workers, scheduler, report=report)
     check_options(opts)
     cfg = replay_config(
         config,
@@ -132,8 +136,11 @@ def replay_day_command(
         progress=Terminal(),
     )
     _print_metrics(res.days, hubs is not None)
+    if report:
+        info(f"wrote {out / 'report.html'} (docs/report.md)")
     if STATE["json"]:
         doc = {"out": str(out), "metrics": str(out / "metrics.json"), "days": res.days}
+        doc.update({"report": str(out / "report.html")} if report else {})
         emit_json({"command": "replay-day", **doc})
 
 
@@ -151,4 +158,4 @@ def _print_metrics(rows: list[dict[str, Any]], hubs: bool = False) -> None:
     for m in rows:
         cells = [m["day"], m["method"], *[s.day_fmt.format(m[s.name]) for s in specs]]
         t.add_row(*([str(m.get("hub", 0))] if hubs else []), *cells)
-    show_table(t)
+    show_table(t, keys=3 if hubs else 2)

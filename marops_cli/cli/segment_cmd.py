@@ -31,30 +31,39 @@ def segment_command(
     data: o.Data,
     out: Annotated[Path, typer.Option("--out", help="Where to write depots.json.")],
     n_depots: Annotated[
-        int | None, typer.Option("--n-depots", help="Number of depots / service areas [16].")
+        int | None,
+        typer.Option("--n-depots", help="Number of depots / service areas [default: 16]."),
     ] = None,
     method: Annotated[
         str | None,
         typer.Option(
-            "--method", help="kmeans (k-means areas, docs/method.md §2) or squares [kmeans]."
+            "--method",
+            help="kmeans (k-means areas, docs/method.md §2) or squares [default: kmeans].",
         ),
     ] = None,
     size_km: Annotated[
-        float | None, typer.Option("--size-km", help="Side of the study-area square in km [10].")
+        float | None,
+        typer.Option("--size-km", help="Side of the study-area square in km [default: 10]."),
     ] = None,
     center: Annotated[
         str | None,
-        typer.Option("--center", help="Study-area centre LNG,LAT [the densest square]."),
+        typer.Option("--center", help="Study-area centre LNG,LAT [default: the densest square]."),
     ] = None,
     dates: Annotated[
         str | None,
-        typer.Option("--dates", help="History days, e.g. 0801..0824 or 801,802 [all days]."),
+        typer.Option(
+            "--dates", help="History days, e.g. 0801..0824 or 801,802 [default: all days]."
+        ),
     ] = None,
     actions: Annotated[
         int | None,
-        typer.Option("--actions", help="Action candidates per depot, itself included [4]."),
+        typer.Option(
+            "--actions", help="Action candidates per depot, itself included [default: 4]."
+        ),
     ] = None,
-    seed: Annotated[int | None, typer.Option("--seed", help="k-means random seed [0].")] = None,
+    seed: Annotated[
+        int | None, typer.Option("--seed", help="k-means random seed [default: 0].")
+    ] = None,
     year: o.Year = None,
     strict: o.Strict = False,
     geojson: Annotated[
@@ -81,7 +90,7 @@ def segment_command(
 ) -> None:
     """Cluster a LaDe export into depots and service areas (k-means or squares), or tile
     a city into hubs (--hubs)."""
-    begin(data, quiet=quiet, as_json=as_json, force=force)
+    data = begin(data, quiet=quiet, as_json=as_json, force=force)
     from ..app.segment import segment as segment_data
 
     if hubs is not None:

@@ -19,7 +19,8 @@ def synth_command(
         str, typer.Option("--start", help="First day (0801, 801 or 2022-08-01).")
     ] = "2022-08-01",
     orders_per_day: Annotated[
-        float | None, typer.Option("--orders-per-day", help="Mean city-wide orders per day [1800].")
+        float | None,
+        typer.Option("--orders-per-day", help="Mean city-wide orders per day [default: 1800]."),
     ] = None,
     shape: Annotated[
         str,
@@ -30,7 +31,7 @@ def synth_command(
     ] = "hubs",
     fmt: Annotated[
         str | None,
-        typer.Option("--format", help="csv or parquet [from the file suffix, else csv]."),
+        typer.Option("--format", help="csv or parquet [default: from the file suffix, else csv]."),
     ] = None,
 ) -> None:
     """Generate LaDe-shaped delivery data (all 17 columns, the real export's formats and quirks)."""

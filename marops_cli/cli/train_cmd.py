@@ -91,8 +91,9 @@ class _Reporter:
         if e is None:  # an episode of an update before its last: nothing to show yet
             return
         if self.progress is not None:
-            self.progress.update(self.task, completed=e["episode"], reward=f"{e['reward']:.3f}")
-        elif e["episode"] % self.every < 8 or e["episode"] <= 8:
+            shown = e["reward"] if "reward" in e else e["cost"]
+            self.progress.update(self.task, completed=e["episode"], reward=f"{shown:.3f}")
+        elif e["episode"] % self.every < 8 or e["episode"] <= 8 or "cost" in e:
             eta = self.eta_s(int(e["episode"]))
             left = f", about {eta / 60:.1f} min left" if eta is not None else ""
             typer.echo(f"[{time.perf_counter() - self.t0:7.0f}s] {text}{left}", err=True)
@@ -133,20 +134,37 @@ def _alpha_range(text: str | None) -> dict[str, Any]:
 def train_command(
     data: Annotated[
         list[Path],
-        typer.Argument(help="LaDe delivery exports (CSV or Parquet); several: several cities."),
+        typer.Argument(
+            metavar="DATA", help="LaDe delivery exports (CSV or Parquet); several: several cities."
+        ),
     ],
-    out: Annotated[Path, typer.Option("--out", help="Actor to write: policies/NAME.pt (+ .json).")],
+    out: Annotated[
+        Path,
+        typer.Option(
+            "--out",
+            help="Actor to write: policies/NAME.pt, and beside it its weights "
+            "(.safetensors), sidecar (.json), curve (.curve.png) and checkpoint (.ckpt).",
+        ),
+    ],
     days: Annotated[
         str | None,
         typer.Option(
             "--dates",
-            help="Training days (0801..0824); the rest are held out (default: first 80 %).",
+            help="Training days (0801..0824); the rest are held out [default: the first 80 %].",
         ),
     ] = None,
     episodes: Annotated[int, typer.Option("--episodes", help="Training episodes (days).")] = 2000,
     method: Annotated[
         str, typer.Option("--method", help="marops (destinations) or mappo (plans directly).")
     ] = "marops",
+    algorithm: Annotated[
+        str,
+        typer.Option(
+            "--algorithm",
+            help="ppo (the recurrent actor, paper) or es (the landing actor of an operating "
+            "model; writes NAME.safetensors + .json) [ppo].",
+        ),
+    ] = "ppo",
     workers: Annotated[int, typer.Option("--workers", help="Rollout processes.")] = 2,
     resume: Annotated[
         bool, typer.Option("--resume/--no-resume", help="Continue from NAME.ckpt if present.")
@@ -155,11 +173,14 @@ def train_command(
     drones: Annotated[
         str | None,
         typer.Option(
-            "--drones", envvar="MAROPS_DRONES", help="Fleet size, or sizes to train on (8,16) [8]."
+            "--drones",
+            envvar="MAROPS_DRONES",
+            help="Fleet size, or sizes to train on (8,16) [default: 8].",
         ),
     ] = None,
     n_depots: Annotated[
-        str | None, typer.Option("--n-depots", help="Depots, or counts to train on (16,25) [16].")
+        str | None,
+        typer.Option("--n-depots", help="Depots, or counts to train on (16,25) [default: 16]."),
     ] = None,
     alpha_range: Annotated[
         str | None,
@@ -174,7 +195,7 @@ def train_command(
         typer.Option(
             "--obs-version",
             help="Observation version of the flight-range actor: 4, or 5 (adds the drone's own "
-            "type: payload, battery, speed; for mixed fleets) [4].",
+            "type: payload, battery, speed; for mixed fleets) [default: 4].",
         ),
     ] = 4,
     seed: Annotated[int, typer.Option("--seed", help="Training seed; same seed, same actor.")] = 0,
@@ -195,11 +216,14 @@ def train_command(
     from ..app.train import train as run_training
 
     for path in data:
+        if str(path) == "-":  # training reads each city's file several times
+            raise InputError("train reads files (one per city), not standard input (-)")
         require_input(path)
-    if out.suffix != ".pt":
-        raise InputError("--out must name a .pt file (the sidecar goes beside it)", file=out)
+    if out.suffix != (".safetensors" if algorithm == "es" else ".pt"):
+        want = "a .safetensors file (--algorithm es)" if algorithm == "es" else "a .pt file"
+        raise InputError(f"--out must name {want} (the sidecar goes beside it)", file=out)
     allow_replacing_foreign(force)
-    protect_inputs(actor_files(out), [*data, config])  # before the long work
+    protect_inputs(actor_files(out, algorithm), [*data, config])  # before the long work
     fleets, depot_counts = _sizes(drones, "--drones"), _sizes(n_depots, "--n-depots")
     cfg = planner_config(
         config,
@@ -209,6 +233,7 @@ def train_command(
         n_depots=depot_counts[0] if depot_counts else None,
     )
     tcfg = _train_config(
+        algorithm=algorithm,
         method=method,
         episodes=episodes,
         seed=seed,
@@ -228,7 +253,7 @@ def train_command(
         data_origin=data_origin,
     )
     res = run_training(data, setup, out, progress=_Reporter(tcfg.checkpoint_every))
-    console.print(f"wrote {out} and {out.with_suffix('.json')} ({res.training_time_s:.0f} s)")
+    console.print(f"wrote {', '.join(map(str, res.files))} ({res.training_time_s:.0f} s)")
     if res.heldout:
         _print_heldout(res.heldout)
 
@@ -248,7 +273,9 @@ def _print_heldout(heldout: dict[str, Any]) -> None:
     """The exported actor's held-out days beside the baselines' (mean over days)."""
     from ..sim.metrics import metric_specs
 
-    specs = metric_specs("mean_energy_kj", "avg_delay_h", "daily_combined_cost")
+    first = next(iter(heldout["methods"].values()))
+    names = ("mean_energy_kj", "avg_delay_h", "daily_combined_cost", "objective_j_mj")
+    specs = metric_specs(*[n for n in names if n in first])
     t = table("held-out days (mean over days)")
     t.add_column("method", justify="left")
     for s in specs:

@@ -51,7 +51,22 @@ def parse_day(text: str, year: int) -> dt.date:
             return dt.date(y, parts[0], parts[1])
         except ValueError:
             break
-    raise InputError(f"{_EXPECTED_DAY}, got {text!r}")
+    raise InputError(f"{_EXPECTED_DAY}, got {text!r}{_range_hint(s, year)}")
+
+
+def _range_hint(text: str, year: int) -> str:
+    """``; a range of days is written 0801..0810`` when ``text`` reads as two days
+    joined by ``-`` (``0801-0810``), else nothing."""
+    for i, ch in enumerate(text):
+        if ch != "-":
+            continue
+        first, last = text[:i], text[i + 1 :]
+        try:
+            parse_day(first, year), parse_day(last, year)
+        except InputError:
+            continue
+        return f"; a range of days is written {first}..{last}"
+    return ""
 
 
 def parse_days(spec: str, year: int) -> list[dt.date]:

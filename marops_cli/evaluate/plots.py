@@ -16,7 +16,7 @@ import pyarrow as pa
 
 from ..sim.metrics import metric_names
 from .settings import SWEEP_FLAGS, Setting
-from .tables import depot_loads
+from .tables import depot_loads, setting_label
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
@@ -139,21 +139,35 @@ def _depot_panel(
     fig.colorbar(im, ax=ax)
 
 
-def unfairness_figure(summary: pa.Table, methods: Sequence[str], held: dict[str, float]) -> Figure:
-    """Delay unfairness (Gini over service areas) per method at the base setting."""
+def unfairness_figure(summary: pa.Table, methods: Sequence[str]) -> Figure:
+    """Delay unfairness (Gini over service areas) per method, one bar for each setting
+    of the evaluation (``α=0.3``, ``α=0.8`` side by side, ± one std)."""
     from matplotlib.figure import Figure
 
-    fig = Figure(figsize=(1.2 * len(methods) + 2.5, 3.6), dpi=100, layout="constrained")
+    settings = sorted(set(summary.column("setting").to_pylist()))
+    fig = Figure(
+        figsize=(max(4.0, (0.5 * len(settings) + 0.7) * len(methods) + 2.5), 3.8),
+        dpi=100,
+        layout="constrained",
+    )
     ax = fig.subplots()
-    rows = _slice(summary, "", held)
+    setting = np.asarray(summary.column("setting").to_pylist())
     method = np.asarray(summary.column("method").to_pylist(), dtype=object)
     mean = summary.column("delay_unfairness_mean").to_numpy()
     std = summary.column("delay_unfairness_std").to_numpy()
-    heights = [float(mean[rows & (method == m)][0]) for m in methods]
-    errs = [float(std[rows & (method == m)][0]) for m in methods]
-    ax.bar(list(methods), heights, yerr=errs, capsize=4, color="tab:blue", alpha=0.8)
+    width = 0.8 / len(settings)
+    x = np.arange(len(methods), dtype=float)
+    for k, s in enumerate(settings):
+        at = [np.flatnonzero((setting == s) & (method == m)) for m in methods]
+        heights = [float(mean[i[0]]) if i.size else np.nan for i in at]
+        errs = [float(std[i[0]]) if i.size else np.nan for i in at]
+        offset = (k - (len(settings) - 1) / 2) * width
+        ax.bar(x + offset, heights, width, yerr=errs, capsize=3, label=setting_label(summary, s))
+    ax.set_xticks(x, list(methods))
+    ax.tick_params(axis="x", labelrotation=30, labelsize=8)
     ax.set_ylabel("delay unfairness (Gini over areas)")
-    ax.set_title(_held_text("", held), fontsize=9)
+    ax.set_title("delay unfairness per method and setting", fontsize=9)
+    ax.legend(fontsize=8, title="setting", title_fontsize=8)
     ax.grid(axis="y", alpha=0.3)
     return fig
 

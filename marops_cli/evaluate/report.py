@@ -112,7 +112,7 @@ def figures(summary: pa.Table, results: pa.Table, prep: Prepared) -> dict[str, A
         f"{flag}.png": sweep_figure(summary, results, flag, prep.methods, held)
         for flag in swept_flags(prep.settings)
     }
-    figs["unfairness.png"] = unfairness_figure(summary, prep.methods, held)
+    figs["unfairness.png"] = unfairness_figure(summary, prep.methods)
     figs["actions.png"] = actions_figure(summary, prep.methods, held)
     return figs
 

@@ -20,7 +20,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from ..config import PlannerConfig, override
+from ..config import OpsConfig, PlannerConfig, override
 from ..data.dates import format_days
 from ..data.reader import read_lade, sha256_file
 from ..data.table import LadeTable
@@ -76,10 +76,14 @@ ACTOR_FLAGS = {"learned": "--policy", "direct": "--mappo-policy"}
 
 
 def check_methods(
-    methods: Sequence[str], actors: dict[str, Path] | None = None, *, trust: bool = False
+    methods: Sequence[str],
+    actors: dict[str, Path] | None = None,
+    *,
+    trust: bool = False,
+    ops: OpsConfig | None = None,
 ) -> dict[str, Path]:
-    """Load every method's policy once (``trust``: ``cfg.sim.trust_actor``); fail with one
-    line naming what is missing.
+    """Load every method's policy once (``trust``: ``cfg.sim.trust_actor``; ``ops``: the
+    operating model, whose shipped actors run); fail with one line naming what is missing.
 
     Returns the trained actor file of each method that runs one.
     """
@@ -94,7 +98,7 @@ def check_methods(
     files: dict[str, Path] = {}
     for m in methods:
         try:
-            pol = method_policy(m, None, 0, actors=actors, trust=trust)
+            pol = method_policy(m, None, 0, actors=actors, trust=trust, ops=ops)
         except InputError as exc:
             flag = ACTOR_FLAGS.get(method_spec(m).policy)
             if flag is None:
@@ -131,7 +135,7 @@ def prepare(
     methods = list(dict.fromkeys(methods))
     actors = {k: Path(v) for k, v in (actors or {}).items()}
     # Fails here, not in a worker.
-    actor_files = check_methods(methods, actors, trust=cfg.sim.trust_actor)
+    actor_files = check_methods(methods, actors, trust=cfg.sim.trust_actor, ops=cfg.ops)
     check_settings(cfg, settings, methods)
     if repeats < 1:
         raise InputError(f"--repeats expects at least 1, got {repeats}")
@@ -216,7 +220,12 @@ def run_job(job: Job) -> dict[str, Any]:
     key = (job.method, job.seed)
     if key not in _CTX["policies"]:
         _CTX["policies"][key] = method_policy(
-            job.method, None, job.seed, actors=prep.actors, trust=cfg.sim.trust_actor
+            job.method,
+            None,
+            job.seed,
+            actors=prep.actors,
+            trust=cfg.sim.trust_actor,
+            ops=cfg.ops,
         )
     fleet = load_fleet(None, base.depots, prep.drones(job), cfg)
     _, _, metrics = replay(scn, job.day, fleet, _CTX["policies"][key], job.method)
@@ -251,7 +260,9 @@ class EvaluateWork:
         other rows under the same run identity."""
         for method, sha in self.actors.items():
             trust = self.prep.cfg.sim.trust_actor
-            policy = method_policy(method, None, 0, actors=self.prep.actors, trust=trust)
+            policy = method_policy(
+                method, None, 0, actors=self.prep.actors, trust=trust, ops=self.prep.cfg.ops
+            )
             problem = other_actor(method, policy, sha)
             if problem is not None:
                 return problem

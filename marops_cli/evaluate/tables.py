@@ -179,3 +179,21 @@ def depot_loads(results: pa.Table, where: np.ndarray) -> np.ndarray:
     sub = loads[where]
     keep = ~np.all(np.isnan(sub), axis=0)  # depots that exist in this setting
     return np.nanmean(sub[:, keep], axis=0) if sub.size else np.zeros(0)
+
+
+# How a setting's value reads in a label (``α=0.3``, ``8 drones``).
+_LABELS = {
+    "alpha": "α={:g}",
+    "drones": "{} drones",
+    "coverage": "coverage {:g}",
+    "depots_n": "{} areas",
+}
+
+
+def setting_label(summary: pa.Table, setting: int) -> str:
+    """A setting by the values that tell it apart from the others of the summary:
+    ``α=0.3``, ``α=0.3, 16 drones``; the trade-off weight when nothing was swept."""
+    rows = summary.to_pylist()
+    varied = [f for f in _LABELS if len({r[f] for r in rows}) > 1] or ["alpha"]
+    row = next(r for r in rows if r["setting"] == setting)
+    return ", ".join(_LABELS[f].format(row[f]) for f in varied)

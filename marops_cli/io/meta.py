@@ -59,6 +59,6 @@ def policy_identity(policy: str | Path) -> dict[str, Any]:
     from ..policies.weights import weights_path  # deferred: it imports torch
 
     out = {"name": p.name, "sha256": file_sha256(p)}
-    if weights_path(p).is_file():
+    if weights_path(p) != p and weights_path(p).is_file():  # not a weights-only actor
         out["weights_sha256"] = file_sha256(weights_path(p))
     return out

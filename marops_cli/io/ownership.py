@@ -3,7 +3,7 @@ a run's inputs, and only where it can write.
 
 A file is marops's when its content says so (a Parquet file's ``marops`` metadata, a
 JSON document's marops ``meta``, a training checkpoint's format) or, for files that
-carry no metadata (CSV, PNG, Markdown, actors), when the folder's journal
+carry no metadata (CSV, PNG, Markdown, HTML, actors), when the folder's journal
 ``.marops-files.json`` lists it with the SHA-256 of what is there now. A file edited
 since is not marops's any more. The name never decides.
 """
@@ -116,7 +116,10 @@ def _json_is_ours(path: Path) -> bool:
 
 def _checkpoint_is_ours(path: Path) -> bool:
     """A training checkpoint names its format (``marops-train-ckpt/N``) in the state it
-    holds: read from the archive's pickle as bytes, never unpickled."""
+    holds: read from the archive's pickle as bytes, never unpickled; the landing actor's
+    checkpoint is JSON (``marops-landing-ckpt/N``)."""
+    if not zipfile.is_zipfile(path):
+        return _json_is_ours(path)
     with zipfile.ZipFile(path) as archive:
         pickles = [n for n in archive.namelist() if n.endswith("/data.pkl")]
         return any(b"marops-train-ckpt/" in archive.read(n) for n in pickles[:1])

@@ -172,7 +172,36 @@ def _append(columns: dict[str, list[Any]], key: tuple[Any, ...]) -> None:
 
 
 def with_meta(table: pa.Table, meta: dict[str, Any]) -> pa.Table:
-    return table.replace_schema_metadata({"marops": json.dumps(meta, sort_keys=False)})
+    """``table`` with the run's metadata under ``marops`` (and the pandas types of its
+    nullable integer columns, :func:`pandas_metadata`)."""
+    head = {"marops": json.dumps(meta, sort_keys=False)}
+    pandas = pandas_metadata(table)
+    if pandas is not None:
+        head["pandas"] = pandas
+    return table.replace_schema_metadata(head)
+
+
+def pandas_metadata(table: pa.Table) -> str | None:
+    """pandas reads an integer column holding a missing value as float64 (a stop's
+    ``depot`` and ``due_window``); the pandas metadata pyarrow reads back names the
+    nullable type instead (``Int32``), so ``pd.read_parquet`` and ``to_pandas`` give
+    integers with ``<NA>``. Columns without a missing value keep their numpy type;
+    None when no column needs it. polars and DuckDB read the Parquet types alone."""
+    columns = [
+        {
+            "name": f.name,
+            "field_name": f.name,
+            "pandas_type": str(f.type),
+            "numpy_type": f"{'U' if pa.types.is_unsigned_integer(f.type) else ''}Int"
+            f"{f.type.bit_width}",
+            "metadata": None,
+        }
+        for f, col in zip(table.schema, table.columns, strict=True)
+        if pa.types.is_integer(f.type) and col.null_count > 0
+    ]
+    if not columns:
+        return None
+    return json.dumps({"index_columns": [], "column_indexes": [], "columns": columns})
 
 
 def write_parquet(table: pa.Table, path: str | Path) -> None:

@@ -55,6 +55,11 @@ class WindowView:
     drone_ready: np.ndarray | None = None
     """(U,) False where a drone cannot fly this window (still on a long flight, or no
     charged battery at its depot): it gets only its empty plan and stays; None: all can."""
+    depot_spares: np.ndarray | None = None
+    """(N,) charged spare batteries at each depot at the start of the window, before its
+    swaps; None: a charged battery at every depot whenever one is needed (the paper)."""
+    depot_charging: np.ndarray | None = None
+    """(N,) batteries on charge or waiting for a charger at each depot; None: unlimited."""
 
     @property
     def n_drones(self) -> int:

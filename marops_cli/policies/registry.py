@@ -17,8 +17,12 @@ from .rules import BacklogPolicy, RebalancePolicy
 SIMPLE = ("stay", "random", "greedy", "global", "myopic", "backlog", "rebalance")
 DEFAULT_POLICY_NAME = "marops-basic.pt"
 DEFAULT_MAPPO_NAME = "mappo-basic.pt"
+DEFAULT_LANDING_NAME = "marops-ops.safetensors"
 SHIPPED = {"learned": DEFAULT_POLICY_NAME, "direct": DEFAULT_MAPPO_NAME}
 """A method's shipped actor, by policy kind: the flight-range actor, the MAPPO actor."""
+SHIPPED_OPERATING = {"learned": DEFAULT_LANDING_NAME}
+"""The shipped actor of a policy kind under an operating model other than the paper's
+(docs/method.md §6.1): the landing actor."""
 
 Kind = Literal[
     "stay",
@@ -51,11 +55,11 @@ class PolicySpec:
         if spec in SIMPLE or spec in SHIPPED:
             return cls(spec)  # type: ignore[arg-type]
         path = spec.removeprefix("torchscript:")
-        if spec.startswith("torchscript:") or path.endswith(".pt"):
+        if spec.startswith("torchscript:") or path.endswith((".pt", ".safetensors")):
             return cls.actor(path)
         raise InputError(
             f"unknown policy {spec!r}: expected one of {', '.join(SIMPLE)}, "
-            "torchscript:PATH or a .pt file"
+            "torchscript:PATH, a .pt file or a landing actor's .safetensors file"
         )
 
     @classmethod
@@ -68,12 +72,14 @@ class PolicySpec:
         """Whether the policy flies a trained actor (which needs torch)."""
         return self.kind == "torchscript" or self.kind in SHIPPED
 
-    def shipped(self) -> PolicySpec | None:
-        """A shipped actor's spec as its file's (None: this install ships none); any
+    def shipped(self, paper: bool = True) -> PolicySpec | None:
+        """A shipped actor's spec as its file's (None: this install ships none), the one
+        for the paper's operating model or (``paper`` False) for the realistic one; any
         other spec as it is."""
         if self.kind not in SHIPPED:
             return self
-        path = default_policy_path(SHIPPED[self.kind])
+        name = SHIPPED[self.kind] if paper else SHIPPED_OPERATING.get(self.kind, SHIPPED[self.kind])
+        path = default_policy_path(name)
         return None if path is None else PolicySpec.actor(path)
 
     def __str__(self) -> str:
@@ -98,14 +104,18 @@ def default_policy_path(name: str = DEFAULT_POLICY_NAME) -> Path | None:
     return path if path.is_file() else None
 
 
-def make_policy(spec: str | PolicySpec, seed: int = 0, *, trust: bool = False) -> Policy:
+def make_policy(
+    spec: str | PolicySpec, seed: int = 0, *, trust: bool = False, model: str = "paper"
+) -> Policy:
     """The policy of ``spec`` (a :class:`PolicySpec` or its text, see
     :meth:`PolicySpec.parse`); ``seed`` seeds the random baseline. A trained actor loads
     from its weights file; ``trust`` (``--trust-actor``) lets a TorchScript file without
-    one load, running its code (docs/method.md §6, "Trust model of actor files")."""
+    one load, running its code (docs/method.md §6, "Trust model of actor files");
+    ``model`` is the run's operating model (:func:`~.landing.operating_model`): it picks the
+    shipped actors, and an actor trained for another refuses to load (docs/method.md §6.1)."""
     if isinstance(spec, str):
         spec = PolicySpec.parse(spec)
-    resolved = spec.shipped()
+    resolved = spec.shipped(model == "paper")
     if resolved is None:
         raise InputError(f"no trained actor is shipped at policies/{SHIPPED[spec.kind]}")
     spec = resolved
@@ -123,10 +133,29 @@ def make_policy(spec: str | PolicySpec, seed: int = 0, *, trust: bool = False) -
         return BacklogPolicy()
     if spec.kind == "rebalance":
         return RebalancePolicy()
+    assert spec.path is not None
+    if spec.path.endswith(".safetensors"):  # a landing actor: data only
+        from ..data.jsonfile import read_json
+        from .landing import load_landing_actor
+
+        weights = Path(spec.path)
+        if not weights.is_file():
+            raise InputError("policy file not found", file=weights)
+        sidecar = weights.with_suffix(".json")
+        actor = load_landing_actor(weights, read_json(sidecar, "landing actor sidecar"), sidecar)
+        actor.check_model(model)
+        return actor
     from .torchscript import TorchScriptPolicy, read_sidecar
 
-    assert spec.path is not None
-    if "plan_slots" in read_sidecar(spec.path):  # a MAPPO actor: destination x plan slot
+    side = read_sidecar(spec.path)
+    trained_for = side.get("operating_model", "paper")  # actors made before it was recorded
+    if trained_for != model:
+        raise InputError(
+            f"this actor was trained for the operating model {trained_for!r}, the run's [ops] "
+            f"is {model!r}: use a config whose [ops] matches, or another --policy",
+            file=spec.path,
+        )
+    if "plan_slots" in side:  # a MAPPO actor: destination x plan slot
         from .direct import DirectPolicy
 
         return DirectPolicy(Path(spec.path), trust=trust)

@@ -20,7 +20,7 @@ if TYPE_CHECKING:
     from ..config import PlannerConfig
     from ..energy import EnergyModel
 
-__all__ = ["BacklogPolicy", "RebalancePolicy", "reachable", "waiting_per_depot"]
+__all__ = ["BacklogPolicy", "EnergyAware", "RebalancePolicy", "reachable", "waiting_per_depot"]
 
 
 def waiting_per_depot(view: WindowView, weights: np.ndarray | None = None) -> np.ndarray:
@@ -42,13 +42,13 @@ def reachable(view: WindowView, u: int, model: EnergyModel) -> np.ndarray:
     return ok & view.action_mask()[u]
 
 
-class _EnergyAware(PolicyBase):
+class EnergyAware(PolicyBase):
     """A rule that needs each drone's energy model to know what it can reach."""
 
     def __init__(self) -> None:
         from ..config import PlannerConfig
 
-        self.configure(PlannerConfig())
+        EnergyAware.configure(self, PlannerConfig())  # the reference drone until configured
 
     def configure(self, cfg: PlannerConfig) -> None:
         """Use the run's energy model (a mixed fleet's drones bring their own)."""
@@ -63,7 +63,7 @@ class _EnergyAware(PolicyBase):
         return self._model if view.drone_models is None else view.drone_models[u]
 
 
-class BacklogPolicy(_EnergyAware):
+class BacklogPolicy(EnergyAware):
     """Land at the reachable depot with the most waiting value per drone already there.
 
     Waiting value of depot d: Σ (1 + delay h) over the pending parcels stocked at d (its
@@ -112,7 +112,7 @@ def largest_remainder(share: np.ndarray, total: int) -> np.ndarray:
     return out
 
 
-class RebalancePolicy(_EnergyAware):
+class RebalancePolicy(EnergyAware):
     """Min-cost assignment of drones to landing depots that match the coming demand.
 
     Demand of depot d: parcels waiting there (:func:`waiting_per_depot`) plus the

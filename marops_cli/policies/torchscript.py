@@ -180,10 +180,15 @@ class TorchScriptPolicy(RecurrentPolicy):
         return self.path
 
     def _check(self, view: WindowView) -> None:
-        a = view.depots.candidates.shape[1]
+        n, a = view.depots.candidates.shape
         if a != self.n_actions:
+            fix = (
+                f"segment at least {self.n_actions} depots (--n-depots)"
+                if n < self.n_actions  # each depot's candidates are itself and its nearest
+                else f"segment with --actions {self.n_actions}"
+            )
             raise InputError(
                 f"the policy expects {self.n_actions} actions per depot, "
-                f"the depots offer {a}; segment with --actions {self.n_actions}",
+                f"the {n} depots offer {a}; {fix}",
                 file=self.path,
             )

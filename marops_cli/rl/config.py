@@ -17,6 +17,12 @@ class TrainConfig(BaseModel):
 
     model_config = ConfigDict(extra="forbid", validate_assignment=True, allow_inf_nan=False)
 
+    algorithm: Literal["ppo", "es"] = Field(
+        "ppo",
+        description="ppo: the recurrent actor by multi-agent PPO (paper); es: the landing "
+        "actor by evolution strategies on the day objective (an operating model's actor, "
+        "docs/method.md §6.1)",
+    )
     method: Literal["marops", "mappo"] = Field(
         "marops", description="marops: actions pick a destination; mappo: destination × plan slot"
     )
@@ -85,6 +91,17 @@ class TrainConfig(BaseModel):
         4,
         description="marops: observation version (docs/method.md §6): 4, or 5 adding the "
         "drone's own type (payload, battery, speed) for mixed fleets",
+    )
+    es_sigma: float = Field(
+        0.3, gt=0, description="es: standard deviation of each weight's perturbation"
+    )
+    es_step: float = Field(0.2, gt=0, description="es: step size of each generation's move")
+    es_pairs: int = Field(6, ge=1, description="es: antithetic pairs of weights per generation")
+    es_days: int = Field(4, ge=1, description="es: training days each generation replays")
+    es_energy_weight: float = Field(
+        3.0,
+        ge=0,
+        description="es: cost of each share of energy per drone above the day's best rule's",
     )
     eval_every: int = Field(200, ge=1, description="episodes between held-out evaluations")
     checkpoint_every: int = Field(40, ge=1, description="episodes between checkpoints")

@@ -19,6 +19,7 @@ import torch
 from .. import __version__
 from ..errors import InputError
 from ..io.atomic import output_set
+from ..policies.landing import operating_model
 from ..policies.observation import ObsVersion
 from ..workers import LocalPool, single_threaded
 from .data import TrainData, fingerprint, load_training_data, split_days
@@ -259,6 +260,7 @@ class Trainer:
             chosen = next(e for e in self.evals if e["episode"] == self.best["episode"])
         side: dict[str, Any] = {
             "method": t.method,
+            "operating_model": operating_model(cfg.ops),
             "obs_version": int(self.obs_version),
             "n_actions": self.n_actions,
             "alpha": cfg.plan.alpha,
@@ -330,6 +332,12 @@ def train_actor(
     # One deterministic thread, as in the workers, for the networks' initialisation (its
     # QR factorisation depends on the thread count) and every update, so the arithmetic
     # is the same whatever --workers says and whatever ran before in this process.
+    if td.ctx.tcfg.algorithm == "es":  # the landing actor (docs/method.md §6.1)
+        from .es import LandingTrainer
+
+        landing = LandingTrainer(td, Path(out), on_event)
+        landing.run(resume)
+        return landing.export(command, data_origin)
     with single_threaded(deterministic=True):
         trainer = Trainer(td, Path(out), on_event)
         trainer.run(resume)

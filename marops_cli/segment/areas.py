@@ -9,40 +9,31 @@ import numpy as np
 from .depots import Depots
 
 
-def _clip(poly: list[tuple[float, float]], a: np.ndarray, b: float) -> list[tuple[float, float]]:
-    """Keep the part of ``poly`` where a·p <= b (Sutherland-Hodgman, one half-plane)."""
-    out: list[tuple[float, float]] = []
-    n = len(poly)
-    for i in range(n):
-        p, q = np.array(poly[i]), np.array(poly[(i + 1) % n])
-        fp, fq = float(a @ p - b), float(a @ q - b)
-        if fp <= 0:
-            out.append((float(p[0]), float(p[1])))
-        if (fp < 0 < fq) or (fq < 0 < fp):
-            t = fp / (fp - fq)
-            r = p + t * (q - p)
-            out.append((float(r[0]), float(r[1])))
-    return out
-
-
 def area_polygons(depots: Depots) -> list[list[tuple[float, float]]]:
-    """Polygon (metres, counter-clockwise, open ring) of each depot's service area."""
+    """Polygon (metres, counter-clockwise, open ring) of each depot's service area: its
+    Voronoi cell (shapely, GEOS) clipped to the study square."""
+    import shapely  # loads with the first map or GeoJSON, not with the CLI
+
     h = depots.frame.half_m
-    square = [(-h, -h), (h, -h), (h, h), (-h, h)]
-    polys = []
-    for i in range(len(depots)):
-        poly = square
-        pi = depots.xy[i]
-        for j in range(len(depots)):
-            if j == i or not poly:
-                continue
-            pj = depots.xy[j]
-            # Points nearer to i than to j: (pj - pi)·p <= (|pj|² - |pi|²) / 2.
-            a = pj - pi
-            b = float((pj @ pj - pi @ pi) / 2.0)
-            poly = _clip(poly, a, b)
-        polys.append(poly)
-    return polys
+    square = shapely.box(-h, -h, h, h)
+    if len(depots) == 1:
+        cells = [square]
+    else:
+        points = shapely.multipoints(np.asarray(depots.xy, dtype=np.float64))
+        # ordered: cell i belongs to depot i (GEOS >= 3.12); extent: cells reach the square.
+        voronoi = shapely.voronoi_polygons(points, extend_to=square, ordered=True)
+        cells = [square.intersection(c) for c in shapely.get_parts(voronoi)]
+    return [_ring(cell) for cell in cells]
+
+
+def _ring(cell: Any) -> list[tuple[float, float]]:
+    """A cell's outline as an open, counter-clockwise ring (empty for an empty cell)."""
+    import shapely
+
+    if cell.is_empty or cell.geom_type != "Polygon":
+        return []
+    coords = shapely.orient_polygons(cell).exterior.coords
+    return [(float(x), float(y)) for x, y in list(coords)[:-1]]
 
 
 def areas_geojson(depots: Depots, meta: dict[str, Any]) -> dict[str, Any]:

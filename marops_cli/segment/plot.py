@@ -14,16 +14,19 @@ from matplotlib.axes import Axes  # noqa: E402
 from .areas import area_polygons  # noqa: E402
 from .depots import Depots  # noqa: E402
 
+# Depots: black squares, apart from every colour the maps use for data (the blue
+# customers here, the green-to-red delay scale and the drones' colours of routes.png).
+DEPOT_STYLE = {"marker": "s", "c": "black", "edgecolors": "white", "linewidths": 0.6}
+AREA_COLOUR = "#d4a017"
+
 
 def draw_areas(ax: Axes, depots: Depots, *, labels: bool = True) -> None:
     """Service-area boundaries and depots on ``ax`` (km axes)."""
     for poly in area_polygons(depots):
         if poly:
             arr = np.array(poly + [poly[0]]) / 1000.0
-            ax.plot(arr[:, 0], arr[:, 1], color="#d4a017", lw=1.0, zorder=2)
-    ax.scatter(
-        depots.xy[:, 0] / 1000.0, depots.xy[:, 1] / 1000.0, s=36, c="red", marker="s", zorder=4
-    )
+            ax.plot(arr[:, 0], arr[:, 1], color=AREA_COLOUR, lw=1.0, zorder=2)
+    ax.scatter(depots.xy[:, 0] / 1000.0, depots.xy[:, 1] / 1000.0, s=36, zorder=4, **DEPOT_STYLE)
     if labels:
         for i, (x, y) in enumerate(depots.xy / 1000.0):
             ax.annotate(str(i), (x, y), textcoords="offset points", xytext=(4, 4), fontsize=7)

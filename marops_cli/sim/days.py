@@ -108,7 +108,8 @@ class ReplayWork:
         if self._policy is None:
             # --trust-actor, carried in every area's config (one run, one choice).
             trust = any(scn.cfg.sim.trust_actor for scn, _ in self.areas.values())
-            self._policy = method_policy(self.method, self.policy, self.seed, trust=trust)
+            ops = next(iter(self.areas.values()))[0].cfg.ops
+            self._policy = method_policy(self.method, self.policy, self.seed, trust=trust, ops=ops)
         return self._policy
 
     def run(self, job: DayJob, on_window: Callable[[WindowPlan], None] | None = None) -> DayOutput:

@@ -110,6 +110,11 @@ class Operations:
         for _, d, e in landed:
             self.queue[d].append(e)
 
+    def charging(self) -> np.ndarray:
+        """``(N,)`` batteries on charge or waiting for a charger per depot (those landing
+        in a later window not yet among them)."""
+        return np.array([len(q) for q in self.queue], dtype=np.int64)
+
     def charged_min(self) -> int | None:
         """The fewest spare charged batteries over all depots after any window's swaps;
         None with unlimited swaps."""

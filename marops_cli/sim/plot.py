@@ -3,14 +3,17 @@ and its operations over the day."""
 
 from __future__ import annotations
 
+import datetime as dt
 import math
 from pathlib import Path
+from typing import Any
 
 import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+from matplotlib.figure import Figure  # noqa: E402
 
 from ..data.table import DayRequests  # noqa: E402
 from ..plans.ranges import delays_h  # noqa: E402
@@ -18,9 +21,32 @@ from ..segment.plot import draw_areas  # noqa: E402
 from .ops import BUSY, WAITING  # noqa: E402
 from .replay import FlownDay  # noqa: E402
 
+# The delay scale: green (on time) to red (late); depots and drones keep clear of it.
+DELAY_CMAP = "RdYlGn_r"
+# tab10 without its green and red, which the delay scale holds.
+DRONE_COLOURS = (
+    "tab:blue",
+    "tab:orange",
+    "tab:purple",
+    "tab:brown",
+    "tab:pink",
+    "tab:gray",
+    "tab:olive",
+    "tab:cyan",
+)
+
 
 def plot_day(res: FlownDay, reqs: DayRequests, path: str | Path) -> None:
-    """One panel per window: areas, depots, pending requests coloured by delay, routes."""
+    """Write :func:`day_figure` as a PNG."""
+    fig = day_figure(res, reqs)
+    fig.savefig(path, format="png")
+    plt.close(fig)
+
+
+def day_figure(res: FlownDay, reqs: DayRequests) -> Figure:
+    """One panel per window (its clock times in the title): areas, depots, pending
+    requests coloured by delay, each drone's routes in its colour; km axes, a legend of
+    the drones and a delay scale."""
     st = res.state
     n = len(res.plans)
     cols = math.ceil(math.sqrt(n))
@@ -28,13 +54,15 @@ def plot_day(res: FlownDay, reqs: DayRequests, path: str | Path) -> None:
     fig, axes = plt.subplots(
         rows,
         cols,
-        figsize=(3.2 * cols + 1.0, 3.2 * rows),
+        figsize=(3.2 * cols + 1.0, 3.2 * rows + 0.8),
         dpi=90,
         squeeze=False,
+        sharex=True,
+        sharey=True,
         constrained_layout=True,
     )
-    cmap = plt.get_cmap("tab10")
     vmax = max(1.0, float(reqs.n_windows * reqs.window_hours) / 2)
+    span = dt.timedelta(hours=reqs.window_hours)
     sc = None
     for ax, plan in zip(axes.ravel(), res.plans, strict=False):
         t = plan.t
@@ -47,7 +75,7 @@ def plot_day(res: FlownDay, reqs: DayRequests, path: str | Path) -> None:
             reqs.y_m[pend] / 1000,
             c=d,
             s=5,
-            cmap="RdYlGn_r",
+            cmap=DELAY_CMAP,
             vmin=0,
             vmax=vmax,
             zorder=3,
@@ -64,19 +92,61 @@ def plot_day(res: FlownDay, reqs: DayRequests, path: str | Path) -> None:
                 / 1000
             )
             if len(pts) > 2 or r.start != r.end:
-                ax.plot(pts[:, 0], pts[:, 1], "-", color=cmap(r.drone % 10), lw=1.2, zorder=5)
+                ax.plot(
+                    pts[:, 0],
+                    pts[:, 1],
+                    "-",
+                    color=DRONE_COLOURS[r.drone % len(DRONE_COLOURS)],
+                    lw=1.2,
+                    zorder=5,
+                )
         served = sum(len(r.stops) for r in plan.routes)
-        ax.set_title(f"window {t}: {int(pend.sum())} pending, {served} served", fontsize=8)
+        start = reqs.window_start(t)
+        ax.set_title(
+            f"window {t}, {start:%H:%M}–{start + span:%H:%M}\n"
+            f"{int(pend.sum())} pending, {served} served",
+            fontsize=8,
+        )
         ax.set_xlabel("")
         ax.set_ylabel("")
         ax.tick_params(labelsize=6)
+    for ax in axes[-1]:  # the axes are shared: units once, under the last row
+        ax.set_xlabel("x (km east of centre)", fontsize=7)
+    for ax in axes[:, 0]:
+        ax.set_ylabel("y (km north of centre)", fontsize=7)
     for ax in axes.ravel()[n:]:
         ax.axis("off")
     if sc is not None:
-        fig.colorbar(sc, ax=axes.ravel().tolist(), shrink=0.6, label="delay (h)")
-    fig.suptitle(f"{reqs.day.isoformat()} — {res.method}, {res.n_drones} drones", fontsize=11)
-    fig.savefig(path, format="png")
-    plt.close(fig)
+        fig.colorbar(
+            sc, ax=axes.ravel().tolist(), shrink=0.6, label="delay of a pending request (h)"
+        )
+    fig.legend(
+        handles=_legend(res.n_drones),
+        loc="outside lower center",
+        ncols=min(len(DRONE_COLOURS), res.n_drones) + 1,
+        fontsize=7,
+        frameon=False,
+    )
+    fig.suptitle(
+        f"{reqs.day.isoformat()} — {res.method}, {res.n_drones} drones (local times)", fontsize=11
+    )
+    return fig
+
+
+def _legend(n_drones: int) -> list[Any]:
+    """Handles of the legend: a depot, and each drone colour with the drones it draws
+    (colours repeat past eight drones: ``drones 0, 8``)."""
+    from matplotlib.lines import Line2D
+
+    handles: list[Any] = [
+        Line2D([], [], ls="", marker="s", color="black", mec="white", ms=6, label="depot")
+    ]
+    n = len(DRONE_COLOURS)
+    for k in range(min(n, n_drones)):
+        ids = [str(d) for d in range(k, n_drones, n)]
+        label = ("drones " if len(ids) > 1 else "drone ") + ", ".join(ids)
+        handles.append(Line2D([], [], color=DRONE_COLOURS[k], lw=1.5, label=label))
+    return handles
 
 
 def plot_operations(res: FlownDay, reqs: DayRequests, path: str | Path) -> None:

@@ -17,7 +17,7 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from ..config import PlannerConfig
+from ..config import OpsConfig, PlannerConfig
 from ..data.frame import Frame
 from ..data.prepare import arrival_windows, check_days_in_file, prepare_day, study_frame
 from ..data.reader import read_lade, sha256_file
@@ -28,6 +28,7 @@ from ..methods import METHODS as _METHODS
 from ..methods import method as method_spec
 from ..plans.window import WindowPlan
 from ..policies.base import Policy, start_day
+from ..policies.landing import operating_model
 from ..policies.registry import SHIPPED, PolicySpec, make_policy
 from ..segment.cache import cached_depots
 from ..segment.depots import Depots
@@ -92,20 +93,23 @@ def method_policy(
     *,
     actors: Mapping[str, Path] | None = None,
     trust: bool = False,
+    ops: OpsConfig | None = None,
 ) -> Policy:
     """The policy a method runs: ``policy`` (a spec) when given, else the method's own,
     whose shipped actor ``actors`` replaces by policy kind (``learned``, ``direct``:
-    evaluate's ``--policy`` and ``--mappo-policy``); ``trust``: ``cfg.sim.trust_actor``."""
+    evaluate's ``--policy`` and ``--mappo-policy``); ``trust``: ``cfg.sim.trust_actor``;
+    ``ops``: the run's operating model, whose shipped actors it flies (None: the paper's)."""
     if method not in METHODS:
         raise InputError(f"unknown method {method!r}: expected one of {', '.join(METHODS)}")
     spec = PolicySpec.parse(policy or method_spec(method).policy)
     if policy is None and actors and spec.kind in actors:
         spec = PolicySpec.actor(actors[spec.kind])
-    resolved = spec.shipped()
+    model = "paper" if ops is None else operating_model(ops)
+    resolved = spec.shipped(model == "paper")
     if resolved is None:
         why = _NOT_SHIPPED[spec.kind].format(name=SHIPPED[spec.kind])
         raise InputError(f"method {method!r} {why}")
-    return make_policy(resolved, seed, trust=trust)
+    return make_policy(resolved, seed, trust=trust, model=model)
 
 
 @dataclass

@@ -74,6 +74,7 @@ class DayState:
 
     def view(self, t: int) -> WindowView:
         idx = self.pending(t)
+        ops = self.ops if self.ops is not None and self.ops.limited else None
         return WindowView(
             t=t,
             n_windows=self.day.n_windows,
@@ -93,6 +94,8 @@ class DayState:
             drone_models=self.drone_models,
             pending_stock=self.stock_depot(idx),
             drone_ready=None if self.ops is None else self.ops.ready(t, self.drone_depot)[0],
+            depot_spares=None if ops is None else ops.charged.copy(),
+            depot_charging=None if ops is None else ops.charging(),
         )
 
     def stock_depot(self, idx: np.ndarray) -> np.ndarray | None:

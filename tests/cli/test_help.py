@@ -17,6 +17,11 @@ def _commands() -> dict:
     return dict(group.commands)  # type: ignore[attr-defined]
 
 
+def _flat(output: str) -> str:
+    """Help text as one line: panel borders out, runs of spaces and line breaks as one."""
+    return " ".join(re.sub(r"[│╭╮╰╯─]", " ", output).split())
+
+
 def test_root_help_lists_every_command() -> None:
     result = runner.invoke(app, ["--help"])
     assert result.exit_code == 0
@@ -38,19 +43,42 @@ def test_every_command_and_option_has_help() -> None:
 
 
 def test_bracketed_defaults_survive_rendering() -> None:
-    # "[kmeans]" is how help texts give a default; rich markup would read it as a style
-    # tag and drop it from the rendered help.
+    # "[default: kmeans]" is how help texts give a default; rich markup would read it as
+    # a style tag and drop it from the rendered help.
     seen = 0
     for name, cmd in _commands().items():
-        output = runner.invoke(app, [name, "--help"]).output
+        output = _flat(runner.invoke(app, [name, "--help"]).output)
         for param in cmd.params:
-            for default in re.findall(r"\[[^\]\s]+\]", param.help or ""):
-                assert default in output, (name, param.opts, default)
+            for default in re.findall(r"\[default: [^\]]+\]", param.help or ""):
+                assert " ".join(default.split()) in output, (name, param.opts, default)
                 seen += 1
     assert seen > 10  # kmeans, marops, exact, 16, 8, ...
 
 
+def test_defaults_are_written_one_way() -> None:
+    """Every default reads ``[default: X]``, typer's own and the help texts' alike: not
+    ``[16]``, ``(default: X)`` or ``(default X)``."""
+    for name in _commands():
+        output = _flat(runner.invoke(app, [name, "--help"]).output)
+        assert "(default" not in output, name
+        assert not re.search(r"\[(?!default: |required\]|env var: )[^\[\]]*\]\.", output), name
+        assert "[default: " in output, name
+
+
+def test_usage_names_the_data_as_it_is_typed() -> None:
+    for name in ("segment", "plan-window", "replay-day", "evaluate"):
+        output = _flat(runner.invoke(app, [name, "--help"]).output)
+        assert f"Usage: marops {name} [OPTIONS] DATA " in output, output
+        assert "{data}" not in output and re.search(r"DATA <path> ", output)
+    output = _flat(runner.invoke(app, ["train", "--help"]).output)
+    assert "Usage: marops train [OPTIONS] DATA... " in output
+    assert re.search(r"DATA(\.\.\.)? <path> ", output) and "list[" not in output
+
+
 def test_version() -> None:
-    result = runner.invoke(app, ["--version"])
-    assert result.exit_code == 0
-    assert result.output.startswith("marops ")
+    from marops_cli import __version__
+
+    for flag in ("--version", "-V"):
+        result = runner.invoke(app, [flag])
+        assert result.exit_code == 0
+        assert result.output == f"marops {__version__}\n"

@@ -10,13 +10,18 @@ from pathlib import Path
 
 import pytest
 
+ROOT = Path(__file__).resolve().parents[2]
 BOX = set("─│┃━┏┓┗┛┡┩╭╮╰╯┌┐└┘├┤┬┴┼═║")
 
 
 def run(args: list[str], cwd: Path, **env: str) -> subprocess.CompletedProcess[str]:
     """The console script as cron runs it: no terminal, a bare environment, no stdin."""
     base = {"PATH": os.environ.get("PATH", "/usr/bin:/bin"), "HOME": str(cwd)}
-    code = "from marops_cli.cli.app import main; main()"
+    # This checkout's marops, whichever one is installed.
+    code = (
+        f"import sys; sys.path.insert(0, {str(ROOT)!r}); "
+        "from marops_cli.cli.app import main; main()"
+    )
     return subprocess.run(
         [sys.executable, "-c", code, *args],
         cwd=cwd,
@@ -102,8 +107,8 @@ def test_help_lists_every_method_and_one_vocabulary() -> None:
     assert METHOD_NAMES.split(", ") == list(METHODS)
     runner = CliRunner()
     for cmd in ("replay-day", "plan-window"):
-        text = " ".join(runner.invoke(app, [cmd, "-h"]).output.split())
-        assert "myopic" in text and "[marops]" in text
+        text = " ".join(runner.invoke(app, [cmd, "-h"]).output.replace("│", " ").split())
+        assert "myopic" in text and "[default: marops]" in text
     for cmd in ("segment", "replay-day", "evaluate", "train"):
         text = runner.invoke(app, [cmd, "--help"]).output
         assert "--depots-n" not in text
@@ -155,3 +160,25 @@ def test_a_method_is_one_registry_entry(example_csv: Path, tmp_path: Path) -> No
 
 def _no_nan(token: str) -> None:
     raise AssertionError(f"{token} is not JSON")
+
+
+def test_cron_json_is_one_document_for_every_command(example_csv: Path, tmp_path: Path) -> None:
+    """``env -i PATH=… HOME=… marops … --json </dev/null``: stdout is one JSON document
+    and nothing else, for segment and plan-window as for replay-day; the plain run's
+    messages are whole lines without colour."""
+    seg = run(
+        ["segment", str(example_csv), "--dates", "0801..0810", "--out", "d.json", "--json"],
+        tmp_path,
+    )
+    assert seg.returncode == 0, seg.stderr
+    assert json.loads(seg.stdout)["command"] == "segment" and seg.stderr == ""
+    args = ["plan-window", str(example_csv), "--depots", "d.json", "--date", "0811"]
+    args += ["--window", "5", "--method", "greedy"]
+    doc = run([*args, "--out", "w", "--json"], tmp_path)
+    assert doc.returncode == 0, doc.stderr
+    parsed = json.loads(doc.stdout)  # one document: trailing text would fail here
+    assert parsed["command"] == "plan-window" and "rows" in parsed and "orders" in parsed
+    plain = run([*args, "--out", "p"], tmp_path)
+    assert plain.returncode == 0, plain.stderr
+    assert "\x1b[" not in plain.stdout + plain.stderr and not BOX & set(plain.stdout)
+    assert any(line.startswith("wrote ") for line in plain.stderr.splitlines())

@@ -279,3 +279,20 @@ def test_cli_equals_library_call(example_csv, depots_file, parquet_out):
     assert records(stops) == records(pq.read_table(stops_path(parquet_out)))
     assert records(routes) == records(pq.read_table(routes_path(parquet_out)))
     assert np.array_equal(fleet.depot, rt["start_depot"])
+
+
+def test_json_counts_the_rows_dropped_and_the_orders_left_out(
+    example_csv, depots_file, tmp_path
+) -> None:
+    """``--json`` says what the data dropped and what the day left out, as the status
+    lines do (the example drops 214 rows; most of its orders lie outside the square)."""
+    args = ["plan-window", str(example_csv), "--depots", str(depots_file), "--method", "greedy"]
+    args += ["--date", "0811", "--window", str(WINDOW), "--out", str(tmp_path / "w"), "--json"]
+    res = runner.invoke(app, args)
+    assert res.exit_code == 0, res.output
+    doc = json.loads(res.stdout)
+    rows, orders = doc["rows"], doc["orders"]
+    assert rows["total"] == rows["kept"] + sum(rows["dropped"].values())
+    assert rows["dropped"]["duplicate"] > 0 and rows["kept"] > 0
+    assert orders["due"] == orders["planned"] + orders["outside_area"] + orders["outside_hours"]
+    assert orders["outside_area"] > 0 and orders["planned"] > 0

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import pytest
@@ -53,3 +54,31 @@ def test_bad_sweep_value(example_csv: Path, tmp_path: Path, fails_cleanly) -> No
     out = tmp_path / "out"
     args = ["evaluate", str(example_csv), "--methods", "greedy", "--alpha", "0.5,2"]
     fails_cleanly([*args, "--out", str(out)], tmp_path, "alpha")
+
+
+def _readme_evaluate_line() -> list[str]:
+    """The README's `marops evaluate …` line of the commands table, its optional parts
+    ([--workers N] …) left out."""
+    readme = (Path(__file__).resolve().parents[2] / "README.md").read_text(encoding="utf-8")
+    (cell,) = re.findall(r"^\| `(marops evaluate DATA [^`]*)` \|", readme, flags=re.M)
+    return re.sub(r"\[[^\]]*\]", "", cell.replace("\\|", "|")).split()
+
+
+def test_the_readme_evaluate_line_runs(example_csv: Path, tmp_path: Path) -> None:
+    """As written (the default methods, --against myopic), on one held-out day."""
+    words = _readme_evaluate_line()
+    assert words[:3] == ["marops", "evaluate", "DATA"] and "--against" in words
+    at = words.index("--split")
+    words[at : at + 2] = ["--dates", "0811"]  # one day instead of the file's last 20 %
+    args = [{"DATA": str(example_csv), "DIR": str(tmp_path / "out")}.get(w, w) for w in words]
+    res = runner.invoke(app, [*args[1:], "--no-plot"])
+    assert res.exit_code == 0, res.output
+    paired = (tmp_path / "out" / "paired.csv").read_text().splitlines()
+    assert len(paired) > 1 and all(',"myopic",' in row for row in paired[1:])
+
+
+def test_against_outside_the_listed_methods_names_both_flags(
+    example_csv: Path, tmp_path: Path, fails_cleanly
+) -> None:
+    args = ["evaluate", str(example_csv), "--methods", "greedy", "--against", "myopic"]
+    fails_cleanly([*args, "--out", str(tmp_path / "out")], tmp_path, "--against", "--methods")

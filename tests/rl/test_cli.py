@@ -40,6 +40,9 @@ def test_train_then_replay(tiny_csv: Path, tmp_path: Path) -> None:
     assert doc["episodes"] == 2 and doc["data"]["origin"] == "tiny synth"
     assert doc["planner_config"]["sim"]["drones"] == 4
     assert "held-out" in res.output  # the table of the last evaluation
+    wrote = next(line for line in res.stderr.splitlines() if line.startswith("wrote "))
+    for suffix in (".pt", ".safetensors", ".json", ".curve.png", ".ckpt"):  # all it wrote
+        assert str(out.with_suffix(suffix)) in wrote and out.with_suffix(suffix).is_file()
     day = doc["data"]["heldout_days"][0]
     res = runner.invoke(
         app,

@@ -24,10 +24,15 @@ from marops_cli.segment import (
 FRAME = Frame(121.47, 31.23, 10.0)
 
 
-def _poly_area(poly: list[tuple[float, float]]) -> float:
+def _signed_area(poly: list[tuple[float, float]] | np.ndarray) -> float:
+    """Shoelace area: positive for a counter-clockwise ring."""
     arr = np.array(poly)
     x, y = arr[:, 0], arr[:, 1]
-    return 0.5 * abs(float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1))))
+    return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1)))
+
+
+def _poly_area(poly: list[tuple[float, float]]) -> float:
+    return abs(_signed_area(poly))
 
 
 def test_candidates_itself_first_then_nearest() -> None:
@@ -115,3 +120,32 @@ def test_bad_depots_file(tmp_path) -> None:
     p.write_text(json.dumps({"frame": {}, "depots": []}))
     with pytest.raises(InputError, match="not a marops depots file"):
         Depots.load(p)
+
+
+# Areas (m²) of the example's 16 service areas (README's `segment --dates 0801..0810`)
+# as the half-plane clipping that shapely's Voronoi cells replaced drew them.
+EXAMPLE_AREAS_M2 = [
+    9219094, 16798806, 10024580, 4828444, 4099999, 7315470, 7125933, 4113554,
+    3012718, 2638183, 3414558, 4509810, 8453772, 6585374, 4163580, 3696125,
+]  # fmt: skip
+
+
+def test_example_cells_keep_their_areas(example_csv) -> None:
+    from marops_cli.app.segment import segment
+    from marops_cli.config import PlannerConfig
+
+    dep = segment(example_csv, PlannerConfig(), days="0801..0810").depots
+    polys = area_polygons(dep)
+    assert_allclose([_poly_area(p) for p in polys], EXAMPLE_AREAS_M2, atol=1.0)
+    for i, poly in enumerate(polys):  # counter-clockwise rings, each around its own depot
+        ring = np.array(poly)
+        assert _signed_area(ring) > 0
+        c = ring.mean(axis=0)
+        assert dep.assign(c[:1], c[1:])[0] == i
+
+
+def test_one_depot_holds_the_square() -> None:
+    xy = np.array([[100.0, -200.0]])
+    dep = Depots("kmeans", FRAME, xy, np.zeros(1, dtype=int), nearest_candidates(xy, 1))
+    (poly,) = area_polygons(dep)
+    assert_allclose(_poly_area(poly), 10_000.0**2, rtol=1e-12)

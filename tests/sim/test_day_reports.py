@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import io
 
+import matplotlib
+import matplotlib.pyplot
 import numpy as np
 import pytest
 
@@ -86,3 +88,30 @@ def test_the_operations_figure_is_a_png(ops):
     buf = io.BytesIO()
     plot_operations(res, A_AND_B, buf)
     assert buf.getvalue()[:8] == PNG
+
+
+def test_the_routes_figure_says_when_where_and_who():
+    """routes.png: each panel its window's clock times, km axes, a legend of the depots
+    and each drone, depots in a colour the delay scale and the drones do not use."""
+    from matplotlib.colors import to_rgba
+
+    from marops_cli.segment.plot import DEPOT_STYLE
+    from marops_cli.sim.plot import DELAY_CMAP, DRONE_COLOURS, day_figure
+
+    res = fly_day(A_AND_B, TWO, np.array([0, 1]), Fixed("range", 1), config(), method="m")
+    fig = day_figure(res, A_AND_B)
+    panels = [ax for ax in fig.axes if ax.get_title().startswith("window ")]
+    assert len(panels) == len(res.plans)
+    start = A_AND_B.window_start(0)
+    assert f"{start:%H:%M}–" in panels[0].get_title()
+    assert all("km" in ax.get_xlabel() for ax in panels[-1:])
+    assert all("km" in ax.get_ylabel() for ax in panels[:1])
+    (legend,) = fig.legends
+    labels = [t.get_text() for t in legend.get_texts()]
+    assert labels == ["depot", "drone 0", "drone 1"]
+    depot = np.array(to_rgba(DEPOT_STYLE["c"]))
+    scale = matplotlib.colormaps[DELAY_CMAP](np.linspace(0, 1, 64))
+    palette = np.array([to_rgba(c) for c in DRONE_COLOURS])
+    for colours in (scale, palette):  # far from every data colour (RGB distance)
+        assert np.min(np.linalg.norm(colours[:, :3] - depot[:3], axis=1)) > 0.4
+    matplotlib.pyplot.close(fig)

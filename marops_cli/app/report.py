@@ -1,0 +1,65 @@
+"""``report.html`` of a run's output folder (docs/report.md): for ``--report`` at the end
+of a run, and for ``marops report DIR`` on a folder an earlier run wrote."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from ..errors import InputError
+
+if TYPE_CHECKING:
+    from ..segment.depots import Depots
+
+__all__ = ["check_report", "make_report", "report_outputs"]
+
+
+def check_report(wanted: bool) -> None:
+    """``--report`` needs plotly: one line naming the extra (exit 2) before any work."""
+    if wanted:
+        from ..report import require_plotly
+
+        require_plotly()
+
+
+def report_outputs(folders: list[Path]) -> list[Path]:
+    """The ``report.html`` of each folder: outputs to check before the work."""
+    from ..report import REPORT
+
+    return [f / REPORT for f in folders]
+
+
+def make_report(folder: str | Path, *, depots: str | Path | None = None) -> list[Path]:
+    """Write ``report.html`` into an output folder of an earlier run (and into each of its
+    day and hub folders); ``depots``: the run's depots file, for the service areas and the
+    depots no route used. The files written."""
+    from ..io import folder_lock
+    from ..io.ownership import check_outputs, register_inputs
+    from ..report import report_folders, require_plotly, write_reports
+
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise InputError(
+            "is not a folder (the --out of replay-day, plan-window or evaluate)", file=folder
+        )
+    require_plotly()
+    targets = report_folders(folder)
+    if not targets:
+        raise InputError(
+            "holds no marops outputs to report on (routes, metrics.json or an evaluation's "
+            "summary.csv and results.parquet)",
+            file=folder,
+        )
+    register_inputs([depots])
+    check_outputs(report_outputs(targets))
+    loaded = _depots(depots)
+    with folder_lock(folder):
+        return write_reports(folder, loaded)
+
+
+def _depots(path: str | Path | None) -> Depots | None:
+    if path is None:
+        return None
+    from ..segment.depots import Depots
+
+    return Depots.load(path)

@@ -1,0 +1,59 @@
+"""How the commands present themselves: usage lines and argument types as they are
+written on a command line (``marops segment [OPTIONS] DATA``, ``DATA...  <path>``),
+and ``--debug`` after a command's name as before it."""
+
+from __future__ import annotations
+
+from pathlib import PurePath
+from typing import Any, get_args
+
+import typer.core
+
+
+class Argument(typer.core.TyperArgument):
+    """A positional argument shown by its metavar: ``DATA`` (typer writes a required one
+    ``{data}``), ``DATA...`` for several, ``[DATA]`` when it may be left out; the type of
+    a list is its items' (``<path>``, not ``<list[Path]>``)."""
+
+    def _usage_display_name(self) -> str:
+        name = self.metavar or (self.name or "").upper()
+        name += "..." if self.nargs != 1 else ""
+        return name if self.required else f"[{name}]"
+
+    def _rich_display_name(self) -> str:
+        return self._usage_display_name().strip("[]")
+
+    def display_type(self, ctx: Any) -> str:
+        desc = self.type_descriptor
+        if desc.is_list and not desc.is_choice:
+            (item,) = get_args(desc.annotation)
+            is_path = isinstance(item, type) and issubclass(item, PurePath)
+            return "<path>" if is_path else f"<{self._bare_type(item)}>"
+        return super().display_type(ctx)
+
+
+class Group(typer.core.TyperGroup):
+    """The ``marops`` command group: ``--debug`` may follow the command's name
+    (``marops replay-day DATA … --debug``) as well as come before it."""
+
+    def parse_args(self, ctx: Any, args: list[str]) -> list[str]:
+        return super().parse_args(ctx, hoist_debug(args))
+
+
+def hoist_debug(args: list[str]) -> list[str]:
+    """``args`` with a ``--debug`` given after the command (before any ``--``) moved in
+    front of it, where the group reads it."""
+    end = args.index("--") if "--" in args else len(args)
+    if "--debug" not in args[:end]:
+        return args
+    return ["--debug", *(a for i, a in enumerate(args) if i >= end or a != "--debug")]
+
+
+class Command(typer.core.TyperCommand):
+    """A marops command: its arguments shown as :class:`Argument`."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        for param in self.params:
+            if type(param) is typer.core.TyperArgument:
+                param.__class__ = Argument  # the same state, shown the way above

@@ -1,0 +1,239 @@
+"""The landing actor: a learned score of each destination under the operating model
+(docs/method.md §6.1, "The landing actor").
+
+Under the realistic operating model a drone carries only the parcels stocked at the depot
+it departs from and needs a charged battery there, so where it lands decides what it can
+do next window. The landing actor scores each of a drone's destinations (its depot's
+action candidates) by a weighted sum of the features below and flies the best one it can
+reach; drones choose one after another, as :class:`~.rules.BacklogPolicy` does, each
+seeing where the drones before it chose to land. The weights are learned on the day's
+return (``marops train --algorithm es``, :mod:`marops_cli.rl.es`); with the weight vector
+``(0, 0, 1, 0, …)`` it is exactly the ``backlog`` rule, where training starts.
+
+Features of destination d for a drone at depot s (``there``: drones at d that have not
+chosen yet, plus those that chose to land at d; the drone itself is not counted while it
+chooses; value: Σ (1 + delay h) of the parcels waiting at d; ``lg`` = log1p):
+
+0. lg value at d
+1. lg there
+2. lg (value / (1 + there)): the backlog score
+3. lg parcels waiting at d
+4. distance s → d, km
+5. lg requests expected in d's area over the next two windows (the history days'
+   arrival profile, ``depots.arrivals``; 0 without one)
+6. lg (5 / (1 + there)): expected demand per drone
+7. lg charged spare batteries at d (3 when swaps are unlimited)
+8. lg batteries on charge at d
+9. 1 when d is s (stay)
+10. time of day (fraction of the day's windows gone) × feature 2
+11. time of day × feature 4
+
+The file format is data only: ``NAME.safetensors`` holds one float32 tensor ``weight`` of
+shape ``(12,)``, its sidecar ``NAME.json`` says ``format = "marops-landing-actor/1"`` and
+the operating model it was trained for (docs/method.md §6, "Trust model of actor files").
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, Literal
+
+import numpy as np
+
+from ..errors import InputError
+from .base import WindowView
+from .rules import EnergyAware, reachable, waiting_per_depot
+
+if TYPE_CHECKING:
+    from ..config import OpsConfig, PlannerConfig
+
+__all__ = [
+    "BACKLOG_WEIGHTS",
+    "FEATURES",
+    "LANDING_FORMAT",
+    "LandingActor",
+    "landing_features",
+    "operating_model",
+]
+
+FEATURES = (
+    "value",
+    "there",
+    "backlog score",
+    "parcels",
+    "distance km",
+    "expected",
+    "expected per drone",
+    "spares",
+    "charging",
+    "stay",
+    "time x backlog score",
+    "time x distance km",
+)
+"""The features of a destination, in order (the module docstring defines them)."""
+N_FEATURES = len(FEATURES)
+BACKLOG_WEIGHTS = np.eye(N_FEATURES)[2]
+"""The weights that make the landing actor the ``backlog`` rule: training starts there."""
+LANDING_FORMAT = "marops-landing-actor/1"
+_UNLIMITED_SPARES = 3.0
+"""What feature 7 reads where swaps are unlimited (the paper's batteries): plenty."""
+
+
+def _lg(x: np.ndarray) -> np.ndarray:
+    return np.log1p(np.maximum(x, 0.0))
+
+
+def operating_model(ops: OpsConfig) -> str:
+    """The operating model in words, as sidecars record it and errors name it: ``paper``,
+    or the options that make it realistic (``stock=home, batteries, busy``)."""
+    if ops.paper:
+        return "paper"
+    parts = [f"stock={ops.stock}"]
+    if ops.batteries_per_depot is not None:
+        parts.append("batteries")
+    if ops.busy:
+        parts.append("busy")
+    return ", ".join(parts)
+
+
+class DepotState:
+    """Per-depot inputs of one window's features (the same for every drone)."""
+
+    def __init__(self, view: WindowView) -> None:
+        dep = view.depots
+        n = len(dep)
+        self.value = waiting_per_depot(view, 1.0 + view.pending_delay_h)
+        self.count = waiting_per_depot(view)
+        self.expected = np.zeros(n)
+        prof = dep.arrivals
+        if prof is not None and prof.shape == (n, view.n_windows):
+            self.expected = prof[:, view.t + 1 : view.t + 3].sum(axis=1)
+        spares = view.depot_spares
+        self.spares = np.full(n, _UNLIMITED_SPARES) if spares is None else spares.astype(float)
+        charging = view.depot_charging
+        self.charging = np.zeros(n) if charging is None else charging.astype(float)
+        self.time = view.t / max(1, view.n_windows)
+
+
+def landing_features(view: WindowView, depots: DepotState, s: int, there: np.ndarray) -> np.ndarray:
+    """``(A, 12)`` the features of a drone at depot ``s``'s destinations, with ``there``
+    the drones counted at each depot (module docstring)."""
+    dep = view.depots
+    dests = dep.candidates[s]
+    dist = np.hypot(*(dep.xy[dests] - dep.xy[s]).T) / 1000.0
+    per_drone = 1.0 + there[dests]
+    score = _lg(depots.value[dests] / per_drone)
+    return np.stack(
+        [
+            _lg(depots.value[dests]),
+            _lg(there[dests]),
+            score,
+            _lg(depots.count[dests]),
+            dist,
+            _lg(depots.expected[dests]),
+            _lg(depots.expected[dests] / per_drone),
+            _lg(depots.spares[dests]),
+            _lg(depots.charging[dests]),
+            (dests == s).astype(np.float64),
+            depots.time * score,
+            depots.time * dist,
+        ],
+        axis=1,
+    )
+
+
+class LandingActor(EnergyAware):
+    """Scores each destination by ``weight · features`` and lands at the best one the
+    empty drone can reach (ties to the lower action index); a drone that cannot fly
+    stays. ``trained_for`` is the operating model it was trained for (None: any);
+    :meth:`configure` refuses a run under another."""
+
+    name = "marops"
+    scope: Literal["range", "global"] = "range"
+
+    def __init__(
+        self,
+        weight: np.ndarray,
+        *,
+        trained_for: str | None = None,
+        path: Path | None = None,
+    ) -> None:
+        super().__init__()
+        w = np.asarray(weight, dtype=np.float64).reshape(-1)
+        if w.shape != (N_FEATURES,):
+            raise ValueError(f"expected {N_FEATURES} weights, got {w.shape}")
+        self.weight = w
+        self.trained_for = trained_for
+        self.path = path
+
+    @property
+    def identity(self) -> str | Path:
+        return self.path if self.path is not None else self.name
+
+    def configure(self, cfg: PlannerConfig) -> None:
+        super().configure(cfg)
+        self.check_model(operating_model(cfg.ops))
+
+    def check_model(self, model: str) -> None:
+        """Refuse a run under an operating model other than the one it was trained for."""
+        if self.trained_for is not None and model != self.trained_for:
+            raise InputError(
+                f"this actor was trained for the operating model {self.trained_for!r}, the "
+                f"run's [ops] is {model!r}: use a config whose [ops] matches, or another "
+                "--policy",
+                file=self.path,
+            )
+
+    def act(self, view: WindowView) -> np.ndarray:
+        out = np.zeros(view.n_drones, dtype=np.int64)
+        depots = DepotState(view)
+        there = np.bincount(view.drone_depot, minlength=len(view.depots)).astype(np.float64)
+        for u, s in enumerate(view.drone_depot):
+            s = int(s)
+            if not view.ready(u):
+                continue  # it stays, and counts at its depot
+            there[s] -= 1.0
+            score = landing_features(view, depots, s, there) @ self.weight
+            score[~reachable(view, u, self._drone_model(view, u))] = -np.inf
+            out[u] = int(np.argmax(score))  # first maximum: lower action index on ties
+            there[int(view.depots.candidates[s, out[u]])] += 1.0
+        return out
+
+
+def load_landing_actor(path: Path, side: dict[str, Any], sidecar: Path) -> LandingActor:
+    """The landing actor of the weights file ``path`` (``NAME.safetensors``) described by
+    ``side`` (read from ``sidecar``): one finite float32 tensor ``weight`` of 12 values.
+    Nothing of the file runs (a safetensors file is a JSON header and raw numbers)."""
+    from safetensors import SafetensorError, safe_open
+
+    if path.stat().st_size > (1 << 16):
+        raise InputError("larger than a landing actor's 12 weights", file=path)
+    try:
+        with safe_open(str(path), framework="numpy") as f:
+            names = set(f.keys())
+            if names != {"weight"}:
+                raise InputError(
+                    f"expected one tensor 'weight', got {sorted(names)}", file=path, column="weight"
+                )
+            part = f.get_slice("weight")
+            if part.get_dtype() != "F32" or tuple(part.get_shape()) != (N_FEATURES,):
+                raise InputError(
+                    f"expected float32 [{N_FEATURES}], got {part.get_dtype()} "
+                    f"{list(part.get_shape())}",
+                    file=path,
+                    column="weight",
+                )
+            weight = np.asarray(f.get_tensor("weight"), dtype=np.float64)
+    except (SafetensorError, OSError, ValueError) as exc:
+        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        raise InputError(f"not a safetensors weights file ({first})", file=path) from None
+    if not np.isfinite(weight).all():
+        raise InputError("NaN or infinite weights", file=path, column="weight")
+    model = side.get("operating_model")
+    if not isinstance(model, str) or not model:
+        raise InputError(
+            "expected the operating model the actor was trained for",
+            file=sidecar,
+            column="operating_model",
+        )
+    return LandingActor(weight, trained_for=model, path=path)

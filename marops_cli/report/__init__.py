@@ -1,0 +1,67 @@
+"""``report.html``: one self-contained, interactive page per output folder of a run
+(docs/report.md), built from the files the run wrote there, so that ``--report`` and
+``marops report DIR`` give the same page. Needs plotly (``pip install 'marops[report]'``),
+imported only when a report is made."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from .folder import REPORT, is_evaluation, metrics, route_files, route_files_exist, sub_reports
+from .page import EXTRA, Page, require_plotly
+
+if TYPE_CHECKING:
+    from ..segment.depots import Depots
+
+__all__ = ["EXTRA", "REPORT", "report_folders", "report_page", "require_plotly", "write_reports"]
+
+
+def report_page(folder: Path, depots: Depots | None = None) -> Page | None:
+    """The page of one folder: an evaluation, a day or window (its routes), or a
+    several-day or city run (its top-level ``metrics.json``); None for anything else.
+    ``depots``: the study area's depots, for the service areas and every depot."""
+    if is_evaluation(folder):
+        from .evaluation import evaluation_page
+
+        return evaluation_page(folder)
+    files = route_files(folder)
+    doc = metrics(folder)
+    if files is not None:
+        from .day import day_page
+
+        return day_page(files, doc, depots)
+    if doc is not None and ("total" in doc or "city" in doc):
+        from .index import index_page
+
+        return index_page(folder, doc)
+    return None
+
+
+def report_folders(folder: Path, *, below: bool = True) -> list[Path]:
+    """The folders that get a ``report.html``: ``folder`` and, with ``below``, the day and
+    hub folders of a several-day or city run (those first, so the top page links them)."""
+    found: list[Path] = []
+    several = not is_evaluation(folder) and not route_files_exist(folder)
+    if below and several and (folder / "metrics.json").is_file():
+        for sub in sub_reports(folder):
+            found += report_folders(sub)
+    if is_evaluation(folder) or route_files_exist(folder) or (folder / "metrics.json").is_file():
+        found.append(folder)
+    return found
+
+
+def write_reports(folder: Path, depots: Depots | None = None, *, below: bool = True) -> list[Path]:
+    """Write ``report.html`` into ``folder`` (and, with ``below``, into its day and hub
+    folders); the files written."""
+    from ..io import output_set
+
+    written = []
+    for f in report_folders(folder, below=below):
+        page = report_page(f, depots)
+        if page is None:
+            continue
+        with output_set() as files:
+            files.write_bytes(f / REPORT, page.html().encode("utf-8"))
+        written.append(f / REPORT)
+    return written

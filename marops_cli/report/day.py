@@ -1,0 +1,160 @@
+"""A day's (or one window's) report page: the map, the drones' timeline, the day's
+metrics and the orders it left out (docs/report.md)."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+from ..data.frame import Frame
+from ..errors import InputError
+from .daymap import flown, map_figure
+from .folder import RouteFiles
+from .page import Page
+from .timeline import timeline_figure
+
+if TYPE_CHECKING:
+    from ..segment.depots import Depots
+
+# Rows of the metrics table (docs/outputs.md, "Day metrics"), in this order.
+METRICS = (
+    "delivered_share",
+    "mean_energy_kj",
+    "energy_kj",
+    "avg_delay_h",
+    "delay_unfairness",
+    "avg_early_h",
+    "objective_j_mj",
+    "objective_g_mj",
+    "co2_g",
+    "battery_frac_mean",
+    "battery_frac_max",
+    "actions_stay",
+    "actions_move",
+    "actions_free",
+    "waiting_max",
+    "drones",
+    "runtime_s",
+)
+# What the day left out, and why (docs/outputs.md, "Day metrics").
+LEFT_OUT = (
+    ("orders_due", "orders of the file due that day"),
+    ("outside_area", "left out: outside the study square"),
+    ("outside_hours", "left out: due outside service hours"),
+    ("requests", "planned (requests)"),
+    ("unservable_heavy", "of those, heavier than every drone can lift"),
+    ("unservable_far", "of those, out of every drone's reach"),
+    ("delivered", "delivered"),
+    ("undelivered", "not delivered by the end of the day"),
+)
+
+
+def depot_points(files: RouteFiles, depots: Depots | None) -> dict[int, tuple[float, float]]:
+    """Every depot's (lng, lat): of the depots given, else those the routes use."""
+    if depots is not None:
+        lng, lat = depots.lnglat()
+        return {i: (float(lng[i]), float(lat[i])) for i in range(len(depots))}
+    return {s["depot"]: (s["lng"], s["lat"]) for s in files.stops if s["depot"] is not None}
+
+
+def area_rings(depots: Depots | None) -> list[tuple[int, list[float], list[float]]]:
+    """Each service area's outline (depot, longitudes, latitudes)."""
+    if depots is None:
+        return []
+    from ..segment import areas_geojson
+
+    rings = []
+    for f in areas_geojson(depots, {})["features"]:
+        if f["properties"]["kind"] == "service_area":
+            ring = f["geometry"]["coordinates"][0]
+            rings.append((f["properties"]["depot"], [p[0] for p in ring], [p[1] for p in ring]))
+    return rings
+
+
+def _frame(meta: dict[str, Any], depots: Depots | None) -> Frame | None:
+    """The study square: the run's (its files' metadata), which the depots must share."""
+    f = meta.get("frame")
+    run = Frame(f["center_lng"], f["center_lat"], f["size_km"]) if f else None
+    if depots is None:
+        return run
+    if run is not None and not _same(run, depots.frame):
+        raise InputError(
+            "the depots file is of another study square than the run's "
+            f"({depots.frame.to_dict()} and {run.to_dict()}): give the run's depots file"
+        )
+    return depots.frame
+
+
+def _same(a: Frame, b: Frame) -> bool:
+    pairs = zip(a.to_dict().values(), b.to_dict().values(), strict=True)
+    return all(abs(x - y) < 1e-6 for x, y in pairs)
+
+
+def day_page(files: RouteFiles, metrics_doc: dict[str, Any] | None, depots: Depots | None) -> Page:
+    """The report of a replayed day (with its ``metrics.json``) or of one planned window."""
+    meta = files.meta
+    day = metrics_doc["days"][0] if metrics_doc and metrics_doc.get("days") else None
+    page = Page(_title(files, day))
+    page.heading("Map")
+    n = sum(flown(r) for r in files.routes)
+    page.note(
+        f"{n} routes flown, one line each in its drone's colour; hover a stop for its "
+        "arrival time, weight and delay; the slider shows one window; click a drone in "
+        "the legend to hide it. Map tiles appear when the browser is online; offline, "
+        "the service areas are the map."
+        + ("" if depots is not None else " Depots: those the routes use (no depots file given).")
+    )
+    points = depot_points(files, depots)
+    page.figure(map_figure(files, points, area_rings(depots), _frame(meta, depots)), "map")
+    page.heading("Drones over the day")
+    page.note(
+        "Each bar a flight from take-off to landing (→ the depot it lands at); grey: "
+        "a window the drone waits at its depot."
+    )
+    page.figure(timeline_figure(files), "timeline")
+    if day is not None:
+        _metrics(page, day)
+    elif meta.get("objective") or meta.get("solver"):
+        _window(page, meta)
+    return page
+
+
+def _title(files: RouteFiles, day: dict[str, Any] | None) -> str:
+    meta = files.meta
+    drones = len({r["drone"] for r in files.routes})
+    when = meta.get("day") or (str(files.routes[0]["day"]) if files.routes else "")
+    method = meta.get("method", "")
+    hub = files.routes[0]["hub"] if files.routes else 0
+    where = f"hub {hub}, " if hub else ""
+    if day is None and "window" in meta:
+        return f"marops: {where}{when} window {meta['window']} — {method}, {drones} drones"
+    return f"marops: {where}{when} — {method}, {drones} drones"
+
+
+def _metrics(page: Page, day: dict[str, Any]) -> None:
+    from ..sim.metrics import METRICS as SPECS
+
+    page.heading("The day's metrics (docs/method.md §8)")
+    rows = []
+    for name in METRICS:
+        if name not in day or day[name] is None:
+            continue
+        spec = SPECS.get(name)
+        label = spec.label.replace(" per day", "") if spec else name
+        value = spec.day_fmt.format(day[name]) if spec else f"{day[name]:.3f}"
+        rows.append((label, value, spec.unit if spec else ""))
+    page.table(("metric", "value", "unit"), rows)
+    page.heading("Orders left out")
+    page.table(
+        ("orders", "count"),
+        [(text, day[k]) for k, text in LEFT_OUT if day.get(k) is not None],
+    )
+
+
+def _window(page: Page, meta: dict[str, Any]) -> None:
+    page.heading("The window's plan (docs/method.md §4.2)")
+    rows: list[tuple[str, Any]] = []
+    solver = meta.get("solver") or {}
+    rows += [(f"solver {k}", v) for k, v in solver.items() if v is not None]
+    for k, v in (meta.get("objective") or {}).items():
+        rows.append((k, f"{v:.6g}" if isinstance(v, float) else v))
+    page.table(("quantity", "value"), rows)

@@ -1,0 +1,197 @@
+"""The day's interactive map: service areas, depots, each drone's routes in its own
+colour (one line per route), the stops' times, weights and delays on hover, and a slider
+over the windows."""
+
+from __future__ import annotations
+
+import math
+from collections import defaultdict
+from collections.abc import Sequence
+from typing import Any
+
+from ..data.frame import Frame
+from .basemap import ATTRIBUTION, extent, tile_images
+from .folder import RouteFiles
+
+ROUTE_UID = "route-w{window}-d{drone}"
+"""The uid of a route's trace: one trace (one line) per route flown."""
+DEPOT_COLOUR = "#222222"  # black squares: apart from every drone colour
+
+
+def drone_colour(drone: int) -> str:
+    """A drone's colour on the map and the timeline."""
+    from plotly.colors import qualitative
+
+    palette = qualitative.Plotly if drone < 10 else qualitative.Dark24
+    return palette[drone % len(palette)]
+
+
+def flown(route: dict[str, Any]) -> bool:
+    """A route that is drawn: it delivers a parcel or moves its drone to another depot."""
+    return route["n_parcels"] > 0 or route["start_depot"] != route["end_depot"]
+
+
+def route_stops(files: RouteFiles) -> dict[tuple[int, int], list[dict[str, Any]]]:
+    """Each (window, drone)'s stops in visiting order."""
+    by: dict[tuple[int, int], list[dict[str, Any]]] = defaultdict(list)
+    for s in files.stops:
+        by[(s["window"], s["drone"])].append(s)
+    return {k: sorted(v, key=lambda s: s["seq"]) for k, v in by.items()}
+
+
+def _hover(s: dict[str, Any]) -> str:
+    at = s["arrive_time"].strftime("%H:%M:%S")
+    if s["kind"] == "start":
+        return f"takes off from depot {s['depot']} at {at}<br>{s['payload_kg']:.2f} kg on board"
+    if s["kind"] == "end":
+        return f"lands at depot {s['depot']} at {at}"
+    return (
+        f"order {s['order_id']}<br>arrives {at}<br>{s['weight_kg']:.2f} kg, "
+        f"delay {s['delay_h']:.2f} h (due in window {s['due_window']})"
+    )
+
+
+def map_figure(
+    files: RouteFiles,
+    depots: dict[int, tuple[float, float]],
+    areas: Sequence[tuple[int, list[float], list[float]]],
+    frame: Frame | None,
+) -> Any:
+    """The map (a plotly figure on longitude/latitude axes, drawn as SVG: nothing to
+    fetch but the tiles)."""
+    import plotly.graph_objects as go
+
+    fig = go.Figure()
+    for n, (depot, lng, lat) in enumerate(areas):
+        fig.add_trace(
+            go.Scatter(
+                x=lng,
+                y=lat,
+                mode="lines",
+                fill="toself",
+                fillcolor="rgba(120,120,120,0.07)",
+                line={"color": "rgba(80,80,80,0.55)", "width": 1},
+                hoveron="fills",
+                hoverinfo="text",
+                text=f"service area of depot {depot}",
+                name="service areas",
+                legendgroup="areas",
+                showlegend=n == 0,
+            )
+        )
+    ids = sorted(depots)
+    fig.add_trace(
+        go.Scatter(
+            x=[depots[i][0] for i in ids],
+            y=[depots[i][1] for i in ids],
+            mode="markers",
+            marker={"symbol": "square", "size": 10, "color": DEPOT_COLOUR},
+            text=[f"depot {i}" for i in ids],
+            hovertemplate="%{text}<extra></extra>",
+            name="depots",
+        )
+    )
+    stops = route_stops(files)
+    windows = sorted({r["window"] for r in files.routes})
+    route_windows: list[int] = []
+    seen: set[int] = set()
+    for r in sorted(files.routes, key=lambda r: (r["drone"], r["window"])):
+        if not flown(r):
+            continue
+        d, w = r["drone"], r["window"]
+        pts = stops[(w, d)]
+        fig.add_trace(
+            go.Scatter(
+                x=[s["lng"] for s in pts],
+                y=[s["lat"] for s in pts],
+                mode="lines+markers",
+                line={"color": drone_colour(d), "width": 2},
+                marker={
+                    "size": [0 if s["kind"] != "customer" else 7 for s in pts],
+                    "color": drone_colour(d),
+                },
+                text=[_hover(s) for s in pts],
+                hovertemplate=f"%{{text}}<extra>drone {d}, window {w}</extra>",
+                name=f"drone {d} ({r['drone_type']})",
+                legendgroup=f"drone {d}",
+                showlegend=d not in seen,
+                uid=ROUTE_UID.format(window=w, drone=d),
+            )
+        )
+        seen.add(d)
+        route_windows.append(w)
+    fixed = len(fig.data) - len(route_windows)
+    _window_slider(fig, fixed, route_windows, windows, files)
+    _axes(fig, frame, depots)
+    return fig
+
+
+def _window_slider(
+    fig: Any, fixed: int, route_windows: list[int], windows: list[int], files: RouteFiles
+) -> None:
+    """A slider: every window's routes, or one window's."""
+    if len(windows) < 2:
+        return
+    starts = {r["window"]: r["window_start"] for r in files.routes}
+    steps = [{"label": "all", "method": "restyle", "args": [{"visible": [True] * len(fig.data)}]}]
+    for w in windows:
+        vis = [True] * fixed + [rw == w for rw in route_windows]
+        label = f"{w} {starts[w].strftime('%H:%M')}"
+        steps.append({"label": label, "method": "restyle", "args": [{"visible": vis}]})
+    fig.update_layout(
+        sliders=[
+            {
+                "active": 0,
+                "currentvalue": {"prefix": "window: "},
+                "pad": {"t": 30},
+                "steps": steps,
+            }
+        ]
+    )
+
+
+def _axes(fig: Any, frame: Frame | None, depots: dict[int, tuple[float, float]]) -> None:
+    """Longitude and latitude at the same ground scale; the tiles below when a frame
+    places them."""
+    lat0 = frame.center_lat if frame is not None else _mean([p[1] for p in depots.values()])
+    fig.update_layout(
+        height=720,
+        margin={"l": 60, "r": 20, "t": 40, "b": 40},
+        plot_bgcolor="white",
+        hovermode="closest",
+        legend={"itemsizing": "constant"},
+        xaxis={"title": "longitude (°)", "showgrid": False, "zeroline": False},
+        yaxis={
+            "title": "latitude (°)",
+            "showgrid": False,
+            "zeroline": False,
+            "scaleanchor": "x",
+            "scaleratio": 1.0 / math.cos(math.radians(lat0)),
+        },
+    )
+    if frame is None:
+        return
+    west, south, east, north = extent(frame)
+    fig.update_layout(
+        images=tile_images(frame),
+        xaxis={"range": [west, east]},
+        yaxis={"range": [south, north]},
+        annotations=[
+            {
+                "text": ATTRIBUTION,
+                "xref": "paper",
+                "yref": "paper",
+                "x": 1.0,
+                "y": 0.0,
+                "xanchor": "right",
+                "yanchor": "bottom",
+                "showarrow": False,
+                "font": {"size": 9, "color": "#555"},
+                "bgcolor": "rgba(255,255,255,0.7)",
+            }
+        ],
+    )
+
+
+def _mean(values: list[float]) -> float:
+    return sum(values) / len(values) if values else 0.0

@@ -1,0 +1,185 @@
+"""An evaluation's report page (``marops evaluate --out DIR``): the comparison tables,
+the paired differences with their bootstrap intervals, and the sweeps, interactive."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+from .page import Page
+
+
+def _tables(folder: Path) -> tuple[Any, Any, Any | None, dict[str, Any]]:
+    """(summary, results, paired or None, the results' metadata) of ``folder``."""
+    import pyarrow.csv as pacsv
+    import pyarrow.parquet as pq
+
+    summary = pacsv.read_csv(folder / "summary.csv")
+    results = pq.read_table(folder / "results.parquet")
+    meta = json.loads((results.schema.metadata or {}).get(b"marops", b"{}"))
+    paired_path = folder / "paired.csv"
+    paired = pacsv.read_csv(paired_path) if paired_path.is_file() else None
+    return summary, results, paired, meta
+
+
+def evaluation_page(folder: Path) -> Page:
+    """The report of an evaluation folder."""
+    from ..evaluate.report import COMBINED_COST_RULE, setting_title, table3
+
+    summary, results, paired, meta = _tables(folder)
+    days = meta.get("days", [])
+    page = Page(f"marops evaluate: {', '.join(meta.get('methods', []))} — {folder.name}")
+    page.note(
+        f"{len(days)} days ({', '.join(days)}), {meta.get('repeats', 1)} repeat(s); "
+        f"mean ± std over days and repeats. Combined cost: {COMBINED_COST_RULE}."
+    )
+    settings = sorted(set(summary.column("setting").to_pylist()))
+    titles = {s: setting_title(summary, s) for s in settings}
+    for s in settings:
+        methods, body = table3(summary, s)
+        page.heading(f"Setting {s}: {titles[s]}")
+        page.table(("metric", *methods), [(label, *cells) for label, cells in body])
+    if paired is not None and paired.num_rows:
+        _paired(page, paired, titles)
+    for flag in meta.get("swept", []):
+        _sweep(page, summary, flag, meta)
+    _per_day(page, results, titles)
+    return page
+
+
+def _paired(page: Page, paired: Any, titles: dict[int, str]) -> None:
+    """Each method's mean per-day difference to the reference, with its 95 % interval."""
+    import plotly.graph_objects as go
+    from plotly.subplots import make_subplots
+
+    rows = paired.to_pylist()
+    against = rows[0].get("against", "the reference")
+    page.heading(f"Paired against {against}: per-day difference, bootstrap 95 % CI")
+    page.table(
+        ("setting", "method", "metric", "days", "mean diff", "95 % CI", "days better"),
+        [
+            (
+                titles.get(r["setting"], r["setting"]),
+                r["method"],
+                r["metric"],
+                r["days"],
+                f"{r['mean_diff']:+.4g}",
+                f"[{r['ci_low']:+.4g}, {r['ci_high']:+.4g}]",
+                f"{r['days_better']}/{r['days']}",
+            )
+            for r in rows
+        ],
+    )
+    metrics = list(dict.fromkeys(r["metric"] for r in rows))
+    fig = make_subplots(rows=len(metrics), cols=1, subplot_titles=metrics, vertical_spacing=0.08)
+    for i, metric in enumerate(metrics, start=1):
+        sel = [r for r in rows if r["metric"] == metric]
+        fig.add_trace(
+            go.Scatter(
+                x=[r["mean_diff"] for r in sel],
+                y=[f"{r['method']} · {titles.get(r['setting'], r['setting'])}" for r in sel],
+                mode="markers",
+                marker={"size": 9},
+                error_x={
+                    "type": "data",
+                    "symmetric": False,
+                    "array": [r["ci_high"] - r["mean_diff"] for r in sel],
+                    "arrayminus": [r["mean_diff"] - r["ci_low"] for r in sel],
+                },
+                name=metric,
+                showlegend=False,
+            ),
+            row=i,
+            col=1,
+        )
+        fig.add_vline(x=0.0, line={"color": "#888", "dash": "dot"}, row=i, col=1)
+    fig.update_layout(height=230 * len(metrics) + 60, margin={"l": 320, "r": 20, "t": 40})
+    page.figure(fig, "paired")
+
+
+def _sweep(page: Page, summary: Any, flag: str, meta: dict[str, Any]) -> None:
+    """The metrics against a swept flag, one line per method (± one std), the other
+    flags at their base values."""
+    import plotly.graph_objects as go
+    from plotly.subplots import make_subplots
+
+    from ..evaluate.plots import PANELS
+    from ..evaluate.settings import SWEEP_FLAGS
+
+    panels = [(m, label) for m, label in PANELS[flag] if m in _means(summary)]
+    rows = [r for r in summary.to_pylist() if _held(r, flag, meta)]
+    methods = list(dict.fromkeys(r["method"] for r in rows))
+    fig = make_subplots(rows=1, cols=len(panels), subplot_titles=[p[1] for p in panels])
+    for m in methods:
+        mine = sorted((r for r in rows if r["method"] == m), key=lambda r: r[flag])
+        for i, (metric, _) in enumerate(panels, start=1):
+            fig.add_trace(
+                go.Scatter(
+                    x=[r[flag] for r in mine],
+                    y=[r[f"{metric}_mean"] for r in mine],
+                    error_y={"type": "data", "array": [r[f"{metric}_std"] or 0 for r in mine]},
+                    mode="lines+markers",
+                    name=m,
+                    legendgroup=m,
+                    showlegend=i == 1,
+                ),
+                row=1,
+                col=i,
+            )
+            fig.update_xaxes(title_text=SWEEP_FLAGS[flag][1], row=1, col=i)
+    fig.update_layout(height=380, margin={"l": 50, "r": 20, "t": 50, "b": 50})
+    page.heading(f"Sweep over {SWEEP_FLAGS[flag][1]}")
+    page.figure(fig, f"sweep-{flag}")
+
+
+def _means(summary: Any) -> set[str]:
+    return {c[: -len("_mean")] for c in summary.column_names if c.endswith("_mean")}
+
+
+def _held(row: dict[str, Any], flag: str, meta: dict[str, Any]) -> bool:
+    """The row's other flags sit at their base values: the config's where it was run,
+    else the first value given (as the PNG figures hold them)."""
+    from ..evaluate.settings import SWEEP_FLAGS
+
+    settings = meta.get("settings", [])
+    cfg = meta.get("config", {})
+    for other, (field, _) in SWEEP_FLAGS.items():
+        if other == flag or not settings:
+            continue
+        section, key = field.split("__")
+        present = [s[other] for s in settings]
+        base = cfg.get(section, {}).get(key)
+        held = base if base in present else present[0]
+        if abs(float(row[other]) - float(held)) > 1e-9:
+            return False
+    return True
+
+
+def _per_day(page: Page, results: Any, titles: dict[int, str]) -> None:
+    """Every replayed day's objective J per method and setting."""
+    import plotly.graph_objects as go
+
+    cols = ("setting", "method", "day", "repeat", "hub", "objective_j_mj", "delivered_share")
+    rows = results.select([c for c in cols if c in results.column_names]).to_pylist()
+    fig = go.Figure()
+    for key in dict.fromkeys((r["setting"], r["method"]) for r in rows):
+        mine = [r for r in rows if (r["setting"], r["method"]) == key]
+        fig.add_trace(
+            go.Scatter(
+                x=[str(r["day"]) for r in mine],
+                y=[r["objective_j_mj"] for r in mine],
+                mode="markers",
+                marker={"size": 9},
+                text=[f"delivered share {r['delivered_share']:.3f}" for r in mine],
+                name=f"{key[1]} · {titles.get(key[0], key[0])}",
+            )
+        )
+    fig.update_layout(
+        height=380,
+        xaxis={"title": "day", "type": "category"},
+        yaxis={"title": "day objective J (MJ)"},
+        margin={"l": 60, "r": 20, "t": 30, "b": 50},
+    )
+    page.heading("Every replayed day: the day objective J")
+    page.figure(fig, "days")

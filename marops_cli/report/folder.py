@@ -1,0 +1,84 @@
+"""What a report reads: the outputs an earlier command left in a folder (docs/outputs.md),
+never anything else."""
+
+from __future__ import annotations
+
+import datetime as dt
+import json
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from ..errors import InputError
+
+REPORT = "report.html"
+"""The page's name in each output folder."""
+_TIMES = ("window_start", "arrive_time")
+
+
+@dataclass(frozen=True)
+class RouteFiles:
+    """A folder's stops and routes (rows with local times without their zone, as a
+    clock shows them) and the metadata they carry."""
+
+    stops: list[dict[str, Any]]
+    routes: list[dict[str, Any]]
+    meta: dict[str, Any]
+
+
+def route_files(folder: Path) -> RouteFiles | None:
+    """The stops and routes of ``folder`` (Parquet, else JSON); None when it has none."""
+    if (folder / "routes.parquet").is_file():
+        import pyarrow.parquet as pq
+
+        tables = [pq.read_table(folder / f"{n}.parquet") for n in ("stops", "routes")]
+        meta = json.loads((tables[1].schema.metadata or {}).get(b"marops", b"{}"))
+        stops, routes = (t.to_pylist() for t in tables)
+    elif (folder / "routes.json").is_file():
+        docs = [_json(folder / f"{n}.json") for n in ("stops", "routes")]
+        stops, routes, meta = docs[0]["stops"], docs[1]["routes"], docs[1].get("meta", {})
+    else:
+        return None
+    for row in (*stops, *routes):
+        for k in _TIMES:
+            if k in row and row[k] is not None:
+                row[k] = _local(row[k])
+    return RouteFiles(stops, routes, meta)
+
+
+def _local(value: Any) -> dt.datetime:
+    """A time of day in the data's zone, without the zone (the files store local times)."""
+    t = dt.datetime.fromisoformat(value) if isinstance(value, str) else value
+    return t.replace(tzinfo=None)
+
+
+def metrics(folder: Path) -> dict[str, Any] | None:
+    """``folder/metrics.json`` (None when absent)."""
+    path = folder / "metrics.json"
+    return _json(path) if path.is_file() else None
+
+
+def _json(path: Path) -> dict[str, Any]:
+    try:
+        doc = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError) as exc:
+        raise InputError(f"cannot be read for the report ({exc})", file=path) from None
+    if not isinstance(doc, dict):
+        raise InputError("is not a marops output (a JSON object expected)", file=path)
+    return doc
+
+
+def is_evaluation(folder: Path) -> bool:
+    """``folder`` holds an evaluation's tables (``marops evaluate --out``)."""
+    return (folder / "summary.csv").is_file() and (folder / "results.parquet").is_file()
+
+
+def sub_reports(folder: Path) -> list[Path]:
+    """The folders below a several-day or city run's ``folder`` that hold a day or a hub
+    (``YYYY-MM-DD/``, ``hub-<id>/``), in name order."""
+    subs = [p for p in sorted(folder.iterdir()) if p.is_dir()]
+    return [p for p in subs if (p / "metrics.json").is_file() or route_files_exist(p)]
+
+
+def route_files_exist(folder: Path) -> bool:
+    return any((folder / f"routes.{f}").is_file() for f in ("parquet", "json"))

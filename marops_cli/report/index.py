@@ -1,0 +1,76 @@
+"""The report of a several-day or city run: every day's metrics, the totals, the city's
+coverage, a chart over the days, and a link to each day's own report."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+from .folder import REPORT
+from .page import Page
+
+_COLUMNS = (
+    ("delivered", "{}"),
+    ("undelivered", "{}"),
+    ("delivered_share", "{:.3f}"),
+    ("mean_energy_kj", "{:.1f}"),
+    ("avg_delay_h", "{:.3f}"),
+    ("objective_j_mj", "{:.2f}"),
+    ("objective_g_mj", "{:.2f}"),
+)
+
+
+def _link(folder: Path, row: dict[str, Any]) -> tuple[str, str] | str:
+    """The day's own report below ``folder``, as (text, relative link), when there."""
+    day, hub = str(row["day"]), row.get("hub", 0)
+    for rel in (f"hub-{hub}/{day}", f"hub-{hub}", day):
+        if (folder / rel / REPORT).is_file() or (folder / rel / "metrics.json").is_file():
+            return ("report", f"{rel}/{REPORT}")
+    return ""
+
+
+def index_page(folder: Path, doc: dict[str, Any]) -> Page:
+    """The page of ``folder``'s top-level ``metrics.json`` (``days``, ``total``, ``city``)."""
+    import plotly.graph_objects as go
+    from plotly.subplots import make_subplots
+
+    days = doc.get("days", [])
+    hubs = any(d.get("hub", 0) for d in days)
+    page = Page(f"marops: {len(days)} {'hub-days' if hubs else 'days'} — {folder.name}")
+    page.heading("Days")
+    header = ["hub"] * hubs + ["day", "method", *(c for c, _ in _COLUMNS), "report"]
+    rows = []
+    for d in days:
+        cells = [d.get("hub", 0)] * hubs + [str(d["day"]), d["method"]]
+        cells += [f.format(d[c]) if d.get(c) is not None else "" for c, f in _COLUMNS]
+        rows.append([*cells, _link(folder, d)])
+    page.table(header, rows, links=len(header) - 1)
+    total = doc.get("total")
+    if total:
+        page.heading("Totals over the days")
+        page.table(("quantity", "value"), [(k, _fmt(v)) for k, v in total.items()])
+    city = doc.get("city")
+    if city:
+        page.heading("The city's coverage")
+        page.table(("quantity", "value"), [(k, _fmt(v)) for k, v in city.items() if k != "days"])
+    if days:
+        labels = [f"hub {d.get('hub', 0)} {d['day']}" if hubs else str(d["day"]) for d in days]
+        fig = make_subplots(
+            rows=1,
+            cols=3,
+            subplot_titles=("delivered share", "mean energy per drone (kJ)", "average delay (h)"),
+        )
+        for i, key in enumerate(("delivered_share", "mean_energy_kj", "avg_delay_h"), start=1):
+            fig.add_trace(
+                go.Bar(x=labels, y=[d.get(key) for d in days], name=key, showlegend=False),
+                row=1,
+                col=i,
+            )
+        fig.update_layout(height=360, margin={"l": 50, "r": 20, "t": 40, "b": 80})
+        page.heading("Over the days")
+        page.figure(fig, "days")
+    return page
+
+
+def _fmt(v: Any) -> Any:
+    return f"{v:.4g}" if isinstance(v, float) else v

@@ -1,0 +1,104 @@
+"""One self-contained HTML page (docs/report.md): headings, tables, links and plotly
+figures, with plotly.js inlined once so the page opens without a network."""
+
+from __future__ import annotations
+
+import html
+from collections.abc import Sequence
+from typing import Any
+
+from ..errors import InputError
+
+EXTRA = "report"
+"""The optional dependencies' extra: ``pip install 'marops[report]'``."""
+
+
+def require_plotly() -> None:
+    """Stop with one line (exit 2) naming the extra when plotly is not installed."""
+    try:
+        import plotly  # noqa: F401
+    except ImportError:
+        raise InputError(f"--report needs plotly: pip install 'marops[{EXTRA}]'") from None
+
+
+_STYLE = """
+body { font-family: system-ui, sans-serif; margin: 1.5em; color: #222; max-width: 1400px; }
+h1 { font-size: 1.5em; } h2 { font-size: 1.2em; margin-top: 1.6em; }
+table { border-collapse: collapse; margin: 0.5em 0; font-size: 0.9em; }
+th, td { border: 1px solid #ccc; padding: 0.25em 0.6em; }
+td.num { text-align: right; font-variant-numeric: tabular-nums; }
+th { background: #f3f3f3; text-align: left; }
+p.note { color: #555; font-size: 0.9em; }
+"""
+
+
+class Page:
+    """A report page built top to bottom; :meth:`html` renders it."""
+
+    def __init__(self, title: str) -> None:
+        self.title = title
+        self._parts: list[str] = [f"<h1>{html.escape(title)}</h1>"]
+        self._figures = 0
+
+    def heading(self, text: str) -> None:
+        self._parts.append(f"<h2>{html.escape(text)}</h2>")
+
+    def note(self, text: str) -> None:
+        self._parts.append(f'<p class="note">{html.escape(text)}</p>')
+
+    def table(
+        self, header: Sequence[str], rows: Sequence[Sequence[Any]], *, links: int | None = None
+    ) -> None:
+        """A table; cells that are numbers align right. ``links``: the column whose cells
+        are ``(text, href)`` pairs."""
+        head = "".join(f"<th>{html.escape(str(h))}</th>" for h in header)
+        body = []
+        for row in rows:
+            cells = []
+            for i, cell in enumerate(row):
+                if i == links and isinstance(cell, tuple):
+                    text, href = cell
+                    a = f'<a href="{html.escape(href)}">{html.escape(text)}</a>'
+                    cells.append(f"<td>{a}</td>")
+                else:
+                    num = isinstance(cell, int | float) or _numeric(str(cell))
+                    cls = ' class="num"' if num else ""
+                    cells.append(f"<td{cls}>{html.escape(str(cell))}</td>")
+            body.append("<tr>" + "".join(cells) + "</tr>")
+        self._parts.append(f"<table><tr>{head}</tr>{''.join(body)}</table>")
+
+    def figure(self, fig: Any, div_id: str) -> None:
+        """A plotly figure under a fixed element id (the same page for the same data)."""
+        import plotly.io as pio
+
+        self._figures += 1
+        self._parts.append(
+            pio.to_html(
+                fig,
+                include_plotlyjs=False,
+                full_html=False,
+                div_id=div_id,
+                config={"displaylogo": False, "responsive": True},
+            )
+        )
+
+    def html(self) -> str:
+        """The whole page; plotly.js inlined in the head when the page has a figure."""
+        script = ""
+        if self._figures:
+            from plotly.offline import get_plotlyjs
+
+            script = f'<script type="text/javascript">{get_plotlyjs()}</script>'
+        return (
+            '<!DOCTYPE html>\n<html lang="en">\n<head>\n<meta charset="utf-8">\n'
+            f"<title>{html.escape(self.title)}</title>\n<style>{_STYLE}</style>\n"
+            f"{script}\n</head>\n<body>\n" + "\n".join(self._parts) + "\n</body>\n</html>\n"
+        )
+
+
+def _numeric(text: str) -> bool:
+    try:
+        float(text.replace(",", "").replace("%", "").split(" ")[0])
+    except ValueError:
+        return False
+    return True

@@ -1,0 +1,401 @@
+"""Training the landing actor on the day's return: evolution strategies (docs/method.md
+§6.1, "The landing actor"; docs/decisions.md, "Learning where to land").
+
+The landing actor (:class:`~marops_cli.policies.landing.LandingActor`) scores each
+destination by ``weight · features``. Training searches the 12 weights directly on the
+quantities the actor is judged by, from the ``backlog`` rule (its weights,
+:data:`~marops_cli.policies.landing.BACKLOG_WEIGHTS`):
+
+* each training day is first replayed with the rules the actor must beat,
+  :data:`RULES` (``ops-global``, ``backlog``, ``rebalance``); the day's *best rule* is the
+  one with the lowest day objective J (docs/method.md §8);
+* each generation draws ``es_days`` training days (scenario, day, α from
+  ``alpha_range``) and ``es_pairs`` directions ε ~ N(0, I), and replays every day with
+  the weights w, w + σε and w − σε (antithetic pairs: the same days for every member,
+  so the day's own difficulty cancels);
+* a member's cost on a day is its J over the best rule's J, plus ``es_energy_weight`` ×
+  the share by which its energy per drone exceeds the best rule's (0 when it spends no
+  more): a plan must not win by spending energy the best rule saves; its cost is the
+  mean over the days;
+* w moves by ``es_step`` × Σ (rank(w − σε) − rank(w + σε)) ε / pairs (centred ranks of
+  the costs, so one extreme day cannot dominate a step).
+
+Every replay is one episode of the budget (``episodes``), the rules' replays included.
+Held-out evaluations every ``eval_every`` episodes score w the same way on the training
+cities' held-out days and keep the best (``keep_best``). Every random stream derives
+from ``(seed, stream, generation)`` and replays are deterministic, so a run gives the
+same weights with any number of workers, and resumes from its checkpoint to the same end.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .. import __version__
+from ..config import override
+from ..data.jsonfile import read_json
+from ..errors import InputError
+from ..io.atomic import output_set
+from ..policies.landing import (
+    BACKLOG_WEIGHTS,
+    FEATURES,
+    LANDING_FORMAT,
+    LandingActor,
+    operating_model,
+)
+from ..policies.registry import make_policy
+from ..sim.metrics import day_metrics
+from ..sim.replay import fly_day
+from ..sim.state import default_fleet
+from ..sim.step import WindowStep
+from ..workers import LocalPool
+from .data import TrainData, fingerprint
+from .rollout import TrainScenario, WorkerContext, derive_seed
+
+__all__ = ["RULES", "LandingTrainer", "landing_weights_bytes", "write_landing_actor"]
+
+_STREAM_BATCH, _STREAM_NOISE = 11, 12
+_CKPT_FORMAT = "marops-landing-ckpt/1"
+Event = dict[str, Any]
+_KEYS = ("objective_j_mj", "delivered_share", "mean_energy_kj", "avg_delay_h")
+RULES = {"ops-global": "global", "backlog": "backlog", "rebalance": "rebalance"}
+"""The rules the landing actor must beat (method -> policy spec): each day's best of them
+is its reference."""
+Day = tuple[int, int, float]
+"""A replay's (scenario, day, α)."""
+
+
+@dataclass(frozen=True)
+class LandingDay:
+    """Replay day ``day`` of scenario ``scenario`` (held-out when ``held_out``) at trade-off
+    ``alpha`` with the landing actor of ``weight``, or (``weight`` None) with the rule of
+    method ``rule``."""
+
+    index: int
+    weight: tuple[float, ...] | None
+    scenario: int
+    day: int
+    alpha: float
+    held_out: bool = False
+    rule: str = "backlog"
+
+
+@dataclass
+class LandingWork:
+    """The worker pool's work: replay a day, return its metrics (:data:`_KEYS`)."""
+
+    ctx: WorkerContext
+
+    preload = (__name__,)
+
+    def setup(self) -> None:
+        return None
+
+    def refuse(self) -> str | None:
+        return None
+
+    def run(self, task: LandingDay) -> dict[str, float]:
+        scn: TrainScenario = self.ctx.scenarios[task.scenario]
+        cfg = override(scn.cfg, plan__alpha=task.alpha)
+        if task.weight is None:
+            policy = make_policy(RULES[task.rule])
+        else:
+            policy = LandingActor(np.array(task.weight))
+        day = (scn.eval_days if task.held_out else scn.train_days)[task.day]
+        how = WindowStep.of(policy, cfg)
+        fleet = default_fleet(scn.depots, cfg.sim.drones)
+        res = fly_day(day, scn.depots, fleet, policy, cfg, method="marops", how=how)
+        m = day_metrics(res, how.model)
+        return {k: float(m[k]) for k in _KEYS}
+
+
+class LandingTrainer:
+    """The weights, the rules' reference days and the progress of one run; :meth:`run`
+    trains, :meth:`export` writes the actor."""
+
+    def __init__(self, td: TrainData, out: Path, on_event: Callable[[Event], None] | None = None):
+        self.td, self.tcfg, self.out = td, td.ctx.tcfg, Path(out)
+        self.ckpt = self.out.with_suffix(".ckpt")
+        self.emit = on_event or (lambda e: None)
+        models = {operating_model(s.cfg.ops) for s in td.ctx.scenarios}
+        if "paper" in models:
+            raise InputError(
+                "the landing actor learns where parcels and batteries wait: train it under "
+                "an operating model ([ops] in --config), not the paper's"
+            )
+        if len(models) > 1:
+            raise InputError("every training scenario needs the same operating model")
+        self.model = models.pop()
+        self.weight = BACKLOG_WEIGHTS.astype(np.float64).copy()
+        self.generation = self.episode = 0
+        self.elapsed_s = 0.0
+        self.reference: dict[str, dict[str, float]] = {}
+        """Per training day ("scenario/day/alpha"), its best rule's J and energy."""
+        self.held_out_rules: list[dict[str, Any]] = []
+        """Each held-out day's best rule: its name and metrics (replayed once)."""
+        self.history: list[dict[str, float]] = []
+        self.evals: list[dict[str, Any]] = []
+        self.best: dict[str, Any] | None = None
+
+    # -- checkpoints -----------------------------------------------------------------
+    def save_checkpoint(self) -> None:
+        """Write ``NAME.ckpt`` (JSON) atomically."""
+        state = {
+            "format": _CKPT_FORMAT,
+            "fingerprint": fingerprint(self.td),
+            "weight": self.weight.tolist(),
+            "generation": self.generation,
+            "episode": self.episode,
+            "elapsed_s": self.elapsed_s,
+            "reference": self.reference,
+            "held_out_rules": self.held_out_rules,
+            "history": self.history,
+            "evals": self.evals,
+            "best": self.best,
+        }
+        with output_set() as files:
+            files.write_json(self.ckpt, state)
+
+    def load_checkpoint(self) -> bool:
+        """Resume from ``NAME.ckpt`` when there is one; refuse one made differently."""
+        if not self.ckpt.is_file():
+            return False
+        state = read_json(self.ckpt, "training checkpoint")
+        if not isinstance(state, dict) or state.get("format") != _CKPT_FORMAT:
+            raise InputError("not a landing actor's checkpoint; pass --no-resume", file=self.ckpt)
+        if state.get("fingerprint") != json.loads(json.dumps(fingerprint(self.td))):
+            raise InputError(
+                "checkpoint was made with other data or settings; pass --no-resume to start over",
+                file=self.ckpt,
+            )
+        self.weight = np.array(state["weight"], dtype=np.float64)
+        self.generation, self.episode = int(state["generation"]), int(state["episode"])
+        self.elapsed_s = float(state["elapsed_s"])
+        self.reference = dict(state["reference"])
+        self.held_out_rules = list(state["held_out_rules"])
+        self.history, self.evals, self.best = state["history"], state["evals"], state["best"]
+        return True
+
+    # -- the rules and the cost --------------------------------------------------------
+    def _best_rules(
+        self, workers: LocalPool, days: list[Day], held_out: bool = False
+    ) -> list[dict[str, Any]]:
+        """Each day's best rule (lowest J, the first of :data:`RULES` on ties): its name and
+        metrics. Every rule's replay counts as an episode."""
+        pairs = [(d, r) for d in days for r in RULES]
+        rows = workers.results(
+            [LandingDay(k, None, *d, held_out=held_out, rule=r) for k, (d, r) in enumerate(pairs)]
+        )
+        self.episode += len(rows)
+        out = []
+        for i in range(len(days)):
+            part = dict(zip(RULES, rows[i * len(RULES) : (i + 1) * len(RULES)], strict=True))
+            name = min(part, key=lambda r: part[r]["objective_j_mj"])
+            out.append({"rule": name, **part[name]})
+        return out
+
+    def _references(self, workers: LocalPool, days: list[Day]) -> list[dict[str, float]]:
+        """The best rule's J and energy of each of ``days`` (replayed once per run)."""
+        need = sorted({d for d in days if _key(d) not in self.reference})
+        for d, best in zip(need, self._best_rules(workers, need), strict=True):
+            self.reference[_key(d)] = {
+                "j": best["objective_j_mj"],
+                "energy": best["mean_energy_kj"],
+            }
+        return [self.reference[_key(d)] for d in days]
+
+    def _cost(self, rows: list[dict[str, float]], refs: list[dict[str, float]]) -> float:
+        """Mean over days of J / the best rule's J + ``es_energy_weight`` × the share of
+        energy per drone above the best rule's."""
+        w = self.tcfg.es_energy_weight
+        return float(
+            np.mean(
+                [
+                    r["objective_j_mj"] / max(b["j"], 1e-9)
+                    + w * max(0.0, r["mean_energy_kj"] / max(b["energy"], 1e-9) - 1.0)
+                    for r, b in zip(rows, refs, strict=True)
+                ]
+            )
+        )
+
+    # -- one generation ----------------------------------------------------------------
+    def _batch(self) -> list[Day]:
+        """The generation's (scenario, training day, α)."""
+        t = self.tcfg
+        rng = np.random.default_rng(derive_seed(t.seed, _STREAM_BATCH, self.generation))
+        out = []
+        for _ in range(t.es_days):
+            j = int(rng.integers(len(self.td.ctx.scenarios)))
+            i = int(rng.integers(len(self.td.ctx.scenarios[j].train_days)))
+            a = self.td.ctx.scenarios[j].cfg.plan.alpha
+            if t.alpha_range is not None:
+                a = round(float(rng.uniform(*t.alpha_range)), 1)
+            out.append((j, i, a))
+        return out
+
+    def _generation(self, workers: LocalPool) -> dict[str, float]:
+        t = self.tcfg
+        days = self._batch()
+        refs = self._references(workers, days)
+        rng = np.random.default_rng(derive_seed(t.seed, _STREAM_NOISE, self.generation))
+        eps = rng.standard_normal((t.es_pairs, self.weight.size))
+        members = [self.weight, *(self.weight + t.es_sigma * eps)]
+        members += [*(self.weight - t.es_sigma * eps)]
+        pairs = [(w, d) for w in members for d in days]
+        tasks = [LandingDay(k, tuple(float(x) for x in w), *d) for k, (w, d) in enumerate(pairs)]
+        rows = workers.results(tasks)
+        n = len(days)
+        cost = np.array([self._cost(rows[k * n : (k + 1) * n], refs) for k in range(len(members))])
+        ranks = cost[1:].argsort(kind="stable").argsort(kind="stable")
+        ranks = ranks / max(1, 2 * t.es_pairs - 1) - 0.5
+        step = ((ranks[t.es_pairs :] - ranks[: t.es_pairs])[:, None] * eps).sum(axis=0)
+        # Float32 weights, what the file stores: the exported actor flies as trained.
+        moved = (self.weight + t.es_step * step / t.es_pairs).astype(np.float32)
+        self.weight = moved.astype(np.float64)
+        self.generation += 1
+        self.episode += len(tasks)
+        stats = {"episode": self.episode, "generation": self.generation, "cost": float(cost[0])}
+        self.history.append({k: round(float(v), 5) for k, v in stats.items()})
+        return stats
+
+    def evaluate(self, workers: LocalPool) -> dict[str, Any] | None:
+        """The current weights and each day's best rule on the held-out days: the training
+        cost (below 1: better than the best rule) and the mean metrics of both."""
+        cap = self.tcfg.eval_days_per_scenario
+        days = [
+            (j, i, s.cfg.plan.alpha)
+            for j, s in enumerate(self.td.ctx.scenarios)
+            for i in range(len(s.eval_days) if cap == 0 else min(cap, len(s.eval_days)))
+        ]
+        if not days:
+            return None
+        if not self.held_out_rules:  # the rules do not change: their days once
+            self.held_out_rules = self._best_rules(workers, days, held_out=True)
+        best = self.held_out_rules
+        w = tuple(float(x) for x in self.weight)
+        mine = workers.results([LandingDay(k, w, *d, held_out=True) for k, d in enumerate(days)])
+        self.episode += len(days)
+        refs = [{"j": b["objective_j_mj"], "energy": b["mean_energy_kj"]} for b in best]
+        cost = self._cost(mine, refs)
+        ev = {
+            "episode": self.episode,
+            "cost": round(cost, 5),
+            "methods": {
+                name: {k: round(float(np.mean([r[k] for r in rs])), 5) for k in _KEYS}
+                for name, rs in (("marops", mine), ("best rule", best))
+            },
+        }
+        self.evals.append(ev)
+        if self.best is None or cost < self.best["cost"]:
+            self.best = {"episode": self.episode, "cost": cost, "weight": list(w)}
+        return ev
+
+    # -- the run -----------------------------------------------------------------------
+    def run(self, resume: bool) -> None:
+        resumed = resume and self.load_checkpoint()
+        t = self.tcfg
+        self.emit(
+            {
+                "kind": "start",
+                "episode": self.episode,
+                "episodes": t.episodes,
+                "resumed": resumed,
+                "train_days": sum(len(f["train_days"]) for f in self.td.files),
+                "eval_days": sum(len(f["heldout_days"]) for f in self.td.files),
+                "scenarios": len(self.td.ctx.scenarios),
+                "files": len(self.td.files),
+            }
+        )
+        per_generation = t.es_days * (2 * t.es_pairs + 1)
+        with LocalPool(LandingWork(self.td.ctx), t.workers) as workers:
+            if not self.evals:
+                self._emit_eval(workers)
+            while self.episode + per_generation <= t.episodes or self.generation == 0:
+                before = self.episode
+                stats = self._timed(self._generation, workers)
+                self.emit({"kind": "update", **stats})
+                if self.episode // t.eval_every > before // t.eval_every:
+                    self._emit_eval(workers)
+                if self.episode // t.checkpoint_every > before // t.checkpoint_every:
+                    self.save_checkpoint()
+            if self.evals and self.evals[-1]["episode"] != self.episode:
+                self._emit_eval(workers)
+        self.save_checkpoint()
+
+    def _emit_eval(self, workers: LocalPool) -> None:
+        ev = self._timed(self.evaluate, workers)
+        if ev is not None:
+            self.emit({"kind": "eval", **ev})
+
+    def _timed(self, fn: Callable[[LocalPool], Any], workers: LocalPool) -> Any:
+        t0 = time.perf_counter()
+        try:
+            return fn(workers)
+        finally:
+            self.elapsed_s += time.perf_counter() - t0
+
+    def export(self, command: str | None, data_origin: str | None = None) -> dict[str, Any]:
+        """Write the weights file and its sidecar (docs/method.md §6.1)."""
+        t, cfg = self.tcfg, self.td.ctx.scenarios[0].cfg
+        chosen = self.evals[-1] if self.evals else None
+        weight = self.weight
+        if t.keep_best and self.best is not None:
+            weight = np.array(self.best["weight"])
+            chosen = next(e for e in self.evals if e["episode"] == self.best["episode"])
+        side = {
+            "format": LANDING_FORMAT,
+            "method": "marops",
+            "operating_model": self.model,
+            "features": list(FEATURES),
+            "weight": [round(float(x), 6) for x in weight],
+            "seed": t.seed,
+            "episodes": self.episode,
+            "generations": self.generation,
+            "command": command,
+            "training_time_s": round(self.elapsed_s, 1),
+            "marops": __version__,
+            "data": {**self.td.files[0], "origin": data_origin},
+            "scenarios": [
+                {"name": s.name, "n_depots": len(s.depots), "drones": s.cfg.sim.drones}
+                for s in self.td.ctx.scenarios
+            ],
+            "files": self.td.files,
+            "reward": "cost = J / J of the day's best rule (ops-global, backlog, rebalance) + "
+            "es_energy_weight * max(0, energy / its energy - 1), mean over days "
+            "(docs/method.md §6.1)",
+            "train_config": t.model_dump(mode="json"),
+            "planner_config": cfg.model_dump(mode="json"),
+            "heldout": chosen,
+            "exported_episode": chosen["episode"] if chosen else self.episode,
+            "evaluations": [{"episode": e["episode"], "cost": e["cost"]} for e in self.evals],
+            "learning_curve": self.history,
+        }
+        return write_landing_actor(weight, self.out, side)
+
+
+def _key(d: Day) -> str:
+    return f"{d[0]}/{d[1]}/{d[2]}"
+
+
+def landing_weights_bytes(weight: np.ndarray) -> bytes:
+    """The weights as a safetensors file: one float32 tensor ``weight``."""
+    from safetensors.numpy import save
+
+    return save({"weight": np.ascontiguousarray(weight, dtype=np.float32)})
+
+
+def write_landing_actor(weight: np.ndarray, path: str | Path, sidecar: dict[str, Any]) -> dict:
+    """Write ``NAME.safetensors`` and its ``NAME.json`` sidecar together, atomically
+    (``path`` may name either); returns the sidecar written."""
+    base = Path(path).with_suffix("")
+    with output_set() as files:
+        files.write_bytes(base.with_suffix(".safetensors"), landing_weights_bytes(weight))
+        files.write_json(base.with_suffix(".json"), sidecar)
+    return sidecar

@@ -1,0 +1,126 @@
+"""A first run without rough edges: errors that name the flag and say how to write it,
+--debug after the command, the data from standard input, outputs checked up front."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from marops_cli.cli.app import app
+from marops_cli.cli.common import STATE
+from marops_cli.errors import InputError
+
+runner = CliRunner()
+
+
+def test_debug_after_the_command_shows_the_traceback(example_csv: Path, tmp_path: Path) -> None:
+    (tmp_path / "afile").write_text("x")
+    args = ["segment", str(example_csv), "--out", str(tmp_path / "afile" / "d.json")]
+    assert runner.invoke(app, args).exit_code == 2  # without --debug: one line
+    for debug in ([*args, "--debug"], ["--debug", *args]):
+        res = runner.invoke(app, debug)
+        assert isinstance(res.exception, InputError), res.output  # raised, not one line
+    STATE["debug"] = False
+
+
+def test_debug_as_a_value_after_double_dash_is_left_alone() -> None:
+    from marops_cli.cli.usage import hoist_debug
+
+    assert hoist_debug(["replay-day", "x.csv", "--debug"]) == ["--debug", "replay-day", "x.csv"]
+    assert hoist_debug(["replay-day", "--", "--debug"]) == ["replay-day", "--", "--debug"]
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        ["replay-day", "--date", "0811", "--alpha", "1.5"],
+        ["plan-window", "--depots", "DEPOTS", "--date", "0811", "--window", "5", "--alpha", "1.5"],
+    ],
+    ids=["replay-day", "plan-window"],
+)
+def test_a_bad_value_names_its_flag(
+    example_csv: Path, tmp_path: Path, fails_cleanly, args: list[str]
+) -> None:
+    depots = tmp_path / "in" / "depots.json"
+    depots.parent.mkdir()
+    depots.write_text("{}")
+    args = [a if a != "DEPOTS" else str(depots) for a in args]
+    line = fails_cleanly(
+        [args[0], str(example_csv), *args[1:], "--out", str(tmp_path / "out")], tmp_path, "--alpha"
+    )
+    assert "plan.alpha" not in line and "1.5" in line
+
+
+def test_a_range_written_with_a_dash_gets_a_hint(
+    example_csv: Path, tmp_path: Path, fails_cleanly
+) -> None:
+    for cmd, out in (("segment", "d.json"), ("replay-day", "out")):
+        args = [cmd, str(example_csv), "--dates", "0801-0810", "--out", str(tmp_path / out)]
+        fails_cleanly(args, tmp_path, "'0801-0810'", "0801..0810")
+
+
+def test_more_actions_than_depots_is_an_error(
+    example_csv: Path, tmp_path: Path, fails_cleanly
+) -> None:
+    args = ["segment", str(example_csv), "--n-depots", "2", "--actions", "4"]
+    fails_cleanly([*args, "--out", str(tmp_path / "d.json")], tmp_path, "--actions", "--n-depots")
+
+
+def test_the_data_from_standard_input(example_csv: Path, tmp_path: Path) -> None:
+    """``-`` reads the data from stdin: the same depots as from the file."""
+    args = ["segment", "--dates", "0801..0810", "--json"]
+    res = runner.invoke(
+        app,
+        [args[0], "-", *args[1:], "--out", str(tmp_path / "a.json")],
+        input=example_csv.read_bytes(),
+    )
+    assert res.exit_code == 0, res.output
+    ref = runner.invoke(
+        app, [args[0], str(example_csv), *args[1:], "--out", str(tmp_path / "b.json")]
+    )
+    assert ref.exit_code == 0, ref.output
+    a, b = (json.loads((tmp_path / n).read_text()) for n in ("a.json", "b.json"))
+    assert a["depots"] == b["depots"] and a["candidates"] == b["candidates"]
+    assert a["meta"]["input"]["sha256"] == b["meta"]["input"]["sha256"]
+
+
+def test_empty_standard_input_is_one_line(tmp_path: Path, fails_cleanly) -> None:
+    fails_cleanly(
+        ["replay-day", "-", "--date", "0811", "--out", str(tmp_path / "out")],
+        tmp_path,
+        "standard input",
+    )
+    out = str(tmp_path / "a.pt")
+    fails_cleanly(["train", "-", "--out", out], tmp_path, "standard input")
+
+
+# Every command that writes, with --out under a file: one line naming the path, exit 2,
+# before any work (docs/outputs.md, "What marops replaces").
+OUT_UNDER_A_FILE = {
+    "synth": ["synth", "--days", "1", "--out", "{bad}/lade.csv"],
+    "segment": ["segment", "{data}", "--out", "{bad}/depots.json"],
+    "segment --hubs": ["segment", "{data}", "--hubs", "auto", "--out", "{bad}/hubs.json"],
+    "plan-window": ["plan-window", "{data}", "--depots", "{depots}", "--date", "0811"]
+    + ["--window", "5", "--out", "{bad}"],
+    "replay-day": ["replay-day", "{data}", "--date", "0811", "--out", "{bad}"],
+    "replay-day --dates": ["replay-day", "{data}", "--dates", "0811..0812", "--out", "{bad}"],
+    "train": ["train", "{data}", "--episodes", "1", "--out", "{bad}/actor.pt"],
+    "evaluate": ["evaluate", "{data}", "--dates", "0811", "--out", "{bad}"],
+}
+
+
+@pytest.mark.parametrize("name", sorted(OUT_UNDER_A_FILE))
+def test_out_under_a_file_is_one_line_up_front(
+    example_csv: Path, tmp_path: Path, fails_cleanly, name: str
+) -> None:
+    afile = tmp_path / "afile"
+    afile.write_text("not a folder")
+    depots = tmp_path / "depots.json"
+    depots.write_text("{}")  # never read: the outputs are checked first
+    values = {"data": str(example_csv), "depots": str(depots), "bad": str(afile / "sub")}
+    args = [a.format(**values) for a in OUT_UNDER_A_FILE[name]]
+    line = fails_cleanly(args, tmp_path, str(afile / "sub"), "is a file")
+    assert "Errno" not in line

@@ -1,0 +1,63 @@
+"""Small runs with ``--report`` (3 drones, four windows of the example's 2022-08-11), made
+once per session and read by the report tests."""
+
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+from typing import Any
+
+import pytest
+from typer.testing import CliRunner
+
+from marops_cli.cli.app import app
+
+runner = CliRunner()
+
+
+def invoke(*args: Any) -> Any:
+    res = runner.invoke(app, [str(a) for a in args])
+    assert res.exit_code == 0, res.output
+    return res
+
+
+@pytest.fixture(scope="session")
+def small_config(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """Two service hours: four windows a day."""
+    path = tmp_path_factory.mktemp("cfg") / "small.toml"
+    path.write_text('[data]\nservice_start = "09:00"\nservice_end = "11:00"\n')
+    return path
+
+
+@pytest.fixture(scope="session")
+def depots_json(example_csv: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    path = tmp_path_factory.mktemp("seg") / "depots.json"
+    invoke("segment", example_csv, "--dates", "0801..0810", "--out", path, "--quiet")
+    return path
+
+
+@pytest.fixture(scope="session")
+def day_run(
+    example_csv: Path,
+    small_config: Path,
+    depots_json: Path,
+    tmp_path_factory: pytest.TempPathFactory,
+) -> Path:
+    """``replay-day --report`` of one small day."""
+    out = tmp_path_factory.mktemp("day") / "0811"
+    invoke(
+        "replay-day", example_csv, "--date", "0811", "--depots", depots_json,
+        "--drones", 3, "--config", small_config, "--report", "--out", out, "--quiet",
+    )  # fmt: skip
+    return out
+
+
+def figure(html: str, div_id: str) -> tuple[list[dict[str, Any]], dict[str, Any]]:
+    """(data, layout) of the plotly figure drawn into ``div_id``, read from the page."""
+    start = re.search(r'Plotly\.newPlot\(\s*"' + re.escape(div_id) + r'",\s*', html)
+    assert start is not None, f"no figure {div_id}"
+    decoder = json.JSONDecoder()
+    data, end = decoder.raw_decode(html, start.end())
+    layout, _ = decoder.raw_decode(html, html.index("{", end))
+    return data, layout

@@ -1,0 +1,229 @@
+"""report.html (docs/report.md): what the page of a day, a window, several days and an
+evaluation holds, read back from the HTML; ``marops report DIR``; the missing extra."""
+
+from __future__ import annotations
+
+import json
+import re
+import shutil
+import sys
+from pathlib import Path
+
+import pyarrow.parquet as pq
+import pytest
+
+from marops_cli.cli.app import app
+from marops_cli.report.basemap import TILE_HOST
+
+from .conftest import figure, invoke, runner
+
+
+def _flown(routes: list[dict]) -> list[dict]:
+    return [r for r in routes if r["n_parcels"] > 0 or r["start_depot"] != r["end_depot"]]
+
+
+def test_day_report_draws_one_line_per_route_the_depots_and_the_metrics(day_run: Path) -> None:
+    html = (day_run / "report.html").read_text(encoding="utf-8")
+    routes = pq.read_table(day_run / "routes.parquet").to_pylist()
+    flown = _flown(routes)
+    assert flown, "the small day flies routes"
+    data, layout = figure(html, "map")
+    lines = [t for t in data if t.get("uid", "").startswith("route-")]
+    assert sorted(t["uid"] for t in lines) == sorted(
+        f"route-w{r['window']}-d{r['drone']}" for r in flown
+    )
+    stops = pq.read_table(day_run / "stops.parquet").to_pylist()
+    for t in lines:  # each line runs through its route's stops, in order
+        w, d = (int(p[1:]) for p in t["uid"].split("-")[1:])
+        mine = sorted(
+            (s for s in stops if (s["window"], s["drone"]) == (w, d)), key=lambda s: s["seq"]
+        )
+        assert t["x"] == [s["lng"] for s in mine]
+        assert len(t["text"]) == len(mine)
+        customer = next(i for i, s in enumerate(mine) if s["kind"] == "customer")
+        hover = t["text"][customer]
+        assert mine[customer]["order_id"] in hover
+        assert mine[customer]["arrive_time"].strftime("%H:%M:%S") in hover
+        assert f"{mine[customer]['weight_kg']:.2f} kg" in hover and "delay" in hover
+    depots = next(t for t in data if t.get("name") == "depots")
+    assert len(depots["x"]) == 16  # every depot of the file, not only those flown from
+    assert sum(t.get("name") == "service areas" for t in data) == 16
+    steps = layout["sliders"][0]["steps"]
+    assert [s["label"].split()[0] for s in steps] == ["all", "0", "1", "2", "3"]
+    for s, w in zip(steps[1:], range(4), strict=True):
+        vis = s["args"][0]["visible"]
+        shown = [t["uid"] for t, v in zip(data, vis, strict=True) if v and "uid" in t]
+        assert shown == [t["uid"] for t in lines if t["uid"].startswith(f"route-w{w}-")]
+    bars, _ = figure(html, "timeline")
+    assert sum(len(b["x"]) for b in bars if b["name"].endswith("flies")) == len(flown)
+    day = json.loads((day_run / "metrics.json").read_text())["days"][0]
+    assert f'<td class="num">{day["avg_delay_h"]:.3f}</td>' in html
+    assert "not delivered by the end of the day" in html
+    assert f'<td class="num">{day["undelivered"]}</td>' in html
+    body = html.split("</head>")[1].replace("\\u002f", "/")
+    urls = re.findall(r"https?://[^\"'\s]+", body)
+    assert urls and all(u.startswith(TILE_HOST) for u in urls)  # nothing fetched but tiles
+
+
+def test_the_page_is_self_contained_and_journaled(day_run: Path) -> None:
+    html = (day_run / "report.html").read_text(encoding="utf-8")
+    head = html.split("</head>")[0]
+    assert "<script src" not in html and "<link " not in head
+    assert len(head) > 1_000_000  # plotly.js inlined
+    journal = json.loads((day_run / ".marops-files.json").read_text())
+    assert "report.html" in journal["files"]
+    assert all(img["source"].startswith(TILE_HOST) for img in figure(html, "map")[1]["images"])
+
+
+def test_marops_report_builds_the_same_page_from_the_folder(
+    day_run: Path, depots_json: Path, tmp_path: Path
+) -> None:
+    copy = tmp_path / "copy"
+    shutil.copytree(day_run, copy)
+    (copy / "report.html").unlink()
+    invoke("report", copy, "--depots", depots_json, "--quiet")
+    assert (copy / "report.html").read_bytes() == (day_run / "report.html").read_bytes()
+    # Without the depots file: the depots the routes use, no service areas.
+    invoke("report", copy, "--quiet")
+    data, _ = figure((copy / "report.html").read_text(encoding="utf-8"), "map")
+    assert not any(t.get("name") == "service areas" for t in data)
+    assert sum(t.get("uid", "").startswith("route-") for t in data) == len(
+        _flown(pq.read_table(copy / "routes.parquet").to_pylist())
+    )
+
+
+def test_marops_report_refuses_what_it_cannot_read_or_replace(
+    day_run: Path, tmp_path: Path
+) -> None:
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    res = runner.invoke(app, ["report", str(empty)])
+    assert res.exit_code == 2 and "holds no marops outputs" in res.output
+    copy = tmp_path / "copy"
+    shutil.copytree(day_run, copy)
+    (copy / "report.html").write_text("my notes")  # not marops's any more
+    res = runner.invoke(app, ["report", str(copy)])
+    assert res.exit_code == 2 and "not written by marops" in res.output
+    assert (copy / "report.html").read_text() == "my notes"
+    invoke("report", copy, "--force", "--quiet")
+    assert (copy / "report.html").read_text().startswith("<!DOCTYPE html>")
+
+
+def test_without_plotly_report_is_one_line_naming_the_extra(
+    example_csv: Path, day_run: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setitem(sys.modules, "plotly", None)  # import plotly fails
+    out = tmp_path / "never"
+    res = runner.invoke(
+        app, ["replay-day", str(example_csv), "--date", "0811", "--report", "--out", str(out)]
+    )
+    assert res.exit_code == 2
+    assert "pip install 'marops[report]'" in res.output
+    assert not out.exists()  # stopped before any work
+    res = runner.invoke(app, ["report", str(day_run)])
+    assert res.exit_code == 2 and "marops[report]" in res.output
+
+
+def test_plan_window_report(
+    example_csv: Path, depots_json: Path, small_config: Path, tmp_path: Path
+) -> None:
+    out = tmp_path / "w2"
+    invoke(
+        "plan-window", example_csv, "--depots", depots_json, "--date", "0811", "--window", 2,
+        "--drones", 3, "--config", small_config, "--format", "json", "--report",
+        "--out", out, "--quiet",
+    )  # fmt: skip
+    html = (out / "report.html").read_text(encoding="utf-8")
+    assert "window 2" in html.split("</h1>")[0]
+    data, layout = figure(html, "map")  # read from the JSON route files
+    flown = _flown(json.loads((out / "routes.json").read_text())["routes"])
+    assert sum(t.get("uid", "").startswith("route-") for t in data) == len(flown)
+    assert "sliders" not in layout  # one window: nothing to slide
+    assert "solver status" in html
+
+
+def test_several_days_link_each_day_report(
+    example_csv: Path, depots_json: Path, small_config: Path, tmp_path: Path
+) -> None:
+    out = tmp_path / "days"
+    invoke(
+        "replay-day", example_csv, "--dates", "0811..0812", "--depots", depots_json,
+        "--drones", 2, "--config", small_config, "--workers", 1, "--report", "--out", out,
+        "--quiet",
+    )  # fmt: skip
+    top = (out / "report.html").read_text(encoding="utf-8")
+    for day in ("2022-08-11", "2022-08-12"):
+        assert f'href="{day}/report.html"' in top
+        assert (out / day / "report.html").is_file()
+    figure(top, "days")
+
+
+def test_evaluate_report_tables_paired_and_sweep(
+    example_csv: Path, small_config: Path, tmp_path: Path
+) -> None:
+    out = tmp_path / "ev"
+    invoke(
+        "evaluate", example_csv, "--dates", "0811", "--methods", "stay,greedy",
+        "--against", "stay", "--alpha", "0.2,0.8", "--drones", 2, "--config", small_config,
+        "--workers", 1, "--no-plot", "--report", "--out", out, "--quiet",
+    )  # fmt: skip
+    html = (out / "report.html").read_text(encoding="utf-8")
+    assert "Setting 0: α = 0.2" in html and "Setting 1: α = 0.8" in html
+    assert "<th>stay</th><th>greedy</th>" in html
+    paired, _ = figure(html, "paired")
+    n_metrics = len({r["metric"] for r in _csv_rows(out / "paired.csv")})
+    assert len(paired) == n_metrics
+    for trace in paired:  # greedy against stay in both settings, with its interval
+        assert len(trace["x"]) == 2 and "array" in trace["error_x"]
+    sweep, layout = figure(html, "sweep-alpha")
+    assert {t["name"] for t in sweep} == {"stay", "greedy"}
+    assert all(t["x"] == [0.2, 0.8] for t in sweep)
+    figure(html, "days")
+    journal = json.loads((out / ".marops-files.json").read_text())
+    assert "report.html" in journal["files"]
+
+
+def _csv_rows(path: Path) -> list[dict]:
+    import csv
+
+    with path.open() as fh:
+        return list(csv.DictReader(fh))
+
+
+def test_a_foreign_report_stops_the_run_before_the_work(example_csv: Path, tmp_path: Path) -> None:
+    out = tmp_path / "day"
+    out.mkdir()
+    (out / "report.html").write_text("someone's page")
+    res = runner.invoke(
+        app, ["replay-day", str(example_csv), "--date", "0811", "--report", "--out", str(out)]
+    )
+    assert res.exit_code == 2 and "report.html" in res.output
+    assert sorted(p.name for p in out.iterdir()) == ["report.html"]  # nothing computed
+
+
+def test_the_api_writes_the_same_page(day_run: Path, depots_json: Path, tmp_path: Path) -> None:
+    from marops_cli import api
+
+    copy = tmp_path / "copy"
+    shutil.copytree(day_run, copy)
+    (copy / "report.html").unlink()
+    assert api.report(copy, depots=depots_json) == [copy / "report.html"]
+    assert (copy / "report.html").read_bytes() == (day_run / "report.html").read_bytes()
+
+
+def test_a_city_run_reports_each_hub_and_the_city(
+    example_csv: Path, small_config: Path, tmp_path: Path
+) -> None:
+    hubs = tmp_path / "hubs.json"
+    invoke("segment", example_csv, "--hubs", 2, "--dates", "0801..0810", "--out", hubs, "--quiet")
+    out = tmp_path / "city"
+    invoke(
+        "replay-day", example_csv, "--hubs", hubs, "--date", "0811", "--drones", 2,
+        "--config", small_config, "--workers", 1, "--report", "--out", out, "--quiet",
+    )  # fmt: skip
+    city = (out / "report.html").read_text(encoding="utf-8")
+    assert "The city&#x27;s coverage" in city or "The city's coverage" in city
+    for hub in (0, 1):
+        assert f'href="hub-{hub}/report.html"' in city
+        data, _ = figure((out / f"hub-{hub}" / "report.html").read_text(encoding="utf-8"), "map")
+        assert sum(t.get("name") == "service areas" for t in data) > 0  # the hub's own depots

@@ -1,0 +1,68 @@
+"""Training the landing actor by evolution strategies (marops_cli/rl/es.py): one
+generation moves the weights, any number of workers and a resumed run end at the same
+weights, and the paper's operating model is refused."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from marops_cli.config import OpsConfig, PlannerConfig
+from marops_cli.errors import InputError
+from marops_cli.policies import make_policy
+from marops_cli.policies.landing import BACKLOG_WEIGHTS, LandingActor
+from marops_cli.rl.data import load_training_data
+from marops_cli.rl.train import train_actor
+
+from .conftest import quick
+
+
+def _es(**fields: object):  # noqa: ANN202
+    base = {"algorithm": "es", "es_days": 1, "es_pairs": 1, "keep_best": False}
+    return quick(**{**base, **fields})
+
+
+def _weights(out: Path) -> list[float]:
+    return json.loads(out.with_suffix(".ckpt").read_text())["weight"]
+
+
+def test_generations_move_the_weights_and_export(
+    tiny_csv: Path, small_cfg: PlannerConfig, tmp_path: Path
+) -> None:
+    td = load_training_data(tiny_csv, small_cfg, _es(episodes=7))
+    side = train_actor(td, tmp_path / "a.safetensors", resume=False)
+    assert side["operating_model"] == "stock=home, batteries, busy"
+    assert side["generations"] == 2 and side["episodes"] >= 7
+    assert not np.allclose(side["weight"], BACKLOG_WEIGHTS)  # the steps moved it
+    pol = make_policy(str(tmp_path / "a.safetensors"), model=side["operating_model"])
+    assert isinstance(pol, LandingActor)
+    assert pol.weight == pytest.approx(side["weight"], abs=1e-6)
+    ev = side["heldout"]
+    assert set(ev["methods"]) == {"marops", "best rule"} and ev["cost"] > 0
+    assert not (tmp_path / "a.pt").exists()  # data only: nothing to trust
+
+
+def test_workers_and_resume_give_the_same_weights(
+    tiny_csv: Path, small_cfg: PlannerConfig, tmp_path: Path
+) -> None:
+    one = tmp_path / "one" / "a.safetensors"
+    one.parent.mkdir()
+    train_actor(load_training_data(tiny_csv, small_cfg, _es(episodes=7)), one, resume=False)
+    two = tmp_path / "two" / "a.safetensors"
+    two.parent.mkdir()
+    cut = load_training_data(tiny_csv, small_cfg, _es(episodes=4, workers=2))
+    train_actor(cut, two, resume=False)  # stops after one generation
+    assert _weights(two) != _weights(one)
+    rest = load_training_data(tiny_csv, small_cfg, _es(episodes=7, workers=2))
+    train_actor(rest, two, resume=True)
+    assert _weights(two) == _weights(one)
+
+
+def test_paper_model_is_refused(tiny_csv: Path, small_cfg: PlannerConfig, tmp_path: Path) -> None:
+    small_cfg.ops = OpsConfig.paper_model()
+    td = load_training_data(tiny_csv, small_cfg, _es())
+    with pytest.raises(InputError, match="not the paper's"):
+        train_actor(td, tmp_path / "a.safetensors", resume=False)
