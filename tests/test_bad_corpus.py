@@ -81,12 +81,14 @@ def _commands(kind: str, bad: Path, ok: dict[str, Path], out: Path) -> dict[str,
             + ["--out", str(out)],
         }
     if kind == "policy":
-        p = str(bad)
+        # Under the paper's operating model, which the recurrent actor is trained for: the
+        # file itself is judged, not the model it was made for.
+        p, paper = str(bad), ["--config", str(Path(data).parent / "paper.toml")]
         return {
             "replay-day": ["replay-day", data, "--date", E, "--method", "marops", "--policy", p]
-            + ["--out", str(out)],
+            + ["--out", str(out), *paper],
             "evaluate": ["evaluate", data, "--methods", "marops", "--policy", p, "--dates", E]
-            + ["--out", str(out)],
+            + ["--out", str(out), *paper],
         }
     assert kind == "fleet"
     return {

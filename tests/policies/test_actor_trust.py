@@ -82,6 +82,12 @@ class SystemOnUnpickle:
         return (os.system, (f"touch '{self.target}'",))
 
 
+def _paper(example_csv: Path) -> list[str]:
+    """The paper's operating model, which recurrent actors are trained for: the actor
+    file itself is judged, not the model it was made for (docs/method.md §6.1)."""
+    return ["--config", str(example_csv.parent / "paper.toml")]
+
+
 def _torchscript(module: torch.nn.Module, path: Path) -> Path:
     torch.jit.save(torch.jit.script(module), str(path))
     return path
@@ -141,6 +147,7 @@ def test_a_hostile_actor_file_runs_nothing(
         needles = [str(weights_path(path)), "encoder.weight"]
     out = tmp_path / "out"
     args = [command, str(example_csv), "--date", "0811", "--policy", str(path), "--out", str(out)]
+    args += _paper(example_csv)
     if command == "plan-window":
         args += ["--window", "20", "--depots", str(tmp_path / "depots.json")]
     fails_cleanly(args, tmp_path, *needles)
@@ -155,7 +162,7 @@ def test_even_trusted_a_plain_pickle_is_never_unpickled(
     path = _hostile("pickle", tmp_path, target)
     path.with_suffix(".json").write_text(json.dumps(SIDECAR))
     args = ["replay-day", str(example_csv), "--date", "0811", "--policy", str(path)]
-    args += ["--trust-actor", "--out", str(tmp_path / "out")]
+    args += ["--trust-actor", "--out", str(tmp_path / "out"), *_paper(example_csv)]
     fails_cleanly(args, tmp_path, str(path), "not a TorchScript module")
     assert not target.exists()
 
@@ -249,12 +256,13 @@ def test_trust_actor_loads_a_benign_torchscript_only_file(
     monkeypatch.setenv("XDG_DATA_HOME", str(tmp_path / "elsewhere"))
     # Two days go to worker processes, which load the actor as the command was told to.
     args = ["replay-day", str(example_csv), "--dates", "0811..0812", "--workers", "2"]
-    args += ["--policy", str(path)]
+    args += ["--policy", str(path), *_paper(example_csv)]
     fails_cleanly([*args, "--out", str(tmp_path / "refused")], tmp_path, "--trust-actor")
     res = CliRunner().invoke(app, [*args, "--trust-actor", "--out", str(tmp_path / "o")])
     assert res.exit_code == 0, res.output
     assert (tmp_path / "o" / "2022-08-12" / "metrics.json").is_file()
     evaluate = ["evaluate", str(example_csv), "--methods", "marops", "--policy", str(path)]
+    evaluate += _paper(example_csv)
     fails_cleanly([*evaluate, "--out", str(tmp_path / "ev")], tmp_path, "--trust-actor")
 
 
