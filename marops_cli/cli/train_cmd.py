@@ -165,6 +165,14 @@ def train_command(
             "model; writes NAME.safetensors + .json) [ppo].",
         ),
     ] = "ppo",
+    energy_weight: Annotated[
+        float,
+        typer.Option(
+            "--energy-weight",
+            help="--algorithm es: cost of each share of energy per drone above the day's best "
+            "rule's (docs/method.md §6.1) [default: 1.0].",
+        ),
+    ] = 1.0,
     workers: Annotated[int, typer.Option("--workers", help="Rollout processes.")] = 2,
     resume: Annotated[
         bool, typer.Option("--resume/--no-resume", help="Continue from NAME.ckpt if present.")
@@ -234,6 +242,7 @@ def train_command(
     )
     tcfg = _train_config(
         algorithm=algorithm,
+        es_energy_weight=energy_weight,
         method=method,
         episodes=episodes,
         seed=seed,

@@ -148,8 +148,8 @@ def make_policy(
     from .torchscript import TorchScriptPolicy, read_sidecar
 
     side = read_sidecar(spec.path)
-    trained_for = side.get("operating_model", "paper")  # actors made before it was recorded
-    if trained_for != model:
+    trained_for = side.get("operating_model")  # None: a sidecar written before it was recorded
+    if trained_for is not None and trained_for != model:
         raise InputError(
             f"this actor was trained for the operating model {trained_for!r}, the run's [ops] "
             f"is {model!r}: use a config whose [ops] matches, or another --policy",

@@ -99,7 +99,7 @@ class TrainConfig(BaseModel):
     es_pairs: int = Field(6, ge=1, description="es: antithetic pairs of weights per generation")
     es_days: int = Field(4, ge=1, description="es: training days each generation replays")
     es_energy_weight: float = Field(
-        3.0,
+        1.0,
         ge=0,
         description="es: cost of each share of energy per drone above the day's best rule's",
     )

@@ -23,6 +23,11 @@ from marops_cli.sim.step import WindowStep, fly_window, plan_step
 FRAME = Frame(121.47, 31.23, 10.0)
 
 
+def ops_(**changes: object) -> OpsConfig:
+    """The paper's operating model with ``changes``: each test turns on what it checks."""
+    return OpsConfig(**{"stock": "any", "batteries_per_depot": None, "busy": False, **changes})
+
+
 def depots(*xy: tuple[float, float]) -> Depots:
     arr = np.array(xy, dtype=float)
     n = len(arr)
@@ -65,10 +70,10 @@ class Fixed(PolicyBase):
 
 
 def config(ops: OpsConfig | None = None, planner: str = "pool") -> PlannerConfig:
+    """The default config with ``planner`` under ``ops`` (default: the paper's model)."""
     cfg = PlannerConfig()
     cfg.plan.planner = planner
-    if ops is not None:
-        cfg.ops = ops
+    cfg.ops = ops_() if ops is None else ops
     return cfg
 
 
@@ -86,7 +91,7 @@ def test_a_drone_carries_only_its_depots_stock(planner, scope):
     paper = fly_day(A_AND_B, TWO, np.array([0]), policy, config(planner=planner), method="p")
     assert paper.state.delivered_w.tolist() == [0, 0]
 
-    home = config(OpsConfig(stock="home"), planner)
+    home = config(ops_(stock="home"), planner)
     res = fly_day(A_AND_B, TWO, np.array([0]), policy, home, method="h")
     assert res.state.delivered_w[0] == 0
     first = [i for r in res.plans[0].routes for i in r.stops]
@@ -104,7 +109,7 @@ def test_one_window_planned_alone_keeps_parcels_at_home():
     state = DayState(A_AND_B, TWO, np.array([0]), 0.25)
     view = state.view(0)
     assert view.pending_stock is None and view.drone_ready is None
-    how = WindowStep.make(config(OpsConfig(stock="home")), scope="global")
+    how = WindowStep.make(config(ops_(stock="home")), scope="global")
     plan = plan_step(view, np.zeros(1, dtype=np.int64), how)
     assert [i for r in plan.routes for i in r.stops] == [0]
 
@@ -124,7 +129,7 @@ def test_a_drone_without_a_charged_battery_waits_until_one_is():
     assert paper.state.delivered_w.tolist() == [0, 1, 2] and len(energies) == 1
     e = energies.pop()
     power = e / 2.5 / SAME_SPOT.window_s
-    ops = OpsConfig(batteries_per_depot=1, chargers_per_depot=1, charge_power_w=power)
+    ops = ops_(batteries_per_depot=1, chargers_per_depot=1, charge_power_w=power)
     res = fly_day(SAME_SPOT, ONE, np.array([0]), Fixed(), config(ops), method="b")
     assert res.state.delivered_w.tolist() == [0, 1, 4]
     assert [bool(r.stops) for p in res.plans for r in p.routes] == [1, 1, 0, 0, 1, 0]
@@ -141,7 +146,7 @@ def test_two_chargers_charge_two_batteries_at_once():
     window 2 only."""
     paper = fly_day(SAME_SPOT, ONE, np.array([0]), Fixed(), config(), method="p")
     e = next(r.energy_j for r in paper.plans[0].routes)
-    ops = OpsConfig(
+    ops = ops_(
         batteries_per_depot=1, chargers_per_depot=2, charge_power_w=e / 1.5 / SAME_SPOT.window_s
     )
     res = fly_day(SAME_SPOT, ONE, np.array([0]), Fixed(), config(ops), method="b")
@@ -157,7 +162,7 @@ def test_a_long_flight_keeps_its_drone_out_of_the_next_window():
     paper = fly_day(far, ONE, np.array([0]), Fixed(), cfg, method="p")
     assert paper.state.delivered_w.tolist() == [0, 1]  # every flight ends in its window
 
-    res = fly_day(far, ONE, np.array([0]), Fixed(), config(OpsConfig(busy=True)), method="b")
+    res = fly_day(far, ONE, np.array([0]), Fixed(), config(ops_(busy=True)), method="b")
     assert res.state.delivered_w.tolist() == [0, 2]
     assert res.state.arrive_s[0] == pytest.approx(400.0)  # 4 km out, in window 0
     assert not res.plans[1].routes[0].stops  # window 1: only its empty plan
@@ -167,7 +172,7 @@ def test_a_long_flight_keeps_its_drone_out_of_the_next_window():
 
 def test_a_busy_drone_is_not_ready_in_the_view():
     far = day([(4000.0, 0.0)], [0], window_s=600.0, n_windows=3)
-    how = WindowStep.make(config(OpsConfig(busy=True)), scope="global")
+    how = WindowStep.make(config(ops_(busy=True)), scope="global")
     state = DayState(far, ONE, np.array([0]), 0.25, ops=how.ops)
     assert state.view(0).drone_ready.tolist() == [True]
     fly_window(state, 0, np.zeros(1, dtype=np.int64), how)
@@ -178,18 +183,19 @@ def test_a_busy_drone_is_not_ready_in_the_view():
 def test_the_paper_model_tracks_nothing():
     """The defaults, and any setting that leaves all three rules off, run the paper's
     model: no operating state, views and records as before."""
-    assert OpsConfig().paper and OpsConfig(chargers_per_depot=4, charge_power_w=9.0).paper
-    state = DayState(A_AND_B, TWO, np.array([0]), 0.25, ops=OpsConfig(chargers_per_depot=3))
+    assert ops_().paper and ops_(chargers_per_depot=4, charge_power_w=9.0).paper
+    assert not OpsConfig().paper  # the realistic model is the default
+    state = DayState(A_AND_B, TWO, np.array([0]), 0.25, ops=ops_(chargers_per_depot=3))
     assert state.ops is None and ops_metrics(state) == {}
     view = state.view(0)
     assert view.pending_stock is None and view.drone_ready is None
 
 
 def test_a_day_keeps_its_model():
-    state = DayState(A_AND_B, TWO, np.array([0]), 0.25, ops=OpsConfig(busy=True))
-    state.operate(OpsConfig(busy=True))
+    state = DayState(A_AND_B, TWO, np.array([0]), 0.25, ops=ops_(busy=True))
+    state.operate(ops_(busy=True))
     with pytest.raises(ValueError, match="another operating model"):
-        state.operate(OpsConfig(stock="home"))
+        state.operate(ops_(stock="home"))
 
 
 @pytest.mark.parametrize(
@@ -230,7 +236,7 @@ def test_a_state_built_without_the_model_takes_the_steps():
     """The training environment builds its state bare: its first window binds the step's
     model, so later views show it."""
     far = day([(4000.0, 0.0)], [0], window_s=600.0, n_windows=3)
-    how = WindowStep.make(config(OpsConfig(busy=True)), scope="global")
+    how = WindowStep.make(config(ops_(busy=True)), scope="global")
     state = DayState(far, ONE, np.array([0]), 0.25)
     fly_window(state, 0, np.zeros(1, dtype=np.int64), how)
     assert state.ops is not None and state.view(1).drone_ready.tolist() == [False]
@@ -245,16 +251,17 @@ def test_replay_day_records_what_the_model_held_back(tmp_path: Path, example_csv
 
     from marops_cli.cli.app import app
 
-    example = Path(__file__).parents[2] / "examples" / "operations.toml"
+    examples = Path(__file__).parents[2] / "examples"
     days = {}
-    for name, extra in (("paper", []), ("ops", ["--config", str(example)])):
+    paper, realistic = examples / "paper-ops.toml", examples / "operations.toml"
+    for name, extra in (("paper", ["--config", str(paper)]), ("ops", ["--config", str(realistic)])):
         out = tmp_path / name
         args = ["replay-day", str(example_csv), "--date", "0811", "--method", "ops-global"]
         res = CliRunner().invoke(app, [*args, *extra, "--out", str(out)])
         assert res.exit_code == 0, res.output
         record = json.loads(next(out.rglob("metrics.json")).read_text(encoding="utf-8"))
         days[name] = record["days"][0]
-        assert record["meta"]["config"]["ops"]["stock"] == ("home" if extra else "any")
+        assert record["meta"]["config"]["ops"]["stock"] == ("home" if name == "ops" else "any")
     assert "battery_waits" not in days["paper"] and "stock_left" not in days["paper"]
     ops = days["ops"]
     assert sum(ops["stock_left"].values()) == ops["stock_left_total"] == ops["undelivered"]
