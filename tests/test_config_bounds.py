@@ -47,14 +47,15 @@ def test_a_json_number_is_finite(value: float) -> None:
 
 
 @pytest.mark.parametrize(
-    ("flag", "value", "key"),
-    [("--drones", "100000", "sim.drones"), ("--alpha", "inf", "plan.alpha")],
+    ("flag", "value", "expected"),
+    [("--drones", "100000", "1 ≤ drones ≤ 1000"), ("--alpha", "inf", "0 < alpha ≤ 1")],
 )
 def test_an_option_out_of_range_is_refused_up_front(
-    example_csv: Path, tmp_path: Path, fails_cleanly, flag: str, value: str, key: str
+    example_csv: Path, tmp_path: Path, fails_cleanly, flag: str, value: str, expected: str
 ) -> None:
     args = ["replay-day", str(example_csv), "--date", "0811", "--method", "stay", flag, value]
-    fails_cleanly([*args, "--out", str(tmp_path / "o")], tmp_path, key, "docs/config.md")
+    needles = (f"invalid option {flag}: ", expected, "docs/config.md")
+    fails_cleanly([*args, "--out", str(tmp_path / "o")], tmp_path, *needles)
 
 
 def test_a_hub_fleet_above_the_cap_names_the_key(tmp_path: Path) -> None:
