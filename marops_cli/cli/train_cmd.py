@@ -162,7 +162,7 @@ def train_command(
         typer.Option(
             "--algorithm",
             help="ppo (the recurrent actor, paper) or es (the landing actor of an operating "
-            "model; writes NAME.safetensors + .json) [ppo].",
+            "model; writes NAME.safetensors + .json) [default: ppo].",
         ),
     ] = "ppo",
     energy_weight: Annotated[

@@ -90,11 +90,12 @@ def default_policy_path(name: str = DEFAULT_POLICY_NAME) -> Path | None:
     """The shipped actor: ``$MAROPS_POLICY``, else ``marops-basic.pt`` of the installed
     package data (``policies/`` in the source tree, ``marops_cli.shipped`` once installed).
 
-    ``name`` picks another shipped actor (``mappo-basic.pt``, which ``$MAROPS_POLICY``
-    does not replace).
+    ``name`` picks another shipped actor: ``marops-ops.safetensors``, the realistic
+    model's, which ``$MAROPS_POLICY`` replaces too (the default actor of ``marops``
+    whatever the model), or ``mappo-basic.pt``, which it does not replace.
     """
     env = os.environ.get("MAROPS_POLICY")
-    if env and name == DEFAULT_POLICY_NAME:
+    if env and name in (DEFAULT_POLICY_NAME, DEFAULT_LANDING_NAME):
         return Path(env)
     try:
         found = resources.files("marops_cli.shipped") / name

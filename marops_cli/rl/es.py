@@ -20,7 +20,8 @@ quantities the actor is judged by, from the ``backlog`` rule (its weights,
 * w moves by ``es_step`` × Σ (rank(w − σε) − rank(w + σε)) ε / pairs (centred ranks of
   the costs, so one extreme day cannot dominate a step).
 
-Every replay is one episode of the budget (``episodes``), the rules' replays included.
+Every replay of a training day is one episode of the budget (``episodes``), the rules'
+included; held-out evaluations are not.
 Held-out evaluations every ``eval_every`` episodes score w the same way on the training
 cities' held-out days and keep the best (``keep_best``). Every random stream derives
 from ``(seed, stream, generation)`` and replays are deterministic, so a run gives the
@@ -188,12 +189,13 @@ class LandingTrainer:
         self, workers: LocalPool, days: list[Day], held_out: bool = False
     ) -> list[dict[str, Any]]:
         """Each day's best rule (lowest J, the first of :data:`RULES` on ties): its name and
-        metrics. Every rule's replay counts as an episode."""
+        metrics. A rule's replay of a training day counts as an episode."""
         pairs = [(d, r) for d in days for r in RULES]
         rows = workers.results(
             [LandingDay(k, None, *d, held_out=held_out, rule=r) for k, (d, r) in enumerate(pairs)]
         )
-        self.episode += len(rows)
+        if not held_out:  # evaluations are not training episodes
+            self.episode += len(rows)
         out = []
         for i in range(len(days)):
             part = dict(zip(RULES, rows[i * len(RULES) : (i + 1) * len(RULES)], strict=True))
@@ -281,7 +283,6 @@ class LandingTrainer:
         best = self.held_out_rules
         w = tuple(float(x) for x in self.weight)
         mine = workers.results([LandingDay(k, w, *d, held_out=True) for k, d in enumerate(days)])
-        self.episode += len(days)
         refs = [{"j": b["objective_j_mj"], "energy": b["mean_energy_kj"]} for b in best]
         cost = self._cost(mine, refs)
         ev = {

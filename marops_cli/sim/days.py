@@ -108,7 +108,7 @@ class ReplayWork:
         if self._policy is None:
             # --trust-actor, carried in every area's config (one run, one choice).
             trust = any(scn.cfg.sim.trust_actor for scn, _ in self.areas.values())
-            ops = next(iter(self.areas.values()))[0].cfg.ops
+            ops = next((scn.cfg.ops for scn, _ in self.areas.values()), None)
             self._policy = method_policy(self.method, self.policy, self.seed, trust=trust, ops=ops)
         return self._policy
 

@@ -21,7 +21,7 @@ from .conftest import quick
 
 
 def _es(**fields: object):  # noqa: ANN202
-    base = {"algorithm": "es", "es_days": 1, "es_pairs": 1, "keep_best": False}
+    base = {"algorithm": "es", "es_days": 1, "es_pairs": 1, "keep_best": False, "eval_every": 1000}
     return quick(**{**base, **fields})
 
 
@@ -32,7 +32,7 @@ def _weights(out: Path) -> list[float]:
 def test_generations_move_the_weights_and_export(
     tiny_csv: Path, small_cfg: PlannerConfig, tmp_path: Path
 ) -> None:
-    td = load_training_data(tiny_csv, small_cfg, _es(episodes=7))
+    td = load_training_data(tiny_csv, small_cfg, _es(episodes=13))
     side = train_actor(td, tmp_path / "a.safetensors", resume=False)
     assert side["operating_model"] == "stock=home, batteries, busy"
     assert side["generations"] == 2 and side["episodes"] >= 7
@@ -50,13 +50,13 @@ def test_workers_and_resume_give_the_same_weights(
 ) -> None:
     one = tmp_path / "one" / "a.safetensors"
     one.parent.mkdir()
-    train_actor(load_training_data(tiny_csv, small_cfg, _es(episodes=7)), one, resume=False)
+    train_actor(load_training_data(tiny_csv, small_cfg, _es(episodes=13)), one, resume=False)
     two = tmp_path / "two" / "a.safetensors"
     two.parent.mkdir()
     cut = load_training_data(tiny_csv, small_cfg, _es(episodes=4, workers=2))
     train_actor(cut, two, resume=False)  # stops after one generation
     assert _weights(two) != _weights(one)
-    rest = load_training_data(tiny_csv, small_cfg, _es(episodes=7, workers=2))
+    rest = load_training_data(tiny_csv, small_cfg, _es(episodes=13, workers=2))
     train_actor(rest, two, resume=True)
     assert _weights(two) == _weights(one)
 

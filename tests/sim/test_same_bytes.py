@@ -28,8 +28,13 @@ def _marops(args: list[str], cwd: Path, threads: int) -> None:
     assert res.returncode == 0, res.stderr
 
 
+PAPER_OPS = Path(__file__).resolve().parents[2] / "examples" / "paper-ops.toml"
+
+
 def _replay(example_csv: Path, cwd: Path, threads: int, method: str) -> dict[str, str]:
     args = ["replay-day", str(example_csv), "--date", "0811", "--method", method, "-q"]
+    if method == "mappo":  # its actor flies the paper's operating model only
+        args += ["--config", str(PAPER_OPS)]
     _marops([*args, "--out", "out"], cwd, threads)
     return {
         name: hashlib.sha256((cwd / "out" / name).read_bytes()).hexdigest()
