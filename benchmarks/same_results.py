@@ -155,6 +155,8 @@ def file_fingerprint(path: Path) -> dict[str, Any]:
         return actor_fingerprint(path)
     if path.suffix == ".json":
         return json_fingerprint(strip_volatile(json.loads(path.read_text(encoding="utf-8"))))
+    if path.suffix == ".safetensors":  # a landing actor's weights: its bytes
+        return {"sha256": _sha(path.read_bytes())}
     raise ValueError(f"no fingerprint for {path.name}")
 
 
