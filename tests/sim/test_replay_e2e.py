@@ -22,8 +22,21 @@ from marops_cli.sim.metrics import gini
 
 runner = CliRunner()
 DAY = "2022-08-11"
-METHODS = ["stay", "ops-random", "greedy", "ops-global", "marops", "squares", "mappo"]
+METHODS = [
+    "stay",
+    "ops-random",
+    "greedy",
+    "ops-global",
+    "backlog",
+    "rebalance",
+    "marops",
+    "squares",
+    "mappo",
+]
 SEGMENTATION = {"squares": "squares"}  # the rest replay on k-means depots
+PAPER_OPS = Path(__file__).resolve().parents[2] / "examples" / "paper-ops.toml"
+CONFIG = {"mappo": ["--config", str(PAPER_OPS)]}
+"""mappo's actor flies the paper's operating model only; the rest the default (realistic)."""
 
 
 @pytest.fixture(scope="module")
@@ -76,6 +89,7 @@ def replays(example_csv: Path, depots_files, tmp_path_factory: pytest.TempPathFa
                 method,
                 "--out",
                 str(out),
+                *CONFIG.get(method, []),
             ],
         )
         assert res.exit_code == 0, res.output
@@ -191,15 +205,18 @@ def test_day_accounting_and_metrics_recompute(replays, day_requests, method: str
 
 def test_metrics_json_holds_the_spec_columns(replays) -> None:
     """A day's record, flattened as the result tables flatten it, is the spec's columns
-    in the spec's order (besides day, method, hub, the per-depot loads and the drones
-    per type)."""
+    in the spec's order (besides day, method, hub, the per-depot loads, the drones per
+    type and the parcels left per depot), the operating model's after the day's under
+    the realistic model, none of them under the paper's."""
     from marops_cli.evaluate.tables import flatten
-    from marops_cli.sim.metrics import DAY_METRICS
+    from marops_cli.sim.metrics import DAY_METRICS, OPS_METRICS
 
-    m = json.loads((replays["marops"] / "metrics.json").read_text())["days"][0]
-    cols = [k for k in flatten(m) if k not in ("day", "method", "hub")]
-    per_key = ("depot_load_kg_", "drone_types_")
-    assert [k for k in cols if not k.startswith(per_key)] == [s.name for s in DAY_METRICS]
+    per_key = ("depot_load_kg_", "drone_types_", "stock_left_")
+    for method, specs in (("marops", (*DAY_METRICS, *OPS_METRICS)), ("mappo", DAY_METRICS)):
+        m = json.loads((replays[method] / "metrics.json").read_text())["days"][0]
+        cols = [k for k in flatten(m) if k not in ("day", "method", "hub")]
+        kept = [k for k in cols if not k.startswith(per_key) or k in {s.name for s in specs}]
+        assert kept == [s.name for s in specs], method
 
 
 def test_gini_hand_values() -> None:
