@@ -195,7 +195,10 @@ class Runner:
     def __call__(self, *args: str) -> None:
         cmd = [self.marops, *args]
         if self.paper and args[0] != "synth" and "--config" not in args:
-            cmd += ["--config", str(PAPER_OPS)]
+            # Copied into the work folder and named relatively: a trained actor's sidecar
+            # records its command, which must not depend on where the checkout lies.
+            shutil.copyfile(PAPER_OPS, self.work / PAPER_OPS.name)
+            cmd += ["--config", PAPER_OPS.name]
         proc = subprocess.run(
             cmd, cwd=self.work, env=self.env, capture_output=True, text=True, check=False
         )
