@@ -103,15 +103,14 @@ def _job(task: tuple[Any, ...]) -> list[dict[str, Any]]:
 
 def choices(res: Any) -> dict[str, int]:
     """How often each action index was flown (``free``: the free landing) by the drones
-    that could fly (the operating model's held-back drones decide nothing)."""
-    held = None if res.state.ops is None else res.state.ops.held_w
+    that could fly (``sim.metrics.flown_actions``)."""
+    from marops_cli.plans.view import FREE
+    from marops_cli.sim.metrics import flown_actions
+
     out: dict[str, int] = {}
-    for plan in res.plans:
-        for r in plan.routes:
-            if held is not None and plan.t < held.shape[0] and held[plan.t, r.drone]:
-                continue
-            key = "free" if res.scope == "global" or r.action < 0 else str(int(r.action))
-            out[key] = out.get(key, 0) + 1
+    for action in flown_actions(res):
+        key = "free" if action == FREE else str(action)
+        out[key] = out.get(key, 0) + 1
     return out
 
 

@@ -314,50 +314,22 @@ def case_evaluate(run: Runner, out: str) -> dict[str, Any]:
     return tree_fingerprints(run.work / out, ("results.parquet",))
 
 
-def case_train(run: Runner, out: str) -> dict[str, Any]:
+def _train(run: Runner, out: str, actor: str, episodes: str, *first: str) -> dict[str, Any]:
+    """Train ``actor`` (``first``: the options before ``--out``) for ``episodes`` on two
+    days of the hubs city; the fingerprints of the actor and its sidecar."""
     data = run.synth("hubs")
-    run(
-        "train",
-        data,
-        "--out",
-        f"{out}/actor.pt",
-        "--episodes",
-        "20",
-        "--workers",
-        "1",
-        "--seed",
-        "0",
-        "--dates",
-        "0801..0802",
-        "--eval-days",
-        "1",
-        "--no-resume",
-    )
-    return tree_fingerprints(run.work / out, ("actor.pt", "actor.json"))
+    run("train", data, *first, "--out", f"{out}/{actor}", "--episodes", episodes,
+        "--workers", "1", "--seed", "0", "--dates", "0801..0802", "--eval-days", "1",
+        "--no-resume")  # fmt: skip
+    return tree_fingerprints(run.work / out, (actor, str(Path(actor).with_suffix(".json"))))
+
+
+def case_train(run: Runner, out: str) -> dict[str, Any]:
+    return _train(run, out, "actor.pt", "20")
 
 
 def case_train_es(run: Runner, out: str) -> dict[str, Any]:
-    data = run.synth("hubs")
-    run(
-        "train",
-        data,
-        "--algorithm",
-        "es",
-        "--out",
-        f"{out}/land.safetensors",
-        "--episodes",
-        "60",
-        "--workers",
-        "1",
-        "--seed",
-        "0",
-        "--dates",
-        "0801..0802",
-        "--eval-days",
-        "1",
-        "--no-resume",
-    )
-    return tree_fingerprints(run.work / out, ("land.safetensors", "land.json"))
+    return _train(run, out, "land.safetensors", "60", "--algorithm", "es")
 
 
 def realistic(case: Callable[[Runner, str], dict[str, Any]]) -> Callable[[Runner, str], Any]:

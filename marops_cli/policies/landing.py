@@ -52,6 +52,7 @@ __all__ = [
     "FEATURES",
     "LANDING_FORMAT",
     "LandingActor",
+    "check_trained_for",
     "landing_features",
     "operating_model",
 ]
@@ -94,6 +95,17 @@ def operating_model(ops: OpsConfig) -> str:
     if ops.busy:
         parts.append("busy")
     return ", ".join(parts)
+
+
+def check_trained_for(trained_for: str | None, model: str, actor: str | Path | None) -> None:
+    """Refuse to fly the actor file ``actor``, trained for the operating model
+    ``trained_for`` (None: a sidecar that names none), in a run under ``model``."""
+    if trained_for is not None and model != trained_for:
+        raise InputError(
+            f"this actor was trained for the operating model {trained_for!r}, the run's "
+            f"[ops] is {model!r}: use a config whose [ops] matches, or another --policy",
+            file=actor,
+        )
 
 
 class DepotState:
@@ -176,13 +188,7 @@ class LandingActor(EnergyAware):
 
     def check_model(self, model: str) -> None:
         """Refuse a run under an operating model other than the one it was trained for."""
-        if self.trained_for is not None and model != self.trained_for:
-            raise InputError(
-                f"this actor was trained for the operating model {self.trained_for!r}, the "
-                f"run's [ops] is {model!r}: use a config whose [ops] matches, or another "
-                "--policy",
-                file=self.path,
-            )
+        check_trained_for(self.trained_for, model, self.path)
 
     def act(self, view: WindowView) -> np.ndarray:
         out = np.zeros(view.n_drones, dtype=np.int64)

@@ -12,6 +12,7 @@ from typing import Literal
 from ..errors import InputError
 from .base import Policy
 from .baselines import GlobalPolicy, GreedyPolicy, MyopicPolicy, RandomPolicy, StayPolicy
+from .landing import check_trained_for
 from .rules import BacklogPolicy, RebalancePolicy
 
 SIMPLE = ("stay", "random", "greedy", "global", "myopic", "backlog", "rebalance")
@@ -149,13 +150,8 @@ def make_policy(
     from .torchscript import TorchScriptPolicy, read_sidecar
 
     side = read_sidecar(spec.path)
-    trained_for = side.get("operating_model")  # None: a sidecar written before it was recorded
-    if trained_for is not None and trained_for != model:
-        raise InputError(
-            f"this actor was trained for the operating model {trained_for!r}, the run's [ops] "
-            f"is {model!r}: use a config whose [ops] matches, or another --policy",
-            file=spec.path,
-        )
+    # A sidecar written before marops recorded the model names none: any model.
+    check_trained_for(side.get("operating_model"), model, spec.path)
     if "plan_slots" in side:  # a MAPPO actor: destination x plan slot
         from .direct import DirectPolicy
 

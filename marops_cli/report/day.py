@@ -131,14 +131,14 @@ def _title(files: RouteFiles, day: dict[str, Any] | None) -> str:
 
 
 def _metrics(page: Page, day: dict[str, Any]) -> None:
-    from ..sim.metrics import METRICS as SPECS
+    from ..sim.metrics import METRICS as BY_NAME
 
     page.heading("The day's metrics (docs/method.md §8)")
     rows = []
     for name in METRICS:
         if name not in day or day[name] is None:
             continue
-        spec = SPECS.get(name)
+        spec = BY_NAME.get(name)
         label = spec.label.replace(" per day", "") if spec else name
         value = spec.day_fmt.format(day[name]) if spec else f"{day[name]:.3f}"
         rows.append((label, value, spec.unit if spec else ""))

@@ -55,6 +55,20 @@ class TrainData:
     ctx: WorkerContext
     files: list[dict[str, Any]]  # per file: file (name), sha256, train_days, heldout_days
 
+    def start_event(self, episode: int, resumed: bool) -> dict[str, Any]:
+        """A run's first progress event: where it starts, and on how many days, scenarios
+        and files it trains."""
+        return {
+            "kind": "start",
+            "episode": episode,
+            "episodes": self.ctx.tcfg.episodes,
+            "resumed": resumed,
+            "train_days": sum(len(f["train_days"]) for f in self.files),
+            "eval_days": sum(len(f["heldout_days"]) for f in self.files),
+            "scenarios": len(self.ctx.scenarios),
+            "files": len(self.files),
+        }
+
 
 def load_training_data(
     data: str | Path | Sequence[str | Path],

@@ -302,18 +302,7 @@ class LandingTrainer:
     def run(self, resume: bool) -> None:
         resumed = resume and self.load_checkpoint()
         t = self.tcfg
-        self.emit(
-            {
-                "kind": "start",
-                "episode": self.episode,
-                "episodes": t.episodes,
-                "resumed": resumed,
-                "train_days": sum(len(f["train_days"]) for f in self.td.files),
-                "eval_days": sum(len(f["heldout_days"]) for f in self.td.files),
-                "scenarios": len(self.td.ctx.scenarios),
-                "files": len(self.td.files),
-            }
-        )
+        self.emit(self.td.start_event(self.episode, resumed))
         per_generation = t.es_days * (2 * t.es_pairs + 1)
         with LocalPool(LandingWork(self.td.ctx), t.workers) as workers:
             if not self.evals:

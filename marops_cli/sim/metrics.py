@@ -3,7 +3,7 @@ the record of one replayed day."""
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -234,22 +234,28 @@ ACTION_KINDS = ("stay", "move", "free")
 decision under the ``global`` scope, whose routes land nearest their last customer)."""
 
 
+def flown_actions(res: FlownDay) -> Iterator[int]:
+    """The action each drone that could fly flew, window by window, drone by drone:
+    ``FREE`` for a free landing and for every decision under the ``global`` scope, whose
+    routes land nearest their last customer. Drones held back by the operating model
+    (busy, or waiting for a battery) decide nothing and are left out."""
+    held = None if res.state.ops is None else res.state.ops.held_w
+    for plan in res.plans:
+        for r in plan.routes:
+            if held is not None and plan.t < held.shape[0] and held[plan.t, r.drone]:
+                continue
+            yield FREE if res.scope == "global" else int(r.action)
+
+
 def action_shares(res: FlownDay) -> dict[str, float]:
     """The share of each :data:`ACTION_KINDS` among the day's decisions of drones that
     could fly (``actions_stay``, ``actions_move``, ``actions_free``; they sum to 1, or are
     all 0 without a decision). The action is the one flown (``DroneRoute.action``: a
     destination out of reach flies as stay); drones held back by the operating model
     (busy, or waiting for a battery) decide nothing and count in ``actions_idle``."""
-    held = None if res.state.ops is None else res.state.ops.held_w
     counts = dict.fromkeys(ACTION_KINDS, 0)
-    for plan in res.plans:
-        for r in plan.routes:
-            if held is not None and plan.t < held.shape[0] and held[plan.t, r.drone]:
-                continue
-            if res.scope == "global" or r.action == FREE:
-                counts["free"] += 1
-            else:
-                counts["stay" if r.action == 0 else "move"] += 1
+    for action in flown_actions(res):
+        counts["free" if action == FREE else "stay" if action == 0 else "move"] += 1
     n = sum(counts.values())
     return {f"actions_{k}": c / n if n else 0.0 for k, c in counts.items()}
 
