@@ -27,15 +27,9 @@ chooses; value: Σ (1 + delay h) of the parcels waiting at d; ``lg`` = log1p):
 9. 1 when d is s (stay)
 10. time of day (fraction of the day's windows gone) × feature 2
 11. time of day × feature 4
-12. the detour to d, km: over the parcels stocked at s (those the drone may carry), the
-    mean of their distance to d less their distance to the depot nearest them — the
-    empty flight a route through them adds by ending at d rather than free; with no
-    parcels at s, the distance s → d (the drone flies there empty)
-13. α (the run's trade-off, docs/method.md §4.2: the larger, the dearer energy) ×
-    feature 12
 
 The file format is data only: ``NAME.safetensors`` holds one float32 tensor ``weight`` of
-shape ``(14,)``, its sidecar ``NAME.json`` says ``format = "marops-landing-actor/2"`` and
+shape ``(12,)``, its sidecar ``NAME.json`` says ``format = "marops-landing-actor/1"`` and
 the operating model it was trained for (docs/method.md §6, "Trust model of actor files").
 """
 
@@ -76,16 +70,12 @@ FEATURES = (
     "stay",
     "time x backlog score",
     "time x distance km",
-    "detour km",
-    "alpha x detour km",
 )
 """The features of a destination, in order (the module docstring defines them)."""
 N_FEATURES = len(FEATURES)
 BACKLOG_WEIGHTS = np.eye(N_FEATURES)[2]
 """The weights that make the landing actor the ``backlog`` rule: training starts there."""
-LANDING_FORMAT = "marops-landing-actor/2"
-"""The sidecar's format: version 2 has the 14 features above (version 1 had the first 12;
-its weights file is refused by shape)."""
+LANDING_FORMAT = "marops-landing-actor/1"
 _UNLIMITED_SPARES = 3.0
 """What feature 7 reads where swaps are unlimited (the paper's batteries): plenty."""
 
@@ -121,7 +111,7 @@ def check_trained_for(trained_for: str | None, model: str, actor: str | Path | N
 class DepotState:
     """Per-depot inputs of one window's features (the same for every drone)."""
 
-    def __init__(self, view: WindowView, alpha: float = 0.5) -> None:
+    def __init__(self, view: WindowView) -> None:
         dep = view.depots
         n = len(dep)
         self.value = waiting_per_depot(view, 1.0 + view.pending_delay_h)
@@ -135,29 +125,10 @@ class DepotState:
         charging = view.depot_charging
         self.charging = np.zeros(n) if charging is None else charging.astype(float)
         self.time = view.t / max(1, view.n_windows)
-        self.alpha = alpha
-        self.detour = _detours(view)
-
-
-def _detours(view: WindowView) -> np.ndarray:
-    """``(N, N)`` feature 12 of destination d for a drone at depot s (module docstring)."""
-    dep = view.depots
-    n = len(dep)
-    out = np.hypot(*(dep.xy[None, :, :] - dep.xy[:, None, :]).transpose(2, 0, 1))
-    stock = view.pending_area if view.pending_stock is None else view.pending_stock
-    if stock.size:
-        to = np.hypot(*(view.pending_xy[:, None, :] - dep.xy[None, :, :]).transpose(2, 0, 1))
-        extra = to - to.min(axis=1, keepdims=True)  # (P, N)
-        total = np.zeros((n, n))
-        np.add.at(total, stock, extra)
-        count = np.bincount(stock, minlength=n)
-        has = count > 0
-        out[has] = total[has] / count[has, None]
-    return out / 1000.0
 
 
 def landing_features(view: WindowView, depots: DepotState, s: int, there: np.ndarray) -> np.ndarray:
-    """``(A, 14)`` the features of a drone at depot ``s``'s destinations, with ``there``
+    """``(A, 12)`` the features of a drone at depot ``s``'s destinations, with ``there``
     the drones counted at each depot (module docstring)."""
     dep = view.depots
     dests = dep.candidates[s]
@@ -178,8 +149,6 @@ def landing_features(view: WindowView, depots: DepotState, s: int, there: np.nda
             (dests == s).astype(np.float64),
             depots.time * score,
             depots.time * dist,
-            depots.detour[s, dests],
-            depots.alpha * depots.detour[s, dests],
         ],
         axis=1,
     )
@@ -208,7 +177,6 @@ class LandingActor(EnergyAware):
         self.weight = w
         self.trained_for = trained_for
         self.path = path
-        self.alpha = 0.5
 
     @property
     def identity(self) -> str | Path:
@@ -216,7 +184,6 @@ class LandingActor(EnergyAware):
 
     def configure(self, cfg: PlannerConfig) -> None:
         super().configure(cfg)
-        self.alpha = cfg.plan.alpha
         self.check_model(operating_model(cfg.ops))
 
     def check_model(self, model: str) -> None:
@@ -225,7 +192,7 @@ class LandingActor(EnergyAware):
 
     def act(self, view: WindowView) -> np.ndarray:
         out = np.zeros(view.n_drones, dtype=np.int64)
-        depots = DepotState(view, self.alpha)
+        depots = DepotState(view)
         there = np.bincount(view.drone_depot, minlength=len(view.depots)).astype(np.float64)
         for u, s in enumerate(view.drone_depot):
             s = int(s)
@@ -241,13 +208,12 @@ class LandingActor(EnergyAware):
 
 def load_landing_actor(path: Path, side: dict[str, Any], sidecar: Path) -> LandingActor:
     """The landing actor of the weights file ``path`` (``NAME.safetensors``) described by
-    ``side`` (read from ``sidecar``): one finite float32 tensor ``weight`` of 14 values
-    (an older file's 12 are refused by shape).
+    ``side`` (read from ``sidecar``): one finite float32 tensor ``weight`` of 12 values.
     Nothing of the file runs (a safetensors file is a JSON header and raw numbers)."""
     from safetensors import SafetensorError, safe_open
 
     if path.stat().st_size > (1 << 16):
-        raise InputError(f"larger than a landing actor's {N_FEATURES} weights", file=path)
+        raise InputError("larger than a landing actor's 12 weights", file=path)
     try:
         with safe_open(str(path), framework="numpy") as f:
             names = set(f.keys())

@@ -2,7 +2,7 @@
 §6.1, "The landing actor"; docs/decisions.md, "Learning where to land").
 
 The landing actor (:class:`~marops_cli.policies.landing.LandingActor`) scores each
-destination by ``weight · features``. Training searches the 14 weights directly on the
+destination by ``weight · features``. Training searches the 12 weights directly on the
 quantities the actor is judged by, from the ``backlog`` rule (its weights,
 :data:`~marops_cli.policies.landing.BACKLOG_WEIGHTS`):
 
@@ -13,10 +13,10 @@ quantities the actor is judged by, from the ``backlog`` rule (its weights,
   ``alpha_range``) and ``es_pairs`` directions ε ~ N(0, I), and replays every day with
   the weights w, w + σε and w − σε (antithetic pairs: the same days for every member,
   so the day's own difficulty cancels);
-* a member's cost is the mean over the days of its J over the best rule's J, plus
-  ``es_energy_weight`` × the share by which its mean energy per drone over the best
-  rule's (over the days) exceeds 1 + ``es_energy_slack`` (0 within it;
-  :func:`landing_cost`): a plan must not win by spending energy the best rule saves;
+* a member's cost on a day is its J over the best rule's J, plus ``es_energy_weight`` ×
+  the share by which its energy per drone exceeds the best rule's by more than
+  ``es_energy_slack`` (0 within it; :func:`day_cost`): a plan must not win by spending
+  energy the best rule saves; its cost is the mean over the days;
 * w moves by ``es_step`` × Σ (rank(w − σε) − rank(w + σε)) ε / pairs (centred ranks of
   the costs, so one extreme day cannot dominate a step).
 
@@ -60,7 +60,7 @@ from ..workers import LocalPool
 from .data import TrainData, fingerprint
 from .rollout import TrainScenario, WorkerContext, derive_seed
 
-__all__ = ["RULES", "LandingTrainer", "landing_cost", "landing_weights_bytes", "write_landing_actor"]
+__all__ = ["RULES", "LandingTrainer", "day_cost", "landing_weights_bytes", "write_landing_actor"]
 
 _STREAM_BATCH, _STREAM_NOISE = 11, 12
 _CKPT_FORMAT = "marops-landing-ckpt/1"
@@ -214,9 +214,16 @@ class LandingTrainer:
         return [self.reference[_key(d)] for d in days]
 
     def _cost(self, rows: list[dict[str, float]], refs: list[dict[str, float]]) -> float:
-        """:func:`landing_cost` of replays ``rows`` against their days' best rules."""
+        """Mean over days of :func:`day_cost`."""
         t = self.tcfg
-        return landing_cost(rows, refs, t.es_energy_weight, t.es_energy_slack)
+        return float(
+            np.mean(
+                [
+                    day_cost(r, b, t.es_energy_weight, t.es_energy_slack)
+                    for r, b in zip(rows, refs, strict=True)
+                ]
+            )
+        )
 
     # -- one generation ----------------------------------------------------------------
     def _batch(self) -> list[Day]:
@@ -348,9 +355,9 @@ class LandingTrainer:
                 for s in self.td.ctx.scenarios
             ],
             "files": self.td.files,
-            "reward": "cost = mean over days of J / J of the day's best rule (ops-global, "
-            "backlog, rebalance) + es_energy_weight * max(0, mean over days of energy / its "
-            "energy - 1 - es_energy_slack) (docs/method.md §6.1)",
+            "reward": "cost = J / J of the day's best rule (ops-global, backlog, rebalance) + "
+            "es_energy_weight * max(0, energy / its energy - 1 - es_energy_slack), mean over "
+            "days (docs/method.md §6.1)",
             "train_config": t.model_dump(mode="json"),
             "planner_config": cfg.model_dump(mode="json"),
             "heldout": chosen,
@@ -361,21 +368,15 @@ class LandingTrainer:
         return write_landing_actor(weight, self.out, side)
 
 
-def landing_cost(
-    rows: list[dict[str, float]],
-    refs: list[dict[str, float]],
-    weight: float,
-    slack: float = 0.0,
+def day_cost(
+    row: dict[str, float], ref: dict[str, float], weight: float, slack: float = 0.0
 ) -> float:
-    """The cost of replays ``rows`` of some days against each day's best rule ``refs``
-    (its ``j`` and ``energy``): the mean over the days of J / the best rule's J, plus
-    ``weight`` × the share by which the mean over the days of energy / the best rule's
-    exceeds 1 + ``slack`` (a hinge: up to ``slack`` more energy is free, every share
-    beyond costs ``weight``). The energy is judged over the days together, as the
-    held-out bar judges it, so a day above the rule's is offset by one below."""
-    j = [r["objective_j_mj"] / max(b["j"], 1e-9) for r, b in zip(rows, refs, strict=True)]
-    e = [r["mean_energy_kj"] / max(b["energy"], 1e-9) for r, b in zip(rows, refs, strict=True)]
-    return float(np.mean(j)) + weight * max(0.0, float(np.mean(e)) - 1.0 - slack)
+    """A day's cost of a replay ``row`` against the day's best rule ``ref`` (its ``j`` and
+    ``energy``): J / the best rule's J, plus ``weight`` × the share of energy per drone
+    above the best rule's beyond ``slack`` (a hinge: up to ``slack`` more energy is free,
+    every share beyond costs ``weight``)."""
+    excess = row["mean_energy_kj"] / max(ref["energy"], 1e-9) - 1.0 - slack
+    return row["objective_j_mj"] / max(ref["j"], 1e-9) + weight * max(0.0, excess)
 
 
 def _key(d: Day) -> str:

@@ -12,7 +12,7 @@ import pytest
 from typer.testing import CliRunner
 
 from marops_cli.cli.app import app
-from marops_cli.config import OpsConfig, PlannerConfig, override
+from marops_cli.config import OpsConfig, PlannerConfig
 from marops_cli.errors import InputError
 from marops_cli.policies import BacklogPolicy, make_policy
 from marops_cli.policies.landing import (
@@ -31,7 +31,7 @@ REALISTIC = "stock=home, batteries, busy"
 
 
 def _side(model: str = REALISTIC) -> dict:
-    return {"format": "marops-landing-actor/2", "operating_model": model}
+    return {"format": "marops-landing-actor/1", "operating_model": model}
 
 
 def test_features_by_hand() -> None:
@@ -55,27 +55,7 @@ def test_features_by_hand() -> None:
     assert f[0, 8] == pytest.approx(lg(3.0)) and f[0, 9] == 1.0
     t = view.t / view.n_windows
     assert f[2, 10] == pytest.approx(t * lg(1.0)) and f[2, 11] == pytest.approx(t * 3.0)
-    # No parcels stocked at depot 0: the detour is the empty flight there; α 0.5 by default.
-    assert f[:, 12] == pytest.approx([0.0, 1.0, 3.0]) and f[:, 13] == pytest.approx([0, 0.5, 1.5])
     assert f.shape == (3, len(FEATURES))
-
-
-def test_detour_by_hand() -> None:
-    # Both parcels of depot 1 lie 100 m beside it: ending at depot 1 adds nothing, at
-    # depot 0 (1 km away) sqrt(1000² + 100²) − 100 m, at depot 2 (2 km) sqrt(2000² + 100²)
-    # − 100 m; α 0.8 prices feature 13.
-    view = _view([0.0, 1000.0, 3000.0], [1, 1, 2], [1])
-    depots = DepotState(view, alpha=0.8)
-    f = landing_features(view, depots, 1, np.zeros(3))
-    dests = list(view.depots.candidates[1])
-    beside = {0: np.hypot(1000.0, 100.0), 1: 100.0, 2: np.hypot(2000.0, 100.0)}
-    want = {d: (m - 100.0) / 1000 for d, m in beside.items()}
-    assert f[:, 12] == pytest.approx([want[d] for d in dests])
-    assert f[:, 13] == pytest.approx([0.8 * want[d] for d in dests])
-    # The actor reads α from the run's settings.
-    actor = LandingActor(np.zeros(len(FEATURES)))
-    actor.configure(override(PlannerConfig(), plan__alpha=0.3))
-    assert actor.alpha == 0.3
 
 
 def test_backlog_weights_are_backlog() -> None:
@@ -123,13 +103,12 @@ def test_file_round_trip(tmp_path: Path) -> None:
     ("tensors", "side", "match"),
     [
         ({"weight": np.zeros(5, np.float32)}, _side(), "expected float32"),
-        ({"weight": np.zeros(12, np.float32)}, _side(), r"expected float32 \[14\]"),
-        ({"weight": np.zeros(14, np.float64)}, _side(), "expected float32"),
-        ({"weight": np.full(14, np.nan, np.float32)}, _side(), "NaN or infinite"),
-        ({"weight": np.zeros(14, np.float32), "x": np.zeros(1, np.float32)}, _side(), "one tensor"),
-        ({"weight": np.zeros(14, np.float32)}, {"format": "marops-landing-actor/2"}, "operating"),
+        ({"weight": np.zeros(12, np.float64)}, _side(), "expected float32"),
+        ({"weight": np.full(12, np.nan, np.float32)}, _side(), "NaN or infinite"),
+        ({"weight": np.zeros(12, np.float32), "x": np.zeros(1, np.float32)}, _side(), "one tensor"),
+        ({"weight": np.zeros(12, np.float32)}, {"format": "marops-landing-actor/1"}, "operating"),
     ],
-    ids=["shape", "version-1", "dtype", "nan", "extra", "no-model"],
+    ids=["shape", "dtype", "nan", "extra", "no-model"],
 )
 def test_bad_files(tmp_path: Path, tensors: dict, side: dict, match: str) -> None:
     from safetensors.numpy import save_file

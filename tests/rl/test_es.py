@@ -15,7 +15,7 @@ from marops_cli.errors import InputError
 from marops_cli.policies import make_policy
 from marops_cli.policies.landing import BACKLOG_WEIGHTS, LandingActor
 from marops_cli.rl.data import load_training_data
-from marops_cli.rl.es import landing_cost
+from marops_cli.rl.es import day_cost
 from marops_cli.rl.train import train_actor
 
 from .conftest import quick
@@ -70,19 +70,12 @@ def test_paper_model_is_refused(tiny_csv: Path, small_cfg: PlannerConfig, tmp_pa
 
 
 def test_energy_above_the_slack_costs_the_weight() -> None:
-    refs = [{"j": 100.0, "energy": 500.0}, {"j": 200.0, "energy": 400.0}]
+    ref = {"j": 100.0, "energy": 500.0}
 
-    def cost(energy: tuple[float, float], weight: float, slack: float) -> float:
-        rows = [
-            {"objective_j_mj": 90.0, "mean_energy_kj": energy[0]},
-            {"objective_j_mj": 220.0, "mean_energy_kj": energy[1]},
-        ]
-        return landing_cost(rows, refs, weight, slack)
+    def cost(j: float, e: float, weight: float, slack: float) -> float:
+        return day_cost({"objective_j_mj": j, "mean_energy_kj": e}, ref, weight, slack)
 
-    j = (0.9 + 1.1) / 2
-    assert cost((480.0, 400.0), 10.0, 0.01) == pytest.approx(j)  # less energy: J alone
-    assert cost((505.0, 404.0), 10.0, 0.01) == pytest.approx(j)  # +1 %: within the slack
-    assert cost((515.0, 412.0), 10.0, 0.01) == pytest.approx(j + 10 * 0.02)  # +3 %: 2 % priced
-    assert cost((515.0, 412.0), 1.0, 0.0) == pytest.approx(j + 0.03)  # no slack: all of it
-    # Energy counts over the days together: +6 % one day, −4 % the other is +1 %.
-    assert cost((530.0, 384.0), 10.0, 0.01) == pytest.approx(j)
+    assert cost(90.0, 480.0, 10.0, 0.01) == pytest.approx(0.9)  # less energy: J alone
+    assert cost(90.0, 505.0, 10.0, 0.01) == pytest.approx(0.9)  # +1 %: within the slack
+    assert cost(90.0, 515.0, 10.0, 0.01) == pytest.approx(0.9 + 10 * 0.02)  # +3 %: 2 % priced
+    assert cost(90.0, 515.0, 1.0, 0.0) == pytest.approx(0.9 + 0.03)  # no slack: all of it
