@@ -14,12 +14,14 @@ route's). It is solved by column generation: the master over the routes found so
 (first the planner's own) gives request prices π ≥ 0, and the pricing
 (:mod:`.pricing`) looks for a route of positive reduced cost. Any π ≥ 0 proves
 
-    G ≤ Σ_d n_d G_∅d + Σ_i π_i + Σ_d n_d · max(0, max_k (Σ_{i∈k} (λ v_i − π_i) − E_k + E_∅d))
+    G ≤ Σ_d n_d G_∅d + Σ_i π_i + Σ_d n_d · max(0, U_d)
 
-(Lagrangian relaxation of the request rows) when the inner maximum is exact; the
-lowest such value is the bound. Without an exact pricing in the budget, the bound is
-the trivial Σ λ v_i over the requests some drone can serve less every drone's least
-energy.
+with U_d ≥ max_k (Σ_{i∈k} (λ v_i − π_i) − E_k + E_∅d) over drone class d's routes
+(Lagrangian relaxation of the request rows); every pricing returns such a U_d, the
+route it found when its search was complete, an upper bound on what it left out
+otherwise. The lowest value is the bound. Before the first pricing the bound is the
+trivial Σ λ v_i over the requests some drone can serve less every drone's least
+energy (its empty route's: no route flies less).
 """
 
 from __future__ import annotations
@@ -60,13 +62,15 @@ class BoundResult:
     lp: float
     """The master program's value at the last solve (a lower bound on the relaxation)."""
     converged: bool
-    """The column generation ended with an exact pricing that found nothing to add (or
-    the bound met the master's value): ``bound`` is the relaxation's value."""
+    """The bound met the master's value: ``bound`` is the relaxation's value (over
+    ng-routes)."""
     priced: bool
     """``bound`` comes from a pricing round; False: the trivial bound (a cap was hit
     before the first round)."""
     capped: str
-    """Which cap stopped the search ("" when none): "time", "iterations" or "labels"."""
+    """Which cap stopped the search short of the relaxation's value ("" when none):
+    "time", "iterations", or "labels" (a full pricing, cut by ``max_labels``, found
+    nothing more to add)."""
     iterations: int
     columns: int
     cpu_s: float
@@ -91,8 +95,8 @@ class _Master:
             np.zeros(n_rows, dtype=np.int32), np.zeros(0, dtype=np.int32), np.zeros(0),
         )
         self.keys: dict[tuple[int, tuple[int, ...]], float] = {}
-        self.cols: list[tuple[int, tuple[int, ...]]] = []
-        """Each column's class and stops in visiting order."""
+        self.cols: list[tuple[int, tuple[int, ...], float]] = []
+        """Each column: its class, stops in visiting order and G − G_∅."""
         self.value = -np.inf
 
     def add(self, cols: list[tuple[int, tuple[int, ...], float]]) -> int:
@@ -104,7 +108,7 @@ class _Master:
             if self.keys.get(key, -np.inf) >= g - _RC_TOL:
                 continue  # known, in an order at least as good
             self.keys[key] = g
-            self.cols.append((c, tuple(stops)))
+            self.cols.append((c, tuple(stops), g))
             req, cnt = np.unique(np.asarray(stops, dtype=np.int64), return_counts=True)
             starts.append(len(index))
             index += [c, *(self.n_cls + req).tolist()]
@@ -184,9 +188,9 @@ def bound_g(
     ``value`` is v_i = 1 + delay_i (h) per pending position, ``lam`` λ (J);
     ``columns`` each task's known routes as ``(positions, energy J)`` (the planner's
     pool: a warm start); ``ng`` the ng-neighbourhood size (≥ the requests: elementary
-    routes). ``time_limit_s`` (CPU), ``max_iterations`` and ``max_labels`` (per route
-    length, in an exact pricing) cap the search; a capped search still returns a valid
-    bound and says which cap it hit.
+    routes). ``time_limit_s`` (CPU), ``max_iterations`` (pricing rounds) and
+    ``max_labels`` (labels of one length in a full pricing) cap the search; a capped
+    search still returns a valid bound and says which cap it hit.
     """
     c0 = time.process_time()
     prize = lam * np.asarray(value, dtype=np.float64)

@@ -10,11 +10,16 @@ from scipy.optimize import linprog
 
 from marops_cli.config import PlanConfig
 from marops_cli.energy import EnergyModel
-from marops_cli.plans.bound import bound_g
+from marops_cli.plans import pricing
+from marops_cli.plans.bound import bound_g, window_bound
 from marops_cli.plans.objective import lam_j
 from marops_cli.plans.pool import DroneTask, build_pool
 from marops_cli.plans.pricing import DroneClass, price
+from marops_cli.plans.select import MilpSelector
+from marops_cli.plans.window import plan_routes
 from marops_cli.segment.depots import nearest_depot
+
+from .test_window import hand_view
 
 ALPHA = 0.5
 
@@ -96,7 +101,12 @@ def _brute(depots, xy, w, value, tasks, model, lam):
 
 
 @pytest.mark.parametrize("seed", range(6))
-def test_bound_is_above_the_optimum_and_equals_the_relaxation_when_elementary(seed, model):
+@pytest.mark.parametrize("reach", [False, True])
+def test_bound_is_above_the_optimum_and_equals_the_relaxation_when_elementary(
+    seed, reach, model, monkeypatch
+):
+    if reach:  # the knapsack tables by reach, which only larger windows build otherwise
+        monkeypatch.setattr(pricing, "_REACH_MIN", 0)
     n_drones, n_req = 2 + seed % 2, 5 + seed % 3
     depots, xy, w, value, tasks = _window(seed, n_drones, n_req)
     lam = lam_j(ALPHA, model.usable_j)
@@ -183,3 +193,24 @@ def test_plan_config_bound_is_off_by_default_and_left_out_of_dumps():
     assert PlanConfig().bound is False
     assert "bound" not in PlanConfig().model_dump()
     assert PlanConfig(bound=True).model_dump()["bound"] is True
+
+
+@pytest.mark.parametrize(("planner", "scope"), [("pool", "range"), ("subsets", "global")])
+def test_plan_routes_records_the_bound_only_when_asked(planner, scope, model):
+    """The hand instance of test_window.py: the bound is at least the plan's G, the
+    objective's record gains ``bound_G`` and ``gap`` with the option on and is as
+    before with it off."""
+    view, acts = hand_view(), np.array([0, 1])
+    off = plan_routes(view, acts, model, PlanConfig(planner=planner), MilpSelector(), scope)
+    assert off.bound is None and set(off.score.as_dict()) == {
+        "J", "G", "energy_j", "served", "pending"
+    }
+    cfg = PlanConfig(planner=planner, bound=True)
+    on = plan_routes(view, acts, model, cfg, MilpSelector(), scope)
+    sc = on.score.as_dict()
+    assert sc["G"] == off.score.G
+    assert sc["bound_G"] >= sc["G"] - 1e-6 and sc["gap"] >= -1e-9
+    assert on.bound.converged and sc["bound_G"] == on.bound.bound
+    # Landing freely and serving anything bounds every planner's plan too.
+    relaxed = window_bound(view, acts, model, cfg, relaxed=True)
+    assert relaxed.bound >= sc["G"] - 1e-6
