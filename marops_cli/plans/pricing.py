@@ -353,8 +353,10 @@ def price(
         if not idx.size:
             break
         nxt = _extend(lab.take(idx), idx, w, pps, dist, d_start, ng, local, cls, bounds, bar)
-        if keep is None and (nxt.size > max_labels or time.process_time() > deadline):
-            keep = max(1, max_labels // max(n, 1))  # too many, or too late: the best per node
+        if keep is None and nxt.size > max_labels:
+            keep = max(1, max_labels // max(n, 1))  # too many: the best per node
+        if time.process_time() > deadline:
+            keep = 1  # too late: finish quickly, the labels left out bound the rest
         if nxt.size and keep is None:
             nxt = nxt.take(~_dominated(nxt))
         if keep is not None and nxt.size:
