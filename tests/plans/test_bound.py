@@ -136,6 +136,10 @@ def test_capped_search_still_returns_a_valid_bound(model):
     res = bound_g(depots, xy, w, value, lam, tasks, model, max_iterations=0)
     assert not res.priced and res.capped == "iterations"
     assert res.bound >= ip - 1e-6
+    # A round or two, and a full pricing cut short by its label cap: still above.
+    for cap in ({"max_iterations": 1}, {"max_iterations": 2}, {"max_labels": 1}):
+        res = bound_g(depots, xy, w, value, lam, tasks, model, **cap)
+        assert res.priced and res.bound >= ip - 1e-6
 
 
 def test_one_drone_one_request_by_hand(model):
