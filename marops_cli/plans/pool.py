@@ -36,7 +36,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-from ..energy import ENERGY_TOL_J, EnergyModel
+from ..energy import ENERGY_TOL_J, PAYLOAD_TOL_KG, EnergyModel
 from ..segment.depots import nearest_depot
 from .order import MAX_STOPS, evaluate_orders, exact_orders, node_distances, subset_masks
 
@@ -45,6 +45,10 @@ SCORES = ("weight", "density", "gain")
 _Route = tuple[tuple[int, ...], float, float, float]  # stops, energy, weight, prizes
 _ACCEPT = 0.01  # ruin and recreate accepts a solution up to this share of G worse, falling to 0
 _EXACT_MAX = 10  # exact re-ordering up to this many stops (2**10 subsets)
+# np.interp's compiled core: the same values without the wrapper's checks, which cost as
+# much as the interpolation itself on the search's small arrays.
+_interp = getattr(np, "_core", np).multiarray.interp
+_max = np.maximum.reduce  # ndarray.max without its Python wrapper (the same value)
 
 
 @dataclass(frozen=True)
@@ -71,6 +75,8 @@ class _Kind:
     """The battery the search plans within: the usable battery less the tolerance, so
     that energies added up insertion by insertion still fit once recomputed."""
     e0: float  # J/m empty
+    fit_kg: float
+    """The heaviest load the payload limit admits (``EnergyModel.fits``' tolerance)."""
     grid: NDArray[np.float64]
     table: NDArray[np.float64]
 
@@ -81,13 +87,14 @@ class _Kind:
             model.max_payload_kg,
             model.usable_j - ENERGY_TOL_J,
             float(model.energy_per_m(0.0)),
+            model.max_payload_kg + PAYLOAD_TOL_KG,
             model.grid_kg,
             model.table_j_per_m,
         )
 
     def e(self, load: NDArray[np.float64] | float) -> NDArray[np.float64]:
         """Energy per metre with ``load`` kg on board (the model's own table, unchecked)."""
-        return np.asarray(np.interp(load, self.grid, self.table))
+        return _interp(load, self.grid, self.table)
 
 
 @dataclass
@@ -252,22 +259,23 @@ class RoutePool:
         nodes = np.empty(k + 1, dtype=np.int64)
         nodes[0], nodes[1:] = dr.cand.size, stops
         load = np.zeros(k + 1)  # L_i leaving node i, i = 0..k
-        load[:k] = np.cumsum(dr.cand_w[stops][::-1])[::-1]
-        dq = dr.dmat[sub[:, None], nodes[None, :]]  # (m, k + 1): node i -> q
+        load[:k] = dr.cand_w[stops][::-1].cumsum()[::-1]
+        dq = dr.dmat.take(nodes, axis=1).take(sub, axis=0)  # (m, k + 1): node i -> q
         e_l = dr.k.e(load)
         e_lq = dr.k.e(np.minimum(load[None, :] + wq[:, None], dr.k.cap))  # (m, k + 1)
         legs = dr.dmat[stops, nodes[:-1]]  # (k,): node i -> node i + 1
         # Inserting q after node i: the legs before it carry q's parcel too (prefix),
         # node i -> q -> node i + 1 replaces node i -> node i + 1.
         d_e = dq * e_lq
-        d_e[:, 1:] += np.cumsum((e_lq[:, :k] - e_l[None, :k]) * legs[None, :], axis=1)
+        d_e[:, 1:] += ((e_lq[:, :k] - e_l[None, :k]) * legs[None, :]).cumsum(axis=1)
         d_e[:, :k] += dq[:, 1:] * e_l[None, :k] - (legs * e_l[:k])[None, :]
         d_e[:, k] += dr.cand_end[sub] - dr.cand_end[stops[-1]]
-        return d_e.min(axis=1), d_e.argmin(axis=1)
+        at = d_e.argmin(axis=1)
+        return d_e[np.arange(m), at], at
 
     def _refresh(self, u: int, score_kind: str, free: NDArray[np.bool_]) -> None:
         dr = self.drones[u]
-        sub = (free[dr.cand] & dr.k.model.fits(dr.weight + dr.cand_w)).nonzero()[0]
+        sub = (free[dr.cand] & (dr.weight + dr.cand_w <= dr.k.fit_kg)).nonzero()[0]
         d_e, slot = self._insertion(dr, sub)
         gain = dr.cand_prize[sub] - d_e
         feas = (dr.energy + d_e <= dr.k.usable) & (gain > 0)
@@ -296,11 +304,11 @@ class RoutePool:
             self._refresh(u, score_kind, free)
         best = np.array(
             [
-                self.drones[u].score.max(initial=-np.inf) if self.drones[u].cand.size else -np.inf
+                _max(self.drones[u].score, initial=-np.inf) if self.drones[u].cand.size else -np.inf
                 for u in users
             ]
         )
-        while best.size and np.isfinite(best.max()):
+        while best.size and np.isfinite(_max(best)):
             i = int(best.argmax())  # ties to the first drone
             u = users[i]
             dr = self.drones[u]
@@ -309,14 +317,14 @@ class RoutePool:
             self._insert(u, j)
             free[q] = False
             self._refresh(u, score_kind, free)
-            best[i] = dr.score.max(initial=-np.inf)
+            best[i] = _max(dr.score, initial=-np.inf)
             for i2, u2 in enumerate(users):  # q is taken: no other drone may insert it
                 hit = self._index[u2].get(q, -1) if u2 != u else -1
                 if hit >= 0:
                     d2 = self.drones[u2]
                     if d2.score[hit] > -np.inf:
                         d2.score[hit] = -np.inf
-                        best[i2] = d2.score.max()
+                        best[i2] = _max(d2.score)
 
     # -- solutions -----------------------------------------------------------------------
 
@@ -372,7 +380,7 @@ class RoutePool:
         if not dr.stops:
             return dr.start_end
         stops = np.array(dr.stops)
-        load = np.cumsum(dr.cand_w[stops][::-1])[::-1]
+        load = dr.cand_w[stops][::-1].cumsum()[::-1]
         prev = np.empty_like(stops)
         prev[0], prev[1:] = dr.cand.size, stops[:-1]  # the start is the last column
         legs = dr.dmat[stops, prev]
@@ -464,7 +472,7 @@ class RoutePool:
                     dr.stops = stops[:pos] + stops[pos + 1 :]
                     e_wo = self._route_energy(dr)
                     w_wo = weight - float(dr.cand_w[stops[pos]])
-                    sub = np.flatnonzero(free[dr.cand] & dr.k.model.fits(w_wo + dr.cand_w))
+                    sub = np.flatnonzero(free[dr.cand] & (w_wo + dr.cand_w <= dr.k.fit_kg))
                     if not sub.size:
                         continue
                     d_e, slot = self._insertion(dr, sub)
