@@ -15,11 +15,13 @@ docs/method.md, "Route pool", explains the method; in short, for one window:
    conflict-free plan of the window.
 3. **Exchange.** In the best construction each route swaps a stop for the best
    unserved candidate that fits once the stop is out, while its G grows.
-   **Improvement.** Ruin and recreate (large neighbourhood search), alternating a
-   ruin of one route (with a relocation to another drone) and a ruin of the served
-   stops nearest a random one over up to three routes; the touched routes are
-   refilled greedily; a result is kept when G grows or is within a falling
-   threshold of the current one. Deterministic: the random stream is seeded.
+   **Improvement.** Ruin and recreate (large neighbourhood search) with three ruins
+   in turn: of one route (with a relocation to another drone), of the served stops
+   nearest a random one over up to three routes, and of the stops whose detour
+   costs the most energy; the touched routes are refilled greedily with blurred
+   scores; a result is kept when G grows or is within a falling threshold of the
+   current one; the best solution's routes get the exchange once more.
+   Deterministic: the random stream is seeded.
 4. **Pool.** Every route any of these solutions gave a drone is a column; the
    selection program then picks one per drone, each request at most once, so its
    result is never worse than the best single solution.
@@ -44,6 +46,9 @@ __all__ = ["DroneTask", "PoolResult", "RoutePool", "build_pool", "finish_route"]
 SCORES = ("weight", "density", "gain")
 _Route = tuple[tuple[int, ...], float, float, float]  # stops, energy, weight, prizes
 _ACCEPT = 0.01  # ruin and recreate accepts a solution up to this share of G worse, falling to 0
+_RUIN_MAX = 8  # the nearest-stops and worst-detour ruins free 2 to this many stops
+_BLINK = 0.5  # ruin and recreate refills by each insertion's score times U(1 - _BLINK, 1)
+_NOISE = 0.5  # the worst-detour ruin ranks each stop's saving times U(_NOISE, 1)
 _EXACT_MAX = 10  # exact re-ordering up to this many stops (2**10 subsets)
 # np.interp's compiled core: the same values without the wrapper's checks, which cost as
 # much as the interpolation itself on the search's small arrays.
@@ -153,6 +158,8 @@ class RoutePool:
         self.depots_xy = np.asarray(depots_xy, dtype=np.float64)
         self.tasks = tasks
         self._near_m: NDArray[np.float64] | None = None
+        # (drone, stops) -> the route's energy without each stop (the worst-detour ruin)
+        self._without_j: dict[tuple[int, tuple[int, ...]], NDArray[np.float64]] = {}
         scored = [self._score_alone(t, k) for t, k in zip(tasks, self.kinds, strict=True)]
         # Each request's "home" drone: the one it suits best (highest value density; ties
         # to the lower drone). A drone keeps its ``n_candidates`` best requests and also
@@ -273,7 +280,16 @@ class RoutePool:
         at = d_e.argmin(axis=1)
         return d_e[np.arange(m), at], at
 
-    def _refresh(self, u: int, score_kind: str, free: NDArray[np.bool_]) -> None:
+    def _refresh(
+        self,
+        u: int,
+        score_kind: str,
+        free: NDArray[np.bool_],
+        rng: np.random.Generator | None = None,
+    ) -> None:
+        """Each free candidate's best insertion into drone ``u``'s route and its score;
+        with ``rng`` the scores are blurred (a random factor in [1 − _BLINK, 1]), so that
+        a refill need not rebuild what was ruined."""
         dr = self.drones[u]
         sub = (free[dr.cand] & (dr.weight + dr.cand_w <= dr.k.fit_kg)).nonzero()[0]
         d_e, slot = self._insertion(dr, sub)
@@ -286,6 +302,8 @@ class RoutePool:
             score = gain / np.maximum(dr.cand_w[sub], 1e-9)
         else:
             score = gain
+        if rng is not None:
+            score = score * rng.uniform(1.0 - _BLINK, 1.0, score.size)
         dr.score.fill(-np.inf)  # only the scores of ``sub`` are read, slots and energies too
         dr.score[sub] = np.where(feas, score, -np.inf)
         dr.slot[sub] = slot
@@ -298,10 +316,17 @@ class RoutePool:
         dr.energy += float(dr.d_e[j])
         dr.weight += float(self.w[dr.cand[j]])
 
-    def _fill(self, users: list[int], score_kind: str, free: NDArray[np.bool_]) -> None:
-        """Greedy insertion into the routes of ``users`` until nothing profitable fits."""
+    def _fill(
+        self,
+        users: list[int],
+        score_kind: str,
+        free: NDArray[np.bool_],
+        rng: np.random.Generator | None = None,
+    ) -> None:
+        """Greedy insertion into the routes of ``users`` until nothing profitable fits
+        (scores blurred with ``rng``, :meth:`_refresh`)."""
         for u in users:
-            self._refresh(u, score_kind, free)
+            self._refresh(u, score_kind, free, rng)
         best = np.array(
             [
                 _max(self.drones[u].score, initial=-np.inf) if self.drones[u].cand.size else -np.inf
@@ -316,7 +341,7 @@ class RoutePool:
             q = int(dr.cand[j])
             self._insert(u, j)
             free[q] = False
-            self._refresh(u, score_kind, free)
+            self._refresh(u, score_kind, free, rng)
             best[i] = _max(dr.score, initial=-np.inf)
             for i2, u2 in enumerate(users):  # q is taken: no other drone may insert it
                 hit = self._index[u2].get(q, -1) if u2 != u else -1
@@ -430,7 +455,7 @@ class RoutePool:
     def _ruin_near(
         self, busy: list[int], users: list[int], rng: np.random.Generator, free: NDArray[np.bool_]
     ) -> list[int]:
-        """Remove two to five served stops nearest a random served one, from at most
+        """Remove 2 to ``_RUIN_MAX`` served stops nearest a random served one, from at most
         three routes, so that neighbouring routes can trade stops; a drone that could
         serve what was freed is refilled too. Returns the drones to refill."""
         owner: dict[int, tuple[int, int]] = {}  # request -> (drone, index in its route)
@@ -440,7 +465,7 @@ class RoutePool:
                 owner[int(dr.cand[j])] = (u, i)
         served = np.array(sorted(owner), dtype=np.int64)
         centre = self.xy[served[int(rng.integers(served.size))]]
-        n_drop = int(rng.integers(2, 6))
+        n_drop = int(rng.integers(2, _RUIN_MAX + 1))
         drops: dict[int, list[int]] = {}
         freed: list[int] = []
         for q in served[np.argsort(np.hypot(*(self.xy[served] - centre).T), kind="stable")]:
@@ -449,6 +474,58 @@ class RoutePool:
                 continue
             drops.setdefault(u, []).append(i)
             freed.append(int(q))
+            if len(freed) == n_drop:
+                break
+        free[freed] = True
+        for u, idx in drops.items():
+            self._remove(u, sorted(idx))
+        ruined = sorted(drops)
+        return ruined + self._relocation(freed, ruined, users, rng)
+
+    def _without(self, dr: _Drone) -> NDArray[np.float64]:
+        """Exact energy of the route without each of its stops (in route order)."""
+        stops = np.array(dr.stops)
+        k = stops.size
+        w = dr.cand_w[stops]
+        load = np.minimum(w[::-1].cumsum()[::-1], dr.k.cap)  # on the leg into each stop
+        prev = np.empty_like(stops)
+        prev[0], prev[1:] = dr.cand.size, stops[:-1]
+        legs = dr.dmat[stops, prev]
+        base = legs * dr.k.e(load)
+        # Legs before the removed stop i carry its parcel no more.
+        lighter = legs[None, :] * dr.k.e(np.maximum(load[None, :] - w[:, None], 0.0))
+        out = (lighter * np.tri(k, k, -1)).sum(axis=1)
+        after = np.concatenate([base[::-1].cumsum()[::-1], [0.0]])  # legs l..k-1
+        out[:-1] += dr.dmat[stops[1:], prev[:-1]] * dr.k.e(load[1:])  # prev(i) -> stop i + 1
+        out[:-2] += after[2:-1]
+        out[:-1] += dr.cand_end[stops[-1]]
+        out[-1] += dr.cand_end[stops[-2]] if k > 1 else dr.start_end
+        return out
+
+    def _ruin_worst(
+        self, busy: list[int], users: list[int], rng: np.random.Generator, free: NDArray[np.bool_]
+    ) -> list[int]:
+        """Remove the 2 to ``_RUIN_MAX`` served stops whose detour costs the most energy
+        (with noise), from at most three routes; a drone that could serve what was
+        freed is refilled too. Returns the drones to refill."""
+        cost = []
+        for u in busy:
+            dr = self.drones[u]
+            key = (u, tuple(dr.stops))
+            without = self._without_j.get(key)
+            if without is None:  # most routes are met again: keep what they cost
+                without = self._without_j[key] = self._without(dr)
+            cost += [(float(x), u, i) for i, x in enumerate(dr.energy - without)]
+        noisy = np.array([c for c, _, _ in cost]) * rng.uniform(_NOISE, 1.0, len(cost))
+        n_drop = int(rng.integers(2, _RUIN_MAX + 1))
+        drops: dict[int, list[int]] = {}
+        freed: list[int] = []
+        for r in np.argsort(-noisy, kind="stable"):
+            _, u, i = cost[int(r)]
+            if u not in drops and len(drops) == 3:
+                continue
+            drops.setdefault(u, []).append(i)
+            freed.append(int(self.drones[u].cand[self.drones[u].stops[i]]))
             if len(freed) == n_drop:
                 break
         free[freed] = True
@@ -499,9 +576,9 @@ class RoutePool:
                 free[dr.cand[j]] = False
                 self._fill([u], kind, free)
 
-    def build(self, iterations: int = 100, seed: int = 0) -> PoolResult:
-        """Constructions with every score, exchanges in the best, then ``iterations``
-        ruin-and-recreate steps."""
+    def build(self, iterations: int = 80, seed: int = 0) -> PoolResult:
+        """Constructions with every score, exchanges in the best, ``iterations``
+        ruin-and-recreate steps, then exchanges in the best solution found."""
         n_u = len(self.drones)
         pool: list[dict[tuple[int, ...], float]] = [{} for _ in range(n_u)]
         users = [u for u in range(n_u) if self.drones[u].cand.size]
@@ -531,22 +608,30 @@ class RoutePool:
             busy = [u for u in users if self.drones[u].stops]
             if not busy:
                 break
-            if it % 2:
+            if it % 3 == 2:
+                touched = self._ruin_worst(busy, users, rng, free)
+            elif it % 2:
                 touched = self._ruin_near(busy, users, rng, free)
             else:
                 touched = self._ruin_route(busy, users, rng, free)
-            self._fill(touched, SCORES[it % len(SCORES)] if it % 4 == 3 else best_kind, free)
+            kind = SCORES[it % len(SCORES)] if it % 4 == 3 else best_kind
+            self._fill(touched, kind, free, rng)
             self._record(pool, touched)
             g = self._g()
             accept = g > best_g + 1e-9
             if accept:
-                best_g = g
+                best_g, best_snap = g, self._snapshot()
             if accept or g > cur_g - _ACCEPT * abs(best_g) * (1 - it / iterations):
                 current, cur_g, dirty = list(current), g, []
                 for u in touched:
                     current[u] = self._state(u)
             else:
                 dirty = touched
+        if users:  # the best solution's routes, improved by exchanges
+            free = self._restore(best_snap)
+            self._exchange(users, free, best_kind)
+            self._record(pool)
+            best_g = max(best_g, self._g())
         routes = [list(p.keys()) for p in pool]
         energy = [list(p.values()) for p in pool]
         return PoolResult(routes, energy, float(best_g))
@@ -561,7 +646,7 @@ def build_pool(
     model: EnergyModel,
     *,
     n_candidates: int = 80,
-    iterations: int = 100,
+    iterations: int = 80,
     seed: int = 0,
 ) -> PoolResult:
     """The route pool of one window (module docstring)."""
