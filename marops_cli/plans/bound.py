@@ -233,6 +233,10 @@ def bound_g(
             exact &= pr.exact
             tops.append(max(pr.ub, 0.0))
             new += [(k, s, float(prize[list(s)].sum()) - e + c.e_empty) for s, e, _ in pr.routes]
+        # The master's own columns count too: a known route outside the drones' tasks
+        # (another planner's) is then covered as well.
+        for c, stops, g in master.cols:
+            tops[c] = max(tops[c], g - float(pi[list(stops)].sum()))
         # Every pricing bounds every route's value: a valid bound (Lagrangian relaxation).
         lagr = const + float(pi.sum()) + sum(c.count * t for c, t in zip(classes, tops,
                                                                         strict=True))
