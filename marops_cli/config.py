@@ -212,7 +212,7 @@ class PlanConfig(_Stage):
         80, ge=1, le=500, description="pool planner: requests considered per drone"
     )
     pool_iterations: int = Field(
-        100, ge=0, le=100_000, description="pool planner: ruin-and-recreate steps per window"
+        80, ge=0, le=100_000, description="pool planner: ruin-and-recreate steps per window"
     )
     pool_urgency: float = Field(
         0.5,
@@ -251,6 +251,13 @@ class PlanConfig(_Stage):
     )
     time_limit_s: float = Field(2.0, gt=0, le=3600, description="solver time limit per window")
     strict_cover: bool = Field(False, description="paper's exact cover when feasible")
+    bound: bool = Field(
+        False,
+        # Left out of dumps while off, so run identities and metadata stay as they were.
+        exclude_if=lambda on: not on,
+        description="after planning, prove an upper bound on the window objective G by "
+        "column generation over every feasible route and record the plan's gap to it",
+    )
 
 
 class SimConfig(_Stage):
