@@ -256,7 +256,8 @@ class PlanConfig(_Stage):
         # Left out of dumps while off, so run identities and metadata stay as they were.
         exclude_if=lambda on: not on,
         description="after planning, prove an upper bound on the window objective G by "
-        "column generation over every feasible route and record the plan's gap to it",
+        "column generation over every feasible route, fly the best plan its routes give "
+        "when better than the route pool's, and record the plan's gap to the bound",
     )
 
 

@@ -26,7 +26,6 @@ few labels per node instead.
 
 from __future__ import annotations
 
-import time
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -293,15 +292,16 @@ def price(
     keep: int | None = None,
     max_labels: int = 20_000,
     n_routes: int = 8,
-    deadline: float = np.inf,
+    budget: float = np.inf,
 ) -> Priced:
     """The best route of drone class ``cls`` for request profits ``profit`` (per window
     position), a proven upper bound on every route's value, and the best routes worth
     more than ``threshold`` (module docstring).
 
     ``keep``: extend only the best ``keep`` labels per node (a heuristic); None: every
-    non-dominated label, at most ``max_labels`` of one length (a twentieth once the CPU
-    clock, ``time.process_time``, is past ``deadline``), those of highest upper bound.
+    non-dominated label, at most ``max_labels`` of one length (a twentieth once more
+    than ``budget`` labels were made: a count, so the result is the same on any
+    machine), those of highest upper bound.
     Labels left out count with their upper bound in ``Priced.ub``, so the bound stays
     valid either way.
     """
@@ -356,7 +356,7 @@ def price(
         if keep is None:
             # A full pricing keeps the labels of highest upper bound when there are too
             # many (or it is late): what it leaves out then bounds the rest least.
-            cap = max_labels if time.process_time() <= deadline else max_labels // 20
+            cap = max_labels if total <= budget else max_labels // 20
             if nxt.size > cap:
                 nxt, dropped = _best_by_bound(nxt, cap)
                 left_out = max(left_out, dropped)
