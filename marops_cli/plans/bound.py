@@ -101,8 +101,13 @@ class _Master:
         n_rows = self.n_cls + n_req
         upper = np.concatenate([np.asarray(counts, dtype=np.float64), np.ones(n_req)])
         self.h.addRows(
-            n_rows, np.full(n_rows, -highspy.kHighsInf), upper, 0,
-            np.zeros(n_rows, dtype=np.int32), np.zeros(0, dtype=np.int32), np.zeros(0),
+            n_rows,
+            np.full(n_rows, -highspy.kHighsInf),
+            upper,
+            0,
+            np.zeros(n_rows, dtype=np.int32),
+            np.zeros(0, dtype=np.int32),
+            np.zeros(0),
         )
         self.keys: dict[tuple[int, tuple[int, ...]], float] = {}
         self.cols: list[tuple[int, tuple[int, ...], float]] = []
@@ -127,8 +132,13 @@ class _Master:
         n = len(cost)
         if n:
             self.h.addCols(
-                n, np.array(cost), np.zeros(n), np.full(n, highspy.kHighsInf), len(index),
-                np.array(starts, dtype=np.int32), np.array(index, dtype=np.int32),
+                n,
+                np.array(cost),
+                np.zeros(n),
+                np.full(n, highspy.kHighsInf),
+                len(index),
+                np.array(starts, dtype=np.int32),
+                np.array(index, dtype=np.int32),
                 np.array(vals),
             )
         return n
@@ -171,8 +181,16 @@ def _classes(
         t = tasks[us[0]]
         classes.append(
             DroneClass.of(
-                depots_xy[t.start], t.end, np.asarray(t.allowed, dtype=np.int64), depots_xy,
-                req_xy, req_weight, land_m, t.model or model, len(us), ng,
+                depots_xy[t.start],
+                t.end,
+                np.asarray(t.allowed, dtype=np.int64),
+                depots_xy,
+                req_xy,
+                req_weight,
+                land_m,
+                t.model or model,
+                len(us),
+                ng,
             )
         )
     return classes, of
@@ -210,8 +228,12 @@ def bound_g(
     c0 = time.process_time()
     prize = lam * np.asarray(value, dtype=np.float64)
     classes, of = _classes(
-        np.asarray(depots_xy, dtype=np.float64), np.asarray(req_xy, dtype=np.float64),
-        np.asarray(req_weight, dtype=np.float64), tasks, model, ng,
+        np.asarray(depots_xy, dtype=np.float64),
+        np.asarray(req_xy, dtype=np.float64),
+        np.asarray(req_weight, dtype=np.float64),
+        tasks,
+        model,
+        ng,
     )
     const = -sum(c.count * c.e_empty for c in classes)
     servable = np.zeros(prize.size, dtype=bool)
@@ -224,8 +246,13 @@ def bound_g(
         c = classes[of[u]]
         for stops, e in routes:
             if len(stops):
-                warm.append((of[u], tuple(int(s) for s in stops),
-                             float(prize[list(stops)].sum()) - float(e) + c.e_empty))
+                warm.append(
+                    (
+                        of[u],
+                        tuple(int(s) for s in stops),
+                        float(prize[list(stops)].sum()) - float(e) + c.e_empty,
+                    )
+                )
     master.add(warm)
     best, priced, converged, capped, it = trivial, False, False, "", 0
     heuristic, full_done = True, False
@@ -248,8 +275,14 @@ def bound_g(
         new, tops, exact = [], [], True
         for k, c in enumerate(classes):
             late = max_work - work if time.process_time() - c0 <= clock else 0
-            pr = price(c, profit, float(mu[k]) + _RC_TOL, keep=_KEEP if heuristic else None,
-                       max_labels=max_labels, budget=late)
+            pr = price(
+                c,
+                profit,
+                float(mu[k]) + _RC_TOL,
+                keep=_KEEP if heuristic else None,
+                max_labels=max_labels,
+                budget=late,
+            )
             work += pr.labels
             exact &= pr.exact
             tops.append(max(pr.ub, 0.0))
@@ -259,8 +292,9 @@ def bound_g(
         for c, stops, g in master.cols:
             tops[c] = max(tops[c], g - float(pi[list(stops)].sum()))
         # Every pricing bounds every route's value: a valid bound (Lagrangian relaxation).
-        lagr = const + float(pi.sum()) + sum(c.count * t for c, t in zip(classes, tops,
-                                                                        strict=True))
+        lagr = (
+            const + float(pi.sum()) + sum(c.count * t for c, t in zip(classes, tops, strict=True))
+        )
         best, priced = min(best, lagr), True
         added = master.add(new)
         if best - lp <= _REL_STOP * max(abs(best), 1.0):

@@ -99,8 +99,11 @@ class DroneClass:
         d_start = np.hypot(*(xy - start_xy).T)
         land = land_m[pos] if end < 0 else np.hypot(*(xy - end_xy).T)
         ok = model.fits(w)
-        alone = d_start * np.interp(np.minimum(w, model.max_payload_kg), model.grid_kg,
-                                    model.table_j_per_m) + land * e0
+        alone = (
+            d_start
+            * np.interp(np.minimum(w, model.max_payload_kg), model.grid_kg, model.table_j_per_m)
+            + land * e0
+        )
         ok &= alone <= model.usable_j + ENERGY_TOL_J
         pos, xy, w, d_start, land = pos[ok], xy[ok], w[ok], d_start[ok], land[ok]
         n = pos.size
@@ -181,9 +184,15 @@ class _Bounds:
     predecessor away.
     """
 
-    def __init__(self, cls: DroneClass, w: NDArray[np.float64], pps: NDArray[np.float64],
-                 dist: NDArray[np.float64], d_start: NDArray[np.float64],
-                 reach: bool) -> None:
+    def __init__(
+        self,
+        cls: DroneClass,
+        w: NDArray[np.float64],
+        pps: NDArray[np.float64],
+        dist: NDArray[np.float64],
+        d_start: NDArray[np.float64],
+        reach: bool,
+    ) -> None:
         self.cls = cls
         near = dist.copy()
         np.fill_diagonal(near, np.inf)
@@ -205,9 +214,15 @@ class _Bounds:
             table = _knapsack(r_units, pps, self.r_steps, rows)
             self.by_reach = table.reshape(w.size, _REACH_LEVELS, self.r_steps + 1)
 
-    def of(self, node: NDArray[np.int64], load: NDArray[np.float64], prof: NDArray[np.float64],
-           e_start: NDArray[np.float64], e_load: NDArray[np.float64],
-           energy: NDArray[np.float64]) -> NDArray[np.float64]:
+    def of(
+        self,
+        node: NDArray[np.int64],
+        load: NDArray[np.float64],
+        prof: NDArray[np.float64],
+        e_start: NDArray[np.float64],
+        e_load: NDArray[np.float64],
+        energy: NDArray[np.float64],
+    ) -> NDArray[np.float64]:
         """Upper bound on the value of every route through each label (itself included)."""
         left = self.cls.cap - load
         room = np.clip(np.floor(left / _KNAP_STEP_KG + 1e-9), 0, self.steps).astype(np.int64)
@@ -319,8 +334,12 @@ def price(
     # Labels of one stop: the request, then the landing.
     n = sub.size
     lab = _Labels(
-        np.arange(n), w.copy(), e_land.copy(), pps - e_land,
-        np.zeros((n, cls.ng.shape[1]), dtype=np.uint64), np.full(n, -1, dtype=np.int64),
+        np.arange(n),
+        w.copy(),
+        e_land.copy(),
+        pps - e_land,
+        np.zeros((n, cls.ng.shape[1]), dtype=np.uint64),
+        np.full(n, -1, dtype=np.int64),
         np.zeros(n),
     )
     e_l = cls.e(lab.load)

@@ -150,8 +150,15 @@ def plan_routes(
     t_problem = time.perf_counter() - t0  # the plan table is part of building the model
     sel = selector.select(problem)
     routes = [
-        _drone_route(view, u, int(plan_ends[u][int(sel.chosen[u])]), ps.route(int(sel.chosen[u])),
-                     int(acts[u]), models[u], made.reorder)
+        _drone_route(
+            view,
+            u,
+            int(plan_ends[u][int(sel.chosen[u])]),
+            ps.route(int(sel.chosen[u])),
+            int(acts[u]),
+            models[u],
+            made.reorder,
+        )
         for u, ps in enumerate(plan_sets)
     ]
     plan = WindowPlan(
@@ -177,8 +184,7 @@ def plan_routes(
     if cfg.bound:  # warm-started with every plan the selection saw
         t0 = time.perf_counter()
         columns = [
-            [(ps.route(k), float(ps.energy_j[k])) for k in range(1, ps.n_plans)]
-            for ps in plan_sets
+            [(ps.route(k), float(ps.energy_j[k])) for k in range(1, ps.n_plans)] for ps in plan_sets
         ]
         plan.bound = window_bound(view, actions, model, cfg, scope, columns=columns, plan=True)
         _take_bound_plan(plan, view, plan_sets, plan_ends, acts, models, cfg, model)
@@ -207,8 +213,9 @@ def _take_bound_plan(
     routes = [
         _drone_route(view, u, int(end), stops, int(acts[u]), models[u], True)
         if stops
-        else _drone_route(view, u, int(plan_ends[u][0]), plan_sets[u].route(0), int(acts[u]),
-                          models[u], True)
+        else _drone_route(
+            view, u, int(plan_ends[u][0]), plan_sets[u].route(0), int(acts[u]), models[u], True
+        )
         for u, (stops, end) in enumerate(bound.plan)
     ]
     try:

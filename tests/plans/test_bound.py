@@ -122,9 +122,17 @@ def test_bound_is_above_the_optimum_and_equals_the_relaxation_when_elementary(
     pool = build_pool(depots, xy, w, lam * value, tasks, model, iterations=20)
     assert res.bound >= pool.best_g - 1e-6
     warm = bound_g(
-        depots, xy, w, value, lam, tasks, model, ng=n_req,
-        columns=[list(zip(r, e, strict=True)) for r, e in zip(pool.routes, pool.energy_j,
-                                                              strict=True)],
+        depots,
+        xy,
+        w,
+        value,
+        lam,
+        tasks,
+        model,
+        ng=n_req,
+        columns=[
+            list(zip(r, e, strict=True)) for r, e in zip(pool.routes, pool.energy_j, strict=True)
+        ],
     )
     assert warm.bound == pytest.approx(lp, rel=1e-6, abs=1e-3)
 
@@ -139,9 +147,18 @@ def test_best_plan_over_the_bounds_routes_is_feasible_and_at_most_the_optimum(se
     ip, _ = _brute(depots, xy, w, value, tasks, model, lam)
     pool = build_pool(depots, xy, w, lam * value, tasks, model, iterations=20)
     res = bound_g(
-        depots, xy, w, value, lam, tasks, model, ng=6, plan=True,
-        columns=[list(zip(r, e, strict=True)) for r, e in zip(pool.routes, pool.energy_j,
-                                                              strict=True)],
+        depots,
+        xy,
+        w,
+        value,
+        lam,
+        tasks,
+        model,
+        ng=6,
+        plan=True,
+        columns=[
+            list(zip(r, e, strict=True)) for r, e in zip(pool.routes, pool.energy_j, strict=True)
+        ],
     )
     assert res.plan is not None and len(res.plan) == len(tasks)
     seen: list[int] = []
@@ -240,7 +257,11 @@ def test_plan_routes_records_the_bound_only_when_asked(planner, scope, model):
     view, acts = hand_view(), np.array([0, 1])
     off = plan_routes(view, acts, model, PlanConfig(planner=planner), MilpSelector(), scope)
     assert off.bound is None and set(off.score.as_dict()) == {
-        "J", "G", "energy_j", "served", "pending"
+        "J",
+        "G",
+        "energy_j",
+        "served",
+        "pending",
     }
     cfg = PlanConfig(planner=planner, bound=True)
     on = plan_routes(view, acts, model, cfg, MilpSelector(), scope)
