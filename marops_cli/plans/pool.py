@@ -476,11 +476,7 @@ class RoutePool:
             freed.append(int(q))
             if len(freed) == n_drop:
                 break
-        free[freed] = True
-        for u, idx in drops.items():
-            self._remove(u, sorted(idx))
-        ruined = sorted(drops)
-        return ruined + self._relocation(freed, ruined, users, rng)
+        return self._drop(drops, freed, free, users, rng)
 
     def _without(self, dr: _Drone) -> NDArray[np.float64]:
         """Exact energy of the route without each of its stops (in route order)."""
@@ -501,6 +497,22 @@ class RoutePool:
         out[:-1] += dr.cand_end[stops[-1]]
         out[-1] += dr.cand_end[stops[-2]] if k > 1 else dr.start_end
         return out
+
+    def _drop(
+        self,
+        drops: dict[int, list[int]],
+        freed: list[int],
+        free: NDArray[np.bool_],
+        users: list[int],
+        rng: np.random.Generator,
+    ) -> list[int]:
+        """Remove the stops ``drops`` names (route positions per drone), whose requests are
+        ``freed``; returns the ruined drones and those a relocation adds, to refill."""
+        free[freed] = True
+        for u, idx in drops.items():
+            self._remove(u, sorted(idx))
+        ruined = sorted(drops)
+        return ruined + self._relocation(freed, ruined, users, rng)
 
     def _ruin_worst(
         self, busy: list[int], users: list[int], rng: np.random.Generator, free: NDArray[np.bool_]
@@ -528,11 +540,7 @@ class RoutePool:
             freed.append(int(self.drones[u].cand[self.drones[u].stops[i]]))
             if len(freed) == n_drop:
                 break
-        free[freed] = True
-        for u, idx in drops.items():
-            self._remove(u, sorted(idx))
-        ruined = sorted(drops)
-        return ruined + self._relocation(freed, ruined, users, rng)
+        return self._drop(drops, freed, free, users, rng)
 
     def _exchange(self, users: list[int], free: NDArray[np.bool_], kind: str) -> None:
         """Swap a served stop for an unserved candidate while a route's G grows

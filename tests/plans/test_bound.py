@@ -100,6 +100,11 @@ def _brute(depots, xy, w, value, tasks, model, lam):
     return ip, const - lp.fun
 
 
+def _columns(pool) -> list[list[tuple[tuple[int, ...], float]]]:
+    """A route pool's routes as each drone's known columns (a warm start)."""
+    return [list(zip(r, e, strict=True)) for r, e in zip(pool.routes, pool.energy_j, strict=True)]
+
+
 @pytest.mark.parametrize("seed", range(6))
 @pytest.mark.parametrize("reach", [False, True])
 def test_bound_is_above_the_optimum_and_equals_the_relaxation_when_elementary(
@@ -130,9 +135,7 @@ def test_bound_is_above_the_optimum_and_equals_the_relaxation_when_elementary(
         tasks,
         model,
         ng=n_req,
-        columns=[
-            list(zip(r, e, strict=True)) for r, e in zip(pool.routes, pool.energy_j, strict=True)
-        ],
+        columns=_columns(pool),
     )
     assert warm.bound == pytest.approx(lp, rel=1e-6, abs=1e-3)
 
@@ -156,9 +159,7 @@ def test_best_plan_over_the_bounds_routes_is_feasible_and_at_most_the_optimum(se
         model,
         ng=6,
         plan=True,
-        columns=[
-            list(zip(r, e, strict=True)) for r, e in zip(pool.routes, pool.energy_j, strict=True)
-        ],
+        columns=_columns(pool),
     )
     assert res.plan is not None and len(res.plan) == len(tasks)
     seen: list[int] = []

@@ -71,14 +71,15 @@ def test_exchange_keeps_a_route_no_swap_improves(model):
     assert free.tolist() == [False, False, True]
 
 
-@pytest.mark.parametrize("seed", range(12))
-def test_ruin_near_removes_the_stops_nearest_one_served_stop(model, seed):
-    """Three drones with four stops each: the ruin frees 2 to 8 served stops, which are
-    the ones nearest one of them (any three routes may lose stops here), marks them
-    free, and leaves every route's energy and weight exact."""
+def _three_routes(model, seed: int, span: float, far: int | None = None):
+    """Three drones at three depots with four stops each among 14 requests in a square of
+    ``span`` metres (request ``far`` moved to 3 km, 3 km); the pool, its free mask and
+    the routes."""
     rng = np.random.default_rng(seed)
-    depots = rng.uniform(0, 3000, (3, 2))
-    xy = rng.uniform(0, 3000, (14, 2))
+    depots = rng.uniform(0, span, (3, 2))
+    xy = rng.uniform(0, span, (14, 2))
+    if far is not None:
+        xy[far] = [3000.0, 3000.0]
     w = rng.uniform(0.1, 0.5, 14)
     tasks = [DroneTask(s, -1, np.arange(14, dtype=np.int64)) for s in range(3)]
     pool = RoutePool(depots, xy, w, np.full(14, LAM), tasks, model)
@@ -86,19 +87,28 @@ def test_ruin_near_removes_the_stops_nearest_one_served_stop(model, seed):
     routes = [[0, 1, 2, 3], [4, 5, 6, 7], [8, 9, 10, 11]]
     for u, r in enumerate(routes):
         _set_route(pool, u, r, free)
+    return pool, free, routes
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_ruin_near_removes_the_stops_nearest_one_served_stop(model, seed):
+    """Three drones with four stops each: the ruin frees 2 to 8 served stops, which are
+    the ones nearest one of them (any three routes may lose stops here), marks them
+    free, and leaves every route's energy and weight exact."""
+    pool, free, routes = _three_routes(model, seed, 3000.0)
     touched = pool._ruin_near([0, 1, 2], [0, 1, 2], np.random.default_rng(seed), free)
     served_before = set(sum(routes, []))
     freed = sorted(q for q in served_before if free[q])
     left = sorted(served_before - set(freed))
     assert 2 <= len(freed) <= 8
     assert not free[left].any() and free[12:].all()
-    d = np.hypot(*(xy[freed][:, None, :] - xy[None, :, :]).transpose(2, 0, 1))
+    d = np.hypot(*(pool.xy[freed][:, None, :] - pool.xy[None, :, :]).transpose(2, 0, 1))
     assert any(d[i, freed].max() <= d[i, left].min() for i in range(len(freed)))
     for u, dr in enumerate(pool.drones):
         now = [int(dr.cand[j]) for j in dr.stops]
         assert now == [q for q in routes[u] if q not in freed]
         assert_allclose(dr.energy, pool._route_energy(dr), rtol=1e-12)
-        assert dr.weight == pytest.approx(w[now].sum(), abs=1e-12)
+        assert dr.weight == pytest.approx(pool.w[now].sum(), abs=1e-12)
     lost = {u for u in range(3) if len(pool.drones[u].stops) < 4}
     assert lost <= set(touched)
 
@@ -133,17 +143,7 @@ def test_ruin_worst_frees_the_costliest_detours(model, seed):
     area): the worst-detour ruin frees 2 to 8 stops from at most three routes, always
     the far one (its saving is more than twice any other's, so noise in [0.5, 1] keeps
     it first), and leaves every route's energy and weight exact."""
-    rng = np.random.default_rng(seed)
-    depots = rng.uniform(0, 1000, (3, 2))
-    xy = rng.uniform(0, 1000, (14, 2))
-    xy[5] = [3000.0, 3000.0]
-    w = rng.uniform(0.1, 0.5, 14)
-    tasks = [DroneTask(s, -1, np.arange(14, dtype=np.int64)) for s in range(3)]
-    pool = RoutePool(depots, xy, w, np.full(14, LAM), tasks, model)
-    free = np.ones(14, dtype=bool)
-    routes = [[0, 1, 2, 3], [4, 5, 6, 7], [8, 9, 10, 11]]
-    for u, r in enumerate(routes):
-        _set_route(pool, u, r, free)
+    pool, free, routes = _three_routes(model, seed, 1000.0, far=5)
     saving = [dr.energy - pool._without(dr) for dr in pool.drones]
     far = saving[1][1]  # request 5, second stop of drone 1
     others = [x for u, s in enumerate(saving) for i, x in enumerate(s) if (u, i) != (1, 1)]
@@ -156,5 +156,5 @@ def test_ruin_worst_frees_the_costliest_detours(model, seed):
         now = [int(dr.cand[j]) for j in dr.stops]
         assert now == [q for q in routes[u] if q not in freed]
         assert_allclose(dr.energy, pool._route_energy(dr), rtol=1e-12)
-        assert dr.weight == pytest.approx(w[now].sum(), abs=1e-12)
+        assert dr.weight == pytest.approx(pool.w[now].sum(), abs=1e-12)
     assert {u for u in range(3) if len(pool.drones[u].stops) < 4} <= set(touched)
