@@ -22,9 +22,11 @@ paper's subsets planner; the rest of the config is shared.
   the ready drones' payload, the full flights every drone that can fly would need for
   what is already due (one per window). A window is *backlogged* when its load is above
   5 (2.5 hours of due work at half-hour windows); each shape's median load is printed.
-* **Closed loop.** Each method flies its own plans for the whole day (PyVRP at the limits
-  up to 1 s): delivered, average delay, energy per day, and the check against PyVRP at
-  0.1 s: delivered ≥, average delay ≤, energy ≤ 1.03×.
+* **Closed loop.** Each method flies its own plans for the whole day (PyVRP at each
+  ``--closed-pyvrp-s`` limit): delivered, average delay, energy per day, and the check
+  against PyVRP at 0.1 s: delivered ≥, average delay ≤, energy ≤ 1.03×. Every day of
+  ``--shapes`` × ``--seeds`` × ``--days`` flies the closed loop; the open loop only
+  those of ``--open-seeds``.
 * **Large window** (``--large``): 64 depots, 100 drones, 10,000 pending requests, every
   parcel at every depot; marops on the whole window and on the 1,500 most delayed
   requests PyVRP is given, PyVRP at the limits of 1 s and more, all judged on the whole
@@ -35,8 +37,9 @@ paper's subsets planner; the rest of the config is shared.
 Needs the ``bench`` extra (``pip install -e '.[bench]'``, which brings PyVRP).
 
     python benchmarks/peer.py [--config TOML] [--shapes hubs,corridor] [--seeds 101,202]
-        [--days 11,12] [--pyvrp-s 0.01,0.1,1,5] [--repeats N] [--variants SETTINGS]
-        [--bound] [--large | --only-large] [--closed] [--quiet] [--json PATH] [--smoke]
+        [--days 11,12] [--open-seeds SEEDS] [--pyvrp-s 0.01,0.1,1,5]
+        [--closed-pyvrp-s 0.01,0.1,1] [--repeats N] [--variants SETTINGS] [--bound]
+        [--large | --only-large] [--closed] [--quiet] [--json PATH] [--smoke]
 
 ``--smoke``: one day, PyVRP at 0.01 s only, and the large window (CI runs it so the
 script keeps up with the library; its figures mean nothing).
@@ -75,7 +78,7 @@ from marops_cli.sim.state import DayState, default_fleet  # noqa: E402
 from marops_cli.sim.step import WindowStep, plan_step  # noqa: E402
 
 PYVRP_S = (0.01, 0.1, 1.0, 5.0)
-CLOSED_MAX_S = 1.0  # PyVRP flies whole days at the limits up to this
+CLOSED_S = (0.01, 0.1, 1.0)
 REF_S = 0.1  # the closed loop's check is against PyVRP at this limit
 ENERGY_TOL = 1.03  # the closed loop's check: marops' energy at most this times PyVRP's
 PREFILTER = 1500  # the large window's requests given to PyVRP
@@ -166,6 +169,7 @@ class Setup:
 
     cfg: PlannerConfig
     pyvrp_s: tuple[float, ...]
+    closed_s: tuple[float, ...]
     variants: dict[str, dict[str, str]]
     repeats: int = 1
     bound: Bound | None = None
@@ -181,10 +185,11 @@ class Setup:
     @property
     def ref(self) -> str:
         """The PyVRP run the closed loop is checked against."""
-        return pyvrp_name(REF_S if REF_S in self.pyvrp_s else min(self.pyvrp_s))
+        return pyvrp_name(REF_S if REF_S in self.closed_s else min(self.closed_s))
 
     def planners(self, closed: bool = False) -> dict[str, Planner]:
-        """Every method by name; ``closed``: PyVRP only at the limits that fly whole days."""
+        """Every method by name, PyVRP at the open loop's limits or (``closed``) the
+        closed loop's."""
         model, lam, cfg = self.model, self.lam, self.cfg
         out: dict[str, Planner] = {
             "marops": marops_planner(cfg),
@@ -192,9 +197,8 @@ class Setup:
             "paper": marops_planner(cfg, "subsets"),
         }
         out.update({n: marops_planner(cfg, **kv) for n, kv in self.variants.items()})
-        for s in self.pyvrp_s:
-            if not closed or s <= CLOSED_MAX_S or pyvrp_name(s) == self.ref:
-                out[pyvrp_name(s)] = lambda v, a, s=s: pyvrp_routes(v, model, lam, s, seed=v.t)
+        for s in self.closed_s if closed else self.pyvrp_s:
+            out[pyvrp_name(s)] = lambda v, a, s=s: pyvrp_routes(v, model, lam, s, seed=v.t)
         return out
 
 
@@ -650,8 +654,14 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     ap.add_argument(
         "--pyvrp-s",
         default=",".join(f"{s:g}" for s in PYVRP_S),
-        help="PyVRP's limits, CPU seconds per window",
+        help="PyVRP's limits in the open loop, CPU seconds per window",
     )
+    ap.add_argument(
+        "--closed-pyvrp-s",
+        default=",".join(f"{s:g}" for s in CLOSED_S),
+        help="PyVRP's limits in the closed loop (the check is against 0.1 s when given)",
+    )
+    ap.add_argument("--open-seeds", help="the open loop on these seeds only (default: --seeds)")
     ap.add_argument("--repeats", type=int, default=1, help="marops plans each window this often")
     ap.add_argument("--bound", action="store_true", help="the bound on G per window and the gaps")
     ap.add_argument("--large", action="store_true", help="also the large window")
@@ -669,7 +679,8 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     ap.add_argument("--smoke", action="store_true", help="1 day, PyVRP 0.01 s, large (CI)")
     args = ap.parse_args(argv)
     if args.smoke:
-        args.shapes, args.seeds, args.days, args.pyvrp_s = "hubs", "101", "11", "0.01"
+        args.shapes, args.seeds, args.days = "hubs", "101", "11"
+        args.pyvrp_s = args.closed_pyvrp_s = "0.01"
         args.quiet, args.large = True, True
     return args
 
@@ -687,6 +698,7 @@ def make_setup(args: argparse.Namespace) -> Setup:
     return Setup(
         cfg,
         tuple(float(s) for s in args.pyvrp_s.split(",") if s),
+        tuple(float(s) for s in args.closed_pyvrp_s.split(",") if s),
         variants,
         max(1, args.repeats),
         load_bound(cfg) if args.bound else None,
@@ -699,9 +711,11 @@ def main(argv: list[str] | None = None) -> None:
     print(
         f"operating model: stock {setup.cfg.ops.stock}, batteries "
         f"{setup.cfg.ops.batteries_per_depot or 'unlimited'}, busy {setup.cfg.ops.busy}; "
-        f"PyVRP limits (CPU s) {', '.join(f'{s:g}' for s in setup.pyvrp_s)}"
+        f"PyVRP limits (CPU s) {', '.join(f'{s:g}' for s in setup.pyvrp_s)}, closed loop "
+        f"{', '.join(f'{s:g}' for s in setup.closed_s)}"
     )
     result: dict = {"args": {k: str(v) for k, v in vars(args).items()}}
+    open_seeds = set(ints(args.open_seeds or args.seeds))
     if not args.only_large:
         opened, closed = [], []
         with tempfile.TemporaryDirectory() as tmp:
@@ -709,7 +723,7 @@ def main(argv: list[str] | None = None) -> None:
                 setup.cfg, args.shapes.split(","), ints(args.seeds), ints(args.days), Path(tmp)
             ):
                 print(f"{day.label}:", flush=True)
-                if not args.closed:
+                if not args.closed and day.seed in open_seeds:
                     opened += open_loop(day, setup, args.quiet)
                 closed.append(closed_day(day, setup))
         if opened:
