@@ -560,7 +560,8 @@ def print_closed(days: list[dict], summary: dict) -> None:
             f"{n:>15} {m['delivered']:5d}/{m['requests']:5d}  delay {m['avg_delay_h']:.3f} h"
             f" (Δ {m['d_avg_delay_h'][0]:+.4f} ± {m['d_avg_delay_h'][1]:.4f})"
             f"  energy {m['energy_kj'] / 1e3:8.1f} MJ"
-            f" (Δ {m['d_energy_kj'][0]:+.0f} ± {m['d_energy_kj'][1]:.0f} kJ)"
+            f" (Δ {m['d_energy_kj'][0]:+.0f} ± {m['d_energy_kj'][1]:.0f} kJ,"
+            f" {m['energy_kj'] / max(m['delivered'], 1):.1f} kJ per parcel delivered)"
         )
     print(f"check passed on {summary['passed_days']} of {summary['days']} days")
 
