@@ -57,6 +57,7 @@ import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Literal
 
 sys.path = [p for p in sys.path if Path(p or ".").resolve() != Path(__file__).parent.resolve()]
 
@@ -82,7 +83,7 @@ CLOSED_S = (0.01, 0.1, 1.0)
 REF_S = 0.1  # the closed loop's check is against PyVRP at this limit
 ENERGY_TOL = 1.03  # the closed loop's check: marops' energy at most this times PyVRP's
 PREFILTER = 1500  # the large window's requests given to PyVRP
-BACKLOG_LOAD = 5.0  # a window whose load is above this is backlogged (backlog)
+BACKLOG_LOAD = 5.0  # a window whose load (backlog) is above this is backlogged
 Planner = Callable[[WindowView, np.ndarray], list[DroneRoute]]
 Bound = Callable[[WindowView, np.ndarray], dict[str, float]]
 
@@ -151,13 +152,16 @@ def stay(u: int, s: int) -> DroneRoute:
 
 
 def marops_planner(
-    cfg: PlannerConfig, planner: str = "pool", scope: str = "range", **plan: object
+    cfg: PlannerConfig,
+    planner: str = "pool",
+    scope: Literal["range", "global"] = "range",
+    **plan: object,
 ) -> Planner:
     """marops' window step under ``cfg`` (as replay flies it) with ``planner`` and
     ``plan`` settings overridden."""
     how = WindowStep.make(
         override(cfg, **{f"plan__{k}": v for k, v in plan.items()}),
-        scope=scope,  # type: ignore[arg-type]
+        scope=scope,
         planner=planner,
     )
     return lambda view, actions: plan_step(view, actions, how).routes
