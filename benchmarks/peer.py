@@ -54,6 +54,7 @@ import statistics
 import sys
 import tempfile
 import time
+import warnings
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -62,6 +63,7 @@ from typing import Literal
 sys.path = [p for p in sys.path if Path(p or ".").resolve() != Path(__file__).parent.resolve()]
 
 import numpy as np  # noqa: E402
+from pyvrp.exceptions import PenaltyBoundWarning  # noqa: E402
 
 from marops_cli.config import OpsConfig, PlannerConfig, load_config, override  # noqa: E402
 from marops_cli.data.prepare import prepare_day  # noqa: E402
@@ -712,6 +714,9 @@ def make_setup(args: argparse.Namespace) -> Setup:
 
 def main(argv: list[str] | None = None) -> None:
     args = parse_args(argv)
+    # A short search may end on an infeasible solution, whose routes solve_window drops;
+    # PyVRP's warning about its penalties would only clutter the tables.
+    warnings.filterwarnings("ignore", category=PenaltyBoundWarning)
     setup = make_setup(args)
     print(
         f"operating model: stock {setup.cfg.ops.stock}, batteries "
