@@ -17,11 +17,13 @@ paper's subsets planner; the rest of the config is shared.
   landing nearest the last customer), ``paper`` (the paper's top-M̂ subsets), any
   ``--variants`` and PyVRP at each ``--pyvrp-s`` limit (CPU seconds). Per window and in
   total: G, served, CPU ms; Σ G of marops over Σ G of PyVRP at each limit (all windows
-  and per shape) and the windows PyVRP wins. Each window prints its backlog: parcels
-  pending, already due, drones ready, and the load: the weight of the due parcels over
-  the ready drones' payload, the full flights every drone that can fly would need for
-  what is already due (one per window). A window is *backlogged* when its load is above
-  5 (2.5 hours of due work at half-hour windows); each shape's median load is printed.
+  and per shape), the windows PyVRP wins, and marops' median CPU per window (each
+  window planned ``--repeats`` times: the least CPU of them, and their median). Each
+  window prints its backlog: parcels pending, already due, drones ready, and the load:
+  the weight of the due parcels over the ready drones' payload, the full flights every
+  drone that can fly would need for what is already due (one per window). A window is
+  *backlogged* when its load is above 5 (2.5 hours of due work at half-hour windows);
+  each shape's median load is printed.
 * **Closed loop.** Each method flies its own plans for the whole day (PyVRP at each
   ``--closed-pyvrp-s`` limit): delivered, average delay, energy per day, and the check
   against PyVRP at 0.1 s: delivered ≥, average delay ≤, energy ≤ 1.03×. Every day of
@@ -29,8 +31,8 @@ paper's subsets planner; the rest of the config is shared.
   those of ``--open-seeds``.
 * **Large window** (``--large``): 64 depots, 100 drones, 10,000 pending requests, every
   parcel at every depot; marops on the whole window and on the 1,500 most delayed
-  requests PyVRP is given, PyVRP at the limits of 1 s and more, all judged on the whole
-  window.
+  requests PyVRP is given, PyVRP at the limits of 1 s and more (else its longest), all
+  judged on the whole window.
 * **Bound** (``--bound``): an upper bound on G per window from ``marops_cli.plans.bound``
   and the gaps (bound − G) / bound of marops and of the best plan found.
 
@@ -41,8 +43,9 @@ Needs the ``bench`` extra (``pip install -e '.[bench]'``, which brings PyVRP).
         [--closed-pyvrp-s 0.01,0.1,1] [--repeats N] [--variants SETTINGS] [--bound]
         [--large | --only-large] [--closed] [--quiet] [--json PATH] [--smoke]
 
-``--smoke``: one day, PyVRP at 0.01 s only, and the large window (CI runs it so the
-script keeps up with the library; its figures mean nothing).
+``--closed``: the closed loop only; ``--json``: every figure (per window, per day and
+the totals) to a file. ``--smoke``: one day, PyVRP at 0.01 s only, and the large window
+(CI runs it so the script keeps up with the library; its figures mean nothing).
 """
 
 from __future__ import annotations
