@@ -251,6 +251,13 @@ class PlanConfig(_Stage):
     )
     time_limit_s: float = Field(2.0, gt=0, le=3600, description="solver time limit per window")
     strict_cover: bool = Field(False, description="paper's exact cover when feasible")
+    bound: bool = Field(
+        False,
+        # Left out of dumps while off, so run identities and metadata stay as they were.
+        exclude_if=lambda on: not on,
+        description="after planning, prove an upper bound on the window objective G by "
+        "column generation over every feasible route and record the plan's gap to it",
+    )
 
 
 class SimConfig(_Stage):

@@ -175,7 +175,11 @@ def _summary(res: PlannedWindow) -> None:
     show_table(t)
     if plan.score is not None and not STATE["json"]:  # docs/method.md §4.2
         sc = plan.score
+        bound = ""
+        if sc.bound_G is not None:  # [plan] bound = true (docs/method.md, "The bound")
+            bound = f"; bound {sc.bound_G / 1e6:.3f} MJ, gap {100 * (sc.gap or 0.0):.2f} %"
         out_console.print(
             f"window objective: J {sc.J / 1e6:.3f} MJ, G {sc.G / 1e6:.3f} MJ "
             f"(served {sc.served} of {sc.pending} pending, energy {sc.energy_j / 1e3:.1f} kJ)"
+            + bound
         )

@@ -13,7 +13,7 @@ minimises exactly J over the routes it is given.
 from __future__ import annotations
 
 from collections.abc import Iterable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -41,15 +41,33 @@ class WindowScore:
     """Σ v_r over the served requests."""
     pending_value: float
     """Σ v_r over every pending request."""
+    bound_G: float | None = None
+    """A proven upper bound on G over every feasible plan (docs/method.md, "The bound");
+    None when not computed."""
+
+    @property
+    def gap(self) -> float | None:
+        """(bound − G) / |bound|: how far G may be from the best plan; None without a bound."""
+        if self.bound_G is None:
+            return None
+        return (self.bound_G - self.G) / max(abs(self.bound_G), 1e-9)
+
+    def with_bound(self, bound_g: float) -> WindowScore:
+        """This score with its bound."""
+        return replace(self, bound_G=float(bound_g))
 
     def as_dict(self) -> dict[str, float | int]:
-        return {
+        out: dict[str, float | int] = {
             "J": self.J,
             "G": self.G,
             "energy_j": self.energy_j,
             "served": self.served,
             "pending": self.pending,
         }
+        if self.bound_G is not None:  # only with the bound on: default outputs unchanged
+            out["bound_G"] = self.bound_G
+            out["gap"] = float(self.gap)  # type: ignore[arg-type]
+        return out
 
 
 def score_routes(

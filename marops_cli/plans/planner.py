@@ -37,6 +37,7 @@ __all__ = [
     "RoutePoolPlanner",
     "SubsetsPlanner",
     "can_reach",
+    "drone_tasks",
     "make_planner",
 ]
 
@@ -150,6 +151,22 @@ def make_planner(cfg: PlanConfig, scope: Scope = "range") -> Planner:
         pool = PyvrpPoolPlanner if cfg.pyvrp_iterations > 0 else RoutePoolPlanner
         return pool(cfg, scope)
     return SubsetsPlanner(cfg, scope)
+
+
+def drone_tasks(
+    view: WindowView,
+    actions: np.ndarray,
+    cfg: PlanConfig,
+    scope: Scope,
+    models: list[EnergyModel],
+) -> list[DroneTask]:
+    """What each drone may do in the window as the route pool flies ``actions``: its
+    start, end and allowed requests (the tasks :class:`RoutePoolPlanner` builds)."""
+    if scope == "global":
+        acts = np.zeros(view.n_drones, dtype=np.int64)
+    else:
+        acts = _grounded(view, _reachable_actions(view, np.asarray(actions, np.int64), models))
+    return _pool_tasks(view, acts, cfg, scope, models)
 
 
 def _reachable_actions(

@@ -16,6 +16,7 @@ import numpy as np
 from ..config import PlanConfig
 from ..energy import EnergyModel
 from ..errors import RunError
+from .bound import BoundResult, window_bound
 from .objective import WindowScore, lam_j, score_routes
 from .planner import Planner, Scope, make_planner
 from .pool import finish_route
@@ -54,6 +55,8 @@ class WindowPlan:
     timings: dict[str, float] = field(default_factory=dict)
     score: WindowScore | None = None
     """The window objective J and G of ``routes`` (docs/method.md)."""
+    bound: BoundResult | None = None
+    """The proven upper bound on G (``PlanConfig.bound``; docs/method.md, "The bound")."""
 
 
 def drone_models(view: WindowView, model: EnergyModel) -> list[EnergyModel]:
@@ -156,6 +159,15 @@ def plan_routes(
         [(r.stops, r.energy_j) for r in plan.routes],
         lam_j(cfg.alpha, model.usable_j),
     )
+    if cfg.bound:  # warm-started with every plan the selection saw
+        t0 = time.perf_counter()
+        columns = [
+            [(ps.route(k), float(ps.energy_j[k])) for k in range(1, ps.n_plans)]
+            for ps in plan_sets
+        ]
+        plan.bound = window_bound(view, actions, model, cfg, scope, columns=columns)
+        plan.score = plan.score.with_bound(plan.bound.bound)
+        plan.timings["bound"] = time.perf_counter() - t0
     return plan
 
 

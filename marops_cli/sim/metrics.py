@@ -209,6 +209,19 @@ def unservable(
     return int(heavy.sum()), int(far.sum())
 
 
+def bound_metrics(scores: list[Any]) -> dict[str, float]:
+    """With ``[plan] bound = true``: Σ over the windows of the bound on G (MJ) and the
+    windows' median gap (bound − G) / |bound| (docs/method.md, "The bound"); empty
+    otherwise, so the day's record is as it was."""
+    bounded = [s for s in scores if s.bound_G is not None]
+    if not bounded:
+        return {}
+    return {
+        "objective_bound_mj": sum(s.bound_G for s in bounded) / 1e6,
+        "gap_median": float(np.median([s.gap for s in bounded])),
+    }
+
+
 def ops_metrics(st: Any) -> dict[str, Any]:
     """What the operating model held back on a day (``OPS_METRICS``, and ``stock_left``
     per depot: its parcels still undelivered at the end of the day); empty under the
@@ -328,6 +341,7 @@ def day_metrics(
         # The day objective: the windows' J and G summed (docs/method.md), in MJ.
         "objective_j_mj": sum(s.J for s in scores) / 1e6,
         "objective_g_mj": sum(s.G for s in scores) / 1e6,
+        **bound_metrics(scores),
         "delivered_share": float(delivered.mean()) if delivered.size else 1.0,
         **action_shares(res),
         "waiting_max": int(st.waiting_w.max(initial=0)),

@@ -1,0 +1,302 @@
+"""An upper bound on a window's objective G over every feasible route (docs/method.md,
+"The bound").
+
+The selection program picks one route per drone, each request at most once, from the
+routes it is given. Over *all* feasible routes its linear relaxation
+
+    max Σ_k (G_k − G_∅) x_k + Σ_d n_d G_∅d
+    s.t. Σ_{k of class d} x_k ≤ n_d   (identical drones: a class of n_d)
+         Σ_k a_ik x_k ≤ 1            (each request)
+         x ≥ 0
+
+bounds the best plan any planner can fly (G_k = λ Σ_{i∈k} v_i − E_k; G_∅ is the empty
+route's). It is solved by column generation: the master over the routes found so far
+(first the planner's own) gives request prices π ≥ 0, and the pricing
+(:mod:`.pricing`) looks for a route of positive reduced cost. Any π ≥ 0 proves
+
+    G ≤ Σ_d n_d G_∅d + Σ_i π_i + Σ_d n_d · max(0, U_d)
+
+with U_d ≥ max_k (Σ_{i∈k} (λ v_i − π_i) − E_k + E_∅d) over drone class d's routes
+(Lagrangian relaxation of the request rows); every pricing returns such a U_d, the
+route it found when its search was complete, an upper bound on what it left out
+otherwise. The lowest value is the bound. Before the first pricing the bound is the
+trivial Σ λ v_i over the requests some drone can serve less every drone's least
+energy (its empty route's: no route flies less).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import highspy
+import numpy as np
+from numpy.typing import NDArray
+
+from ..energy import EnergyModel
+from ..segment.depots import nearest_depot
+from .pool import DroneTask
+from .pricing import DroneClass, price
+from .select import _silence_highs_banner
+
+if TYPE_CHECKING:
+    from ..config import PlanConfig
+    from .planner import Scope
+    from .view import WindowView
+
+__all__ = ["BoundResult", "bound_g", "window_bound"]
+
+_RC_TOL = 1e-6  # a reduced cost (J) above this is worth a column
+_REL_STOP = 1e-5  # stop once the bound is this close (relative) to the master's value
+_KEEP = 3  # labels per node a heuristic pricing extends
+
+
+@dataclass(frozen=True)
+class BoundResult:
+    """An upper bound on G and how it was found."""
+
+    bound: float
+    """Upper bound on G (J): the lowest valid bound found."""
+    lp: float
+    """The master program's value at the last solve (a lower bound on the relaxation)."""
+    converged: bool
+    """The bound met the master's value: ``bound`` is the relaxation's value (over
+    ng-routes)."""
+    priced: bool
+    """``bound`` comes from a pricing round; False: the trivial bound (a cap was hit
+    before the first round)."""
+    capped: str
+    """Which cap stopped the search short of the relaxation's value ("" when none):
+    "time", "iterations", or "labels" (a full pricing, cut by ``max_labels``, found
+    nothing more to add)."""
+    iterations: int
+    columns: int
+    cpu_s: float
+
+    def gap(self, g: float) -> float:
+        """(bound − G) / |bound|: the share of the bound a plan of objective ``g`` misses."""
+        return (self.bound - g) / max(abs(self.bound), 1e-9)
+
+
+class _Master:
+    """The restricted master program in HiGHS (minimising −G, every row "≤")."""
+
+    def __init__(self, counts: Sequence[int], n_req: int) -> None:
+        _silence_highs_banner()
+        self.h = highspy.Highs()
+        self.h.setOptionValue("output_flag", False)
+        self.n_cls, self.n_req = len(counts), n_req
+        n_rows = self.n_cls + n_req
+        upper = np.concatenate([np.asarray(counts, dtype=np.float64), np.ones(n_req)])
+        self.h.addRows(
+            n_rows, np.full(n_rows, -highspy.kHighsInf), upper, 0,
+            np.zeros(n_rows, dtype=np.int32), np.zeros(0, dtype=np.int32), np.zeros(0),
+        )
+        self.keys: dict[tuple[int, tuple[int, ...]], float] = {}
+        self.cols: list[tuple[int, tuple[int, ...], float]] = []
+        """Each column: its class, stops in visiting order and G − G_∅."""
+        self.value = -np.inf
+
+    def add(self, cols: list[tuple[int, tuple[int, ...], float]]) -> int:
+        """Add columns (class, stops, G − G_∅), each set of stops once in its best order
+        known; returns how many were new."""
+        cost, starts, index, vals = [], [], [], []
+        for c, stops, g in cols:
+            key = (c, tuple(sorted(stops)))
+            if self.keys.get(key, -np.inf) >= g - _RC_TOL:
+                continue  # known, in an order at least as good
+            self.keys[key] = g
+            self.cols.append((c, tuple(stops), g))
+            req, cnt = np.unique(np.asarray(stops, dtype=np.int64), return_counts=True)
+            starts.append(len(index))
+            index += [c, *(self.n_cls + req).tolist()]
+            vals += [1.0, *cnt.astype(np.float64).tolist()]
+            cost.append(-g)
+        n = len(cost)
+        if n:
+            self.h.addCols(
+                n, np.array(cost), np.zeros(n), np.full(n, highspy.kHighsInf), len(index),
+                np.array(starts, dtype=np.int32), np.array(index, dtype=np.int32),
+                np.array(vals),
+            )
+        return n
+
+    def solve(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Solve; the value (of G − Σ n_d G_∅d) and the duals: (drone μ, request π) ≥ 0."""
+        if not self.keys:  # no route yet: nothing to price against
+            self.value = 0.0
+            return np.zeros(self.n_cls), np.zeros(self.n_req)
+        self.h.run()
+        if self.h.getModelStatus() != highspy.HighsModelStatus.kOptimal:
+            raise RuntimeError(f"master program: {self.h.getModelStatus().name}")
+        self.value = -float(self.h.getInfo().objective_function_value)
+        dual = np.maximum(-np.asarray(self.h.getSolution().row_dual, dtype=np.float64), 0.0)
+        return dual[: self.n_cls], dual[self.n_cls :]
+
+
+def _classes(
+    depots_xy: NDArray[np.float64],
+    req_xy: NDArray[np.float64],
+    req_weight: NDArray[np.float64],
+    tasks: list[DroneTask],
+    model: EnergyModel,
+    ng: int,
+) -> tuple[list[DroneClass], list[int]]:
+    """Identical drones as one class; each task's class."""
+    land_m = nearest_depot(req_xy, depots_xy)[1] if len(req_xy) else np.zeros(0)
+    keys: dict[tuple[int, int, bytes, int], int] = {}
+    members: list[list[int]] = []
+    of: list[int] = []
+    for u, t in enumerate(tasks):
+        k = (t.start, t.end, np.asarray(t.allowed, dtype=np.int64).tobytes(), id(t.model or model))
+        if k not in keys:
+            keys[k] = len(members)
+            members.append([])
+        members[keys[k]].append(u)
+        of.append(keys[k])
+    classes = []
+    for us in members:
+        t = tasks[us[0]]
+        classes.append(
+            DroneClass.of(
+                depots_xy[t.start], t.end, np.asarray(t.allowed, dtype=np.int64), depots_xy,
+                req_xy, req_weight, land_m, t.model or model, len(us), ng,
+            )
+        )
+    return classes, of
+
+
+def bound_g(
+    depots_xy: NDArray[np.float64],
+    req_xy: NDArray[np.float64],
+    req_weight: NDArray[np.float64],
+    value: NDArray[np.float64],
+    lam: float,
+    tasks: list[DroneTask],
+    model: EnergyModel,
+    *,
+    columns: Sequence[Sequence[tuple[Sequence[int], float]]] | None = None,
+    ng: int = 8,
+    time_limit_s: float = 5.0,
+    max_iterations: int = 200,
+    max_labels: int = 20_000,
+) -> BoundResult:
+    """An upper bound on G for the drones ``tasks`` (module docstring).
+
+    ``value`` is v_i = 1 + delay_i (h) per pending position, ``lam`` λ (J);
+    ``columns`` each task's known routes as ``(positions, energy J)`` (the planner's
+    pool: a warm start); ``ng`` the ng-neighbourhood size (≥ the requests: elementary
+    routes). ``time_limit_s`` (CPU), ``max_iterations`` (pricing rounds) and
+    ``max_labels`` (labels of one length in a full pricing) cap the search; a capped
+    search still returns a valid bound and says which cap it hit.
+    """
+    c0 = time.process_time()
+    prize = lam * np.asarray(value, dtype=np.float64)
+    classes, of = _classes(
+        np.asarray(depots_xy, dtype=np.float64), np.asarray(req_xy, dtype=np.float64),
+        np.asarray(req_weight, dtype=np.float64), tasks, model, ng,
+    )
+    const = -sum(c.count * c.e_empty for c in classes)
+    servable = np.zeros(prize.size, dtype=bool)
+    for c in classes:
+        servable[c.pos] = True
+    trivial = const + float(prize[servable].sum())
+    master = _Master([c.count for c in classes], prize.size)
+    warm = []
+    for u, routes in enumerate(columns or []):
+        c = classes[of[u]]
+        for stops, e in routes:
+            if len(stops):
+                warm.append((of[u], tuple(int(s) for s in stops),
+                             float(prize[list(stops)].sum()) - float(e) + c.e_empty))
+    master.add(warm)
+    best, priced, converged, capped, it = trivial, False, False, "", 0
+    heuristic, full_done = True, False
+    lp = -np.inf
+    while True:
+        mu, pi = master.solve()
+        lp = master.value + const
+        if time.process_time() - c0 > time_limit_s:
+            capped = "time"
+            break
+        if it >= max_iterations:
+            capped = "iterations"
+            break
+        it += 1
+        profit = prize - pi
+        new, tops, exact = [], [], True
+        for k, c in enumerate(classes):
+            pr = price(c, profit, float(mu[k]) + _RC_TOL, keep=_KEEP if heuristic else None,
+                       max_labels=max_labels, deadline=c0 + time_limit_s)
+            exact &= pr.exact
+            tops.append(max(pr.ub, 0.0))
+            new += [(k, s, float(prize[list(s)].sum()) - e + c.e_empty) for s, e, _ in pr.routes]
+        # Every pricing bounds every route's value: a valid bound (Lagrangian relaxation).
+        lagr = const + float(pi.sum()) + sum(c.count * t for c, t in zip(classes, tops,
+                                                                        strict=True))
+        best, priced = min(best, lagr), True
+        added = master.add(new)
+        if best - lp <= _REL_STOP * max(abs(best), 1.0):
+            converged = True
+            break
+        if added == 0 and not heuristic:
+            capped = "" if exact else "labels"
+            break  # the full pricing found nothing to add: no better bound within reach
+        # A heuristic round that found nothing is followed by a full one, which is
+        # followed by heuristic rounds again when it found columns.
+        heuristic = added > 0
+        if heuristic and not full_done and time.process_time() - c0 > 0.5 * time_limit_s:
+            heuristic = False  # half the time gone: one full round, for a tighter bound
+        full_done |= not heuristic
+    return BoundResult(
+        bound=best,
+        lp=lp,
+        converged=converged,
+        priced=priced,
+        capped="" if converged else capped,
+        iterations=it,
+        columns=len(master.keys),
+        cpu_s=time.process_time() - c0,
+    )
+
+
+def window_bound(
+    view: WindowView,
+    actions: NDArray[np.int64],
+    model: EnergyModel,
+    cfg: PlanConfig,
+    scope: Scope = "range",
+    *,
+    columns: Sequence[Sequence[tuple[Sequence[int], float]]] | None = None,
+    relaxed: bool = False,
+    **caps: float,
+) -> BoundResult:
+    """The bound of one window for the drones' ``actions`` as the route pool flies them
+    (``scope`` and ``cfg`` decide each drone's landing and allowed requests; λ from
+    ``cfg.alpha`` and ``model``'s usable battery).
+
+    ``relaxed``: every drone that can fly lands freely and may serve whatever its depot
+    stocks (the ``global`` scope): a bound on every planner's plan, whatever its actions
+    (a free landing never costs more than a fixed one). ``columns``: each drone's known
+    routes (a warm start); ``caps``: :func:`bound_g`'s ``ng``, ``time_limit_s``,
+    ``max_iterations``, ``max_labels``.
+    """
+    from .objective import lam_j
+    from .planner import drone_tasks
+    from .window import drone_models
+
+    models = drone_models(view, model)
+    tasks = drone_tasks(view, actions, cfg, "global" if relaxed else scope, models)
+    return bound_g(
+        view.depots.xy,
+        view.pending_xy,
+        view.pending_weight,
+        1.0 + np.asarray(view.pending_delay_h, dtype=np.float64),
+        lam_j(cfg.alpha, model.usable_j),
+        tasks,
+        model,
+        columns=columns,
+        **caps,  # type: ignore[arg-type]
+    )
