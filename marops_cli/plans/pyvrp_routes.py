@@ -54,8 +54,9 @@ class PeerRoutes:
     """End depot per route, -1 where the route lands at the depot nearest its last stop."""
     stops: list[NDArray[np.int64]]
     """Positions in the request arrays given to :func:`solve_window`, in PyVRP's order."""
-    cost: int
-    """PyVRP's own objective (conservative energy minus prizes)."""
+    cost: float
+    """PyVRP's own objective (conservative energy minus prizes); infinite when its search
+    ended without a feasible solution (its feasible routes are kept all the same)."""
 
 
 class _CpuLimit:
@@ -188,5 +189,5 @@ def solve_window(
         start=np.asarray(out_start, dtype=np.int64),
         end=np.asarray(out_end, dtype=np.int64),
         stops=out_stops,
-        cost=int(res.cost()),
+        cost=float(res.cost()),
     )
