@@ -408,7 +408,7 @@ def differences(want: dict[str, Any], got: dict[str, Any]) -> list[str]:
         elif path not in want:
             out.append(f"{path}: not in the recorded fingerprints")
         elif want[path]["sha256"] != got[path]["sha256"]:
-            wp, gp = want[path]["parts"], got[path]["parts"]
+            wp, gp = want[path].get("parts", {}), got[path].get("parts", {})  # binary files: none
             parts = [p for p in sorted(set(wp) | set(gp)) if wp.get(p) != gp.get(p)]
             shown = ", ".join(parts[:6]) + (f" (+{len(parts) - 6} more)" if len(parts) > 6 else "")
             out.append(f"{path}: {shown or 'content'}")

@@ -173,6 +173,14 @@ def train_command(
             "rule's (docs/method.md §6.1) [default: 1.0].",
         ),
     ] = 1.0,
+    energy_slack: Annotated[
+        float,
+        typer.Option(
+            "--energy-slack",
+            help="--algorithm es: share of energy per drone above the day's best rule's that "
+            "costs nothing; --energy-weight prices the rest (0..1) [default: 0.0].",
+        ),
+    ] = 0.0,
     workers: Annotated[int, typer.Option("--workers", help="Rollout processes.")] = 2,
     resume: Annotated[
         bool, typer.Option("--resume/--no-resume", help="Continue from NAME.ckpt if present.")
@@ -243,6 +251,7 @@ def train_command(
     tcfg = _train_config(
         algorithm=algorithm,
         es_energy_weight=energy_weight,
+        es_energy_slack=energy_slack,
         method=method,
         episodes=episodes,
         seed=seed,
@@ -267,6 +276,10 @@ def train_command(
         _print_heldout(res.heldout)
 
 
+_FLAGS = {"es_energy_weight": "energy-weight", "es_energy_slack": "energy-slack"}
+"""The flag of a training setting whose name differs from it."""
+
+
 def _train_config(**fields: Any) -> TrainConfig:
     """The training hyperparameters of the flags; a bad value names its flag."""
     from ..rl.config import TrainConfig  # deferred: torch loads only for this command
@@ -275,7 +288,8 @@ def _train_config(**fields: Any) -> TrainConfig:
         return TrainConfig(**fields)
     except ValidationError as exc:
         err = exc.errors()[0]
-        raise InputError(f"invalid option --{err['loc'][0]}: {err['msg']}") from None
+        flag = _FLAGS.get(str(err["loc"][0]), err["loc"][0])
+        raise InputError(f"invalid option --{flag}: {err['msg']}") from None
 
 
 def _print_heldout(heldout: dict[str, Any]) -> None:

@@ -51,6 +51,8 @@ __all__ = ["BoundResult", "bound_g", "window_bound"]
 _RC_TOL = 1e-6  # a reduced cost (J) above this is worth a column
 _REL_STOP = 1e-5  # stop once the bound is this close (relative) to the master's value
 _KEEP = 3  # labels per node a heuristic pricing extends
+MAX_WORK = 500_000
+"""Labels a bound makes at most by default (seconds of CPU on a 150-request window)."""
 
 
 @dataclass(frozen=True)
@@ -69,11 +71,19 @@ class BoundResult:
     before the first round)."""
     capped: str
     """Which cap stopped the search short of the relaxation's value ("" when none):
-    "time", "iterations", or "labels" (a full pricing, cut by ``max_labels``, found
-    nothing more to add)."""
+    "work" (``max_work`` labels made), "time", "iterations", or "labels" (a full
+    pricing, cut by ``max_labels``, found nothing more to add)."""
     iterations: int
     columns: int
     cpu_s: float
+    labels: int = 0
+    """Labels the pricings made: the work done, the same on any machine."""
+    plan: tuple[tuple[tuple[int, ...], int], ...] | None = None
+    """The best plan over the routes the search found, when asked for with ``plan=True``:
+    per task its stops (window positions, in visiting order; none: the task's empty
+    route) and its landing (-1: the depot nearest the last stop)."""
+    plan_g: float = -np.inf
+    """G of ``plan``."""
 
     def gap(self, g: float) -> float:
         """(bound − G) / |bound|: the share of the bound a plan of objective ``g`` misses."""
@@ -179,18 +189,23 @@ def bound_g(
     *,
     columns: Sequence[Sequence[tuple[Sequence[int], float]]] | None = None,
     ng: int = 8,
-    time_limit_s: float = 5.0,
+    max_work: int = MAX_WORK,
+    time_limit_s: float | None = None,
     max_iterations: int = 200,
     max_labels: int = 20_000,
+    plan: bool = False,
 ) -> BoundResult:
     """An upper bound on G for the drones ``tasks`` (module docstring).
 
     ``value`` is v_i = 1 + delay_i (h) per pending position, ``lam`` λ (J);
     ``columns`` each task's known routes as ``(positions, energy J)`` (the planner's
     pool: a warm start); ``ng`` the ng-neighbourhood size (≥ the requests: elementary
-    routes). ``time_limit_s`` (CPU), ``max_iterations`` (pricing rounds) and
-    ``max_labels`` (labels of one length in a full pricing) cap the search; a capped
-    search still returns a valid bound and says which cap it hit.
+    routes). ``max_work`` (labels made in all), ``max_iterations`` (pricing rounds) and
+    ``max_labels`` (labels of one length in a full pricing) cap the search, and so does
+    ``time_limit_s`` (CPU seconds; None: no clock, the default, so that the bound is
+    the same on any machine); a capped search still returns a valid bound and says which
+    cap it hit. ``plan``: also the best plan over the routes found (an integer program
+    over the master's elementary routes).
     """
     c0 = time.process_time()
     prize = lam * np.asarray(value, dtype=np.float64)
@@ -214,11 +229,15 @@ def bound_g(
     master.add(warm)
     best, priced, converged, capped, it = trivial, False, False, "", 0
     heuristic, full_done = True, False
-    lp = -np.inf
+    lp, work = -np.inf, 0
+    clock = np.inf if time_limit_s is None else float(time_limit_s)
     while True:
         mu, pi = master.solve()
         lp = master.value + const
-        if time.process_time() - c0 > time_limit_s:
+        if work > max_work:
+            capped = "work"
+            break
+        if time.process_time() - c0 > clock:
             capped = "time"
             break
         if it >= max_iterations:
@@ -228,11 +247,17 @@ def bound_g(
         profit = prize - pi
         new, tops, exact = [], [], True
         for k, c in enumerate(classes):
+            late = max_work - work if time.process_time() - c0 <= clock else 0
             pr = price(c, profit, float(mu[k]) + _RC_TOL, keep=_KEEP if heuristic else None,
-                       max_labels=max_labels, deadline=c0 + time_limit_s)
+                       max_labels=max_labels, budget=late)
+            work += pr.labels
             exact &= pr.exact
             tops.append(max(pr.ub, 0.0))
             new += [(k, s, float(prize[list(s)].sum()) - e + c.e_empty) for s, e, _ in pr.routes]
+        # The master's own columns count too: a known route outside the drones' tasks
+        # (another planner's) is then covered as well.
+        for c, stops, g in master.cols:
+            tops[c] = max(tops[c], g - float(pi[list(stops)].sum()))
         # Every pricing bounds every route's value: a valid bound (Lagrangian relaxation).
         lagr = const + float(pi.sum()) + sum(c.count * t for c, t in zip(classes, tops,
                                                                         strict=True))
@@ -247,8 +272,9 @@ def bound_g(
         # A heuristic round that found nothing is followed by a full one, which is
         # followed by heuristic rounds again when it found columns.
         heuristic = added > 0
-        if heuristic and not full_done and time.process_time() - c0 > 0.5 * time_limit_s:
-            heuristic = False  # half the time gone: one full round, for a tighter bound
+        half = work > 0.5 * max_work or time.process_time() - c0 > 0.5 * clock
+        if heuristic and not full_done and half:
+            heuristic = False  # half the budget gone: one full round, for a tighter bound
         full_done |= not heuristic
     return BoundResult(
         bound=best,
@@ -259,7 +285,59 @@ def bound_g(
         iterations=it,
         columns=len(master.keys),
         cpu_s=time.process_time() - c0,
+        labels=work,
+        **(_best_plan(master, classes, of, prize.size, const) if plan else {}),
     )
+
+
+_PLAN_NODES = 2_000  # branch-and-bound nodes of the best-plan program: a count, not a clock
+
+
+def _best_plan(
+    master: _Master,
+    classes: list[DroneClass],
+    of: list[int],
+    n_req: int,
+    const: float,
+) -> dict[str, object]:
+    """The best plan over the master's elementary routes (each request at most once, at
+    most a class's count of routes per class), each route given to a drone of its
+    class: ``BoundResult.plan`` and ``plan_g``."""
+    cols = [(c, st, g) for c, st, g in master.cols if len(set(st)) == len(st) and g > 0]
+    routes: list[tuple[tuple[int, ...], int]] = [((), classes[c].end) for c in of]
+    if not cols:
+        return {"plan": tuple(routes), "plan_g": const}
+    n_cls = len(classes)
+    h = highspy.Highs()
+    h.setOptionValue("output_flag", False)
+    h.setOptionValue("mip_max_nodes", _PLAN_NODES)
+    lp = highspy.HighsLp()
+    lp.num_col_, lp.num_row_ = len(cols), n_cls + n_req
+    lp.col_cost_ = np.array([-g for _, _, g in cols])
+    lp.col_lower_, lp.col_upper_ = np.zeros(len(cols)), np.ones(len(cols))
+    lp.row_lower_ = np.full(lp.num_row_, -highspy.kHighsInf)
+    lp.row_upper_ = np.concatenate([[float(c.count) for c in classes], np.ones(n_req)])
+    start, index = [0], []
+    for c, st, _ in cols:
+        index += [c, *sorted(n_cls + s for s in st)]
+        start.append(len(index))
+    lp.a_matrix_.format_ = highspy.MatrixFormat.kColwise
+    lp.a_matrix_.start_ = np.array(start, dtype=np.int32)
+    lp.a_matrix_.index_ = np.array(index, dtype=np.int32)
+    lp.a_matrix_.value_ = np.ones(len(index))
+    lp.integrality_ = [highspy.HighsVarType.kInteger] * len(cols)
+    h.passModel(lp)
+    h.run()
+    if h.getInfo().primal_solution_status != highspy.kSolutionStatusFeasible:
+        return {"plan": tuple(routes), "plan_g": const}
+    x = np.asarray(h.getSolution().col_value, dtype=np.float64)
+    free = {c: [u for u in range(len(of)) if of[u] == c] for c in range(n_cls)}
+    g = const
+    for k in np.flatnonzero(x > 0.5):
+        c, st, gk = cols[int(k)]
+        routes[free[c].pop(0)] = (st, classes[c].end)
+        g += gk
+    return {"plan": tuple(routes), "plan_g": g}
 
 
 def window_bound(
@@ -280,8 +358,8 @@ def window_bound(
     ``relaxed``: every drone that can fly lands freely and may serve whatever its depot
     stocks (the ``global`` scope): a bound on every planner's plan, whatever its actions
     (a free landing never costs more than a fixed one). ``columns``: each drone's known
-    routes (a warm start); ``caps``: :func:`bound_g`'s ``ng``, ``time_limit_s``,
-    ``max_iterations``, ``max_labels``.
+    routes (a warm start); ``caps``: :func:`bound_g`'s ``ng``, ``max_work``,
+    ``time_limit_s``, ``max_iterations``, ``max_labels`` and ``plan``.
     """
     from .objective import lam_j
     from .planner import drone_tasks

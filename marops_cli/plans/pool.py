@@ -15,11 +15,13 @@ docs/method.md, "Route pool", explains the method; in short, for one window:
    conflict-free plan of the window.
 3. **Exchange.** In the best construction each route swaps a stop for the best
    unserved candidate that fits once the stop is out, while its G grows.
-   **Improvement.** Ruin and recreate (large neighbourhood search), alternating a
-   ruin of one route (with a relocation to another drone) and a ruin of the served
-   stops nearest a random one over up to three routes; the touched routes are
-   refilled greedily; a result is kept when G grows or is within a falling
-   threshold of the current one. Deterministic: the random stream is seeded.
+   **Improvement.** Ruin and recreate (large neighbourhood search) with three ruins
+   in turn: of one route (with a relocation to another drone), of the served stops
+   nearest a random one over up to three routes, and of the stops whose detour
+   costs the most energy; the touched routes are refilled greedily with blurred
+   scores; a result is kept when G grows or is within a falling threshold of the
+   current one; the best solution's routes get the exchange once more.
+   Deterministic: the random stream is seeded.
 4. **Pool.** Every route any of these solutions gave a drone is a column; the
    selection program then picks one per drone, each request at most once, so its
    result is never worse than the best single solution.
@@ -36,7 +38,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-from ..energy import ENERGY_TOL_J, EnergyModel
+from ..energy import ENERGY_TOL_J, PAYLOAD_TOL_KG, EnergyModel
 from ..segment.depots import nearest_depot
 from .order import MAX_STOPS, evaluate_orders, exact_orders, node_distances, subset_masks
 
@@ -44,7 +46,14 @@ __all__ = ["DroneTask", "PoolResult", "RoutePool", "build_pool", "finish_route"]
 SCORES = ("weight", "density", "gain")
 _Route = tuple[tuple[int, ...], float, float, float]  # stops, energy, weight, prizes
 _ACCEPT = 0.01  # ruin and recreate accepts a solution up to this share of G worse, falling to 0
+_RUIN_MAX = 8  # the nearest-stops and worst-detour ruins free 2 to this many stops
+_BLINK = 0.5  # ruin and recreate refills by each insertion's score times U(1 - _BLINK, 1)
+_NOISE = 0.5  # the worst-detour ruin ranks each stop's saving times U(_NOISE, 1)
 _EXACT_MAX = 10  # exact re-ordering up to this many stops (2**10 subsets)
+# np.interp's compiled core: the same values without the wrapper's checks, which cost as
+# much as the interpolation itself on the search's small arrays.
+_interp = getattr(np, "_core", np).multiarray.interp
+_max = np.maximum.reduce  # ndarray.max without its Python wrapper (the same value)
 
 
 @dataclass(frozen=True)
@@ -71,6 +80,8 @@ class _Kind:
     """The battery the search plans within: the usable battery less the tolerance, so
     that energies added up insertion by insertion still fit once recomputed."""
     e0: float  # J/m empty
+    fit_kg: float
+    """The heaviest load the payload limit admits (``EnergyModel.fits``' tolerance)."""
     grid: NDArray[np.float64]
     table: NDArray[np.float64]
 
@@ -81,13 +92,14 @@ class _Kind:
             model.max_payload_kg,
             model.usable_j - ENERGY_TOL_J,
             float(model.energy_per_m(0.0)),
+            model.max_payload_kg + PAYLOAD_TOL_KG,
             model.grid_kg,
             model.table_j_per_m,
         )
 
     def e(self, load: NDArray[np.float64] | float) -> NDArray[np.float64]:
         """Energy per metre with ``load`` kg on board (the model's own table, unchecked)."""
-        return np.asarray(np.interp(load, self.grid, self.table))
+        return _interp(load, self.grid, self.table)
 
 
 @dataclass
@@ -146,6 +158,8 @@ class RoutePool:
         self.depots_xy = np.asarray(depots_xy, dtype=np.float64)
         self.tasks = tasks
         self._near_m: NDArray[np.float64] | None = None
+        # (drone, stops) -> the route's energy without each stop (the worst-detour ruin)
+        self._without_j: dict[tuple[int, tuple[int, ...]], NDArray[np.float64]] = {}
         scored = [self._score_alone(t, k) for t, k in zip(tasks, self.kinds, strict=True)]
         # Each request's "home" drone: the one it suits best (highest value density; ties
         # to the lower drone). A drone keeps its ``n_candidates`` best requests and also
@@ -252,22 +266,32 @@ class RoutePool:
         nodes = np.empty(k + 1, dtype=np.int64)
         nodes[0], nodes[1:] = dr.cand.size, stops
         load = np.zeros(k + 1)  # L_i leaving node i, i = 0..k
-        load[:k] = np.cumsum(dr.cand_w[stops][::-1])[::-1]
-        dq = dr.dmat[sub[:, None], nodes[None, :]]  # (m, k + 1): node i -> q
+        load[:k] = dr.cand_w[stops][::-1].cumsum()[::-1]
+        dq = dr.dmat.take(nodes, axis=1).take(sub, axis=0)  # (m, k + 1): node i -> q
         e_l = dr.k.e(load)
         e_lq = dr.k.e(np.minimum(load[None, :] + wq[:, None], dr.k.cap))  # (m, k + 1)
         legs = dr.dmat[stops, nodes[:-1]]  # (k,): node i -> node i + 1
         # Inserting q after node i: the legs before it carry q's parcel too (prefix),
         # node i -> q -> node i + 1 replaces node i -> node i + 1.
         d_e = dq * e_lq
-        d_e[:, 1:] += np.cumsum((e_lq[:, :k] - e_l[None, :k]) * legs[None, :], axis=1)
+        d_e[:, 1:] += ((e_lq[:, :k] - e_l[None, :k]) * legs[None, :]).cumsum(axis=1)
         d_e[:, :k] += dq[:, 1:] * e_l[None, :k] - (legs * e_l[:k])[None, :]
         d_e[:, k] += dr.cand_end[sub] - dr.cand_end[stops[-1]]
-        return d_e.min(axis=1), d_e.argmin(axis=1)
+        at = d_e.argmin(axis=1)
+        return d_e[np.arange(m), at], at
 
-    def _refresh(self, u: int, score_kind: str, free: NDArray[np.bool_]) -> None:
+    def _refresh(
+        self,
+        u: int,
+        score_kind: str,
+        free: NDArray[np.bool_],
+        rng: np.random.Generator | None = None,
+    ) -> None:
+        """Each free candidate's best insertion into drone ``u``'s route and its score;
+        with ``rng`` the scores are blurred (a random factor in [1 − _BLINK, 1]), so that
+        a refill need not rebuild what was ruined."""
         dr = self.drones[u]
-        sub = (free[dr.cand] & dr.k.model.fits(dr.weight + dr.cand_w)).nonzero()[0]
+        sub = (free[dr.cand] & (dr.weight + dr.cand_w <= dr.k.fit_kg)).nonzero()[0]
         d_e, slot = self._insertion(dr, sub)
         gain = dr.cand_prize[sub] - d_e
         feas = (dr.energy + d_e <= dr.k.usable) & (gain > 0)
@@ -278,6 +302,8 @@ class RoutePool:
             score = gain / np.maximum(dr.cand_w[sub], 1e-9)
         else:
             score = gain
+        if rng is not None:
+            score = score * rng.uniform(1.0 - _BLINK, 1.0, score.size)
         dr.score.fill(-np.inf)  # only the scores of ``sub`` are read, slots and energies too
         dr.score[sub] = np.where(feas, score, -np.inf)
         dr.slot[sub] = slot
@@ -290,17 +316,24 @@ class RoutePool:
         dr.energy += float(dr.d_e[j])
         dr.weight += float(self.w[dr.cand[j]])
 
-    def _fill(self, users: list[int], score_kind: str, free: NDArray[np.bool_]) -> None:
-        """Greedy insertion into the routes of ``users`` until nothing profitable fits."""
+    def _fill(
+        self,
+        users: list[int],
+        score_kind: str,
+        free: NDArray[np.bool_],
+        rng: np.random.Generator | None = None,
+    ) -> None:
+        """Greedy insertion into the routes of ``users`` until nothing profitable fits
+        (scores blurred with ``rng``, :meth:`_refresh`)."""
         for u in users:
-            self._refresh(u, score_kind, free)
+            self._refresh(u, score_kind, free, rng)
         best = np.array(
             [
-                self.drones[u].score.max(initial=-np.inf) if self.drones[u].cand.size else -np.inf
+                _max(self.drones[u].score, initial=-np.inf) if self.drones[u].cand.size else -np.inf
                 for u in users
             ]
         )
-        while best.size and np.isfinite(best.max()):
+        while best.size and np.isfinite(_max(best)):
             i = int(best.argmax())  # ties to the first drone
             u = users[i]
             dr = self.drones[u]
@@ -308,15 +341,15 @@ class RoutePool:
             q = int(dr.cand[j])
             self._insert(u, j)
             free[q] = False
-            self._refresh(u, score_kind, free)
-            best[i] = dr.score.max(initial=-np.inf)
+            self._refresh(u, score_kind, free, rng)
+            best[i] = _max(dr.score, initial=-np.inf)
             for i2, u2 in enumerate(users):  # q is taken: no other drone may insert it
                 hit = self._index[u2].get(q, -1) if u2 != u else -1
                 if hit >= 0:
                     d2 = self.drones[u2]
                     if d2.score[hit] > -np.inf:
                         d2.score[hit] = -np.inf
-                        best[i2] = d2.score.max()
+                        best[i2] = _max(d2.score)
 
     # -- solutions -----------------------------------------------------------------------
 
@@ -372,7 +405,7 @@ class RoutePool:
         if not dr.stops:
             return dr.start_end
         stops = np.array(dr.stops)
-        load = np.cumsum(dr.cand_w[stops][::-1])[::-1]
+        load = dr.cand_w[stops][::-1].cumsum()[::-1]
         prev = np.empty_like(stops)
         prev[0], prev[1:] = dr.cand.size, stops[:-1]  # the start is the last column
         legs = dr.dmat[stops, prev]
@@ -422,7 +455,7 @@ class RoutePool:
     def _ruin_near(
         self, busy: list[int], users: list[int], rng: np.random.Generator, free: NDArray[np.bool_]
     ) -> list[int]:
-        """Remove two to five served stops nearest a random served one, from at most
+        """Remove 2 to ``_RUIN_MAX`` served stops nearest a random served one, from at most
         three routes, so that neighbouring routes can trade stops; a drone that could
         serve what was freed is refilled too. Returns the drones to refill."""
         owner: dict[int, tuple[int, int]] = {}  # request -> (drone, index in its route)
@@ -432,7 +465,7 @@ class RoutePool:
                 owner[int(dr.cand[j])] = (u, i)
         served = np.array(sorted(owner), dtype=np.int64)
         centre = self.xy[served[int(rng.integers(served.size))]]
-        n_drop = int(rng.integers(2, 6))
+        n_drop = int(rng.integers(2, _RUIN_MAX + 1))
         drops: dict[int, list[int]] = {}
         freed: list[int] = []
         for q in served[np.argsort(np.hypot(*(self.xy[served] - centre).T), kind="stable")]:
@@ -441,6 +474,58 @@ class RoutePool:
                 continue
             drops.setdefault(u, []).append(i)
             freed.append(int(q))
+            if len(freed) == n_drop:
+                break
+        free[freed] = True
+        for u, idx in drops.items():
+            self._remove(u, sorted(idx))
+        ruined = sorted(drops)
+        return ruined + self._relocation(freed, ruined, users, rng)
+
+    def _without(self, dr: _Drone) -> NDArray[np.float64]:
+        """Exact energy of the route without each of its stops (in route order)."""
+        stops = np.array(dr.stops)
+        k = stops.size
+        w = dr.cand_w[stops]
+        load = np.minimum(w[::-1].cumsum()[::-1], dr.k.cap)  # on the leg into each stop
+        prev = np.empty_like(stops)
+        prev[0], prev[1:] = dr.cand.size, stops[:-1]
+        legs = dr.dmat[stops, prev]
+        base = legs * dr.k.e(load)
+        # Legs before the removed stop i carry its parcel no more.
+        lighter = legs[None, :] * dr.k.e(np.maximum(load[None, :] - w[:, None], 0.0))
+        out = (lighter * np.tri(k, k, -1)).sum(axis=1)
+        after = np.concatenate([base[::-1].cumsum()[::-1], [0.0]])  # legs l..k-1
+        out[:-1] += dr.dmat[stops[1:], prev[:-1]] * dr.k.e(load[1:])  # prev(i) -> stop i + 1
+        out[:-2] += after[2:-1]
+        out[:-1] += dr.cand_end[stops[-1]]
+        out[-1] += dr.cand_end[stops[-2]] if k > 1 else dr.start_end
+        return out
+
+    def _ruin_worst(
+        self, busy: list[int], users: list[int], rng: np.random.Generator, free: NDArray[np.bool_]
+    ) -> list[int]:
+        """Remove the 2 to ``_RUIN_MAX`` served stops whose detour costs the most energy
+        (with noise), from at most three routes; a drone that could serve what was
+        freed is refilled too. Returns the drones to refill."""
+        cost = []
+        for u in busy:
+            dr = self.drones[u]
+            key = (u, tuple(dr.stops))
+            without = self._without_j.get(key)
+            if without is None:  # most routes are met again: keep what they cost
+                without = self._without_j[key] = self._without(dr)
+            cost += [(float(x), u, i) for i, x in enumerate(dr.energy - without)]
+        noisy = np.array([c for c, _, _ in cost]) * rng.uniform(_NOISE, 1.0, len(cost))
+        n_drop = int(rng.integers(2, _RUIN_MAX + 1))
+        drops: dict[int, list[int]] = {}
+        freed: list[int] = []
+        for r in np.argsort(-noisy, kind="stable"):
+            _, u, i = cost[int(r)]
+            if u not in drops and len(drops) == 3:
+                continue
+            drops.setdefault(u, []).append(i)
+            freed.append(int(self.drones[u].cand[self.drones[u].stops[i]]))
             if len(freed) == n_drop:
                 break
         free[freed] = True
@@ -464,7 +549,7 @@ class RoutePool:
                     dr.stops = stops[:pos] + stops[pos + 1 :]
                     e_wo = self._route_energy(dr)
                     w_wo = weight - float(dr.cand_w[stops[pos]])
-                    sub = np.flatnonzero(free[dr.cand] & dr.k.model.fits(w_wo + dr.cand_w))
+                    sub = np.flatnonzero(free[dr.cand] & (w_wo + dr.cand_w <= dr.k.fit_kg))
                     if not sub.size:
                         continue
                     d_e, slot = self._insertion(dr, sub)
@@ -491,9 +576,9 @@ class RoutePool:
                 free[dr.cand[j]] = False
                 self._fill([u], kind, free)
 
-    def build(self, iterations: int = 100, seed: int = 0) -> PoolResult:
-        """Constructions with every score, exchanges in the best, then ``iterations``
-        ruin-and-recreate steps."""
+    def build(self, iterations: int = 80, seed: int = 0) -> PoolResult:
+        """Constructions with every score, exchanges in the best, ``iterations``
+        ruin-and-recreate steps, then exchanges in the best solution found."""
         n_u = len(self.drones)
         pool: list[dict[tuple[int, ...], float]] = [{} for _ in range(n_u)]
         users = [u for u in range(n_u) if self.drones[u].cand.size]
@@ -523,22 +608,30 @@ class RoutePool:
             busy = [u for u in users if self.drones[u].stops]
             if not busy:
                 break
-            if it % 2:
+            if it % 3 == 2:
+                touched = self._ruin_worst(busy, users, rng, free)
+            elif it % 2:
                 touched = self._ruin_near(busy, users, rng, free)
             else:
                 touched = self._ruin_route(busy, users, rng, free)
-            self._fill(touched, SCORES[it % len(SCORES)] if it % 4 == 3 else best_kind, free)
+            kind = SCORES[it % len(SCORES)] if it % 4 == 3 else best_kind
+            self._fill(touched, kind, free, rng)
             self._record(pool, touched)
             g = self._g()
             accept = g > best_g + 1e-9
             if accept:
-                best_g = g
+                best_g, best_snap = g, self._snapshot()
             if accept or g > cur_g - _ACCEPT * abs(best_g) * (1 - it / iterations):
                 current, cur_g, dirty = list(current), g, []
                 for u in touched:
                     current[u] = self._state(u)
             else:
                 dirty = touched
+        if users:  # the best solution's routes, improved by exchanges
+            free = self._restore(best_snap)
+            self._exchange(users, free, best_kind)
+            self._record(pool)
+            best_g = max(best_g, self._g())
         routes = [list(p.keys()) for p in pool]
         energy = [list(p.values()) for p in pool]
         return PoolResult(routes, energy, float(best_g))
@@ -553,7 +646,7 @@ def build_pool(
     model: EnergyModel,
     *,
     n_candidates: int = 80,
-    iterations: int = 100,
+    iterations: int = 80,
     seed: int = 0,
 ) -> PoolResult:
     """The route pool of one window (module docstring)."""

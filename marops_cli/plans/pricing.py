@@ -26,7 +26,6 @@ few labels per node instead.
 
 from __future__ import annotations
 
-import time
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -293,17 +292,18 @@ def price(
     keep: int | None = None,
     max_labels: int = 20_000,
     n_routes: int = 8,
-    deadline: float = np.inf,
+    budget: float = np.inf,
 ) -> Priced:
     """The best route of drone class ``cls`` for request profits ``profit`` (per window
     position), a proven upper bound on every route's value, and the best routes worth
     more than ``threshold`` (module docstring).
 
     ``keep``: extend only the best ``keep`` labels per node (a heuristic); None: every
-    non-dominated label, as long as at most ``max_labels`` of one length are alive and
-    the CPU clock (``time.process_time``) is before ``deadline`` (then the best per
-    node). Labels left out count with their upper bound in ``Priced.ub``, so the bound
-    stays valid either way.
+    non-dominated label, at most ``max_labels`` of one length (a twentieth once more
+    than ``budget`` labels were made: a count, so the result is the same on any
+    machine), those of highest upper bound.
+    Labels left out count with their upper bound in ``Priced.ub``, so the bound stays
+    valid either way.
     """
     pp = profit[cls.pos]
     sub = np.flatnonzero(pp > _EPS)
@@ -353,11 +353,15 @@ def price(
         if not idx.size:
             break
         nxt = _extend(lab.take(idx), idx, w, pps, dist, d_start, ng, local, cls, bounds, bar)
-        if keep is None and (nxt.size > max_labels or time.process_time() > deadline):
-            keep = max(1, max_labels // max(n, 1))  # too many, or too late: the best per node
-        if nxt.size and keep is None:
+        if keep is None:
+            # A full pricing keeps the labels of highest upper bound when there are too
+            # many (or it is late): what it leaves out then bounds the rest least.
+            cap = max_labels if total <= budget else max_labels // 20
+            if nxt.size > cap:
+                nxt, dropped = _best_by_bound(nxt, cap)
+                left_out = max(left_out, dropped)
             nxt = nxt.take(~_dominated(nxt))
-        if keep is not None and nxt.size:
+        elif nxt.size:
             nxt, dropped = _best_per_node(nxt, keep)
             left_out = max(left_out, dropped)
         lab = nxt
@@ -420,6 +424,12 @@ def _extend(
         )
         out.append(_Labels(j, load, energy, prof, mem, idx[c + li], ub))
     return _Labels.concat(out)
+
+
+def _best_by_bound(lab: _Labels, cap: int) -> tuple[_Labels, float]:
+    """The ``cap`` labels of highest upper bound, and the highest bound left out."""
+    order = np.argsort(-lab.ub, kind="stable")
+    return lab.take(np.sort(order[:cap])), float(lab.ub[order[cap]])
 
 
 def _best_per_node(lab: _Labels, keep: int) -> tuple[_Labels, float]:

@@ -19,9 +19,12 @@ from ..errors import RunError
 from .bound import BoundResult, window_bound
 from .objective import WindowScore, lam_j, score_routes
 from .planner import Planner, Scope, make_planner
+from .plans import PlanSet
 from .pool import finish_route
 from .select import SelectionProblem, SelectionResult, Selector
 from .view import WindowView
+
+_BETTER_J = 1e-6  # a plan must gain more than this (J) to replace another
 
 
 @dataclass
@@ -68,6 +71,54 @@ def drone_models(view: WindowView, model: EnergyModel) -> list[EnergyModel]:
     return list(view.drone_models)
 
 
+def _drone_route(
+    view: WindowView,
+    u: int,
+    end: int,
+    stops_pos: tuple[int, ...],
+    action: int,
+    model: EnergyModel,
+    reorder: bool,
+) -> DroneRoute:
+    """Drone ``u``'s route through ``stops_pos`` (window positions) landing at ``end``
+    (-1: the depot nearest its last stop); ``reorder``: in its energy-minimal order."""
+    start = int(view.drone_depot[u])
+    if reorder and stops_pos:  # the energy-minimal order (and landing) of the route
+        xy = view.pending_xy[list(stops_pos)]
+        fixed = None if end < 0 else view.depots.xy[end]
+        order, near = finish_route(
+            view.depots.xy[start],
+            fixed,
+            view.depots.xy,
+            xy,
+            view.pending_weight[list(stops_pos)],
+            model,
+        )
+        stops_pos = tuple(stops_pos[i] for i in order)
+        end = near if end < 0 else end
+    elif end < 0:
+        end = start
+    pts = np.vstack(
+        [
+            view.depots.xy[start],
+            view.pending_xy[list(stops_pos)].reshape(-1, 2),
+            view.depots.xy[end],
+        ]
+    )
+    w = view.pending_weight[list(stops_pos)]
+    legs_m, legs_j = model.route_energy(pts, w)
+    return DroneRoute(
+        drone=u,
+        start=start,
+        end=end,
+        action=action,
+        stops=tuple(int(view.pending_idx[p]) for p in stops_pos),
+        legs_m=np.asarray(legs_m),
+        legs_j=np.asarray(legs_j),
+        payload_kg=float(w.sum()),
+    )
+
+
 def plan_routes(
     view: WindowView,
     actions: np.ndarray,
@@ -98,47 +149,11 @@ def plan_routes(
     )
     t_problem = time.perf_counter() - t0  # the plan table is part of building the model
     sel = selector.select(problem)
-    routes = []
-    for u, ps in enumerate(plan_sets):
-        k = int(sel.chosen[u])
-        start, end = int(view.drone_depot[u]), int(plan_ends[u][k])
-        stops_pos = ps.route(k)
-        if made.reorder and stops_pos:  # the energy-minimal order (and landing) of the route
-            xy = view.pending_xy[list(stops_pos)]
-            fixed = None if end < 0 else view.depots.xy[end]
-            order, near = finish_route(
-                view.depots.xy[start],
-                fixed,
-                view.depots.xy,
-                xy,
-                view.pending_weight[list(stops_pos)],
-                models[u],
-            )
-            stops_pos = tuple(stops_pos[i] for i in order)
-            end = near if end < 0 else end
-        elif end < 0:
-            end = start
-        pts = np.vstack(
-            [
-                view.depots.xy[start],
-                view.pending_xy[list(stops_pos)].reshape(-1, 2),
-                view.depots.xy[end],
-            ]
-        )
-        w = view.pending_weight[list(stops_pos)]
-        legs_m, legs_j = models[u].route_energy(pts, w)
-        routes.append(
-            DroneRoute(
-                drone=u,
-                start=start,
-                end=end,
-                action=int(acts[u]),
-                stops=tuple(int(view.pending_idx[p]) for p in stops_pos),
-                legs_m=np.asarray(legs_m),
-                legs_j=np.asarray(legs_j),
-                payload_kg=float(w.sum()),
-            )
-        )
+    routes = [
+        _drone_route(view, u, int(plan_ends[u][int(sel.chosen[u])]), ps.route(int(sel.chosen[u])),
+                     int(acts[u]), models[u], made.reorder)
+        for u, ps in enumerate(plan_sets)
+    ]
     plan = WindowPlan(
         t=view.t,
         routes=routes,
@@ -165,10 +180,49 @@ def plan_routes(
             [(ps.route(k), float(ps.energy_j[k])) for k in range(1, ps.n_plans)]
             for ps in plan_sets
         ]
-        plan.bound = window_bound(view, actions, model, cfg, scope, columns=columns)
+        plan.bound = window_bound(view, actions, model, cfg, scope, columns=columns, plan=True)
+        _take_bound_plan(plan, view, plan_sets, plan_ends, acts, models, cfg, model)
         plan.score = plan.score.with_bound(plan.bound.bound)
         plan.timings["bound"] = time.perf_counter() - t0
     return plan
+
+
+def _take_bound_plan(
+    plan: WindowPlan,
+    view: WindowView,
+    plan_sets: list[PlanSet],
+    plan_ends: list[np.ndarray],
+    acts: np.ndarray,
+    models: list[EnergyModel],
+    cfg: PlanConfig,
+    model: EnergyModel,
+) -> None:
+    """Fly the best plan over the bound's routes instead of the pool's when its G is
+    higher (docs/method.md, "The bound"): the search priced far more routes than the
+    pool holds, and the integer program over them often does better."""
+    bound = plan.bound
+    assert bound is not None and plan.score is not None
+    if bound.plan is None or bound.plan_g <= plan.score.G + _BETTER_J:
+        return
+    routes = [
+        _drone_route(view, u, int(end), stops, int(acts[u]), models[u], True)
+        if stops
+        else _drone_route(view, u, int(plan_ends[u][0]), plan_sets[u].route(0), int(acts[u]),
+                          models[u], True)
+        for u, (stops, end) in enumerate(bound.plan)
+    ]
+    try:
+        check_routes(routes, models)
+    except RunError:
+        return  # never fly a route that breaks a rule; the pool's plan stands
+    score = score_routes(
+        view.pending_idx,
+        view.pending_delay_h,
+        [(r.stops, r.energy_j) for r in routes],
+        lam_j(cfg.alpha, model.usable_j),
+    )
+    if score.G > plan.score.G + _BETTER_J:
+        plan.routes, plan.score = routes, score
 
 
 def check_routes(routes: list[DroneRoute], model: EnergyModel | list[EnergyModel]) -> None:

@@ -101,7 +101,15 @@ class TrainConfig(BaseModel):
     es_energy_weight: float = Field(
         1.0,
         ge=0,
-        description="es: cost of each share of energy per drone above the day's best rule's",
+        description="es: cost of each share of energy per drone above the day's best rule's "
+        "(beyond es_energy_slack)",
+    )
+    es_energy_slack: float = Field(
+        0.0,
+        ge=0,
+        le=1,
+        description="es: share of energy per drone above the day's best rule's that costs "
+        "nothing (the hinge of the energy penalty)",
     )
     eval_every: int = Field(200, ge=1, description="episodes between held-out evaluations")
     checkpoint_every: int = Field(40, ge=1, description="episodes between checkpoints")

@@ -14,9 +14,9 @@ quantities the actor is judged by, from the ``backlog`` rule (its weights,
   the weights w, w + σε and w − σε (antithetic pairs: the same days for every member,
   so the day's own difficulty cancels);
 * a member's cost on a day is its J over the best rule's J, plus ``es_energy_weight`` ×
-  the share by which its energy per drone exceeds the best rule's (0 when it spends no
-  more): a plan must not win by spending energy the best rule saves; its cost is the
-  mean over the days;
+  the share by which its energy per drone exceeds the best rule's by more than
+  ``es_energy_slack`` (0 within it; :func:`day_cost`): a plan must not win by spending
+  energy the best rule saves; its cost is the mean over the days;
 * w moves by ``es_step`` × Σ (rank(w − σε) − rank(w + σε)) ε / pairs (centred ranks of
   the costs, so one extreme day cannot dominate a step).
 
@@ -60,7 +60,7 @@ from ..workers import LocalPool
 from .data import TrainData, fingerprint
 from .rollout import TrainScenario, WorkerContext, derive_seed
 
-__all__ = ["RULES", "LandingTrainer", "landing_weights_bytes", "write_landing_actor"]
+__all__ = ["RULES", "LandingTrainer", "day_cost", "landing_weights_bytes", "write_landing_actor"]
 
 _STREAM_BATCH, _STREAM_NOISE = 11, 12
 _CKPT_FORMAT = "marops-landing-ckpt/1"
@@ -214,14 +214,12 @@ class LandingTrainer:
         return [self.reference[_key(d)] for d in days]
 
     def _cost(self, rows: list[dict[str, float]], refs: list[dict[str, float]]) -> float:
-        """Mean over days of J / the best rule's J + ``es_energy_weight`` × the share of
-        energy per drone above the best rule's."""
-        w = self.tcfg.es_energy_weight
+        """Mean over days of :func:`day_cost`."""
+        t = self.tcfg
         return float(
             np.mean(
                 [
-                    r["objective_j_mj"] / max(b["j"], 1e-9)
-                    + w * max(0.0, r["mean_energy_kj"] / max(b["energy"], 1e-9) - 1.0)
+                    day_cost(r, b, t.es_energy_weight, t.es_energy_slack)
                     for r, b in zip(rows, refs, strict=True)
                 ]
             )
@@ -358,8 +356,8 @@ class LandingTrainer:
             ],
             "files": self.td.files,
             "reward": "cost = J / J of the day's best rule (ops-global, backlog, rebalance) + "
-            "es_energy_weight * max(0, energy / its energy - 1), mean over days "
-            "(docs/method.md §6.1)",
+            "es_energy_weight * max(0, energy / its energy - 1 - es_energy_slack), mean over "
+            "days (docs/method.md §6.1)",
             "train_config": t.model_dump(mode="json"),
             "planner_config": cfg.model_dump(mode="json"),
             "heldout": chosen,
@@ -368,6 +366,17 @@ class LandingTrainer:
             "learning_curve": self.history,
         }
         return write_landing_actor(weight, self.out, side)
+
+
+def day_cost(
+    row: dict[str, float], ref: dict[str, float], weight: float, slack: float = 0.0
+) -> float:
+    """A day's cost of a replay ``row`` against the day's best rule ``ref`` (its ``j`` and
+    ``energy``): J / the best rule's J, plus ``weight`` × the share of energy per drone
+    above the best rule's beyond ``slack`` (a hinge: up to ``slack`` more energy is free,
+    every share beyond costs ``weight``)."""
+    excess = row["mean_energy_kj"] / max(ref["energy"], 1e-9) - 1.0 - slack
+    return row["objective_j_mj"] / max(ref["j"], 1e-9) + weight * max(0.0, excess)
 
 
 def _key(d: Day) -> str:

@@ -73,7 +73,7 @@ def test_exchange_keeps_a_route_no_swap_improves(model):
 
 @pytest.mark.parametrize("seed", range(12))
 def test_ruin_near_removes_the_stops_nearest_one_served_stop(model, seed):
-    """Three drones with four stops each: the ruin frees 2 to 5 served stops, which are
+    """Three drones with four stops each: the ruin frees 2 to 8 served stops, which are
     the ones nearest one of them (any three routes may lose stops here), marks them
     free, and leaves every route's energy and weight exact."""
     rng = np.random.default_rng(seed)
@@ -90,7 +90,7 @@ def test_ruin_near_removes_the_stops_nearest_one_served_stop(model, seed):
     served_before = set(sum(routes, []))
     freed = sorted(q for q in served_before if free[q])
     left = sorted(served_before - set(freed))
-    assert 2 <= len(freed) <= 5
+    assert 2 <= len(freed) <= 8
     assert not free[left].any() and free[12:].all()
     d = np.hypot(*(xy[freed][:, None, :] - xy[None, :, :]).transpose(2, 0, 1))
     assert any(d[i, freed].max() <= d[i, left].min() for i in range(len(freed)))
@@ -101,3 +101,60 @@ def test_ruin_near_removes_the_stops_nearest_one_served_stop(model, seed):
         assert dr.weight == pytest.approx(w[now].sum(), abs=1e-12)
     lost = {u for u in range(3) if len(pool.drones[u].stops) < 4}
     assert lost <= set(touched)
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_without_is_each_routes_exact_energy_less_one_stop(model, seed):
+    """The energy of a route without each of its stops, computed at once, equals the
+    route's energy recomputed from scratch without that stop (the legs before it no
+    longer carry its parcel; its neighbours are joined; the last stop's removal moves
+    the landing), for one to six stops and both a fixed and a free landing."""
+    rng = np.random.default_rng(seed)
+    depots = rng.uniform(0, 3000, (4, 2))
+    xy = rng.uniform(0, 3000, (8, 2))
+    w = rng.uniform(0.05, 0.4, 8)
+    end = -1 if seed % 2 else 2
+    pool = RoutePool(depots, xy, w, np.full(8, LAM), [DroneTask(0, end, np.arange(8))], model)
+    dr = pool.drones[0]
+    for k in range(1, 7):
+        stops = [int(x) for x in rng.permutation(8)[:k]]
+        _set_route(pool, 0, stops, np.ones(8, dtype=bool))
+        got = pool._without(dr)
+        full = list(dr.stops)
+        for i in range(k):
+            dr.stops = full[:i] + full[i + 1 :]
+            assert_allclose(got[i], pool._route_energy(dr), rtol=1e-12)
+        dr.stops = full
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_ruin_worst_frees_the_costliest_detours(model, seed):
+    """Three routes of four stops, one of which is a far detour (2 km off the others'
+    area): the worst-detour ruin frees 2 to 8 stops from at most three routes, always
+    the far one (its saving is more than twice any other's, so noise in [0.5, 1] keeps
+    it first), and leaves every route's energy and weight exact."""
+    rng = np.random.default_rng(seed)
+    depots = rng.uniform(0, 1000, (3, 2))
+    xy = rng.uniform(0, 1000, (14, 2))
+    xy[5] = [3000.0, 3000.0]
+    w = rng.uniform(0.1, 0.5, 14)
+    tasks = [DroneTask(s, -1, np.arange(14, dtype=np.int64)) for s in range(3)]
+    pool = RoutePool(depots, xy, w, np.full(14, LAM), tasks, model)
+    free = np.ones(14, dtype=bool)
+    routes = [[0, 1, 2, 3], [4, 5, 6, 7], [8, 9, 10, 11]]
+    for u, r in enumerate(routes):
+        _set_route(pool, u, r, free)
+    saving = [dr.energy - pool._without(dr) for dr in pool.drones]
+    far = saving[1][1]  # request 5, second stop of drone 1
+    others = [x for u, s in enumerate(saving) for i, x in enumerate(s) if (u, i) != (1, 1)]
+    assert far > 2 * max(others)
+    touched = pool._ruin_worst([0, 1, 2], [0, 1, 2], np.random.default_rng(seed), free)
+    freed = sorted(q for q in sum(routes, []) if free[q])
+    assert 2 <= len(freed) <= 8 and 5 in freed
+    assert free[12:].all()
+    for u, dr in enumerate(pool.drones):
+        now = [int(dr.cand[j]) for j in dr.stops]
+        assert now == [q for q in routes[u] if q not in freed]
+        assert_allclose(dr.energy, pool._route_energy(dr), rtol=1e-12)
+        assert dr.weight == pytest.approx(w[now].sum(), abs=1e-12)
+    assert {u for u in range(3) if len(pool.drones[u].stops) < 4} <= set(touched)

@@ -586,7 +586,9 @@ def test_pool_urgency_prefers_the_request_already_due(model, urgency):
     """One drone, two 2.0 kg parcels (only one fits), neither delayed yet: P at (-900, 0)
     is due in two windows, Q at (0, -1000) is due now. Without the bonus the drone takes P,
     100 m nearer (2 x 100 m at 2.0 kg and empty cost about 4.2 kJ less); with one window of
-    urgency Q is worth λ · 0.5 h more (84.4 kJ at α 0.5) and wins."""
+    urgency Q is worth λ · 0.5 h more (84.4 kJ at α 0.5) and wins. The bonus steers how
+    routes are built (construction and exchange here); ruin and recreate, whose refills
+    are blurred, may also meet the route to P, and the selection judges by G alone."""
     view = hand_view()
     view.drone_depot = np.array([0])
     view.pending_idx = np.array([7, 8])
@@ -596,7 +598,7 @@ def test_pool_urgency_prefers_the_request_already_due(model, urgency):
     view.pending_due_w = np.array([view.t + 2, view.t])
     view.pending_due_s = view.pending_due_w * 1800.0
     view.pending_weight = np.array([2.0, 2.0])
-    cfg = PlanConfig(alpha=0.5, pool_urgency=urgency)
+    cfg = PlanConfig(alpha=0.5, pool_urgency=urgency, pool_iterations=0)
     (r,) = plan_routes(view, np.array([0]), model, cfg, MilpSelector()).routes
     assert r.stops == ((7,) if urgency == 0 else (8,))
     assert (r.start, r.end) == (0, 0)

@@ -15,6 +15,7 @@ from marops_cli.errors import InputError
 from marops_cli.policies import make_policy
 from marops_cli.policies.landing import BACKLOG_WEIGHTS, LandingActor
 from marops_cli.rl.data import load_training_data
+from marops_cli.rl.es import day_cost
 from marops_cli.rl.train import train_actor
 
 from .conftest import quick
@@ -66,3 +67,15 @@ def test_paper_model_is_refused(tiny_csv: Path, small_cfg: PlannerConfig, tmp_pa
     td = load_training_data(tiny_csv, small_cfg, _es())
     with pytest.raises(InputError, match="not the paper's"):
         train_actor(td, tmp_path / "a.safetensors", resume=False)
+
+
+def test_energy_above_the_slack_costs_the_weight() -> None:
+    ref = {"j": 100.0, "energy": 500.0}
+
+    def cost(j: float, e: float, weight: float, slack: float) -> float:
+        return day_cost({"objective_j_mj": j, "mean_energy_kj": e}, ref, weight, slack)
+
+    assert cost(90.0, 480.0, 10.0, 0.01) == pytest.approx(0.9)  # less energy: J alone
+    assert cost(90.0, 505.0, 10.0, 0.01) == pytest.approx(0.9)  # +1 %: within the slack
+    assert cost(90.0, 515.0, 10.0, 0.01) == pytest.approx(0.9 + 10 * 0.02)  # +3 %: 2 % priced
+    assert cost(90.0, 515.0, 1.0, 0.0) == pytest.approx(0.9 + 0.03)  # no slack: all of it
