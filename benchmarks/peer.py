@@ -4,108 +4,235 @@ Every plan is scored by the window objective (docs/method.md, "The window object
 J = Σ route energy + λ Σ_pending v_r (1 − served_r) and its controllable part
 G = λ Σ_served v_r − Σ energy (higher is better), with PyVRP's routes re-costed by
 marops' exact payload-aware energy model (their order improved for energy, landing
-at the depot nearest the last customer).
+at the depot nearest the last customer). Days come from ``marops synth`` (each city
+shape and seed, 8 drones, 16 depots, α 0.5) under the operating model of ``--config``
+(default: the realistic model, parcels waiting at their own depot; ``examples/paper.toml``:
+the paper's, every parcel at every depot). Under ``stock = "home"`` PyVRP is told each
+parcel's depot (a drone carries only its departure depot's parcels) and flies only the
+drones that can fly the window. ``marops`` always runs the route pool, ``paper`` the
+paper's subsets planner; the rest of the config is shared.
 
-* **Open loop.** The states a ``marops replay-day`` faces at each window (8 drones,
-  16 depots, α 0.5) are given to: ``marops`` (route pool, the learned range's
-  destination), ``marops:nearest`` (the pool landing nearest the last customer),
-  ``paper`` (the paper's top-M̂ subsets) and PyVRP at 0.01 / 0.1 / 1 s. Per window and
-  in total: J, G, served, energy, wall and CPU milliseconds.
-* **Closed loop.** Each method flies its own plans for the whole day: delivered,
-  average delay, energy.
-* **Large window** (``--large``): 64 depots, 100 drones, 10,000 pending requests;
-  marops on the whole window against PyVRP at 1 s on the 1,500 most delayed requests
-  (and marops on the same prefilter).
+* **Open loop.** The states a ``marops replay-day`` faces at each window are given to:
+  ``marops`` (route pool, the learned actor's landing), ``marops:nearest`` (the pool
+  landing nearest the last customer), ``paper`` (the paper's top-M̂ subsets), any
+  ``--variants`` and PyVRP at each ``--pyvrp-s`` limit (CPU seconds). Per window and in
+  total: G, served, CPU ms; Σ G of marops over Σ G of PyVRP at each limit (all windows
+  and per shape), the windows PyVRP wins, and marops' median CPU per window (each
+  window planned ``--repeats`` times: the least CPU of them, and their median). Each
+  window prints its backlog: parcels pending, already due, drones ready, and the load:
+  the weight of the due parcels over the ready drones' payload, the full flights every
+  drone that can fly would need for what is already due (one per window). A window is
+  *backlogged* when its load is above 5 (2.5 hours of due work at half-hour windows);
+  each shape's median load is printed.
+* **Closed loop.** Each method flies its own plans for the whole day (PyVRP at each
+  ``--closed-pyvrp-s`` limit): delivered, average delay, energy per day, and the check
+  against PyVRP at 0.1 s: delivered ≥, average delay ≤, energy ≤ 1.03×. Every day of
+  ``--shapes`` × ``--seeds`` × ``--days`` flies the closed loop; the open loop only
+  those of ``--open-seeds``.
+* **Large window** (``--large``): 64 depots, 100 drones, 10,000 pending requests, every
+  parcel at every depot; marops on the whole window and on the 1,500 most delayed
+  requests PyVRP is given, PyVRP at the limits of 1 s and more (else its longest), all
+  judged on the whole window.
+* **Bound** (``--bound``): an upper bound on G per window from ``marops_cli.plans.bound``
+  and the gaps (bound − G) / bound of marops and of the best plan found.
 
 Needs the ``bench`` extra (``pip install -e '.[bench]'``, which brings PyVRP).
 
-    python benchmarks/peer.py [--seeds 101,202] [--days 11,12] [--large] [--quiet] [--smoke]
+    python benchmarks/peer.py [--config TOML] [--shapes hubs,corridor] [--seeds 101,202]
+        [--days 11,12] [--open-seeds SEEDS] [--pyvrp-s 0.01,0.1,1,5]
+        [--closed-pyvrp-s 0.01,0.1,1] [--repeats N] [--variants SETTINGS] [--bound]
+        [--large | --only-large] [--closed] [--quiet] [--json PATH] [--smoke]
 
-``--smoke``: one day, PyVRP at 0.01 s only, and the large window (CI runs it so the
-script keeps up with the library; its figures mean nothing).
+``--closed``: the closed loop only; ``--json``: every figure (per window, per day and
+the totals) to a file. ``--smoke``: one day, PyVRP at 0.01 s only, and the large window
+(CI runs it so the script keeps up with the library; its figures mean nothing).
 """
 
 from __future__ import annotations
 
 import argparse
 import datetime as dt
+import json
 import statistics
 import sys
 import tempfile
 import time
-from collections.abc import Callable
+import warnings
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Literal
 
 sys.path = [p for p in sys.path if Path(p or ".").resolve() != Path(__file__).parent.resolve()]
 
 import numpy as np  # noqa: E402
+from pyvrp.exceptions import PenaltyBoundWarning  # noqa: E402
 
-from marops_cli.config import PlannerConfig, override  # noqa: E402
+from marops_cli.config import OpsConfig, PlannerConfig, load_config, override  # noqa: E402
 from marops_cli.data.prepare import prepare_day  # noqa: E402
 from marops_cli.data.synth import SynthConfig, generate, write  # noqa: E402
+from marops_cli.data.table import DayRequests  # noqa: E402
 from marops_cli.energy import EnergyModel  # noqa: E402
 from marops_cli.plans.objective import WindowScore, lam_j, score_routes  # noqa: E402
 from marops_cli.plans.pool import finish_route  # noqa: E402
 from marops_cli.plans.pyvrp_routes import solve_window  # noqa: E402
-from marops_cli.plans.select import make_selector  # noqa: E402
-from marops_cli.plans.window import DroneRoute, WindowPlan, plan_routes  # noqa: E402
-from marops_cli.policies.base import Policy, WindowView, start_day  # noqa: E402
+from marops_cli.plans.window import DroneRoute, WindowPlan  # noqa: E402
+from marops_cli.policies.base import WindowView, start_day  # noqa: E402
+from marops_cli.segment.depots import Depots  # noqa: E402
 from marops_cli.sim.scenario import load_scenario, method_policy  # noqa: E402
 from marops_cli.sim.state import DayState, default_fleet  # noqa: E402
+from marops_cli.sim.step import WindowStep, plan_step  # noqa: E402
 
-PYVRP_S = (0.01, 0.1, 1.0)
+PYVRP_S = (0.01, 0.1, 1.0, 5.0)
+CLOSED_S = (0.01, 0.1, 1.0)
+REF_S = 0.1  # the closed loop's check is against PyVRP at this limit
+ENERGY_TOL = 1.03  # the closed loop's check: marops' energy at most this times PyVRP's
+PREFILTER = 1500  # the large window's requests given to PyVRP
+BACKLOG_LOAD = 5.0  # a window whose load (backlog) is above this is backlogged
 Planner = Callable[[WindowView, np.ndarray], list[DroneRoute]]
+Bound = Callable[[WindowView, np.ndarray], dict[str, float]]
+
+
+def pyvrp_name(seconds: float) -> str:
+    return f"pyvrp {seconds:g}s"
+
+
+# --- the planners -------------------------------------------------------------------
 
 
 def pyvrp_routes(
     view: WindowView, model: EnergyModel, lam: float, seconds: float, seed: int = 0
 ) -> list[DroneRoute]:
-    """PyVRP's plan of the window as drone routes (exact energy, order improved)."""
-    peer = solve_window(
-        view.depots.xy,
-        view.drone_depot,
-        view.pending_xy,
-        view.pending_weight,
-        1.0 + view.pending_delay_h,
-        lam,
-        model,
-        time_limit_s=seconds,
-        seed=seed,
-    )
-    free = {u: int(s) for u, s in enumerate(view.drone_depot)}
+    """PyVRP's plan of the window as drone routes (exact energy, order improved).
+
+    Only the drones that can fly are vehicles; under home stock each carries only its
+    departure depot's parcels (``solve_window``'s ``allowed``: exact, as a parcel can go
+    only with a drone from its depot), and a drone whose depot holds none stays."""
+    fly = np.array([u for u in range(view.n_drones) if view.ready(u)], dtype=np.int64)
+    allowed = None
+    if view.pending_stock is not None and fly.size:
+        allowed = view.pending_stock[None, :] == view.drone_depot[fly, None]
+        keep = allowed.any(axis=1)
+        fly, allowed = fly[keep], allowed[keep]
     routes = []
-    for s, stops in zip(peer.start, peer.stops, strict=True):
-        u = next(u for u, d in free.items() if d == int(s))  # a drone of that start depot
-        del free[u]
-        xy, w = view.pending_xy[stops], view.pending_weight[stops]
-        order, end = finish_route(view.depots.xy[s], None, view.depots.xy, xy, w, model)
-        st = stops[order]
-        pts = np.vstack([view.depots.xy[s], view.pending_xy[st], view.depots.xy[end]])
-        legs_m, legs_j = model.route_energy(pts, view.pending_weight[st])
-        routes.append(
-            DroneRoute(
-                u,
-                int(s),
-                end,
-                0,
-                tuple(int(view.pending_idx[i]) for i in st),
-                legs_m,
-                legs_j,
-                float(w.sum()),
-            )
+    if fly.size and view.pending_idx.size:
+        peer = solve_window(
+            view.depots.xy,
+            view.drone_depot[fly],
+            view.pending_xy,
+            view.pending_weight,
+            1.0 + view.pending_delay_h,
+            lam,
+            model,
+            allowed=allowed,
+            time_limit_s=seconds,
+            seed=seed,
         )
-    for u, s in free.items():  # drones PyVRP left at their depot
-        routes.append(DroneRoute(u, s, s, 0, (), np.zeros(1), np.zeros(1), 0.0))
+        free = {int(u): int(view.drone_depot[u]) for u in fly}
+        for s, stops in zip(peer.start, peer.stops, strict=True):
+            u = next(u for u, d in free.items() if d == int(s))  # a drone of that start depot
+            del free[u]
+            routes.append(peer_route(view, model, u, int(s), stops))
+    flying = {r.drone for r in routes}
+    routes += [stay(u, int(s)) for u, s in enumerate(view.drone_depot) if u not in flying]
     return sorted(routes, key=lambda r: r.drone)
 
 
-def marops_routes(cfg: PlannerConfig, model: EnergyModel, scope: str = "range") -> Planner:
-    selector = make_selector(cfg.plan)
+def peer_route(
+    view: WindowView, model: EnergyModel, u: int, s: int, stops: np.ndarray
+) -> DroneRoute:
+    """PyVRP's stops for drone ``u`` from depot ``s``, in the energy-best order, landing
+    at the depot nearest the last customer, costed exactly."""
+    xy, w = view.pending_xy[stops], view.pending_weight[stops]
+    order, end = finish_route(view.depots.xy[s], None, view.depots.xy, xy, w, model)
+    st = stops[order]
+    pts = np.vstack([view.depots.xy[s], view.pending_xy[st], view.depots.xy[end]])
+    legs_m, legs_j = model.route_energy(pts, view.pending_weight[st])
+    idx = tuple(int(view.pending_idx[i]) for i in st)
+    return DroneRoute(u, s, end, 0, idx, legs_m, legs_j, float(w.sum()))
 
-    def plan(view: WindowView, actions: np.ndarray) -> list[DroneRoute]:
-        return plan_routes(view, actions, model, cfg.plan, selector, scope=scope).routes
 
-    return plan
+def stay(u: int, s: int) -> DroneRoute:
+    return DroneRoute(u, s, s, 0, (), np.zeros(1), np.zeros(1), 0.0)
+
+
+def marops_planner(
+    cfg: PlannerConfig,
+    planner: str = "pool",
+    scope: Literal["range", "global"] = "range",
+    **plan: object,
+) -> Planner:
+    """marops' window step under ``cfg`` (as replay flies it) with ``planner`` and
+    ``plan`` settings overridden."""
+    how = WindowStep.make(
+        override(cfg, **{f"plan__{k}": v for k, v in plan.items()}),
+        scope=scope,
+        planner=planner,
+    )
+    return lambda view, actions: plan_step(view, actions, how).routes
+
+
+@dataclass(frozen=True)
+class Setup:
+    """What every day of a run shares."""
+
+    cfg: PlannerConfig
+    pyvrp_s: tuple[float, ...]
+    closed_s: tuple[float, ...]
+    variants: dict[str, dict[str, str]]
+    repeats: int = 1
+    bound: Bound | None = None
+
+    @property
+    def model(self) -> EnergyModel:
+        return EnergyModel(self.cfg.energy)
+
+    @property
+    def lam(self) -> float:
+        return lam_j(self.cfg.plan.alpha, self.model.usable_j)
+
+    @property
+    def ref(self) -> str:
+        """The PyVRP run the closed loop is checked against."""
+        return pyvrp_name(REF_S if REF_S in self.closed_s else min(self.closed_s))
+
+    def planners(self, closed: bool = False) -> dict[str, Planner]:
+        """Every method by name, PyVRP at the open loop's limits or (``closed``) the
+        closed loop's."""
+        model, lam, cfg = self.model, self.lam, self.cfg
+        out: dict[str, Planner] = {
+            "marops": marops_planner(cfg),
+            "marops:nearest": marops_planner(cfg, landing="nearest"),
+            "paper": marops_planner(cfg, "subsets"),
+        }
+        out.update({n: marops_planner(cfg, **kv) for n, kv in self.variants.items()})
+        for s in self.closed_s if closed else self.pyvrp_s:
+            out[pyvrp_name(s)] = lambda v, a, s=s: pyvrp_routes(v, model, lam, s, seed=v.t)
+        return out
+
+
+def load_bound(cfg: PlannerConfig) -> Bound:
+    """The window bound of ``marops_cli.plans.bound``, or a clear exit without it.
+
+    The relaxed bound: every drone that can fly lands freely and serves whatever its
+    depot stocks, so it bounds every method's plan, PyVRP's included."""
+    try:
+        from marops_cli.plans.bound import window_bound
+    except ImportError as exc:
+        raise SystemExit(
+            "--bound needs marops_cli/plans/bound.py (the column-generation bound on G), "
+            "which this checkout does not have"
+        ) from exc
+    model = EnergyModel(cfg.energy)
+
+    def bound(view: WindowView, actions: np.ndarray) -> dict[str, float]:
+        res = window_bound(view, actions, model, cfg.plan, relaxed=True)
+        return {"bound": res.bound, "converged": res.converged, "cpu_s": res.cpu_s}
+
+    return bound
+
+
+# --- scoring ------------------------------------------------------------------------
 
 
 def score(view: WindowView, routes: list[DroneRoute], lam: float) -> WindowScore:
@@ -114,10 +241,15 @@ def score(view: WindowView, routes: list[DroneRoute], lam: float) -> WindowScore
     )
 
 
-def check(routes: list[DroneRoute], model: EnergyModel) -> int:
-    """Routes breaking payload or battery (none expected from either side)."""
+def check(view: WindowView, routes: list[DroneRoute], model: EnergyModel) -> int:
+    """Routes breaking payload, battery or the stock rule (none expected from either side)."""
+    stock = None
+    if view.pending_stock is not None:
+        stock = dict(zip(view.pending_idx.tolist(), view.pending_stock.tolist(), strict=True))
     return sum(
-        r.payload_kg > model.max_payload_kg + 1e-9 or r.energy_j > model.usable_j + 1e-6
+        r.payload_kg > model.max_payload_kg + 1e-9
+        or r.energy_j > model.usable_j + 1e-6
+        or (stock is not None and any(stock[i] != r.start for i in r.stops))
         for r in routes
     )
 
@@ -128,197 +260,328 @@ def timed(fn: Callable[[], list[DroneRoute]]) -> tuple[list[DroneRoute], float, 
     return out, time.perf_counter() - w0, time.process_time() - c0
 
 
-def planners(
-    cfg: PlannerConfig,
-    model: EnergyModel,
-    lam: float,
-    variants: dict[str, PlannerConfig],
-    pyvrp_s: tuple[float, ...] = PYVRP_S,
-) -> dict[str, Planner]:
-    out: dict[str, Planner] = {
-        "marops": marops_routes(cfg, model),
-        "marops:nearest": marops_routes(override(cfg, plan__landing="nearest"), model),
-        "paper": marops_routes(override(cfg, plan__planner="subsets"), model),
+def backlog(view: WindowView, model: EnergyModel) -> dict[str, float]:
+    """Pending and due parcels, drones ready and the load: the due parcels' weight over
+    the ready drones' payload (at least one drone)."""
+    due = view.pending_due_w <= view.t
+    ready = sum(view.ready(u) for u in range(view.n_drones))
+    load = float(view.pending_weight[due].sum()) / (max(ready, 1) * model.max_payload_kg)
+    return {
+        "pending": int(view.pending_idx.size),
+        "due": int(due.sum()),
+        "ready": int(ready),
+        "load": load,
     }
-    out.update({n: marops_routes(c, model) for n, c in variants.items()})
-    for s in pyvrp_s:
-        out[f"pyvrp {s:g}s"] = lambda v, a, s=s: pyvrp_routes(v, model, lam, s, seed=v.t)
-    return out
 
 
-def closed_loop(
-    name: str,
-    plan: Planner,
-    policy: Policy,
-    reqs,
-    depots,
-    fleet,
-    cfg,
-    model,  # noqa: ANN001
-) -> dict[str, float]:
-    state = DayState(reqs, depots, fleet, cfg.plan.coverage, cfg.plan.ties)
+# --- days -----------------------------------------------------------------------------
+
+
+@dataclass
+class Day:
+    """One replayed day of one synthetic city."""
+
+    shape: str
+    seed: int
+    date: dt.date
+    reqs: DayRequests
+    depots: Depots
+    fleet: np.ndarray
+
+    @property
+    def label(self) -> str:
+        return f"{self.shape} {self.seed} {self.date:%m-%d}"
+
+    def key(self) -> dict[str, object]:
+        return {"shape": self.shape, "seed": self.seed, "day": self.date.isoformat()}
+
+    def state(self, cfg: PlannerConfig) -> DayState:
+        p = cfg.plan
+        return DayState(self.reqs, self.depots, self.fleet, p.coverage, p.ties, ops=cfg.ops)
+
+
+def replay_days(
+    cfg: PlannerConfig, shapes: list[str], seeds: list[int], dates: list[int], tmp: Path
+) -> Iterator[Day]:
+    """Every (shape, seed, day of August) in that order; history: the file's other days."""
+    for shape in shapes:
+        for seed in seeds:
+            data = tmp / f"{shape}{seed}.csv"
+            write(generate(SynthConfig(days=max(12, *dates), seed=seed, shape=shape)), data)  # type: ignore[arg-type]
+            for d in dates:
+                date = dt.date(2022, 8, d)
+                scn = load_scenario(data, cfg, replay_days=[date])
+                reqs = prepare_day(scn.table, scn.frame, date, cfg.data)
+                fleet = default_fleet(scn.depots, cfg.sim.drones)
+                yield Day(shape, seed, date, reqs, scn.depots, fleet)
+
+
+# --- open and closed loop -------------------------------------------------------------
+
+
+def run_window(
+    view: WindowView, actions: np.ndarray, name: str, plan: Planner, setup: Setup
+) -> tuple[list[DroneRoute], dict[str, float]]:
+    """One method's plan of one window and its figures (marops: ``repeats`` times)."""
+    runs = [
+        timed(lambda: plan(view, actions)) for _ in range(setup.repeats if name == "marops" else 1)
+    ]
+    routes, wall, _ = runs[0]
+    cpus = [c for _, _, c in runs]
+    sc = score(view, routes, setup.lam)
+    rec = {
+        "G": sc.G,
+        "J": sc.J,
+        "served": sc.served,
+        "energy_j": sc.energy_j,
+        "cpu_s": min(cpus),
+        "cpu_median_s": statistics.median(cpus),
+        "wall_s": wall,
+        "broken": check(view, routes, setup.model),
+    }
+    return routes, rec
+
+
+def open_loop(day: Day, setup: Setup, quiet: bool) -> list[dict]:
+    """Every method on the states of a marops replay of ``day``, window by window."""
+    cfg, model = setup.cfg, setup.model
+    policy = method_policy("marops", None, cfg.sim.seed, ops=cfg.ops)
     start_day(policy, cfg, cfg.sim.seed)
+    state = day.state(cfg)
+    methods = setup.planners()
+    rows = []
+    for t in range(day.reqs.n_windows):
+        view = state.view(t)
+        actions = policy.act(view)
+        row: dict = {**day.key(), "t": t, **backlog(view, model), "methods": {}}
+        own: list[DroneRoute] = []
+        for name, plan in methods.items():
+            routes, row["methods"][name] = run_window(view, actions, name, plan, setup)
+            own = routes if name == "marops" else own
+        row["bound"] = None if setup.bound is None else setup.bound(view, actions)
+        rows.append(row)
+        if not quiet:
+            print(window_line(day, row), flush=True)
+        state.apply(WindowPlan(t, own, None, 0), model.speed_ms)  # type: ignore[arg-type]
+    return rows
+
+
+def window_line(day: Day, row: dict) -> str:
+    head = (
+        f"  {day.label} w{row['t']:02d} pend {row['pending']:3d} due {row['due']:3d} "
+        f"ready {row['ready']} load {row['load']:4.2f}"
+    )
+    cols = [
+        f"{n} G {m['G'] / 1e3:6.0f}k s {m['served']:3d} {1e3 * m['cpu_s']:5.0f}ms"
+        for n, m in row["methods"].items()
+    ]
+    if row["bound"] is not None:
+        cols.append(f"bound {row['bound']['bound'] / 1e3:6.0f}k")
+    return head + " | " + " | ".join(cols)
+
+
+def closed_loop(day: Day, plan: Planner, setup: Setup) -> dict[str, float]:
+    """``plan`` flies the whole day (its own states): delivered, delay, energy."""
+    cfg, model = setup.cfg, setup.model
+    policy = method_policy("marops", None, cfg.sim.seed, ops=cfg.ops)
+    start_day(policy, cfg, cfg.sim.seed)
+    state = day.state(cfg)
     energy = 0.0
-    for t in range(reqs.n_windows):
+    for t in range(day.reqs.n_windows):
         view = state.view(t)
         routes = plan(view, policy.act(view))
         energy += sum(r.energy_j for r in routes)
         state.apply(WindowPlan(t, routes, None, 0), model.speed_ms)  # type: ignore[arg-type]
-    delivered = state.delivered_w >= 0
     return {
-        "delivered": int(delivered.sum()),
-        "requests": len(reqs),
+        "delivered": int((state.delivered_w >= 0).sum()),
+        "requests": int(state.delivered_w.size),
         "avg_delay_h": float(state.delivery_delay_h().mean()),
         "energy_kj": energy / 1e3,
     }
 
 
-def run_day(
-    data: Path,
-    day: dt.date,
-    cfg: PlannerConfig,
-    quiet: bool,
-    variants: dict[str, PlannerConfig],
-    pyvrp_s: tuple[float, ...] = PYVRP_S,
-) -> dict[str, dict]:
-    """Open loop over the states of a marops replay, then every method's closed loop."""
-    model = EnergyModel(cfg.energy)
-    lam = lam_j(cfg.plan.alpha, model.usable_j)
-    scn = load_scenario(data, cfg, replay_days=[day])
-    reqs = prepare_day(scn.table, scn.frame, day, cfg.data)
-    fleet = default_fleet(scn.depots, cfg.sim.drones)
-    policy = method_policy("marops", None, cfg.sim.seed)
-    start_day(policy, cfg, cfg.sim.seed)
-    state = DayState(reqs, scn.depots, fleet, cfg.plan.coverage, cfg.plan.ties)
-    methods = planners(cfg, model, lam, variants, pyvrp_s)
-    rows: dict[str, dict[str, list[float]]] = {m: {} for m in methods}
-    for t in range(reqs.n_windows):
-        view = state.view(t)
-        actions = policy.act(view)
-        line = []
-        own = None
-        for name, plan in methods.items():
-            routes, wall, cpu = timed(lambda p=plan, v=view, a=actions: p(v, a))
-            sc = score(view, routes, lam)
-            rec = rows[name]
-            for k, x in (
-                ("J", sc.J),
-                ("G", sc.G),
-                ("served", sc.served),
-                ("energy", sc.energy_j),
-                ("wall", wall),
-                ("cpu", cpu),
-                ("broken", check(routes, model)),
-            ):
-                rec.setdefault(k, []).append(float(x))
-            line.append(f"{name} G {sc.G / 1e3:7.0f} s {sc.served:3d} {1e3 * cpu:6.1f}ms")
-            if name == "marops":
-                own = routes
-        if not quiet:
-            print(f"  w{t:02d} pending {view.pending_idx.size:4d} | " + " | ".join(line))
-        state.apply(WindowPlan(t, own, None, 0), model.speed_ms)  # type: ignore[arg-type]
-    closed = {}
-    for name in ("marops", "marops:nearest", *variants, "paper", "pyvrp 0.01s"):
-        c = variants.get(name, cfg)
-        pol = method_policy("marops", None, c.sim.seed)
-        closed[name] = closed_loop(name, methods[name], pol, reqs, scn.depots, fleet, c, model)
-    return {"open": rows, "closed": closed}
+def closed_day(day: Day, setup: Setup) -> dict:
+    """Every method's closed loop of ``day`` and the check against the reference."""
+    runs = {n: closed_loop(day, p, setup) for n, p in setup.planners(closed=True).items()}
+    m, ref = runs["marops"], runs[setup.ref]
+    ok = {
+        "delivered": m["delivered"] >= ref["delivered"],
+        "delay": m["avg_delay_h"] <= ref["avg_delay_h"] + 1e-12,
+        "energy": m["energy_kj"] <= ENERGY_TOL * ref["energy_kj"],
+    }
+    return {**day.key(), "methods": runs, "check": ok}
 
 
-def report(results: list[dict]) -> None:
-    names = list(results[0]["open"])
-    longest = [n for n in names if n.startswith("pyvrp")][-1]  # PyVRP's longest search
+# --- summaries ------------------------------------------------------------------------
+
+
+def gap(bound: float, g: float) -> float:
+    return (bound - g) / bound if bound > 0 else 0.0
+
+
+def open_summary(rows: list[dict], setup: Setup) -> dict:
+    """Totals per method, marops against PyVRP at each limit, CPU, backlog, bound."""
+    names = list(rows[0]["methods"])
+    shapes = sorted({r["shape"] for r in rows})
+
+    def total(name: str, key: str, shape: str | None = None) -> float:
+        return sum(r["methods"][name][key] for r in rows if shape in (None, r["shape"]))
+
+    methods = {
+        n: {
+            "G": total(n, "G"),
+            "J": total(n, "J"),
+            "served": total(n, "served"),
+            "energy_j": total(n, "energy_j"),
+            "cpu_median_s": statistics.median(r["methods"][n]["cpu_s"] for r in rows),
+            "cpu_max_s": max(r["methods"][n]["cpu_s"] for r in rows),
+            "wall_median_s": statistics.median(r["methods"][n]["wall_s"] for r in rows),
+            "broken": total(n, "broken"),
+        }
+        for n in names
+    }
+    versus = {}
+    for s in setup.pyvrp_s:
+        p = pyvrp_name(s)
+        versus[p] = {
+            "ratio": total("marops", "G") / total(p, "G"),
+            "per_shape": {sh: total("marops", "G", sh) / total(p, "G", sh) for sh in shapes},
+            "pyvrp_wins": sum(r["methods"][p]["G"] > r["methods"]["marops"]["G"] for r in rows),
+        }
+    out = {
+        "windows": len(rows),
+        "shapes": shapes,
+        "backlog": {
+            sh: {
+                "windows": sum(r["shape"] == sh for r in rows),
+                "backlogged": sum(r["load"] > BACKLOG_LOAD for r in rows if r["shape"] == sh),
+                "median_load": statistics.median(r["load"] for r in rows if r["shape"] == sh),
+            }
+            for sh in shapes
+        },
+        "methods": methods,
+        "versus": versus,
+        "marops_cpu_ms": {
+            "repeats": setup.repeats,
+            "median_of_min": 1e3 * statistics.median(r["methods"]["marops"]["cpu_s"] for r in rows),
+            "median_of_median": 1e3
+            * statistics.median(r["methods"]["marops"]["cpu_median_s"] for r in rows),
+        },
+    }
+    if rows[0]["bound"] is not None:
+        out["bound"] = bound_summary(rows)
+    return out
+
+
+def bound_summary(rows: list[dict]) -> dict:
+    """The gaps to the bound: marops' and the best plan's, and bounds below a found G."""
+    best = [max(m["G"] for m in r["methods"].values()) for r in rows]
+    bounds = [r["bound"]["bound"] for r in rows]
+    marops = [r["methods"]["marops"]["G"] for r in rows]
+    return {
+        "median_gap_marops": statistics.median(map(gap, bounds, marops)),
+        "median_gap_best": statistics.median(map(gap, bounds, best)),
+        "below_best": sum(b < g - 1e-6 * abs(g) for b, g in zip(bounds, best, strict=True)),
+        "converged": sum(bool(r["bound"]["converged"]) for r in rows),
+        "cpu_median_s": statistics.median(r["bound"]["cpu_s"] for r in rows),
+    }
+
+
+def print_open(summary: dict) -> None:
     print(
-        f"\nopen loop, all windows: Σ J, Σ G (MJ), G / G({longest}), served, energy (MJ),"
-        " CPU ms per window (median, max), wall ms (median), broken routes"
+        f"\nopen loop, {summary['windows']} windows; backlogged (load > {BACKLOG_LOAD:g}) / "
+        "windows, median load: "
+        + ", ".join(
+            f"{sh} {b['backlogged']}/{b['windows']}, {b['median_load']:.2f}"
+            for sh, b in summary["backlog"].items()
+        )
     )
-    ref = sum(sum(r["open"][longest]["G"]) for r in results)
-    for n in names:
-        col = {k: [x for r in results for x in r["open"][n][k]] for k in results[0]["open"][n]}
-        g = sum(col["G"])
+    print("Σ J, Σ G (MJ), served, energy (MJ), CPU ms per window (median, max), wall ms, broken")
+    for n, m in summary["methods"].items():
         print(
-            f"{n:>15} J {sum(col['J']) / 1e6:8.2f}  G {g / 1e6:7.2f}  ({g / ref:5.3f})"
-            f"  served {int(sum(col['served'])):5d}  energy {sum(col['energy']) / 1e6:6.2f}"
-            f"  cpu {1e3 * statistics.median(col['cpu']):7.1f} / {1e3 * max(col['cpu']):7.1f}"
-            f"  wall {1e3 * statistics.median(col['wall']):7.1f}  broken {int(sum(col['broken']))}"
+            f"{n:>15} J {m['J'] / 1e6:8.2f}  G {m['G'] / 1e6:7.2f}  served {int(m['served']):5d}"
+            f"  energy {m['energy_j'] / 1e6:6.2f}  cpu {1e3 * m['cpu_median_s']:7.1f} /"
+            f" {1e3 * m['cpu_max_s']:7.1f}  wall {1e3 * m['wall_median_s']:7.1f}"
+            f"  broken {int(m['broken'])}"
         )
+    print("\nΣ G marops / Σ G PyVRP (all windows; per shape), windows PyVRP wins")
+    for p, v in summary["versus"].items():
+        per = ", ".join(f"{sh} {x:.3f}" for sh, x in v["per_shape"].items())
+        print(
+            f"{p:>15} {v['ratio']:.3f}  ({per})  PyVRP better on {v['pyvrp_wins']}"
+            f" of {summary['windows']}"
+        )
+    c = summary["marops_cpu_ms"]
     print(
-        "\nclosed loop (each method flies its own plans): delivered / requests, "
-        "average delay h, energy kJ"
+        f"marops CPU per window: median {c['median_of_min']:.1f} ms (min of {c['repeats']}"
+        f" per window), {c['median_of_median']:.1f} ms (median of them)"
     )
-    for n in results[0]["closed"]:
-        d = sum(r["closed"][n]["delivered"] for r in results)
-        q = sum(r["closed"][n]["requests"] for r in results)
-        delay = statistics.mean(r["closed"][n]["avg_delay_h"] for r in results)
-        e = sum(r["closed"][n]["energy_kj"] for r in results)
-        per = ", ".join(
-            f"{r['closed'][n]['delivered']}/{r['closed'][n]['avg_delay_h']:.2f}h" for r in results
+    if "bound" in summary:
+        b = summary["bound"]
+        print(
+            f"bound: median gap (bound − G) / bound marops {100 * b['median_gap_marops']:.2f} %,"
+            f" best plan {100 * b['median_gap_best']:.2f} %; bound below a found G on"
+            f" {b['below_best']} windows; converged on {b['converged']};"
+            f" CPU {1e3 * b['cpu_median_s']:.0f} ms median"
         )
-        print(f"{n:>15} {d:5d}/{q:5d}  delay {delay:.3f} h  energy {e:9.0f} kJ   ({per})")
 
 
-def paired(
-    seeds: list[int], days: list[int], cfg: PlannerConfig, variants: dict[str, PlannerConfig]
-) -> None:
-    """Closed loop only, many days: each variant against PyVRP at 0.01 s, paired by day."""
-    model = EnergyModel(cfg.energy)
-    lam = lam_j(cfg.plan.alpha, model.usable_j)
-    names = [*variants, "pyvrp 0.01s"]
-    per: dict[str, list[dict[str, float]]] = {n: [] for n in names}
-    with tempfile.TemporaryDirectory() as tmp:
-        for seed in seeds:
-            data = Path(tmp) / f"synth{seed}.csv"
-            write(generate(SynthConfig(days=max(days), seed=seed)), data)
-            for d in days:
-                day = dt.date(2022, 8, d)
-                scn = load_scenario(data, cfg, replay_days=[day])
-                reqs = prepare_day(scn.table, scn.frame, day, cfg.data)
-                fleet = default_fleet(scn.depots, cfg.sim.drones)
-                for n in names:
-                    c = variants.get(n, cfg)
-                    plan = (
-                        marops_routes(c, model)
-                        if n in variants
-                        else lambda v, a: pyvrp_routes(v, model, lam, 0.01, seed=v.t)
-                    )
-                    pol = method_policy("marops", None, c.sim.seed)
-                    per[n].append(closed_loop(n, plan, pol, reqs, scn.depots, fleet, c, model))
-                print(
-                    f"seed {seed} day {day}: "
-                    + " | ".join(
-                        f"{n} {per[n][-1]['delivered']}/{per[n][-1]['avg_delay_h']:.3f}h/"
-                        f"{per[n][-1]['energy_kj']:.0f}kJ"
-                        for n in names
-                    ),
-                    flush=True,
-                )
-    ref = per["pyvrp 0.01s"]
-    print(f"\nclosed loop, {len(ref)} days, paired against pyvrp 0.01s (mean ± 95 % CI):")
+def closed_summary(days: list[dict], ref: str) -> dict:
+    """Totals per method, paired differences against ``ref`` (mean ± 95 % CI per day)."""
+    names = list(days[0]["methods"])
+    out: dict = {"ref": ref, "days": len(days), "methods": {}}
     for n in names:
-        rows = per[n]
-        dlv = sum(r["delivered"] for r in rows)
-        req = sum(r["requests"] for r in rows)
-        line = f"{n:>22} delivered {dlv}/{req}"
-        for k, unit in (("avg_delay_h", "h"), ("energy_kj", "kJ")):
-            diff = np.array([r[k] - q[k] for r, q in zip(rows, ref, strict=True)])
+        rows = [d["methods"][n] for d in days]
+        refs = [d["methods"][ref] for d in days]
+        m = {
+            "delivered": sum(r["delivered"] for r in rows),
+            "requests": sum(r["requests"] for r in rows),
+            "avg_delay_h": statistics.mean(r["avg_delay_h"] for r in rows),
+            "energy_kj": sum(r["energy_kj"] for r in rows),
+        }
+        for k in ("avg_delay_h", "energy_kj"):
+            diff = np.array([r[k] - q[k] for r, q in zip(rows, refs, strict=True)])
             half = 1.96 * diff.std(ddof=1) / np.sqrt(diff.size) if diff.size > 1 else 0.0
-            mean = statistics.mean(r[k] for r in rows)
-            line += f"  {k} {mean:.3f} (Δ {diff.mean():+.4f} ± {half:.4f} {unit})"
-        print(line)
+            m[f"d_{k}"] = [float(diff.mean()), float(half)]
+        out["methods"][n] = m
+    out["passed_days"] = sum(all(d["check"].values()) for d in days)
+    return out
 
 
-def large(cfg: PlannerConfig, pyvrp_s: float = 1.0) -> None:
-    """64 depots, 100 drones, 10,000 pending: marops whole and on PyVRP's prefilter."""
-    sys.path.insert(0, str(Path(__file__).parent))
-    from plan_window import large_view  # the same synthetic window as that benchmark
+def print_closed(days: list[dict], summary: dict) -> None:
+    ref = summary["ref"]
+    print(
+        f"\nclosed loop (each method flies its own plans), per day: delivered/requests, "
+        f"average delay h, energy MJ; check against {ref}: delivered ≥, delay ≤, "
+        f"energy ≤ {ENERGY_TOL}×"
+    )
+    for d in days:
+        cols = " | ".join(
+            f"{n} {r['delivered']}/{r['requests']} {r['avg_delay_h']:.3f}h "
+            f"{r['energy_kj'] / 1e3:.1f}MJ"
+            for n, r in d["methods"].items()
+        )
+        ok = " ".join(f"{k} {'ok' if v else 'FAIL'}" for k, v in d["check"].items())
+        print(f"  {d['shape']} {d['seed']} {d['day'][5:]}: {cols}  [{ok}]")
+    print(f"totals over {summary['days']} days (Δ against {ref}: mean ± 95 % CI per day)")
+    for n, m in summary["methods"].items():
+        print(
+            f"{n:>15} {m['delivered']:5d}/{m['requests']:5d}  delay {m['avg_delay_h']:.3f} h"
+            f" (Δ {m['d_avg_delay_h'][0]:+.4f} ± {m['d_avg_delay_h'][1]:.4f})"
+            f"  energy {m['energy_kj'] / 1e3:8.1f} MJ"
+            f" (Δ {m['d_energy_kj'][0]:+.0f} ± {m['d_energy_kj'][1]:.0f} kJ,"
+            f" {m['energy_kj'] / max(m['delivered'], 1):.1f} kJ per parcel delivered)"
+        )
+    print(f"check passed on {summary['passed_days']} of {summary['days']} days")
 
-    cfg = override(cfg, plan__landing="nearest")
-    model = EnergyModel(cfg.energy)
-    lam = lam_j(cfg.plan.alpha, model.usable_j)
-    view = large_view(cfg)
-    actions = np.zeros(view.n_drones, dtype=np.int64)
-    keep = np.lexsort((view.pending_due_s, -view.pending_delay_h))[:1500]
-    pre = WindowView(
+
+# --- the large window -----------------------------------------------------------------
+
+
+def prefiltered(view: WindowView, n: int) -> WindowView:
+    """``view`` with only its ``n`` most delayed requests (earliest due first among ties)."""
+    keep = np.lexsort((view.pending_due_s, -view.pending_delay_h))[:n]
+    return WindowView(
         t=view.t,
         n_windows=view.n_windows,
         window_h=view.window_h,
@@ -333,73 +596,159 @@ def large(cfg: PlannerConfig, pyvrp_s: float = 1.0) -> None:
         pending_due_s=view.pending_due_s[keep],
         pending_weight=view.pending_weight[keep],
     )
-    print(
-        f"\nlarge window: {len(view.depots)} depots, {view.n_drones} drones, "
-        f"{view.pending_idx.size} pending; prefilter: the 1,500 most delayed"
-    )
-    for name, v, fn in (
-        ("marops (all)", view, marops_routes(cfg, model)),
-        ("marops:global (all)", view, marops_routes(cfg, model, "global")),
-        ("marops (1,500)", pre, marops_routes(cfg, model)),
-        (f"pyvrp {pyvrp_s:g}s (1,500)", pre, lambda v, a: pyvrp_routes(v, model, lam, pyvrp_s)),
-    ):
+
+
+def large(setup: Setup) -> list[dict]:
+    """64 depots, 100 drones, 10,000 pending, every parcel at every depot: marops on the
+    whole window and on PyVRP's prefilter, PyVRP at the limits of 1 s and more."""
+    sys.path.insert(0, str(Path(__file__).parent))
+    from plan_window import large_view  # the same synthetic window as that benchmark
+
+    cfg = setup.cfg.model_copy(update={"ops": OpsConfig.paper_model()})
+    model, lam = setup.model, setup.lam
+    view = large_view(cfg)
+    pre = prefiltered(view, PREFILTER)
+    actions = np.zeros(view.n_drones, dtype=np.int64)
+    limits = [s for s in setup.pyvrp_s if s >= 1.0] or [max(setup.pyvrp_s)]
+    runs: list[tuple[str, str, WindowView, Planner]] = [
+        ("marops", "all", view, marops_planner(cfg, landing="nearest")),
+        ("marops:global", "all", view, marops_planner(cfg, scope="global", landing="nearest")),
+        ("marops", f"{PREFILTER:,}", pre, marops_planner(cfg, landing="nearest")),
+    ]
+    runs += [
+        (pyvrp_name(s), f"{PREFILTER:,}", pre, lambda v, a, s=s: pyvrp_routes(v, model, lam, s))
+        for s in limits
+    ]
+    out = []
+    for name, given, v, fn in runs:
         routes, wall, cpu = timed(lambda fn=fn, v=v: fn(v, actions))
         sc = score(view, routes, lam)  # judged on the whole window
+        out.append(
+            {
+                "method": name,
+                "requests": given,
+                "G": sc.G,
+                "served": sc.served,
+                "cpu_s": cpu,
+                "wall_s": wall,
+                "broken": check(view, routes, model),
+            }
+        )
+    return out
+
+
+def print_large(rows: list[dict]) -> None:
+    print(
+        f"\nlarge window: 64 depots, 100 drones, 10,000 pending, every parcel at every depot;"
+        f" PyVRP given the {PREFILTER:,} most delayed; every plan judged on the whole window"
+    )
+    print(f"{'method':>15} {'requests given':>14}  {'G (MJ)':>8}  served  CPU s  wall s  broken")
+    for r in rows:
         print(
-            f"{name:>20} G {sc.G / 1e6:8.2f} MJ  served {sc.served:5d}  "
-            f"wall {wall:6.2f} s  cpu {cpu:6.2f} s  broken {check(routes, model)}"
+            f"{r['method']:>15} {r['requests']:>14}  {r['G'] / 1e6:8.2f}  {r['served']:6d}"
+            f"  {r['cpu_s']:5.2f}  {r['wall_s']:6.2f}  {r['broken']}"
         )
 
 
-def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__)
+# --- the command ----------------------------------------------------------------------
+
+
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    ap = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    ap.add_argument("--config", help="TOML config (default: the realistic operating model)")
+    ap.add_argument("--shapes", default="hubs", help="marops synth city shapes, ','-separated")
     ap.add_argument("--seeds", default="101,202", help="marops synth seeds")
     ap.add_argument("--days", default="11,12", help="days of August to replay (history: 1..10)")
+    ap.add_argument(
+        "--pyvrp-s",
+        default=",".join(f"{s:g}" for s in PYVRP_S),
+        help="PyVRP's limits in the open loop, CPU seconds per window",
+    )
+    ap.add_argument(
+        "--closed-pyvrp-s",
+        default=",".join(f"{s:g}" for s in CLOSED_S),
+        help="PyVRP's limits in the closed loop (the check is against 0.1 s when given)",
+    )
+    ap.add_argument("--open-seeds", help="the open loop on these seeds only (default: --seeds)")
+    ap.add_argument("--repeats", type=int, default=1, help="marops plans each window this often")
+    ap.add_argument("--bound", action="store_true", help="the bound on G per window and the gaps")
     ap.add_argument("--large", action="store_true", help="also the large window")
-    ap.add_argument("--only-large", action="store_true")
+    ap.add_argument("--only-large", action="store_true", help="the large window only")
+    ap.add_argument("--closed", action="store_true", help="the closed loop only")
     ap.add_argument("--quiet", action="store_true", help="totals only")
+    ap.add_argument("--json", type=Path, metavar="PATH", help="write every figure as JSON")
     ap.add_argument(
         "--variants",
         default="",
         metavar="SETTINGS",
         help="more marops variants: ';'-separated, each ','-separated [plan] settings, e.g. "
-        "'landing=nearest,pool_urgency=0;pool_iterations=120'",
-    )
-    ap.add_argument(
-        "--closed",
-        action="store_true",
-        help="closed loop only, every seed and day, each marops variant paired against "
-        "PyVRP at 0.01 s (mean differences with 95 %% CIs)",
+        "'pool_urgency=0;pool_iterations=120'",
     )
     ap.add_argument("--smoke", action="store_true", help="1 day, PyVRP 0.01 s, large (CI)")
-    args = ap.parse_args()
-    pyvrp_s = PYVRP_S
+    args = ap.parse_args(argv)
     if args.smoke:
-        args.seeds, args.days, args.quiet, args.large, pyvrp_s = "101", "11", True, True, (0.01,)
-    cfg = PlannerConfig()
-    variants = {}
-    for v in filter(None, args.variants.split(";")):
-        kv = dict(x.split("=", 1) for x in v.split(",") if x)
-        variants[v] = override(cfg, **{f"plan__{k}": x for k, x in kv.items()})
-    if args.closed:
-        variants = {"marops": cfg, **variants}
-        seeds = [int(s) for s in args.seeds.split(",")]
-        days = [int(x) for x in args.days.split(",")]
-        paired(seeds, days, cfg, variants)
-        return
+        args.shapes, args.seeds, args.days = "hubs", "101", "11"
+        args.pyvrp_s = args.closed_pyvrp_s = "0.01"
+        args.quiet, args.large = True, True
+    return args
+
+
+def ints(text: str) -> list[int]:
+    return [int(x) for x in text.split(",") if x]
+
+
+def make_setup(args: argparse.Namespace) -> Setup:
+    cfg = load_config(args.config)
+    variants = {
+        v: dict(x.split("=", 1) for x in v.split(",") if x)
+        for v in filter(None, args.variants.split(";"))
+    }
+    return Setup(
+        cfg,
+        tuple(float(s) for s in args.pyvrp_s.split(",") if s),
+        tuple(float(s) for s in args.closed_pyvrp_s.split(",") if s),
+        variants,
+        max(1, args.repeats),
+        load_bound(cfg) if args.bound else None,
+    )
+
+
+def main(argv: list[str] | None = None) -> None:
+    args = parse_args(argv)
+    # A short search may end on an infeasible solution, whose routes solve_window drops;
+    # PyVRP's warning about its penalties would only clutter the tables.
+    warnings.filterwarnings("ignore", category=PenaltyBoundWarning)
+    setup = make_setup(args)
+    print(
+        f"operating model: stock {setup.cfg.ops.stock}, batteries "
+        f"{setup.cfg.ops.batteries_per_depot or 'unlimited'}, busy {setup.cfg.ops.busy}; "
+        f"PyVRP limits (CPU s) {', '.join(f'{s:g}' for s in setup.pyvrp_s)}, closed loop "
+        f"{', '.join(f'{s:g}' for s in setup.closed_s)}"
+    )
+    result: dict = {"args": {k: str(v) for k, v in vars(args).items()}}
+    open_seeds = set(ints(args.open_seeds or args.seeds))
     if not args.only_large:
-        results = []
+        opened, closed = [], []
         with tempfile.TemporaryDirectory() as tmp:
-            for seed in (int(s) for s in args.seeds.split(",")):
-                data = Path(tmp) / f"synth{seed}.csv"
-                write(generate(SynthConfig(days=12, seed=seed)), data)
-                for d in (int(x) for x in args.days.split(",")):
-                    day = dt.date(2022, 8, d)
-                    print(f"seed {seed}, day {day}:")
-                    results.append(run_day(data, day, cfg, args.quiet, variants, pyvrp_s))
-        report(results)
+            for day in replay_days(
+                setup.cfg, args.shapes.split(","), ints(args.seeds), ints(args.days), Path(tmp)
+            ):
+                print(f"{day.label}:", flush=True)
+                if not args.closed and day.seed in open_seeds:
+                    opened += open_loop(day, setup, args.quiet)
+                closed.append(closed_day(day, setup))
+        if opened:
+            result["open"] = {"windows": opened, "summary": open_summary(opened, setup)}
+            print_open(result["open"]["summary"])
+        result["closed"] = {"days": closed, "summary": closed_summary(closed, setup.ref)}
+        print_closed(closed, result["closed"]["summary"])
     if args.large or args.only_large:
-        large(cfg, max(pyvrp_s))
+        result["large"] = large(setup)
+        print_large(result["large"])
+    if args.json:
+        args.json.write_text(json.dumps(result, indent=1) + "\n", encoding="utf-8")
 
 
 if __name__ == "__main__":

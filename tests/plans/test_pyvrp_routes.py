@@ -127,3 +127,26 @@ def test_pool_with_pyvrp_columns_is_at_least_as_good_as_pyvrp() -> None:
         lam,
     ).G
     assert g >= g_peer - 1e-6 * abs(g_peer)
+
+
+def test_pyvrp_serves_each_parcel_only_from_its_stock_depot() -> None:
+    """Parcels waiting at their own depot (``allowed`` per drone): PyVRP's routes carry
+    only what their start depot stocks, and it still serves parcels from both depots."""
+    model = EnergyModel()
+    view = _view(seed=5, n=30)
+    stock = np.where(np.arange(30) % 2 == 0, 0, 3)
+    allowed = stock[None, :] == view.drone_depot[:, None]
+    peer = solve_window(
+        view.depots.xy,
+        view.drone_depot,
+        view.pending_xy,
+        view.pending_weight,
+        1.0 + view.pending_delay_h,
+        lam_j(0.5, model.usable_j),
+        model,
+        allowed=allowed,
+        iterations=200,
+    )
+    assert {int(s) for s in peer.start} == {0, 3}
+    for s, stops in zip(peer.start, peer.stops, strict=True):
+        assert (stock[stops] == s).all()
