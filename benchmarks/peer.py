@@ -73,10 +73,11 @@ from marops_cli.data.prepare import prepare_day  # noqa: E402
 from marops_cli.data.synth import SynthConfig, generate, write  # noqa: E402
 from marops_cli.data.table import DayRequests  # noqa: E402
 from marops_cli.energy import EnergyModel  # noqa: E402
-from marops_cli.plans.objective import WindowScore, lam_j, score_routes  # noqa: E402
+from marops_cli.plans.bound import window_bound  # noqa: E402
+from marops_cli.plans.objective import lam_j, relative_gap  # noqa: E402
 from marops_cli.plans.pool import finish_route  # noqa: E402
 from marops_cli.plans.pyvrp_routes import solve_window  # noqa: E402
-from marops_cli.plans.window import DroneRoute, WindowPlan  # noqa: E402
+from marops_cli.plans.window import DroneRoute, WindowPlan, score_plan  # noqa: E402
 from marops_cli.policies.base import WindowView, start_day  # noqa: E402
 from marops_cli.segment.depots import Depots  # noqa: E402
 from marops_cli.sim.scenario import load_scenario, method_policy  # noqa: E402
@@ -212,17 +213,10 @@ class Setup:
 
 
 def load_bound(cfg: PlannerConfig) -> Bound:
-    """The window bound of ``marops_cli.plans.bound``, or a clear exit without it.
+    """The window bound of ``marops_cli.plans.bound``.
 
     The relaxed bound: every drone that can fly lands freely and serves whatever its
     depot stocks, so it bounds every method's plan, PyVRP's included."""
-    try:
-        from marops_cli.plans.bound import window_bound
-    except ImportError as exc:
-        raise SystemExit(
-            "--bound needs marops_cli/plans/bound.py (the column-generation bound on G), "
-            "which this checkout does not have"
-        ) from exc
     model = EnergyModel(cfg.energy)
 
     def bound(view: WindowView, actions: np.ndarray) -> dict[str, float]:
@@ -233,12 +227,6 @@ def load_bound(cfg: PlannerConfig) -> Bound:
 
 
 # --- scoring ------------------------------------------------------------------------
-
-
-def score(view: WindowView, routes: list[DroneRoute], lam: float) -> WindowScore:
-    return score_routes(
-        view.pending_idx, view.pending_delay_h, [(r.stops, r.energy_j) for r in routes], lam
-    )
 
 
 def check(view: WindowView, routes: list[DroneRoute], model: EnergyModel) -> int:
@@ -328,7 +316,7 @@ def run_window(
     ]
     routes, wall, _ = runs[0]
     cpus = [c for _, _, c in runs]
-    sc = score(view, routes, setup.lam)
+    sc = score_plan(view, routes, setup.lam)
     rec = {
         "G": sc.G,
         "J": sc.J,
@@ -416,7 +404,7 @@ def closed_day(day: Day, setup: Setup) -> dict:
 
 
 def gap(bound: float, g: float) -> float:
-    return (bound - g) / bound if bound > 0 else 0.0
+    return relative_gap(bound, g) if bound > 0 else 0.0
 
 
 def open_summary(rows: list[dict], setup: Setup) -> dict:
@@ -622,7 +610,7 @@ def large(setup: Setup) -> list[dict]:
     out = []
     for name, given, v, fn in runs:
         routes, wall, cpu = timed(lambda fn=fn, v=v: fn(v, actions))
-        sc = score(view, routes, lam)  # judged on the whole window
+        sc = score_plan(view, routes, lam)  # judged on the whole window
         out.append(
             {
                 "method": name,

@@ -85,10 +85,6 @@ class BoundResult:
     plan_g: float = -np.inf
     """G of ``plan``."""
 
-    def gap(self, g: float) -> float:
-        """(bound − G) / |bound|: the share of the bound a plan of objective ``g`` misses."""
-        return (self.bound - g) / max(abs(self.bound), 1e-9)
-
 
 class _Master:
     """The restricted master program in HiGHS (minimising −G, every row "≤")."""
@@ -320,7 +316,7 @@ def bound_g(
         columns=len(master.keys),
         cpu_s=time.process_time() - c0,
         labels=work,
-        **(_best_plan(master, classes, of, prize.size, const) if plan else {}),
+        **(_best_plan(master, classes, of, const) if plan else {}),
     )
 
 
@@ -331,44 +327,31 @@ def _best_plan(
     master: _Master,
     classes: list[DroneClass],
     of: list[int],
-    n_req: int,
     const: float,
 ) -> dict[str, object]:
     """The best plan over the master's elementary routes (each request at most once, at
     most a class's count of routes per class), each route given to a drone of its
-    class: ``BoundResult.plan`` and ``plan_g``."""
-    cols = [(c, st, g) for c, st, g in master.cols if len(set(st)) == len(st) and g > 0]
+    class: ``BoundResult.plan`` and ``plan_g``. The master's own program, with only
+    elementary routes of positive value allowed and every column integral."""
     routes: list[tuple[tuple[int, ...], int]] = [((), classes[c].end) for c in of]
-    if not cols:
+    fly = [len(set(st)) == len(st) and g > 0 for _, st, g in master.cols]
+    if not any(fly):
         return {"plan": tuple(routes), "plan_g": const}
-    n_cls = len(classes)
+    lp = master.h.getLp()
+    lp.col_upper_ = np.asarray(fly, dtype=np.float64)
+    lp.integrality_ = [highspy.HighsVarType.kInteger] * lp.num_col_
     h = highspy.Highs()
     h.setOptionValue("output_flag", False)
     h.setOptionValue("mip_max_nodes", _PLAN_NODES)
-    lp = highspy.HighsLp()
-    lp.num_col_, lp.num_row_ = len(cols), n_cls + n_req
-    lp.col_cost_ = np.array([-g for _, _, g in cols])
-    lp.col_lower_, lp.col_upper_ = np.zeros(len(cols)), np.ones(len(cols))
-    lp.row_lower_ = np.full(lp.num_row_, -highspy.kHighsInf)
-    lp.row_upper_ = np.concatenate([[float(c.count) for c in classes], np.ones(n_req)])
-    start, index = [0], []
-    for c, st, _ in cols:
-        index += [c, *sorted(n_cls + s for s in st)]
-        start.append(len(index))
-    lp.a_matrix_.format_ = highspy.MatrixFormat.kColwise
-    lp.a_matrix_.start_ = np.array(start, dtype=np.int32)
-    lp.a_matrix_.index_ = np.array(index, dtype=np.int32)
-    lp.a_matrix_.value_ = np.ones(len(index))
-    lp.integrality_ = [highspy.HighsVarType.kInteger] * len(cols)
     h.passModel(lp)
     h.run()
     if h.getInfo().primal_solution_status != highspy.kSolutionStatusFeasible:
         return {"plan": tuple(routes), "plan_g": const}
     x = np.asarray(h.getSolution().col_value, dtype=np.float64)
-    free = {c: [u for u in range(len(of)) if of[u] == c] for c in range(n_cls)}
+    free = {c: [u for u in range(len(of)) if of[u] == c] for c in range(len(classes))}
     g = const
     for k in np.flatnonzero(x > 0.5):
-        c, st, gk = cols[int(k)]
+        c, st, gk = master.cols[int(k)]
         routes[free[c].pop(0)] = (st, classes[c].end)
         g += gk
     return {"plan": tuple(routes), "plan_g": g}

@@ -18,7 +18,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["WindowScore", "lam_j", "score_routes"]
+__all__ = ["WindowScore", "lam_j", "relative_gap", "score_routes"]
 
 
 def lam_j(alpha: float, energy_ref_j: float) -> float:
@@ -26,6 +26,12 @@ def lam_j(alpha: float, energy_ref_j: float) -> float:
     if not 0 < alpha <= 1:
         raise ValueError(f"expected alpha in (0, 1], got {alpha}")
     return (1.0 - alpha) / alpha * float(energy_ref_j)
+
+
+def relative_gap(bound: float, g: float) -> float:
+    """(bound − G) / |bound|: the share of a bound on G that a plan of objective ``g``
+    misses (docs/method.md, "The bound")."""
+    return (bound - g) / max(abs(bound), 1e-9)
 
 
 @dataclass(frozen=True)
@@ -48,9 +54,7 @@ class WindowScore:
     @property
     def gap(self) -> float | None:
         """(bound − G) / |bound|: how far G may be from the best plan; None without a bound."""
-        if self.bound_G is None:
-            return None
-        return (self.bound_G - self.G) / max(abs(self.bound_G), 1e-9)
+        return None if self.bound_G is None else relative_gap(self.bound_G, self.G)
 
     def with_bound(self, bound_g: float) -> WindowScore:
         """This score with its bound."""

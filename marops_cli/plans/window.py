@@ -19,7 +19,6 @@ from ..errors import RunError
 from .bound import BoundResult, window_bound
 from .objective import WindowScore, lam_j, score_routes
 from .planner import Planner, Scope, make_planner
-from .plans import PlanSet
 from .pool import finish_route
 from .select import SelectionProblem, SelectionResult, Selector
 from .view import WindowView
@@ -175,19 +174,14 @@ def plan_routes(
         },
     )
     check_routes(plan.routes, models)
-    plan.score = score_routes(
-        view.pending_idx,
-        view.pending_delay_h,
-        [(r.stops, r.energy_j) for r in plan.routes],
-        lam_j(cfg.alpha, model.usable_j),
-    )
+    plan.score = score_plan(view, plan.routes, lam_j(cfg.alpha, model.usable_j))
     if cfg.bound:  # warm-started with every plan the selection saw
         t0 = time.perf_counter()
         columns = [
             [(ps.route(k), float(ps.energy_j[k])) for k in range(1, ps.n_plans)] for ps in plan_sets
         ]
         plan.bound = window_bound(view, actions, model, cfg, scope, columns=columns, plan=True)
-        _take_bound_plan(plan, view, plan_sets, plan_ends, acts, models, cfg, model)
+        _take_bound_plan(plan, view, plan_ends, acts, models, cfg, model)
         plan.score = plan.score.with_bound(plan.bound.bound)
         plan.timings["bound"] = time.perf_counter() - t0
     return plan
@@ -196,7 +190,6 @@ def plan_routes(
 def _take_bound_plan(
     plan: WindowPlan,
     view: WindowView,
-    plan_sets: list[PlanSet],
     plan_ends: list[np.ndarray],
     acts: np.ndarray,
     models: list[EnergyModel],
@@ -210,11 +203,10 @@ def _take_bound_plan(
     assert bound is not None and plan.score is not None
     if bound.plan is None or bound.plan_g <= plan.score.G + _BETTER_J:
         return
+    # A drone without a route flies its pool's empty plan (the bound's empty route).
     routes = [
-        _drone_route(view, u, int(end), stops, int(acts[u]), models[u], True)
-        if stops
-        else _drone_route(
-            view, u, int(plan_ends[u][0]), plan_sets[u].route(0), int(acts[u]), models[u], True
+        _drone_route(
+            view, u, int(end if stops else plan_ends[u][0]), stops, int(acts[u]), models[u], True
         )
         for u, (stops, end) in enumerate(bound.plan)
     ]
@@ -222,14 +214,16 @@ def _take_bound_plan(
         check_routes(routes, models)
     except RunError:
         return  # never fly a route that breaks a rule; the pool's plan stands
-    score = score_routes(
-        view.pending_idx,
-        view.pending_delay_h,
-        [(r.stops, r.energy_j) for r in routes],
-        lam_j(cfg.alpha, model.usable_j),
-    )
+    score = score_plan(view, routes, lam_j(cfg.alpha, model.usable_j))
     if score.G > plan.score.G + _BETTER_J:
         plan.routes, plan.score = routes, score
+
+
+def score_plan(view: WindowView, routes: list[DroneRoute], lam: float) -> WindowScore:
+    """The window objective of ``routes`` over ``view``'s pending requests (λ ``lam``)."""
+    return score_routes(
+        view.pending_idx, view.pending_delay_h, [(r.stops, r.energy_j) for r in routes], lam
+    )
 
 
 def check_routes(routes: list[DroneRoute], model: EnergyModel | list[EnergyModel]) -> None:
