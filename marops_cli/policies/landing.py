@@ -212,6 +212,12 @@ def load_landing_actor(path: Path, side: dict[str, Any], sidecar: Path) -> Landi
     Nothing of the file runs (a safetensors file is a JSON header and raw numbers)."""
     from safetensors import SafetensorError, safe_open
 
+    if side.get("format") != LANDING_FORMAT:
+        raise InputError(
+            f"expected format {LANDING_FORMAT!r}, got {side.get('format')!r}",
+            file=sidecar,
+            column="format",
+        )
     if path.stat().st_size > (1 << 16):
         raise InputError("larger than a landing actor's 12 weights", file=path)
     try:

@@ -107,8 +107,14 @@ def test_file_round_trip(tmp_path: Path) -> None:
         ({"weight": np.full(12, np.nan, np.float32)}, _side(), "NaN or infinite"),
         ({"weight": np.zeros(12, np.float32), "x": np.zeros(1, np.float32)}, _side(), "one tensor"),
         ({"weight": np.zeros(12, np.float32)}, {"format": "marops-landing-actor/1"}, "operating"),
+        (
+            {"weight": np.zeros(12, np.float32)},
+            {"format": "marops-basic", "operating_model": REALISTIC},
+            "expected format 'marops-landing-actor/1', got 'marops-basic'",
+        ),
+        ({"weight": np.zeros(12, np.float32)}, {"operating_model": REALISTIC}, "got None"),
     ],
-    ids=["shape", "dtype", "nan", "extra", "no-model"],
+    ids=["shape", "dtype", "nan", "extra", "no-model", "format", "no-format"],
 )
 def test_bad_files(tmp_path: Path, tensors: dict, side: dict, match: str) -> None:
     from safetensors.numpy import save_file
