@@ -206,12 +206,14 @@ class LandingActor(EnergyAware):
         return out
 
 
-def load_landing_actor(path: Path, side: dict[str, Any], sidecar: Path) -> LandingActor:
+def load_landing_actor(path: Path, side: Any, sidecar: Path) -> LandingActor:
     """The landing actor of the weights file ``path`` (``NAME.safetensors``) described by
     ``side`` (read from ``sidecar``): one finite float32 tensor ``weight`` of 12 values.
     Nothing of the file runs (a safetensors file is a JSON header and raw numbers)."""
     from safetensors import SafetensorError, safe_open
 
+    if not isinstance(side, dict):
+        raise InputError(f"expected a JSON object, got {type(side).__name__}", file=sidecar)
     if side.get("format") != LANDING_FORMAT:
         raise InputError(
             f"expected format {LANDING_FORMAT!r}, got {side.get('format')!r}",

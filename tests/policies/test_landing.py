@@ -113,10 +113,11 @@ def test_file_round_trip(tmp_path: Path) -> None:
             "expected format 'marops-landing-actor/1', got 'marops-basic'",
         ),
         ({"weight": np.zeros(12, np.float32)}, {"operating_model": REALISTIC}, "got None"),
+        ({"weight": np.zeros(12, np.float32)}, [REALISTIC], "expected a JSON object, got list"),
     ],
-    ids=["shape", "dtype", "nan", "extra", "no-model", "format", "no-format"],
+    ids=["shape", "dtype", "nan", "extra", "no-model", "format", "no-format", "not-object"],
 )
-def test_bad_files(tmp_path: Path, tensors: dict, side: dict, match: str) -> None:
+def test_bad_files(tmp_path: Path, tensors: dict, side: object, match: str) -> None:
     from safetensors.numpy import save_file
 
     save_file(tensors, str(tmp_path / "a.safetensors"))
