@@ -7,7 +7,6 @@ override single fields afterwards with :func:`override`.
 
 from __future__ import annotations
 
-import tomllib
 from pathlib import Path
 from typing import Any, Literal
 
@@ -21,6 +20,7 @@ from pydantic import (
     model_validator,
 )
 
+from .data.jsonfile import parse_toml, read_small_text
 from .errors import InputError
 
 MAX_DRONES = 1000
@@ -407,12 +407,12 @@ def load_config(path: str | Path | None) -> PlannerConfig:
     if p.is_dir():
         raise InputError("is a folder, expected a TOML config file", file=p)
     try:
-        raw = tomllib.loads(p.read_text(encoding="utf-8"))
+        raw = parse_toml(read_small_text(p, "config"))
     except FileNotFoundError as exc:
         raise InputError("config file not found", file=p) from exc
     except OSError as exc:
         raise InputError(f"cannot read the config ({exc.strerror})", file=p) from exc
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+    except (ValueError, UnicodeDecodeError) as exc:
         raise InputError(f"not a valid TOML file ({exc})", file=p) from exc
     sim = raw.get("sim")
     if isinstance(sim, dict) and "trust_actor" in sim:
@@ -433,8 +433,8 @@ def sets_key(path: str | Path, key: str) -> bool:
     """Whether the TOML config at ``path`` sets ``key`` (``stage.field``)."""
     stage, _, name = key.partition(".")
     try:
-        raw = tomllib.loads(Path(path).read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError):
+        raw = parse_toml(read_small_text(path, "config"))
+    except (OSError, ValueError, InputError):  # UnicodeDecodeError is a ValueError
         return False
     table = raw.get(stage)
     return isinstance(table, dict) and name in table
