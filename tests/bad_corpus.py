@@ -139,6 +139,11 @@ CONFIG: dict[str, Callable[[Path], None]] = {
     # Crafted to break the parser itself: nesting beyond its recursion, a 5,000-digit number.
     "deep.toml": _text("x = " + "[" * 5000 + "]" * 5000 + "\n"),
     "huge_int.toml": _text("[sim]\ndrones = " + "1" * 5000 + "\n"),
+    # What validation would convert quietly: a switch for a number, text for a number, a
+    # number for a switch.
+    "bool_drones.toml": _text("[sim]\ndrones = true\n"),
+    "text_year.toml": _text('[data]\nyear = "2022"\n'),
+    "number_bound.toml": _text("[plan]\nbound = 1\n"),
 }
 FRAME = {"center_lng": 121.44, "center_lat": 31.22, "size_km": 10.0}
 DEPOT = {"id": 0, "x_m": 0.0, "y_m": 0.0, "lng": 121.44, "lat": 31.22, "n_history": 3}
@@ -283,6 +288,7 @@ FLEET: dict[str, Callable[[Path], None]] = {
     "fleet_deep.json": _text("[" * 100_000 + "]" * 100_000),
     "fleet_deep.toml": _text("x = " + "[" * 5000 + "]" * 5000 + "\n"),
     "fleet_huge_int.toml": _text("[counts]\ndefault = " + "1" * 5000 + "\n"),
+    "fleet_bool_battery.json": _json({"types": {"a": {"battery_j": True}}, "counts": {"a": 2}}),
 }
 # What the one line names besides the file: the key, row or column at fault (any of a
 # tuple: with a depots file, scattered data lie outside its study area).
@@ -322,6 +328,10 @@ NEEDLES: dict[str, str | tuple[str, ...]] = {
     "fleet_deep.json": "nested too deeply",
     "fleet_deep.toml": "nested too deeply",
     "fleet_huge_int.toml": "digits",
+    "bool_drones.toml": "key 'sim.drones'",
+    "text_year.toml": "key 'data.year'",
+    "number_bound.toml": "key 'plan.bound'",
+    "fleet_bool_battery.json": "types.a.battery_j",
 }
 KINDS = {"data": DATA, "config": CONFIG, "depots": DEPOTS, "policy": POLICY, "fleet": FLEET}
 

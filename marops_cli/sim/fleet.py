@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 from pydantic import ValidationError
 
-from ..config import MAX_DRONES, EnergyConfig, value_range
+from ..config import MAX_DRONES, EnergyConfig, check_file_types, value_range
 from ..data.jsonfile import json_number, parse_json, parse_toml, read_small_text
 from ..energy import EnergyModel
 from ..errors import InputError
@@ -142,6 +142,7 @@ def _types(doc: dict[str, Any], base: EnergyConfig, path: Path) -> tuple[DroneTy
                 file=path,
                 column=f"{key}.{unknown[0]}",
             )
+        check_file_types(EnergyConfig, params, path, f"{key}.")
         try:
             energy = EnergyConfig.model_validate({**base.model_dump(), **params})
         except ValidationError as exc:
