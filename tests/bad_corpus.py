@@ -111,6 +111,8 @@ DATA: dict[str, Callable[[Path], None]] = {
         + [row(i, lng=f"{-170.3 + 8.7 * i:.3f}", lat=f"{-60.3 + 3.1 * i:.3f}") for i in range(40)]
     ),
     "bool_lng.parquet": _parquet({**GOOD_PQ, "lng": [True] * 40}),
+    "lng_twice.csv": _csv([HEADER + ",lng", *(r + ",0" for r in _rows())]),
+    "all_nan_lng.csv": _csv([HEADER, *(row(i, lng="nan") for i in range(20))]),
     "latin1_city.csv": _bytes(
         (
             "\n".join([HEADER, *_rows()[:3], row(3).replace("Shanghai", "Sh\xe0ngh\xe0i")]) + "\n"
@@ -289,12 +291,15 @@ FLEET: dict[str, Callable[[Path], None]] = {
     "fleet_deep.toml": _text("x = " + "[" * 5000 + "]" * 5000 + "\n"),
     "fleet_huge_int.toml": _text("[counts]\ndefault = " + "1" * 5000 + "\n"),
     "fleet_bool_battery.json": _json({"types": {"a": {"battery_j": True}}, "counts": {"a": 2}}),
+    "fleet_drone_colour.json": _json({"drones": [{"depot": 1, "color": "red"}]}),
 }
 # What the one line names besides the file: the key, row or column at fault (any of a
 # tuple: with a depots file, scattered data lie outside its study area).
 NEEDLES: dict[str, str | tuple[str, ...]] = {
     "world_scattered.csv": ("column 'lng'", "holds none of the requests of world_scattered.csv"),
     "bool_lng.parquet": "column 'lng'",
+    "lng_twice.csv": "row 1, column 'lng'",
+    "all_nan_lng.csv": "none of its 20 rows can be used (20 bad coordinates)",
     "latin1_city.csv": "row 5, column 'city'",
     "payload_inf.toml": "energy.max_payload_kg",
     "window_1e-9.toml": "data.window_min",
@@ -332,6 +337,7 @@ NEEDLES: dict[str, str | tuple[str, ...]] = {
     "text_year.toml": "key 'data.year'",
     "number_bound.toml": "key 'plan.bound'",
     "fleet_bool_battery.json": "types.a.battery_j",
+    "fleet_drone_colour.json": "drones[0].color",
 }
 KINDS = {"data": DATA, "config": CONFIG, "depots": DEPOTS, "policy": POLICY, "fleet": FLEET}
 

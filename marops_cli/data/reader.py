@@ -128,7 +128,7 @@ def _csv_header(path: Path, compression: str | None) -> list[str]:
 
 
 def _check_columns(names: list[str], path: Path) -> list[str]:
-    """The columns to load; raises for a missing required column."""
+    """The columns to load; raises for a missing required column or one named twice."""
     for name in REQUIRED_COLUMNS:
         if name not in names:
             raise InputError(
@@ -139,6 +139,14 @@ def _check_columns(names: list[str], path: Path) -> list[str]:
                 column=name,
             )
     wanted = REQUIRED_COLUMNS + _OPTIONAL_COLUMNS
+    twice = next((n for n in wanted if names.count(n) > 1), None)
+    if twice is not None:  # which of the two holds the data is anyone's guess
+        raise InputError(
+            f"column '{twice}' appears {names.count(twice)} times in the header",
+            file=path,
+            row=1,
+            column=twice,
+        )
     return [n for n in wanted if n in names]
 
 

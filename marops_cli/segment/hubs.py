@@ -87,6 +87,10 @@ def hubs_doc(hubs: Sequence[Hub], total: int, meta: dict[str, Any]) -> dict[str,
     }
 
 
+_HUB_KEYS = frozenset({"id", "center_lng", "center_lat", "size_km", "orders", "share", "drones"})
+"""The keys of a hub in a hubs file (what ``marops segment --hubs`` writes, docs/outputs.md)."""
+
+
 def load_hubs(path: str | Path, cfg: DataConfig) -> list[Hub]:
     """The hubs of a hubs file: ``{"hubs": [{center_lng, center_lat, size_km?, drones?}]}``
     (or the list itself); ``size_km`` defaults to ``cfg.size_km``; ids are list order."""
@@ -103,6 +107,14 @@ def load_hubs(path: str | Path, cfg: DataConfig) -> list[Hub]:
         for key in ("center_lng", "center_lat"):
             if key not in h:
                 raise InputError(f"a hub needs {key}", file=p, column=f"{col}.{key}")
+        unknown = sorted(set(h) - _HUB_KEYS)
+        if unknown:
+            raise InputError(
+                f"unknown hub key {unknown[0]!r} "
+                f"(expected some of: {', '.join(sorted(_HUB_KEYS))})",
+                file=p,
+                column=f"{col}.{unknown[0]}",
+            )
         lng = json_number(h["center_lng"], p, f"{col}.center_lng")
         lat = json_number(h["center_lat"], p, f"{col}.center_lat")
         size = json_number(h["size_km"], p, f"{col}.size_km") if "size_km" in h else None

@@ -243,6 +243,13 @@ def _from_drones(
         col = f"drones[{u}]"
         if not isinstance(d, dict):
             d = {"depot": d}
+        unknown = sorted(set(d) - {"depot", "type"})
+        if unknown:
+            raise InputError(
+                f"unknown drone key {unknown[0]!r} (expected depot and type)",
+                file=path,
+                column=f"{col}.{unknown[0]}",
+            )
         if "depot" not in d:
             raise InputError("a drone needs a depot", file=path, column=f"{col}.depot")
         depot.append(_int(d["depot"], path, f"{col}.depot"))

@@ -84,6 +84,11 @@ def test_an_order_belongs_to_the_first_hub_that_holds_it(points_table):
             "whole",
         ),
         ({"hubs": [{"center_lng": "x", "center_lat": 31.0}]}, "hubs[0].center_lng", "number"),
+        (
+            {"hubs": [{"center_lng": 121.4, "center_lat": 31.0, "foo": 1}]},
+            "hubs[0].foo",
+            "unknown hub key",
+        ),
     ],
 )
 def test_bad_hubs_files_name_the_key(tmp_path, doc, column, needle):
