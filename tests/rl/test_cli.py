@@ -81,6 +81,16 @@ def test_train_rejects_bad_options(tiny_csv: Path, tmp_path: Path) -> None:
     assert res.exit_code != 0 and "method" in res.output
 
 
+@pytest.mark.parametrize("seed", ["-1", "4294967296", "99999999999999999999"])
+def test_train_refuses_a_seed_out_of_range(
+    tiny_csv: Path, tmp_path: Path, fails_cleanly, seed: str
+) -> None:
+    """As the planner's --seed: one line with the range, before any training."""
+    args = ["train", str(tiny_csv), "--episodes", "1", "--workers", "1", "--seed", seed]
+    line = fails_cleanly([*args, "--out", str(tmp_path / "a.pt")], tmp_path, "--seed")
+    assert f"got {seed} (expected 0 ≤ seed ≤ 4294967295)" in line
+
+
 def test_training_log_gives_the_time_left(monkeypatch) -> None:
     """Without a terminal each logged episode says how long the rest will take, at the
     pace so far: 10 of 100 episodes in 60 s leaves 90 × 6 s = 9 min."""
