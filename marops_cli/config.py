@@ -7,7 +7,9 @@ override single fields afterwards with :func:`override`.
 
 from __future__ import annotations
 
-import tomllib
+import json
+import types
+import typing
 from pathlib import Path
 from typing import Any, Literal
 
@@ -22,7 +24,8 @@ from pydantic import (
 )
 from pydantic.fields import FieldInfo
 
-from .errors import InputError
+from .data.jsonfile import parse_toml, read_small_text
+from .errors import InputError, SettingError
 
 MAX_DRONES = 1000
 """The most drones one study area plans for (``--drones``, a fleet file, a hub's
@@ -361,6 +364,53 @@ STAGES: dict[str, type[_Stage]] = {
 }
 
 
+_WORDS = frozenset({"batteries_per_depot"})
+"""Numeric settings that a word may spell (``"unlimited"``)."""
+
+
+def _kinds(annotation: Any) -> set[type]:
+    """The plain types a field's annotation allows (``int | None`` -> {int})."""
+    args = typing.get_args(annotation)
+    if args and typing.get_origin(annotation) in (typing.Union, types.UnionType):
+        return set().union(*(_kinds(a) for a in args if a is not type(None)))
+    plain = isinstance(annotation, type) and typing.get_origin(annotation) is None
+    return {annotation} if plain else set()
+
+
+def check_file_types(
+    model: type[BaseModel], table: dict[str, Any], path: str | Path, prefix: str = ""
+) -> None:
+    """Refuse what validation would otherwise convert quietly in a file's ``table`` for
+    ``model``: true or false for a number, text for a number, anything but true or false
+    for a switch. The key is named (``prefix`` + its name); unknown keys are left to the
+    validation, which names them too."""
+    for name, value in table.items():
+        field = model.model_fields.get(name)
+        if field is None:
+            continue
+        kinds = _kinds(field.annotation)
+        sub = next((k for k in kinds if issubclass(k, BaseModel)), None)
+        if sub is not None and isinstance(value, dict):
+            check_file_types(sub, value, path, f"{prefix}{name}.")
+        elif kinds == {bool} and not isinstance(value, bool):
+            raise SettingError(
+                f"expected true or false, got {_shown(value)}", key=prefix + name, file=path
+            )
+        elif (
+            kinds
+            and kinds <= {int, float}
+            and (isinstance(value, bool) or (isinstance(value, str) and name not in _WORDS))
+        ):
+            raise SettingError(
+                f"expected a number, got {_shown(value)}", key=prefix + name, file=path
+            )
+
+
+def _shown(value: Any) -> str:
+    """A file's value as the file wrote it (true, "2022", 3)."""
+    return json.dumps(value, default=str)
+
+
 def value_range(stage: str, name: str) -> str | None:
     """The documented range of a numeric setting, as docs/config.md writes it
     (``0 < x ≤ 500``, ``1 ≤ x ≤ 1440``); None for a setting without bounds."""
@@ -413,12 +463,12 @@ def load_config(path: str | Path | None) -> PlannerConfig:
     if p.is_dir():
         raise InputError("is a folder, expected a TOML config file", file=p)
     try:
-        raw = tomllib.loads(p.read_text(encoding="utf-8"))
+        raw = parse_toml(read_small_text(p, "config"))
     except FileNotFoundError as exc:
         raise InputError("config file not found", file=p) from exc
     except OSError as exc:
         raise InputError(f"cannot read the config ({exc.strerror})", file=p) from exc
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+    except (ValueError, UnicodeDecodeError) as exc:
         raise InputError(f"not a valid TOML file ({exc})", file=p) from exc
     sim = raw.get("sim")
     if isinstance(sim, dict) and "trust_actor" in sim:
@@ -429,6 +479,7 @@ def load_config(path: str | Path | None) -> PlannerConfig:
             file=p,
             column="sim.trust_actor",
         )
+    check_file_types(PlannerConfig, raw, p)
     try:
         return PlannerConfig.model_validate(raw)
     except ValidationError as exc:
@@ -439,8 +490,8 @@ def sets_key(path: str | Path, key: str) -> bool:
     """Whether the TOML config at ``path`` sets ``key`` (``stage.field``)."""
     stage, _, name = key.partition(".")
     try:
-        raw = tomllib.loads(Path(path).read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError):
+        raw = parse_toml(read_small_text(path, "config"))
+    except (OSError, ValueError, InputError):  # UnicodeDecodeError is a ValueError
         return False
     table = raw.get(stage)
     return isinstance(table, dict) and name in table

@@ -136,6 +136,14 @@ CONFIG: dict[str, Callable[[Path], None]] = {
     "speed_supersonic.toml": _text("[energy]\nspeed_ms = 400.0\n"),
     "drones_100000.toml": _text("[sim]\ndrones = 100000\n"),
     "center_off_earth.toml": _text("[data]\ncenter = [500.0, 31.2]\n"),
+    # Crafted to break the parser itself: nesting beyond its recursion, a 5,000-digit number.
+    "deep.toml": _text("x = " + "[" * 5000 + "]" * 5000 + "\n"),
+    "huge_int.toml": _text("[sim]\ndrones = " + "1" * 5000 + "\n"),
+    # What validation would convert quietly: a switch for a number, text for a number, a
+    # number for a switch.
+    "bool_drones.toml": _text("[sim]\ndrones = true\n"),
+    "text_year.toml": _text('[data]\nyear = "2022"\n'),
+    "number_bound.toml": _text("[plan]\nbound = 1\n"),
 }
 FRAME = {"center_lng": 121.44, "center_lat": 31.22, "size_km": 10.0}
 DEPOT = {"id": 0, "x_m": 0.0, "y_m": 0.0, "lng": 121.44, "lat": 31.22, "n_history": 3}
@@ -179,6 +187,23 @@ DEPOTS: dict[str, Callable[[Path], None]] = {
             "depots": [DEPOT],
             "candidates": {"0": [0]},
         }
+    ),
+    "deep.json": _text("[" * 100_000 + "]" * 100_000),
+    "huge_int.json": _text(
+        json.dumps({"frame": FRAME, "depots": [DEPOT], "candidates": {"0": [0]}}).replace(
+            '"n_history": 3', '"n_history": ' + "1" * 5000
+        )
+    ),
+    "frame_list.json": _json({"frame": [1, 2], "depots": [DEPOT], "candidates": {"0": [0]}}),
+    "duplicate_id.json": _json(
+        {
+            "frame": FRAME,
+            "depots": [DEPOT, {**DEPOT, "x_m": 500.0}],
+            "candidates": {"0": [0, 1], "1": [1, 0]},
+        }
+    ),
+    "text_position.json": _json(
+        {"frame": FRAME, "depots": [{**DEPOT, "x_m": "12"}], "candidates": {"0": [0]}}
     ),
 }
 
@@ -234,6 +259,7 @@ POLICY: dict[str, Callable[[Path], None]] = {
     "evil_on_load.pt": _writes_on_load,
     "evil_on_load_alone.pt": _writes_on_load,
     "evil_pickle.pt": lambda p: p.write_bytes(pickle.dumps(_System(p.parent / "planted.pth"))),
+    "deep_sidecar.pt": _bytes(b"x"),
 }
 SIDECARS: dict[str, Callable[[Path], None]] = {
     "not_torchscript.json": _json(SIDE),
@@ -243,6 +269,7 @@ SIDECARS: dict[str, Callable[[Path], None]] = {
     "sidecar_old_version.json": _json({**SIDE, "obs_version": 1}),
     "evil_on_load.json": _json(SIDE),
     "evil_pickle.json": _json(SIDE),
+    "deep_sidecar.json": _text("{" + '"a":{' * 50_000 + "}" * 50_001),
 }
 FLEET: dict[str, Callable[[Path], None]] = {
     "fleet_not_json.json": _text("[1, 2"),
@@ -258,6 +285,10 @@ FLEET: dict[str, Callable[[Path], None]] = {
     "fleet_100000.json": _json({"counts": {"default": 100_000}}),
     "fleet_inf_count.json": _json({"counts": {"default": float("inf")}}),
     "fleet_too_long.json": _json([0] * 1001),
+    "fleet_deep.json": _text("[" * 100_000 + "]" * 100_000),
+    "fleet_deep.toml": _text("x = " + "[" * 5000 + "]" * 5000 + "\n"),
+    "fleet_huge_int.toml": _text("[counts]\ndefault = " + "1" * 5000 + "\n"),
+    "fleet_bool_battery.json": _json({"types": {"a": {"battery_j": True}}, "counts": {"a": 2}}),
 }
 # What the one line names besides the file: the key, row or column at fault (any of a
 # tuple: with a depots file, scattered data lie outside its study area).
@@ -286,6 +317,21 @@ NEEDLES: dict[str, str | tuple[str, ...]] = {
     "fleet_too_long.json": "'drones'",
     "evil_on_load.pt": "--trust-actor",
     "evil_on_load_alone.pt": "not found",
+    "deep.toml": "nested too deeply",
+    "huge_int.toml": "digits",
+    "deep.json": "nested too deeply",
+    "huge_int.json": "digits",
+    "frame_list.json": "not a marops depots file",
+    "duplicate_id.json": "depots[].id",
+    "text_position.json": "depots[0].x_m",
+    "deep_sidecar.pt": "nested too deeply",
+    "fleet_deep.json": "nested too deeply",
+    "fleet_deep.toml": "nested too deeply",
+    "fleet_huge_int.toml": "digits",
+    "bool_drones.toml": "key 'sim.drones'",
+    "text_year.toml": "key 'data.year'",
+    "number_bound.toml": "key 'plan.bound'",
+    "fleet_bool_battery.json": "types.a.battery_j",
 }
 KINDS = {"data": DATA, "config": CONFIG, "depots": DEPOTS, "policy": POLICY, "fleet": FLEET}
 

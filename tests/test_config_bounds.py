@@ -113,3 +113,24 @@ def test_a_fleet_types_number_out_of_range_names_key_and_range(tmp_path: Path) -
         load_fleet(fleet, depots, 8, EnergyConfig())
     line = str(err.value)
     assert "column 'types.jet.speed_ms'" in line and "0 < speed_ms ≤ 100" in line
+
+
+@pytest.mark.skipif(not Path("/dev/zero").exists(), reason="a system without /dev/zero")
+def test_an_endless_or_huge_small_input_is_refused_before_it_fills_memory(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from marops_cli.segment.depots import Depots
+
+    # A device that never ends: read up to the cap, then refused naming it.
+    with pytest.raises(InputError, match="config is larger than 64 MiB") as err:
+        load_config("/dev/zero")
+    assert err.value.file == "/dev/zero"
+    # Any file above the cap (made small here).
+    monkeypatch.setattr("marops_cli.data.jsonfile.MAX_SMALL_FILE", 16)
+    big = tmp_path / "depots.json"
+    big.write_text('{"frame": {}, "depots": [], "candidates": {}}')
+    with pytest.raises(InputError, match="depots file is larger than"):
+        Depots.load(big)
+    small = tmp_path / "small.toml"
+    small.write_text("[sim]\ndrones=3\n")  # 15 bytes: within the cap, read
+    assert load_config(small).sim.drones == 3

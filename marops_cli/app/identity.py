@@ -3,10 +3,10 @@ same way (``replay-day`` resumes a run by keeping such days, docs/outputs.md).""
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from ..data.jsonfile import parse_json, read_small_text
 from ..errors import InputError
 from ..io import run_meta
 from ..io.meta import file_sha256
@@ -61,7 +61,7 @@ def _flatten(doc: Any, prefix: str = "") -> dict[str, Any]:
 def matching_days(done: Path, ident: dict[str, Any]) -> list[dict[str, Any]]:
     """The day records of ``done`` if it was made with ``ident``; else a clear error."""
     try:
-        doc = json.loads(done.read_text(encoding="utf-8"))
+        doc = parse_json(read_small_text(done, "earlier output"))
         prior = doc["meta"].get("settings")
         days = doc["days"]
     except (OSError, ValueError, KeyError, TypeError, AttributeError) as exc:

@@ -71,10 +71,12 @@ def plan_window(
     file (``delivered``) delivered; with ``out`` write its route files there (and with
     ``report`` its report.html, docs/report.md)."""
     from ..io import folder_lock, output_set
-    from ..io.ownership import register_inputs
+    from ..io.ownership import check_outputs, register_inputs
+    from ..io.tables import route_file_paths, with_meta, write_route_files
+    from ..sim.scenario import delivered_file
 
-    register_inputs([data, depots, fleet, delivered, cfg.sim.policy])  # never an output
-    from ..io.tables import with_meta, write_route_files
+    stops = None if delivered is None else delivered_file(delivered)
+    register_inputs([data, depots, fleet, stops, cfg.sim.policy])  # never an output
     from ..sim.days import DayScope
     from ..sim.fleet import Fleet
     from ..sim.scenario import (
@@ -89,6 +91,8 @@ def plan_window(
 
     check_format(fmt)
     check_report(report and out is not None)
+    if out is not None:  # before any work: an input or a file marops did not write
+        check_outputs(route_file_paths(Path(out), fmt, geojson))
     pol = method_policy(
         method, cfg.sim.policy, cfg.sim.seed, trust=cfg.sim.trust_actor, ops=cfg.ops
     )

@@ -9,18 +9,64 @@ from typing import Any
 
 from ..errors import InputError
 
+MAX_SMALL_FILE = 64 << 20
+"""Bytes a small input (JSON or TOML: depots, fleet, config, sidecars, marops' own
+records) may have: far above any real one, and a device or a huge file is refused before
+it fills the memory."""
+
+
+def read_small_text(path: str | Path, what: str) -> str:
+    """The UTF-8 text of the small input ``path``: an :class:`InputError` naming it when it
+    is larger than :data:`MAX_SMALL_FILE`; OS and decoding errors propagate."""
+    p = Path(path)
+    with p.open("rb") as f:
+        data = f.read(MAX_SMALL_FILE + 1)
+    if len(data) > MAX_SMALL_FILE:
+        raise InputError(f"{what} is larger than {MAX_SMALL_FILE >> 20} MiB", file=p)
+    return data.decode("utf-8")
+
+
+def parse_json(text: str | bytes) -> Any:
+    """``json.loads``; a document nested too deeply for the parser is a ``ValueError`` as
+    any malformed one is (numbers too long to convert already are)."""
+    try:
+        return json.loads(text)
+    except RecursionError:
+        raise ValueError("nested too deeply") from None
+
+
+def parse_toml(text: str) -> dict[str, Any]:
+    """``tomllib.loads``; a document nested too deeply is a ``ValueError`` as any
+    malformed one is (``TOMLDecodeError`` is one)."""
+    import tomllib
+
+    try:
+        return tomllib.loads(text)
+    except RecursionError:
+        raise ValueError("nested too deeply") from None
+
 
 def read_json(path: str | Path, what: str) -> Any:
-    """The parsed document; a missing or malformed file is an :class:`InputError` naming it."""
+    """The parsed document; a missing, unreadable or malformed file is an
+    :class:`InputError` naming it."""
     p = Path(path)
     try:
-        return json.loads(p.read_text(encoding="utf-8"))
+        return parse_json(read_small_text(p, what))
     except FileNotFoundError as exc:
         raise InputError(f"{what} not found", file=p) from exc
     except IsADirectoryError as exc:
         raise InputError(f"{what} is a folder, expected a JSON file", file=p) from exc
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise InputError(f"{what} is not valid JSON ({exc})", file=p) from exc
+    except OSError as exc:
+        raise InputError(f"cannot read the {what} ({exc.strerror})", file=p) from exc
+    except (ValueError, UnicodeDecodeError) as exc:
+        raise InputError(f"{what} is not valid JSON ({first_line(exc)})", file=p) from exc
+
+
+def first_line(exc: BaseException) -> str:
+    """The first line of an error's message (at most 200 characters), for a one-line
+    error."""
+    text = str(exc).strip()
+    return text.splitlines()[0][:200] if text else type(exc).__name__
 
 
 def json_number(value: Any, path: str | Path, column: str, *, whole: bool = False) -> float:

@@ -15,14 +15,13 @@ these files in job order, whichever worker, machine or session wrote them.
 
 from __future__ import annotations
 
-import json
-import shutil
 from pathlib import Path
 from typing import Any
 from urllib.parse import quote
 
 import pyarrow.parquet as pq
 
+from ..data.jsonfile import parse_json, read_small_text
 from ..errors import InputError, RunError
 from ..io import output_set, run_meta
 from ..io.tables import with_meta, write_parquet
@@ -81,6 +80,13 @@ class JobStore:
         folder as it was."""
         held = self._held_identity()
         self._done = set()
+        foreign = next((p for p in self._files() if not _job_file(p)), None)
+        if foreign is not None:
+            raise InputError(
+                "was not written by marops evaluate and lies among its jobs; move it or "
+                "choose another --out",
+                file=foreign,
+            )
         if held is not None and held != self.identity:
             if not force:
                 raise InputError(
@@ -107,7 +113,7 @@ class JobStore:
                 file=self.root,
             )
         try:
-            doc = json.loads(ident.read_text(encoding="utf-8"))
+            doc = parse_json(read_small_text(ident, "evaluation identity"))
             return str(doc["identity"])
         except (OSError, ValueError, KeyError, TypeError):
             return ""  # unreadable: another run's, whatever it was
@@ -135,10 +141,29 @@ class JobStore:
             files.write_with(self.path(job), lambda p: write_parquet(table, p))
         self._done.add(job.index)
 
+    def _files(self) -> list[Path]:
+        """Every file under ``root`` but the identity file and hidden ones (a killed
+        run's temporaries, removed by the lock)."""
+        if not self.root.is_dir():
+            return []
+        return sorted(
+            p
+            for p in self.root.rglob("*")
+            if p.is_file() and p.name != IDENTITY_FILE and not p.name.startswith(".")
+        )
+
     def _start(self) -> None:
-        """Clear another run's jobs (``--force``), then record this run's identity."""
+        """Clear another run's jobs (``--force``): the job files ``open`` found marops's
+        and the folders they leave empty; then record this run's identity."""
         if self._clear:
-            shutil.rmtree(self.root)
+            for p in self._files():
+                p.unlink()
+                d = p.parent
+                while d != self.root and not any(d.iterdir()):
+                    d.rmdir()
+                    d = d.parent
+            if self._held_identity():  # an evaluation's identity, read as such
+                (self.root / IDENTITY_FILE).unlink()
         doc = {
             "identity": self.identity,
             "jobs": len(self.prep.jobs),
@@ -156,7 +181,7 @@ class JobStore:
             return None
         try:
             table = pq.read_table(path)
-            meta = json.loads((table.schema.metadata or {})[b"marops"])
+            meta = parse_json((table.schema.metadata or {})[b"marops"])
         except (OSError, ValueError, KeyError):
             return None
         if meta.get("identity") != self.identity or meta.get("job") != job_key(job):
@@ -180,3 +205,13 @@ class JobStore:
             row.update({k: v for k, v in found.items() if k not in KEY_COLUMNS})
             rows.append(row)
         return rows
+
+
+def _job_file(path: Path) -> bool:
+    """A job file of some ``marops evaluate`` run: Parquet whose ``marops`` metadata names
+    its job."""
+    try:
+        meta = parse_json(pq.read_schema(path).metadata[b"marops"])
+    except (OSError, ValueError, KeyError, TypeError):
+        return False
+    return isinstance(meta, dict) and "job" in meta

@@ -21,6 +21,7 @@ from contextlib import contextmanager
 from contextvars import ContextVar
 from pathlib import Path
 
+from ..data.jsonfile import parse_json, read_small_text
 from ..data.reader import sha256_file
 from ..errors import InputError, RunError
 
@@ -102,7 +103,7 @@ def written_by_marops(path: Path) -> bool:
 
 
 def _json_is_ours(path: Path) -> bool:
-    doc = json.loads(path.read_text(encoding="utf-8"))
+    doc = parse_json(path.read_text(encoding="utf-8"))
     if not isinstance(doc, dict):
         return False
     head = doc.get("meta") or doc.get("marops") or {}
@@ -177,7 +178,7 @@ def needs_journal(final: Path) -> bool:
 
 def _journal(folder: Path) -> dict[str, list[str]]:
     try:
-        doc = json.loads((folder / JOURNAL).read_text(encoding="utf-8"))
+        doc = parse_json(read_small_text(folder / JOURNAL, "file journal"))
     except (OSError, ValueError):
         return {}
     if not isinstance(doc, dict) or doc.get("format") != JOURNAL_FORMAT:

@@ -261,17 +261,21 @@ def write_route_files(
     """``folder/stops.parquet`` and ``folder/routes.parquet`` (``fmt = "json"``:
     ``stops.json`` and ``routes.json`` with the metadata under ``meta``), and with
     ``geojson`` ``folder/routes.geojson``. Returns the paths written."""
+    paths = route_file_paths(folder, fmt, geojson)
     if fmt == "parquet":
-        paths = [folder / "stops.parquet", folder / "routes.parquet"]
         files.write_with(paths[0], lambda p: write_parquet(with_meta(stops, meta), p))
         files.write_with(paths[1], lambda p: write_parquet(with_meta(routes, meta), p))
-    elif fmt == "json":
-        paths = [folder / "stops.json", folder / "routes.json"]
+    else:
         files.write_json(paths[0], {"meta": meta, "stops": table_records(stops)})
         files.write_json(paths[1], {"meta": meta, "routes": table_records(routes)})
-    else:
-        raise ValueError(f"expected format parquet or json, got {fmt!r}")
     if geojson:
-        paths.append(folder / "routes.geojson")
         files.write_json(paths[-1], routes_geojson(stops, routes, meta))
     return paths
+
+
+def route_file_paths(folder: Path, fmt: str = "parquet", geojson: bool = False) -> list[Path]:
+    """The files :func:`write_route_files` writes: stops, routes (and routes.geojson)."""
+    if fmt not in ("parquet", "json"):
+        raise ValueError(f"expected format parquet or json, got {fmt!r}")
+    paths = [folder / f"stops.{fmt}", folder / f"routes.{fmt}"]
+    return paths + [folder / "routes.geojson"] if geojson else paths

@@ -3,10 +3,11 @@ the paired differences with their bootstrap intervals, and the sweeps, interacti
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Any
 
+from ..data.jsonfile import first_line, parse_json
+from ..errors import InputError
 from .page import Page
 
 
@@ -15,11 +16,21 @@ def _tables(folder: Path) -> tuple[Any, Any, Any | None, dict[str, Any]]:
     import pyarrow.csv as pacsv
     import pyarrow.parquet as pq
 
-    summary = pacsv.read_csv(folder / "summary.csv")
-    results = pq.read_table(folder / "results.parquet")
-    meta = json.loads((results.schema.metadata or {}).get(b"marops", b"{}"))
     paired_path = folder / "paired.csv"
-    paired = pacsv.read_csv(paired_path) if paired_path.is_file() else None
+    path = folder / "summary.csv"
+    try:  # Arrow's errors on a damaged file are ValueErrors
+        summary = pacsv.read_csv(path)
+        path = folder / "results.parquet"
+        results = pq.read_table(path)
+        meta = parse_json((results.schema.metadata or {}).get(b"marops", b"{}"))
+        path = paired_path
+        paired = pacsv.read_csv(paired_path) if paired_path.is_file() else None
+    except (OSError, ValueError) as exc:
+        raise InputError(f"cannot be read for the report ({first_line(exc)})", file=path) from None
+    if not isinstance(meta, dict):
+        raise InputError(
+            "its marops metadata is not a JSON object", file=folder / "results.parquet"
+        )
     return summary, results, paired, meta
 
 

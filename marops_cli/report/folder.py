@@ -4,11 +4,11 @@ never anything else."""
 from __future__ import annotations
 
 import datetime as dt
-import json
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from ..data.jsonfile import first_line, parse_json
 from ..errors import InputError
 
 REPORT = "report.html"
@@ -31,8 +31,23 @@ def route_files(folder: Path) -> RouteFiles | None:
     if (folder / "routes.parquet").is_file():
         import pyarrow.parquet as pq
 
-        tables = [pq.read_table(folder / f"{n}.parquet") for n in ("stops", "routes")]
-        meta = json.loads((tables[1].schema.metadata or {}).get(b"marops", b"{}"))
+        tables = []
+        for n in ("stops", "routes"):
+            path = folder / f"{n}.parquet"
+            try:  # Arrow's errors on a damaged file are ValueErrors
+                tables.append(pq.read_table(path))
+            except (OSError, ValueError) as exc:
+                raise InputError(
+                    f"cannot be read for the report ({first_line(exc)})", file=path
+                ) from None
+        try:
+            meta = parse_json((tables[1].schema.metadata or {}).get(b"marops", b"{}"))
+        except ValueError as exc:
+            raise InputError(
+                f"its marops metadata is not valid JSON ({first_line(exc)})", file=path
+            ) from None
+        if not isinstance(meta, dict):
+            raise InputError("its marops metadata is not a JSON object", file=path)
         stops, routes = (t.to_pylist() for t in tables)
     elif (folder / "routes.json").is_file():
         docs = [_json(folder / f"{n}.json") for n in ("stops", "routes")]
@@ -60,9 +75,9 @@ def metrics(folder: Path) -> dict[str, Any] | None:
 
 def _json(path: Path) -> dict[str, Any]:
     try:
-        doc = json.loads(path.read_text(encoding="utf-8"))
+        doc = parse_json(path.read_text(encoding="utf-8"))
     except (OSError, ValueError) as exc:
-        raise InputError(f"cannot be read for the report ({exc})", file=path) from None
+        raise InputError(f"cannot be read for the report ({first_line(exc)})", file=path) from None
     if not isinstance(doc, dict):
         raise InputError("is not a marops output (a JSON object expected)", file=path)
     return doc

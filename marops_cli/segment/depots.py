@@ -9,6 +9,7 @@ from typing import Any
 import numpy as np
 
 from ..data.frame import Frame
+from ..data.jsonfile import json_number
 from ..errors import InputError
 
 MAX_DEPOT_OFFSET_M = 1_000_000.0
@@ -119,21 +120,35 @@ class Depots:
         try:
             frame = Frame(**{k: float(v) for k, v in doc["frame"].items()})
             listed = list(doc["depots"])
+            ids = [d["id"] for d in listed]
             order = sorted(range(len(listed)), key=lambda i: int(listed[i]["id"]))
             rows = [listed[i] for i in order]
-            xy = np.array([[float(d["x_m"]), float(d["y_m"])] for d in rows], dtype=np.float64)
+            xy = np.array(
+                [
+                    [json_number(d[k], source, f"depots[{i}].{k}") for k in ("x_m", "y_m")]
+                    for i, d in zip(order, rows, strict=True)
+                ],
+                dtype=np.float64,
+            )
             n_hist = np.array([int(d.get("n_history", 0)) for d in rows], dtype=np.int64)
             cand = np.array(
                 [[int(c) for c in doc["candidates"][str(i)]] for i in range(len(rows))],
                 dtype=np.int64,
             )
             method = str(doc.get("method", "kmeans"))
-        except (KeyError, TypeError, ValueError, OverflowError) as exc:
+        except (KeyError, TypeError, ValueError, OverflowError, AttributeError) as exc:
             raise InputError(
                 f"not a marops depots file (missing or bad {exc})", file=source
             ) from exc
         if xy.shape[0] == 0:
             raise InputError("the depots file lists no depots", file=source)
+        whole = all(isinstance(v, int) and not isinstance(v, bool) for v in ids)
+        if not whole or sorted(ids) != list(range(len(ids))):
+            raise InputError(
+                f"expected the depot ids 0..{len(ids) - 1} (whole numbers), each once",
+                file=source,
+                column="depots[].id",
+            )
         bad = np.flatnonzero(~np.isfinite(xy).all(axis=1))
         if bad.size:
             raise InputError(

@@ -16,8 +16,6 @@ A fleet file is TOML or JSON (docs/outputs.md, "Fleet file"):
 
 from __future__ import annotations
 
-import json
-import tomllib
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -26,8 +24,8 @@ from typing import Any
 import numpy as np
 from pydantic import ValidationError
 
-from ..config import MAX_DRONES, EnergyConfig, value_range
-from ..data.jsonfile import json_number
+from ..config import MAX_DRONES, EnergyConfig, check_file_types, value_range
+from ..data.jsonfile import json_number, parse_json, parse_toml, read_small_text
 from ..energy import EnergyModel
 from ..errors import InputError
 from ..segment.depots import Depots
@@ -107,7 +105,7 @@ class Fleet:
 
 def _read(path: Path) -> Any:
     try:
-        text = path.read_text(encoding="utf-8")
+        text = read_small_text(path, "fleet file")
     except FileNotFoundError as exc:
         raise InputError("fleet file not found", file=path) from exc
     except IsADirectoryError as exc:
@@ -116,12 +114,12 @@ def _read(path: Path) -> Any:
         raise InputError(f"cannot read the fleet file ({exc})", file=path) from exc
     if path.suffix.lower() == ".toml":
         try:
-            return tomllib.loads(text)
-        except tomllib.TOMLDecodeError as exc:
+            return parse_toml(text)
+        except ValueError as exc:
             raise InputError(f"fleet file is not valid TOML ({exc})", file=path) from exc
     try:
-        return json.loads(text)
-    except json.JSONDecodeError as exc:
+        return parse_json(text)
+    except ValueError as exc:
         raise InputError(f"fleet file is not valid JSON ({exc})", file=path) from exc
 
 
@@ -144,6 +142,7 @@ def _types(doc: dict[str, Any], base: EnergyConfig, path: Path) -> tuple[DroneTy
                 file=path,
                 column=f"{key}.{unknown[0]}",
             )
+        check_file_types(EnergyConfig, params, path, f"{key}.")
         try:
             energy = EnergyConfig.model_validate({**base.model_dump(), **params})
         except ValidationError as exc:

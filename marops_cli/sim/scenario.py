@@ -19,6 +19,7 @@ import pyarrow.parquet as pq
 
 from ..config import OpsConfig, PlannerConfig
 from ..data.frame import Frame
+from ..data.jsonfile import first_line
 from ..data.prepare import arrival_windows, check_days_in_file, prepare_day, study_frame
 from ..data.reader import read_lade, sha256_file
 from ..data.table import DayRequests, LadeTable
@@ -202,18 +203,22 @@ def load_fleet(path: str | Path | None, depots: Depots, n_drones: int, cfg: Plan
     return _load_fleet(path, depots, n_drones, cfg.energy)
 
 
+def delivered_file(path: str | Path) -> Path:
+    """The stops file ``--delivered`` names: the file, or a folder's ``stops.parquet``."""
+    p = Path(path)
+    return p / "stops.parquet" if p.is_dir() else p
+
+
 def delivered_orders(path: str | Path) -> set[str]:
     """Order ids already delivered according to an earlier stops Parquet file (or the
     ``stops.parquet`` of an output folder)."""
-    p = Path(path)
-    if p.is_dir():
-        p = p / "stops.parquet"
+    p = delivered_file(path)
     try:
         table = pq.read_table(p, columns=["kind", "order_id"])
     except FileNotFoundError as exc:
         raise InputError("delivered file not found", file=p) from exc
     except (OSError, ValueError, KeyError) as exc:
-        raise InputError(f"not a marops stops file ({exc})", file=p) from exc
+        raise InputError(f"not a marops stops file ({first_line(exc)})", file=p) from exc
     kind = table.column("kind").to_pylist()
     ids = table.column("order_id").to_pylist()
     return {str(i) for k, i in zip(kind, ids, strict=True) if k == "customer" and i is not None}

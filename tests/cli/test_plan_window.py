@@ -253,6 +253,21 @@ def test_delivered_orders_are_not_planned_again(example_csv, depots_file, parque
     assert not set(first) & set(second)
 
 
+@pytest.mark.parametrize("force", [[], ["--force"]], ids=["plain", "force"])
+def test_delivered_folder_is_never_the_output(example_csv, depots_file, tmp_path, force):
+    # --delivered DIR reads DIR/stops.parquet: writing the plan to the same DIR would
+    # replace the input it reads, so it is refused like --delivered DIR/stops.parquet.
+    out = plan(example_csv, depots_file, tmp_path / "w")
+    before = stops_path(out).read_bytes()
+    args = ["plan-window", str(example_csv), "--depots", str(depots_file), "--method", "greedy"]
+    args += ["--date", "0811", "--window", str(WINDOW + 1), "--out", str(out)]
+    res = runner.invoke(app, [*args, "--delivered", str(out), *force])
+    assert res.exit_code == 2
+    lines = res.output.strip().splitlines()
+    assert len(lines) == 1 and "is an input of this run" in lines[0], res.output
+    assert stops_path(out).read_bytes() == before
+
+
 def test_cli_equals_library_call(example_csv, depots_file, parquet_out):
     cfg = PlannerConfig()
     scn = load_scenario(example_csv, cfg, depots_path=depots_file, replay_days=[DAY])

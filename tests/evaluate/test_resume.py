@@ -71,6 +71,33 @@ def test_jobs_of_another_run_are_refused_and_force_clears_them(prep, tmp_path: P
     assert list(jobs.rglob("*.parquet")) == [store.path(prep.jobs[2])]
 
 
+def test_force_deletes_only_the_replays_marops_wrote(prep, tmp_path: Path) -> None:
+    # Another run's jobs (one replay written by marops) and a user's note beside them.
+    jobs = tmp_path / "jobs"
+    first = JobStore(jobs, prep, "another run")
+    first.open()
+    first.add(prep.jobs[0], {"mean_energy_kj": 1.0, "delivered": 1})
+    note = jobs / "notes" / "mine.txt"
+    note.parent.mkdir()
+    note.write_text("mine")
+    # The note lies among the jobs: refused, with or without --force, and kept.
+    for force in (False, True):
+        with pytest.raises(InputError, match="not written by marops evaluate") as err:
+            JobStore(jobs, prep, run_identity(prep)).open(force=force)
+        assert err.value.file == str(note)
+    note.rename(tmp_path / "mine.txt")
+    store = JobStore(jobs, prep, run_identity(prep))
+    store.open(force=True)
+    store.add(prep.jobs[2], {"mean_energy_kj": 1.5, "delivered": 3})
+    # The other run's replay is gone with the folders it leaves empty; this run's is
+    # there, and the user's (now empty) folder stays.
+    assert sorted(p.relative_to(jobs) for p in jobs.rglob("*") if p.is_file()) == [
+        Path("_identity.json"),
+        store.path(prep.jobs[2]).relative_to(jobs),
+    ]
+    assert (jobs / "notes").is_dir() and (tmp_path / "mine.txt").read_text() == "mine"
+
+
 def test_rows_read_back_are_the_rows_in_memory_and_a_damaged_file_runs_again(
     prep, tmp_path: Path
 ) -> None:
@@ -80,8 +107,13 @@ def test_rows_read_back_are_the_rows_in_memory_and_a_damaged_file_runs_again(
     # every value and type survives the files, wall times included
     in_memory = rows_table([job_row(prep, job, ran[job.index]) for job in prep.jobs])
     assert rows_table(store.rows()).equals(in_memory, check_metadata=True)
-    store.path(prep.jobs[1]).write_bytes(b"PAR1 cut short")
+    damaged = store.path(prep.jobs[1])
+    damaged.write_bytes(b"PAR1 cut short")  # not a file marops wrote: refused, kept
     again = JobStore(tmp_path / "jobs", prep, run_identity(prep))
+    with pytest.raises(InputError, match="not written by marops evaluate") as err:
+        again.open()
+    assert err.value.file == str(damaged) and damaged.read_bytes() == b"PAR1 cut short"
+    damaged.unlink()
     again.open()
     assert again.finished() == {0, 2, 3}
     assert list(run(prep, workers=1, sink=again)) == [1]

@@ -109,6 +109,28 @@ def test_marops_report_refuses_what_it_cannot_read_or_replace(
     assert (copy / "report.html").read_text().startswith("<!DOCTYPE html>")
 
 
+@pytest.mark.parametrize(
+    ("name", "damage", "says"),
+    [
+        ("routes.parquet", lambda p: p.write_bytes(p.read_bytes()[:3000]), "cannot be read"),
+        ("metrics.json", lambda p: p.write_text("[" * 100_000 + "]" * 100_000), "nested"),
+    ],
+    ids=["truncated-parquet", "deep-json"],
+)
+def test_marops_report_on_a_damaged_output_is_one_line(
+    day_run: Path, tmp_path: Path, name: str, damage, says: str
+) -> None:
+    copy = tmp_path / "copy"
+    shutil.copytree(day_run, copy)
+    damage(copy / name)
+    page = (copy / "report.html").read_bytes()
+    res = runner.invoke(app, ["report", str(copy), "--force"])
+    lines = res.output.strip().splitlines()
+    assert res.exit_code == 2 and len(lines) == 1, res.output
+    assert name in lines[0] and says in lines[0]
+    assert (copy / "report.html").read_bytes() == page
+
+
 def test_without_plotly_report_is_one_line_naming_the_extra(
     example_csv: Path, day_run: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
@@ -181,6 +203,12 @@ def test_evaluate_report_tables_paired_and_sweep(
     figure(html, "days")
     journal = json.loads((out / ".marops-files.json").read_text())
     assert "report.html" in journal["files"]
+    # A damaged results table: one line naming it, the page left as it was.
+    (out / "results.parquet").write_bytes((out / "results.parquet").read_bytes()[:500])
+    res = runner.invoke(app, ["report", str(out), "--force"])
+    lines = res.output.strip().splitlines()
+    assert res.exit_code == 2 and len(lines) == 1 and "results.parquet" in lines[0], res.output
+    assert (out / "report.html").read_text(encoding="utf-8") == html
 
 
 def _csv_rows(path: Path) -> list[dict]:
