@@ -22,6 +22,7 @@ from pydantic import (
     field_validator,
     model_validator,
 )
+from pydantic.fields import FieldInfo
 
 from .data.jsonfile import parse_toml, read_small_text
 from .errors import InputError, SettingError
@@ -418,7 +419,12 @@ def _clipped(text: str, most: int = 60) -> str:
 def value_range(stage: str, name: str) -> str | None:
     """The documented range of a numeric setting, as docs/config.md writes it
     (``0 < x ≤ 500``, ``1 ≤ x ≤ 1440``); None for a setting without bounds."""
-    field = STAGES[stage].model_fields[name]
+    return field_range(STAGES[stage].model_fields[name])
+
+
+def field_range(field: FieldInfo) -> str | None:
+    """The range of a numeric field of any settings model, written as :func:`value_range`
+    writes it; None for a field without bounds."""
     low = high = ""
     for m in field.metadata:
         for attr, text in (("gt", "{} < "), ("ge", "{} ≤ ")):

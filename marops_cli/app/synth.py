@@ -7,6 +7,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from ..config import field_range
 from ..errors import InputError
 
 if TYPE_CHECKING:
@@ -49,8 +50,13 @@ def synth(
         cfg = SynthConfig(**fields)  # type: ignore[arg-type]
     except ValidationError as exc:
         err = exc.errors()[0]
-        name = "--" + str(err["loc"][0]).replace("_", "-")  # the flag (and keyword) that set it
-        raise InputError(f"invalid option {name}: {err['msg']}") from None
+        field = str(err["loc"][0])
+        name = "--" + field.replace("_", "-")  # the flag (and keyword) that set it
+        msg = f"invalid option {name}: {err['msg']}"
+        rng = field_range(SynthConfig.model_fields[field])
+        if rng is not None and "input" in err:
+            msg = f"{msg}, got {err['input']!r} (expected {rng.replace('x', name[2:])})"
+        raise InputError(msg) from None
     if out is None:
         return Synthesized(generate(cfg), first, None)
     from ..io import output_set

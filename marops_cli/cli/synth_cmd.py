@@ -20,7 +20,10 @@ def synth_command(
     ] = "2022-08-01",
     orders_per_day: Annotated[
         float | None,
-        typer.Option("--orders-per-day", help="Mean city-wide orders per day [default: 1800]."),
+        typer.Option(
+            "--orders-per-day",
+            help="Mean city-wide orders per day, at most 1000000 [default: 1800].",
+        ),
     ] = None,
     shape: Annotated[
         str,

@@ -46,12 +46,15 @@ from .table import LADE_COLUMNS
 # AOI type codes seen in LaDe (their meanings are unpublished) and how common each is.
 _AOI_TYPES = np.array([1, 14, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 0, 15])
 _AOI_TYPE_P = np.array([30, 14, 10, 8, 6, 5, 5, 4, 4, 3, 3, 2, 2, 2, 1, 1], dtype=float)
+MAX_ORDERS_PER_DAY = 1_000_000
+"""The most mean orders a day the generator makes: a day of 1,000,000 is about 150 MB of
+CSV; far beyond, its 100,000 courier ids run out (one per ``orders_per_courier``)."""
 
 
 class SynthConfig(BaseModel):
     """Everything that shapes a synthetic export; the same config gives the same bytes."""
 
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
     days: int = Field(12, ge=1, le=366, description="number of consecutive days")
     seed: int = Field(7, ge=0, description="seed of numpy.random.default_rng")
@@ -69,7 +72,9 @@ class SynthConfig(BaseModel):
     n_dense_aois: int = Field(200, ge=1, description="AOIs in the hubs")
     n_sparse_aois: int = Field(500, ge=0, description="AOIs spread over the whole city")
     dense_share: float = Field(0.22, ge=0, le=1, description="share of orders to hub AOIs")
-    orders_per_day: float = Field(1800.0, gt=0, description="mean city-wide orders per day")
+    orders_per_day: float = Field(
+        1800.0, gt=0, le=MAX_ORDERS_PER_DAY, description="mean city-wide orders per day"
+    )
     weekday_factors: tuple[float, float, float, float, float, float, float] = Field(
         (1.05, 1.05, 1.0, 1.0, 1.02, 0.92, 0.86),
         description="volume factor Monday..Sunday",

@@ -50,6 +50,16 @@ def read_sidecar(model_path: str | Path) -> dict[str, Any]:
             file=side,
             column="obs_version",
         )
+    # The network reads obs_dim features while the policy observes what obs_version
+    # lays out: a disagreement would only surface as a shape error in the first window.
+    width = obs_dim(int(doc["n_actions"]), int(doc["obs_version"]))
+    if "obs_dim" in doc and doc["obs_dim"] != width:
+        raise InputError(
+            f"obs_dim {doc['obs_dim']} disagrees with obs_version {doc['obs_version']}, "
+            f"whose observation of {doc['n_actions']} actions has {width} features",
+            file=side,
+            column="obs_dim",
+        )
     return doc
 
 

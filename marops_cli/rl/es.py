@@ -176,13 +176,40 @@ class LandingTrainer:
                 "checkpoint was made with other data or settings; pass --no-resume to start over",
                 file=self.ckpt,
             )
-        self.weight = np.array(state["weight"], dtype=np.float64)
-        self.generation, self.episode = int(state["generation"]), int(state["episode"])
-        self.elapsed_s = float(state["elapsed_s"])
-        self.reference = dict(state["reference"])
-        self.held_out_rules = list(state["held_out_rules"])
-        self.history, self.evals, self.best = state["history"], state["evals"], state["best"]
+        try:
+            self._restore(state)
+        except (KeyError, TypeError, ValueError) as exc:
+            # Same fingerprint, other contents: an edited file, not this run's.
+            what = f"no key {exc}" if isinstance(exc, KeyError) else str(exc)
+            raise InputError(
+                f"not a landing actor's checkpoint of this run ({what}); pass --no-resume",
+                file=self.ckpt,
+            ) from None
         return True
+
+    def _restore(self, state: dict[str, Any]) -> None:
+        """The weights and progress of a checkpoint's ``state``; raises KeyError,
+        TypeError or ValueError on one of another shape, before changing anything."""
+        weight = np.array(state["weight"], dtype=np.float64)
+        if weight.shape != self.weight.shape or not np.isfinite(weight).all():
+            raise ValueError(f"weight must be {self.weight.size} finite numbers")
+        counts = int(state["generation"]), int(state["episode"]), float(state["elapsed_s"])
+        lists = [state[k] for k in ("held_out_rules", "history", "evals")]
+        reference, best = state["reference"], state["best"]
+        if not all(isinstance(v, list) for v in lists) or not isinstance(reference, dict):
+            raise TypeError("held_out_rules, history and evals must be lists, reference an object")
+        if not all(_numbers(ref, "j", "energy") for ref in reference.values()):
+            raise TypeError("each reference must hold the numbers j and energy")
+        if best is not None and not (
+            _numbers(best, "cost", "episode")
+            and np.array(best["weight"], dtype=np.float64).shape == weight.shape
+        ):
+            raise TypeError(f"best must hold cost, episode and {weight.size} weights")
+        self.weight = weight
+        self.generation, self.episode, self.elapsed_s = counts
+        self.reference = reference
+        self.held_out_rules, self.history, self.evals = lists
+        self.best = best
 
     # -- the rules and the cost --------------------------------------------------------
     def _best_rules(
@@ -366,6 +393,13 @@ class LandingTrainer:
             "learning_curve": self.history,
         }
         return write_landing_actor(weight, self.out, side)
+
+
+def _numbers(d: Any, *keys: str) -> bool:
+    """Whether ``d`` is an object holding a number (not a boolean) under each of ``keys``."""
+    return isinstance(d, dict) and all(
+        isinstance(d.get(k), int | float) and not isinstance(d.get(k), bool) for k in keys
+    )
 
 
 def day_cost(

@@ -36,6 +36,7 @@ __all__ = ["Trainer", "load_training_data", "split_days", "train_actor"]
 BASELINES = ("random", "greedy", "myopic", "global")  # on held-out days (ops-random, …, ops-global)
 _STREAM_DAYS, _STREAM_EPISODE, _STREAM_UPDATE, _STREAM_SCENARIO, _STREAM_ALPHA = 1, 2, 3, 4, 5
 Event = dict[str, Any]
+CKPT_FORMAT = "marops-train-ckpt/1"
 
 
 def _stack(eps: list[Episode], name: str) -> np.ndarray:
@@ -72,7 +73,7 @@ class Trainer:
     def save_checkpoint(self) -> None:
         """Write ``NAME.ckpt`` atomically (temporary file, then rename)."""
         state = {
-            "format": "marops-train-ckpt/1",
+            "format": CKPT_FORMAT,
             "fingerprint": fingerprint(self.td),
             "episode": self.episode,
             "update": self.update,
@@ -98,21 +99,42 @@ class Trainer:
             raise InputError(
                 f"unreadable checkpoint ({exc}); pass --no-resume", file=self.ckpt
             ) from exc
+        if not isinstance(state, dict) or state.get("format") != CKPT_FORMAT:
+            raise InputError(
+                f"not a training checkpoint (format {CKPT_FORMAT}); pass --no-resume",
+                file=self.ckpt,
+            )
         if state.get("fingerprint") != fingerprint(self.td):
             raise InputError(
                 "checkpoint was made with other data or settings; pass --no-resume to start over",
                 file=self.ckpt,
             )
+        try:
+            self._restore(state)
+        except (KeyError, TypeError, ValueError, AttributeError, RuntimeError) as exc:
+            # Same fingerprint, other contents: an edited file, not this run's.
+            what = f"no key {exc}" if isinstance(exc, KeyError) else " ".join(str(exc).split())
+            raise InputError(
+                f"not a training checkpoint of this run ({what}); pass --no-resume",
+                file=self.ckpt,
+            ) from None
+        return True
+
+    def _restore(self, state: dict[str, Any]) -> None:
+        """The networks, optimiser and progress of a checkpoint's ``state``; raises
+        KeyError, TypeError, ValueError or RuntimeError on one of another shape."""
         self.actor.load_state_dict(state["actor"])
         self.critic.load_state_dict(state["critic"])
         self.optimizer.load_state_dict(state["optimizer"])
+        lists = [state[k] for k in ("history", "evals", "baselines")]
+        best = state.get("best")
+        if not all(isinstance(v, list) for v in lists) or not isinstance(best, dict | None):
+            raise TypeError("history, evals and baselines must be lists, best a dict")
         self.episode, self.update = int(state["episode"]), int(state["update"])
         self.elapsed_s = float(state["elapsed_s"])
-        self.history, self.evals = list(state["history"]), list(state["evals"])
-        self.baselines = list(state["baselines"])
-        self.best = state.get("best")
+        self.history, self.evals, self.baselines = lists
+        self.best = best
         _name_daily_cost(self.evals, self.best)
-        return True
 
     # -- one update --------------------------------------------------------------------
     def _scenario_of(self, update: int) -> int:

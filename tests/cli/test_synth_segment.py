@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pyarrow.csv as pv
+import pytest
 from typer.testing import CliRunner
 
 from marops_cli.cli.app import app
@@ -37,6 +38,17 @@ def test_synth_twice_same_bytes_and_every_row_accounted(tmp_path: Path) -> None:
         k for k, v in rep.dropped.items() if v > 0
     }
     assert len(table.days()) == 30
+
+
+@pytest.mark.parametrize("value", ["inf", "nan", "1e9", "1e12", "0"])
+def test_synth_refuses_orders_per_day_out_of_range(
+    tmp_path: Path, fails_cleanly, value: str
+) -> None:
+    """Beyond a million orders a day the generator runs out of courier ids: one line
+    naming the option and its range, no file."""
+    args = ["synth", "--days", "1", "--orders-per-day", value, "--out", str(tmp_path / "s.csv")]
+    line = fails_cleanly(args, tmp_path, "invalid option --orders-per-day: ")
+    assert "(expected 0 < orders-per-day ≤ 1e6)" in line
 
 
 def test_synth_parquet_reads_like_csv(tmp_path: Path) -> None:

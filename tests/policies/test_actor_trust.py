@@ -215,7 +215,7 @@ def test_a_sidecar_that_does_not_describe_the_weights_is_refused(tmp_path: Path)
         ({"hidden_size": MAX_SIZES["hidden_size"] + 1}, "hidden_size"),
         ({"obs_dim": 10**9}, "obs_dim"),
         ({"n_logits": "many"}, "n_logits"),
-        ({"obs_dim": 100_000, "hidden_size": 4096}, "hidden_size"),  # too many weights
+        ({"n_logits": 100_000, "hidden_size": 4096}, "hidden_size"),  # too many weights
         ({"format": "pickle"}, "format"),
     ],
 )

@@ -69,3 +69,20 @@ def test_an_actor_that_outputs_nan_stops_the_run(example_csv: Path, tmp_path: Pa
     assert res.exit_code == 1
     assert "actor.pt: the actor returned NaN or infinite logits" in res.stderr
     assert not (tmp_path / "o").exists()
+
+
+def test_a_sidecar_whose_obs_dim_is_not_its_versions_is_refused(
+    example_csv: Path, tmp_path: Path, fails_cleanly
+) -> None:
+    """The shipped actor with ``obs_version`` 5 in its sidecar (102 features) but its
+    network's 99: refused naming the sidecar's key, before any window is planned."""
+    shipped = Path(__file__).resolve().parents[2] / "policies"
+    for ext in ("pt", "safetensors", "json"):
+        (tmp_path / f"actor.{ext}").write_bytes((shipped / f"marops-basic.{ext}").read_bytes())
+    side = tmp_path / "actor.json"
+    side.write_text(json.dumps({**json.loads(side.read_text()), "obs_version": 5}))
+    args = ["replay-day", str(example_csv), "--date", "0811", "--method", "marops"]
+    args += ["--policy", str(tmp_path / "actor.pt"), "--out", str(tmp_path / "out")]
+    args += ["--config", str(example_csv.parent / "paper.toml")]
+    line = fails_cleanly(args, tmp_path, "actor.json", "column 'obs_dim'")
+    assert "obs_dim 99 disagrees with obs_version 5" in line and "102 features" in line

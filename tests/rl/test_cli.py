@@ -72,6 +72,34 @@ def test_train_refuses_a_foreign_checkpoint(tiny_csv: Path, tmp_path: Path) -> N
     assert res.exit_code == 2 and "not written by marops" in res.output
 
 
+def test_train_refuses_a_checkpoint_that_is_not_this_runs(
+    tiny_csv: Path, tmp_path: Path, fails_cleanly
+) -> None:
+    """A checkpoint naming marops's format that is no state of this run's networks, a
+    list or a real one with an edited actor, is one line naming it, nothing written."""
+    import torch
+
+    args = ["train", str(tiny_csv), "--workers", "1", "--drones", "4", "--n-depots", "8"]
+    out = tmp_path / "a.pt"
+    ckpt = out.with_suffix(".ckpt")
+    torch.save(["marops-train-ckpt/1"], ckpt)
+    line = fails_cleanly([*args, "--episodes", "1", "--out", str(out)], tmp_path, str(ckpt))
+    assert "not a training checkpoint" in line and "pass --no-resume" in line
+    ckpt.unlink()
+    res = runner.invoke(app, [*args, "--episodes", "1", "--out", str(out)])
+    assert res.exit_code == 0, res.output
+    state = torch.load(ckpt, weights_only=True)
+    state["actor"]["extra.weight"] = torch.zeros(1)
+    torch.save(state, ckpt)
+    line = fails_cleanly([*args, "--episodes", "2", "--out", str(out)], tmp_path, str(ckpt))
+    assert "not a training checkpoint of this run" in line and '"extra.weight"' in line
+    del state["actor"]["extra.weight"]
+    del state["history"]
+    torch.save(state, ckpt)
+    line = fails_cleanly([*args, "--episodes", "2", "--out", str(out)], tmp_path, str(ckpt))
+    assert "(no key 'history'); pass --no-resume" in line
+
+
 def test_train_rejects_bad_options(tiny_csv: Path, tmp_path: Path) -> None:
     res = runner.invoke(app, ["train", str(tiny_csv), "--out", str(tmp_path / "x.onnx")])
     assert res.exit_code != 0 and ".pt" in res.output
@@ -79,6 +107,16 @@ def test_train_rejects_bad_options(tiny_csv: Path, tmp_path: Path) -> None:
         app, ["train", str(tiny_csv), "--method", "dqn", "--out", str(tmp_path / "x.pt")]
     )
     assert res.exit_code != 0 and "method" in res.output
+
+
+@pytest.mark.parametrize("seed", ["-1", "4294967296", "99999999999999999999"])
+def test_train_refuses_a_seed_out_of_range(
+    tiny_csv: Path, tmp_path: Path, fails_cleanly, seed: str
+) -> None:
+    """As the planner's --seed: one line with the range, before any training."""
+    args = ["train", str(tiny_csv), "--episodes", "1", "--workers", "1", "--seed", seed]
+    line = fails_cleanly([*args, "--out", str(tmp_path / "a.pt")], tmp_path, "--seed")
+    assert f"got {seed} (expected 0 ≤ seed ≤ 4294967295)" in line
 
 
 def test_training_log_gives_the_time_left(monkeypatch) -> None:

@@ -62,6 +62,37 @@ def test_workers_and_resume_give_the_same_weights(
     assert _weights(two) == _weights(one)
 
 
+EDITS = {
+    "no key 'evals'": lambda s: {k: v for k, v in s.items() if k != "evals"},
+    "reference an object": lambda s: {**s, "reference": None},
+    "each reference must hold": lambda s: {**s, "reference": {"d": {"j": "x"}}},
+    "could not convert": lambda s: {**s, "weight": "heavy"},
+    f"weight must be {BACKLOG_WEIGHTS.size} finite": lambda s: {**s, "weight": [1.0]},
+    "best must hold": lambda s: {**s, "best": 3},
+    "int()": lambda s: {**s, "generation": None},
+    "must be lists": lambda s: {**s, "history": {}},
+}
+
+
+def test_a_malformed_checkpoint_is_refused(
+    tiny_csv: Path, small_cfg: PlannerConfig, tmp_path: Path
+) -> None:
+    """A checkpoint of this run's format and fingerprint with an edited state is one
+    line naming the file, where it raised KeyError or TypeError or resumed to fail later."""
+    out = tmp_path / "a.safetensors"
+    train_actor(load_training_data(tiny_csv, small_cfg, _es(episodes=4)), out, resume=False)
+    ckpt = out.with_suffix(".ckpt")
+    state = json.loads(ckpt.read_text())
+    rest = load_training_data(tiny_csv, small_cfg, _es(episodes=13))
+    for needle, edit in EDITS.items():
+        ckpt.write_text(json.dumps(edit(state)))
+        with pytest.raises(InputError) as err:
+            train_actor(rest, out, resume=True)
+        line = str(err.value)
+        assert line.startswith(f"{ckpt}: not a landing actor's checkpoint of this run ("), line
+        assert needle in line and "\n" not in line, line
+
+
 def test_paper_model_is_refused(tiny_csv: Path, small_cfg: PlannerConfig, tmp_path: Path) -> None:
     small_cfg.ops = OpsConfig.paper_model()
     td = load_training_data(tiny_csv, small_cfg, _es())
