@@ -43,6 +43,12 @@ def synth(
     if fmt not in (None, "csv", "parquet"):
         raise InputError(f"--format expects csv or parquet, got {fmt!r}")
     first = start if isinstance(start, dt.date) else parse_day(start, 2022)
+    last = first + dt.timedelta(days=max(days, 1) - 1)
+    if last.year != first.year:  # LaDe's MM-DD times would run 12-31 into 01-01
+        raise InputError(
+            f"invalid option --days: {days} days from {first.isoformat()} run past the end of "
+            "its year, which LaDe's month-day times cannot tell apart"
+        )
     fields: dict[str, object] = {"days": days, "seed": seed, "start": first, "shape": shape}
     if orders_per_day is not None:
         fields["orders_per_day"] = orders_per_day

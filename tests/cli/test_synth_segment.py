@@ -51,6 +51,22 @@ def test_synth_refuses_orders_per_day_out_of_range(
     assert "(expected 0 < orders-per-day ≤ 1e6)" in line
 
 
+@pytest.mark.parametrize(
+    ("args", "says"),
+    [
+        (["--seed", "4294967296"], "invalid option --seed: "),
+        (["--seed", "-1"], "invalid option --seed: "),
+        (["--start", "2022-12-30", "--days", "3"], "run past the end of its year"),
+    ],
+    ids=["seed-big", "seed-negative", "new-year"],
+)
+def test_synth_refuses_seeds_and_spans_it_cannot_make(
+    tmp_path: Path, fails_cleanly, args: list[str], says: str
+) -> None:
+    line = fails_cleanly(["synth", *args, "--out", str(tmp_path / "s.csv")], tmp_path, says)
+    assert "seed" not in args[0] or "(expected 0 ≤ seed ≤ 4294967295)" in line
+
+
 def test_synth_parquet_reads_like_csv(tmp_path: Path) -> None:
     for fmt in ("csv", "parquet"):
         res = runner.invoke(
