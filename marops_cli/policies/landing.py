@@ -40,6 +40,7 @@ from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 
+from ..data.jsonfile import first_line
 from ..errors import InputError
 from .base import WindowView
 from .rules import EnergyAware, reachable, waiting_per_depot
@@ -239,7 +240,7 @@ def load_landing_actor(path: Path, side: Any, sidecar: Path) -> LandingActor:
                 )
             weight = np.asarray(f.get_tensor("weight"), dtype=np.float64)
     except (SafetensorError, OSError, ValueError) as exc:
-        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        first = first_line(exc)
         raise InputError(f"not a safetensors weights file ({first})", file=path) from None
     if not np.isfinite(weight).all():
         raise InputError("NaN or infinite weights", file=path, column="weight")

@@ -14,7 +14,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any, Literal
 
-from ..data.jsonfile import read_json
+from ..data.jsonfile import first_line, read_json
 from ..errors import InputError
 from .base import WindowView
 from .observation import OBS_VERSION, OBS_VERSIONS, n_choices, obs_dim
@@ -159,7 +159,7 @@ class TorchScriptPolicy(RecurrentPolicy):
                     torch.zeros((2, self.hidden_size), dtype=torch.float32),
                 )
         except Exception as exc:  # any failure of a foreign module is a bad policy file
-            first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+            first = first_line(exc)
             raise InputError(
                 f"the actor does not run as {expect}: {first}", file=self.path
             ) from None

@@ -13,6 +13,7 @@ import math
 from pathlib import Path
 from typing import Any
 
+from ..data.jsonfile import first_line
 from ..errors import InputError
 from .network import Actor, actor_shapes
 
@@ -80,7 +81,7 @@ def load_weights(model_path: str | Path, side: dict[str, Any], sidecar: Path) ->
             _check_tensors(f, expect, path)
             state = {name: f.get_tensor(name) for name in expect}
     except (SafetensorError, OSError, ValueError) as exc:
-        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        first = first_line(exc)
         raise InputError(f"not a safetensors weights file ({first})", file=path) from None
     _check_digest(path, side, sidecar)  # a well-formed file, but is it this actor's?
     for name, tensor in state.items():

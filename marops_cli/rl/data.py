@@ -132,3 +132,10 @@ def fingerprint(td: TrainData) -> dict[str, Any]:
         out["files"] = [(f["sha256"], f["train_days"]) for f in td.files]
         out["scenarios"] = [(s.name, len(s.depots), s.cfg.sim.drones) for s in td.ctx.scenarios]
     return out
+
+
+def edited_checkpoint(ckpt: Path, kind: str, exc: Exception) -> InputError:
+    """The refusal of a checkpoint ``ckpt`` with this run's fingerprint whose contents
+    do not restore (``exc``): an edited file, not this run's; ``kind`` says whose."""
+    what = f"no key {exc}" if isinstance(exc, KeyError) else " ".join(str(exc).split())
+    return InputError(f"not {kind} of this run ({what}); pass --no-resume", file=ckpt)

@@ -57,7 +57,7 @@ from ..sim.replay import fly_day
 from ..sim.state import default_fleet
 from ..sim.step import WindowStep
 from ..workers import LocalPool
-from .data import TrainData, fingerprint
+from .data import TrainData, edited_checkpoint, fingerprint
 from .rollout import TrainScenario, WorkerContext, derive_seed
 
 __all__ = ["RULES", "LandingTrainer", "day_cost", "landing_weights_bytes", "write_landing_actor"]
@@ -179,12 +179,7 @@ class LandingTrainer:
         try:
             self._restore(state)
         except (KeyError, TypeError, ValueError) as exc:
-            # Same fingerprint, other contents: an edited file, not this run's.
-            what = f"no key {exc}" if isinstance(exc, KeyError) else str(exc)
-            raise InputError(
-                f"not a landing actor's checkpoint of this run ({what}); pass --no-resume",
-                file=self.ckpt,
-            ) from None
+            raise edited_checkpoint(self.ckpt, "a landing actor's checkpoint", exc) from None
         return True
 
     def _restore(self, state: dict[str, Any]) -> None:

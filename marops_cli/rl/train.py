@@ -22,7 +22,7 @@ from ..io.atomic import output_set
 from ..policies.landing import operating_model
 from ..policies.observation import ObsVersion
 from ..workers import LocalPool, single_threaded
-from .data import TrainData, fingerprint, load_training_data, split_days
+from .data import TrainData, edited_checkpoint, fingerprint, load_training_data, split_days
 from .env import DeliveryEnv
 from .evaluate import summarise
 from .export import write_actor
@@ -112,12 +112,7 @@ class Trainer:
         try:
             self._restore(state)
         except (KeyError, TypeError, ValueError, AttributeError, RuntimeError) as exc:
-            # Same fingerprint, other contents: an edited file, not this run's.
-            what = f"no key {exc}" if isinstance(exc, KeyError) else " ".join(str(exc).split())
-            raise InputError(
-                f"not a training checkpoint of this run ({what}); pass --no-resume",
-                file=self.ckpt,
-            ) from None
+            raise edited_checkpoint(self.ckpt, "a training checkpoint", exc) from None
         return True
 
     def _restore(self, state: dict[str, Any]) -> None:
