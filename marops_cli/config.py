@@ -10,6 +10,7 @@ from __future__ import annotations
 import json
 import types
 import typing
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any, Literal
 
@@ -441,6 +442,23 @@ def _number(v: float) -> str:
     if float(short) == v and (not float(v).is_integer() or "e" in short):
         return short  # 0.25, 1e8
     return str(int(v))  # 1440, 4294967295
+
+
+def option_error(
+    exc: ValidationError, model: type[BaseModel], flag: Callable[[str], str]
+) -> InputError:
+    """The one line naming the command-line option whose value ``model`` refused
+    (``flag``: an option's flag, without ``--``, from its field's name): the reason, and
+    for a number out of range the value and the range."""
+    err = exc.errors()[0]
+    name = str(err["loc"][0])
+    opt = flag(name)
+    msg = f"invalid option --{opt}: {err['msg']}"
+    field = model.model_fields.get(name)
+    rng = field_range(field) if field is not None else None
+    if rng is not None and "input" in err:  # as the planner's options say theirs
+        msg = f"{msg}, got {err['input']!r} (expected {rng.replace('x', opt)})"
+    return InputError(msg)
 
 
 def _validation_message(exc: ValidationError, names: dict[str, str] | None = None) -> str:

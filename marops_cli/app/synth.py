@@ -7,7 +7,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from ..config import field_range
+from ..config import option_error
 from ..errors import InputError
 
 if TYPE_CHECKING:
@@ -54,15 +54,8 @@ def synth(
         fields["orders_per_day"] = orders_per_day
     try:
         cfg = SynthConfig(**fields)  # type: ignore[arg-type]
-    except ValidationError as exc:
-        err = exc.errors()[0]
-        field = str(err["loc"][0])
-        name = "--" + field.replace("_", "-")  # the flag (and keyword) that set it
-        msg = f"invalid option {name}: {err['msg']}"
-        rng = field_range(SynthConfig.model_fields[field])
-        if rng is not None and "input" in err:
-            msg = f"{msg}, got {err['input']!r} (expected {rng.replace('x', name[2:])})"
-        raise InputError(msg) from None
+    except ValidationError as exc:  # the flag (and keyword) that set it
+        raise option_error(exc, SynthConfig, lambda name: name.replace("_", "-")) from None
     if out is None:
         return Synthesized(generate(cfg), first, None)
     from ..io import output_set

@@ -20,7 +20,7 @@ from rich.progress import (
 )
 
 from ..app.options import planner_config
-from ..config import field_range
+from ..config import option_error
 from ..data.dates import parse_days
 from ..errors import InputError
 from ..io.ownership import allow_replacing_foreign
@@ -288,15 +288,7 @@ def _train_config(**fields: Any) -> TrainConfig:
     try:
         return TrainConfig(**fields)
     except ValidationError as exc:
-        err = exc.errors()[0]
-        name = str(err["loc"][0])
-        flag = _FLAGS.get(name, name)
-        msg = f"invalid option --{flag}: {err['msg']}"
-        field = TrainConfig.model_fields.get(name)
-        rng = field_range(field) if field is not None else None
-        if rng is not None and "input" in err:  # as the planner's options say theirs
-            msg = f"{msg}, got {err['input']!r} (expected {rng.replace('x', flag)})"
-        raise InputError(msg) from None
+        raise option_error(exc, TrainConfig, lambda name: _FLAGS.get(name, name)) from None
 
 
 def _print_heldout(heldout: dict[str, Any]) -> None:

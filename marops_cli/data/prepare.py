@@ -54,9 +54,9 @@ def check_days_in_file(table: LadeTable, days: Iterable[dt.date]) -> None:
     present = set(have)
     rep = table.report
     if not have and rep.total:  # every row was dropped: say why, not which day is missing
-        why = ", ".join(f"{n:,} {r.replace('_', ' ')}" for r, n in rep.dropped.items() if n)
         raise InputError(
-            f"none of its {rep.total:,} rows can be used ({why}); --strict names the first",
+            f"none of its {rep.total:,} rows can be used ({rep.reasons()}); --strict names "
+            "the first",
             file=table.source.path,
         )
     for day in days:

@@ -40,6 +40,7 @@ import pyarrow.csv as pacsv
 import pyarrow.parquet as pq
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
+from ..config import MAX_SEED
 from .frame import Frame
 from .table import LADE_COLUMNS
 
@@ -57,7 +58,7 @@ class SynthConfig(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
     days: int = Field(12, ge=1, le=366, description="number of consecutive days")
-    seed: int = Field(7, ge=0, le=2**32 - 1, description="seed of numpy.random.default_rng")
+    seed: int = Field(7, ge=0, le=MAX_SEED, description="seed of numpy.random.default_rng")
     start: dt.date = Field(dt.date(2022, 8, 1), description="first delivery day")
     city: str = Field("Shanghai", description="value of the city column")
     shape: Literal["hubs", "river", "corridor", "polycentric"] = Field(

@@ -70,14 +70,19 @@ class DropReport:
     def to_dict(self) -> dict[str, object]:
         return {"total": self.total, "kept": self.kept, "dropped": dict(self.dropped)}
 
+    def reasons(self) -> str:
+        """The rows dropped for each reason, in words (``73 bad coordinates, 120
+        duplicate``)."""
+        return ", ".join(
+            f"{n:,} {reason.replace('_', ' ')}" for reason, n in self.dropped.items() if n
+        )
+
     def describe(self, name: str) -> str:
         """What was read from the file ``name`` and which rows were dropped and why
         (docs/method.md §1), as one line for the user."""
         if self.n_dropped == 0:
             return f"{name}: {self.total:,} rows read, none dropped"
-        parts = ", ".join(
-            f"{n:,} {reason.replace('_', ' ')}" for reason, n in self.dropped.items() if n
-        )
+        parts = self.reasons()
         return (
             f"{name}: {self.total:,} rows read, {self.kept:,} kept, "
             f"{self.n_dropped:,} dropped ({parts}); --strict makes these errors"

@@ -6,8 +6,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from ..data.jsonfile import first_line, parse_json
-from ..errors import InputError
+from .folder import read_input, table_meta
 from .page import Page
 
 
@@ -16,21 +15,11 @@ def _tables(folder: Path) -> tuple[Any, Any, Any | None, dict[str, Any]]:
     import pyarrow.csv as pacsv
     import pyarrow.parquet as pq
 
+    summary = read_input(folder / "summary.csv", pacsv.read_csv)
+    results = read_input(folder / "results.parquet", pq.read_table)
+    meta = table_meta(results, folder / "results.parquet")
     paired_path = folder / "paired.csv"
-    path = folder / "summary.csv"
-    try:  # Arrow's errors on a damaged file are ValueErrors
-        summary = pacsv.read_csv(path)
-        path = folder / "results.parquet"
-        results = pq.read_table(path)
-        meta = parse_json((results.schema.metadata or {}).get(b"marops", b"{}"))
-        path = paired_path
-        paired = pacsv.read_csv(paired_path) if paired_path.is_file() else None
-    except (OSError, ValueError) as exc:
-        raise InputError(f"cannot be read for the report ({first_line(exc)})", file=path) from None
-    if not isinstance(meta, dict):
-        raise InputError(
-            "its marops metadata is not a JSON object", file=folder / "results.parquet"
-        )
+    paired = read_input(paired_path, pacsv.read_csv) if paired_path.is_file() else None
     return summary, results, paired, meta
 
 

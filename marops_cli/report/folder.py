@@ -4,12 +4,15 @@ never anything else."""
 from __future__ import annotations
 
 import datetime as dt
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 from ..data.jsonfile import first_line, parse_json
 from ..errors import InputError
+
+T = TypeVar("T")
 
 REPORT = "report.html"
 """The page's name in each output folder."""
@@ -31,23 +34,8 @@ def route_files(folder: Path) -> RouteFiles | None:
     if (folder / "routes.parquet").is_file():
         import pyarrow.parquet as pq
 
-        tables = []
-        for n in ("stops", "routes"):
-            path = folder / f"{n}.parquet"
-            try:  # Arrow's errors on a damaged file are ValueErrors
-                tables.append(pq.read_table(path))
-            except (OSError, ValueError) as exc:
-                raise InputError(
-                    f"cannot be read for the report ({first_line(exc)})", file=path
-                ) from None
-        try:
-            meta = parse_json((tables[1].schema.metadata or {}).get(b"marops", b"{}"))
-        except ValueError as exc:
-            raise InputError(
-                f"its marops metadata is not valid JSON ({first_line(exc)})", file=path
-            ) from None
-        if not isinstance(meta, dict):
-            raise InputError("its marops metadata is not a JSON object", file=path)
+        tables = [read_input(folder / f"{n}.parquet", pq.read_table) for n in ("stops", "routes")]
+        meta = table_meta(tables[1], folder / "routes.parquet")
         stops, routes = (t.to_pylist() for t in tables)
     elif (folder / "routes.json").is_file():
         docs = [_json(folder / f"{n}.json") for n in ("stops", "routes")]
@@ -73,11 +61,27 @@ def metrics(folder: Path) -> dict[str, Any] | None:
     return _json(path) if path.is_file() else None
 
 
-def _json(path: Path) -> dict[str, Any]:
+def read_input(path: Path, read: Callable[[Path], T]) -> T:
+    """``read(path)``; a file that cannot be read (missing, damaged: Arrow's and JSON's
+    errors are ValueErrors) is one line naming it."""
     try:
-        doc = parse_json(path.read_text(encoding="utf-8"))
+        return read(path)
     except (OSError, ValueError) as exc:
         raise InputError(f"cannot be read for the report ({first_line(exc)})", file=path) from None
+
+
+def table_meta(table: Any, path: Path) -> dict[str, Any]:
+    """The ``marops`` metadata of ``table``, read from ``path`` ({} when it has none)."""
+    meta = read_input(
+        path, lambda p: parse_json((table.schema.metadata or {}).get(b"marops", b"{}"))
+    )
+    if not isinstance(meta, dict):
+        raise InputError("its marops metadata is not a JSON object", file=path)
+    return meta
+
+
+def _json(path: Path) -> dict[str, Any]:
+    doc = read_input(path, lambda p: parse_json(p.read_text(encoding="utf-8")))
     if not isinstance(doc, dict):
         raise InputError("is not a marops output (a JSON object expected)", file=path)
     return doc

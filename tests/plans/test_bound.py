@@ -126,17 +126,7 @@ def test_bound_is_above_the_optimum_and_equals_the_relaxation_when_elementary(
     # The route pool's best plan, warm-starting the master, stays under the bound.
     pool = build_pool(depots, xy, w, lam * value, tasks, model, iterations=20)
     assert res.bound >= pool.best_g - 1e-6
-    warm = bound_g(
-        depots,
-        xy,
-        w,
-        value,
-        lam,
-        tasks,
-        model,
-        ng=n_req,
-        columns=_columns(pool),
-    )
+    warm = bound_g(depots, xy, w, value, lam, tasks, model, ng=n_req, columns=_columns(pool))
     assert warm.bound == pytest.approx(lp, rel=1e-6, abs=1e-3)
 
 
@@ -149,18 +139,8 @@ def test_best_plan_over_the_bounds_routes_is_feasible_and_at_most_the_optimum(se
     lam = lam_j(ALPHA, model.usable_j)
     ip, _ = _brute(depots, xy, w, value, tasks, model, lam)
     pool = build_pool(depots, xy, w, lam * value, tasks, model, iterations=20)
-    res = bound_g(
-        depots,
-        xy,
-        w,
-        value,
-        lam,
-        tasks,
-        model,
-        ng=6,
-        plan=True,
-        columns=_columns(pool),
-    )
+    cols = _columns(pool)
+    res = bound_g(depots, xy, w, value, lam, tasks, model, ng=6, plan=True, columns=cols)
     assert res.plan is not None and len(res.plan) == len(tasks)
     seen: list[int] = []
     g = 0.0

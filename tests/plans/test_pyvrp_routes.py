@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 import pytest
 
@@ -19,6 +21,20 @@ from marops_cli.segment.depots import Depots, nearest_candidates
 pytest.importorskip("pyvrp")  # the pyvrp extra, installed with the test extra
 
 from marops_cli.plans.pyvrp_routes import solve_window  # noqa: E402
+
+
+def _solve(view: WindowView, lam: float, model: EnergyModel, **kw: Any) -> Any:
+    """PyVRP's plan of ``view``'s window (``kw``: limits, seed, ``allowed``)."""
+    return solve_window(
+        view.depots.xy,
+        view.drone_depot,
+        view.pending_xy,
+        view.pending_weight,
+        1.0 + view.pending_delay_h,
+        lam,
+        model,
+        **kw,
+    )
 
 
 def _view(seed: int = 3, n: int = 30) -> WindowView:
@@ -56,16 +72,7 @@ def test_pyvrp_routes_are_feasible_under_the_exact_energy() -> None:
     model = EnergyModel()
     view = _view()
     lam = lam_j(0.5, model.usable_j)
-    peer = solve_window(
-        view.depots.xy,
-        view.drone_depot,
-        view.pending_xy,
-        view.pending_weight,
-        1.0 + view.pending_delay_h,
-        lam,
-        model,
-        time_limit_s=0.2,
-    )
+    peer = _solve(view, lam, model, time_limit_s=0.2)
     assert peer.stops, "PyVRP served nothing"
     seen: set[int] = set()
     for s, stops in zip(peer.start, peer.stops, strict=True):
@@ -94,17 +101,7 @@ def test_pool_with_pyvrp_columns_is_at_least_as_good_as_pyvrp() -> None:
     model = EnergyModel()
     view = _view(seed=8, n=40)
     lam = lam_j(0.5, model.usable_j)
-    peer = solve_window(
-        view.depots.xy,
-        view.drone_depot,
-        view.pending_xy,
-        view.pending_weight,
-        1.0 + view.pending_delay_h,
-        lam,
-        model,
-        iterations=200,
-        seed=view.t,
-    )
+    peer = _solve(view, lam, model, iterations=200, seed=view.t)
     energy = 0.0
     for s, stops in zip(peer.start, peer.stops, strict=True):
         last = view.pending_xy[stops[-1]]
@@ -136,17 +133,7 @@ def test_pyvrp_serves_each_parcel_only_from_its_stock_depot() -> None:
     view = _view(seed=5, n=30)
     stock = np.where(np.arange(30) % 2 == 0, 0, 3)
     allowed = stock[None, :] == view.drone_depot[:, None]
-    peer = solve_window(
-        view.depots.xy,
-        view.drone_depot,
-        view.pending_xy,
-        view.pending_weight,
-        1.0 + view.pending_delay_h,
-        lam_j(0.5, model.usable_j),
-        model,
-        allowed=allowed,
-        iterations=200,
-    )
+    peer = _solve(view, lam_j(0.5, model.usable_j), model, allowed=allowed, iterations=200)
     assert {int(s) for s in peer.start} == {0, 3}
     for s, stops in zip(peer.start, peer.stops, strict=True):
         assert (stock[stops] == s).all()
