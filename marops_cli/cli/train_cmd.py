@@ -182,6 +182,15 @@ def train_command(
             "costs nothing; --energy-weight prices the rest (0..1) [default: 0.0].",
         ),
     ] = 0.0,
+    loss_weight: Annotated[
+        float,
+        typer.Option(
+            "--loss-weight",
+            help="--algorithm es: extra cost of each share of J above the day's best rule's, "
+            "so that a day lost weighs more than a day won (docs/method.md §6.1) "
+            "[default: 2.0].",
+        ),
+    ] = 2.0,
     workers: Annotated[int, typer.Option("--workers", help="Rollout processes.")] = 2,
     resume: Annotated[
         bool, typer.Option("--resume/--no-resume", help="Continue from NAME.ckpt if present.")
@@ -253,6 +262,7 @@ def train_command(
         algorithm=algorithm,
         es_energy_weight=energy_weight,
         es_energy_slack=energy_slack,
+        es_loss_weight=loss_weight,
         method=method,
         episodes=episodes,
         seed=seed,
@@ -277,7 +287,11 @@ def train_command(
         _print_heldout(res.heldout)
 
 
-_FLAGS = {"es_energy_weight": "energy-weight", "es_energy_slack": "energy-slack"}
+_FLAGS = {
+    "es_energy_weight": "energy-weight",
+    "es_energy_slack": "energy-slack",
+    "es_loss_weight": "loss-weight",
+}
 """The flag of a training setting whose name differs from it."""
 
 

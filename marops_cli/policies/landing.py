@@ -4,11 +4,24 @@
 Under the realistic operating model a drone carries only the parcels stocked at the depot
 it departs from and needs a charged battery there, so where it lands decides what it can
 do next window. The landing actor scores each of a drone's destinations (its depot's
-action candidates) by a weighted sum of the features below and flies the best one it can
-reach; drones choose one after another, as :class:`~.rules.BacklogPolicy` does, each
-seeing where the drones before it chose to land. The weights are learned on the day's
-return (``marops train --algorithm es``, :mod:`marops_cli.rl.es`); with the weight vector
-``(0, 0, 1, 0, …)`` it is exactly the ``backlog`` rule, where training starts.
+action candidates) by a weighted sum of the features below. Its weights are learned on
+the day's return (``marops train --algorithm es``, :mod:`marops_cli.rl.es`), starting
+from :data:`BACKLOG_WEIGHTS`, the ``backlog`` rule's score.
+
+Two kinds of actor, told apart by their number of weights (and their file's format):
+
+* **joint** (16 weights, ``marops-landing-actor/2``, the shipped one): the ready drones
+  are assigned to landing slots together (``scipy.optimize.linear_sum_assignment``,
+  maximising the total score), slot j of depot d meaning "the (j + 1)-th ready drone
+  to land at d", scored with j more drones there; every drone also has the free landing
+  (nearest its last customer), scored as staying in its depot's first slot plus weights
+  12–15 × (1, time of day, the backlog score of staying, drones per area). So the drone
+  nearest a depot that needs one is the one that flies there, and two drones do not
+  both leave for the same depot unless it pays for both. With weights 12–15 at 0 a
+  drone that would stay as a second or later drone at its depot lands free instead.
+* **sequential** (12 weights, ``marops-landing-actor/1``): drones choose one after
+  another, as :class:`~.rules.BacklogPolicy` does, each seeing where the drones before
+  it chose to land; with :data:`BACKLOG_WEIGHTS` it is exactly the ``backlog`` rule.
 
 Features of destination d for a drone at depot s (``there``: drones at d that have not
 chosen yet, plus those that chose to land at d; the drone itself is not counted while it
@@ -29,8 +42,8 @@ chooses; value: Σ (1 + delay h) of the parcels waiting at d; ``lg`` = log1p):
 11. time of day × feature 4
 
 The file format is data only: ``NAME.safetensors`` holds one float32 tensor ``weight`` of
-shape ``(12,)``, its sidecar ``NAME.json`` says ``format = "marops-landing-actor/1"`` and
-the operating model it was trained for (docs/method.md §6, "Trust model of actor files").
+shape ``(16,)`` (or ``(12,)``), its sidecar ``NAME.json`` says ``format`` and the
+operating model it was trained for (docs/method.md §6, "Trust model of actor files").
 """
 
 from __future__ import annotations
@@ -42,6 +55,7 @@ import numpy as np
 
 from ..data.jsonfile import first_line
 from ..errors import InputError
+from ..plans.view import FREE
 from .base import WindowView
 from .rules import EnergyAware, reachable, waiting_per_depot
 
@@ -51,6 +65,8 @@ if TYPE_CHECKING:
 __all__ = [
     "BACKLOG_WEIGHTS",
     "FEATURES",
+    "FREE_FEATURES",
+    "JOINT_START",
     "LANDING_FORMAT",
     "LandingActor",
     "check_trained_for",
@@ -74,9 +90,18 @@ FEATURES = (
 )
 """The features of a destination, in order (the module docstring defines them)."""
 N_FEATURES = len(FEATURES)
+FREE_FEATURES = ("free", "free x time", "free x backlog score", "free x drones per area")
+"""The joint actor's free landing: its weights 12–15 multiply these (module docstring)."""
 BACKLOG_WEIGHTS = np.eye(N_FEATURES)[2]
-"""The weights that make the landing actor the ``backlog`` rule: training starts there."""
-LANDING_FORMAT = "marops-landing-actor/1"
+"""The weights that make the sequential landing actor the ``backlog`` rule."""
+JOINT_START = np.concatenate([BACKLOG_WEIGHTS, np.zeros(len(FREE_FEATURES))])
+"""Where training starts: the backlog score, shared out jointly, the free landing at 0."""
+LANDING_FORMAT = "marops-landing-actor/2"
+"""The format of the joint actor's sidecar, which training writes."""
+_FORMATS = {LANDING_FORMAT: JOINT_START.size, "marops-landing-actor/1": N_FEATURES}
+"""The sidecar formats a landing actor may have, and their numbers of weights."""
+_UNSUITED = -1e9
+"""The score of a slot a drone cannot take (an assignment needs finite scores)."""
 _UNLIMITED_SPARES = 3.0
 """What feature 7 reads where swaps are unlimited (the paper's batteries): plenty."""
 
@@ -126,6 +151,7 @@ class DepotState:
         charging = view.depot_charging
         self.charging = np.zeros(n) if charging is None else charging.astype(float)
         self.time = view.t / max(1, view.n_windows)
+        self.density = view.n_drones / max(1, n)
 
 
 def landing_features(view: WindowView, depots: DepotState, s: int, there: np.ndarray) -> np.ndarray:
@@ -156,10 +182,10 @@ def landing_features(view: WindowView, depots: DepotState, s: int, there: np.nda
 
 
 class LandingActor(EnergyAware):
-    """Scores each destination by ``weight · features`` and lands at the best one the
-    empty drone can reach (ties to the lower action index); a drone that cannot fly
-    stays. ``trained_for`` is the operating model it was trained for (None: any);
-    :meth:`configure` refuses a run under another."""
+    """Scores each destination by ``weight · features`` and lands where the empty drone
+    can reach: jointly with 16 weights, one drone after another with 12 (module
+    docstring); a drone that cannot fly stays. ``trained_for`` is the operating model it
+    was trained for (None: any); :meth:`configure` refuses a run under another."""
 
     name = "marops"
     scope: Literal["range", "global"] = "range"
@@ -173,9 +199,10 @@ class LandingActor(EnergyAware):
     ) -> None:
         super().__init__()
         w = np.asarray(weight, dtype=np.float64).reshape(-1)
-        if w.shape != (N_FEATURES,):
-            raise ValueError(f"expected {N_FEATURES} weights, got {w.shape}")
+        if w.size not in _FORMATS.values():
+            raise ValueError(f"expected {JOINT_START.size} or {N_FEATURES} weights, got {w.size}")
         self.weight = w
+        self.joint = w.size == JOINT_START.size
         self.trained_for = trained_for
         self.path = path
 
@@ -192,6 +219,8 @@ class LandingActor(EnergyAware):
         check_trained_for(self.trained_for, model, self.path)
 
     def act(self, view: WindowView) -> np.ndarray:
+        if self.joint:
+            return self._act_joint(view)
         out = np.zeros(view.n_drones, dtype=np.int64)
         depots = DepotState(view)
         there = np.bincount(view.drone_depot, minlength=len(view.depots)).astype(np.float64)
@@ -206,23 +235,73 @@ class LandingActor(EnergyAware):
             there[int(view.depots.candidates[s, out[u]])] += 1.0
         return out
 
+    def _act_joint(self, view: WindowView) -> np.ndarray:
+        """The joint actor's landings: the assignment of the ready drones to landing
+        slots and free landings with the largest total score (module docstring)."""
+        from scipy.optimize import linear_sum_assignment
+
+        dep = view.depots
+        n = len(dep)
+        out = np.zeros(view.n_drones, dtype=np.int64)
+        ready = [u for u in range(view.n_drones) if view.ready(u)]
+        if not ready:
+            return out
+        depots = DepotState(view)
+        held = np.ones(view.n_drones, dtype=bool)
+        held[ready] = False
+        base = np.bincount(view.drone_depot[held], minlength=n).astype(np.float64)[:n]
+        k = len(ready)
+        w, w_free = self.weight[:N_FEATURES], self.weight[N_FEATURES:]
+        # Column d·k + j: slot j at depot d; column n·k + i: drone i's free landing.
+        score = np.full((k, n * k + k), _UNSUITED)
+        rows: dict[tuple[int, int], np.ndarray] = {}  # (depot, slot): its destinations' scores
+        free: dict[int, float] = {}
+        for i, u in enumerate(ready):
+            s = int(view.drone_depot[u])
+            dests = dep.candidates[s]
+            ok = np.flatnonzero(reachable(view, u, self._drone_model(view, u)))
+            for j in range(k):
+                if (s, j) not in rows:
+                    f = landing_features(view, depots, s, base + j)
+                    rows[s, j] = f @ w
+                    if j == 0:
+                        extra = w_free @ (1.0, depots.time, f[0, 2], depots.density)
+                        free[s] = rows[s, j][0] + extra - 1e-9  # ties go to a slot
+                row = rows[s, j]
+                for a in ok:  # ties to the lower action index
+                    col = int(dests[a]) * k + j
+                    score[i, col] = max(score[i, col], row[a] - 1e-9 * a)
+            score[i, n * k + i] = free[s]
+        for i, c in zip(*linear_sum_assignment(score, maximize=True), strict=True):
+            u = ready[i]
+            if c >= n * k:
+                out[u] = FREE
+                continue
+            hit = np.flatnonzero(dep.candidates[int(view.drone_depot[u])] == c // k)
+            if score[i, c] > _UNSUITED / 2 and hit.size:
+                out[u] = int(hit[0])
+        return out
+
 
 def load_landing_actor(path: Path, side: Any, sidecar: Path) -> LandingActor:
     """The landing actor of the weights file ``path`` (``NAME.safetensors``) described by
-    ``side`` (read from ``sidecar``): one finite float32 tensor ``weight`` of 12 values.
-    Nothing of the file runs (a safetensors file is a JSON header and raw numbers)."""
+    ``side`` (read from ``sidecar``): one finite float32 tensor ``weight`` of 16 values
+    (format ``/2``) or 12 (``/1``). Nothing of the file runs (a safetensors file is a
+    JSON header and raw numbers)."""
     from safetensors import SafetensorError, safe_open
 
     if not isinstance(side, dict):
         raise InputError(f"expected a JSON object, got {type(side).__name__}", file=sidecar)
-    if side.get("format") != LANDING_FORMAT:
+    fmt = side.get("format")
+    size = _FORMATS.get(fmt) if isinstance(fmt, str) else None
+    if size is None:
         raise InputError(
             f"expected format {LANDING_FORMAT!r}, got {side.get('format')!r}",
             file=sidecar,
             column="format",
         )
     if path.stat().st_size > (1 << 16):
-        raise InputError("larger than a landing actor's 12 weights", file=path)
+        raise InputError("larger than a landing actor's weights", file=path)
     try:
         with safe_open(str(path), framework="numpy") as f:
             names = set(f.keys())
@@ -231,10 +310,9 @@ def load_landing_actor(path: Path, side: Any, sidecar: Path) -> LandingActor:
                     f"expected one tensor 'weight', got {sorted(names)}", file=path, column="weight"
                 )
             part = f.get_slice("weight")
-            if part.get_dtype() != "F32" or tuple(part.get_shape()) != (N_FEATURES,):
+            if part.get_dtype() != "F32" or tuple(part.get_shape()) != (size,):
                 raise InputError(
-                    f"expected float32 [{N_FEATURES}], got {part.get_dtype()} "
-                    f"{list(part.get_shape())}",
+                    f"expected float32 [{size}], got {part.get_dtype()} {list(part.get_shape())}",
                     file=path,
                     column="weight",
                 )

@@ -113,6 +113,12 @@ class TrainConfig(BaseModel):
         description="es: share of energy per drone above the day's best rule's that costs "
         "nothing (the hinge of the energy penalty)",
     )
+    es_loss_weight: float = Field(
+        2.0,
+        ge=0,
+        description="es: cost of each share of J above the day's best rule's, on top of the "
+        "share itself (so a day lost weighs more than a day won)",
+    )
     eval_every: int = Field(200, ge=1, description="episodes between held-out evaluations")
     checkpoint_every: int = Field(40, ge=1, description="episodes between checkpoints")
 

@@ -2,9 +2,9 @@
 §6.1, "The landing actor"; docs/decisions.md, "Learning where to land").
 
 The landing actor (:class:`~marops_cli.policies.landing.LandingActor`) scores each
-destination by ``weight · features``. Training searches the 12 weights directly on the
-quantities the actor is judged by, from the ``backlog`` rule (its weights,
-:data:`~marops_cli.policies.landing.BACKLOG_WEIGHTS`):
+destination by ``weight · features`` and assigns the drones to landings jointly.
+Training searches the 16 weights directly on the quantities the actor is judged by,
+from the ``backlog`` rule's score (:data:`~marops_cli.policies.landing.JOINT_START`):
 
 * each training day is first replayed with the rules the actor must beat,
   :data:`RULES` (``ops-global``, ``backlog``, ``rebalance``); the day's *best rule* is the
@@ -15,8 +15,10 @@ quantities the actor is judged by, from the ``backlog`` rule (its weights,
   so the day's own difficulty cancels);
 * a member's cost on a day is its J over the best rule's J, plus ``es_energy_weight`` ×
   the share by which its energy per drone exceeds the best rule's by more than
-  ``es_energy_slack`` (0 within it; :func:`day_cost`): a plan must not win by spending
-  energy the best rule saves; its cost is the mean over the days;
+  ``es_energy_slack`` (0 within it), plus ``es_loss_weight`` × the share by which its J
+  exceeds the best rule's (:func:`day_cost`): a plan must not win by spending energy
+  the best rule saves, nor by losing some days to win more on others; its cost is the
+  mean over the days;
 * w moves by ``es_step`` × Σ (rank(w − σε) − rank(w + σε)) ε / pairs (centred ranks of
   the costs, so one extreme day cannot dominate a step).
 
@@ -45,8 +47,9 @@ from ..data.jsonfile import read_json
 from ..errors import InputError
 from ..io.atomic import output_set
 from ..policies.landing import (
-    BACKLOG_WEIGHTS,
     FEATURES,
+    FREE_FEATURES,
+    JOINT_START,
     LANDING_FORMAT,
     LandingActor,
     operating_model,
@@ -134,7 +137,7 @@ class LandingTrainer:
         if len(models) > 1:
             raise InputError("every training scenario needs the same operating model")
         self.model = models.pop()
-        self.weight = BACKLOG_WEIGHTS.astype(np.float64).copy()
+        self.weight = JOINT_START.astype(np.float64).copy()
         self.generation = self.episode = 0
         self.elapsed_s = 0.0
         self.reference: dict[str, dict[str, float]] = {}
@@ -241,7 +244,7 @@ class LandingTrainer:
         return float(
             np.mean(
                 [
-                    day_cost(r, b, t.es_energy_weight, t.es_energy_slack)
+                    day_cost(r, b, t.es_energy_weight, t.es_energy_slack, t.es_loss_weight)
                     for r, b in zip(rows, refs, strict=True)
                 ]
             )
@@ -363,7 +366,7 @@ class LandingTrainer:
             "format": LANDING_FORMAT,
             "method": "marops",
             "operating_model": self.model,
-            "features": list(FEATURES),
+            "features": [*FEATURES, *FREE_FEATURES],
             "weight": [round(float(x), 6) for x in weight],
             "seed": t.seed,
             "episodes": self.episode,
@@ -378,8 +381,8 @@ class LandingTrainer:
             ],
             "files": self.td.files,
             "reward": "cost = J / J of the day's best rule (ops-global, backlog, rebalance) + "
-            "es_energy_weight * max(0, energy / its energy - 1 - es_energy_slack), mean over "
-            "days (docs/method.md §6.1)",
+            "es_energy_weight * max(0, energy / its energy - 1 - es_energy_slack) + "
+            "es_loss_weight * max(0, J / its J - 1), mean over days (docs/method.md §6.1)",
             "train_config": t.model_dump(mode="json"),
             "planner_config": cfg.model_dump(mode="json"),
             "heldout": chosen,
@@ -398,14 +401,20 @@ def _numbers(d: Any, *keys: str) -> bool:
 
 
 def day_cost(
-    row: dict[str, float], ref: dict[str, float], weight: float, slack: float = 0.0
+    row: dict[str, float],
+    ref: dict[str, float],
+    weight: float,
+    slack: float = 0.0,
+    loss_weight: float = 0.0,
 ) -> float:
     """A day's cost of a replay ``row`` against the day's best rule ``ref`` (its ``j`` and
     ``energy``): J / the best rule's J, plus ``weight`` × the share of energy per drone
     above the best rule's beyond ``slack`` (a hinge: up to ``slack`` more energy is free,
-    every share beyond costs ``weight``)."""
+    every share beyond costs ``weight``), plus ``loss_weight`` × the share of J above the
+    best rule's (a day lost costs more than a day won gains)."""
     excess = row["mean_energy_kj"] / max(ref["energy"], 1e-9) - 1.0 - slack
-    return row["objective_j_mj"] / max(ref["j"], 1e-9) + weight * max(0.0, excess)
+    rel = row["objective_j_mj"] / max(ref["j"], 1e-9)
+    return rel + weight * max(0.0, excess) + loss_weight * max(0.0, rel - 1.0)
 
 
 def _key(d: Day) -> str:

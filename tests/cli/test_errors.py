@@ -172,5 +172,6 @@ def test_bad_training_lists(example_csv: Path, tmp_path: Path, fails_cleanly) ->
     fails_cleanly([*es, "--energy-slack", "-0.01"], tmp_path, "--energy-slack")
     fails_cleanly([*es, "--energy-slack", "2"], tmp_path, "--energy-slack")
     fails_cleanly([*es, "--energy-weight", "-1"], tmp_path, "--energy-weight")
+    fails_cleanly([*es, "--loss-weight", "-0.5"], tmp_path, "--loss-weight")
     missing = str(tmp_path / "nope.csv")
     fails_cleanly(["train", str(example_csv), missing, "--out", out], tmp_path, "nope.csv")

@@ -14,10 +14,13 @@ from typer.testing import CliRunner
 from marops_cli.cli.app import app
 from marops_cli.config import OpsConfig, PlannerConfig
 from marops_cli.errors import InputError
+from marops_cli.plans.view import FREE
 from marops_cli.policies import BacklogPolicy, make_policy
 from marops_cli.policies.landing import (
     BACKLOG_WEIGHTS,
     FEATURES,
+    FREE_FEATURES,
+    JOINT_START,
     DepotState,
     LandingActor,
     landing_features,
@@ -30,8 +33,8 @@ from .test_rules import FAR, _view
 REALISTIC = "stock=home, batteries, busy"
 
 
-def _side(model: str = REALISTIC) -> dict:
-    return {"format": "marops-landing-actor/1", "operating_model": model}
+def _side(model: str = REALISTIC, fmt: str = "/1") -> dict:
+    return {"format": "marops-landing-actor" + fmt, "operating_model": model}
 
 
 def test_features_by_hand() -> None:
@@ -80,17 +83,61 @@ def test_weights_choose_and_reach() -> None:
     assert list(LandingActor(w).act(held)) == [0]  # a drone that cannot fly stays
 
 
+def _move_one(joint: bool) -> list[int]:
+    """Depots at 0, 1 and 1.3 km, drones at the first and the last, two parcels at the
+    middle one (delays 0 and 0.5 h: value 2.5); the score is the backlog score less the
+    distance in km. Each drone's landing depot."""
+    view = _view([0.0, 1000.0, 1300.0], [1, 1], [0, 2], [0.0, 0.5])
+    w = np.zeros(len(FEATURES) + (len(FREE_FEATURES) if joint else 0))
+    w[FEATURES.index("backlog score")], w[FEATURES.index("distance km")] = 1.0, -1.0
+    acts = LandingActor(w).act(view)
+    return [int(view.depots.candidates[s, a]) for s, a in zip(view.drone_depot, acts, strict=True)]
+
+
+def test_sequential_sends_both_drones() -> None:
+    # Drone 0 first: lg 2.5 − 1.0 = 0.253 > 0 (stay) -> depot 1; then drone 1:
+    # lg (2.5 / 2) − 0.3 = 0.511 > 0 -> depot 1 too.
+    assert _move_one(joint=False) == [1, 1]
+
+
+def test_joint_sends_the_nearer_drone_only() -> None:
+    # Drone 1 alone: lg 2.5 − 0.3 = 0.953; drone 0 alone: 0.253; both:
+    # lg 2.5 + lg 1.25 − 1.3 = 0.764. The assignment keeps the best total.
+    assert _move_one(joint=True) == [0, 1]
+
+
+def test_joint_free_landing_and_held_drones() -> None:
+    view = _view([0.0, 800.0, 1600.0, FAR], [1, 2], [0, 1, 2], ready=[True, False, True])
+    w = JOINT_START.copy()
+    w[len(FEATURES) + FREE_FEATURES.index("free")] = 5.0
+    assert list(LandingActor(w).act(view)) == [FREE, 0, FREE]  # a held drone stays
+    w[len(FEATURES) + FREE_FEATURES.index("free")] = -5.0
+    assert FREE not in LandingActor(w).act(view)
+    # With the free landing at 0 a second drone staying at an empty depot ties with its
+    # first slot's score (nothing waits there): the slot wins the tie.
+    two = _view([0.0, 800.0], [1], [0, 0])
+    assert FREE not in LandingActor(JOINT_START).act(two)
+
+
+def test_joint_reaches_only_what_it_can() -> None:
+    view = _view([0.0, 800.0, FAR], [2, 2, 2], [0])
+    w = JOINT_START.copy()
+    w[FEATURES.index("backlog score")] = 5.0  # all the value is out of reach
+    assert list(LandingActor(w).act(view)) == [0]
+
+
 def test_operating_model_names() -> None:
     assert operating_model(OpsConfig()) == REALISTIC
     assert operating_model(OpsConfig.paper_model()) == "paper"
     assert operating_model(OpsConfig(busy=False)) == "stock=home, batteries"
 
 
-def test_file_round_trip(tmp_path: Path) -> None:
-    w = np.linspace(-1.0, 1.0, len(FEATURES))
-    write_landing_actor(w, tmp_path / "a.safetensors", _side())
+@pytest.mark.parametrize(("fmt", "size"), [("/2", 16), ("/1", 12)])
+def test_file_round_trip(tmp_path: Path, fmt: str, size: int) -> None:
+    w = np.linspace(-1.0, 1.0, size)
+    write_landing_actor(w, tmp_path / "a.safetensors", _side(fmt=fmt))
     pol = make_policy(str(tmp_path / "a.safetensors"), model=REALISTIC)
-    assert isinstance(pol, LandingActor)
+    assert isinstance(pol, LandingActor) and pol.joint == (size == 16)
     assert pol.weight == pytest.approx(w.astype(np.float32), abs=0)
     assert pol.identity == tmp_path / "a.safetensors"
     with pytest.raises(InputError, match="trained for the operating model"):
@@ -110,12 +157,27 @@ def test_file_round_trip(tmp_path: Path) -> None:
         (
             {"weight": np.zeros(12, np.float32)},
             {"format": "marops-basic", "operating_model": REALISTIC},
-            "expected format 'marops-landing-actor/1', got 'marops-basic'",
+            "expected format 'marops-landing-actor/2', got 'marops-basic'",
         ),
         ({"weight": np.zeros(12, np.float32)}, {"operating_model": REALISTIC}, "got None"),
         ({"weight": np.zeros(12, np.float32)}, [REALISTIC], "expected a JSON object, got list"),
+        ({"weight": np.zeros(12, np.float32)}, _side(fmt="/2"), r"expected float32 \[16\]"),
+        ({"weight": np.zeros(16, np.float32)}, _side(), r"expected float32 \[12\]"),
+        ({"weight": np.zeros(12, np.float32)}, {**_side(), "format": ["x"]}, "got \\['x'\\]"),
     ],
-    ids=["shape", "dtype", "nan", "extra", "no-model", "format", "no-format", "not-object"],
+    ids=[
+        "shape",
+        "dtype",
+        "nan",
+        "extra",
+        "no-model",
+        "format",
+        "no-format",
+        "not-object",
+        "joint-of-12",
+        "sequential-of-16",
+        "format-list",
+    ],
 )
 def test_bad_files(tmp_path: Path, tensors: dict, side: object, match: str) -> None:
     from safetensors.numpy import save_file

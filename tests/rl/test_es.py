@@ -13,7 +13,7 @@ import pytest
 from marops_cli.config import OpsConfig, PlannerConfig
 from marops_cli.errors import InputError
 from marops_cli.policies import make_policy
-from marops_cli.policies.landing import BACKLOG_WEIGHTS, LandingActor
+from marops_cli.policies.landing import JOINT_START, LandingActor
 from marops_cli.rl.data import load_training_data
 from marops_cli.rl.es import day_cost
 from marops_cli.rl.train import train_actor
@@ -36,11 +36,12 @@ def test_generations_move_the_weights_and_export(
     td = load_training_data(tiny_csv, small_cfg, _es(episodes=13))
     side = train_actor(td, tmp_path / "a.safetensors", resume=False)
     assert side["operating_model"] == "stock=home, batteries, busy"
+    assert side["format"] == "marops-landing-actor/2" and len(side["features"]) == 16
     assert side["generations"] == 2 and side["episodes"] >= 7
-    assert not np.allclose(side["weight"], BACKLOG_WEIGHTS)  # the steps moved it
+    assert not np.allclose(side["weight"], JOINT_START)  # the steps moved it
     pol = make_policy(str(tmp_path / "a.safetensors"), model=side["operating_model"])
     assert isinstance(pol, LandingActor)
-    assert pol.weight == pytest.approx(side["weight"], abs=1e-6)
+    assert pol.weight == pytest.approx(side["weight"], abs=1e-6) and pol.joint
     ev = side["heldout"]
     assert set(ev["methods"]) == {"marops", "best rule"} and ev["cost"] > 0
     assert not (tmp_path / "a.pt").exists()  # data only: nothing to trust
@@ -67,7 +68,7 @@ EDITS = {
     "reference an object": lambda s: {**s, "reference": None},
     "each reference must hold": lambda s: {**s, "reference": {"d": {"j": "x"}}},
     "could not convert": lambda s: {**s, "weight": "heavy"},
-    f"weight must be {BACKLOG_WEIGHTS.size} finite": lambda s: {**s, "weight": [1.0]},
+    f"weight must be {JOINT_START.size} finite": lambda s: {**s, "weight": [1.0]},
     "best must hold": lambda s: {**s, "best": 3},
     "int()": lambda s: {**s, "generation": None},
     "must be lists": lambda s: {**s, "history": {}},
@@ -110,3 +111,15 @@ def test_energy_above_the_slack_costs_the_weight() -> None:
     assert cost(90.0, 505.0, 10.0, 0.01) == pytest.approx(0.9)  # +1 %: within the slack
     assert cost(90.0, 515.0, 10.0, 0.01) == pytest.approx(0.9 + 10 * 0.02)  # +3 %: 2 % priced
     assert cost(90.0, 515.0, 1.0, 0.0) == pytest.approx(0.9 + 0.03)  # no slack: all of it
+
+
+def test_a_day_lost_costs_the_loss_weight_more() -> None:
+    ref = {"j": 100.0, "energy": 500.0}
+
+    def cost(j: float, loss: float) -> float:
+        row = {"objective_j_mj": j, "mean_energy_kj": 500.0}
+        return day_cost(row, ref, 1.0, 0.0, loss)
+
+    assert cost(90.0, 2.0) == pytest.approx(0.9)  # a day won: J alone
+    assert cost(110.0, 2.0) == pytest.approx(1.1 + 2 * 0.1)  # lost by 10 %: 30 % in all
+    assert cost(110.0, 0.0) == pytest.approx(1.1)
