@@ -13,12 +13,14 @@ Two kinds of actor, told apart by their number of weights (and their file's form
 * **joint** (16 weights, ``marops-landing-actor/2``, the shipped one): the ready drones
   are assigned to landing slots together (``scipy.optimize.linear_sum_assignment``,
   maximising the total score), slot j of depot d meaning "the (j + 1)-th ready drone
-  to land at d", scored with j more drones there; every drone also has the free landing
+  to land at d", scored with j more drones there (a depot has one slot per ready drone
+  that has it among its reachable destinations); every drone also has the free landing
   (nearest its last customer), scored as staying in its depot's first slot plus weights
   12–15 × (1, time of day, the backlog score of staying, drones per area). So the drone
   nearest a depot that needs one is the one that flies there, and two drones do not
   both leave for the same depot unless it pays for both. With weights 12–15 at 0 a
-  drone that would stay as a second or later drone at its depot lands free instead.
+  second or later drone that would stay at a depot where parcels wait lands free
+  instead (staying there scores less with each drone).
 * **sequential** (12 weights, ``marops-landing-actor/1``): drones choose one after
   another, as :class:`~.rules.BacklogPolicy` does, each seeing where the drones before
   it chose to land; with :data:`BACKLOG_WEIGHTS` it is exactly the ``backlog`` rule.
@@ -241,7 +243,6 @@ class LandingActor(EnergyAware):
         from scipy.optimize import linear_sum_assignment
 
         dep = view.depots
-        n = len(dep)
         out = np.zeros(view.n_drones, dtype=np.int64)
         ready = [u for u in range(view.n_drones) if view.ready(u)]
         if not ready:
@@ -249,37 +250,40 @@ class LandingActor(EnergyAware):
         depots = DepotState(view)
         held = np.ones(view.n_drones, dtype=bool)
         held[ready] = False
+        n = len(dep)
         base = np.bincount(view.drone_depot[held], minlength=n).astype(np.float64)[:n]
+        homes = [int(view.drone_depot[u]) for u in ready]
+        oks = [np.flatnonzero(reachable(view, u, self._drone_model(view, u))) for u in ready]
+        # Depot d has one slot per ready drone that can land there: slot j is the
+        # (j + 1)-th to land at d; its columns start at first[d], the free landings last.
+        slots = np.zeros(n, dtype=np.int64)
+        for s, ok in zip(homes, oks, strict=True):
+            slots[np.unique(dep.candidates[s, ok])] += 1
+        first = np.concatenate([[0], np.cumsum(slots)])
         k = len(ready)
+        score = np.full((k, int(first[-1]) + k), _UNSUITED)
         w, w_free = self.weight[:N_FEATURES], self.weight[N_FEATURES:]
-        # Column d·k + j: slot j at depot d; column n·k + i: drone i's free landing.
-        score = np.full((k, n * k + k), _UNSUITED)
         rows: dict[tuple[int, int], np.ndarray] = {}  # (depot, slot): its destinations' scores
         free: dict[int, float] = {}
-        for i, u in enumerate(ready):
-            s = int(view.drone_depot[u])
+        for i, (s, ok) in enumerate(zip(homes, oks, strict=True)):
             dests = dep.candidates[s]
-            ok = np.flatnonzero(reachable(view, u, self._drone_model(view, u)))
-            for j in range(k):
+            for j in range(int(slots[dests[ok]].max())):
                 if (s, j) not in rows:
                     f = landing_features(view, depots, s, base + j)
                     rows[s, j] = f @ w
                     if j == 0:
                         extra = w_free @ (1.0, depots.time, f[0, 2], depots.density)
                         free[s] = rows[s, j][0] + extra - 1e-9  # ties go to a slot
-                row = rows[s, j]
-                for a in ok:  # ties to the lower action index
-                    col = int(dests[a]) * k + j
-                    score[i, col] = max(score[i, col], row[a] - 1e-9 * a)
-            score[i, n * k + i] = free[s]
+                for a in ok[j < slots[dests[ok]]]:  # ties to the lower action index
+                    col = int(first[dests[a]]) + j
+                    score[i, col] = max(score[i, col], rows[s, j][a] - 1e-9 * a)
+            score[i, first[-1] + i] = free[s]
+        landing = np.searchsorted(first, np.arange(first[-1]), side="right") - 1
         for i, c in zip(*linear_sum_assignment(score, maximize=True), strict=True):
-            u = ready[i]
-            if c >= n * k:
-                out[u] = FREE
-                continue
-            hit = np.flatnonzero(dep.candidates[int(view.drone_depot[u])] == c // k)
-            if score[i, c] > _UNSUITED / 2 and hit.size:
-                out[u] = int(hit[0])
+            if c >= first[-1]:
+                out[ready[i]] = FREE
+            elif score[i, c] > _UNSUITED / 2:
+                out[ready[i]] = int(np.flatnonzero(dep.candidates[homes[i]] == landing[c])[0])
         return out
 
 

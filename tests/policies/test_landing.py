@@ -126,6 +126,23 @@ def test_joint_reaches_only_what_it_can() -> None:
     assert list(LandingActor(w).act(view)) == [0]
 
 
+def test_joint_spreads_a_large_fleet() -> None:
+    # 40 drones at one end of 20 depots on a line, parcels everywhere: every drone gets
+    # a destination among its candidates, and no depot more drones than value per drone
+    # pays for (the backlog score falls with each drone there).
+    rng = np.random.default_rng(5)
+    view = _view(list(np.arange(20) * 400.0), list(rng.integers(0, 20, 60)), [0] * 20 + [1] * 20)
+    acts = LandingActor(JOINT_START).act(view)
+    n_a = view.depots.candidates.shape[1]
+    assert acts.shape == (40,) and all(a == FREE or 0 <= a < n_a for a in acts)
+    landed = [
+        int(view.depots.candidates[s, a])
+        for s, a in zip(view.drone_depot, acts, strict=True)
+        if a != FREE
+    ]
+    assert len(set(landed)) > 2  # spread, not all at home
+
+
 def test_operating_model_names() -> None:
     assert operating_model(OpsConfig()) == REALISTIC
     assert operating_model(OpsConfig.paper_model()) == "paper"
