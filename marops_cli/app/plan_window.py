@@ -73,13 +73,10 @@ def plan_window(
     from ..io import folder_lock, output_set
     from ..io.ownership import check_outputs, register_inputs
     from ..io.tables import route_file_paths, with_meta, write_route_files
-    from ..sim.scenario import delivered_file
-
-    stops = None if delivered is None else delivered_file(delivered)
-    register_inputs([data, depots, fleet, stops, cfg.sim.policy])  # never an output
     from ..sim.days import DayScope
     from ..sim.fleet import Fleet
     from ..sim.scenario import (
+        delivered_file,
         delivered_orders,
         load_fleet,
         load_scenario,
@@ -89,6 +86,8 @@ def plan_window(
     )
     from .report import check_report
 
+    stops = None if delivered is None else delivered_file(delivered)
+    register_inputs([data, depots, fleet, stops, cfg.sim.policy])  # never an output
     check_format(fmt)
     check_report(report and out is not None)
     if out is not None:  # before any work: an input or a file marops did not write
@@ -98,7 +97,7 @@ def plan_window(
     )
     # Every input is checked before anything is said about the data (the drop report
     # comes after the plan): an error is the only line a failed run prints.
-    done = delivered_orders(delivered) if delivered is not None else None
+    done = delivered_orders(stops) if stops is not None else None
     table = read_data(data, cfg.data)
     scn = load_scenario(
         table.source.path,

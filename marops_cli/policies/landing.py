@@ -204,9 +204,13 @@ class LandingActor(EnergyAware):
         if w.size not in _FORMATS.values():
             raise ValueError(f"expected {JOINT_START.size} or {N_FEATURES} weights, got {w.size}")
         self.weight = w
-        self.joint = w.size == JOINT_START.size
         self.trained_for = trained_for
         self.path = path
+
+    @property
+    def joint(self) -> bool:
+        """Whether the drones decide together (16 weights) or one after another (12)."""
+        return self.weight.size == JOINT_START.size
 
     @property
     def identity(self) -> str | Path:
@@ -267,14 +271,15 @@ class LandingActor(EnergyAware):
         free: dict[int, float] = {}
         for i, (s, ok) in enumerate(zip(homes, oks, strict=True)):
             dests = dep.candidates[s]
-            for j in range(int(slots[dests[ok]].max())):
+            room = slots[dests[ok]]  # the slots of each reachable destination
+            for j in range(int(room.max())):
                 if (s, j) not in rows:
                     f = landing_features(view, depots, s, base + j)
                     rows[s, j] = f @ w
                     if j == 0:
                         extra = w_free @ (1.0, depots.time, f[0, 2], depots.density)
                         free[s] = rows[s, j][0] + extra - 1e-9  # ties go to a slot
-                for a in ok[j < slots[dests[ok]]]:  # ties to the lower action index
+                for a in ok[j < room]:  # ties to the lower action index
                     col = int(first[dests[a]]) + j
                     score[i, col] = max(score[i, col], rows[s, j][a] - 1e-9 * a)
             score[i, first[-1] + i] = free[s]
