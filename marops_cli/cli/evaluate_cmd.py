@@ -86,7 +86,8 @@ def evaluate_command(
         Path | None,
         typer.Option(
             "--policy",
-            help="Trained actor (.pt) for marops and squares [default: the shipped one].",
+            help="Trained actor for marops and squares (.pt, or a landing actor's "
+            ".safetensors) [default: the shipped one of the run's operating model].",
         ),
     ] = None,
     mappo_policy: Annotated[
