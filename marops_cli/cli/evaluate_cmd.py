@@ -199,8 +199,9 @@ def _print_paired(paired: pa.Table, summary: pa.Table, n_days: int) -> None:
     if not rows:
         return
     if n_days < MIN_DAYS:
+        backs = "day backs" if n_days == 1 else "days back"
         warn(
-            f"only {n_days} days back the paired comparison (fewer than {MIN_DAYS}): "
+            f"only {n_days} {backs} the paired comparison (fewer than {MIN_DAYS}): "
             "the intervals are wide and the verdicts fragile"
         )
     t = table(f"paired against {rows[0]['against']}: per-day difference, bootstrap 95 % CI")
