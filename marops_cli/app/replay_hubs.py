@@ -34,7 +34,8 @@ def replay_hubs(
     hub_list = load_hubs(hubs_path, cfg.data)
     table = read_data(data, cfg.data)
     check_days_in_file(table, days)
-    areas, skipped = [], []
+    areas = []
+    skipped: list[str] = []
     for a in hub_areas(table, cfg, hub_list, days):  # every hub-day checked before writing
         skipped += [
             f"hub {a.hub.id}: no requests on {day.isoformat()} in its square, skipped"
