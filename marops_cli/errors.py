@@ -4,6 +4,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
+_KEYED = frozenset({".toml", ".json"})
+"""File kinds whose places are keys: an error there names the key, not a column."""
+
 
 class MaropsError(Exception):
     """Base class: a failure the CLI reports as one line."""
@@ -40,9 +43,14 @@ class InputError(MaropsError):
         if self.row is not None:
             where.append(f"row {self.row}")
         if self.column is not None:
-            where.append(f"column '{self.column}'")
+            where.append(f"{self._column_word()} '{self.column}'")
         prefix = ", ".join(where)
         return f"{prefix}: {self.message}" if prefix else self.message
+
+    def _column_word(self) -> str:
+        """``key`` for a place in a TOML or JSON file (a table's key, not a column)."""
+        keyed = self.file is not None and Path(self.file).suffix.lower() in _KEYED
+        return "key" if keyed and self.row is None else "column"
 
 
 class SettingError(InputError):

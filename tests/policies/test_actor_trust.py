@@ -273,7 +273,7 @@ def test_a_config_file_cannot_grant_trust(tmp_path: Path) -> None:
 
     cfg = tmp_path / "planner.toml"
     cfg.write_text("[sim]\ntrust_actor = true\n", encoding="utf-8")
-    with pytest.raises(InputError, match=r"column 'sim.trust_actor': only the --trust-actor"):
+    with pytest.raises(InputError, match=r"key 'sim.trust_actor': only the --trust-actor"):
         load_config(cfg)
 
 

@@ -84,5 +84,5 @@ def test_a_sidecar_whose_obs_dim_is_not_its_versions_is_refused(
     args = ["replay-day", str(example_csv), "--date", "0811", "--method", "marops"]
     args += ["--policy", str(tmp_path / "actor.pt"), "--out", str(tmp_path / "out")]
     args += ["--config", str(example_csv.parent / "paper.toml")]
-    line = fails_cleanly(args, tmp_path, "actor.json", "column 'obs_dim'")
+    line = fails_cleanly(args, tmp_path, "actor.json", "key 'obs_dim'")
     assert "obs_dim 99 disagrees with obs_version 5" in line and "102 features" in line
