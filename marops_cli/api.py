@@ -322,7 +322,9 @@ def evaluate(
     config: str | Path | None = None,
 ) -> EvaluationResult:
     """``marops evaluate``: per-day results and their summary. Sweeps take "a,b,c"
-    strings (``drones="4,8"``)."""
+    strings (``drones="4,8"``). The replays run on ``workers`` processes, which import
+    the calling script as Python's multiprocessing does: in a script, call this under
+    ``if __name__ == "__main__":`` (or pass ``workers=1``)."""
     from .app.evaluate import EvaluateConfig, actor_paths, method_list, sweep_fields
     from .app.evaluate import evaluate as run
     from .app.inputs import in_memory, read_data

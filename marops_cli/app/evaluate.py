@@ -166,7 +166,8 @@ def default_methods(
 ) -> list[str]:
     """Every method this build can run (learned ones need an actor; ``trust``:
     ``cfg.sim.trust_actor``), but the references (stay, myopic), which are compared only
-    when asked for."""
+    when asked for. An actor given in ``actors`` must load: its methods are never
+    skipped."""
     from ..evaluate import check_methods
     from ..methods import METHODS, method
 
@@ -175,6 +176,8 @@ def default_methods(
         try:
             check_methods([m], actors, trust=trust, ops=ops)
         except InputError:
+            if method(m).policy in actors:  # --policy or --mappo-policy: a typo is an error
+                raise
             continue  # the default list skips what cannot run; a listed method errors
         if method(m).in_default_evaluation:
             chosen.append(m)

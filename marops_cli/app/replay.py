@@ -181,10 +181,12 @@ def _one_area(
     )
     for day in days:  # every day has requests to plan, before anything is said or written
         prepare_day(scn.table, scn.frame, day, cfg.data)
-    drop_report(progress, scn.table.report, data_name(data))
+    # The fleet file and the days already in ``out`` are checked before the drop report:
+    # an error is the only line a failed run prints.
     area = make_area(scn, out, days, several, fleet, run, depots_path)
+    drop_report(progress, scn.table.report, data_name(data))
     rows, tables = _replay_areas([area], run, progress)
-    return ReplayResult(rows[0], aggregate_days(rows[0]), tables, None, out)
+    return ReplayResult(rows[0], aggregate_days(rows[0]), tables, None, out, area.written)
 
 
 def _path(value: Any) -> Path | None:

@@ -53,13 +53,15 @@ class DayTables:
 @dataclass(frozen=True)
 class ReplayResult:
     """A replay: every (hub-)day's metrics record in order, their totals, the tables of
-    the days replayed (when kept) and, for a city, its coverage."""
+    the days replayed (when kept), for a city its coverage, and the files written."""
 
     days: list[dict[str, Any]]
     total: dict[str, Any]
     tables: list[DayTables] = field(default_factory=list)
     city: dict[str, Any] | None = None
     out: Path | None = None
+    files: list[Path] = field(default_factory=list)
+    """Every file this run wrote, in the order written (none for a day kept)."""
 
 
 @dataclass(frozen=True)
@@ -92,6 +94,8 @@ class Area:
     identity: dict[str, Any]
     keep: dict[dt.date, list[dict[str, Any]]]
     label: str = ""
+    written: list[Path] = field(default_factory=list)
+    """The files written into the area's folders so far."""
 
     def folder(self, day: dt.date) -> Path | None:
         if self.out is None:
@@ -202,10 +206,11 @@ def _collect(
                     a.out / "metrics.json",
                     {"meta": meta, "days": rows, "total": aggregate_days(rows)},
                 )
+            a.written.append(a.out / "metrics.json")
         if run.report and a.out is not None:
             from ..report import write_reports
 
-            write_reports(a.out, a.scn.depots)
+            a.written += write_reports(a.out, a.scn.depots)
         per_area.append(rows)
     return per_area, tables
 
@@ -271,8 +276,9 @@ def _replay_on_workers(
         if run.scheduler == "local"
         else f"the Dask scheduler at {run.scheduler}"
     )
-    progress.message(f"replay-day: {len(jobs)} days to replay on {where}")
-    progress.start(f"replay-day {run.method}", len(jobs), "days")
+    unit = "hub-days" if any(a.label for a in areas) else "days"
+    progress.message(f"replay-day: {len(jobs)} {unit} to replay on {where}")
+    progress.start(f"replay-day {run.method}", len(jobs), unit)
     try:
         with outcomes(work, jobs, run.workers, run.scheduler, "replay-day") as finished:
             for n, outcome in enumerate(finished, start=1):
@@ -304,14 +310,19 @@ def _finish_day(
     folder = area.folder(day)
     if folder is not None:
         with output_set() as files:
-            write_route_files(files, folder, out.stops, out.routes, meta, run.fmt, run.geojson)
+            paths = write_route_files(
+                files, folder, out.stops, out.routes, meta, run.fmt, run.geojson
+            )
             if out.png is not None:
                 files.write_bytes(folder / "routes.png", out.png)
+                paths.append(folder / "routes.png")
             if out.ops_png is not None:
                 files.write_bytes(folder / "operations.png", out.ops_png)
+                paths.append(folder / "operations.png")
             # metrics.json is renamed last: its presence means the day is complete.
             stamped = dict(meta, **run_meta(command="replay-day"), settings=area.identity)
             files.write_json(folder / "metrics.json", {"meta": stamped, "days": [out.metrics]})
+        area.written += [*paths, folder / "metrics.json"]
     if not run.keep_tables:
         return out.metrics, None
     tables = DayTables(

@@ -34,13 +34,13 @@ def replay_hubs(
     hub_list = load_hubs(hubs_path, cfg.data)
     table = read_data(data, cfg.data)
     check_days_in_file(table, days)
-    drop_report(progress, table.report, data_name(data))
     areas = []
+    skipped: list[str] = []
     for a in hub_areas(table, cfg, hub_list, days):  # every hub-day checked before writing
-        for day in a.skipped:
-            progress.message(
-                f"hub {a.hub.id}: no requests on {day.isoformat()} in its square, skipped"
-            )
+        skipped += [
+            f"hub {a.hub.id}: no requests on {day.isoformat()} in its square, skipped"
+            for day in a.skipped
+        ]
         if not a.days:
             continue
         scn = load_scenario(
@@ -53,7 +53,12 @@ def replay_hubs(
         )
         folder = out / f"hub-{a.hub.id}" if out is not None else None
         areas.append(make_area(scn, folder, a.days, several, fleet, run, None, f"hub {a.hub.id}: "))
+    # Said once every hub's fleet and folder passed: an error is a failed run's only line.
+    drop_report(progress, table.report, data_name(data))
+    for line in skipped:
+        progress.message(line)
     per_area, tables = replay_areas(areas, run, progress)
+    written = [f for a in areas for f in a.written]
     all_metrics = [m for rows in per_area for m in rows]
     city = city_coverage(table, days, all_metrics)
     total = aggregate_days(all_metrics)
@@ -65,16 +70,17 @@ def replay_hubs(
                 out / "metrics.json",
                 {"meta": meta, "city": city, "days": all_metrics, "total": total},
             )
+        written.append(out / "metrics.json")
         if run.report:  # the city's page; each hub's was written with its days
             from ..report import write_reports
 
-            write_reports(out, below=False)
+            written += write_reports(out, below=False)
     progress.message(
         f"city: {city['planned']:,} of {city['orders_due']:,} orders due planned in "
         f"{len(hub_list)} hubs ({100 * city['covered_share']:.1f} %), "
         f"{city['delivered']:,} delivered"
     )
-    return ReplayResult(all_metrics, total, tables, city, out)
+    return ReplayResult(all_metrics, total, tables, city, out, written)
 
 
 def city_coverage(table: Any, days: list[dt.date], metrics: list[dict[str, Any]]) -> dict[str, Any]:

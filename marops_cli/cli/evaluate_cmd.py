@@ -86,7 +86,8 @@ def evaluate_command(
         Path | None,
         typer.Option(
             "--policy",
-            help="Trained actor (.pt) for marops and squares [default: the shipped one].",
+            help="Trained actor for marops and squares (.pt, or a landing actor's "
+            ".safetensors) [default: the shipped one of the run's operating model].",
         ),
     ] = None,
     mappo_policy: Annotated[
@@ -198,8 +199,9 @@ def _print_paired(paired: pa.Table, summary: pa.Table, n_days: int) -> None:
     if not rows:
         return
     if n_days < MIN_DAYS:
+        backs = "day backs" if n_days == 1 else "days back"
         warn(
-            f"only {n_days} days back the paired comparison (fewer than {MIN_DAYS}): "
+            f"only {n_days} {backs} the paired comparison (fewer than {MIN_DAYS}): "
             "the intervals are wide and the verdicts fragile"
         )
     t = table(f"paired against {rows[0]['against']}: per-day difference, bootstrap 95 % CI")

@@ -62,8 +62,9 @@ Policy = Annotated[
     str | None,
     typer.Option(
         "--policy",
-        help="Flight-range policy: stay, random, greedy, global, or a trained actor "
-        "(torchscript:PATH or PATH.pt) [default: the method's own].",
+        help="Flight-range policy: stay, random, greedy, global, myopic, backlog, rebalance, "
+        "or a trained actor (PATH.pt, a landing actor's PATH.safetensors, or "
+        "torchscript:PATH) [default: the method's own].",
     ),
 ]
 TrustActor = Annotated[

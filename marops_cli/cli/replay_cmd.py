@@ -136,12 +136,24 @@ def replay_day_command(
         progress=Terminal(),
     )
     _print_metrics(res.days, hubs is not None)
-    if report:
-        info(f"wrote {out / 'report.html'} (docs/report.md)")
+    info(_wrote(out, res.files))
     if STATE["json"]:
-        doc = {"out": str(out), "metrics": str(out / "metrics.json"), "days": res.days}
+        doc = {"out": str(out), "files": [str(f) for f in res.files]}
+        doc.update({"metrics": str(out / "metrics.json"), "days": res.days})
         doc.update({"report": str(out / "report.html")} if report else {})
         emit_json({"command": "replay-day", **doc})
+
+
+def _wrote(out: Path, files: list[Path]) -> str:
+    """The closing line: the files written; for many, their count and folders."""
+    if not files:
+        return f"nothing written: {out} holds these days with these settings (--force replays)"
+    if len(files) <= 8:
+        return "wrote " + ", ".join(map(str, files))
+    folders = sorted({f.parent for f in files} - {out})
+    shown = folders if len(folders) <= 2 else [folders[0], "…", folders[-1]]
+    below = ", ".join(map(str, shown))
+    return f"wrote {len(files)} files: {out}/metrics.json and those in {below}"
 
 
 def _print_metrics(rows: list[dict[str, Any]], hubs: bool = False) -> None:

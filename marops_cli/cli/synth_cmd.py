@@ -50,6 +50,6 @@ def synth_command(
         fmt=fmt,
     )
     info(
-        f"wrote {res.path} ({res.table.num_rows:,} rows, {days} days from "
+        f"wrote {res.path} ({res.table.num_rows:,} rows, {days} day{'s' * (days != 1)} from "
         f"{res.start.isoformat()}, {shape} city)"
     )

@@ -144,7 +144,8 @@ def train_command(
         typer.Option(
             "--out",
             help="Actor to write: policies/NAME.pt, and beside it its weights "
-            "(.safetensors), sidecar (.json), curve (.curve.png) and checkpoint (.ckpt).",
+            "(.safetensors), sidecar (.json), curve (.curve.png) and checkpoint (.ckpt); "
+            "--algorithm es: NAME.safetensors, its sidecar and checkpoint.",
         ),
     ],
     days: Annotated[
@@ -164,6 +165,7 @@ def train_command(
             "--algorithm",
             help="ppo (the recurrent actor, paper) or es (the landing actor of an operating "
             "model; writes NAME.safetensors + .json) [default: ppo].",
+            show_default=False,
         ),
     ] = "ppo",
     energy_weight: Annotated[
@@ -172,6 +174,7 @@ def train_command(
             "--energy-weight",
             help="--algorithm es: cost of each share of energy per drone above the day's best "
             "rule's (docs/method.md §6.1) [default: 1.0].",
+            show_default=False,
         ),
     ] = 1.0,
     energy_slack: Annotated[
@@ -180,6 +183,7 @@ def train_command(
             "--energy-slack",
             help="--algorithm es: share of energy per drone above the day's best rule's that "
             "costs nothing; --energy-weight prices the rest (0..1) [default: 0.0].",
+            show_default=False,
         ),
     ] = 0.0,
     loss_weight: Annotated[
@@ -189,6 +193,7 @@ def train_command(
             help="--algorithm es: extra cost of each share of J above the day's best rule's, "
             "so that a day lost weighs more than a day won (docs/method.md §6.1) "
             "[default: 2.0].",
+            show_default=False,
         ),
     ] = 2.0,
     workers: Annotated[int, typer.Option("--workers", help="Rollout processes.")] = 2,
@@ -212,8 +217,8 @@ def train_command(
         str | None,
         typer.Option(
             "--alpha-range",
-            help="Episodes draw α from LOW-HIGH (the actor observes α) [0.1-0.9]; "
-            "'fixed': the --alpha only.",
+            help="Episodes draw α from LOW-HIGH (the actor observes α); 'fixed': the --alpha "
+            "only [default: 0.1-0.9].",
         ),
     ] = None,
     obs_version: Annotated[
@@ -222,6 +227,7 @@ def train_command(
             "--obs-version",
             help="Observation version of the flight-range actor: 4, or 5 (adds the drone's own "
             "type: payload, battery, speed; for mixed fleets) [default: 4].",
+            show_default=False,
         ),
     ] = 4,
     seed: Annotated[int, typer.Option("--seed", help="Training seed; same seed, same actor.")] = 0,
@@ -237,7 +243,8 @@ def train_command(
     config: o.Config = None,
     force: o.Force = False,
 ) -> None:
-    """Train the flight-range actor (MAPPO) on training days; write TorchScript + sidecar."""
+    """Train the flight-range actor (MAPPO), or the landing actor (--algorithm es), on
+    training days; write the actor and its sidecar."""
     from ..app.train import TrainSetup, actor_files
     from ..app.train import train as run_training
 

@@ -124,3 +124,44 @@ def test_out_under_a_file_is_one_line_up_front(
     args = [a.format(**values) for a in OUT_UNDER_A_FILE[name]]
     line = fails_cleanly(args, tmp_path, str(afile / "sub"), "is a file")
     assert "Errno" not in line
+
+
+def test_replay_day_ends_naming_the_files_it_wrote(example_csv: Path, tmp_path: Path) -> None:
+    """The closing line names every file written; a re-run that keeps its days says
+    so, and --json lists the same files."""
+    out, one = tmp_path / "o", tmp_path / "one"
+    common = ["replay-day", str(example_csv), "--method", "stay", "--workers", "1"]
+    args = [*common, "--dates", "0811..0812", "--out", str(out)]
+    res = runner.invoke(app, args)
+    assert res.exit_code == 0, res.output
+    last = res.stderr.strip().splitlines()[-1]
+    assert last.startswith("wrote ")
+    named = {Path(p) for p in last.removeprefix("wrote ").split(", ")}
+    on_disk = {p for p in out.rglob("*") if p.is_file() and not p.name.startswith(".")}
+    assert named == on_disk and len(named) == 7  # 2 days × stops, routes, metrics + totals
+    res = runner.invoke(app, [*args, "--json"])
+    assert res.exit_code == 0, res.output
+    assert json.loads(res.stdout)["files"] == [str(out / "metrics.json")]  # the days kept
+    res = runner.invoke(app, [*common, "--date", "0811", "--out", str(one)])
+    assert res.stderr.strip().splitlines()[-1] == "wrote " + ", ".join(
+        str(one / n) for n in ("stops.parquet", "routes.parquet", "metrics.json")
+    )
+    res = runner.invoke(app, [*common, "--date", "0811", "--out", str(one)])
+    assert res.stderr.strip().splitlines()[-1].startswith("nothing written:")
+
+
+def test_a_missing_fleet_file_is_the_only_line(
+    example_csv: Path, tmp_path: Path, fails_cleanly
+) -> None:
+    """The fleet file is checked before the drop report is said."""
+    args = ["replay-day", str(example_csv), "--date", "0811", "--fleet", str(tmp_path / "f.toml")]
+    fails_cleanly([*args, "--out", str(tmp_path / "o")], tmp_path, "f.toml", "not found")
+
+
+def test_an_actor_given_to_evaluate_must_load(
+    example_csv: Path, tmp_path: Path, fails_cleanly
+) -> None:
+    """A mistyped --policy stops the run, also when --methods is left to its default
+    (which skips only the methods this build cannot run)."""
+    args = ["evaluate", str(example_csv), "--dates", "0811", "--policy", str(tmp_path / "a.pt")]
+    fails_cleanly([*args, "--out", str(tmp_path / "o")], tmp_path, "a.pt", "--policy")

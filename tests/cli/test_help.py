@@ -65,6 +65,18 @@ def test_defaults_are_written_one_way() -> None:
         assert "[default: " in output, name
 
 
+def test_each_default_is_given_once() -> None:
+    """An option whose help text writes its default does not get typer's as well."""
+    import click
+
+    for name, cmd in _commands().items():
+        ctx = click.Context(cmd)
+        for param in cmd.params:
+            record = param.get_help_record(ctx)
+            if record is not None:
+                assert record[1].count("[default: ") <= 1, (name, param.opts, record[1])
+
+
 def test_usage_names_the_data_as_it_is_typed() -> None:
     for name in ("segment", "plan-window", "replay-day", "evaluate"):
         output = _flat(runner.invoke(app, [name, "--help"]).output)
