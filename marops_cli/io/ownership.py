@@ -140,12 +140,14 @@ def check_replaceable(paths: Iterable[Path]) -> None:
                 raise InputError("is a folder, expected a file name", file=final)
             # A pipe, a device or a dangling symlink is no file marops wrote, and reading
             # one to find out could block.
-            foreign = os.path.lexists(final) and (
-                not final.is_file() or not written_by_marops(final)
+            foreign = (
+                not _REPLACE_FOREIGN.get()
+                and os.path.lexists(final)
+                and (not final.is_file() or not written_by_marops(final))
             )
         except OSError as exc:  # a name too long, a loop of symbolic links
             raise InputError(f"cannot write ({_reason(exc)})", file=final) from None
-        if foreign and not _REPLACE_FOREIGN.get():
+        if foreign:
             raise InputError(
                 "exists and was not written by marops; pass --force to replace it", file=final
             )
