@@ -98,7 +98,7 @@ class DataConfig(_Stage):
 
         try:
             ZoneInfo(v)
-        except (ZoneInfoNotFoundError, ValueError):
+        except (ZoneInfoNotFoundError, ValueError, OSError):  # OSError: a name too long
             raise ValueError(
                 f"unknown time zone {v!r} (an IANA name, e.g. Asia/Shanghai)"
             ) from None
@@ -175,7 +175,7 @@ class EnergyConfig(_Stage):
 
     body_kg: float = Field(2.0, gt=0, le=500)
     battery_kg: float = Field(1.0, gt=0, le=500)
-    rotor_diameter_m: float = Field(0.5, gt=0, le=10)
+    rotor_diameter_m: float = Field(0.5, ge=0.01, le=10)
     rotors: int = Field(4, ge=1, le=32)
     speed_ms: float = Field(10.0, gt=0, le=100, description="ground speed = airspeed (no wind)")
     efficiency: float = Field(0.8, gt=0, le=1)
@@ -248,7 +248,7 @@ class PlanConfig(_Stage):
         description="order among equally delayed requests: nearest (nearer the drone's depot "
         "first, then earlier due) or due (the paper: earlier due first, then nearer)",
     )
-    alpha: float = Field(0.5, gt=0, le=1, description="trade-off weight: energy vs delay")
+    alpha: float = Field(0.5, ge=0.001, le=1, description="trade-off weight: energy vs delay")
     solver: Literal["highs", "cvxpy", "greedy"] = Field(
         "highs",
         description="plan selection: highs (the boolean program passed to HiGHS directly), "

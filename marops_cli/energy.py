@@ -121,7 +121,8 @@ class EnergyModel:
 
     def __init__(self, cfg: EnergyConfig | None = None) -> None:
         self.cfg = cfg or EnergyConfig()
-        n = int(math.ceil(self.cfg.max_payload_kg / self.cfg.table_step_kg - 1e-9))
+        # At least one step: a payload limit far below the step would otherwise make none.
+        n = max(1, int(math.ceil(self.cfg.max_payload_kg / self.cfg.table_step_kg - 1e-9)))
         self.grid_kg = np.linspace(0.0, self.cfg.max_payload_kg, n + 1)
         self.table_w = power_curve_w(self.grid_kg, self.cfg)
         self.table_j_per_m = self.table_w / self.cfg.speed_ms

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import gzip
 import json
+import os
 import pickle
 import sys
 from collections.abc import Callable
@@ -64,6 +65,11 @@ def _text(text: str) -> Callable[[Path], None]:
     return lambda p: p.write_text(text, encoding="utf-8")
 
 
+def _pipe(p: Path) -> None:
+    """A named pipe nobody writes to: opening it for reading would block for ever."""
+    os.mkfifo(p)
+
+
 GOOD_PQ = {
     "order_id": [str(i) for i in range(40)],
     "lng": [121.40 + 0.002 * i for i in range(40)],
@@ -113,6 +119,10 @@ DATA: dict[str, Callable[[Path], None]] = {
     "bool_lng.parquet": _parquet({**GOOD_PQ, "lng": [True] * 40}),
     "lng_twice.csv": _csv([HEADER + ",lng", *(r + ",0" for r in _rows())]),
     "all_nan_lng.csv": _csv([HEADER, *(row(i, lng="nan") for i in range(20))]),
+    "header_no_line_end.csv": _text(HEADER),
+    "order_id_lists.parquet": _parquet({**GOOD_PQ, "order_id": [[i] for i in range(40)]}),
+    "lng_beyond_2_53.parquet": _parquet({**GOOD_PQ, "lng": [2**62] * 40}),
+    "pipe.csv": _pipe,
     "latin1_city.csv": _bytes(
         (
             "\n".join([HEADER, *_rows()[:3], row(3).replace("Shanghai", "Sh\xe0ngh\xe0i")]) + "\n"
@@ -146,6 +156,12 @@ CONFIG: dict[str, Callable[[Path], None]] = {
     "bool_drones.toml": _text("[sim]\ndrones = true\n"),
     "text_year.toml": _text('[data]\nyear = "2022"\n'),
     "number_bound.toml": _text("[plan]\nbound = 1\n"),
+    # Inside the old ranges yet impossible: a delay price (1 - alpha)/alpha that overflows,
+    # a rotor disc whose area underflows to 0, a zone name too long to look up.
+    "alpha_1e-300.toml": _text("[plan]\nalpha = 1e-300\n"),
+    "rotor_1e-300.toml": _text("[energy]\nrotor_diameter_m = 1e-300\n"),
+    "tz_too_long.toml": _text('[data]\ntz = "' + "A" * 5000 + '"\n'),
+    "pipe.toml": _pipe,
 }
 FRAME = {"center_lng": 121.44, "center_lat": 31.22, "size_km": 10.0}
 DEPOT = {"id": 0, "x_m": 0.0, "y_m": 0.0, "lng": 121.44, "lat": 31.22, "n_history": 3}
@@ -204,6 +220,7 @@ DEPOTS: dict[str, Callable[[Path], None]] = {
             "candidates": {"0": [0, 1], "1": [1, 0]},
         }
     ),
+    "depots_pipe.json": _pipe,
     "text_position.json": _json(
         {"frame": FRAME, "depots": [{**DEPOT, "x_m": "12"}], "candidates": {"0": [0]}}
     ),
@@ -292,6 +309,7 @@ FLEET: dict[str, Callable[[Path], None]] = {
     "fleet_huge_int.toml": _text("[counts]\ndefault = " + "1" * 5000 + "\n"),
     "fleet_bool_battery.json": _json({"types": {"a": {"battery_j": True}}, "counts": {"a": 2}}),
     "fleet_drone_colour.json": _json({"drones": [{"depot": 1, "color": "red"}]}),
+    "fleet_pipe.json": _pipe,
 }
 # What the one line names besides the file: the key, row or column at fault (any of a
 # tuple: with a depots file, scattered data lie outside its study area).
@@ -301,6 +319,16 @@ NEEDLES: dict[str, str | tuple[str, ...]] = {
     "lng_twice.csv": "row 1, column 'lng'",
     "all_nan_lng.csv": "none of its 20 rows can be used (20 bad coordinates)",
     "latin1_city.csv": "row 5, column 'city'",
+    "header_no_line_end.csv": "row 2: the file has a header but no data rows",
+    "order_id_lists.parquet": "column 'order_id': expected a column of text",
+    "lng_beyond_2_53.parquet": "none of its 40 rows can be used (40 bad coordinates)",
+    "pipe.csv": "is not a regular file",
+    "alpha_1e-300.toml": "plan.alpha",
+    "rotor_1e-300.toml": "energy.rotor_diameter_m",
+    "tz_too_long.toml": "data.tz",
+    "pipe.toml": "gave nothing to read",
+    "depots_pipe.json": "gave nothing to read",
+    "fleet_pipe.json": "gave nothing to read",
     "payload_inf.toml": "energy.max_payload_kg",
     "window_1e-9.toml": "data.window_min",
     "battery_inf.toml": "energy.battery_j",

@@ -51,7 +51,12 @@ def test_a_json_number_is_finite(value: float) -> None:
 
 @pytest.mark.parametrize(
     ("flag", "value", "expected"),
-    [("--drones", "100000", "1 ≤ drones ≤ 1000"), ("--alpha", "inf", "0 < alpha ≤ 1")],
+    [
+        ("--drones", "100000", "1 ≤ drones ≤ 1000"),
+        ("--alpha", "inf", "0.001 ≤ alpha ≤ 1"),
+        # So small that the price of delay (1 − α)/α overflowed, and the day's J with it.
+        ("--alpha", "1e-300", "0.001 ≤ alpha ≤ 1"),
+    ],
 )
 def test_an_option_out_of_range_is_refused_up_front(
     example_csv: Path, tmp_path: Path, fails_cleanly, flag: str, value: str, expected: str

@@ -121,6 +121,14 @@ def test_payload_outside_table_raises(model):
         model.route_energy([(0, 0), (1, 1), (2, 2)], [0.5, 0.5])
 
 
+def test_a_payload_limit_below_the_table_step_has_one_step():
+    """A limit far below the table's step (inside its documented range) made a table of no
+    step and a division by zero; it is one step, from empty to the limit."""
+    tiny = EnergyModel(EnergyConfig(max_payload_kg=1e-300))
+    assert tiny.grid_kg.tolist() == [0.0, 1e-300]
+    assert np.isfinite(tiny.power_w(0.0))
+
+
 def test_parcel_drag_adds_power():
     base = EnergyModel(EnergyConfig())
     draggy = EnergyModel(EnergyConfig(parcel_cda_m2=0.02))

@@ -43,12 +43,6 @@ def synth(
     if fmt not in (None, "csv", "parquet"):
         raise InputError(f"--format expects csv or parquet, got {fmt!r}")
     first = start if isinstance(start, dt.date) else parse_day(start, 2022)
-    last = first + dt.timedelta(days=max(days, 1) - 1)
-    if last.year != first.year:  # LaDe's MM-DD times would run 12-31 into 01-01
-        raise InputError(
-            f"invalid option --days: {days} days from {first.isoformat()} run past the end of "
-            "its year, which LaDe's month-day times cannot tell apart"
-        )
     fields: dict[str, object] = {"days": days, "seed": seed, "start": first, "shape": shape}
     if orders_per_day is not None:
         fields["orders_per_day"] = orders_per_day
@@ -56,6 +50,12 @@ def synth(
         cfg = SynthConfig(**fields)  # type: ignore[arg-type]
     except ValidationError as exc:  # the flag (and keyword) that set it
         raise option_error(exc, SynthConfig, lambda name: name.replace("_", "-")) from None
+    last = first + dt.timedelta(days=cfg.days - 1)  # days within its range: a real date
+    if last.year != first.year:  # LaDe's MM-DD times would run 12-31 into 01-01
+        raise InputError(
+            f"invalid option --days: {days} days from {first.isoformat()} run past the end of "
+            "its year, which LaDe's month-day times cannot tell apart"
+        )
     if out is None:
         return Synthesized(generate(cfg), first, None)
     from ..io import output_set

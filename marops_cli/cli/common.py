@@ -5,6 +5,7 @@
 
 from __future__ import annotations
 
+import errno
 import functools
 import json
 import os
@@ -163,6 +164,7 @@ def show_table(t: Table, keys: int = 1) -> None:
 
 
 F = TypeVar("F", bound=Callable[..., Any])
+_BAD_PATH = (errno.ENAMETOOLONG, errno.ELOOP)
 
 
 def guarded(fn: F) -> F:
@@ -182,7 +184,8 @@ def guarded(fn: F) -> F:
             if STATE["debug"]:
                 raise
             typer.echo(f"marops: error: {exc}", err=True)
-            raise typer.Exit(1) from None
+            # A path the system cannot even look up is bad usage; other failures are the run's.
+            raise typer.Exit(2 if exc.errno in _BAD_PATH else 1) from None
         except KeyboardInterrupt as exc:  # Ctrl-C, or SIGTERM (Terminated)
             # A use case interrupted after some of its work was written says what it
             # keeps in the exception's notes (marops_cli/app/replay_areas.py).

@@ -43,7 +43,7 @@ Alpha = Annotated[
     typer.Option(
         "--alpha",
         envvar="MAROPS_ALPHA",
-        help="Trade-off weight in (0, 1]: higher saves energy, lower delay [default: 0.5].",
+        help="Trade-off weight in [0.001, 1]: higher saves energy, lower delay [default: 0.5].",
     ),
 ]
 Drones = Annotated[

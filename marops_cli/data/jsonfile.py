@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import json
 import math
+import os
+import stat
 from pathlib import Path
 from typing import Any
 
@@ -19,10 +21,22 @@ def read_small_text(path: str | Path, what: str) -> str:
     """The UTF-8 text of the small input ``path``: an :class:`InputError` naming it when it
     is larger than :data:`MAX_SMALL_FILE`; OS and decoding errors propagate."""
     p = Path(path)
-    with p.open("rb") as f:
+    # A named pipe nobody writes to would block a plain open for ever; opened without
+    # blocking, it reads as empty, while a pipe with a writer (``<(...)``) reads whole.
+    fd = os.open(p, os.O_RDONLY | os.O_NONBLOCK)
+    try:
+        regular = stat.S_ISREG(os.fstat(fd).st_mode)
+        os.set_blocking(fd, True)
+        f = os.fdopen(fd, "rb")  # a folder is refused here (IsADirectoryError)
+    except OSError:
+        os.close(fd)
+        raise
+    with f:
         data = f.read(MAX_SMALL_FILE + 1)
     if len(data) > MAX_SMALL_FILE:
         raise InputError(f"{what} is larger than {MAX_SMALL_FILE >> 20} MiB", file=p)
+    if not data and not regular:
+        raise InputError(f"{what} is a pipe or a device that gave nothing to read", file=p)
     return data.decode("utf-8")
 
 

@@ -29,6 +29,7 @@ import csv
 import hashlib
 import io
 import re
+import stat
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
@@ -45,6 +46,7 @@ from .dates import TIME_BAD, TIME_EMPTY, parse_ds, parse_times
 from .table import DROP_REASONS, REQUIRED_COLUMNS, DropReport, LadeTable, SourceInfo
 
 _OPTIONAL_COLUMNS = ("ds", "aoi_id", "weight_kg")
+_NUMBER_COLUMNS = ("lng", "lat", "weight_kg")
 # The column named when a row is dropped (in --strict errors), per reason.
 _REASON_COLUMN = {
     "duplicate": "order_id",
@@ -65,7 +67,17 @@ def sha256_file(path: str | Path, chunk: int = 4 << 20) -> str:
 def _sniff(path: Path) -> tuple[str, str | None]:
     """('csv' | 'parquet', compression) from the file's first bytes, else its suffix."""
     try:
-        size = path.stat().st_size
+        st = path.stat()
+        if stat.S_ISDIR(st.st_mode):
+            raise InputError("is a folder, expected a LaDe CSV or Parquet file", file=path)
+        if not stat.S_ISREG(st.st_mode):
+            # A pipe would block the open until a writer came, and is read once only.
+            raise InputError(
+                "is not a regular file (a pipe or a device): the data is read more than "
+                "once; give - to read it from standard input",
+                file=path,
+            )
+        size = st.st_size
         with open(path, "rb") as f:
             head = f.read(4096)
     except FileNotFoundError as exc:
@@ -124,7 +136,12 @@ def _csv_header(path: Path, compression: str | None) -> list[str]:
     line = text.splitlines()[0]
     if not line.strip():
         raise InputError("expected column names on the first line, found a blank", file=path, row=1)
-    return [name.strip() for name in next(csv.reader([line]))]
+    names = [name.strip() for name in next(csv.reader([line]))]
+    if len(head) < 1 << 20 and "\n" not in text and "\r" not in text:
+        # A header with no line end: pyarrow would fail on skipping it, with no hint why.
+        _check_columns(names, path)
+        raise InputError("the file has a header but no data rows", file=path, row=2)
+    return names
 
 
 def _check_columns(names: list[str], path: Path) -> list[str]:
@@ -230,7 +247,8 @@ def _numbers(column: pa.ChunkedArray) -> np.ndarray:
     """A column of numbers or numeric text -> float64, NaN where empty or not a number."""
     arr = column.combine_chunks()
     if not (pa.types.is_string(arr.type) or pa.types.is_large_string(arr.type)):
-        return arr.cast(pa.float64()).to_numpy(zero_copy_only=False)
+        # Unchecked: an integer beyond 2**53 (no coordinate) rounds, then reads as bad.
+        return arr.cast(pa.float64(), safe=False).to_numpy(zero_copy_only=False)
     try:  # fast path: a clean column casts at once
         values = arr.cast(pa.float64())
     except pa.ArrowInvalid:
@@ -241,26 +259,51 @@ def _numbers(column: pa.ChunkedArray) -> np.ndarray:
     return values.to_numpy(zero_copy_only=False)
 
 
-def _check_number_types(table: pa.Table, path: Path) -> None:
-    """Columns of numbers hold numbers or text (a Parquet file's booleans or dates in
-    ``lng`` would otherwise read as 0/1 or fail late)."""
-    for name in ("lng", "lat", "weight_kg"):
-        if name not in table.column_names:
-            continue
+def _check_column_types(table: pa.Table, path: Path) -> pa.Table:
+    """``table`` with each column checked for what its cells can be: numbers or text in
+    ``lng``, ``lat`` and ``weight_kg`` (a Parquet file's booleans or dates there would
+    otherwise read as 0/1 or fail late), and text, a number or a time in the others (a
+    list or a struct is no id or time). Binary columns (Parquet strings some writers
+    leave unannotated) become text, which must be UTF-8."""
+    for k, name in enumerate(table.column_names):
         t = table.schema.field(name).type
         if pa.types.is_dictionary(t):  # a categorical column: judged by its values
             t = t.value_type
-        if not (
+        numeric = (
             pa.types.is_integer(t)
             or pa.types.is_floating(t)
             or pa.types.is_decimal(t)
             or pa.types.is_string(t)
             or pa.types.is_large_string(t)
             or pa.types.is_null(t)
-        ):
+        )
+        binary = pa.types.is_binary(t) or pa.types.is_large_binary(t)
+        if name in _NUMBER_COLUMNS and not numeric:
             raise InputError(
                 f"expected a column of numbers, got a column of type {t}", file=path, column=name
             )
+        if not (numeric or binary or pa.types.is_timestamp(t) or pa.types.is_date(t)):
+            raise InputError(
+                f"expected a column of text, numbers or times, got a column of type {t}",
+                file=path,
+                column=name,
+            )
+        if binary:
+            table = table.set_column(k, name, _utf8(table[name], path, name))
+    return table
+
+
+def _utf8(column: pa.ChunkedArray, path: Path, name: str) -> pa.ChunkedArray:
+    """A binary column as text; the first cell that is not UTF-8 is an error."""
+    try:
+        return column.cast(pa.string())
+    except pa.ArrowInvalid:
+        for i, cell in enumerate(column.to_pylist()):  # the error path can afford a loop
+            try:
+                (cell or b"").decode("utf-8")
+            except UnicodeDecodeError:
+                raise InputError("not UTF-8 text", file=path, row=i + 2, column=name) from None
+        raise
 
 
 def _strings(column: pa.ChunkedArray) -> np.ndarray:
@@ -458,7 +501,7 @@ def _lade_table(
     """The kept rows of ``table`` (all columns read) and its drop report; ``where``
     names it in errors, ``source()`` is its identity."""
     path = Path(where)
-    _check_number_types(table, path)
+    table = _check_column_types(table, path)
     parsed = _check_errors(table, path, cfg)
     code, lng, lat = _drop_reasons(table, parsed)
     pa.default_memory_pool().release_unused()

@@ -73,7 +73,10 @@ def register_inputs(paths: Iterable[str | Path | None]) -> None:
 def check_not_input(final: Path) -> None:
     """Refuse an output that is one of the run's inputs: the same resolved path or the
     same file (an inode reached through a symlink, a hard link or ``..``)."""
-    target = Path(final).resolve()
+    try:
+        target = Path(final).resolve()
+    except RuntimeError:  # a symlink loop (Python 3.11 raises this, not OSError)
+        raise InputError("cannot write (a loop of symbolic links)", file=final) from None
     for inp in _RUN_INPUTS.get():
         same = inp.resolve() == target
         if not same and final.exists():
@@ -131,8 +134,20 @@ def check_replaceable(paths: Iterable[Path]) -> None:
     write (unless ``--force``)."""
     for final in paths:
         final = Path(final)
-        check_not_input(final)
-        if final.is_file() and not _REPLACE_FOREIGN.get() and not written_by_marops(final):
+        try:
+            check_not_input(final)
+            if final.is_dir():  # renaming a file onto it would fail after the work
+                raise InputError("is a folder, expected a file name", file=final)
+            # A pipe, a device or a dangling symlink is no file marops wrote, and reading
+            # one to find out could block.
+            foreign = (
+                not _REPLACE_FOREIGN.get()
+                and os.path.lexists(final)
+                and (not final.is_file() or not written_by_marops(final))
+            )
+        except OSError as exc:  # a name too long, a loop of symbolic links
+            raise InputError(f"cannot write ({_reason(exc)})", file=final) from None
+        if foreign:
             raise InputError(
                 "exists and was not written by marops; pass --force to replace it", file=final
             )

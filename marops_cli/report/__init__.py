@@ -8,6 +8,8 @@ from __future__ import annotations
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from ..data.jsonfile import first_line
+from ..errors import InputError
 from .folder import REPORT, is_evaluation, metrics, route_files, route_files_exist, sub_reports
 from .page import EXTRA, Page, require_plotly
 
@@ -58,7 +60,15 @@ def write_reports(folder: Path, depots: Depots | None = None, *, below: bool = T
 
     written = []
     for f in report_folders(folder, below=below):
-        page = report_page(f, depots)
+        try:
+            page = report_page(f, depots)
+        except (TypeError, ValueError, KeyError, AttributeError, IndexError) as exc:
+            # Files that read, but hold what no marops run writes (a column of another
+            # type, a key gone): edited since, or not marops's.
+            why = first_line(exc)
+            raise InputError(
+                f"holds outputs marops cannot report on, edited or not marops's ({why})", file=f
+            ) from exc
         if page is None:
             continue
         with output_set() as files:

@@ -125,6 +125,6 @@ class TrainConfig(BaseModel):
     @field_validator("alpha_range")
     @classmethod
     def _alpha_range(cls, v: tuple[float, float] | None) -> tuple[float, float] | None:
-        if v is not None and not 0 < v[0] <= v[1] <= 1:
-            raise ValueError("expected 0 < low <= high <= 1")
+        if v is not None and not 0.001 <= v[0] <= v[1] <= 1:
+            raise ValueError("expected 0.001 <= low <= high <= 1 (docs/config.md, plan.alpha)")
         return v

@@ -19,7 +19,7 @@ from ..data.frame import Frame
 from ..data.prepare import prepare_day
 from ..data.reader import read_lade
 from ..data.table import DayRequests, LadeTable
-from ..errors import InputError
+from ..errors import InputError, naming
 from ..io.meta import file_sha256
 from ..sim.scenario import load_scenario
 from .config import TrainConfig
@@ -91,7 +91,10 @@ def load_training_data(
     files: list[dict[str, Any]] = []
     for fi, path in enumerate(paths):
         table = read_lade(path, cfg.data)
-        train_dates, eval_dates = split_days(table.days(), train if fi == 0 else None)
+        try:
+            train_dates, eval_dates = split_days(table.days(), train if fi == 0 else None)
+        except InputError as exc:  # the days the file lacks: named with the file
+            raise naming(exc, path) from None
 
         for k, n in enumerate(depot_counts):
             c = override(cfg, segment__n_depots=n)

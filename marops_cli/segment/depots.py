@@ -118,7 +118,9 @@ class Depots:
     @classmethod
     def from_dict(cls, doc: dict[str, Any], source: str = "depots.json") -> Depots:
         try:
-            frame = Frame(**{k: float(v) for k, v in doc["frame"].items()})
+            frame = Frame(
+                **{k: json_number(v, source, f"frame.{k}") for k, v in doc["frame"].items()}
+            )
             listed = list(doc["depots"])
             ids = [d["id"] for d in listed]
             order = sorted(range(len(listed)), key=lambda i: int(listed[i]["id"]))
@@ -130,9 +132,22 @@ class Depots:
                 ],
                 dtype=np.float64,
             )
-            n_hist = np.array([int(d.get("n_history", 0)) for d in rows], dtype=np.int64)
+            n_hist = np.array(
+                [
+                    json_number(d.get("n_history", 0), source, f"depots[{i}].n_history", whole=True)
+                    for i, d in zip(order, rows, strict=True)
+                ],
+                dtype=np.int64,
+            )
+            # Ids as written: 3.9, "3" or true are no depot id (int() would make them one).
             cand = np.array(
-                [[int(c) for c in doc["candidates"][str(i)]] for i in range(len(rows))],
+                [
+                    [
+                        json_number(c, source, f"candidates.{i}", whole=True)
+                        for c in doc["candidates"][str(i)]
+                    ]
+                    for i in range(len(rows))
+                ],
                 dtype=np.int64,
             )
             method = str(doc.get("method", "kmeans"))

@@ -57,8 +57,10 @@ def test_synth_refuses_orders_per_day_out_of_range(
         (["--seed", "4294967296"], "invalid option --seed: "),
         (["--seed", "-1"], "invalid option --seed: "),
         (["--start", "2022-12-30", "--days", "3"], "run past the end of its year"),
+        # Beyond any calendar: the range is checked before the last day is computed.
+        (["--days", "100000000"], "(expected 1 ≤ days ≤ 366)"),
     ],
-    ids=["seed-big", "seed-negative", "new-year"],
+    ids=["seed-big", "seed-negative", "new-year", "days-beyond-calendar"],
 )
 def test_synth_refuses_seeds_and_spans_it_cannot_make(
     tmp_path: Path, fails_cleanly, args: list[str], says: str

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import gzip
 import hashlib
+import os
 from pathlib import Path
 
 import numpy as np
@@ -262,6 +263,26 @@ def test_empty_files(tmp_path: Path, text: str, msg: str) -> None:
     assert "empty.csv" in str(err.value)
 
 
+def test_header_without_a_line_end_has_no_data_rows(tmp_path: Path) -> None:
+    """The header alone with no newline is the header-only file, not a parser failure."""
+    path = tmp_path / "h.csv"
+    path.write_text(",".join(LADE_COLUMNS))
+    with pytest.raises(InputError, match=r"h.csv, row 2: the file has a header but no data rows"):
+        read_lade(path, DataConfig())
+    path.write_text("hello,world")  # one line that is no LaDe header: named as such
+    with pytest.raises(InputError, match="missing required column 'order_id'"):
+        read_lade(path, DataConfig())
+
+
+def test_a_pipe_is_refused_without_blocking(tmp_path: Path) -> None:
+    """A named pipe nobody writes to would block the open for ever: refused unopened,
+    pointing at ``-`` (standard input)."""
+    fifo = tmp_path / "lade.csv"
+    os.mkfifo(fifo)
+    with pytest.raises(InputError, match=r"lade.csv: is not a regular file .* give - "):
+        read_lade(fifo, DataConfig())
+
+
 def test_missing_file(tmp_path: Path) -> None:
     with pytest.raises(InputError, match="nothere.csv.*not found"):
         read_lade(tmp_path / "nothere.csv", DataConfig())
@@ -313,6 +334,46 @@ def test_a_parquet_column_of_numbers_holds_numbers_or_text(tmp_path: Path) -> No
     pq.write_table(t.set_column(i, "lng", flags), tmp_path / "flags.parquet")
     with pytest.raises(InputError, match=r"flags.parquet, column 'lng': .* type bool"):
         read_lade(tmp_path / "flags.parquet", DataConfig())
+
+
+@pytest.mark.parametrize(
+    ("column", "values", "expect"),
+    [
+        ("order_id", lambda n: [[i] for i in range(n)], r"column 'order_id': .* type list"),
+        ("aoi_id", lambda n: [{"a": i} for i in range(n)], r"column 'aoi_id': .* type struct"),
+        ("ds", lambda n: [[820]] * n, r"column 'ds': .* type list"),
+        ("accept_time", lambda n: [["08-20 08:00:00"]] * n, r"column 'accept_time': .* list"),
+        ("order_id", lambda n: [True] * n, r"column 'order_id': .* type bool"),
+        ("order_id", lambda n: [b"1", b"\xff2", b"3"][:n], r"row 3, column 'order_id': not UTF-8"),
+    ],
+)
+def test_a_parquet_column_of_ids_or_times_holds_text_numbers_or_times(
+    tmp_path: Path, column: str, values, expect: str
+) -> None:
+    """A list, a struct or a boolean is no id, day or time: one line naming the column,
+    not a failed cast; binary text (Parquet without the UTF-8 annotation) must be UTF-8."""
+    t = pq.read_table(_as_parquet(tmp_path, "d.parquet"))
+    i = t.schema.get_field_index(column)
+    pq.write_table(t.set_column(i, column, pa.array(values(t.num_rows))), tmp_path / "x.parquet")
+    with pytest.raises(InputError, match=expect):
+        read_lade(tmp_path / "x.parquet", DataConfig())
+
+
+def test_parquet_binary_text_and_huge_integers(tmp_path: Path) -> None:
+    """Unannotated binary ids read as their text; integers beyond 2**53 in ``lng`` are
+    no coordinates (dropped), not a failed cast."""
+    path = _as_parquet(tmp_path, "d.parquet")
+    t = pq.read_table(path)
+    i = t.schema.get_field_index("order_id")
+    ids = t["order_id"].cast(pa.string()).cast(pa.binary())
+    pq.write_table(t.set_column(i, "order_id", ids), tmp_path / "bin.parquet")
+    got = read_lade(tmp_path / "bin.parquet", DataConfig())
+    np.testing.assert_array_equal(got.order_id, read_lade(path, DataConfig()).order_id)
+    j = t.schema.get_field_index("lng")
+    huge = pa.array([2**62, 2**63 - 1, 121], pa.int64())
+    pq.write_table(t.set_column(j, "lng", huge), tmp_path / "huge.parquet")
+    got = read_lade(tmp_path / "huge.parquet", DataConfig())
+    assert got.report.dropped["bad_coordinates"] == 2 and got.report.kept == 1
 
 
 def test_gzip_csv(tmp_path: Path) -> None:

@@ -133,3 +133,58 @@ def test_a_broken_journal_makes_nothing_marops_s(tmp_path: Path) -> None:
     for text in ("[1, 2]", "not json", '{"format": "marops-files/1", "files": []}'):
         (tmp_path / JOURNAL).write_text(text)
         assert not written_by_marops(fig)
+
+
+@pytest.mark.parametrize("kind", ["pipe", "dangling symlink"])
+def test_an_entry_that_is_no_regular_file_is_never_marops_s(tmp_path: Path, kind: str) -> None:
+    """A pipe or a dangling symlink where an output goes is someone else's: refused
+    without --force, and judged without opening it (a pipe would block the read)."""
+    target = tmp_path / "stops.parquet"
+    if kind == "pipe":
+        os.mkfifo(target)
+    else:
+        target.symlink_to(tmp_path / "nowhere")
+    with pytest.raises(InputError, match="stops.parquet: exists and was not written by marops"):
+        check_replaceable([target])
+    with replacing_foreign_files(True):
+        check_replaceable([target])
+    assert os.path.lexists(target)
+
+
+def test_a_folder_or_a_loop_where_a_file_goes_is_refused_before_the_work(tmp_path: Path) -> None:
+    """A folder named like the output would fail the final rename after the work; a
+    loop of symbolic links would fail with a traceback: both are one line up front."""
+    (tmp_path / "stops.parquet").mkdir()
+    with replacing_foreign_files(True), pytest.raises(InputError, match="is a folder"):
+        check_replaceable([tmp_path / "stops.parquet"])
+    (tmp_path / "a").symlink_to(tmp_path / "b")
+    (tmp_path / "b").symlink_to(tmp_path / "a")
+    with pytest.raises(InputError, match="a/stops.parquet: cannot write"):
+        check_replaceable([tmp_path / "a" / "stops.parquet"])
+    with pytest.raises(InputError, match="cannot write .File name too long"):
+        check_replaceable([tmp_path / ("x" * 300)])
+
+
+def test_a_path_too_long_to_look_up_is_bad_usage(tmp_path: Path) -> None:
+    res = marops("segment", tmp_path / ("x" * 300 + ".csv"), "--out", tmp_path / "d.json")
+    assert res.returncode == 2
+    assert "File name too long" in one_line(res.stderr)
+
+
+def test_a_small_input_that_is_a_pipe_never_blocks(tmp_path: Path) -> None:
+    """A config, depots or fleet file that is a named pipe nobody writes to reads as
+    nothing (one line), where a plain open would wait for ever; one with a writer reads."""
+    from marops_cli.config import load_config
+    from marops_cli.data.jsonfile import read_small_text
+
+    pipe = tmp_path / "planner.toml"
+    os.mkfifo(pipe)
+    with pytest.raises(InputError, match="planner.toml: config is a pipe .* nothing to read"):
+        load_config(pipe)
+    r, w = os.pipe()
+    os.write(w, b"[sim]\ndrones = 3\n")
+    os.close(w)
+    try:
+        assert read_small_text(f"/proc/self/fd/{r}", "config") == "[sim]\ndrones = 3\n"
+    finally:
+        os.close(r)

@@ -131,6 +131,25 @@ def test_marops_report_on_a_damaged_output_is_one_line(
     assert (copy / "report.html").read_bytes() == page
 
 
+def test_marops_report_on_an_edited_column_is_one_line(day_run: Path, tmp_path: Path) -> None:
+    """Route files that read but hold what no run writes (times replaced by numbers) are
+    one line naming the folder, not a traceback; the page is left as it was."""
+    import pyarrow as pa
+
+    copy = tmp_path / "copy"
+    shutil.copytree(day_run, copy)
+    routes = pq.read_table(copy / "routes.parquet")
+    i = routes.schema.get_field_index("window_start")
+    edited = routes.set_column(i, "window_start", pa.array([0.5] * routes.num_rows))
+    pq.write_table(edited.replace_schema_metadata(routes.schema.metadata), copy / "routes.parquet")
+    page = (copy / "report.html").read_bytes()
+    res = runner.invoke(app, ["report", str(copy), "--force"])
+    lines = res.output.strip().splitlines()
+    assert res.exit_code == 2 and len(lines) == 1, res.output
+    assert f"{copy}: holds outputs marops cannot report on" in lines[0]
+    assert (copy / "report.html").read_bytes() == page
+
+
 def test_without_plotly_report_is_one_line_naming_the_extra(
     example_csv: Path, day_run: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:

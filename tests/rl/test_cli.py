@@ -109,6 +109,15 @@ def test_train_rejects_bad_options(tiny_csv: Path, tmp_path: Path) -> None:
     assert res.exit_code != 0 and "method" in res.output
 
 
+def test_train_days_the_file_lacks_name_the_file(
+    tiny_csv: Path, tmp_path: Path, fails_cleanly
+) -> None:
+    args = ["train", str(tiny_csv), "--episodes", "1", "--workers", "1", "--dates", "0901..0902"]
+    line = fails_cleanly([*args, "--out", str(tmp_path / "a.pt")], tmp_path)
+    days = "2022-09-01, 2022-09-02"
+    assert line == f"marops: error: {tiny_csv}: training days not in the file: {days}"
+
+
 @pytest.mark.parametrize("seed", ["-1", "4294967296", "99999999999999999999"])
 def test_train_refuses_a_seed_out_of_range(
     tiny_csv: Path, tmp_path: Path, fails_cleanly, seed: str

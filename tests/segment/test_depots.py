@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 
 import numpy as np
 import pytest
@@ -120,6 +121,29 @@ def test_bad_depots_file(tmp_path) -> None:
     p.write_text(json.dumps({"frame": {}, "depots": []}))
     with pytest.raises(InputError, match="not a marops depots file"):
         Depots.load(p)
+
+
+@pytest.mark.parametrize(
+    ("edit", "key", "got"),
+    [
+        (lambda d: d["candidates"]["1"].__setitem__(1, 0.9), "candidates.1", "0.9"),
+        (lambda d: d["candidates"]["1"].__setitem__(1, "0"), "candidates.1", "'0'"),
+        (lambda d: d["candidates"]["1"].__setitem__(1, False), "candidates.1", "False"),
+        (lambda d: d["frame"].__setitem__("size_km", "10"), "frame.size_km", "'10'"),
+        (lambda d: d["depots"][2].__setitem__("n_history", 2.5), "depots[2].n_history", "2.5"),
+    ],
+    ids=["fraction-id", "text-id", "switch-id", "text-size", "fraction-count"],
+)
+def test_a_depots_file_s_ids_and_numbers_are_never_converted(tmp_path, edit, key, got) -> None:
+    """A candidate 0.9, "0" or false became depot 0 (int() truncates), a size "10" became
+    10 km: each is one line naming the key, as docs/config.md says of every number."""
+    xy = np.array([[0.0, 0.0], [2000.0, 0.0], [0.0, 3000.0]])
+    doc = Depots("kmeans", FRAME, xy, np.array([5, 6, 7]), nearest_candidates(xy, 2)).to_dict({})
+    edit(doc)
+    path = tmp_path / "depots.json"
+    path.write_text(json.dumps(doc))
+    with pytest.raises(InputError, match=rf"column '{re.escape(key)}': expected a .*, got {got}"):
+        Depots.load(path)
 
 
 # Areas (m²) of the example's 16 service areas (README's `segment --dates 0801..0810`)
