@@ -142,7 +142,7 @@ def test_a_depots_file_s_ids_and_numbers_are_never_converted(tmp_path, edit, key
     edit(doc)
     path = tmp_path / "depots.json"
     path.write_text(json.dumps(doc))
-    with pytest.raises(InputError, match=rf"column '{re.escape(key)}': expected a .*, got {got}"):
+    with pytest.raises(InputError, match=rf"key '{re.escape(key)}': expected a .*, got {got}"):
         Depots.load(path)
 
 
