@@ -453,7 +453,7 @@ def option_error(
     err = exc.errors()[0]
     name = str(err["loc"][0])
     opt = flag(name)
-    msg = f"invalid option --{opt}: {err['msg']}"
+    msg = f"invalid option --{opt}: {str(err['msg']).removeprefix('Value error, ')}"
     field = model.model_fields.get(name)
     rng = field_range(field) if field is not None else None
     if rng is not None and "input" in err:  # as the planner's options say theirs

@@ -298,6 +298,7 @@ _FLAGS = {
     "es_energy_weight": "energy-weight",
     "es_energy_slack": "energy-slack",
     "es_loss_weight": "loss-weight",
+    "eval_days_per_scenario": "eval-days",
 }
 """The flag of a training setting whose name differs from it."""
 
@@ -309,7 +310,12 @@ def _train_config(**fields: Any) -> TrainConfig:
     try:
         return TrainConfig(**fields)
     except ValidationError as exc:
-        raise option_error(exc, TrainConfig, lambda name: _FLAGS.get(name, name)) from None
+        raise option_error(exc, TrainConfig, _flag) from None
+
+
+def _flag(name: str) -> str:
+    """The flag (without ``--``) of the training setting ``name``."""
+    return _FLAGS.get(name, name.replace("_", "-"))
 
 
 def _print_heldout(heldout: dict[str, Any]) -> None:

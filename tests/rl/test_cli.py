@@ -142,3 +142,22 @@ def test_training_log_gives_the_time_left(monkeypatch) -> None:
     rep.message(Note("training on 8 days, held out 2; starting at episode 0 of 100", **start))
     rep.start("episodes", 100, "episodes")
     assert rep.eta_s(10) == pytest.approx(540.0)
+
+
+@pytest.mark.parametrize(
+    ("args", "line"),
+    [
+        (["--obs-version", "7"], "invalid option --obs-version: Input should be 4 or 5"),
+        (["--eval-days", "-1"], "invalid option --eval-days: "),
+        (["--alpha-range", "0.5-0.2"], "invalid option --alpha-range: expected 0.001 <= low"),
+        (["--energy-slack", "2"], "invalid option --energy-slack: "),
+    ],
+)
+def test_a_bad_training_flag_is_named_as_typed(
+    tiny_csv: Path, tmp_path: Path, args: list[str], line: str
+) -> None:
+    res = runner.invoke(app, ["train", str(tiny_csv), "--out", str(tmp_path / "a.pt"), *args])
+    assert res.exit_code == 2
+    assert res.stderr.count("\n") == 1 and res.stderr.startswith(f"marops: error: {line}")
+    assert "_" not in res.stderr.split(":")[2]  # the flag as typed, not the setting's name
+    assert not list(tmp_path.iterdir())
