@@ -64,7 +64,7 @@ def history_days(days: str | list[dt.date] | None, year: int) -> list[dt.date] |
     from ..data.dates import parse_days
 
     if isinstance(days, str):
-        return parse_days(days, year) if days else None
+        return parse_days(days, year, "--dates") if days else None
     return list(days) if days else None
 
 

@@ -42,7 +42,7 @@ def synth(
 
     if fmt not in (None, "csv", "parquet"):
         raise InputError(f"--format expects csv or parquet, got {fmt!r}")
-    first = start if isinstance(start, dt.date) else parse_day(start, 2022)
+    first = start if isinstance(start, dt.date) else parse_day(start, 2022, "--start")
     fields: dict[str, object] = {"days": days, "seed": seed, "start": first, "shape": shape}
     if orders_per_day is not None:
         fields["orders_per_day"] = orders_per_day

@@ -137,7 +137,7 @@ def evaluate_command(
     cfg = planner_config(config, year=year, strict=strict, seed=seed, trust_actor=trust_actor)
     hub_list = _hubs(hubs, cfg)
     sweep = sweep_fields(alpha, drones, coverage, n_depots)
-    days = parse_days(dates, cfg.data.year) if dates else None
+    days = parse_days(dates, cfg.data.year, "--dates") if dates else None
     if days and split:
         raise InputError("give at most one of --dates or --split")
     run = EvaluateConfig(

@@ -97,7 +97,7 @@ def plan_window_command(
         policy=policy,
         trust_actor=trust_actor,
     )
-    day = parse_day(date, cfg.data.year)
+    day = parse_day(date, cfg.data.year, "--date")
     res = plan(
         data,
         cfg,

@@ -121,7 +121,11 @@ def replay_day_command(
         policy=policy,
         trust_actor=trust_actor,
     )
-    days = [parse_day(date, cfg.data.year)] if date else parse_days(dates or "", cfg.data.year)
+    days = (
+        [parse_day(date, cfg.data.year, "--date")]
+        if date
+        else parse_days(dates or "", cfg.data.year, "--dates")
+    )
     res = replay_days(
         data,
         cfg,

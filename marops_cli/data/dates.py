@@ -34,11 +34,11 @@ _EXPECTED_DAY = "expected a date like 820, 0820 or 2022-08-20"
 TIME_OK, TIME_EMPTY, TIME_BAD = 0, 1, 2
 
 
-def parse_day(text: str, year: int) -> dt.date:
+def parse_day(text: str, year: int, option: str | None = None) -> dt.date:
     """``"820"``, ``"0820"``, ``"08-20"``, ``"20220820"`` or ``"2022-08-20"`` -> a date.
 
     Forms without a year take ``year``. Raises :class:`InputError` naming the
-    value when it is not a valid date.
+    value (and the ``option`` that gave it, e.g. ``--date``) when it is not a valid date.
     """
     s = str(text).strip()
     for pattern, has_year in _DAY_FORMS:
@@ -51,7 +51,12 @@ def parse_day(text: str, year: int) -> dt.date:
             return dt.date(y, parts[0], parts[1])
         except ValueError:
             break
-    raise InputError(f"{_EXPECTED_DAY}, got {text!r}{_range_hint(s, year)}")
+    raise _bad(f"{_EXPECTED_DAY}, got {text!r}{_range_hint(s, year)}", option)
+
+
+def _bad(message: str, option: str | None) -> InputError:
+    """The error of a bad date, naming the option that gave it when there is one."""
+    return InputError(f"invalid option {option}: {message}" if option else message)
 
 
 def _range_hint(text: str, year: int) -> str:
@@ -69,21 +74,22 @@ def _range_hint(text: str, year: int) -> str:
     return ""
 
 
-def parse_days(spec: str, year: int) -> list[dt.date]:
+def parse_days(spec: str, year: int, option: str | None = None) -> list[dt.date]:
     """``"0820,0821"`` or ``"0820..0827"`` (inclusive), mixed freely -> dates.
 
-    Dates keep the order given; a repeated date is listed once.
+    Dates keep the order given; a repeated date is listed once. Errors name ``option``
+    (e.g. ``--dates``) when given.
     """
     days: list[dt.date] = []
     for item in str(spec).split(","):
         item = item.strip()
         if not item:
-            raise InputError(f"{_EXPECTED_DAY} in the list of days, got {spec!r}")
+            raise _bad(f"{_EXPECTED_DAY} in the list of days, got {spec!r}", option)
         first, sep, last = item.partition("..")
-        start = parse_day(first, year)
-        end = parse_day(last, year) if sep else start
+        start = parse_day(first, year, option)
+        end = parse_day(last, year, option) if sep else start
         if end < start:
-            raise InputError(f"expected a range from an earlier to a later date, got {item!r}")
+            raise _bad(f"expected a range from an earlier to a later date, got {item!r}", option)
         days.extend(start + dt.timedelta(days=i) for i in range((end - start).days + 1))
     return list(dict.fromkeys(days))
 

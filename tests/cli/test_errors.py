@@ -167,7 +167,7 @@ def test_bad_training_lists(example_csv: Path, tmp_path: Path, fails_cleanly) ->
     fails_cleanly([*base, "--drones", "8,x"], tmp_path, "--drones", "8,x")
     fails_cleanly([*base, "--n-depots", "0"], tmp_path, "--n-depots")
     fails_cleanly([*base, "--alpha-range", "low-high"], tmp_path, "--alpha-range")
-    fails_cleanly([*base, "--alpha-range", "0.9-0.1"], tmp_path, "alpha_range")
+    fails_cleanly([*base, "--alpha-range", "0.9-0.1"], tmp_path, "--alpha-range")
     es = ["train", str(example_csv), "--algorithm", "es", "--out", str(tmp_path / "a.safetensors")]
     fails_cleanly([*es, "--energy-slack", "-0.01"], tmp_path, "--energy-slack")
     fails_cleanly([*es, "--energy-slack", "2"], tmp_path, "--energy-slack")

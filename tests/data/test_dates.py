@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import datetime as dt
+from pathlib import Path
 
 import numpy as np
 import pyarrow as pa
@@ -62,8 +63,22 @@ def test_parse_days_list_and_range() -> None:
 
 @pytest.mark.parametrize("spec", ["0827..0820", "0820,,0821", "", "0820..x"])
 def test_parse_days_bad(spec: str) -> None:
-    with pytest.raises(InputError):
+    with pytest.raises(InputError) as err:
         parse_days(spec, 2022)
+    assert not str(err.value).startswith("invalid option")
+    with pytest.raises(InputError, match=r"^invalid option --dates: expected a"):
+        parse_days(spec, 2022, "--dates")  # the option that gave it, as the commands name it
+
+
+def test_cli_names_the_date_option(example_csv: Path, tmp_path: Path) -> None:
+    from typer.testing import CliRunner
+
+    from marops_cli.cli.app import app
+
+    args = ["replay-day", str(example_csv), "--date", "13", "--out", str(tmp_path / "o")]
+    res = CliRunner().invoke(app, args)
+    assert res.exit_code == 2 and not (tmp_path / "o").exists()
+    assert res.stderr.startswith("marops: error: invalid option --date: expected a date like")
 
 
 def test_format_days() -> None:
