@@ -139,3 +139,13 @@ def test_an_endless_or_huge_small_input_is_refused_before_it_fills_memory(
     small = tmp_path / "small.toml"
     small.write_text("[sim]\ndrones=3\n")  # 15 bytes: within the cap, read
     assert load_config(small).sim.drones == 3
+
+
+def test_a_config_with_a_byte_order_mark_loads_as_without(tmp_path: Path) -> None:
+    # Some editors start a UTF-8 file with a byte-order mark; TOML itself refuses one.
+    plain = tmp_path / "plain.toml"
+    plain.write_text("[plan]\nalpha = 0.3\n", encoding="utf-8")
+    marked = tmp_path / "marked.toml"
+    marked.write_bytes(b"\xef\xbb\xbf" + plain.read_bytes())
+    assert load_config(marked) == load_config(plain)
+    assert load_config(marked).plan.alpha == 0.3

@@ -18,8 +18,9 @@ it fills the memory."""
 
 
 def read_small_text(path: str | Path, what: str) -> str:
-    """The UTF-8 text of the small input ``path``: an :class:`InputError` naming it when it
-    is larger than :data:`MAX_SMALL_FILE`; OS and decoding errors propagate."""
+    """The UTF-8 text of the small input ``path`` (a leading byte-order mark dropped, as
+    some editors write one): an :class:`InputError` naming it when it is larger than
+    :data:`MAX_SMALL_FILE`; OS and decoding errors propagate."""
     p = Path(path)
     # A named pipe nobody writes to would block a plain open for ever; opened without
     # blocking, it reads as empty, while a pipe with a writer (``<(...)``) reads whole.
@@ -37,7 +38,7 @@ def read_small_text(path: str | Path, what: str) -> str:
         raise InputError(f"{what} is larger than {MAX_SMALL_FILE >> 20} MiB", file=p)
     if not data and not regular:
         raise InputError(f"{what} is a pipe or a device that gave nothing to read", file=p)
-    return data.decode("utf-8")
+    return data.decode("utf-8-sig")
 
 
 def parse_json(text: str | bytes) -> Any:
