@@ -117,6 +117,7 @@ class Depots:
 
     @classmethod
     def from_dict(cls, doc: dict[str, Any], source: str = "depots.json") -> Depots:
+        _known_keys(doc, source)
         try:
             frame = Frame(
                 **{k: json_number(v, source, f"frame.{k}") for k, v in doc["frame"].items()}
@@ -199,3 +200,27 @@ class Depots:
         from ..data.jsonfile import read_json
 
         return cls.from_dict(read_json(path, "depots file"), source=str(path))
+
+
+_KEYS = frozenset({"meta", "method", "frame", "depots", "candidates"})
+_DEPOT_KEYS = frozenset({"id", "x_m", "y_m", "lng", "lat", "n_history"})
+"""The keys of a depots file and of each of its depots (:meth:`Depots.to_dict`)."""
+
+
+def _known_keys(doc: Any, source: str) -> None:
+    """Refuse a key no depots file has (docs/config.md: an unknown key stops the run), at
+    the top or in a depot: a typo such as ``x-m`` must not read as a missing value."""
+    if not isinstance(doc, dict):
+        return  # from_dict's own checks name what is wrong
+    extra = sorted(set(doc) - _KEYS)
+    if extra:
+        raise InputError(f"unknown key {extra[0]!r} in a depots file", file=source, column=extra[0])
+    listed = doc.get("depots")
+    for i, d in enumerate(listed if isinstance(listed, list) else []):
+        extra = sorted(set(d) - _DEPOT_KEYS) if isinstance(d, dict) else []
+        if extra:
+            raise InputError(
+                f"unknown key {extra[0]!r} in a depot",
+                file=source,
+                column=f"depots[{i}].{extra[0]}",
+            )

@@ -173,3 +173,24 @@ def test_one_depot_holds_the_square() -> None:
     dep = Depots("kmeans", FRAME, xy, np.zeros(1, dtype=int), nearest_candidates(xy, 1))
     (poly,) = area_polygons(dep)
     assert_allclose(_poly_area(poly), 10_000.0**2, rtol=1e-12)
+
+
+@pytest.mark.parametrize(
+    ("edit", "key"),
+    [
+        (lambda d: d.__setitem__("note", "by hand"), "'note'"),
+        (lambda d: d["depots"][1].__setitem__("x-m", 5.0), r"'depots\[1\]\.x-m'"),
+    ],
+    ids=["top", "depot"],
+)
+def test_a_depots_file_s_unknown_key_is_refused(tmp_path, edit, key) -> None:
+    """docs/config.md: an unknown key stops the run (a typo must not read as absent)."""
+    xy = np.array([[0.0, 0.0], [2000.0, 0.0], [0.0, 3000.0]])
+    doc = Depots("kmeans", FRAME, xy, np.array([5, 6, 7]), nearest_candidates(xy, 2)).to_dict({})
+    path = tmp_path / "depots.json"
+    path.write_text(json.dumps(doc))
+    assert len(Depots.load(path)) == 3  # as written, it loads
+    edit(doc)
+    path.write_text(json.dumps(doc))
+    with pytest.raises(InputError, match=rf"depots\.json, key {key}: unknown key"):
+        Depots.load(path)
