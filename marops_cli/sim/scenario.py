@@ -213,12 +213,25 @@ def delivered_orders(path: str | Path) -> set[str]:
     """Order ids already delivered according to an earlier stops Parquet file (or the
     ``stops.parquet`` of an output folder)."""
     p = delivered_file(path)
+    if p.exists() and not p.is_file():  # a pipe or a device: no stops file
+        raise InputError("not a marops stops file (not a regular file)", file=p)
     try:
         table = pq.read_table(p, columns=["kind", "order_id"])
     except FileNotFoundError as exc:
         raise InputError("delivered file not found", file=p) from exc
     except (OSError, ValueError, KeyError) as exc:
         raise InputError(f"not a marops stops file ({first_line(exc)})", file=p) from exc
+    for name in ("kind", "order_id"):  # text as marops writes them (a list matches nothing)
+        t = table.schema.field(name).type
+        t = t.value_type if pa.types.is_dictionary(t) else t
+        whole = name == "order_id" and pa.types.is_integer(t)  # ids as numbers, by hand
+        text = pa.types.is_string(t) or pa.types.is_large_string(t) or pa.types.is_null(t)
+        if not (whole or text):
+            raise InputError(
+                f"not a marops stops file (expected a column of text, got {t})",
+                file=p,
+                column=name,
+            )
     kind = table.column("kind").to_pylist()
     ids = table.column("order_id").to_pylist()
     return {str(i) for k, i in zip(kind, ids, strict=True) if k == "customer" and i is not None}

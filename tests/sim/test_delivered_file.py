@@ -1,0 +1,51 @@
+"""``--delivered``: the order ids an earlier stops file delivered (sim.scenario)."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import pyarrow as pa
+import pyarrow.parquet as pq
+import pytest
+
+from marops_cli.errors import InputError
+from marops_cli.sim.scenario import delivered_orders
+
+
+def _write(path: Path, kind: pa.Array, order_id: pa.Array) -> Path:
+    pq.write_table(pa.table({"kind": kind, "order_id": order_id}), path)
+    return path
+
+
+def test_the_customers_ids_are_read(tmp_path: Path) -> None:
+    kinds = pa.array(["depot", "customer", "customer", "depot"])
+    p = _write(tmp_path / "stops.parquet", kinds, pa.array([None, "7", "9", None]))
+    assert delivered_orders(p) == {"7", "9"}
+    assert delivered_orders(tmp_path) == {"7", "9"}  # a folder: its stops.parquet
+    q = _write(tmp_path / "ints.parquet", kinds, pa.array([None, 7, 9, None]))
+    assert delivered_orders(q) == {"7", "9"}  # ids written as numbers by hand
+
+
+@pytest.mark.parametrize(
+    ("kind", "order_id", "column"),
+    [
+        (pa.array(["customer"]), pa.array([["7"]]), "order_id"),
+        (pa.array(["customer"]), pa.array([b"7"]), "order_id"),
+        (pa.array([["customer"]]), pa.array(["7"]), "kind"),
+    ],
+    ids=["list-ids", "binary-ids", "list-kinds"],
+)
+def test_columns_that_match_nothing_are_refused(tmp_path, kind, order_id, column) -> None:
+    # A list or bytes never equals an order id: the file would silently deliver nothing.
+    p = _write(tmp_path / "stops.parquet", kind, order_id)
+    with pytest.raises(InputError, match=rf"column '{column}': not a marops stops file"):
+        delivered_orders(p)
+
+
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="named pipes are POSIX")
+def test_a_pipe_is_no_stops_file(tmp_path: Path) -> None:
+    fifo = tmp_path / "stops.parquet"
+    os.mkfifo(fifo)
+    with pytest.raises(InputError, match="not a regular file"):
+        delivered_orders(fifo)
