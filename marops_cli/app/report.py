@@ -54,7 +54,13 @@ def make_report(folder: str | Path, *, depots: str | Path | None = None) -> list
     check_outputs(report_outputs(targets))
     loaded = _depots(depots)
     with folder_lock(folder):
-        return write_reports(folder, loaded)
+        try:
+            return write_reports(folder, loaded)
+        except InputError as exc:
+            if depots is not None and exc.file is None and exc.column == "frame":
+                # the depots of another study square: named by their file
+                raise InputError(exc.message, file=depots, column="frame") from None
+            raise
 
 
 def _depots(path: str | Path | None) -> Depots | None:

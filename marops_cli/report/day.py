@@ -78,10 +78,15 @@ def _frame(meta: dict[str, Any], depots: Depots | None) -> Frame | None:
         return run
     if run is not None and not _same(run, depots.frame):
         raise InputError(
-            "the depots file is of another study square than the run's "
-            f"({depots.frame.to_dict()} and {run.to_dict()}): give the run's depots file"
+            f"the depots file is of another study square ({_square(depots.frame)}) than the "
+            f"run's ({_square(run)}): give the run's depots file",
+            column="frame",  # app.report names the depots file
         )
     return depots.frame
+
+
+def _square(f: Frame) -> str:
+    return f"centre {f.center_lng:.5f}, {f.center_lat:.5f}, {f.size_km:g} km"
 
 
 def _same(a: Frame, b: Frame) -> bool:

@@ -92,6 +92,22 @@ def test_marops_report_builds_the_same_page_from_the_folder(
     )
 
 
+def test_depots_of_another_square_are_named(
+    day_run: Path, depots_json: Path, tmp_path: Path
+) -> None:
+    doc = json.loads(depots_json.read_text())
+    doc["frame"]["center_lng"] += 1.0  # the same depots, a square one degree east
+    other = tmp_path / "other.json"
+    other.write_text(json.dumps(doc))
+    copy = tmp_path / "copy"
+    shutil.copytree(day_run, copy)
+    before = (copy / "report.html").read_bytes()
+    res = runner.invoke(app, ["report", str(copy), "--depots", str(other), "--force"])
+    assert res.exit_code == 2 and len(res.stderr.splitlines()) == 1
+    assert res.stderr.startswith(f"marops: error: {other}, key 'frame': the depots file is of ")
+    assert (copy / "report.html").read_bytes() == before  # nothing written
+
+
 def test_marops_report_refuses_what_it_cannot_read_or_replace(
     day_run: Path, tmp_path: Path
 ) -> None:
