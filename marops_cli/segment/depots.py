@@ -193,6 +193,7 @@ class Depots:
             raise InputError("candidates refer to unknown depots", file=source, column="candidates")
         if not np.array_equal(cand[:, 0], np.arange(xy.shape[0])):
             raise InputError("each depot must list itself first", file=source, column="candidates")
+        _same_places(rows, order, frame, xy, source)
         return cls(method, frame, xy, n_hist, cand)
 
     @classmethod
@@ -200,6 +201,31 @@ class Depots:
         from ..data.jsonfile import read_json
 
         return cls.from_dict(read_json(path, "depots file"), source=str(path))
+
+
+_PLACE_TOLERANCE_M = 1.0
+"""How far a depot's lng/lat may lie from its x_m/y_m (both are rounded when written)."""
+
+
+def _same_places(
+    rows: list[dict[str, Any]], order: list[int], frame: Frame, xy: np.ndarray, source: str
+) -> None:
+    """Refuse a depot whose ``lng``/``lat`` disagree with its ``x_m``/``y_m``: marops
+    places depots by ``x_m``/``y_m``, so a position edited in degrees alone would be
+    silently ignored."""
+    for k, (i, d) in enumerate(zip(order, rows, strict=True)):
+        if "lng" not in d and "lat" not in d:
+            continue
+        lng, lat = (json_number(d.get(c), source, f"depots[{i}].{c}") for c in ("lng", "lat"))
+        x, y = frame.to_xy(np.array([lng]), np.array([lat]))
+        off = float(np.hypot(x[0] - xy[k, 0], y[0] - xy[k, 1]))
+        if off > _PLACE_TOLERANCE_M:
+            raise InputError(
+                f"depot {d['id']}'s lng/lat lie {off:,.0f} m from its x_m/y_m, which place it: "
+                "edit both (or leave lng and lat out)",
+                file=source,
+                column=f"depots[{i}].lng",
+            )
 
 
 _KEYS = frozenset({"meta", "method", "frame", "depots", "candidates"})

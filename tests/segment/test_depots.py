@@ -194,3 +194,20 @@ def test_a_depots_file_s_unknown_key_is_refused(tmp_path, edit, key) -> None:
     path.write_text(json.dumps(doc))
     with pytest.raises(InputError, match=rf"depots\.json, key {key}: unknown key"):
         Depots.load(path)
+
+
+def test_a_depot_moved_in_degrees_alone_is_refused(tmp_path) -> None:
+    """x_m/y_m place a depot; lng/lat edited alone would be ignored, so they must agree."""
+    xy = np.array([[0.0, 0.0], [2000.0, 0.0], [0.0, 3000.0]])
+    doc = Depots("kmeans", FRAME, xy, np.array([5, 6, 7]), nearest_candidates(xy, 2)).to_dict({})
+    path = tmp_path / "depots.json"
+    for d in doc["depots"]:  # lng/lat are optional
+        d.pop("lng"), d.pop("lat")
+    path.write_text(json.dumps(doc))
+    assert np.array_equal(Depots.load(path).xy, xy)
+    doc = Depots("kmeans", FRAME, xy, np.array([5, 6, 7]), nearest_candidates(xy, 2)).to_dict({})
+    doc["depots"][2]["lat"] += 0.01  # about 1.1 km north
+    path.write_text(json.dumps(doc))
+    says = r"key 'depots\[2\]\.lng': depot 2's lng/lat lie 1,1\d\d m"
+    with pytest.raises(InputError, match=says):
+        Depots.load(path)
