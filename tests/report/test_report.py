@@ -97,6 +97,8 @@ def test_depots_of_another_square_are_named(
 ) -> None:
     doc = json.loads(depots_json.read_text())
     doc["frame"]["center_lng"] += 1.0  # the same depots, a square one degree east
+    for d in doc["depots"]:
+        d["lng"] += 1.0
     other = tmp_path / "other.json"
     other.write_text(json.dumps(doc))
     copy = tmp_path / "copy"
