@@ -202,9 +202,12 @@ DEPOTS: dict[str, Callable[[Path], None]] = {
     "other_city.json": _json(
         {
             "frame": {**FRAME, "center_lng": 116.40, "center_lat": 39.90},
-            "depots": [DEPOT],
+            "depots": [{**DEPOT, "lng": 116.40, "lat": 39.90}],
             "candidates": {"0": [0]},
         }
+    ),
+    "moved_in_degrees.json": _json(
+        {"frame": FRAME, "depots": [{**DEPOT, "lat": 31.23}], "candidates": {"0": [0]}}
     ),
     "deep.json": _text("[" * 100_000 + "]" * 100_000),
     "huge_int.json": _text(
@@ -342,6 +345,7 @@ NEEDLES: dict[str, str | tuple[str, ...]] = {
     "far_depot.json": "depots[0].x_m",
     "infinite_frame.json": "frame",
     "other_city.json": "frame",
+    "moved_in_degrees.json": "depots[0].lng",
     "fleet_inf_battery.json": "types.big.battery_j",
     "fleet_inf_battery.toml": "types.big.battery_j",
     "fleet_slow.json": "types.slow.speed_ms",
