@@ -6,7 +6,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from ..errors import InputError
+from ..errors import InputError, naming
 
 if TYPE_CHECKING:
     from ..segment.depots import Depots
@@ -57,9 +57,8 @@ def make_report(folder: str | Path, *, depots: str | Path | None = None) -> list
         try:
             return write_reports(folder, loaded)
         except InputError as exc:
-            if depots is not None and exc.file is None and exc.column == "frame":
-                # the depots of another study square: named by their file
-                raise InputError(exc.message, file=depots, column="frame") from None
+            if depots is not None and exc.column == "frame":
+                raise naming(exc, depots) from None  # the depots of another study square
             raise
 
 
