@@ -20,6 +20,7 @@ import pyarrow as pa
 import pyarrow.compute as pc
 
 from ..errors import InputError
+from .arrow import is_text
 
 # (pattern, whether it carries the year)
 _DAY_FORMS = (
@@ -173,7 +174,7 @@ def parse_times(
         secs = pc.cast(arr, pa.timestamp("s")).cast(pa.int64())
         empty = secs.is_null().to_numpy(zero_copy_only=False)
         return secs.fill_null(0).to_numpy(), np.where(empty, TIME_EMPTY, TIME_OK).astype(np.int8)
-    if not (pa.types.is_string(arr.type) or pa.types.is_large_string(arr.type)):
+    if not is_text(arr.type):
         arr = arr.cast(pa.string())
     data, start, length, isnull = _string_bytes(arr)
     # Real exports have no padding, but a hand-edited file may; trimming is cheap.

@@ -42,6 +42,7 @@ import pyarrow.parquet as pq
 
 from ..config import DataConfig
 from ..errors import InputError
+from .arrow import is_text
 from .dates import TIME_BAD, TIME_EMPTY, parse_ds, parse_times
 from .table import DROP_REASONS, REQUIRED_COLUMNS, DropReport, LadeTable, SourceInfo
 
@@ -246,7 +247,7 @@ def _read_parquet(path: Path) -> pa.Table:
 def _numbers(column: pa.ChunkedArray) -> np.ndarray:
     """A column of numbers or numeric text -> float64, NaN where empty or not a number."""
     arr = column.combine_chunks()
-    if not (pa.types.is_string(arr.type) or pa.types.is_large_string(arr.type)):
+    if not is_text(arr.type):
         # Unchecked: an integer beyond 2**53 (no coordinate) rounds, then reads as bad.
         return arr.cast(pa.float64(), safe=False).to_numpy(zero_copy_only=False)
     try:  # fast path: a clean column casts at once
@@ -273,8 +274,7 @@ def _check_column_types(table: pa.Table, path: Path) -> pa.Table:
             pa.types.is_integer(t)
             or pa.types.is_floating(t)
             or pa.types.is_decimal(t)
-            or pa.types.is_string(t)
-            or pa.types.is_large_string(t)
+            or is_text(t)
             or pa.types.is_null(t)
         )
         binary = pa.types.is_binary(t) or pa.types.is_large_binary(t)
@@ -308,7 +308,7 @@ def _utf8(column: pa.ChunkedArray, path: Path, name: str) -> pa.ChunkedArray:
 
 def _strings(column: pa.ChunkedArray) -> np.ndarray:
     """A column as an object array of str (ints in Parquet files become their digits)."""
-    if not (pa.types.is_string(column.type) or pa.types.is_large_string(column.type)):
+    if not is_text(column.type):
         column = column.cast(pa.string())
     return column.fill_null("").to_numpy(zero_copy_only=False)
 

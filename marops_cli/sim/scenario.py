@@ -18,6 +18,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from ..config import OpsConfig, PlannerConfig
+from ..data.arrow import is_text
 from ..data.frame import Frame
 from ..data.jsonfile import first_line
 from ..data.prepare import arrival_windows, check_days_in_file, prepare_day, study_frame
@@ -225,7 +226,7 @@ def delivered_orders(path: str | Path) -> set[str]:
         t = table.schema.field(name).type
         t = t.value_type if pa.types.is_dictionary(t) else t
         whole = name == "order_id" and pa.types.is_integer(t)  # ids as numbers, by hand
-        text = pa.types.is_string(t) or pa.types.is_large_string(t) or pa.types.is_null(t)
+        text = is_text(t) or pa.types.is_null(t)
         if not (whole or text):
             raise InputError(
                 f"not a marops stops file (expected a column of text, got {t})",
