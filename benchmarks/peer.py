@@ -34,14 +34,17 @@ paper's subsets planner; the rest of the config is shared.
   requests PyVRP is given, PyVRP at the limits of 1 s and more (else its longest), all
   judged on the whole window.
 * **Bound** (``--bound``): an upper bound on G per window from ``marops_cli.plans.bound``
-  and the gaps (bound − G) / bound of marops and of the best plan found.
+  (its search capped at ``--bound-labels`` labels a window) and the gaps
+  (bound − G) / bound of every method and of the best plan found; a variant
+  ``bound=true`` is marops flying the better of its pool's plan and the bound's.
 
 Needs the ``bench`` extra (``pip install -e '.[bench]'``, which brings PyVRP).
 
     python benchmarks/peer.py [--config TOML] [--shapes hubs,corridor] [--seeds 101,202]
         [--days 11,12] [--open-seeds SEEDS] [--pyvrp-s 0.01,0.1,1,5]
         [--closed-pyvrp-s 0.01,0.1,1] [--repeats N] [--variants SETTINGS] [--bound]
-        [--large | --only-large] [--closed] [--quiet] [--json PATH] [--smoke]
+        [--bound-labels N] [--large | --only-large] [--closed] [--quiet] [--json PATH]
+        [--smoke]
 
 ``--closed``: the closed loop only; ``--json``: every figure (per window, per day and
 the totals) to a file. ``--smoke``: one day, PyVRP at 0.01 s only, and the large window
@@ -468,6 +471,12 @@ def bound_summary(rows: list[dict]) -> dict:
     marops = [r["methods"]["marops"]["G"] for r in rows]
     return {
         "median_gap_marops": statistics.median(map(gap, bounds, marops)),
+        "median_gap": {
+            n: statistics.median(
+                gap(b, r["methods"][n]["G"]) for b, r in zip(bounds, rows, strict=True)
+            )
+            for n in rows[0]["methods"]
+        },
         "median_gap_best": statistics.median(map(gap, bounds, best)),
         "below_best": sum(b < g - 1e-6 * abs(g) for b, g in zip(bounds, best, strict=True)),
         "converged": sum(bool(r["bound"]["converged"]) for r in rows),
@@ -511,6 +520,10 @@ def print_open(summary: dict) -> None:
             f" best plan {100 * b['median_gap_best']:.2f} %; bound below a found G on"
             f" {b['below_best']} windows; converged on {b['converged']};"
             f" CPU {1e3 * b['cpu_median_s']:.0f} ms median"
+        )
+        print(
+            "median gap per method: "
+            + ", ".join(f"{n} {100 * x:.2f} %" for n, x in b["median_gap"].items())
         )
 
 
@@ -662,6 +675,12 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     ap.add_argument("--open-seeds", help="the open loop on these seeds only (default: --seeds)")
     ap.add_argument("--repeats", type=int, default=1, help="marops plans each window this often")
     ap.add_argument("--bound", action="store_true", help="the bound on G per window and the gaps")
+    ap.add_argument(
+        "--bound-labels",
+        type=int,
+        default=500_000,
+        help="labels the bound's search makes at most per window ([plan] bound_labels)",
+    )
     ap.add_argument("--large", action="store_true", help="also the large window")
     ap.add_argument("--only-large", action="store_true", help="the large window only")
     ap.add_argument("--closed", action="store_true", help="the closed loop only")
@@ -699,7 +718,7 @@ def make_setup(args: argparse.Namespace) -> Setup:
         tuple(float(s) for s in args.closed_pyvrp_s.split(",") if s),
         variants,
         max(1, args.repeats),
-        load_bound(cfg) if args.bound else None,
+        load_bound(override(cfg, plan__bound_labels=args.bound_labels)) if args.bound else None,
     )
 
 

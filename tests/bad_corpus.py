@@ -147,6 +147,7 @@ CONFIG: dict[str, Callable[[Path], None]] = {
     "alpha_nan.toml": _text("[plan]\nalpha = nan\n"),
     "speed_supersonic.toml": _text("[energy]\nspeed_ms = 400.0\n"),
     "drones_100000.toml": _text("[sim]\ndrones = 100000\n"),
+    "bound_labels_10.toml": _text("[plan]\nbound_labels = 10\n"),
     "center_off_earth.toml": _text("[data]\ncenter = [500.0, 31.2]\n"),
     # Crafted to break the parser itself: nesting beyond its recursion, a 5,000-digit number.
     "deep.toml": _text("x = " + "[" * 5000 + "]" * 5000 + "\n"),
@@ -341,6 +342,7 @@ NEEDLES: dict[str, str | tuple[str, ...]] = {
     "alpha_nan.toml": "plan.alpha",
     "speed_supersonic.toml": "energy.speed_ms",
     "drones_100000.toml": "sim.drones",
+    "bound_labels_10.toml": "plan.bound_labels",
     "center_off_earth.toml": "data.center",
     "far_depot.json": "depots[0].x_m",
     "infinite_frame.json": "frame",

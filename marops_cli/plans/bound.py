@@ -53,6 +53,9 @@ _REL_STOP = 1e-5  # stop once the bound is this close (relative) to the master's
 _KEEP = 3  # labels per node a heuristic pricing extends
 MAX_WORK = 500_000
 """Labels a bound makes at most by default (seconds of CPU on a 150-request window)."""
+MAX_LABELS = 20_000
+"""Labels of one length a full pricing keeps at most by default (a 25th of ``MAX_WORK``;
+``[plan] bound_labels`` raises both)."""
 
 
 @dataclass(frozen=True)
@@ -206,7 +209,7 @@ def bound_g(
     max_work: int = MAX_WORK,
     time_limit_s: float | None = None,
     max_iterations: int = 200,
-    max_labels: int = 20_000,
+    max_labels: int = MAX_LABELS,
     plan: bool = False,
 ) -> BoundResult:
     """An upper bound on G for the drones ``tasks`` (module docstring).
@@ -376,7 +379,9 @@ def window_bound(
     stocks (the ``global`` scope): a bound on every planner's plan, whatever its actions
     (a free landing never costs more than a fixed one). ``columns``: each drone's known
     routes (a warm start); ``caps``: :func:`bound_g`'s ``ng``, ``max_work``,
-    ``time_limit_s``, ``max_iterations``, ``max_labels`` and ``plan``.
+    ``time_limit_s``, ``max_iterations``, ``max_labels`` and ``plan`` (by default
+    ``max_work`` is ``cfg.bound_labels`` and ``max_labels`` a 25th of it, at least
+    ``MAX_LABELS``).
     """
     from .objective import lam_j
     from .planner import drone_tasks
@@ -384,6 +389,8 @@ def window_bound(
 
     models = drone_models(view, model)
     tasks = drone_tasks(view, actions, cfg, "global" if relaxed else scope, models)
+    caps.setdefault("max_work", cfg.bound_labels)
+    caps.setdefault("max_labels", max(MAX_LABELS, cfg.bound_labels // 25))
     return bound_g(
         view.depots.xy,
         view.pending_xy,

@@ -230,6 +230,30 @@ def test_plan_config_bound_is_off_by_default_and_left_out_of_dumps():
     assert PlanConfig(bound=True).model_dump()["bound"] is True
 
 
+def test_bound_labels_sets_the_search_caps(monkeypatch, model):
+    """``[plan] bound_labels`` is the work cap of every window's bound, and a 25th of it
+    (at least the default 20,000) the labels of one length; left out of dumps at its
+    default, so the run identities of earlier runs stay as they were."""
+    import marops_cli.plans.bound as bound_mod
+
+    assert "bound_labels" not in PlanConfig().model_dump()
+    assert PlanConfig(bound_labels=2_000_000).model_dump()["bound_labels"] == 2_000_000
+    seen: list[dict] = []
+    real = bound_mod.bound_g
+    monkeypatch.setattr(bound_mod, "bound_g", lambda *a, **kw: seen.append(kw) or real(*a, **kw))
+    view, acts = hand_view(), np.array([0, 1])
+    for labels in (1_000, 500_000, 2_000_000):
+        window_bound(view, acts, model, PlanConfig(bound=True, bound_labels=labels))
+    assert [(kw["max_work"], kw["max_labels"]) for kw in seen] == [
+        (1_000, 20_000),
+        (500_000, 20_000),
+        (2_000_000, 80_000),
+    ]
+    # A cap given by the caller wins.
+    window_bound(view, acts, model, PlanConfig(bound_labels=2_000_000), max_work=7)
+    assert seen[-1]["max_work"] == 7 and seen[-1]["max_labels"] == 80_000
+
+
 @pytest.mark.parametrize(("planner", "scope"), [("pool", "range"), ("subsets", "global")])
 def test_plan_routes_records_the_bound_only_when_asked(planner, scope, model):
     """The hand instance of test_window.py: the bound is at least the plan's G, the
