@@ -25,7 +25,7 @@ from pydantic import (
 )
 from pydantic.fields import FieldInfo
 
-from .data.jsonfile import parse_toml, read_small_text
+from .data.jsonfile import parse_toml, read_document, read_small_text
 from .errors import InputError, SettingError
 
 MAX_DRONES = 1000
@@ -493,16 +493,7 @@ def load_config(path: str | Path | None) -> PlannerConfig:
     if path is None:
         return PlannerConfig()
     p = Path(path)
-    if p.is_dir():
-        raise InputError("is a folder, expected a TOML config file", file=p)
-    try:
-        raw = parse_toml(read_small_text(p, "config"))
-    except FileNotFoundError as exc:
-        raise InputError("config file not found", file=p) from exc
-    except OSError as exc:
-        raise InputError(f"cannot read the config ({exc.strerror})", file=p) from exc
-    except (ValueError, UnicodeDecodeError) as exc:
-        raise InputError(f"not a valid TOML file ({exc})", file=p) from exc
+    raw = read_document(p, "config file", "toml")
     sim = raw.get("sim")
     if isinstance(sim, dict) and "trust_actor" in sim:
         # A file from elsewhere never makes marops run code (docs/method.md §6): only the

@@ -127,7 +127,7 @@ def test_an_endless_or_huge_small_input_is_refused_before_it_fills_memory(
     from marops_cli.segment.depots import Depots
 
     # A device that never ends: read up to the cap, then refused naming it.
-    with pytest.raises(InputError, match="config is larger than 64 MiB") as err:
+    with pytest.raises(InputError, match="config file is larger than 64 MiB") as err:
         load_config("/dev/zero")
     assert err.value.file == "/dev/zero"
     # Any file above the cap (made small here).

@@ -1,4 +1,5 @@
-"""Reading the small JSON files marops takes as input (depots, fleet, policy sidecar)."""
+"""Reading the small JSON and TOML files marops takes as input (config, depots, fleet,
+policy sidecar)."""
 
 from __future__ import annotations
 
@@ -7,7 +8,7 @@ import math
 import os
 import stat
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 from ..errors import InputError
 
@@ -61,20 +62,29 @@ def parse_toml(text: str) -> dict[str, Any]:
         raise ValueError("nested too deeply") from None
 
 
-def read_json(path: str | Path, what: str) -> Any:
-    """The parsed document; a missing, unreadable or malformed file is an
-    :class:`InputError` naming it."""
+def read_document(path: str | Path, what: str, kind: Literal["json", "toml"] | None = None) -> Any:
+    """The parsed JSON or TOML document ``path`` (``kind`` None: TOML for a ``.toml``
+    name, else JSON); a missing, unreadable or malformed file is an :class:`InputError`
+    naming it as ``what`` ("fleet file")."""
     p = Path(path)
+    kind = kind or ("toml" if p.suffix.lower() == ".toml" else "json")
+    name = kind.upper()
     try:
-        return parse_json(read_small_text(p, what))
+        text = read_small_text(p, what)
+        return parse_toml(text) if kind == "toml" else parse_json(text)
     except FileNotFoundError as exc:
         raise InputError(f"{what} not found", file=p) from exc
     except IsADirectoryError as exc:
-        raise InputError(f"{what} is a folder, expected a JSON file", file=p) from exc
+        raise InputError(f"{what} is a folder, expected a {name} file", file=p) from exc
     except OSError as exc:
         raise InputError(f"cannot read the {what} ({exc.strerror})", file=p) from exc
     except (ValueError, UnicodeDecodeError) as exc:
-        raise InputError(f"{what} is not valid JSON ({first_line(exc)})", file=p) from exc
+        raise InputError(f"{what} is not valid {name} ({first_line(exc)})", file=p) from exc
+
+
+def read_json(path: str | Path, what: str) -> Any:
+    """The parsed JSON document (:func:`read_document`)."""
+    return read_document(path, what, "json")
 
 
 def first_line(exc: BaseException) -> str:

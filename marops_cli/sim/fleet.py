@@ -25,7 +25,7 @@ import numpy as np
 from pydantic import ValidationError
 
 from ..config import MAX_DRONES, EnergyConfig, check_file_types, value_range
-from ..data.jsonfile import json_number, parse_json, parse_toml, read_small_text
+from ..data.jsonfile import json_number, read_document
 from ..energy import EnergyModel
 from ..errors import InputError
 from ..segment.depots import Depots
@@ -104,23 +104,7 @@ class Fleet:
 
 
 def _read(path: Path) -> Any:
-    try:
-        text = read_small_text(path, "fleet file")
-    except FileNotFoundError as exc:
-        raise InputError("fleet file not found", file=path) from exc
-    except IsADirectoryError as exc:
-        raise InputError("fleet file is a folder, expected TOML or JSON", file=path) from exc
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(f"cannot read the fleet file ({exc})", file=path) from exc
-    if path.suffix.lower() == ".toml":
-        try:
-            return parse_toml(text)
-        except ValueError as exc:
-            raise InputError(f"fleet file is not valid TOML ({exc})", file=path) from exc
-    try:
-        return parse_json(text)
-    except ValueError as exc:
-        raise InputError(f"fleet file is not valid JSON ({exc})", file=path) from exc
+    return read_document(path, "fleet file")  # TOML for a .toml name, else JSON
 
 
 def _types(doc: dict[str, Any], base: EnergyConfig, path: Path) -> tuple[DroneType, ...]:
