@@ -287,7 +287,8 @@ def _dominated(lab: _Labels) -> NDArray[np.bool_]:
         # Candidates: an earlier label (at least the profit) with no more load and energy;
         # the memory test only on those pairs.
         m = (ld[:, None] <= ld[None, :] + _EPS) & (en[:, None] <= en[None, :] + 1e-6)
-        m &= np.triu(np.ones((g, g), dtype=bool), 1)
+        rank = np.arange(g)
+        m &= rank[:, None] < rank[None, :]  # only an earlier label dominates a later one
         i, j = np.nonzero(m)
         if not i.size:
             continue
