@@ -179,7 +179,7 @@ def test_a_small_input_that_is_a_pipe_never_blocks(tmp_path: Path) -> None:
 
     pipe = tmp_path / "planner.toml"
     os.mkfifo(pipe)
-    with pytest.raises(InputError, match="planner.toml: config is a pipe .* nothing to read"):
+    with pytest.raises(InputError, match="planner.toml: config file is a pipe .* nothing to read"):
         load_config(pipe)
     r, w = os.pipe()
     os.write(w, b"[sim]\ndrones = 3\n")
