@@ -127,12 +127,12 @@ def make_area(
     ident = identity(
         scn, run.method, run.pol.identity, depots, run.fmt, drones.describe(cfg.energy)
     )
-    keep: dict[dt.date, list[dict[str, Any]]] = {}
-    for day in days if out is not None else ():
-        done = (out / day.isoformat() if several else out) / "metrics.json"
-        if done.is_file() and not run.force:
-            keep[day] = matching_days(done, ident)
-    return Area(scn, drones, out, days, several, ident, keep, label)
+    area = Area(scn, drones, out, days, several, ident, {}, label)
+    for day in days:
+        folder = area.folder(day)
+        if folder is not None and (folder / "metrics.json").is_file() and not run.force:
+            area.keep[day] = matching_days(folder / "metrics.json", ident)
+    return area
 
 
 _Done = dict[tuple[int, dt.date], tuple[dict[str, Any], "DayTables | None"]]

@@ -142,7 +142,7 @@ def replay_day_command(
     _print_metrics(res.days, hubs is not None)
     info(_wrote(out, res.files))
     if STATE["json"]:
-        doc = {"out": str(out), "files": [str(f) for f in res.files]}
+        doc: dict[str, Any] = {"out": str(out), "files": [str(f) for f in res.files]}
         doc.update({"metrics": str(out / "metrics.json"), "days": res.days})
         doc.update({"report": str(out / "report.html")} if report else {})
         emit_json({"command": "replay-day", **doc})

@@ -58,7 +58,7 @@ class OutputSet:
     def write_json(self, final: str | Path, doc: Any) -> None:
         self.write_bytes(final, dumps_json(doc).encode("utf-8"))
 
-    def write_with(self, final: str | Path, writer: Callable[[Path], None]) -> None:
+    def write_with(self, final: str | Path, writer: Callable[[Path], object]) -> None:
         tmp = self.path_for(final)
         try:
             writer(tmp)

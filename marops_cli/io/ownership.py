@@ -59,7 +59,7 @@ def new_run() -> None:
     _RUN_INPUTS.set(())
 
 
-def register_inputs(paths: Iterable[str | Path | None]) -> None:
+def register_inputs(paths: Iterable[object]) -> None:
     """The files this run reads: no output of the run may replace one (see
     :func:`check_not_input`), whatever the names. Missing paths and tables in memory
     (anything not a path) are skipped."""

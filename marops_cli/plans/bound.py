@@ -116,7 +116,10 @@ class _Master:
     def add(self, cols: list[tuple[int, tuple[int, ...], float]]) -> int:
         """Add columns (class, stops, G − G_∅), each set of stops once in its best order
         known; returns how many were new."""
-        cost, starts, index, vals = [], [], [], []
+        cost: list[float] = []
+        starts: list[int] = []
+        index: list[int] = []
+        vals: list[float] = []
         for c, stops, g in cols:
             key = (c, tuple(sorted(stops)))
             if self.keys.get(key, -np.inf) >= g - _RC_TOL:
@@ -288,8 +291,8 @@ def bound_g(
             new += [(k, s, float(prize[list(s)].sum()) - e + c.e_empty) for s, e, _ in pr.routes]
         # The master's own columns count too: a known route outside the drones' tasks
         # (another planner's) is then covered as well.
-        for c, stops, g in master.cols:
-            tops[c] = max(tops[c], g - float(pi[list(stops)].sum()))
+        for k, stops, g in master.cols:
+            tops[k] = max(tops[k], g - float(pi[list(stops)].sum()))
         # Every pricing bounds every route's value: a valid bound (Lagrangian relaxation).
         lagr = (
             const + float(pi.sum()) + sum(c.count * t for c, t in zip(classes, tops, strict=True))
@@ -309,6 +312,7 @@ def bound_g(
         if heuristic and not full_done and half:
             heuristic = False  # half the budget gone: one full round, for a tighter bound
         full_done |= not heuristic
+    best_plan, best_g = _best_plan(master, classes, of, const) if plan else (None, -np.inf)
     return BoundResult(
         bound=best,
         lp=lp,
@@ -319,7 +323,8 @@ def bound_g(
         columns=len(master.keys),
         cpu_s=time.process_time() - c0,
         labels=work,
-        **(_best_plan(master, classes, of, const) if plan else {}),
+        plan=best_plan,
+        plan_g=best_g,
     )
 
 
@@ -331,7 +336,7 @@ def _best_plan(
     classes: list[DroneClass],
     of: list[int],
     const: float,
-) -> dict[str, object]:
+) -> tuple[tuple[tuple[tuple[int, ...], int], ...], float]:
     """The best plan over the master's elementary routes (each request at most once, at
     most a class's count of routes per class), each route given to a drone of its
     class: ``BoundResult.plan`` and ``plan_g``. The master's own program, with only
@@ -339,7 +344,7 @@ def _best_plan(
     routes: list[tuple[tuple[int, ...], int]] = [((), classes[c].end) for c in of]
     fly = [len(set(st)) == len(st) and g > 0 for _, st, g in master.cols]
     if not any(fly):
-        return {"plan": tuple(routes), "plan_g": const}
+        return tuple(routes), const
     lp = master.h.getLp()
     lp.col_upper_ = np.asarray(fly, dtype=np.float64)
     lp.integrality_ = [highspy.HighsVarType.kInteger] * lp.num_col_
@@ -349,7 +354,7 @@ def _best_plan(
     h.passModel(lp)
     h.run()
     if h.getInfo().primal_solution_status != highspy.kSolutionStatusFeasible:
-        return {"plan": tuple(routes), "plan_g": const}
+        return tuple(routes), const
     x = np.asarray(h.getSolution().col_value, dtype=np.float64)
     free = {c: [u for u in range(len(of)) if of[u] == c] for c in range(len(classes))}
     g = const
@@ -357,7 +362,7 @@ def _best_plan(
         c, st, gk = master.cols[int(k)]
         routes[free[c].pop(0)] = (st, classes[c].end)
         g += gk
-    return {"plan": tuple(routes), "plan_g": g}
+    return tuple(routes), g
 
 
 def window_bound(

@@ -431,13 +431,13 @@ def _extend(
         e_new = cls.e(load)
         e_start = d_start[j] * e_new
         keep = energy + e_start <= cls.usable
-        li, j, load, energy, e_new, e_start = (
-            a[keep] for a in (li, j, load, energy, e_new, e_start)
-        )
+        li, j = li[keep], j[keep]
+        load, energy, e_new, e_start = load[keep], energy[keep], e_new[keep], e_start[keep]
         prof = part.prof[li] + pps[j] - leg[li, j]
         ub = bounds.of(j, load, prof, e_start, e_new, energy)
         keep = ub > bar + 1e-6
-        li, j, load, energy, prof, ub = (a[keep] for a in (li, j, load, energy, prof, ub))
+        li, j = li[keep], j[keep]
+        load, energy, prof, ub = load[keep], energy[keep], prof[keep], ub[keep]
         mem = part.mem[li] & ng[j]
         mem[np.arange(li.size), local[j] // 64] |= np.left_shift(
             np.uint64(1), (local[j] % 64).astype(np.uint64)

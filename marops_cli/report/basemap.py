@@ -7,6 +7,8 @@ from __future__ import annotations
 import math
 from typing import Any
 
+import numpy as np
+
 from ..data.frame import Frame
 
 TILE_URL = (
@@ -24,7 +26,7 @@ _MAX_TILES_ACROSS = 4
 def extent(frame: Frame) -> tuple[float, float, float, float]:
     """(west, south, east, north) of the study square, degrees."""
     h = frame.half_m
-    (west, east), (south, north) = frame.to_lnglat([-h, h], [-h, h])
+    (west, east), (south, north) = frame.to_lnglat(np.array([-h, h]), np.array([-h, h]))
     return float(west), float(south), float(east), float(north)
 
 

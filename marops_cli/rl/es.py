@@ -278,8 +278,8 @@ class LandingTrainer:
         rows = workers.results(tasks)
         n = len(days)
         cost = np.array([self._cost(rows[k * n : (k + 1) * n], refs) for k in range(len(members))])
-        ranks = cost[1:].argsort(kind="stable").argsort(kind="stable")
-        ranks = ranks / max(1, 2 * t.es_pairs - 1) - 0.5
+        order = cost[1:].argsort(kind="stable").argsort(kind="stable")
+        ranks = order / max(1, 2 * t.es_pairs - 1) - 0.5
         step = ((ranks[t.es_pairs :] - ranks[: t.es_pairs])[:, None] * eps).sum(axis=0)
         # Float32 weights, what the file stores: the exported actor flies as trained.
         moved = (self.weight + t.es_step * step / t.es_pairs).astype(np.float32)

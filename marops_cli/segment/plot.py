@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import matplotlib
 
@@ -16,7 +17,12 @@ from .depots import Depots  # noqa: E402
 
 # Depots: black squares, apart from every colour the maps use for data (the blue
 # customers here, the green-to-red delay scale and the drones' colours of routes.png).
-DEPOT_STYLE = {"marker": "s", "c": "black", "edgecolors": "white", "linewidths": 0.6}
+DEPOT_STYLE: dict[str, Any] = {
+    "marker": "s",
+    "c": "black",
+    "edgecolors": "white",
+    "linewidths": 0.6,
+}
 AREA_COLOUR = "#d4a017"
 
 

@@ -41,7 +41,7 @@ class Work(Protocol):
 class Outcome(NamedTuple):
     """A job's index, then its result, or the message and exit code of its error."""
 
-    index: int
+    index: int  # type: ignore[assignment]  # shadows tuple.index; read by name
     result: Any
     error: str | None
     code: int
