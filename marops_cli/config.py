@@ -32,6 +32,9 @@ MAX_DRONES = 1000
 """The most drones one study area plans for (``--drones``, a fleet file, a hub's
 ``drones``): a window of 1000 drones plans in seconds; a larger fleet is refused up
 front rather than planned for hours (docs/config.md)."""
+BOUND_LABELS = 500_000
+"""Labels the window bound's search makes at most by default (``[plan] bound_labels``):
+seconds of CPU on a 150-request window."""
 
 MAX_SEED = 2**32 - 1  # the seeds numpy and scikit-learn accept
 
@@ -265,11 +268,11 @@ class PlanConfig(_Stage):
         "when better than the route pool's, and record the plan's gap to the bound",
     )
     bound_labels: int = Field(
-        500_000,
+        BOUND_LABELS,
         ge=1_000,
         le=100_000_000,
         # Left out of dumps at its default, so run identities and metadata stay as they were.
-        exclude_if=lambda n: n == 500_000,
+        exclude_if=lambda n: n == BOUND_LABELS,
         description="with bound = true: labels the bound's search makes at most per window "
         "(a count, so the bound is the same on any machine; more: a tighter bound on busy "
         "windows, at about 14 µs of CPU a label)",

@@ -35,6 +35,7 @@ import highspy
 import numpy as np
 from numpy.typing import NDArray
 
+from ..config import BOUND_LABELS
 from ..energy import EnergyModel
 from ..segment.depots import nearest_depot
 from .pool import DroneTask
@@ -51,8 +52,8 @@ __all__ = ["BoundResult", "bound_g", "window_bound"]
 _RC_TOL = 1e-6  # a reduced cost (J) above this is worth a column
 _REL_STOP = 1e-5  # stop once the bound is this close (relative) to the master's value
 _KEEP = 3  # labels per node a heuristic pricing extends
-MAX_WORK = 500_000
-"""Labels a bound makes at most by default (seconds of CPU on a 150-request window)."""
+MAX_WORK = BOUND_LABELS
+"""Labels a bound makes at most by default (``[plan] bound_labels``)."""
 MAX_LABELS = 20_000
 """Labels of one length a full pricing keeps at most by default (a 25th of ``MAX_WORK``;
 ``[plan] bound_labels`` raises both)."""
