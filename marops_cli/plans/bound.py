@@ -40,7 +40,7 @@ from ..energy import EnergyModel
 from ..segment.depots import nearest_depot
 from .pool import DroneTask
 from .pricing import DroneClass, price
-from .select import _silence_highs_banner
+from .select import new_highs, run_highs
 
 if TYPE_CHECKING:
     from ..config import PlanConfig
@@ -94,9 +94,7 @@ class _Master:
     """The restricted master program in HiGHS (minimising −G, every row "≤")."""
 
     def __init__(self, counts: Sequence[int], n_req: int) -> None:
-        _silence_highs_banner()
-        self.h = highspy.Highs()
-        self.h.setOptionValue("output_flag", False)
+        self.h = new_highs()
         self.n_cls, self.n_req = len(counts), n_req
         n_rows = self.n_cls + n_req
         upper = np.concatenate([np.asarray(counts, dtype=np.float64), np.ones(n_req)])
@@ -151,7 +149,7 @@ class _Master:
         if not self.keys:  # no route yet: nothing to price against
             self.value = 0.0
             return np.zeros(self.n_cls), np.zeros(self.n_req)
-        self.h.run()
+        run_highs(self.h)
         if self.h.getModelStatus() != highspy.HighsModelStatus.kOptimal:
             raise RuntimeError(f"master program: {self.h.getModelStatus().name}")
         self.value = -float(self.h.getInfo().objective_function_value)
@@ -349,11 +347,10 @@ def _best_plan(
     lp = master.h.getLp()
     lp.col_upper_ = np.asarray(fly, dtype=np.float64)
     lp.integrality_ = [highspy.HighsVarType.kInteger] * lp.num_col_
-    h = highspy.Highs()
-    h.setOptionValue("output_flag", False)
+    h = new_highs()
     h.setOptionValue("mip_max_nodes", _PLAN_NODES)
     h.passModel(lp)
-    h.run()
+    run_highs(h)
     if h.getInfo().primal_solution_status != highspy.kSolutionStatusFeasible:
         return tuple(routes), const
     x = np.asarray(h.getSolution().col_value, dtype=np.float64)

@@ -81,6 +81,31 @@ def _silence_highs_banner() -> None:
         os.close(devnull)
 
 
+def new_highs() -> highspy.Highs:
+    """A quiet HiGHS solver object on one thread (the banner silenced first).
+
+    The programs here are small (a few hundred columns): a second HiGHS worker finds
+    nothing sooner and keeps polling for work, which doubles the CPU of a branch and
+    bound for the same wall time and the same answer (docs/decisions.md, "Planning a
+    window"). One thread also makes the search the same on any machine."""
+    _silence_highs_banner()
+    h = highspy.Highs()
+    h.setOptionValue("output_flag", False)
+    h.setOptionValue("threads", 1)
+    return h
+
+
+def run_highs(h: highspy.Highs) -> None:
+    """``h.run()``; when HiGHS' process-wide scheduler was started with more threads (by
+    another solver object in this process, e.g. through cvxpy), HiGHS refuses a
+    one-thread run: the scheduler is restarted and the run tried once more."""
+    if h.run() == highspy.HighsStatus.kError and (
+        h.getModelStatus() == highspy.HighsModelStatus.kNotset
+    ):
+        highspy.Highs.resetGlobalScheduler(True)
+        h.run()
+
+
 _MIP_REL_GAP = 1e-7  # HiGHS' default 1e-4 of the objective is too loose to be "optimal"
 _INTEGRAL_TOL = 1e-9  # a relaxation's vertex this close to 0/1 everywhere is integral
 _CANON_BACKEND = "CPP"  # measured faster than "SCIPY" on these models (benchmarks/selection.py)
@@ -304,7 +329,6 @@ def _solve_cvxpy(milp: _Milp, strict: bool, time_limit_s: float) -> _Attempt:
 
 
 def _solve_highs(milp: _Milp, strict: bool, time_limit_s: float) -> _Attempt:
-    _silence_highs_banner()
     t0 = time.perf_counter()
     a = milp.rows.tocsc()
     n_row, n_col = a.shape
@@ -318,15 +342,14 @@ def _solve_highs(milp: _Milp, strict: bool, time_limit_s: float) -> _Attempt:
     lp.row_lower_, lp.row_upper_ = lower, np.ones(n_row)
     lp.a_matrix_.format_ = highspy.MatrixFormat.kColwise
     lp.a_matrix_.start_, lp.a_matrix_.index_, lp.a_matrix_.value_ = a.indptr, a.indices, a.data
-    h = highspy.Highs()
-    h.setOptionValue("output_flag", False)
+    h = new_highs()
     h.setOptionValue("time_limit", float(time_limit_s))
     h.setOptionValue("mip_rel_gap", _MIP_REL_GAP)
     # The linear relaxation first (a tenth of the program's time): when its optimal
     # vertex is integral it is the program's optimum too, and most windows' are.
     h.passModel(lp)
     t1 = time.perf_counter()
-    h.run()
+    run_highs(h)
     if h.getModelStatus() == highspy.HighsModelStatus.kOptimal:
         x = np.asarray(h.getSolution().col_value, dtype=np.float64)
         if np.abs(x - np.round(x)).max(initial=0.0) <= _INTEGRAL_TOL:
@@ -336,7 +359,7 @@ def _solve_highs(milp: _Milp, strict: bool, time_limit_s: float) -> _Attempt:
     lp.integrality_ = [highspy.HighsVarType.kInteger] * n_col
     h.passModel(lp)
     h.setOptionValue("time_limit", max(float(time_limit_s) - (time.perf_counter() - t0), 0.01))
-    h.run()
+    run_highs(h)
     info = h.getInfo()
     found = info.primal_solution_status == highspy.kSolutionStatusFeasible
     xv = np.asarray(h.getSolution().col_value, dtype=np.float64) if found else None

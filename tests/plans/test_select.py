@@ -274,11 +274,7 @@ def test_a_fractional_relaxation_goes_on_to_the_integer_program(monkeypatch):
     cycle): the relaxation takes every plan by half (1.5 plans' gain), the program only
     one. HiGHS is run twice, the relaxation then the integer program, and the answer is
     one plan. When the relaxation's vertex is integral it is the answer, HiGHS run once."""
-    ids = [0, 1, 2]
-    pairs = [[1, 1, 0], [0, 1, 1], [1, 0, 1]]
-    sets = [plan_set(ids, [[0, 0, 0], pair], [10_000.0, 12_000.0]) for pair in pairs]
-    delay = {0: 1.0, 1: 1.0, 2: 1.0}
-    problem = SelectionProblem.from_plan_sets(sets, delay, alpha=0.5, energy_ref_j=E_REF)
+    problem = _odd_cycle()
     runs = []
     original = highspy.Highs.run
 
@@ -292,9 +288,57 @@ def test_a_fractional_relaxation_goes_on_to_the_integer_program(monkeypatch):
     assert sorted(result.chosen.tolist()) == [0, 0, 1]
     assert_allclose(result.objective, brute_force(problem), rtol=OBJ_RTOL)
     runs.clear()
-    disjoint = [plan_set([i], [[0], [1]], [10_000.0, 12_000.0]) for i in ids]
-    easy = SelectionProblem.from_plan_sets(disjoint, delay, alpha=0.5, energy_ref_j=E_REF)
+    disjoint = [plan_set([i], [[0], [1]], [10_000.0, 12_000.0]) for i in range(3)]
+    easy = SelectionProblem.from_plan_sets(
+        disjoint, {0: 1.0, 1: 1.0, 2: 1.0}, alpha=0.5, energy_ref_j=E_REF
+    )
     assert MilpSelector().select(easy).chosen.tolist() == [1, 1, 1] and len(runs) == 1
+
+
+def _odd_cycle() -> SelectionProblem:
+    """Three drones, each with one plan serving two of three requests: the relaxation
+    is fractional, so HiGHS' branch and bound runs."""
+    ids = [0, 1, 2]
+    pairs = [[1, 1, 0], [0, 1, 1], [1, 0, 1]]
+    sets = [plan_set(ids, [[0, 0, 0], pair], [10_000.0, 12_000.0]) for pair in pairs]
+    return SelectionProblem.from_plan_sets(
+        sets, {0: 1.0, 1: 1.0, 2: 1.0}, alpha=0.5, energy_ref_j=E_REF
+    )
+
+
+def test_the_selection_runs_highs_on_one_thread_whoever_started_it(monkeypatch):
+    """Another solver object in the process (cvxpy's, a notebook's) may start HiGHS'
+    scheduler with two threads; HiGHS then refuses a one-thread run. The selection
+    restarts the scheduler and still finds the optimum, on one thread."""
+    other = highspy.Highs()
+    other.setOptionValue("output_flag", False)
+    other.setOptionValue("threads", 2)
+    highspy.Highs.resetGlobalScheduler(True)
+    lp = highspy.HighsLp()
+    lp.num_col_, lp.num_row_ = 2, 1
+    lp.col_cost_ = np.array([-1.0, -1.0])
+    lp.col_lower_, lp.col_upper_ = np.zeros(2), np.ones(2)
+    lp.row_lower_, lp.row_upper_ = np.array([-highspy.kHighsInf]), np.array([1.5])
+    lp.a_matrix_.format_ = highspy.MatrixFormat.kColwise
+    lp.a_matrix_.start_ = np.array([0, 1, 2])
+    lp.a_matrix_.index_, lp.a_matrix_.value_ = np.array([0, 0]), np.array([1.0, 1.0])
+    lp.integrality_ = [highspy.HighsVarType.kInteger] * 2
+    other.passModel(lp)
+    other.run()
+    assert other.getModelStatus() == highspy.HighsModelStatus.kOptimal  # on two threads
+    threads = []
+    original = highspy.Highs.setOptionValue
+
+    def spy(self, name, value):
+        if name == "threads":
+            threads.append(value)
+        return original(self, name, value)
+
+    monkeypatch.setattr(highspy.Highs, "setOptionValue", spy)
+    problem = _odd_cycle()
+    result = MilpSelector().select(problem)
+    assert result.status == "optimal" and not result.fallback and set(threads) == {1}
+    assert_allclose(result.objective, brute_force(problem), rtol=OBJ_RTOL)
 
 
 def _result(status, fallback=False, **kw) -> SelectionResult:
