@@ -40,6 +40,7 @@ from numpy.typing import NDArray
 
 from ..energy import ENERGY_TOL_J, PAYLOAD_TOL_KG, EnergyModel
 from ..segment.depots import nearest_depot
+from .kernels import kernels
 from .order import MAX_STOPS, evaluate_orders, exact_orders, node_distances, subset_masks
 
 __all__ = ["DroneTask", "PoolResult", "RoutePool", "build_pool", "finish_route"]
@@ -54,6 +55,7 @@ _EXACT_MAX = 10  # exact re-ordering up to this many stops (2**10 subsets)
 # much as the interpolation itself on the search's small arrays.
 _interp = getattr(np, "_core", np).multiarray.interp
 _max = np.maximum.reduce  # ndarray.max without its Python wrapper (the same value)
+_NO_BLUR = np.zeros(0)  # the compiled refresh's "scores not blurred"
 
 
 @dataclass(frozen=True)
@@ -157,6 +159,7 @@ class RoutePool:
         self.xy = np.asarray(req_xy, dtype=np.float64)
         self.depots_xy = np.asarray(depots_xy, dtype=np.float64)
         self.tasks = tasks
+        self._jit = kernels()  # the compiled insertion (the same results), or None
         self._near_m: NDArray[np.float64] | None = None
         # (drone, stops) -> the route's energy without each stop (the worst-detour ruin)
         self._without_j: dict[tuple[int, tuple[int, ...]], NDArray[np.float64]] = {}
@@ -258,6 +261,13 @@ class RoutePool:
         m = sub.size
         if m == 0:
             return np.zeros(0), np.zeros(0, dtype=np.int64)
+        if self._jit is not None:
+            d_out, slot_out = np.empty(m), np.empty(m, dtype=np.int64)
+            self._jit.insertion(
+                dr.dmat, dr.cand_w, dr.cand_end, np.array(dr.stops, dtype=np.int64), sub,
+                dr.start_end, dr.k.cap, dr.k.grid, dr.k.table, d_out, slot_out,
+            )  # fmt: skip
+            return d_out, slot_out
         wq = dr.cand_w[sub]
         if k == 0:  # start -> q with its parcel -> end empty
             d_e = dr.dmat[sub, -1] * dr.k.e(np.minimum(wq, dr.k.cap))
@@ -292,6 +302,14 @@ class RoutePool:
         a refill need not rebuild what was ruined."""
         dr = self.drones[u]
         sub = (free[dr.cand] & (dr.weight + dr.cand_w <= dr.k.fit_kg)).nonzero()[0]
+        if self._jit is not None:  # the same as below, in one compiled loop
+            blur = _NO_BLUR if rng is None else rng.uniform(1.0 - _BLINK, 1.0, sub.size)
+            self._jit.refresh(
+                dr.dmat, dr.cand_w, dr.cand_end, dr.cand_prize, np.array(dr.stops, dtype=np.int64),
+                sub, dr.start_end, dr.energy, dr.k.usable, dr.k.cap, dr.k.grid, dr.k.table,
+                self._jit.KIND[score_kind], blur, dr.score, dr.slot, dr.d_e,
+            )  # fmt: skip
+            return
         d_e, slot = self._insertion(dr, sub)
         gain = dr.cand_prize[sub] - d_e
         feas = (dr.energy + d_e <= dr.k.usable) & (gain > 0)

@@ -1,0 +1,159 @@
+"""numba kernels of the route pool (loaded through :func:`.kernels.kernels`).
+
+Each mirrors a numpy expression of :class:`.pool.RoutePool` operation by operation, so
+that both give the same floats: no fast-math, no reordered sums. The energy per metre
+is ``np.interp`` on the energy model's uniform load grid, done as numpy does it (the
+interval found, then slope × offset + value).
+"""
+
+from __future__ import annotations
+
+import numba as nb
+import numpy as np
+from numpy.typing import NDArray
+
+__all__ = ["KIND", "insertion", "refresh", "warm_up"]
+
+KIND = {"density": 0, "weight": 1, "gain": 2}
+"""The construction scores (:data:`.pool.SCORES`) as the kernels number them."""
+
+
+@nb.njit(cache=True, nogil=True)
+def _interp(x: float, xp: NDArray[np.float64], fp: NDArray[np.float64]) -> float:
+    """``np.interp(x, xp, fp)`` for an increasing, evenly spaced ``xp``."""
+    n = xp.size
+    if x >= xp[n - 1]:
+        return fp[n - 1]
+    if x <= xp[0]:
+        return fp[0]
+    j = min(int((x - xp[0]) / ((xp[n - 1] - xp[0]) / (n - 1))), n - 2)
+    while j > 0 and xp[j] > x:  # the division may land one interval off
+        j -= 1
+    while j < n - 2 and xp[j + 1] <= x:
+        j += 1
+    slope = (fp[j + 1] - fp[j]) / (xp[j + 1] - xp[j])
+    return slope * (x - xp[j]) + fp[j]
+
+
+@nb.njit(cache=True, nogil=True)
+def insertion(
+    dmat: NDArray[np.float64],
+    cand_w: NDArray[np.float64],
+    cand_end: NDArray[np.float64],
+    stops: NDArray[np.int64],
+    sub: NDArray[np.int64],
+    start_end: float,
+    cap: float,
+    grid: NDArray[np.float64],
+    table: NDArray[np.float64],
+    d_out: NDArray[np.float64],
+    slot_out: NDArray[np.int64],
+) -> None:
+    """:meth:`.pool.RoutePool._insertion`: the least extra energy of inserting each
+    candidate of ``sub`` into the route ``stops`` (into ``d_out``) and where (the slot,
+    into ``slot_out``), both indexed like ``sub``."""
+    k = stops.size
+    start = dmat.shape[0]  # the start is the last column
+    load = np.zeros(k + 1)  # leaving node i (the start is node 0)
+    e_l = np.empty(k + 1)
+    legs = np.empty(k)  # node i -> node i + 1
+    acc = 0.0
+    for i in range(k - 1, -1, -1):
+        acc = acc + cand_w[stops[i]]
+        load[i] = acc
+    prev = start
+    for i in range(k):
+        e_l[i] = _interp(load[i], grid, table)
+        legs[i] = dmat[stops[i], prev]
+        prev = stops[i]
+    e_l[k] = _interp(load[k], grid, table)
+    d = np.empty(k + 1)
+    e_q = np.empty(k + 1)
+    d_q = np.empty(k + 1)
+    for n in range(sub.size):
+        q = sub[n]
+        if k == 0:  # start -> q with its parcel -> end empty
+            e = dmat[q, start] * _interp(min(cand_w[q], cap), grid, table)
+            d_out[n] = e + cand_end[q] - start_end
+            slot_out[n] = 0
+            continue
+        prev = start
+        for i in range(k + 1):
+            d_q[i] = dmat[q, prev]
+            if i < k:
+                prev = stops[i]
+            e_q[i] = _interp(min(load[i] + cand_w[q], cap), grid, table)
+            d[i] = d_q[i] * e_q[i]
+        acc = 0.0  # the legs before the new stop carry its parcel too
+        for i in range(k):
+            acc = acc + (e_q[i] - e_l[i]) * legs[i]
+            d[i + 1] = d[i + 1] + acc
+        for i in range(k):  # node i -> q -> node i + 1 replaces node i -> node i + 1
+            d[i] = d[i] + (d_q[i + 1] * e_l[i] - legs[i] * e_l[i])
+        d[k] = d[k] + (cand_end[q] - cand_end[stops[k - 1]])
+        at = 0
+        for i in range(1, k + 1):
+            if d[i] < d[at]:
+                at = i
+        d_out[n] = d[at]
+        slot_out[n] = at
+
+
+@nb.njit(cache=True, nogil=True)
+def refresh(
+    dmat: NDArray[np.float64],
+    cand_w: NDArray[np.float64],
+    cand_end: NDArray[np.float64],
+    cand_prize: NDArray[np.float64],
+    stops: NDArray[np.int64],
+    sub: NDArray[np.int64],
+    start_end: float,
+    energy: float,
+    usable: float,
+    cap: float,
+    grid: NDArray[np.float64],
+    table: NDArray[np.float64],
+    kind: int,
+    blur: NDArray[np.float64],
+    score: NDArray[np.float64],
+    slot: NDArray[np.int64],
+    d_e: NDArray[np.float64],
+) -> None:
+    """:meth:`.pool.RoutePool._refresh` after ``sub``: every score to −inf, then each
+    candidate of ``sub``'s best insertion, its extra energy and its score (``kind`` in
+    :data:`KIND`; times ``blur`` when it is not empty)."""
+    score[:] = -np.inf
+    m = sub.size
+    d_sub = np.empty(m)
+    slot_sub = np.empty(m, dtype=np.int64)
+    insertion(dmat, cand_w, cand_end, stops, sub, start_end, cap, grid, table, d_sub, slot_sub)
+    for n in range(m):
+        q = sub[n]
+        de = d_sub[n]
+        gain = cand_prize[q] - de
+        if kind == 0:
+            s = gain / max(cand_w[q] / cap + max(de, 0.0) / usable, 1e-9)
+        elif kind == 1:
+            s = gain / max(cand_w[q], 1e-9)
+        else:
+            s = gain
+        if blur.size:
+            s = s * blur[n]
+        score[q] = s if energy + de <= usable and gain > 0 else -np.inf
+        slot[q] = slot_sub[n]
+        d_e[q] = de
+
+
+def warm_up() -> None:
+    """Compile (or load from the cache) every kernel on a two-stop route, so that a
+    failure shows here, once, rather than in the middle of a plan."""
+    grid = np.linspace(0.0, 2.0, 5)
+    table = 1.0 + grid**2
+    dmat = np.array([[0.0, 3.0, 1.0], [3.0, 0.0, 2.0]])
+    w, end = np.array([0.5, 0.7]), np.array([1.0, 2.0])
+    stops, sub = np.array([0], dtype=np.int64), np.array([1], dtype=np.int64)
+    score, d_e, slot = np.zeros(2), np.zeros(2), np.zeros(2, dtype=np.int64)
+    refresh(
+        dmat, w, end, np.full(2, 50.0), stops, sub, 1.0, 5.0, 100.0, 2.0, grid, table, 0,
+        np.zeros(0), score, slot, d_e,
+    )  # fmt: skip
