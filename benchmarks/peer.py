@@ -5,9 +5,11 @@ J = Σ route energy + λ Σ_pending v_r (1 − served_r) and its controllable pa
 G = λ Σ_served v_r − Σ energy (higher is better), with PyVRP's routes re-costed by
 marops' exact payload-aware energy model (their order improved for energy, landing
 at the depot nearest the last customer). Days come from ``marops synth`` (each city
-shape and seed, 8 drones, 16 depots, α 0.5) under the operating model of ``--config``
-(default: the realistic model, parcels waiting at their own depot; ``examples/paper.toml``:
-the paper's, every parcel at every depot). Under ``stock = "home"`` PyVRP is told each
+shape and seed, 8 drones, 16 depots, α 0.5), or from LaDe exports (``--data``, each
+file one city, segmented as ``marops segment`` would, its other days the history)
+under the operating model of ``--config`` (default: the realistic model, parcels
+waiting at their own depot; ``examples/paper.toml``: the paper's, every parcel at
+every depot). Under ``stock = "home"`` PyVRP is told each
 parcel's depot (a drone carries only its departure depot's parcels) and flies only the
 drones that can fly the window. ``marops`` always runs the route pool, ``paper`` the
 paper's subsets planner; the rest of the config is shared.
@@ -41,10 +43,10 @@ paper's subsets planner; the rest of the config is shared.
 Needs the ``bench`` extra (``pip install -e '.[bench]'``, which brings PyVRP).
 
     python benchmarks/peer.py [--config TOML] [--shapes hubs,corridor] [--seeds 101,202]
-        [--days 11,12] [--open-seeds SEEDS] [--pyvrp-s 0.01,0.1,1,5]
-        [--closed-pyvrp-s 0.01,0.1,1] [--repeats N] [--variants SETTINGS] [--bound]
-        [--bound-labels N] [--large | --only-large] [--closed] [--quiet] [--json PATH]
-        [--smoke]
+        [--days 11,12 | --data export.csv --days 0820,0821] [--open-seeds SEEDS]
+        [--pyvrp-s 0.01,0.1,1,5] [--closed-pyvrp-s 0.01,0.1,1] [--repeats N]
+        [--variants SETTINGS] [--bound] [--bound-labels N] [--large | --only-large]
+        [--closed] [--quiet] [--json PATH] [--smoke]
 
 ``--closed``: the closed loop only; ``--json``: every figure (per window, per day and
 the totals) to a file. ``--smoke``: one day, PyVRP at 0.01 s only, and the large window
@@ -56,6 +58,7 @@ from __future__ import annotations
 import argparse
 import datetime as dt
 import json
+import os
 import statistics
 import sys
 import tempfile
@@ -72,11 +75,13 @@ import numpy as np  # noqa: E402
 from pyvrp.exceptions import PenaltyBoundWarning  # noqa: E402
 
 from marops_cli.config import OpsConfig, PlannerConfig, load_config, override  # noqa: E402
+from marops_cli.data.dates import parse_days  # noqa: E402
 from marops_cli.data.prepare import prepare_day  # noqa: E402
 from marops_cli.data.synth import SynthConfig, generate, write  # noqa: E402
 from marops_cli.data.table import DayRequests  # noqa: E402
 from marops_cli.energy import EnergyModel  # noqa: E402
 from marops_cli.plans.bound import window_bound  # noqa: E402
+from marops_cli.plans.kernels import JIT_ENV, load_kernels  # noqa: E402
 from marops_cli.plans.objective import lam_j, relative_gap  # noqa: E402
 from marops_cli.plans.pool import finish_route  # noqa: E402
 from marops_cli.plans.pyvrp_routes import solve_window  # noqa: E402
@@ -270,7 +275,7 @@ def backlog(view: WindowView, model: EnergyModel) -> dict[str, float]:
 
 @dataclass
 class Day:
-    """One replayed day of one synthetic city."""
+    """One replayed day of one city (a ``marops synth`` one, or an export's)."""
 
     shape: str
     seed: int
@@ -300,11 +305,23 @@ def replay_days(
             data = tmp / f"{shape}{seed}.csv"
             write(generate(SynthConfig(days=max(12, *dates), seed=seed, shape=shape)), data)  # type: ignore[arg-type]
             for d in dates:
-                date = dt.date(2022, 8, d)
-                scn = load_scenario(data, cfg, replay_days=[date])
-                reqs = prepare_day(scn.table, scn.frame, date, cfg.data)
-                fleet = default_fleet(scn.depots, cfg.sim.drones)
-                yield Day(shape, seed, date, reqs, scn.depots, fleet)
+                yield file_day(cfg, data, dt.date(2022, 8, d), shape, seed)
+
+
+def file_day(cfg: PlannerConfig, data: Path, date: dt.date, shape: str, seed: int) -> Day:
+    """One day of a LaDe export (segmented as ``marops segment`` would, the file's other
+    days the history), labelled ``shape`` and ``seed``."""
+    scn = load_scenario(data, cfg, replay_days=[date])
+    reqs = prepare_day(scn.table, scn.frame, date, cfg.data)
+    fleet = default_fleet(scn.depots, cfg.sim.drones)
+    return Day(shape, seed, date, reqs, scn.depots, fleet)
+
+
+def data_days(cfg: PlannerConfig, files: list[Path], dates: list[dt.date]) -> Iterator[Day]:
+    """Every (export, date) in that order, each export labelled by its file name."""
+    for path in files:
+        for date in dates:
+            yield file_day(cfg, path, date, path.stem, 0)
 
 
 # --- open and closed loop -------------------------------------------------------------
@@ -661,7 +678,17 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     ap.add_argument("--config", help="TOML config (default: the realistic operating model)")
     ap.add_argument("--shapes", default="hubs", help="marops synth city shapes, ','-separated")
     ap.add_argument("--seeds", default="101,202", help="marops synth seeds")
-    ap.add_argument("--days", default="11,12", help="days of August to replay (history: 1..10)")
+    ap.add_argument(
+        "--days",
+        help="days of August to replay (history: 1..10; default 11,12); with --data the "
+        "dates to replay, e.g. 0820,0821 or 0820..0822",
+    )
+    ap.add_argument(
+        "--data",
+        metavar="FILES",
+        help="LaDe exports (CSV or Parquet, ','-separated) instead of marops synth cities: "
+        "each is segmented as marops segment would and replayed on --days",
+    )
     ap.add_argument(
         "--pyvrp-s",
         default=",".join(f"{s:g}" for s in PYVRP_S),
@@ -695,6 +722,9 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     )
     ap.add_argument("--smoke", action="store_true", help="1 day, PyVRP 0.01 s, large (CI)")
     args = ap.parse_args(argv)
+    if args.data and not args.days:
+        ap.error("--data needs --days: the dates to replay, e.g. 0820,0821")
+    args.days = args.days or "11,12"
     if args.smoke:
         args.shapes, args.seeds, args.days = "hubs", "101", "11"
         args.pyvrp_s = args.closed_pyvrp_s = "0.01"
@@ -728,6 +758,10 @@ def main(argv: list[str] | None = None) -> None:
     # PyVRP's warning about its penalties would only clutter the tables.
     warnings.filterwarnings("ignore", category=PenaltyBoundWarning)
     setup = make_setup(args)
+    # The planner's steady state: the pool's compiled kernels from the first window (a
+    # process loads them after a day's windows otherwise), unless MAROPS_JIT=0.
+    jit = os.environ.get(JIT_ENV, "").strip() != "0" and load_kernels() is not None
+    print(f"route pool: {'compiled kernels' if jit else 'numpy'}")
     print(
         f"operating model: stock {setup.cfg.ops.stock}, batteries "
         f"{setup.cfg.ops.batteries_per_depot or 'unlimited'}, busy {setup.cfg.ops.busy}; "
@@ -735,13 +769,17 @@ def main(argv: list[str] | None = None) -> None:
         f"{', '.join(f'{s:g}' for s in setup.closed_s)}"
     )
     result: dict = {"args": {k: str(v) for k, v in vars(args).items()}}
-    open_seeds = set(ints(args.open_seeds or args.seeds))
+    open_seeds = {0} if args.data else set(ints(args.open_seeds or args.seeds))
     if not args.only_large:
         opened, closed = [], []
         with tempfile.TemporaryDirectory() as tmp:
-            for day in replay_days(
-                setup.cfg, args.shapes.split(","), ints(args.seeds), ints(args.days), Path(tmp)
-            ):
+            if args.data:
+                files = [Path(f) for f in args.data.split(",") if f]
+                days = data_days(setup.cfg, files, parse_days(args.days, setup.cfg.data.year))
+            else:
+                shapes, seeds = args.shapes.split(","), ints(args.seeds)
+                days = replay_days(setup.cfg, shapes, seeds, ints(args.days), Path(tmp))
+            for day in days:
                 print(f"{day.label}:", flush=True)
                 if not args.closed and day.seed in open_seeds:
                     opened += open_loop(day, setup, args.quiet)
