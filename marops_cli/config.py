@@ -220,7 +220,7 @@ class PlanConfig(_Stage):
         80, ge=1, le=500, description="pool planner: requests considered per drone"
     )
     pool_iterations: int = Field(
-        80, ge=0, le=100_000, description="pool planner: ruin-and-recreate steps per window"
+        240, ge=0, le=100_000, description="pool planner: ruin-and-recreate steps per window"
     )
     pool_urgency: float = Field(
         0.5,

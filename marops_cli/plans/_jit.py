@@ -12,7 +12,7 @@ import numba as nb
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["KIND", "insertion", "refresh", "warm_up"]
+__all__ = ["KIND", "insertion", "refresh", "route_energy", "warm_up", "without"]
 
 KIND = {"density": 0, "weight": 1, "gain": 2}
 """The construction scores (:data:`.pool.SCORES`) as the kernels number them."""
@@ -100,30 +100,115 @@ def insertion(
 
 
 @nb.njit(cache=True, nogil=True)
+def route_energy(
+    dmat: NDArray[np.float64],
+    cand_w: NDArray[np.float64],
+    cand_end: NDArray[np.float64],
+    stops: NDArray[np.int64],
+    cap: float,
+    grid: NDArray[np.float64],
+    table: NDArray[np.float64],
+) -> float:
+    """:meth:`.pool.RoutePool._route_energy` of a route of at least one stop: each leg's
+    length times the energy per metre of its load, summed in route order, plus the
+    empty last leg."""
+    k = stops.size
+    load = np.empty(k)
+    acc = 0.0
+    for i in range(k - 1, -1, -1):
+        acc = acc + cand_w[stops[i]]
+        load[i] = acc
+    total = 0.0
+    prev = dmat.shape[0]  # the start is the last column
+    for i in range(k):
+        leg = dmat[stops[i], prev] * _interp(min(load[i], cap), grid, table)
+        total = leg if i == 0 else total + leg
+        prev = stops[i]
+    return total + cand_end[stops[k - 1]]
+
+
+@nb.njit(cache=True, nogil=True)
+def without(
+    dmat: NDArray[np.float64],
+    cand_w: NDArray[np.float64],
+    cand_end: NDArray[np.float64],
+    stops: NDArray[np.int64],
+    start_end: float,
+    cap: float,
+    grid: NDArray[np.float64],
+    table: NDArray[np.float64],
+    out: NDArray[np.float64],
+) -> None:
+    """:meth:`.pool.RoutePool._without`: the route's energy without each of its stops
+    (into ``out``, in route order)."""
+    k = stops.size
+    start = dmat.shape[0]
+    load = np.empty(k)  # on the leg into each stop
+    acc = 0.0
+    for i in range(k - 1, -1, -1):
+        acc = acc + cand_w[stops[i]]
+        load[i] = min(acc, cap)
+    legs = np.empty(k)
+    prev = np.empty(k, dtype=np.int64)
+    for i in range(k):
+        prev[i] = start if i == 0 else stops[i - 1]
+        legs[i] = dmat[stops[i], prev[i]]
+    after = np.zeros(k + 1)  # legs l..k-1 at their loads
+    for i in range(k - 1, -1, -1):
+        base = legs[i] * _interp(load[i], grid, table)
+        after[i] = base if i == k - 1 else after[i + 1] + base
+    for i in range(k):
+        acc = 0.0  # the legs before stop i, lighter by its parcel
+        for j in range(i):
+            lighter = legs[j] * _interp(max(load[j] - cand_w[stops[i]], 0.0), grid, table)
+            acc = lighter if j == 0 else acc + lighter
+        if i < k - 1:
+            acc = acc + dmat[stops[i + 1], prev[i]] * _interp(load[i + 1], grid, table)
+        if i < k - 2:
+            acc = acc + after[i + 2]
+        if i < k - 1:
+            acc = acc + cand_end[stops[k - 1]]
+        else:
+            acc = acc + (cand_end[stops[k - 2]] if k > 1 else start_end)
+        out[i] = acc
+
+
+@nb.njit(cache=True, nogil=True)
 def refresh(
     dmat: NDArray[np.float64],
     cand_w: NDArray[np.float64],
     cand_end: NDArray[np.float64],
     cand_prize: NDArray[np.float64],
-    stops: NDArray[np.int64],
-    sub: NDArray[np.int64],
+    cand: NDArray[np.int64],
     start_end: float,
-    energy: float,
+    fit_kg: float,
     usable: float,
     cap: float,
     grid: NDArray[np.float64],
     table: NDArray[np.float64],
-    kind: int,
-    blur: NDArray[np.float64],
     score: NDArray[np.float64],
     slot: NDArray[np.int64],
     d_e: NDArray[np.float64],
-) -> None:
-    """:meth:`.pool.RoutePool._refresh` after ``sub``: every score to −inf, then each
-    candidate of ``sub``'s best insertion, its extra energy and its score (``kind`` in
-    :data:`KIND`; times ``blur`` when it is not empty)."""
+    stops: NDArray[np.int64],
+    free: NDArray[np.bool_],
+    weight: float,
+    energy: float,
+    kind: int,
+    blur: NDArray[np.float64],
+) -> tuple[float, int]:
+    """:meth:`.pool.RoutePool._refresh`: every score to −inf, then each candidate that
+    is ``free`` and still fits the payload (``weight`` + its own ≤ ``fit_kg``): its best
+    insertion, extra energy and score (``kind`` in :data:`KIND`; times its ``blur``
+    factor when ``blur`` is not empty). Returns the best score and its candidate (the
+    first of equals; (−inf, 0) when none)."""
     score[:] = -np.inf
-    m = sub.size
+    sub = np.empty(cand.size, dtype=np.int64)  # the free candidates that still fit
+    m = 0
+    for q in range(cand.size):
+        if free[cand[q]] and weight + cand_w[q] <= fit_kg:
+            sub[m] = q
+            m += 1
+    sub = sub[:m]
     d_sub = np.empty(m)
     slot_sub = np.empty(m, dtype=np.int64)
     insertion(dmat, cand_w, cand_end, stops, sub, start_end, cap, grid, table, d_sub, slot_sub)
@@ -138,10 +223,15 @@ def refresh(
         else:
             s = gain
         if blur.size:
-            s = s * blur[n]
+            s = s * blur[q]
         score[q] = s if energy + de <= usable and gain > 0 else -np.inf
         slot[q] = slot_sub[n]
         d_e[q] = de
+    best, at = -np.inf, 0
+    for q in range(score.size):
+        if score[q] > best:
+            best, at = score[q], q
+    return best, at
 
 
 def warm_up() -> None:
@@ -151,9 +241,11 @@ def warm_up() -> None:
     table = 1.0 + grid**2
     dmat = np.array([[0.0, 3.0, 1.0], [3.0, 0.0, 2.0]])
     w, end = np.array([0.5, 0.7]), np.array([1.0, 2.0])
-    stops, sub = np.array([0], dtype=np.int64), np.array([1], dtype=np.int64)
+    stops = np.array([0], dtype=np.int64)
     score, d_e, slot = np.zeros(2), np.zeros(2), np.zeros(2, dtype=np.int64)
     refresh(
-        dmat, w, end, np.full(2, 50.0), stops, sub, 1.0, 5.0, 100.0, 2.0, grid, table, 0,
-        np.zeros(0), score, slot, d_e,
+        dmat, w, end, np.full(2, 50.0), np.arange(2), 1.0, 2.0, 100.0, 2.0, grid, table,
+        score, slot, d_e, stops, np.ones(2, dtype=np.bool_), 0.5, 5.0, 0, np.zeros(0),
     )  # fmt: skip
+    route_energy(dmat, w, end, stops, 2.0, grid, table)
+    without(dmat, w, end, stops, 1.0, 2.0, grid, table, np.zeros(1))

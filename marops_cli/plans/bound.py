@@ -38,9 +38,9 @@ from numpy.typing import NDArray
 from ..config import BOUND_LABELS
 from ..energy import EnergyModel
 from ..segment.depots import nearest_depot
+from .highs import new_highs, run_highs
 from .pool import DroneTask
 from .pricing import DroneClass, price
-from .select import new_highs, run_highs
 
 if TYPE_CHECKING:
     from ..config import PlanConfig

@@ -9,10 +9,10 @@ byte with or without them (docs/decisions.md, "The route pool"), and the pool ke
 its numpy code for where numba is missing or cannot compile.
 
 Loading numba and the compiled code from its cache takes about 0.6 s of CPU (2 s the
-first time, when it compiles), what the kernels save over some 30 windows. So a
-process plans its first :data:`NUMPY_POOLS` windows with numpy (one ``plan-window``,
-one day's replay) and loads the kernels for the next; ``MAROPS_JIT=1`` loads them at
-the first window (benchmarks), ``MAROPS_JIT=0`` never. The compiled code is cached
+first time, when it compiles), what the kernels save over five or six windows. So a
+process plans its first :data:`NUMPY_POOLS` windows with numpy (a ``plan-window``) and
+loads the kernels for the next (a day's replay); ``MAROPS_JIT=1`` loads them at the
+first window (benchmarks), ``MAROPS_JIT=0`` never. The compiled code is cached
 next to :mod:`._jit`, or in numba's cache directory when that is not writable.
 """
 
@@ -25,8 +25,8 @@ __all__ = ["JIT_ENV", "NUMPY_POOLS", "kernels", "load_kernels"]
 
 JIT_ENV = "MAROPS_JIT"
 """``1``: the kernels from the first window; ``0``: never; unset: after :data:`NUMPY_POOLS`."""
-NUMPY_POOLS = 16
-"""Route pools a process builds with numpy before it loads the kernels (a day's windows)."""
+NUMPY_POOLS = 2
+"""Route pools a process builds with numpy before it loads the kernels."""
 
 _pools = 0
 _loaded: ModuleType | None = None

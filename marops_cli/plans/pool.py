@@ -58,6 +58,14 @@ _max = np.maximum.reduce  # ndarray.max without its Python wrapper (the same val
 _NO_BLUR = np.zeros(0)  # the compiled refresh's "scores not blurred"
 
 
+def _best(score: NDArray[np.float64]) -> tuple[float, int]:
+    """The highest score and its index (the first of equals); (−inf, 0) when empty."""
+    if not score.size:
+        return -np.inf, 0
+    j = int(score.argmax())
+    return float(score[j]), j
+
+
 @dataclass(frozen=True)
 class DroneTask:
     """What one drone may do in the window."""
@@ -296,20 +304,24 @@ class RoutePool:
         score_kind: str,
         free: NDArray[np.bool_],
         rng: np.random.Generator | None = None,
-    ) -> None:
+    ) -> tuple[float, int]:
         """Each free candidate's best insertion into drone ``u``'s route and its score;
         with ``rng`` the scores are blurred (a random factor in [1 − _BLINK, 1]), so that
-        a refill need not rebuild what was ruined."""
+        a refill need not rebuild what was ruined. Returns the best score and its
+        candidate (the first of equals; −inf when none may be inserted)."""
         dr = self.drones[u]
-        sub = (free[dr.cand] & (dr.weight + dr.cand_w <= dr.k.fit_kg)).nonzero()[0]
+        # A blur factor per candidate (drawn whether it is free or not, so that the
+        # compiled loop can pick the free ones itself).
+        blur = _NO_BLUR if rng is None else rng.uniform(1.0 - _BLINK, 1.0, dr.cand.size)
         if self._jit is not None:  # the same as below, in one compiled loop
-            blur = _NO_BLUR if rng is None else rng.uniform(1.0 - _BLINK, 1.0, sub.size)
-            self._jit.refresh(
-                dr.dmat, dr.cand_w, dr.cand_end, dr.cand_prize, np.array(dr.stops, dtype=np.int64),
-                sub, dr.start_end, dr.energy, dr.k.usable, dr.k.cap, dr.k.grid, dr.k.table,
-                self._jit.KIND[score_kind], blur, dr.score, dr.slot, dr.d_e,
+            k = dr.k
+            return self._jit.refresh(
+                dr.dmat, dr.cand_w, dr.cand_end, dr.cand_prize, dr.cand, dr.start_end, k.fit_kg,
+                k.usable, k.cap, k.grid, k.table, dr.score, dr.slot, dr.d_e,
+                np.array(dr.stops, dtype=np.int64), free, dr.weight, dr.energy,
+                self._jit.KIND[score_kind], blur,
             )  # fmt: skip
-            return
+        sub = (free[dr.cand] & (dr.weight + dr.cand_w <= dr.k.fit_kg)).nonzero()[0]
         d_e, slot = self._insertion(dr, sub)
         gain = dr.cand_prize[sub] - d_e
         feas = (dr.energy + d_e <= dr.k.usable) & (gain > 0)
@@ -321,11 +333,12 @@ class RoutePool:
         else:
             score = gain
         if rng is not None:
-            score = score * rng.uniform(1.0 - _BLINK, 1.0, score.size)
+            score = score * blur[sub]
         dr.score.fill(-np.inf)  # only the scores of ``sub`` are read, slots and energies too
         dr.score[sub] = np.where(feas, score, -np.inf)
         dr.slot[sub] = slot
         dr.d_e[sub] = d_e
+        return _best(dr.score)
 
     def _insert(self, u: int, j: int) -> None:
         dr = self.drones[u]
@@ -343,31 +356,27 @@ class RoutePool:
     ) -> None:
         """Greedy insertion into the routes of ``users`` until nothing profitable fits
         (scores blurred with ``rng``, :meth:`_refresh`)."""
+        best, at = [], []  # each drone's best score and its candidate
         for u in users:
-            self._refresh(u, score_kind, free, rng)
-        best = np.array(
-            [
-                _max(self.drones[u].score, initial=-np.inf) if self.drones[u].cand.size else -np.inf
-                for u in users
-            ]
-        )
-        while best.size and np.isfinite(_max(best)):
-            i = int(best.argmax())  # ties to the first drone
+            b, j = self._refresh(u, score_kind, free, rng)
+            best.append(b)
+            at.append(j)
+        while best and max(best) > -np.inf:
+            i = best.index(max(best))  # ties to the first drone
             u = users[i]
             dr = self.drones[u]
-            j = int(dr.score.argmax())
-            q = int(dr.cand[j])
-            self._insert(u, j)
+            q = int(dr.cand[at[i]])
+            self._insert(u, at[i])
             free[q] = False
-            self._refresh(u, score_kind, free, rng)
-            best[i] = _max(dr.score, initial=-np.inf)
+            best[i], at[i] = self._refresh(u, score_kind, free, rng)
             for i2, u2 in enumerate(users):  # q is taken: no other drone may insert it
                 hit = self._index[u2].get(q, -1) if u2 != u else -1
                 if hit >= 0:
                     d2 = self.drones[u2]
                     if d2.score[hit] > -np.inf:
                         d2.score[hit] = -np.inf
-                        best[i2] = _max(d2.score)
+                        if hit == at[i2]:  # it was that drone's best
+                            best[i2], at[i2] = _best(d2.score)
 
     # -- solutions -----------------------------------------------------------------------
 
@@ -420,16 +429,21 @@ class RoutePool:
         dr.weight = float(self.w[dr.cand[dr.stops]].sum())
 
     def _route_energy(self, dr: _Drone) -> float:
+        """The route's exact energy: its legs' in route order (a running sum, as the
+        compiled one adds them), then the empty last leg."""
         if not dr.stops:
             return dr.start_end
-        stops = np.array(dr.stops)
+        stops = np.array(dr.stops, dtype=np.int64)
+        if self._jit is not None:
+            kd = dr.k
+            args = (dr.dmat, dr.cand_w, dr.cand_end, stops, kd.cap, kd.grid, kd.table)
+            return float(self._jit.route_energy(*args))
         load = dr.cand_w[stops][::-1].cumsum()[::-1]
         prev = np.empty_like(stops)
         prev[0], prev[1:] = dr.cand.size, stops[:-1]  # the start is the last column
         legs = dr.dmat[stops, prev]
-        return float((legs * dr.k.e(np.minimum(load, dr.k.cap))).sum()) + float(
-            dr.cand_end[dr.stops[-1]]
-        )
+        legs_j = (legs * dr.k.e(np.minimum(load, dr.k.cap))).cumsum()
+        return float(legs_j[-1]) + float(dr.cand_end[dr.stops[-1]])
 
     def _record(
         self, pool: list[dict[tuple[int, ...], float]], users: list[int] | None = None
@@ -476,30 +490,62 @@ class RoutePool:
         """Remove 2 to ``_RUIN_MAX`` served stops nearest a random served one, from at most
         three routes, so that neighbouring routes can trade stops; a drone that could
         serve what was freed is refilled too. Returns the drones to refill."""
-        owner: dict[int, tuple[int, int]] = {}  # request -> (drone, index in its route)
-        for u in busy:
-            dr = self.drones[u]
-            for i, j in enumerate(dr.stops):
-                owner[int(dr.cand[j])] = (u, i)
-        served = np.array(sorted(owner), dtype=np.int64)
+        reqs, who, pos = self._served(busy)
+        by_req = np.argsort(reqs)  # served requests by position (each served once)
+        served = reqs[by_req]
         centre = self.xy[served[int(rng.integers(served.size))]]
         n_drop = int(rng.integers(2, _RUIN_MAX + 1))
+        near = by_req[np.argsort(np.hypot(*(self.xy[served] - centre).T), kind="stable")]
+        return self._drop_first(near, reqs, who, pos, n_drop, free, users, rng)
+
+    def _served(
+        self, busy: list[int]
+    ) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int64]]:
+        """Every served stop of the ``busy`` drones, route by route: its request, drone and
+        index in the route."""
+        stops = [self.drones[u].stops for u in busy]
+        reqs = np.concatenate([self.drones[u].cand[st] for u, st in zip(busy, stops, strict=True)])
+        who = np.repeat(np.asarray(busy, dtype=np.int64), [len(st) for st in stops])
+        pos = np.concatenate([np.arange(len(st), dtype=np.int64) for st in stops])
+        return reqs, who, pos
+
+    def _drop_first(
+        self,
+        ranked: NDArray[np.int64],
+        reqs: NDArray[np.int64],
+        who: NDArray[np.int64],
+        pos: NDArray[np.int64],
+        n_drop: int,
+        free: NDArray[np.bool_],
+        users: list[int],
+        rng: np.random.Generator,
+    ) -> list[int]:
+        """Remove the first ``n_drop`` served stops in ``ranked`` order (indices into
+        :meth:`_served`'s arrays) from at most three routes (:meth:`_drop`)."""
         drops: dict[int, list[int]] = {}
         freed: list[int] = []
-        for q in served[np.argsort(np.hypot(*(self.xy[served] - centre).T), kind="stable")]:
-            u, i = owner[int(q)]
+        for r in ranked.tolist():
+            u = int(who[r])
             if u not in drops and len(drops) == 3:
                 continue
-            drops.setdefault(u, []).append(i)
-            freed.append(int(q))
+            drops.setdefault(u, []).append(int(pos[r]))
+            freed.append(int(reqs[r]))
             if len(freed) == n_drop:
                 break
         return self._drop(drops, freed, free, users, rng)
 
     def _without(self, dr: _Drone) -> NDArray[np.float64]:
-        """Exact energy of the route without each of its stops (in route order)."""
-        stops = np.array(dr.stops)
+        """Exact energy of the route without each of its stops (in route order; the
+        legs' energies added in route order, as the compiled one adds them)."""
+        stops = np.array(dr.stops, dtype=np.int64)
         k = stops.size
+        if self._jit is not None:
+            out = np.empty(k)
+            kd = dr.k
+            self._jit.without(
+                dr.dmat, dr.cand_w, dr.cand_end, stops, dr.start_end, kd.cap, kd.grid, kd.table, out
+            )
+            return out
         w = dr.cand_w[stops]
         load = np.minimum(w[::-1].cumsum()[::-1], dr.k.cap)  # on the leg into each stop
         prev = np.empty_like(stops)
@@ -508,7 +554,7 @@ class RoutePool:
         base = legs * dr.k.e(load)
         # Legs before the removed stop i carry its parcel no more.
         lighter = legs[None, :] * dr.k.e(np.maximum(load[None, :] - w[:, None], 0.0))
-        out = (lighter * np.tri(k, k, -1)).sum(axis=1)
+        out = (lighter * np.tri(k, k, -1)).cumsum(axis=1)[:, -1]
         after = np.concatenate([base[::-1].cumsum()[::-1], [0.0]])  # legs l..k-1
         out[:-1] += dr.dmat[stops[1:], prev[:-1]] * dr.k.e(load[1:])  # prev(i) -> stop i + 1
         out[:-2] += after[2:-1]
@@ -538,27 +584,20 @@ class RoutePool:
         """Remove the 2 to ``_RUIN_MAX`` served stops whose detour costs the most energy
         (with noise), from at most three routes; a drone that could serve what was
         freed is refilled too. Returns the drones to refill."""
-        cost = []
+        saving = []
         for u in busy:
             dr = self.drones[u]
             key = (u, tuple(dr.stops))
             without = self._without_j.get(key)
             if without is None:  # most routes are met again: keep what they cost
                 without = self._without_j[key] = self._without(dr)
-            cost += [(float(x), u, i) for i, x in enumerate(dr.energy - without)]
-        noisy = np.array([c for c, _, _ in cost]) * rng.uniform(_NOISE, 1.0, len(cost))
+            saving.append(dr.energy - without)
+        reqs, who, pos = self._served(busy)
+        cost = np.concatenate(saving)
+        noisy = cost * rng.uniform(_NOISE, 1.0, cost.size)
         n_drop = int(rng.integers(2, _RUIN_MAX + 1))
-        drops: dict[int, list[int]] = {}
-        freed: list[int] = []
-        for r in np.argsort(-noisy, kind="stable"):
-            _, u, i = cost[int(r)]
-            if u not in drops and len(drops) == 3:
-                continue
-            drops.setdefault(u, []).append(i)
-            freed.append(int(self.drones[u].cand[self.drones[u].stops[i]]))
-            if len(freed) == n_drop:
-                break
-        return self._drop(drops, freed, free, users, rng)
+        ranked = np.argsort(-noisy, kind="stable")
+        return self._drop_first(ranked, reqs, who, pos, n_drop, free, users, rng)
 
     def _exchange(self, users: list[int], free: NDArray[np.bool_], kind: str) -> None:
         """Swap a served stop for an unserved candidate while a route's G grows

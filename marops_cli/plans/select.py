@@ -17,11 +17,7 @@ matrix.
 
 from __future__ import annotations
 
-import contextlib
-import ctypes
 import math
-import os
-import sys
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -34,6 +30,8 @@ import scipy.sparse as sp
 from numpy.typing import NDArray
 
 from ..config import PlanConfig
+from .branch import branch_and_bound
+from .highs import new_highs, run_highs, silence_highs_banner
 from .plans import SelectionProblem
 
 __all__ = [
@@ -48,62 +46,6 @@ __all__ = [
     "make_selector",
     "solve_highs_direct",
 ]
-
-
-_banner_silenced = False
-
-
-def _silence_highs_banner() -> None:
-    """HiGHS (1.16) prints a banner on stdout when its first solver object is made, which
-    would corrupt ``--json`` output and cron logs: make that first one with stdout
-    pointed at /dev/null, once, before the first solve (not on import: importing the
-    library touches no file descriptor). Later objects print nothing (their output_flag
-    is off)."""
-    global _banner_silenced
-    if _banner_silenced:
-        return
-    _banner_silenced = True
-    try:
-        sys.stdout.flush()
-        saved = os.dup(1)
-    except (OSError, ValueError, AttributeError):
-        highspy.Highs()  # no file descriptor 1 to protect
-        return
-    devnull = os.open(os.devnull, os.O_WRONLY)
-    try:
-        os.dup2(devnull, 1)
-        highspy.Highs()
-        with contextlib.suppress(OSError, AttributeError):
-            ctypes.CDLL(None).fflush(None)  # what C++ buffered goes to /dev/null too
-    finally:
-        os.dup2(saved, 1)
-        os.close(saved)
-        os.close(devnull)
-
-
-def new_highs() -> highspy.Highs:
-    """A quiet HiGHS solver object on one thread (the banner silenced first).
-
-    The programs here are small (a few hundred columns): a second HiGHS worker finds
-    nothing sooner and keeps polling for work, which doubles the CPU of a branch and
-    bound for the same wall time and the same answer (docs/decisions.md, "Planning a
-    window"). One thread also makes the search the same on any machine."""
-    _silence_highs_banner()
-    h = highspy.Highs()
-    h.setOptionValue("output_flag", False)
-    h.setOptionValue("threads", 1)
-    return h
-
-
-def run_highs(h: highspy.Highs) -> None:
-    """``h.run()``; when HiGHS' process-wide scheduler was started with more threads (by
-    another solver object in this process, e.g. through cvxpy), HiGHS refuses a
-    one-thread run: the scheduler is restarted and the run tried once more."""
-    if h.run() == highspy.HighsStatus.kError and (
-        h.getModelStatus() == highspy.HighsModelStatus.kNotset
-    ):
-        highspy.Highs.resetGlobalScheduler(True)
-        h.run()
 
 
 _MIP_REL_GAP = 1e-7  # HiGHS' default 1e-4 of the objective is too loose to be "optimal"
@@ -298,7 +240,7 @@ def _solve_cvxpy(milp: _Milp, strict: bool, time_limit_s: float) -> _Attempt:
     # import, which the default direct HiGHS backend never needs.
     import cvxpy as cp
 
-    _silence_highs_banner()
+    silence_highs_banner()
     t0 = time.perf_counter()
     x = cp.Variable(milp.cols.size, boolean=True)
     u = milp.n_drones
@@ -356,6 +298,13 @@ def _solve_highs(milp: _Milp, strict: bool, time_limit_s: float) -> _Attempt:
             # The relaxation's optimum bounds the program, and is attained: no gap.
             bound = _finite(h.getInfo().objective_function_value)
             return _Attempt(np.round(x), "kOptimal", t1 - t0, time.perf_counter() - t1, bound, 0.0)
+        # A few branchings usually close it, far sooner than the integer solver starts.
+        done = branch_and_bound(h, _MIP_REL_GAP, _INTEGRAL_TOL, t0 + 0.5 * float(time_limit_s))
+        if done is not None:
+            gap = (done.objective - done.bound) / max(abs(done.objective), 1e-9)
+            return _Attempt(
+                done.x, "kOptimal", t1 - t0, time.perf_counter() - t1, _finite(done.bound), gap
+            )
     lp.integrality_ = [highspy.HighsVarType.kInteger] * n_col
     h.passModel(lp)
     h.setOptionValue("time_limit", max(float(time_limit_s) - (time.perf_counter() - t0), 0.01))

@@ -24,6 +24,7 @@ from marops_cli.plans import (
     make_selector,
     solve_highs_direct,
 )
+from marops_cli.plans import branch as branch_mod
 from marops_cli.plans import select as select_mod
 from marops_cli.plans.select import SolveVerdict
 
@@ -269,30 +270,75 @@ def test_make_selector_follows_the_config():
     assert isinstance(selector.select(random_problem(1)), SelectionResult)
 
 
-def test_a_fractional_relaxation_goes_on_to_the_integer_program(monkeypatch):
-    """Three drones, three requests, each drone's one plan serving two of them (an odd
-    cycle): the relaxation takes every plan by half (1.5 plans' gain), the program only
-    one. HiGHS is run twice, the relaxation then the integer program, and the answer is
-    one plan. When the relaxation's vertex is integral it is the answer, HiGHS run once."""
+def test_a_fractional_relaxation_is_branched_before_the_integer_solver(monkeypatch):
+    """The odd cycle: the relaxation takes every plan by half (1.5 plans' gain), the
+    program only one. The selection branches on the relaxation (the root, then a plan
+    fixed to 1, whose relaxation is integral, then fixed to 0, pruned): three HiGHS
+    runs, never the integer solver, and the answer is one plan. When branching gives
+    up (here after one relaxation) HiGHS' integer solver answers: two runs. When the
+    relaxation's vertex is integral it is the answer, HiGHS run once."""
     problem = _odd_cycle()
-    runs = []
+    runs: list[bool] = []
     original = highspy.Highs.run
 
     def counted(self):
-        runs.append(1)
+        runs.append(any(t == highspy.HighsVarType.kInteger for t in self.getLp().integrality_))
         return original(self)
 
     monkeypatch.setattr(highspy.Highs, "run", counted)
     result = MilpSelector().select(problem)
-    assert len(runs) == 2 and result.status == "optimal"
-    assert sorted(result.chosen.tolist()) == [0, 0, 1]
+    assert runs == [False, False, False] and result.status == "optimal"
+    assert sorted(result.chosen.tolist()) == [0, 0, 1] and result.gap == 0.0
     assert_allclose(result.objective, brute_force(problem), rtol=OBJ_RTOL)
+    runs.clear()
+    monkeypatch.setattr(branch_mod, "MAX_NODES", 1)
+    given_up = MilpSelector().select(problem)
+    assert runs == [False, True] and given_up.status == "optimal"
+    assert_allclose(given_up.objective, result.objective, rtol=OBJ_RTOL)
     runs.clear()
     disjoint = [plan_set([i], [[0], [1]], [10_000.0, 12_000.0]) for i in range(3)]
     easy = SelectionProblem.from_plan_sets(
         disjoint, {0: 1.0, 1: 1.0, 2: 1.0}, alpha=0.5, energy_ref_j=E_REF
     )
-    assert MilpSelector().select(easy).chosen.tolist() == [1, 1, 1] and len(runs) == 1
+    assert MilpSelector().select(easy).chosen.tolist() == [1, 1, 1] and runs == [False]
+
+
+def _overlapping(seed: int) -> SelectionProblem:
+    """5 drones whose plans overlap in pairs and triples of 7 requests (odd cycles)."""
+    rng = np.random.default_rng(seed)
+    n_req = 7
+    delay = {i: float(rng.uniform(0, 3)) for i in range(n_req)}
+    sets = []
+    for _ in range(5):
+        ids = np.arange(n_req)
+        picks = [rng.choice(n_req, int(rng.integers(2, 4)), replace=False) for _ in range(4)]
+        members = np.vstack([np.zeros(n_req, bool)] + [np.isin(ids, p) for p in picks])
+        energy = 10_000.0 + 8_000.0 * members.sum(axis=1) + rng.uniform(0, 3_000, 5)
+        sets.append(plan_set(ids, members, energy))
+    return SelectionProblem.from_plan_sets(sets, delay, alpha=0.5, energy_ref_j=E_REF)
+
+
+def test_branching_finds_the_optimum_of_fractional_programs(monkeypatch):
+    """60 random programs with overlapping plans, many with fractional relaxations: every
+    selection is brute force's optimum, and where the relaxation was fractional (at
+    least 15 of them) branching, not the integer solver, found it."""
+    integer: list[bool] = []
+    original = highspy.Highs.run
+
+    def spy(self):
+        integer.append(any(t == highspy.HighsVarType.kInteger for t in self.getLp().integrality_))
+        return original(self)
+
+    monkeypatch.setattr(highspy.Highs, "run", spy)
+    branched = 0
+    for seed in range(100, 160):
+        problem = _overlapping(seed)
+        integer.clear()
+        result = MilpSelector().select(problem)
+        assert result.status == "optimal" and not result.fallback and not any(integer)
+        assert_allclose(result.objective, brute_force(problem), rtol=OBJ_RTOL)
+        branched += len(integer) > 1
+    assert branched >= 15, branched
 
 
 def _odd_cycle() -> SelectionProblem:
@@ -408,9 +454,10 @@ def test_importing_the_selection_touches_no_file_descriptor():
         "calls = []\n"
         "real = os.dup2\n"
         "os.dup2 = lambda *a: (calls.append(a), real(*a))[1]\n"
-        "import marops_cli.plans.select as s\n"
+        "import marops_cli.plans.select\n"
+        "import marops_cli.plans.highs as s\n"
         "assert calls == [] and not s._banner_silenced, calls\n"
-        "s._silence_highs_banner()\n"
+        "s.silence_highs_banner()\n"
         "assert len(calls) == 2 and s._banner_silenced\n"
     )
     subprocess.run([sys.executable, "-c", code], check=True)
