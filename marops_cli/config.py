@@ -180,8 +180,10 @@ class EnergyConfig(_Stage):
     battery_kg: float = Field(1.0, gt=0, le=500)
     rotor_diameter_m: float = Field(0.5, ge=0.01, le=10)
     rotors: int = Field(4, ge=1, le=32)
-    speed_ms: float = Field(10.0, gt=0, le=100, description="ground speed = airspeed (no wind)")
-    efficiency: float = Field(0.8, gt=0, le=1)
+    # Lower bounds well above 0: a speed or efficiency of 1e-310 is "positive" yet makes
+    # the energy of any flight overflow to inf and nan.
+    speed_ms: float = Field(10.0, ge=0.1, le=100, description="ground speed = airspeed (no wind)")
+    efficiency: float = Field(0.8, ge=0.01, le=1)
     air_density: float = Field(1.225, ge=0.1, le=2)
     g: float = Field(9.81, ge=1, le=30)
     cda_m2: float = Field(0.092951, ge=0, le=10, description="drag area of body and battery")

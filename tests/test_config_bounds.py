@@ -117,7 +117,7 @@ def test_a_fleet_types_number_out_of_range_names_key_and_range(tmp_path: Path) -
     with pytest.raises(InputError) as err:
         load_fleet(fleet, depots, 8, EnergyConfig())
     line = str(err.value)
-    assert "key 'types.jet.speed_ms'" in line and "0 < speed_ms ≤ 100" in line
+    assert "key 'types.jet.speed_ms'" in line and "0.1 ≤ speed_ms ≤ 100" in line
 
 
 @pytest.mark.skipif(not Path("/dev/zero").exists(), reason="a system without /dev/zero")

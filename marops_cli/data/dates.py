@@ -169,10 +169,17 @@ def parse_times(
     """
     arr = column.combine_chunks() if isinstance(column, pa.ChunkedArray) else column
     if pa.types.is_timestamp(arr.type):
-        if arr.type.tz is not None:
-            arr = pc.local_timestamp(arr.cast(pa.timestamp(arr.type.unit, tz=tz)))
-        secs = pc.cast(arr, pa.timestamp("s")).cast(pa.int64())
-        empty = secs.is_null().to_numpy(zero_copy_only=False)
+        empty = arr.is_null().to_numpy(zero_copy_only=False)
+        try:
+            if arr.type.tz is not None:
+                arr = pc.local_timestamp(arr.cast(pa.timestamp(arr.type.unit, tz=tz)))
+            # Whole seconds, as the text times have: a fraction (pandas writes milli- and
+            # microseconds) is dropped, not refused.
+            secs = pc.cast(arr, pa.timestamp("s"), safe=False).cast(pa.int64())
+        except pa.ArrowInvalid:  # a time the zone database cannot place: no time
+            return np.zeros(len(arr), np.int64), np.where(empty, TIME_EMPTY, TIME_BAD).astype(
+                np.int8
+            )
         return secs.fill_null(0).to_numpy(), np.where(empty, TIME_EMPTY, TIME_OK).astype(np.int8)
     if not is_text(arr.type):
         arr = arr.cast(pa.string())
@@ -268,7 +275,8 @@ def parse_ds(column: pa.ChunkedArray | pa.Array, year: int) -> np.ndarray:
         whole = np.isfinite(f) & (f == np.floor(f))
         value = np.where(whole, f, -1).astype(np.int64)
     elif pa.types.is_integer(arr.type):
-        value = arr.cast(pa.int64()).fill_null(-1).to_numpy()
+        # An unsigned value past int64 wraps to a negative one, which is no date.
+        value = arr.cast(pa.int64(), safe=False).fill_null(-1).to_numpy()
     else:
         text = arr.cast(pa.string())
         try:  # fast path: a clean column casts at once

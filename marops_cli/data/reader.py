@@ -237,8 +237,11 @@ def _read_parquet(path: Path) -> pa.Table:
         pf = pq.ParquetFile(str(path))
         include = _check_columns(list(pf.schema_arrow.names), path)
         table = pf.read(columns=include)
-    except pa.ArrowException as exc:
-        raise InputError(f"not a valid Parquet file ({exc})", file=path) from exc
+    except (pa.ArrowException, OSError, UnicodeDecodeError) as exc:
+        # A damaged file raises OSError (a thrift or compression error) or, where a
+        # name is not UTF-8, UnicodeDecodeError, as often as ArrowException.
+        why = " ".join(str(exc).split())  # pyarrow's messages may end in a newline
+        raise InputError(f"not a valid Parquet file ({why})", file=path) from exc
     if table.num_rows == 0:
         raise InputError("the file has no data rows", file=path, row=2)
     return table
@@ -290,7 +293,18 @@ def _check_column_types(table: pa.Table, path: Path) -> pa.Table:
             )
         if binary:
             table = table.set_column(k, name, _utf8(table[name], path, name))
+        elif is_text(t) and not pa.types.is_dictionary(table.schema.field(name).type):
+            _check_utf8(table[name], path, name)
     return table
+
+
+def _check_utf8(column: pa.ChunkedArray, path: Path, name: str) -> None:
+    """A text column read from Parquet is not checked for UTF-8 by pyarrow: the first
+    cell that is not UTF-8 is an error."""
+    try:
+        column.validate(full=True)
+    except pa.ArrowInvalid:
+        _utf8(column.cast(pa.large_binary()), path, name)
 
 
 def _utf8(column: pa.ChunkedArray, path: Path, name: str) -> pa.ChunkedArray:

@@ -192,7 +192,7 @@ class JobStore:
         keys = {k: v for k, v in key_columns(self.prep, job).items() if k not in PARTITION}
         if any(row.get(k) != v for k, v in keys.items()):
             return None
-        return row
+        return row if _sound(row) else None
 
     def rows(self) -> list[dict[str, Any]]:
         """Every job's row, read back from its file, in job order (:func:`job_row`)."""
@@ -205,6 +205,21 @@ class JobStore:
             row.update({k: v for k, v in found.items() if k not in KEY_COLUMNS})
             rows.append(row)
         return rows
+
+
+_CORE = ("mean_energy_kj", "avg_delay_h", "delivered", "requests")
+"""Metrics every job's row holds."""
+
+
+def _sound(row: dict[str, Any]) -> bool:
+    """A job row as a job writes it: the core metrics there and every metric a number
+    (or empty). An edited file (a metric turned to text, a column dropped) is not, and
+    its job runs again rather than feeding the tables."""
+    if any(k not in row for k in _CORE):
+        return False
+    return all(
+        v is None or isinstance(v, (int, float)) for k, v in row.items() if k not in KEY_COLUMNS
+    )
 
 
 def _job_file(path: Path) -> bool:

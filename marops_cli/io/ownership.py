@@ -110,10 +110,11 @@ def _json_is_ours(path: Path) -> bool:
     if not isinstance(doc, dict):
         return False
     head = doc.get("meta") or doc.get("marops") or {}
+    # A depots file counts as marops' own only with marops' "meta": one written by hand
+    # (docs/outputs.md allows it) has the same "depots" and "frame" keys.
     return (
         isinstance(head, dict)
         and head.get("package") == "marops"
-        or ("depots" in doc and "frame" in doc)
         or str(doc.get("format", "")).startswith("marops-")  # an actor's sidecar
     )
 

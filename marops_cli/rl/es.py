@@ -192,6 +192,8 @@ class LandingTrainer:
         if weight.shape != self.weight.shape or not np.isfinite(weight).all():
             raise ValueError(f"weight must be {self.weight.size} finite numbers")
         counts = int(state["generation"]), int(state["episode"]), float(state["elapsed_s"])
+        if min(counts[:2]) < 0 or not 0.0 <= counts[2] < float("inf"):
+            raise ValueError("generation, episode and elapsed_s must be counts from 0")
         lists = [state[k] for k in ("held_out_rules", "history", "evals")]
         reference, best = state["reference"], state["best"]
         if not all(isinstance(v, list) for v in lists) or not isinstance(reference, dict):

@@ -96,8 +96,9 @@ class Trainer:
         try:
             state = torch.load(self.ckpt, map_location="cpu", weights_only=True)
         except Exception as exc:  # a torn or foreign file: say which, never guess
+            why = (str(exc).strip().splitlines() or [type(exc).__name__])[0]  # torch's is long
             raise InputError(
-                f"unreadable checkpoint ({exc}); pass --no-resume", file=self.ckpt
+                f"unreadable checkpoint ({why}); pass --no-resume", file=self.ckpt
             ) from exc
         if not isinstance(state, dict) or state.get("format") != CKPT_FORMAT:
             raise InputError(
@@ -125,8 +126,10 @@ class Trainer:
         best = state.get("best")
         if not all(isinstance(v, list) for v in lists) or not isinstance(best, dict | None):
             raise TypeError("history, evals and baselines must be lists, best a dict")
-        self.episode, self.update = int(state["episode"]), int(state["update"])
-        self.elapsed_s = float(state["elapsed_s"])
+        episode, update, elapsed = int(state["episode"]), int(state["update"]), state["elapsed_s"]
+        if min(episode, update) < 0 or not 0.0 <= float(elapsed) < float("inf"):
+            raise ValueError("episode, update and elapsed_s must be counts from 0")
+        self.episode, self.update, self.elapsed_s = episode, update, float(elapsed)
         self.history, self.evals, self.baselines = lists
         self.best = best
         _name_daily_cost(self.evals, self.best)

@@ -64,13 +64,42 @@ def depots_key(
 
 
 def _load(path: Path, frame: Frame) -> Depots | None:
+    """The cached depots, or None (segment again, and cache anew) when the file is
+    unreadable, from another format, or holds what no segmentation makes: a damaged
+    or edited cache must not stop a run, nor move its depots."""
     try:
         with np.load(path, allow_pickle=False) as z:
             method = str(z["method"])
             xy, n_hist, cand = z["xy"], z["n_history"], z["candidates"]
-    except (OSError, KeyError, ValueError):
-        return None  # unreadable or from another format: segment again
-    return Depots(method, frame, xy, n_hist, cand)
+    except Exception:  # noqa: BLE001 - zip, format and dtype errors alike mean a miss
+        return None
+    if not _plausible(xy, n_hist, cand, frame):
+        return None
+    return Depots(
+        method, frame, xy.astype(np.float64), n_hist.astype(np.int64), cand.astype(np.int64)
+    )
+
+
+def _plausible(xy: np.ndarray, n_hist: np.ndarray, cand: np.ndarray, frame: Frame) -> bool:
+    """Depots inside the study square, a history count each, and action candidates that
+    are depot ids with each depot its own first."""
+    n = xy.shape[0] if xy.ndim == 2 else 0
+    if n == 0 or xy.shape != (n, 2) or n_hist.shape != (n,) or cand.ndim != 2:
+        return False
+    if cand.shape[0] != n or cand.shape[1] < 1:
+        return False
+    if not all(np.issubdtype(a.dtype, np.number) for a in (xy, n_hist, cand)):
+        return False
+    if not (np.all(np.isfinite(xy)) and np.abs(xy).max() <= frame.half_m * (1 + 1e-9)):
+        return False
+    if not (np.issubdtype(cand.dtype, np.integer) and np.issubdtype(n_hist.dtype, np.integer)):
+        return False
+    return bool(
+        n_hist.min() >= 0
+        and cand.min() >= 0
+        and cand.max() < n
+        and np.array_equal(cand[:, 0], np.arange(n))
+    )
 
 
 def _store(path: Path, depots: Depots) -> None:

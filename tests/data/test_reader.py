@@ -376,6 +376,78 @@ def test_parquet_binary_text_and_huge_integers(tmp_path: Path) -> None:
     assert got.report.dropped["bad_coordinates"] == 2 and got.report.kept == 1
 
 
+def test_parquet_times_with_fractions_of_a_second_read_as_whole_seconds(tmp_path: Path) -> None:
+    """pandas writes times as timestamp[ms|us|ns]; a fraction of a second is dropped as
+    the text times have none (a time the zone database cannot place is a bad time)."""
+    path = _as_parquet(tmp_path, "d.parquet")
+    t = pq.read_table(path)
+    plain = read_lade(path, DataConfig())
+    for unit, scale in (("ms", 1_000), ("us", 1_000_000), ("ns", 1_000_000_000)):
+        out = t
+        for name in ("accept_time", "delivery_time"):
+            secs = {"accept_time": plain.accept_s, "delivery_time": plain.delivery_s}[name]
+            ticks = secs.astype(np.int64) * scale + scale // 4  # a quarter second past
+            out = out.set_column(
+                out.schema.get_field_index(name), name, pa.array(ticks, pa.timestamp(unit))
+            )
+        pq.write_table(out, tmp_path / f"{unit}.parquet")
+        got = read_lade(tmp_path / f"{unit}.parquet", DataConfig())
+        np.testing.assert_array_equal(got.accept_s, plain.accept_s)
+        np.testing.assert_array_equal(got.delivery_s, plain.delivery_s)
+
+
+def test_parquet_text_that_is_not_utf8_names_its_row_and_column(tmp_path: Path) -> None:
+    """pyarrow reads Parquet strings without checking them: bytes that are not UTF-8 in
+    a text column are one error naming the row and column, as in a CSV."""
+    t = pq.read_table(_as_parquet(tmp_path, "d.parquet"))
+    for name in ("accept_time", "delivery_time"):
+        cells = [str(v).encode() for v in t[name].to_pylist()]
+        cells[1] = b"08-01 \xb1:00:00"
+        bad = pa.array(cells, pa.binary()).view(pa.string())
+        pq.write_table(
+            t.set_column(t.schema.get_field_index(name), name, bad), tmp_path / "u.parquet"
+        )
+        with pytest.raises(InputError, match="not UTF-8") as err:
+            read_lade(tmp_path / "u.parquet", DataConfig())
+        assert (err.value.row, err.value.column) == (3, name)
+
+
+def test_a_damaged_parquet_file_is_one_line_naming_it(tmp_path: Path) -> None:
+    """A Parquet file cut short or with bytes flipped raises OSError or a thrift error in
+    pyarrow as often as ArrowException: each is "not a valid Parquet file" with the file
+    named, never a traceback."""
+    good = _as_parquet(tmp_path, "d.parquet").read_bytes()
+    empty = b"PAR1" + bytes(100) + b"PAR1"
+    rng = np.random.default_rng(4)
+    damaged = [empty, good[: len(good) // 2] + good[-8:]]
+    for _ in range(30):
+        flipped = bytearray(good)
+        for at in rng.integers(4, len(good) - 8, 3):
+            flipped[at] ^= 0xFF
+        damaged.append(bytes(flipped))
+    refused = 0
+    for k, data in enumerate(damaged):
+        path = tmp_path / f"bad{k}.parquet"
+        path.write_bytes(data)
+        try:
+            read_lade(path, DataConfig())
+        except InputError as exc:
+            assert exc.file == str(path) and "\n" not in str(exc)
+            refused += 1
+    assert refused >= 2  # the empty and the cut files at least; a flip may miss every check
+
+
+def test_parquet_ds_past_int64_is_a_bad_date(tmp_path: Path) -> None:
+    """``ds`` stored as unsigned 64-bit integers beyond int64 is a bad date named by row
+    and column, not a failed cast."""
+    t = pq.read_table(_as_parquet(tmp_path, "d.parquet"))
+    ds = pa.array([2**64 - 1, 801, 801], pa.uint64())
+    pq.write_table(t.set_column(t.schema.get_field_index("ds"), "ds", ds), tmp_path / "u.parquet")
+    with pytest.raises(InputError, match="expected a date") as err:
+        read_lade(tmp_path / "u.parquet", DataConfig())
+    assert (err.value.row, err.value.column) == (2, "ds")
+
+
 def test_gzip_csv(tmp_path: Path) -> None:
     plain = write_csv(tmp_path / "d.csv", CLEAN)
     for name in ("d.csv.gz", "d_gz_no_suffix"):

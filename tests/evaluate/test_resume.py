@@ -7,6 +7,8 @@ import json
 import signal
 from pathlib import Path
 
+import pyarrow as pa
+import pyarrow.parquet as pq
 import pytest
 from typer.testing import CliRunner
 
@@ -117,6 +119,32 @@ def test_rows_read_back_are_the_rows_in_memory_and_a_damaged_file_runs_again(
     again.open()
     assert again.finished() == {0, 2, 3}
     assert list(run(prep, workers=1, sink=again)) == [1]
+
+
+def test_an_edited_job_file_runs_again_rather_than_feeding_the_tables(prep, tmp_path: Path) -> None:
+    """A job file edited with its marops metadata kept: a metric turned to text, or a
+    column dropped. Neither reaches the tables: the job counts as not done and runs
+    again, to the same row."""
+    store = JobStore(tmp_path / "jobs", prep, run_identity(prep))
+    store.open()
+    ran = run(prep, workers=1, sink=store)
+    want = rows_table([job_row(prep, job, ran[job.index]) for job in prep.jobs])
+    for k, edit in ((1, "text"), (2, "dropped")):
+        path = store.path(prep.jobs[k])
+        table = pq.read_table(path)
+        i = table.schema.get_field_index("avg_delay_h")
+        if edit == "text":
+            table = table.set_column(i, "avg_delay_h", pa.array(["x"]))
+        else:
+            table = table.remove_column(i)
+        pq.write_table(table.replace_schema_metadata(table.schema.metadata), path)
+    again = JobStore(tmp_path / "jobs", prep, run_identity(prep))
+    again.open()
+    assert again.finished() == {0, 3}
+    assert sorted(run(prep, workers=1, sink=again)) == [1, 2]
+    got = rows_table(again.rows())
+    for name in ("avg_delay_h", "mean_energy_kj", "delivered", "objective_j_mj"):
+        assert got[name].equals(want[name]), name
 
 
 def test_out_that_is_a_file_fails_before_any_work(

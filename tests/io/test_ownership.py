@@ -37,6 +37,22 @@ def one_line(err: str) -> str:
     return lines[0]
 
 
+def test_a_hand_written_depots_file_is_not_marops_own(tmp_path: Path) -> None:
+    """docs/outputs.md lets an analyst write depots by hand: the same "depots" and
+    "frame" keys as marops' file, without marops' "meta". Only the meta (or the
+    journal) makes it marops' own, so ``segment --out`` never replaces it unasked."""
+    doc = {
+        "frame": {"lng0": 121.4, "lat0": 31.2, "size_km": 10.0},
+        "depots": [{"id": 0, "x_m": 0.0, "y_m": 0.0}, {"id": 1, "x_m": 900.0, "y_m": 0.0}],
+        "candidates": {"0": [0, 1], "1": [1, 0]},
+    }
+    path = tmp_path / "my_depots.json"
+    path.write_text(json.dumps(doc))
+    assert not written_by_marops(path)
+    path.write_text(json.dumps({"meta": {"package": "marops", "version": "x"}, **doc}))
+    assert written_by_marops(path)
+
+
 # -- failure 3: synth replaced a user's file judged by its extension -------------------
 def test_synth_never_replaces_a_file_marops_did_not_write(tmp_path: Path) -> None:
     notes = tmp_path / "analyst_notes.csv"

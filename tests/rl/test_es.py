@@ -72,6 +72,7 @@ EDITS = {
     "best must hold": lambda s: {**s, "best": 3},
     "int()": lambda s: {**s, "generation": None},
     "must be lists": lambda s: {**s, "history": {}},
+    "counts from 0": lambda s: {**s, "episode": -5},
 }
 
 

@@ -87,3 +87,39 @@ def test_a_run_from_the_cache_plans_what_the_run_that_filled_it_planned(
     nine = load_scenario(example_csv, override(cfg, segment__n_depots=9), replay_days=day)
     assert len(nine.depots) == 9  # another n_depots is another key, not the 16 above
     assert len(list((tmp_path / "depots").glob("*.npz"))) == 2
+
+
+def test_a_damaged_or_edited_cache_is_a_miss(tmp_path, monkeypatch, points_table):
+    """A cache file cut short, or holding what no segmentation makes (NaN or far-away
+    positions, candidates that are no depot, counts that do not match, text), is
+    segmented again and cached anew, never a failed run or moved depots."""
+    monkeypatch.setenv("MAROPS_CACHE_DIR", str(tmp_path))
+    cfg = PlannerConfig()
+    key = (points_table([121.47] * 3, [31.23] * 3, "abc"), DAYS, FRAME, cfg.data, cfg.segment)
+    good = _depots()
+    cached_depots(*key, lambda: good)
+    (path,) = (tmp_path / "depots").glob("*.npz")
+    fine = dict(np.load(path, allow_pickle=False))
+    edits = {
+        "nan": dict(fine, xy=np.array([[np.nan, 0.0], [1.0, 2.0]])),
+        "far": dict(fine, xy=fine["xy"] + 1e10),
+        "ids": dict(fine, candidates=fine["candidates"] + 100),
+        "counts": dict(fine, n_history=np.array([4])),
+        "text": dict(fine, xy=np.array([["a", "b"], ["c", "d"]])),
+    }
+    for name, arrays in [("cut", None), *edits.items()]:
+        if arrays is None:
+            path.write_bytes(path.read_bytes()[:40])
+        else:
+            with path.open("wb") as fh:
+                np.savez(fh, **arrays)
+        made: list[str] = []
+
+        def make(made: list[str] = made, name: str = name) -> Depots:
+            made.append(name)
+            return good
+
+        got = cached_depots(*key, make)
+        assert made == [name] and got.xy.tobytes() == good.xy.tobytes(), name
+        assert cached_depots(*key, make).xy.tobytes() == good.xy.tobytes()
+        assert made == [name], name  # cached anew: the next run is a hit
