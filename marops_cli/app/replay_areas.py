@@ -103,6 +103,10 @@ class Area:
         return self.out / day.isoformat() if self.several else self.out
 
 
+DAY_FILES = ("metrics.json", "stops.parquet", "routes.parquet")
+"""What a replayed day's folder holds (docs/outputs.md), ``report.html`` aside."""
+
+
 def make_area(
     scn: Scenario,
     out: Path | None,
@@ -130,7 +134,8 @@ def make_area(
     area = Area(scn, drones, out, days, several, ident, {}, label)
     for day in days:
         folder = area.folder(day)
-        if folder is not None and (folder / "metrics.json").is_file() and not run.force:
+        # A day is done when all its files are there: one lost since is replayed.
+        if folder is not None and all((folder / f).is_file() for f in DAY_FILES) and not run.force:
             area.keep[day] = matching_days(folder / "metrics.json", ident)
     return area
 

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import InputError
+from ..errors import InputError, SettingError
 
 EARTH_RADIUS_M = 6_371_008.8  # mean Earth radius (IUGG)
 
@@ -63,6 +63,11 @@ class Frame:
         }
 
 
+MAX_GRID_CELLS = 16_000_000
+"""Cells the densest-square search may count (128 MB, and as much for its sums): a 10 m
+step over 40 km."""
+
+
 def _square_grid(
     lng: np.ndarray, lat: np.ndarray, size_km: float, grid_m: float
 ) -> tuple[Frame, float, float, np.ndarray, int]:
@@ -90,6 +95,14 @@ def _square_grid(
     k = max(1, int(round(size_km * 1000.0 / grid_m)))
     nx = max(int(ix.max()) + 1, k)
     ny = max(int(iy.max()) + 1, k)
+    if nx * ny > MAX_GRID_CELLS:  # a fine step over a wide city: gigabytes, not an answer
+        need = grid_m * np.sqrt(nx * ny / MAX_GRID_CELLS)
+        raise SettingError(
+            f"the densest-square search would need a {ny:,} × {nx:,} grid over these "
+            f"requests; use a step of at least {np.ceil(need):.0f} m, or place the study area "
+            "with [data] center",
+            key="data.grid_m",
+        )
     counts = np.zeros((ny, nx), dtype=np.int64)
     np.add.at(counts, (iy, ix), 1)
     return ref, x0, y0, counts, k

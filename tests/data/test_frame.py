@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from marops_cli.data.frame import EARTH_RADIUS_M, Frame, densest_square
+from marops_cli.errors import SettingError
 
 
 def haversine_m(lng1, lat1, lng2, lat2) -> np.ndarray:
@@ -70,3 +71,14 @@ def test_densest_square_finds_the_cluster() -> None:
 def test_densest_square_empty() -> None:
     with pytest.raises(ValueError):
         densest_square(np.array([]), np.array([]), 10.0)
+
+
+def test_a_grid_too_fine_for_the_city_names_the_step() -> None:
+    """A 10 m step over requests 100 km apart would count 10⁸ cells (gigabytes): one
+    error naming data.grid_m and a step that fits, before any allocation."""
+    lng = np.array([121.0, 121.0 + 100_000.0 / (EARTH_RADIUS_M * np.pi / 180.0) / 0.85])
+    lat = np.array([31.0, 31.5])
+    with pytest.raises(SettingError) as err:
+        densest_square(lng, lat, 5.0, 10.0)
+    assert err.value.key == "data.grid_m" and "a step of at least" in str(err.value)
+    assert densest_square(lng, lat, 5.0, 250.0).size_km == 5.0  # the default step is fine

@@ -60,6 +60,11 @@ def test_dates_layout_and_resume(example_csv: Path, tmp_path: Path) -> None:
     again = json.loads((out / "metrics.json").read_text())
     assert again["days"] == top["days"][:1] + again["days"][1:]
     assert again["days"][1]["delivered"] == top["days"][1]["delivered"]
+    # A day whose stops were lost since is replayed too, not taken for done.
+    (out / "2022-08-12" / "stops.parquet").unlink()
+    _replay(example_csv, out)
+    assert day1.stat().st_mtime_ns == mtime
+    assert (out / "2022-08-12" / "stops.parquet").is_file()
     # --force replays everything.
     _replay(example_csv, out, "--force")
     assert day1.stat().st_mtime_ns != mtime
