@@ -36,6 +36,16 @@ def _interp(x: float, xp: NDArray[np.float64], fp: NDArray[np.float64]) -> float
 
 
 @nb.njit(cache=True, nogil=True)
+def _loads(cand_w: NDArray[np.float64], stops: NDArray[np.int64], out: NDArray[np.float64]) -> None:
+    """The load on the leg into each stop (the weights still to deliver), into the first
+    ``stops.size`` cells of ``out``: numpy's reversed cumulative sum, added alike."""
+    acc = 0.0
+    for i in range(stops.size - 1, -1, -1):
+        acc = acc + cand_w[stops[i]]
+        out[i] = acc
+
+
+@nb.njit(cache=True, nogil=True)
 def insertion(
     dmat: NDArray[np.float64],
     cand_w: NDArray[np.float64],
@@ -57,10 +67,7 @@ def insertion(
     load = np.zeros(k + 1)  # leaving node i (the start is node 0)
     e_l = np.empty(k + 1)
     legs = np.empty(k)  # node i -> node i + 1
-    acc = 0.0
-    for i in range(k - 1, -1, -1):
-        acc = acc + cand_w[stops[i]]
-        load[i] = acc
+    _loads(cand_w, stops, load)
     prev = start
     for i in range(k):
         e_l[i] = _interp(load[i], grid, table)
@@ -114,10 +121,7 @@ def route_energy(
     empty last leg."""
     k = stops.size
     load = np.empty(k)
-    acc = 0.0
-    for i in range(k - 1, -1, -1):
-        acc = acc + cand_w[stops[i]]
-        load[i] = acc
+    _loads(cand_w, stops, load)
     total = 0.0
     prev = dmat.shape[0]  # the start is the last column
     for i in range(k):
@@ -144,10 +148,9 @@ def without(
     k = stops.size
     start = dmat.shape[0]
     load = np.empty(k)  # on the leg into each stop
-    acc = 0.0
-    for i in range(k - 1, -1, -1):
-        acc = acc + cand_w[stops[i]]
-        load[i] = min(acc, cap)
+    _loads(cand_w, stops, load)
+    for i in range(k):
+        load[i] = min(load[i], cap)
     legs = np.empty(k)
     prev = np.empty(k, dtype=np.int64)
     for i in range(k):
