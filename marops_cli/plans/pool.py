@@ -54,7 +54,6 @@ _EXACT_MAX = 10  # exact re-ordering up to this many stops (2**10 subsets)
 # np.interp's compiled core: the same values without the wrapper's checks, which cost as
 # much as the interpolation itself on the search's small arrays.
 _interp = getattr(np, "_core", np).multiarray.interp
-_max = np.maximum.reduce  # ndarray.max without its Python wrapper (the same value)
 _NO_BLUR = np.zeros(0)  # the compiled refresh's "scores not blurred"
 
 
