@@ -87,6 +87,18 @@ STDIN = "-"
 """The data path that means standard input."""
 
 
+_stdin_copy: Path | None = None
+
+
+def _error_line(exc: BaseException) -> str:
+    """The one line of an error: standard input's copy named as standard input, and a
+    line break inside (a file name may hold one) written as ``\\n``."""
+    text = str(exc)
+    if _stdin_copy is not None:
+        text = text.replace(str(_stdin_copy), "standard input (-)")
+    return text.replace("\r", "\\r").replace("\n", "\\n")
+
+
 def stdin_file() -> Path:
     """Standard input copied into a file of its own (``stdin``, in a temporary folder
     removed when marops exits), so it is read as a file is: CSV, CSV.gz or Parquet told
@@ -100,11 +112,19 @@ def stdin_file() -> Path:
             "DATA - reads the LaDe export from standard input, which is a terminal; "
             "pipe it in (marops CMD - … < lade.csv)"
         )
+    global _stdin_copy
     folder = Path(tempfile.mkdtemp(prefix="marops-stdin-"))
     atexit.register(shutil.rmtree, folder, True)
     path = folder / "stdin"
-    with path.open("wb") as fh:
-        shutil.copyfileobj(sys.stdin.buffer, fh, 1 << 20)
+    _stdin_copy = path  # errors name "standard input", not this file
+    try:
+        with path.open("wb") as fh:
+            shutil.copyfileobj(sys.stdin.buffer, fh, 1 << 20)
+    except OSError as exc:  # a full temporary disk, most likely
+        raise InputError(
+            f"standard input could not be copied to a temporary file ({exc.strerror or exc}); "
+            "save it to a file and pass its path"
+        ) from exc
     if path.stat().st_size == 0:
         raise InputError("DATA - reads standard input, and it is empty")
     return path
@@ -178,12 +198,12 @@ def guarded(fn: F) -> F:
             if STATE["debug"]:
                 raise
             exc = _blame_setting(exc, kwargs)
-            typer.echo(f"marops: error: {exc}", err=True)
+            typer.echo(f"marops: error: {_error_line(exc)}", err=True)
             raise typer.Exit(exc.exit_code) from None
         except OSError as exc:
             if STATE["debug"]:
                 raise
-            typer.echo(f"marops: error: {exc}", err=True)
+            typer.echo(f"marops: error: {_error_line(exc)}", err=True)
             # A path the system cannot even look up is bad usage; other failures are the run's.
             raise typer.Exit(2 if exc.errno in _BAD_PATH else 1) from None
         except KeyboardInterrupt as exc:  # Ctrl-C, or SIGTERM (Terminated)

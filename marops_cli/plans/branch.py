@@ -72,7 +72,7 @@ def branch_and_bound(
             if status != highspy.HighsModelStatus.kOptimal:
                 return None
             obj = float(h.getInfo().objective_function_value)
-            if obj >= best - rel_gap * max(abs(best), 1e-9):
+            if best_x is not None and obj >= best - rel_gap * max(abs(best), 1e-9):
                 lower = min(lower, obj)  # nothing better below this node
                 continue
             x = np.asarray(h.getSolution().col_value, dtype=np.float64)[:n]

@@ -165,3 +165,21 @@ def test_an_actor_given_to_evaluate_must_load(
     (which skips only the methods this build cannot run)."""
     args = ["evaluate", str(example_csv), "--dates", "0811", "--policy", str(tmp_path / "a.pt")]
     fails_cleanly([*args, "--out", str(tmp_path / "o")], tmp_path, "a.pt", "--policy")
+
+
+def test_an_error_in_standard_input_names_it_not_its_temporary_copy(tmp_path: Path) -> None:
+    """Bad data piped in: the line names standard input (and the row), never the
+    temporary file marops copied it to."""
+    bad = b"order_id,lng,lat,accept_time,delivery_time\n1,121.47,31.23,08-01 09:00:00,later\n"
+    res = runner.invoke(app, ["segment", "-", "--out", str(tmp_path / "d.json")], input=bad)
+    assert res.exit_code == 2, res.output
+    line = res.output.strip().splitlines()[-1]
+    assert line.startswith("marops: error: standard input (-)"), line
+    assert "marops-stdin-" not in res.output
+
+
+def test_a_file_name_with_a_line_break_is_still_one_line(tmp_path: Path) -> None:
+    missing = tmp_path / "two\nlines.csv"
+    res = runner.invoke(app, ["segment", str(missing), "--out", str(tmp_path / "d.json")])
+    assert res.exit_code == 2 and len(res.output.strip().splitlines()) == 1, res.output
+    assert "two\\nlines.csv" in res.output
