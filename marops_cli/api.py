@@ -23,10 +23,16 @@ in memory they are not (docs/decisions.md, "Application layer").
 
 from __future__ import annotations
 
+import datetime as dt
+import functools
+import inspect
 import json
+import numbers
+import os
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, TypeVar
 
 if TYPE_CHECKING:  # pyarrow loads with the first call, so `import marops_cli` stays light
     import pyarrow as pa
@@ -70,6 +76,139 @@ def _path(value: str | Path | None) -> Path | None:
     return Path(value) if value is not None else None
 
 
+# --- argument checks ------------------------------------------------------------------
+# A wrong argument type is bad input like a bad flag: one InputError naming the keyword,
+# not a TypeError from deep inside. Lists are welcome where the command takes "a,b,c".
+
+
+def _is_int(v: Any) -> bool:
+    return isinstance(v, numbers.Integral) and not isinstance(v, bool)
+
+
+def _is_real(v: Any) -> bool:
+    return isinstance(v, numbers.Real) and not isinstance(v, bool)
+
+
+def _item(v: Any) -> str | None:
+    """One element of a list keyword as its command spells it (None: not one)."""
+    if isinstance(v, str):
+        return v
+    if isinstance(v, dt.date):
+        return v.strftime("%Y-%m-%d")
+    if _is_real(v):
+        return str(v)
+    return None
+
+
+def _number(v: str, kind: type) -> Any:
+    try:
+        return kind(v)
+    except ValueError:
+        return None
+
+
+def _accept(name: str, hint: str, v: Any) -> tuple[bool, Any]:
+    """Whether ``v`` is a value of the annotation ``hint`` (a string, as this module's
+    annotations are), and the value to pass on (a list joined, digits read)."""
+    if "Any" in hint:  # the data: its reader says what it takes
+        return True, v
+    if v is None:
+        return "None" in hint, v
+    if "Path" in hint and isinstance(v, str | os.PathLike):
+        return True, v
+    if name == "date":  # read as str(date): "0820", 820, or a date's ISO form
+        return _is_int(v) or isinstance(v, str | dt.date), v
+    if _listed(hint):
+        return _text(v) is not None, v
+    if "tuple[" in hint and isinstance(v, list | tuple):
+        return len(v) == 2 and all(_is_real(x) for x in v), tuple(v)
+    scalar = hint.replace("tuple[float, float]", "")
+    if "bool" in scalar and isinstance(v, bool):
+        return True, v
+    if "int" in scalar and _is_int(v):
+        return True, int(v)
+    if "float" in scalar and _is_real(v):
+        return True, float(v)
+    if isinstance(v, str):
+        if "str" in scalar:
+            return True, v
+        for kind, word in ((int, "int"), (float, "float")):
+            if word in scalar and (got := _number(v.strip(), kind)) is not None:
+                return True, got
+    return False, v
+
+
+def _text(v: Any) -> str | None:
+    """A list keyword's value as its flag spells it ("a,b"): a string, a date, a number
+    or a list or tuple of them; None for anything else."""
+    items = [v] if isinstance(v, str | dt.date) or _is_real(v) else v
+    if not isinstance(items, list | tuple) or not items:
+        return None
+    parts = [_item(x) for x in items]
+    return None if None in parts else ",".join(p for p in parts if p is not None)
+
+
+def _listed(hint: str) -> bool:
+    """Whether a keyword takes a list (its flag a comma-separated one)."""
+    return "list[" in hint
+
+
+def _expects(name: str, hint: str) -> str:
+    if name == "date":
+        return "a date like '0820', 820 or a datetime.date"
+    if _listed(hint):
+        return "a string like 'a,b' or a list"
+    words = []
+    for word, say in (
+        ("Path", "a path"),
+        ("tuple", "a (lng, lat) pair"),
+        ("bool", "True or False"),
+        ("int", "an integer"),
+        ("float", "a number"),
+        ("str", "a string"),
+    ):
+        if word in hint.replace("tuple[float, float]", "tuple") and not (
+            word == "str" and "Path" in hint
+        ):
+            words.append(say)
+    return " or ".join(words)
+
+
+F = TypeVar("F", bound=Callable[..., Any])
+
+
+def _checked(fn: F) -> F:
+    """Check ``fn``'s arguments against its annotations before it runs (see above)."""
+    sig = inspect.signature(fn)
+
+    @functools.wraps(fn)
+    def call(*args: Any, **kwargs: Any) -> Any:
+        from .errors import InputError
+
+        try:
+            bound = sig.bind(*args, **kwargs)
+        except TypeError as exc:
+            raise InputError(f"{fn.__name__}(): {exc}") from None
+        for name, value in list(bound.arguments.items()):
+            hint = str(sig.parameters[name].annotation)
+            ok, passed = _accept(name, hint, value)
+            if not ok:
+                raise InputError(
+                    f"{fn.__name__}(): {name} expects {_expects(name, hint)}, "
+                    f"got {type(value).__name__} {_shown(value)}"
+                )
+            bound.arguments[name] = passed
+        return fn(*bound.args, **bound.kwargs)
+
+    return call  # type: ignore[return-value]
+
+
+def _shown(value: Any) -> str:
+    text = repr(value)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+@_checked
 def read_lade(
     data: Any, *, year: int = 2022, strict: bool = False, tz: str | None = None
 ) -> pa.Table:
@@ -81,11 +220,16 @@ def read_lade(
     output's times (docs/outputs.md, "Types")."""
     import pyarrow as pa
     import pyarrow.compute as pc
+    from pydantic import ValidationError
 
     from .app.inputs import read_data
-    from .config import DataConfig
+    from .config import DataConfig, validation_message
+    from .errors import InputError
 
-    cfg = DataConfig(year=year, strict=strict, **({"tz": tz} if tz is not None else {}))
+    try:
+        cfg = DataConfig(year=year, strict=strict, **({"tz": tz} if tz is not None else {}))
+    except ValidationError as exc:
+        raise InputError(f"read_lade(): {validation_message(exc)}") from None
     table = read_data(data, cfg)
 
     def local(seconds: Any) -> pa.Array:
@@ -109,11 +253,12 @@ def read_lade(
     return out.replace_schema_metadata({"marops": report})
 
 
+@_checked
 def segment(
     data: Any,
     *,
     out: str | Path | None = None,
-    dates: str | None = None,
+    dates: str | list[str] | None = None,
     n_depots: int | None = None,
     method: str | None = None,
     size_km: float | None = None,
@@ -139,7 +284,7 @@ def segment(
     with replacing_foreign_files(force):
         if hubs is not None:
             cfg = planner_config(config, year=year, size_km=size_km, strict=strict)
-            tiling = segment_hubs(data, cfg, hubs, days=dates, out=out)
+            tiling = segment_hubs(data, cfg, hubs, days=_text(dates), out=out)
             return dict(json.loads(dumps_json(tiling.doc())))
         cfg = planner_config(
             config,
@@ -152,14 +297,15 @@ def segment(
             actions=actions,
             segment_seed=seed,
         )
-        res = run(data, cfg, days=dates, out=out, geojson=geojson, plot=plot)
+        res = run(data, cfg, days=_text(dates), out=out, geojson=geojson, plot=plot)
     return dict(json.loads(dumps_json(res.doc())))  # as the file reads back
 
 
+@_checked
 def plan_window(
     data: Any,
     depots: str | Path,
-    date: str,
+    date: str | int | dt.date,
     window: int,
     *,
     out: str | Path | None = None,
@@ -219,9 +365,10 @@ def plan_window(
     return DayResult(res.stops, res.routes, metrics, _path(out))
 
 
+@_checked
 def replay_day(
     data: Any,
-    date: str,
+    date: str | int | dt.date,
     *,
     out: str | Path | None = None,
     method: str = "marops",
@@ -295,24 +442,25 @@ def _read_back(folder: Path, metrics: dict[str, Any]) -> DayResult:
     return DayResult(stops, routes, metrics, folder)
 
 
+@_checked
 def evaluate(
     data: Any,
     *,
     out: str | Path | None = None,
-    methods: str | None = None,
-    dates: str | None = None,
+    methods: str | list[str] | None = None,
+    dates: str | list[str] | None = None,
     split: str | None = None,
     repeats: int = 1,
-    drones: str | None = None,
-    alpha: str | None = None,
-    coverage: str | None = None,
-    n_depots: str | None = None,
+    drones: str | list[int] | None = None,
+    alpha: str | list[float] | None = None,
+    coverage: str | list[float] | None = None,
+    n_depots: str | list[int] | None = None,
     workers: int = 2,
     scheduler: str | None = None,
     hubs: str | Path | None = None,
     policy: str | Path | None = None,
     mappo_policy: str | Path | None = None,
-    against: str | None = None,
+    against: str | list[str] | None = None,
     plots: bool = True,
     report: bool = False,
     seed: int | None = None,
@@ -335,13 +483,13 @@ def evaluate(
     from .segment.hubs import load_hubs
 
     cfg = planner_config(config, year=year, strict=strict, seed=seed)
-    days = parse_days(dates, cfg.data.year) if dates else None
+    days = parse_days(_text(dates) or "", cfg.data.year) if dates else None
     if days and split:
         raise InputError("give at most one of dates or split")
     spec = EvaluateConfig(
         cfg,
-        method_list(methods or None),
-        **sweep_fields(alpha, drones, coverage, n_depots),
+        method_list(_text(methods)),
+        **sweep_fields(*(_text(v) for v in (alpha, drones, coverage, n_depots))),
         days=days,
         split=split or "test",
         repeats=repeats,
@@ -349,7 +497,7 @@ def evaluate(
         scheduler=scheduler,
         hubs=load_hubs(hubs, cfg.data) if hubs is not None else None,
         actors=actor_paths(policy or None, mappo_policy or None),
-        against=against,
+        against=_text(against),
         plots=plots,
         force=force,
         report=report,
@@ -360,6 +508,7 @@ def evaluate(
     return EvaluationResult(res.results, res.summary, res.folder)
 
 
+@_checked
 def report(
     folder: str | Path, *, depots: str | Path | None = None, force: bool = False
 ) -> list[Path]:

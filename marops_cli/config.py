@@ -476,7 +476,7 @@ def option_error(
     return InputError(msg)
 
 
-def _validation_message(exc: ValidationError, names: dict[str, str] | None = None) -> str:
+def validation_message(exc: ValidationError, names: dict[str, str] | None = None) -> str:
     """``plan.alpha: Input should be …, got 1.5``; ``names`` says what to call a field
     (``{"plan.alpha": "--alpha"}``)."""
     err = exc.errors()[0]
@@ -512,7 +512,7 @@ def load_config(path: str | Path | None) -> PlannerConfig:
     try:
         return PlannerConfig.model_validate(raw)
     except ValidationError as exc:
-        raise InputError(f"invalid setting {_validation_message(exc)}", file=p) from exc
+        raise InputError(f"invalid setting {validation_message(exc)}", file=p) from exc
 
 
 def sets_key(path: str | Path, key: str) -> bool:
@@ -542,4 +542,4 @@ def override(
         return PlannerConfig.model_validate(data)
     except ValidationError as exc:
         dotted = {k.replace("__", "."): v for k, v in (names or {}).items()}
-        raise InputError(f"invalid option {_validation_message(exc, dotted)}") from exc
+        raise InputError(f"invalid option {validation_message(exc, dotted)}") from exc

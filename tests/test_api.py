@@ -84,3 +84,44 @@ def test_api_raises_input_errors(example_csv: Path, tmp_path: Path) -> None:
         marops.replay_day(example_csv, "0101", out=tmp_path / "x")
     with pytest.raises(InputError, match="file not found"):
         marops.replay_day(tmp_path / "missing.csv", "0811")
+
+
+@pytest.mark.parametrize(
+    ("call", "message"),
+    [
+        (lambda d: marops.read_lade(d, tz="Nope/Zone"), r"read_lade\(\): tz: unknown time zone"),
+        (lambda d: marops.read_lade(d, year=[2022]), r"read_lade\(\): year expects an integer"),
+        (lambda d: marops.segment(d, out=5), r"segment\(\): out expects a path, got int 5"),
+        (lambda d: marops.segment(d, center=(1,)), r"center expects a \(lng, lat\) pair"),
+        (lambda d: marops.segment(d, dates={"0801"}), r"dates expects a string like 'a,b'"),
+        (lambda d: marops.plan_window(d, {}, "0811", 5), r"depots expects a path, got dict"),
+        (lambda d: marops.plan_window(d, "x.json", "0811", "x"), r"window expects an integer"),
+        (lambda d: marops.replay_day(d, 8.11), r"date expects a date like '0820'"),
+        (lambda d: marops.replay_day(d, "0811", drones=2.5), r"drones expects an integer"),
+        (lambda d: marops.replay_day(d, "0811", strict="yes"), r"strict expects True or False"),
+        (lambda d: marops.evaluate(d, nonsense=1), r"evaluate\(\): got an unexpected keyword"),
+        (lambda d: marops.report(5), r"report\(\): folder expects a path"),
+    ],
+)
+def test_api_wrong_argument_types_name_the_keyword(example_csv: Path, call, message) -> None:
+    # A wrong type is bad input like a bad flag: one InputError naming the keyword.
+    with pytest.raises(InputError, match=message) as err:
+        call(example_csv)
+    assert "\n" not in str(err.value)
+
+
+def test_api_takes_lists_and_dates_where_the_flag_takes_them(
+    example_csv: Path, tmp_path: Path
+) -> None:
+    import datetime as dt
+
+    by_list = marops.segment(example_csv, dates=["0801", dt.date(2022, 8, 2)], seed=1)
+    by_text = marops.segment(example_csv, dates="0801,0802", seed=1)
+    assert by_list["depots"] == by_text["depots"]
+    assert by_list["depots"] != marops.segment(example_csv, dates="0801", seed=1)["depots"]
+    marops.segment(example_csv, out=tmp_path / "depots.json", dates="0801..0810")
+    a = marops.plan_window(example_csv, tmp_path / "depots.json", dt.date(2022, 8, 11), 5)
+    b = marops.plan_window(example_csv, str(tmp_path / "depots.json"), 811, 5)
+    assert a.routes.equals(b.routes)
+    with pytest.raises(InputError, match="--drones expects whole numbers"):
+        marops.evaluate(example_csv, drones=[4, "x"], workers=1)
