@@ -35,6 +35,7 @@ import numpy as np  # noqa: E402
 SHAPES = ("hubs", "river", "corridor", "polycentric")
 SEEDS = {"hubs": 41, "river": 42, "corridor": 43, "polycentric": 44}
 KEYS = ("objective_j_mj", "avg_delay_h", "mean_energy_kj", "delivered_share")
+PER_PARCEL = "energy_per_parcel"  # mean_energy_kj / delivered_share: energy per parcel delivered
 OPS_KEYS = ("battery_waits", "busy_windows", "stock_left_total", "stock_left_max", "charged_min")
 BEST = "best rule"
 """The per-day best of the reference methods by day J (``--against``), a method of its own
@@ -95,6 +96,9 @@ def _job(task: tuple[Any, ...]) -> list[dict[str, Any]]:
                 "day": str(m["day"]),
                 **{k: float(m[k]) for k in KEYS},
                 **{k: m[k] for k in OPS_KEYS if m.get(k) is not None},
+                # The same day has the same drones and requests for every method, so this
+                # ratio compares the energy each flies per parcel it delivers.
+                PER_PARCEL: float(m["mean_energy_kj"]) / max(float(m["delivered_share"]), 1e-9),
                 "choices": choices(res),
             }
         )
@@ -138,7 +142,7 @@ def paired(rows: list[dict[str, Any]], group: tuple[str, ...], a: str, b: str) -
         common = sorted(set(by[a]) & set(by[b]))
         res: dict[str, Any] = dict(zip(group, key, strict=True))
         res["days"] = len(common)
-        for k in KEYS:
+        for k in (*KEYS, PER_PARCEL):
             d = np.array([by[a][c][k] - by[b][c][k] for c in common])
             res[k] = _ci(d)
             res[k + "_a"] = float(np.mean([by[a][c][k] for c in common]))
@@ -171,7 +175,8 @@ def print_paired(rows: list[dict[str, Any]], methods: tuple[str, ...], markdown:
     at05 = [r for r in rows if r["alpha"] == 0.5]
     sep = " | " if markdown else "  "
     head = ["shape", "areas", "drones", "days", "Δ day J MJ", "Δ J %", "Δ delay h",
-            "Δ energy kJ/drone", "Δ energy %", "Δ delivered share", "J better"]  # fmt: skip
+            "Δ energy kJ/drone", "Δ energy %", "Δ energy per parcel %", "Δ delivered share",
+            "J better"]  # fmt: skip
     for b in refs:
         print(f"\n{a} − {b}, paired per day, mean [95 % bootstrap CI] (* excludes 0), α = 0.5")
         if markdown:
@@ -191,7 +196,7 @@ def print_paired(rows: list[dict[str, Any]], methods: tuple[str, ...], markdown:
                 str(g["shape"]), str(g["n_depots"]), str(g["drones"]), str(g["days"]),
                 _fmt(g["objective_j_mj"], 2), _pct(g, "objective_j_mj"),
                 _fmt(g["avg_delay_h"], 3), _fmt(g["mean_energy_kj"], 1),
-                _pct(g, "mean_energy_kj"), _fmt(g["delivered_share"], 4),
+                _pct(g, "mean_energy_kj"), _pct(g, PER_PARCEL), _fmt(g["delivered_share"], 4),
                 f"{g['j_better_days']}/{g['days']}",
             ]  # fmt: skip
             print(("| " + " | ".join(cells) + " |") if markdown else sep.join(cells))
