@@ -99,10 +99,16 @@ def _error_line(exc: BaseException) -> str:
     return text.replace("\r", "\\r").replace("\n", "\\n")
 
 
+MAX_STDIN = 2 << 30
+"""Bytes marops copies from standard input: above any city's LaDe export, and a pipe
+that never ends is refused at this size instead of filling the temporary disk."""
+
+
 def stdin_file() -> Path:
     """Standard input copied into a file of its own (``stdin``, in a temporary folder
     removed when marops exits), so it is read as a file is: CSV, CSV.gz or Parquet told
-    by its first bytes, hashed for the depots cache, read again by worker processes."""
+    by its first bytes, hashed for the depots cache, read again by worker processes.
+    More than :data:`MAX_STDIN` bytes is an error, and the copy is removed at once."""
     import atexit
     import shutil
     import tempfile
@@ -118,16 +124,36 @@ def stdin_file() -> Path:
     path = folder / "stdin"
     _stdin_copy = path  # errors name "standard input", not this file
     try:
+        size = _copy_stdin(path)
+    except BaseException:
+        shutil.rmtree(folder, ignore_errors=True)  # nothing half-copied stays behind
+        raise
+    if size == 0:
+        raise InputError("DATA - reads standard input, and it is empty")
+    return path
+
+
+def _copy_stdin(path: Path) -> int:
+    """Copy standard input into ``path``; its size, at most :data:`MAX_STDIN`."""
+    size = 0
+    source = sys.stdin.buffer
+    try:
         with path.open("wb") as fh:
-            shutil.copyfileobj(sys.stdin.buffer, fh, 1 << 20)
+            while block := source.read(1 << 20):
+                size += len(block)
+                if size > MAX_STDIN:
+                    raise InputError(
+                        f"more than {MAX_STDIN / 2**30:g} GiB came on it, the most marops copies "
+                        "from a pipe; save the data to a file and pass its path",
+                        file="standard input (-)",
+                    )
+                fh.write(block)
     except OSError as exc:  # a full temporary disk, most likely
         raise InputError(
             f"standard input could not be copied to a temporary file ({exc.strerror or exc}); "
             "save it to a file and pass its path"
         ) from exc
-    if path.stat().st_size == 0:
-        raise InputError("DATA - reads standard input, and it is empty")
-    return path
+    return size
 
 
 def info(message: str) -> None:
