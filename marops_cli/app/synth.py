@@ -5,7 +5,7 @@ from __future__ import annotations
 import datetime as dt
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Literal
 
 from ..config import option_error
 from ..errors import InputError
@@ -64,7 +64,7 @@ def synth(
 
     out = Path(out)
     suffix_fmt, gzipped = file_format(out)
-    kind = fmt or suffix_fmt
+    kind: Literal["csv", "parquet"] = "parquet" if (fmt or suffix_fmt) == "parquet" else "csv"
     if kind == "parquet" and gzipped:  # the reader would take gzip for CSV
         raise InputError(
             "invalid option --out: a .gz file is gzipped CSV, and Parquet compresses its "
@@ -74,5 +74,5 @@ def synth(
     check_outputs([out])  # never a file marops did not write
     table = generate(cfg)
     with output_set() as files:
-        files.write_with(out, lambda tmp: write(table, tmp, kind, gzipped=gzipped))  # type: ignore[arg-type]
+        files.write_with(out, lambda tmp: write(table, tmp, kind, gzipped=gzipped))
     return Synthesized(table, first, out)

@@ -29,10 +29,11 @@ from __future__ import annotations
 import contextlib
 import datetime as dt
 import gzip
+import io
 import os
 import tempfile
 from pathlib import Path
-from typing import BinaryIO, Literal
+from typing import Literal
 
 import numpy as np
 import pyarrow as pa
@@ -399,7 +400,7 @@ def write(
     return path
 
 
-def _write_csv(table: pa.Table, fh: BinaryIO) -> None:
+def _write_csv(table: pa.Table, fh: io.BufferedIOBase) -> None:
     """``table`` as CSV into ``fh``: unquoted, like LaDe."""
     # pyarrow quotes header names whatever the quoting style; LaDe does not.
     fh.write((",".join(table.column_names) + "\n").encode())
