@@ -161,7 +161,7 @@ def evaluate_command(
     try:
         res = run_evaluation(data, run, out=out, progress=Terminal(remaining=True))
     except KeyboardInterrupt as exc:  # Ctrl-C or SIGTERM, with what the folder keeps
-        stopped(exc, "; ".join(getattr(exc, "__notes__", ())))
+        stopped(exc, "; ".join(getattr(exc, "__notes__", ())), "evaluate")
     _print_tables(res.summary)
     if res.paired is not None:
         _print_paired(res.paired, res.summary, len(res.days))
