@@ -29,7 +29,6 @@ __all__ = [
     "console",
     "emit_json",
     "error_json",
-    "fail",
     "guarded",
     "info",
     "is_terminal",
@@ -217,7 +216,7 @@ _BAD_PATH = (errno.ENAMETOOLONG, errno.ELOOP)
 
 def guarded(fn: F) -> F:
     """Turn library errors into one line on stderr and the exit code of docs/outputs.md
-    (with ``--json``, and one JSON document on stdout: :func:`fail`). ``fn`` is a
+    (with ``--json``, and one JSON document on stdout: :func:`_fail`). ``fn`` is a
     command's function, ``NAME_command``."""
     command = fn.__name__.removesuffix("_command").replace("_", "-")
 
@@ -229,13 +228,13 @@ def guarded(fn: F) -> F:
             if STATE["debug"]:
                 raise
             exc = _blame_setting(exc, kwargs)
-            fail(_error_line(exc), exc.exit_code, command, kwargs)
+            _fail(_error_line(exc), exc.exit_code, command, kwargs)
         except OSError as exc:
             if STATE["debug"]:
                 raise
             # A path the system cannot even look up is bad usage; other failures are the run's.
             code = 2 if exc.errno in _BAD_PATH else 1
-            fail(_error_line(exc), code, command, kwargs)
+            _fail(_error_line(exc), code, command, kwargs)
         except KeyboardInterrupt as exc:  # Ctrl-C, or SIGTERM (Terminated)
             # A use case interrupted after some of its work was written says what it
             # keeps in the exception's notes (marops_cli/app/replay_areas.py).
@@ -244,7 +243,7 @@ def guarded(fn: F) -> F:
     return wrapper  # type: ignore[return-value]
 
 
-def fail(text: str, code: int, command: str, options: dict[str, Any]) -> NoReturn:
+def _fail(text: str, code: int, command: str, options: dict[str, Any]) -> NoReturn:
     """End ``command`` with ``marops: error: TEXT`` on stderr and exit ``code``; with
     ``--json`` (``options["as_json"]``, also when the error came before the command
     applied it) also the error as one JSON document on stdout (:func:`error_json`)."""
