@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import errno
+import os
 from pathlib import Path
 
 _KEYED = frozenset({".toml", ".json"})
@@ -87,3 +89,22 @@ def naming(exc: InputError, file: str | Path) -> InputError:
     if exc.file is not None:
         return exc
     return InputError(exc.message, file=file, row=exc.row, column=exc.column)
+
+
+def not_found(path: str | Path, what: str = "file") -> InputError:
+    """The error for an input ``path`` that leads to nothing (``what``: "depots file"):
+    ``FILE: depots file not found``; for a loop of symbolic links ``FILE: is a loop of
+    symbolic links, not a depots file``, and for a link to a missing file, where it
+    points."""
+    try:
+        os.stat(path)
+    except OSError as exc:
+        if exc.errno == errno.ELOOP:
+            return InputError(f"is a loop of symbolic links, not a {what}", file=path)
+        if os.path.islink(path):
+            target = os.readlink(path)
+            return InputError(
+                f"{what} not found: a symbolic link to {target}, which does not exist",
+                file=path,
+            )
+    return InputError(f"{what} not found", file=path)

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 from marops_cli.errors import InputError
 
 
@@ -16,3 +18,18 @@ def test_a_config_or_sidecar_names_the_key() -> None:
     assert "key 'format'" in str(InputError("bad", file="a.JSON", column="format"))
     # a tensor of a weights file is not a key of a TOML or JSON file
     assert "column 'weight'" in str(InputError("bad", file="a.safetensors", column="weight"))
+
+
+def test_not_found_says_why_a_path_leads_to_nothing(tmp_path: Path) -> None:
+    from marops_cli.errors import not_found
+
+    missing = tmp_path / "missing.json"
+    assert str(not_found(missing, "depots file")) == f"{missing}: depots file not found"
+    dangling = tmp_path / "link.json"
+    dangling.symlink_to(missing)
+    assert str(not_found(dangling, "depots file")) == (
+        f"{dangling}: depots file not found: a symbolic link to {missing}, which does not exist"
+    )
+    loop = tmp_path / "loop"
+    loop.symlink_to(loop)
+    assert str(not_found(loop)) == f"{loop}: is a loop of symbolic links, not a file"

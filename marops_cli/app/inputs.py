@@ -7,7 +7,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, TypeAlias
 
 from ..config import DataConfig
-from ..errors import InputError
+from ..errors import InputError, not_found
 
 if TYPE_CHECKING:
     from ..data.table import LadeTable
@@ -35,7 +35,7 @@ def require_input(path: str | Path) -> None:
     """Stop at once when the data file is missing or is a folder."""
     path = Path(path)
     if not path.exists():
-        raise InputError("file not found", file=path)
+        raise not_found(path)
     if path.is_dir():
         raise InputError("is a folder, expected a LaDe CSV or Parquet file", file=path)
 

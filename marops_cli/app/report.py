@@ -6,7 +6,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from ..errors import InputError, naming
+from ..errors import InputError, naming, not_found
 
 if TYPE_CHECKING:
     from ..segment.depots import Depots
@@ -38,6 +38,8 @@ def make_report(folder: str | Path, *, depots: str | Path | None = None) -> list
     from ..report import report_folders, require_plotly, write_reports
 
     folder = Path(folder)
+    if not folder.exists():
+        raise not_found(folder, "folder")
     if not folder.is_dir():
         raise InputError(
             "is not a folder (the --out of replay-day, plan-window or evaluate)", file=folder

@@ -5,7 +5,7 @@ from __future__ import annotations
 import datetime as dt
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Literal
 
 from ..config import option_error
 from ..errors import InputError
@@ -34,11 +34,12 @@ def synth(
     fmt: str | None = None,
 ) -> Synthesized:
     """``days`` consecutive days of a ``shape`` city from ``start`` (same seed, same
-    rows); with ``out`` written as CSV or Parquet (``fmt``, else from the suffix)."""
+    rows); with ``out`` written as CSV or Parquet (``fmt``, else from the suffix), CSV
+    gzipped when ``out`` ends in ``.gz``."""
     from pydantic import ValidationError
 
     from ..data.dates import parse_day
-    from ..data.synth import SynthConfig, generate, write
+    from ..data.synth import SynthConfig, file_format, generate, write
 
     if fmt not in (None, "csv", "parquet"):
         raise InputError(f"--format expects csv or parquet, got {fmt!r}")
@@ -62,9 +63,16 @@ def synth(
     from ..io.ownership import check_outputs
 
     out = Path(out)
+    suffix_fmt, gzipped = file_format(out)
+    kind: Literal["csv", "parquet"] = "parquet" if (fmt or suffix_fmt) == "parquet" else "csv"
+    if kind == "parquet" and gzipped:  # the reader would take gzip for CSV
+        raise InputError(
+            "invalid option --out: a .gz file is gzipped CSV, and Parquet compresses its "
+            "own columns; write .parquet, or .csv.gz for gzipped CSV",
+            file=out,
+        )
     check_outputs([out])  # never a file marops did not write
     table = generate(cfg)
-    kind = fmt or ("parquet" if out.suffix.lower() in (".parquet", ".pq") else "csv")
     with output_set() as files:
-        files.write_with(out, lambda tmp: write(table, tmp, kind))  # type: ignore[arg-type]
+        files.write_with(out, lambda tmp: write(table, tmp, kind, gzipped=gzipped))
     return Synthesized(table, first, out)

@@ -14,7 +14,7 @@ import typer
 import typer.core
 
 from .. import __version__
-from .common import PLAIN, STATE
+from .common import PLAIN, STATE, error_json
 from .evaluate_cmd import evaluate_command
 from .plan_window_cmd import plan_window_command
 from .replay_cmd import replay_day_command
@@ -121,8 +121,26 @@ def _run() -> int | str | None:
         hint = f" (see '{ctx.command_path} --help')" if ctx is not None else ""
         text = " ".join(str(message()).split())
         typer.echo(f"marops: error: {text}{hint}", err=True)
-        return int(getattr(exc, "exit_code", 2))
+        status = int(getattr(exc, "exit_code", 2))
+        if ctx is not None and _wants_json(ctx.command):
+            error_json(str(ctx.info_name), f"{text}{hint}", status)
+        return status
     return code if isinstance(code, int) else 0
+
+
+def _wants_json(command: object) -> bool:
+    """Whether a command line that failed before its command ran asked for ``--json``
+    (on the line, or ``MAROPS_JSON`` as the option reads it), of a command that has it."""
+    if not any(getattr(p, "name", None) == "as_json" for p in getattr(command, "params", [])):
+        return False
+    args = sys.argv[1:]
+    if "--json" in (args[: args.index("--")] if "--" in args else args):
+        return True
+    return os.environ.get("MAROPS_JSON", "").strip().lower() in _TRUE
+
+
+_TRUE = ("1", "true", "t", "yes", "y", "on")
+"""The values a boolean option takes for true from its environment variable."""
 
 
 def _leave(code: int | str | None) -> NoReturn:

@@ -28,6 +28,7 @@ __all__ = [
     "begin",
     "console",
     "emit_json",
+    "error_json",
     "guarded",
     "info",
     "is_terminal",
@@ -99,10 +100,16 @@ def _error_line(exc: BaseException) -> str:
     return text.replace("\r", "\\r").replace("\n", "\\n")
 
 
+MAX_STDIN = 2 << 30
+"""Bytes marops copies from standard input: above any city's LaDe export, and a pipe
+that never ends is refused at this size instead of filling the temporary disk."""
+
+
 def stdin_file() -> Path:
     """Standard input copied into a file of its own (``stdin``, in a temporary folder
     removed when marops exits), so it is read as a file is: CSV, CSV.gz or Parquet told
-    by its first bytes, hashed for the depots cache, read again by worker processes."""
+    by its first bytes, hashed for the depots cache, read again by worker processes.
+    More than :data:`MAX_STDIN` bytes is an error, and the copy is removed at once."""
     import atexit
     import shutil
     import tempfile
@@ -118,16 +125,36 @@ def stdin_file() -> Path:
     path = folder / "stdin"
     _stdin_copy = path  # errors name "standard input", not this file
     try:
+        size = _copy_stdin(path)
+    except BaseException:
+        shutil.rmtree(folder, ignore_errors=True)  # nothing half-copied stays behind
+        raise
+    if size == 0:
+        raise InputError("DATA - reads standard input, and it is empty")
+    return path
+
+
+def _copy_stdin(path: Path) -> int:
+    """Copy standard input into ``path``; its size, at most :data:`MAX_STDIN`."""
+    size = 0
+    source = sys.stdin.buffer
+    try:
         with path.open("wb") as fh:
-            shutil.copyfileobj(sys.stdin.buffer, fh, 1 << 20)
+            while block := source.read(1 << 20):
+                size += len(block)
+                if size > MAX_STDIN:
+                    raise InputError(
+                        f"more than {MAX_STDIN / 2**30:g} GiB came on it, the most marops copies "
+                        "from a pipe; save the data to a file and pass its path",
+                        file="standard input (-)",
+                    )
+                fh.write(block)
     except OSError as exc:  # a full temporary disk, most likely
         raise InputError(
             f"standard input could not be copied to a temporary file ({exc.strerror or exc}); "
             "save it to a file and pass its path"
         ) from exc
-    if path.stat().st_size == 0:
-        raise InputError("DATA - reads standard input, and it is empty")
-    return path
+    return size
 
 
 def info(message: str) -> None:
@@ -188,7 +215,10 @@ _BAD_PATH = (errno.ENAMETOOLONG, errno.ELOOP)
 
 
 def guarded(fn: F) -> F:
-    """Turn library errors into one line on stderr and the exit code of docs/outputs.md."""
+    """Turn library errors into one line on stderr and the exit code of docs/outputs.md
+    (with ``--json``, and one JSON document on stdout: :func:`_fail`). ``fn`` is a
+    command's function, ``NAME_command``."""
+    command = fn.__name__.removesuffix("_command").replace("_", "-")
 
     @functools.wraps(fn)
     def wrapper(*args: Any, **kwargs: Any) -> Any:
@@ -198,20 +228,35 @@ def guarded(fn: F) -> F:
             if STATE["debug"]:
                 raise
             exc = _blame_setting(exc, kwargs)
-            typer.echo(f"marops: error: {_error_line(exc)}", err=True)
-            raise typer.Exit(exc.exit_code) from None
+            _fail(_error_line(exc), exc.exit_code, command, kwargs)
         except OSError as exc:
             if STATE["debug"]:
                 raise
-            typer.echo(f"marops: error: {_error_line(exc)}", err=True)
             # A path the system cannot even look up is bad usage; other failures are the run's.
-            raise typer.Exit(2 if exc.errno in _BAD_PATH else 1) from None
+            code = 2 if exc.errno in _BAD_PATH else 1
+            _fail(_error_line(exc), code, command, kwargs)
         except KeyboardInterrupt as exc:  # Ctrl-C, or SIGTERM (Terminated)
             # A use case interrupted after some of its work was written says what it
             # keeps in the exception's notes (marops_cli/app/replay_areas.py).
-            stopped(exc, "; ".join(getattr(exc, "__notes__", ())))
+            stopped(exc, "; ".join(getattr(exc, "__notes__", ())), command)
 
     return wrapper  # type: ignore[return-value]
+
+
+def _fail(text: str, code: int, command: str, options: dict[str, Any]) -> NoReturn:
+    """End ``command`` with ``marops: error: TEXT`` on stderr and exit ``code``; with
+    ``--json`` (``options["as_json"]``, also when the error came before the command
+    applied it) also the error as one JSON document on stdout (:func:`error_json`)."""
+    typer.echo(f"marops: error: {text}", err=True)
+    if STATE["json"] or options.get("as_json") is True:
+        error_json(command, text, code)
+    raise typer.Exit(code) from None
+
+
+def error_json(command: str, text: str, code: int) -> None:
+    """A failed run's JSON document on stdout (docs/outputs.md): the command, the error
+    line without its ``marops: error:`` prefix, and the exit code."""
+    emit_json({"command": command, "error": text, "exit_code": code})
 
 
 def _blame_setting(exc: MaropsError, options: dict[str, Any]) -> MaropsError:
@@ -228,15 +273,20 @@ def _blame_setting(exc: MaropsError, options: dict[str, Any]) -> MaropsError:
     return exc
 
 
-def stopped(exc: KeyboardInterrupt, kept: str = "") -> NoReturn:
+def stopped(exc: KeyboardInterrupt, kept: str = "", command: str | None = None) -> NoReturn:
     """Ctrl-C or SIGTERM (:class:`~marops_cli.io.atomic.Terminated`): one line on stderr,
-    with what the run keeps when it says, and exit 130 (143 for SIGTERM)."""
+    with what the run keeps when it says, and exit 130 (143 for SIGTERM); with
+    ``--json`` also ``command``'s JSON error document (:func:`error_json`)."""
     from ..io.atomic import Terminated
 
     term = isinstance(exc, Terminated)
     how = "terminated" if term else "interrupted"
-    typer.echo(f"marops: {how}; {kept}" if kept else f"marops: {how}", err=True)
-    raise typer.Exit(143 if term else 130) from None
+    line = f"{how}; {kept}" if kept else how
+    typer.echo(f"marops: {line}", err=True)
+    code = 143 if term else 130
+    if STATE["json"] and command is not None:
+        error_json(command, line, code)
+    raise typer.Exit(code) from None
 
 
 def kv_table(title: str, rows: list[tuple[str, str]]) -> Table:

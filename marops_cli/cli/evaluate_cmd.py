@@ -57,7 +57,9 @@ def evaluate_command(
             help="test: the last 20 % of the file's dates; train: the rest [default: test].",
         ),
     ] = None,
-    repeats: Annotated[int, typer.Option("--repeats", min=1, help="Runs per day (seed + r).")] = 1,
+    repeats: Annotated[
+        int, typer.Option("--repeats", help="Runs per day (seed + r), at most 1000.")
+    ] = 1,
     drones: Annotated[
         str | None, typer.Option("--drones", help="Fleet sizes: 4,8,16 [default: 8].")
     ] = None,
@@ -159,7 +161,7 @@ def evaluate_command(
     try:
         res = run_evaluation(data, run, out=out, progress=Terminal(remaining=True))
     except KeyboardInterrupt as exc:  # Ctrl-C or SIGTERM, with what the folder keeps
-        stopped(exc, "; ".join(getattr(exc, "__notes__", ())))
+        stopped(exc, "; ".join(getattr(exc, "__notes__", ())), "evaluate")
     _print_tables(res.summary)
     if res.paired is not None:
         _print_paired(res.paired, res.summary, len(res.days))

@@ -96,8 +96,7 @@ def segment_command(
     if hubs is not None:
         _segment_hubs(data, out, hubs, size_km, dates, year, strict, config)
         return
-    if out.suffix != ".json":
-        raise InputError(f"--out names the depots file, e.g. depots.json; got {out.name}")
+    _check_json_out(out, "depots")
     gj_path, png_path = out.with_suffix(".geojson"), out.with_suffix(".png")
     protect_inputs([out, gj_path, png_path], [data, config])
     cfg = planner_config(
@@ -156,8 +155,7 @@ def _segment_hubs(  # type: ignore[no-untyped-def]
     from ..app.segment import hub_count, segment_hubs
 
     hub_count(hubs)  # a bad --hubs is the first error
-    if out.suffix != ".json":
-        raise InputError(f"--out names the hubs file, e.g. hubs.json; got {out.name}")
+    _check_json_out(out, "hubs")
     protect_inputs([out], [data, config])
     cfg = planner_config(config, year=year, size_km=size_km, strict=strict)
     res = segment_hubs(data, cfg, hubs, days=dates, out=out, progress=Terminal())
@@ -188,3 +186,14 @@ def _segment_hubs(  # type: ignore[no-untyped-def]
                 "covered_share": held / total if total else 0.0,
             }
         )
+
+
+def _check_json_out(out: Path, what: str) -> None:
+    """``--out`` names the ``what`` file (``depots.json``): a ``.json`` name, not a folder
+    (``--out .``) nor a file of another kind."""
+    if out.suffix == ".json" and not out.is_dir():
+        return
+    this = f"a {out.suffix} file" if out.suffix else "a name without .json"
+    if out.is_dir():
+        this = "a folder"
+    raise InputError(f"--out names the {what} file, e.g. {what}.json; this is {this}", file=out)

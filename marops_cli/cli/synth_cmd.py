@@ -12,7 +12,7 @@ from .common import guarded, info
 
 @guarded
 def synth_command(
-    out: Annotated[Path, typer.Option("--out", help="Output file (.csv or .parquet).")],
+    out: Annotated[Path, typer.Option("--out", help="Output file (.csv, .csv.gz or .parquet).")],
     days: Annotated[int, typer.Option("--days", help="Number of consecutive days.")] = 12,
     seed: Annotated[int, typer.Option("--seed", help="Random seed; same seed, same bytes.")] = 7,
     start: Annotated[

@@ -3,6 +3,7 @@ policy sidecar)."""
 
 from __future__ import annotations
 
+import errno
 import json
 import math
 import os
@@ -10,7 +11,7 @@ import stat
 from pathlib import Path
 from typing import Any, Literal
 
-from ..errors import InputError
+from ..errors import InputError, not_found
 
 MAX_SMALL_FILE = 64 << 20
 """Bytes a small input (JSON or TOML: depots, fleet, config, sidecars, marops' own
@@ -72,11 +73,11 @@ def read_document(path: str | Path, what: str, kind: Literal["json", "toml"] | N
     try:
         text = read_small_text(p, what)
         return parse_toml(text) if kind == "toml" else parse_json(text)
-    except FileNotFoundError as exc:
-        raise InputError(f"{what} not found", file=p) from exc
     except IsADirectoryError as exc:
         raise InputError(f"{what} is a folder, expected a {name} file", file=p) from exc
     except OSError as exc:
+        if isinstance(exc, FileNotFoundError) or exc.errno == errno.ELOOP:
+            raise not_found(p, what) from exc
         raise InputError(f"cannot read the {what} ({exc.strerror})", file=p) from exc
     except (ValueError, UnicodeDecodeError) as exc:
         raise InputError(f"{what} is not valid {name} ({first_line(exc)})", file=p) from exc

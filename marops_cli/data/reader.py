@@ -26,6 +26,7 @@ Table in memory (the Python API's data), numbering its rows the same way.
 from __future__ import annotations
 
 import csv
+import errno
 import hashlib
 import io
 import re
@@ -41,7 +42,7 @@ import pyarrow.csv as pacsv
 import pyarrow.parquet as pq
 
 from ..config import DataConfig
-from ..errors import InputError
+from ..errors import InputError, not_found
 from .arrow import is_text
 from .dates import TIME_BAD, TIME_EMPTY, parse_ds, parse_times
 from .table import DROP_REASONS, REQUIRED_COLUMNS, DropReport, LadeTable, SourceInfo
@@ -81,9 +82,9 @@ def _sniff(path: Path) -> tuple[str, str | None]:
         size = st.st_size
         with open(path, "rb") as f:
             head = f.read(4096)
-    except FileNotFoundError as exc:
-        raise InputError("file not found", file=path) from exc
     except OSError as exc:
+        if isinstance(exc, FileNotFoundError) or exc.errno == errno.ELOOP:
+            raise not_found(path) from exc
         raise InputError(f"cannot read the file ({exc.strerror})", file=path) from exc
     if size == 0:
         raise InputError("the file is empty", file=path)

@@ -28,6 +28,8 @@ from __future__ import annotations
 
 import contextlib
 import datetime as dt
+import gzip
+import io
 import os
 import tempfile
 from pathlib import Path
@@ -345,30 +347,50 @@ def generate(cfg: SynthConfig | None = None) -> pa.Table:
     return table.take(pa.array(rows))
 
 
+def file_format(path: str | os.PathLike[str]) -> tuple[Literal["csv", "parquet"], bool]:
+    """(format, gzipped) told by a path's suffixes: ``.parquet``/``.pq`` -> Parquet, else
+    CSV; a last suffix ``.gz`` is gzip around the format its suffix before tells."""
+    suffixes = [s.lower() for s in Path(path).suffixes]
+    gzipped = suffixes[-1:] == [".gz"]
+    base = suffixes[-2:-1] if gzipped else suffixes[-1:]
+    return ("parquet" if base in ([".parquet"], [".pq"]) else "csv"), gzipped
+
+
 def write(
-    table: pa.Table, path: str | os.PathLike[str], format: Literal["csv", "parquet"] | None = None
+    table: pa.Table,
+    path: str | os.PathLike[str],
+    format: Literal["csv", "parquet"] | None = None,
+    *,
+    gzipped: bool | None = None,
 ) -> Path:
     """Write ``table`` atomically as CSV (unquoted, like LaDe) or Parquet; returns the path.
 
-    ``format`` defaults to the path's suffix (``.parquet``/``.pq`` -> Parquet, else CSV).
-    The file appears complete or not at all: it is written beside its target and
-    then renamed over it.
+    ``format`` and ``gzipped`` default to what the path's suffixes tell (:func:`file_format`).
+    Gzipped CSV has no time or name in its gzip header: the same table, the same bytes.
+    Parquet compresses its own columns and is never gzipped. The file appears complete or
+    not at all: it is written beside its target and then renamed over it.
     """
     path = Path(path)
-    fmt = format or ("parquet" if path.suffix.lower() in (".parquet", ".pq") else "csv")
+    suffix_fmt, suffix_gz = file_format(path)
+    fmt = format or suffix_fmt
+    gzipped = suffix_gz if gzipped is None else gzipped
     if fmt not in ("csv", "parquet"):
         raise ValueError(f"expected format 'csv' or 'parquet', got {fmt!r}")
+    if fmt == "parquet" and gzipped:
+        raise ValueError(f"{path}: Parquet is not gzipped; drop the .gz")
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     try:
-        with os.fdopen(fd, "wb") as fh:
-            if fmt == "csv":
-                # pyarrow quotes header names whatever the quoting style; LaDe does not.
-                fh.write((",".join(table.column_names) + "\n").encode())
-                opts = pacsv.WriteOptions(include_header=False, quoting_style="none")
-                pacsv.write_csv(table, fh, opts)
+        with os.fdopen(fd, "wb") as raw:
+            if fmt == "parquet":
+                pq.write_table(table, raw, compression="zstd")
+            elif gzipped:
+                # Level 6, gzip's own default: 9 took 2.6 times as long for a file 1 % smaller.
+                gz = gzip.GzipFile(filename="", mode="wb", fileobj=raw, compresslevel=6, mtime=0)
+                with gz as fh:
+                    _write_csv(table, fh)
             else:
-                pq.write_table(table, fh, compression="zstd")
+                _write_csv(table, raw)
         os.chmod(tmp, 0o644)
         os.replace(tmp, path)
     except BaseException:
@@ -376,3 +398,11 @@ def write(
             os.unlink(tmp)
         raise
     return path
+
+
+def _write_csv(table: pa.Table, fh: io.BufferedIOBase) -> None:
+    """``table`` as CSV into ``fh``: unquoted, like LaDe."""
+    # pyarrow quotes header names whatever the quoting style; LaDe does not.
+    fh.write((",".join(table.column_names) + "\n").encode())
+    opts = pacsv.WriteOptions(include_header=False, quoting_style="none")
+    pacsv.write_csv(table, fh, opts)

@@ -151,12 +151,26 @@ def write_outputs(
     figs = figures(summary, results, prep) if plots else {}
     with output_set() as files:
         files.write_with(paths[0], lambda p: write_parquet(with_meta(results, meta), p))
-        files.write_with(paths[1], lambda p: pacsv.write_csv(summary, str(p)))
+        files.write_with(paths[1], lambda p: pacsv.write_csv(_csv_summary(summary), str(p)))
         files.write_bytes(paths[2], summary_markdown(summary, prep).encode("utf-8"))
         for name, fig in figs.items():
             files.write_with(out / name, partial(_save_to, fig))
             paths.append(out / name)
     return paths
+
+
+def _csv_summary(summary: pa.Table) -> pa.Table:
+    """``summary`` as ``summary.csv`` holds it: a ``_std`` cell of a single day or repeat
+    (``n`` = 1, no spread) empty rather than ``nan``, which reads as a failed metric."""
+    import pyarrow.compute as pc
+
+    single = pc.equal(summary.column("n"), 1)
+    for k, name in enumerate(summary.column_names):
+        if name.endswith("_std"):
+            column = summary.column(k)
+            empty = pa.nulls(len(column), column.type)
+            summary = summary.set_column(k, name, pc.if_else(single, empty, column))
+    return summary
 
 
 def _save_to(fig: Any, path: Path) -> None:

@@ -39,7 +39,7 @@ from ..sim.scenario import (
     replay_modules,
 )
 from ..workers import outcomes
-from .settings import Job, Setting, check_settings, plan_jobs, split_days
+from .settings import Job, Setting, check_repeats, check_settings, plan_jobs, split_days
 
 OnResult = Callable[[int, int, Job], None]
 
@@ -137,8 +137,7 @@ def prepare(
     # Fails here, not in a worker.
     actor_files = check_methods(methods, actors, trust=cfg.sim.trust_actor, ops=cfg.ops)
     check_settings(cfg, settings, methods)
-    if repeats < 1:
-        raise InputError(f"--repeats expects at least 1, got {repeats}")
+    check_repeats(repeats)
     table = data if isinstance(data, LadeTable) else read_lade(data, cfg.data)
     chosen = list(days) if days else split_days(table.days(), split)
     if not chosen:

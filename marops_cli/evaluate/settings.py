@@ -28,6 +28,20 @@ SWEEP_FLAGS: dict[str, tuple[str, str]] = {
 
 T = TypeVar("T", int, float)
 
+MAX_REPEATS = 1000
+"""The most runs per day (``--repeats``, docs/config.md): each repeat replays every day
+of every method and setting again, so 1000 is already more replays than any study
+needs, and the job list stays small."""
+
+
+def check_repeats(repeats: int) -> None:
+    """``--repeats`` within 1 ≤ repeats ≤ :data:`MAX_REPEATS`, else one line naming it."""
+    if not 1 <= repeats <= MAX_REPEATS:
+        raise InputError(
+            f"invalid option --repeats: got {repeats} "
+            f"(expected 1 ≤ repeats ≤ {MAX_REPEATS}, docs/config.md)"
+        )
+
 
 @dataclass(frozen=True)
 class Setting:
@@ -144,8 +158,7 @@ def plan_jobs(
     """Jobs ordered setting, method, repeat, hub, day; repeat ``r`` runs with seed
     ``seed + r``. ``days`` are the days of the one study area (hub 0); ``hub_days``, for
     a city, gives each hub with its own days instead."""
-    if repeats < 1:
-        raise InputError(f"--repeats expects at least 1, got {repeats}")
+    check_repeats(repeats)
     areas = list(hub_days) if hub_days is not None else [(0, days)]
     jobs: list[Job] = []
     for s, m, r in itertools.product(range(n_settings), methods, range(repeats)):

@@ -152,6 +152,27 @@ def check_replaceable(paths: Iterable[Path]) -> None:
             raise InputError(
                 "exists and was not written by marops; pass --force to replace it", file=final
             )
+        if needs_journal(final) and not _REPLACE_FOREIGN.get():
+            _check_journal(final.parent)
+
+
+def _check_journal(folder: Path) -> None:
+    """Refuse to write a file the journal must list into ``folder`` when a file by the
+    journal's name is there that is no journal of marops (docs/outputs.md): rewriting
+    it would replace a file marops did not write."""
+    journal = folder / JOURNAL
+    try:
+        if not os.path.lexists(journal):
+            return
+        doc = parse_json(read_small_text(journal, "file journal")) if journal.is_file() else None
+    except (OSError, ValueError, InputError):
+        doc = None
+    if not (isinstance(doc, dict) and doc.get("format") == JOURNAL_FORMAT):
+        raise InputError(
+            f"exists and is not the journal marops keeps under this name (format "
+            f"{JOURNAL_FORMAT}, docs/outputs.md); move it away or choose another --out",
+            file=journal,
+        )
 
 
 def check_outputs(paths: Iterable[Path]) -> None:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -140,17 +141,6 @@ class Depots:
                 ],
                 dtype=np.int64,
             )
-            # Ids as written: 3.9, "3" or true are no depot id (int() would make them one).
-            cand = np.array(
-                [
-                    [
-                        json_number(c, source, f"candidates.{i}", whole=True)
-                        for c in doc["candidates"][str(i)]
-                    ]
-                    for i in range(len(rows))
-                ],
-                dtype=np.int64,
-            )
             method = str(doc.get("method", "kmeans"))
         except (KeyError, TypeError, ValueError, OverflowError, AttributeError) as exc:
             raise InputError(
@@ -189,10 +179,7 @@ class Depots:
             raise InputError(
                 "the study frame is not a valid centre and size", file=source, column="frame"
             )
-        if cand.ndim != 2 or cand.min() < 0 or cand.max() >= xy.shape[0]:
-            raise InputError("candidates refer to unknown depots", file=source, column="candidates")
-        if not np.array_equal(cand[:, 0], np.arange(xy.shape[0])):
-            raise InputError("each depot must list itself first", file=source, column="candidates")
+        cand = _candidates(doc.get("candidates"), len(rows), source)
         _same_places(rows, order, frame, xy, source)
         return cls(method, frame, xy, n_hist, cand)
 
@@ -201,6 +188,66 @@ class Depots:
         from ..data.jsonfile import read_json
 
         return cls.from_dict(read_json(path, "depots file"), source=str(path))
+
+
+_CANDIDATES_SHAPE = '{"0": [0, 4, 1], "1": [1, 0, 2], …}, each depot\'s id to its candidates'
+"""What ``candidates`` holds, as its errors say it (:meth:`Depots.to_dict` writes it)."""
+
+
+def _candidates(value: Any, n: int, source: str) -> np.ndarray:
+    """The ``candidates`` of a depots file of ``n`` depots as an (n, A) array of depot
+    ids: each depot lists itself first, every list as long. A value of another shape is
+    refused naming its key and the expected shape."""
+    shape = f"expected {_CANDIDATES_SHAPE}, itself first, all lists as long"
+    if not isinstance(value, dict):
+        got = "nothing" if value is None else _json_kind(value)
+        raise InputError(f"{shape}; got {got}", file=source, column="candidates")
+    extra = sorted(set(value) - {str(i) for i in range(n)})
+    if extra:
+        raise InputError(
+            f"no depot has the id {extra[0]!r} (ids 0..{n - 1}); {shape}",
+            file=source,
+            column=f"candidates.{extra[0]}",
+        )
+    rows: list[list[int]] = []
+    for i in range(n):
+        key = f"candidates.{i}"
+        listed = value.get(str(i))
+        if not isinstance(listed, list) or not listed:
+            got = "nothing" if str(i) not in value else _json_kind(listed)
+            raise InputError(f"{shape}; got {got} for depot {i}", file=source, column=key)
+        if rows and len(listed) != len(rows[0]):
+            raise InputError(
+                f"{shape}; got {len(listed)} candidates for depot {i}, {len(rows[0])} for depot 0",
+                file=source,
+                column=key,
+            )
+        # Ids as written: 3.9, "3" or true are no depot id (int() would make them one).
+        ids = [json_number(c, source, key, whole=True) for c in listed]
+        if not all(0 <= c < n for c in ids):
+            raise InputError(
+                f"candidates refer to unknown depots (ids 0..{n - 1})", file=source, column=key
+            )
+        if ids[0] != i:
+            raise InputError(
+                f"each depot must list itself first; depot {i} lists {int(ids[0])}",
+                file=source,
+                column=key,
+            )
+        rows.append([int(c) for c in ids])
+    return np.array(rows, dtype=np.int64)
+
+
+def _json_kind(value: Any) -> str:
+    """What a JSON value is: ``an object``, ``a list``, ``an empty list``, ``a string``,
+    ``true``, ``3``, ``null``."""
+    if isinstance(value, dict):
+        return "an object"
+    if isinstance(value, list):
+        return "a list" if value else "an empty list"
+    if isinstance(value, str):
+        return "a string"
+    return json.dumps(value)
 
 
 _PLACE_TOLERANCE_M = 1.0

@@ -25,7 +25,7 @@ from ..data.prepare import arrival_windows, check_days_in_file, prepare_day, stu
 from ..data.reader import read_lade, sha256_file
 from ..data.table import DayRequests, LadeTable
 from ..energy import EnergyModel
-from ..errors import InputError, naming
+from ..errors import InputError, naming, not_found
 from ..methods import METHODS as _METHODS
 from ..methods import method as method_spec
 from ..plans.window import WindowPlan
@@ -214,12 +214,14 @@ def delivered_orders(path: str | Path) -> set[str]:
     """Order ids already delivered according to an earlier stops Parquet file (or the
     ``stops.parquet`` of an output folder)."""
     p = delivered_file(path)
-    if p.exists() and not p.is_file():  # a pipe or a device: no stops file
+    if not p.exists():  # missing, a dangling link or a loop of links
+        raise not_found(p, "delivered file")
+    if not p.is_file():  # a pipe or a device: no stops file
         raise InputError("not a marops stops file (not a regular file)", file=p)
     try:
         table = pq.read_table(p, columns=["kind", "order_id"])
-    except FileNotFoundError as exc:
-        raise InputError("delivered file not found", file=p) from exc
+    except FileNotFoundError as exc:  # removed meanwhile
+        raise not_found(p, "delivered file") from exc
     except (OSError, ValueError, KeyError) as exc:
         raise InputError(f"not a marops stops file ({first_line(exc)})", file=p) from exc
     for name in ("kind", "order_id"):  # text as marops writes them (a list matches nothing)

@@ -175,3 +175,45 @@ def test_bad_training_lists(example_csv: Path, tmp_path: Path, fails_cleanly) ->
     fails_cleanly([*es, "--loss-weight", "-0.5"], tmp_path, "--loss-weight")
     missing = str(tmp_path / "nope.csv")
     fails_cleanly(["train", str(example_csv), missing, "--out", out], tmp_path, "nope.csv")
+
+
+# An input path that is a loop of symbolic links, for each option that reads a file: the
+# data said "file not found" (it exists as a link), the others "Too many levels of
+# symbolic links"; now each is one line naming the path and saying it is a loop.
+LOOP_INPUTS = {
+    "data": ["segment", "{loop}", "--out", "{out}/d.json"],
+    "train data": ["train", "{loop}", "--episodes", "1", "--out", "{out}/a.pt"],
+    "depots": ["replay-day", "{data}", "--date", "0811", "--depots", "{loop}", "--out", "{out}"],
+    "config": ["replay-day", "{data}", "--date", "0811", "--config", "{loop}", "--out", "{out}"],
+    "fleet": ["replay-day", "{data}", "--date", "0811", "--fleet", "{loop}", "--out", "{out}"],
+    "policy": ["replay-day", "{data}", "--date", "0811", "--policy", "{loop}.pt"]
+    + ["--out", "{out}"],
+    "hubs": ["evaluate", "{data}", "--dates", "0811", "--hubs", "{loop}", "--out", "{out}"],
+    "delivered": ["plan-window", "{data}", "--depots", "{depots}", "--date", "0811"]
+    + ["--window", "5", "--delivered", "{loop}", "--out", "{out}"],
+    "report folder": ["report", "{loop}"],
+}
+
+
+@pytest.mark.parametrize("name", sorted(LOOP_INPUTS))
+def test_a_loop_of_symbolic_links_as_an_input(
+    example_csv: Path, tmp_path: Path, fails_cleanly, name: str
+) -> None:
+    loops = tmp_path / "loops"
+    loops.mkdir()
+    for stem in ("loop", "loop.pt"):
+        (loops / stem).symlink_to(loops / f"{stem}.2")
+        (loops / f"{stem}.2").symlink_to(loops / stem)
+    depots = tmp_path / "depots.json"
+    seg = ["segment", str(example_csv), "--dates", "0801..0810", "--out", str(depots)]
+    if name == "delivered":
+        from typer.testing import CliRunner
+
+        from marops_cli.cli.app import app
+
+        assert CliRunner().invoke(app, seg).exit_code == 0
+    values = {"loop": loops / "loop", "data": example_csv, "depots": depots, "out": tmp_path / "o"}
+    args = [a.format(**values) for a in LOOP_INPUTS[name]]
+    loop = str(loops / ("loop.pt" if name == "policy" else "loop"))
+    line = fails_cleanly(args, tmp_path, f"marops: error: {loop}: is a loop of symbolic links")
+    assert "Errno" not in line and "Too many levels" not in line

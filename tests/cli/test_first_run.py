@@ -97,6 +97,30 @@ def test_empty_standard_input_is_one_line(tmp_path: Path, fails_cleanly) -> None
     fails_cleanly(["train", "-", "--out", out], tmp_path, "standard input")
 
 
+def test_standard_input_beyond_the_cap_is_one_line_and_no_copy_stays(
+    example_csv: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A pipe that never ends once filled the temporary disk: beyond the cap (made small
+    here) it is refused naming standard input, and the partial copy is removed at once."""
+    import tempfile
+
+    import marops_cli.cli.common as common
+
+    temp = tmp_path / "tmp"
+    temp.mkdir()
+    monkeypatch.setattr(tempfile, "tempdir", str(temp))
+    monkeypatch.setattr(common, "MAX_STDIN", 4096)
+    monkeypatch.setattr(common, "_stdin_copy", None)
+    args = ["segment", "-", "--out", str(tmp_path / "d.json")]
+    res = runner.invoke(app, args, input=example_csv.read_bytes())
+    assert res.exit_code == 2, res.output
+    (line,) = res.stderr.strip().splitlines()
+    assert line.startswith("marops: error: standard input (-): more than "), line
+    assert "save the data to a file" in line
+    assert list(temp.iterdir()) == []
+    assert not (tmp_path / "d.json").exists()
+
+
 # Every command that writes, with --out under a file: one line naming the path, exit 2,
 # before any work (docs/outputs.md, "What marops replaces").
 OUT_UNDER_A_FILE = {

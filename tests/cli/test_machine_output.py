@@ -83,6 +83,46 @@ def test_usage_errors_are_one_plain_line(tmp_path: Path, args: list[str], needle
     assert not BOX & set(res.stderr)
 
 
+@pytest.mark.parametrize(
+    ("args", "env", "needle"),
+    [
+        (["segment", "missing.csv", "--out", "d.json", "--json"], {}, "missing.csv: file not"),
+        (["replay-day", "missing.csv", "--date", "0811", "--out", "o"], {"MAROPS_JSON": "1"}, ""),
+        # before the command runs: a usage error of a command that has --json
+        (["segment", "x.csv", "--out", "d.json", "--json", "--n-depots", "many"], {}, "--n-"),
+        (["report", "--json", "--bogus", "."], {}, "No such option: --bogus"),
+    ],
+    ids=["in-the-command", "from-the-environment", "bad-value", "unknown-option"],
+)
+def test_json_errors_are_one_document_on_stdout(
+    tmp_path: Path, args: list[str], env: dict[str, str], needle: str
+) -> None:
+    """With --json an error is still one JSON document on stdout (command, error, exit
+    code), while stderr keeps its one line."""
+    res = run(args, tmp_path, **env)
+    assert res.returncode == 2
+    doc = json.loads(res.stdout)
+    assert doc == {"command": args[0], "error": doc["error"], "exit_code": 2}
+    assert needle in doc["error"]
+    assert res.stderr.strip().splitlines() == [f"marops: error: {doc['error']}"]
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        ["segment", "missing.csv", "--out", "d.json"],
+        ["synth", "--days", "0", "--out", "s.csv"],  # no --json: nothing to print it
+        ["synth", "--days", "1", "--json", "--out", "s.csv"],
+        ["segment", "missing.csv", "--out", "d.json", "--", "--json"],
+    ],
+    ids=["no-json", "command-without-json", "json-unknown-to-the-command", "after-dashes"],
+)
+def test_errors_without_json_leave_stdout_empty(tmp_path: Path, args: list[str]) -> None:
+    res = run(args, tmp_path)
+    assert res.returncode == 2 and res.stdout == ""
+    assert len(res.stderr.strip().splitlines()) == 1
+
+
 def test_quiet_keeps_warnings_only(example_csv: Path, tmp_path: Path) -> None:
     args = ["replay-day", str(example_csv), "--date", "0811", "--method", "stay"]
     res = run([*args, "--drones", "1", "--out", "o", "--quiet"], tmp_path)

@@ -56,6 +56,21 @@ def test_bad_sweep_value(example_csv: Path, tmp_path: Path, fails_cleanly) -> No
     fails_cleanly([*args, "--out", str(out)], tmp_path, "alpha")
 
 
+@pytest.mark.parametrize("value", ["0", "-3", "1001", "1000000000000"])
+def test_repeats_out_of_range_is_refused_up_front(
+    example_csv: Path, tmp_path: Path, fails_cleanly, value: str
+) -> None:
+    """A huge --repeats once built a job list that filled memory: now the bound of
+    docs/config.md, one line naming the option, before any replay."""
+    from marops_cli.evaluate.settings import MAX_REPEATS
+
+    args = ["evaluate", str(example_csv), "--methods", "greedy", "--repeats", value]
+    needles = ("invalid option --repeats: ", f"1 ≤ repeats ≤ {MAX_REPEATS}", "docs/config.md")
+    fails_cleanly([*args, "--out", str(tmp_path / "out")], tmp_path, *needles)
+    help_text = runner.invoke(app, ["evaluate", "--help"]).output
+    assert f"at most {MAX_REPEATS}" in " ".join(help_text.split())
+
+
 def _readme_evaluate_line() -> list[str]:
     """The README's `marops evaluate …` line of the commands table, its optional parts
     ([--workers N] …) left out."""

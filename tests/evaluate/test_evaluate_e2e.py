@@ -118,3 +118,20 @@ def test_alpha_trades_energy_for_delay(run_dir: Path) -> None:
         delay = [float(r["avg_delay_h_mean"]) for r in rows]
         assert energy[0] > energy[-1], (m, energy)
         assert delay[0] < delay[-1], (m, delay)
+
+
+def test_a_single_day_leaves_the_std_empty(example_csv: Path, tmp_path: Path) -> None:
+    """n = 1 has no spread: summary.csv leaves every ``_std`` cell empty (it wrote
+    ``nan``, which reads as a failed metric) and keeps every mean; summary.md says n/a."""
+    out = tmp_path / "one"
+    args = ["evaluate", str(example_csv), "--methods", "stay", "--dates", "0811"]
+    res = runner.invoke(app, [*args, "--workers", "1", "--no-plot", "--out", str(out)])
+    assert res.exit_code == 0, res.output
+    (row,) = _summary_csv(out / "summary.csv")
+    assert row["n"] == "1"
+    stds = {k: v for k, v in row.items() if k.endswith("_std")}
+    assert stds and set(stds.values()) == {""}, stds
+    means = [v for k, v in row.items() if k.endswith("_mean")]
+    assert all(math.isfinite(float(v)) for v in means)
+    assert "nan" not in (out / "summary.csv").read_text()
+    assert "± n/a" in (out / "summary.md").read_text()

@@ -68,3 +68,46 @@ def test_a_file_no_option_asks_for_is_no_obstacle(example_csv: Path, tmp_path: P
     res = CliRunner().invoke(app, args)
     assert res.exit_code == 0, res.output
     assert (out / "routes.png").read_bytes() == b"a user's map"
+
+
+@pytest.mark.parametrize("hubs", [[], ["--hubs", "auto"]], ids=["depots", "hubs"])
+def test_segment_out_the_current_folder_says_it_is_a_folder(
+    example_csv: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, fails_cleanly, hubs
+) -> None:
+    """``--out .`` for a command that writes a file: the line said ``got`` and nothing
+    (a folder's name is empty); now it names the folder and what --out takes."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "notes.txt").write_text("a user's notes")
+    args = ["segment", str(example_csv), *hubs, "--out", "."]
+    line = fails_cleanly(args, tmp_path, ".json; this is a folder")
+    assert line.startswith("marops: error: .: --out names the "), line
+    assert (tmp_path / "notes.txt").read_text() == "a user's notes"
+
+
+@pytest.mark.parametrize("force", [[], ["--force"]], ids=["plain", "force"])
+def test_a_foreign_file_by_the_journal_s_name_is_never_rewritten(
+    example_csv: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, fails_cleanly, force
+) -> None:
+    """A folder holding a ``.marops-files.json`` that is no marops journal: a file the
+    journal must list (replay-day's routes.png here) is refused before any work, naming
+    it, and the file stays as it was; --force replaces it."""
+    from typer.testing import CliRunner
+
+    from marops_cli.cli.app import app
+    from marops_cli.io.ownership import new_run
+
+    monkeypatch.chdir(tmp_path)
+    journal = tmp_path / ".marops-files.json"
+    journal.write_text("a user's own file\n")
+    args = ["replay-day", str(example_csv), "--date", E, "--method", "stay", "--plot"]
+    args += ["--out", ".", *force]
+    if not force:
+        fails_cleanly(args, tmp_path, ".marops-files.json: ", "not the journal", "--out")
+        assert journal.read_text() == "a user's own file\n"
+        return
+    try:
+        res = CliRunner().invoke(app, args)
+    finally:
+        new_run()  # --force stays set in this process after the command: not for the next test
+    assert res.exit_code == 0, res.output
+    assert '"routes.png"' in journal.read_text()

@@ -146,6 +146,42 @@ def test_a_depots_file_s_ids_and_numbers_are_never_converted(tmp_path, edit, key
         Depots.load(path)
 
 
+@pytest.mark.parametrize(
+    ("edit", "key", "says"),
+    [
+        (lambda d: d.__setitem__("candidates", [[0, 1], [1, 0], [2, 0]]), "candidates", "a list"),
+        (lambda d: d.pop("candidates"), "candidates", "got nothing"),
+        (lambda d: d["candidates"].pop("1"), "candidates.1", "got nothing for depot 1"),
+        (lambda d: d["candidates"].__setitem__("1", 1), "candidates.1", "got 1 for depot 1"),
+        (lambda d: d["candidates"].__setitem__("2", []), "candidates.2", "an empty list"),
+        (lambda d: d["candidates"].__setitem__("2", [2]), "candidates.2", "got 1 candidates"),
+        (lambda d: d["candidates"].__setitem__("3", [3, 0]), "candidates.3", "'3' (ids 0..2)"),
+        (lambda d: d["candidates"].__setitem__("2", [2, 1e300]), "candidates.2", "unknown"),
+        (lambda d: d["candidates"].__setitem__("2", [0, 2]), "candidates.2", "itself first"),
+    ],
+    ids=["list", "absent", "missing-depot", "number", "empty", "ragged", "extra-id", "huge-id"]
+    + ["not-itself-first"],
+)
+def test_candidates_of_the_wrong_shape_name_the_key_and_the_shape(
+    tmp_path, edit, key, says
+) -> None:
+    """A ``candidates`` that is not one list per depot, itself first, all as long: one
+    line naming the key and what it should hold (an empty list was a traceback, a list
+    of lists said only 'list indices must be integers')."""
+    xy = np.array([[0.0, 0.0], [2000.0, 0.0], [0.0, 3000.0]])
+    doc = Depots("kmeans", FRAME, xy, np.array([5, 6, 7]), nearest_candidates(xy, 2)).to_dict({})
+    edit(doc)
+    path = tmp_path / "depots.json"
+    path.write_text(json.dumps(doc))
+    with pytest.raises(InputError) as err:
+        Depots.load(path)
+    line = str(err.value)
+    assert line.startswith(f"{path}, key '{key}': "), line
+    assert says in line, line
+    if "unknown" not in says and "itself" not in says:
+        assert '{"0": [0, 4, 1], "1": [1, 0, 2], …}' in line
+
+
 # Areas (m²) of the example's 16 service areas (README's `segment --dates 0801..0810`)
 # as the half-plane clipping that shapely's Voronoi cells replaced drew them.
 EXAMPLE_AREAS_M2 = [
