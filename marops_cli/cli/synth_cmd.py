@@ -7,6 +7,7 @@ from typing import Annotated
 
 import typer
 
+from . import options as o
 from .common import guarded, info
 
 
@@ -36,19 +37,22 @@ def synth_command(
         str | None,
         typer.Option("--format", help="csv or parquet [default: from the file suffix, else csv]."),
     ] = None,
+    force: o.Force = False,
 ) -> None:
     """Generate LaDe-shaped delivery data (all 17 columns, the real export's formats and quirks)."""
     from ..app.synth import synth as generate
+    from ..io.ownership import replacing_foreign_files
 
-    res = generate(
-        days=days,
-        seed=seed,
-        start=start,
-        orders_per_day=orders_per_day,
-        shape=shape,
-        out=out,
-        fmt=fmt,
-    )
+    with replacing_foreign_files(force):
+        res = generate(
+            days=days,
+            seed=seed,
+            start=start,
+            orders_per_day=orders_per_day,
+            shape=shape,
+            out=out,
+            fmt=fmt,
+        )
     info(
         f"wrote {res.path} ({res.table.num_rows:,} rows, {days} day{'s' * (days != 1)} from "
         f"{res.start.isoformat()}, {shape} city)"

@@ -111,3 +111,19 @@ def test_a_foreign_file_by_the_journal_s_name_is_never_rewritten(
         new_run()  # --force stays set in this process after the command: not for the next test
     assert res.exit_code == 0, res.output
     assert '"routes.png"' in journal.read_text()
+
+
+def test_synth_force_replaces_a_foreign_file(tmp_path: Path) -> None:
+    """The refusal says "pass --force", and synth takes it: the file becomes marops'."""
+    from typer.testing import CliRunner
+
+    from marops_cli.cli.app import app
+
+    foreign = tmp_path / "data.csv"
+    foreign.write_bytes(b"someone's own file")
+    args = ["synth", "--days", "1", "--out", str(foreign)]
+    refused = CliRunner().invoke(app, args)
+    assert refused.exit_code == 2 and "pass --force" in refused.output
+    res = CliRunner().invoke(app, [*args, "--force"])
+    assert res.exit_code == 0, res.output
+    assert foreign.read_bytes().startswith(b"order_id,")
