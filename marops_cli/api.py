@@ -204,8 +204,9 @@ def _checked(fn: F) -> F:
 
 
 def _shown(value: Any) -> str:
-    text = repr(value)
-    return text if len(text) <= 60 else text[:57] + "..."
+    from .config import clipped
+
+    return clipped(repr(value))
 
 
 @_checked

@@ -424,10 +424,10 @@ def check_file_types(
 
 def _shown(value: Any) -> str:
     """A file's value as the file wrote it (true, "2022", 3), clipped."""
-    return _clipped(json.dumps(value, default=str))
+    return clipped(json.dumps(value, default=str))
 
 
-def _clipped(text: str, most: int = 60) -> str:
+def clipped(text: str, most: int = 60) -> str:
     """``text`` cut to ``most`` characters (an error line stays one readable line)."""
     return text if len(text) <= most else f"{text[: most - 1]}…"
 
@@ -484,7 +484,7 @@ def validation_message(exc: ValidationError, names: dict[str, str] | None = None
     loc = (names or {}).get(loc, loc)
     msg = str(err["msg"]).removeprefix("Value error, ")
     if "input" in err and not isinstance(err["input"], dict | list) and ", got " not in msg:
-        msg = f"{msg}, got {_clipped(repr(err['input']))}"
+        msg = f"{msg}, got {clipped(repr(err['input']))}"
     path = [str(p) for p in err["loc"]]
     if len(path) >= 2 and path[0] in STAGES and path[1] in STAGES[path[0]].model_fields:
         rng = value_range(path[0], path[1])

@@ -20,6 +20,7 @@ from collections.abc import Iterable, Iterator
 from contextlib import contextmanager
 from contextvars import ContextVar
 from pathlib import Path
+from typing import Any
 
 from ..data.jsonfile import parse_json, read_small_text
 from ..data.reader import sha256_file
@@ -161,13 +162,7 @@ def _check_journal(folder: Path) -> None:
     journal's name is there that is no journal of marops (docs/outputs.md): rewriting
     it would replace a file marops did not write."""
     journal = folder / JOURNAL
-    try:
-        if not os.path.lexists(journal):
-            return
-        doc = parse_json(read_small_text(journal, "file journal")) if journal.is_file() else None
-    except (OSError, ValueError, InputError):
-        doc = None
-    if not (isinstance(doc, dict) and doc.get("format") == JOURNAL_FORMAT):
+    if os.path.lexists(journal) and _journal_doc(folder) is None:
         raise InputError(
             f"exists and is not the journal marops keeps under this name (format "
             f"{JOURNAL_FORMAT}, docs/outputs.md); move it away or choose another --out",
@@ -213,12 +208,20 @@ def needs_journal(final: Path) -> bool:
     return final.suffix.lower() not in _WITH_METADATA
 
 
-def _journal(folder: Path) -> dict[str, list[str]]:
+def _journal_doc(folder: Path) -> dict[str, Any] | None:
+    """``folder``'s journal when the file by its name is one of marops' (a regular file
+    of its format), else None."""
+    journal = folder / JOURNAL
     try:
-        doc = parse_json(read_small_text(folder / JOURNAL, "file journal"))
-    except (OSError, ValueError):
-        return {}
-    if not isinstance(doc, dict) or doc.get("format") != JOURNAL_FORMAT:
+        doc = parse_json(read_small_text(journal, "file journal")) if journal.is_file() else None
+    except (OSError, ValueError, InputError):
+        return None
+    return doc if isinstance(doc, dict) and doc.get("format") == JOURNAL_FORMAT else None
+
+
+def _journal(folder: Path) -> dict[str, list[str]]:
+    doc = _journal_doc(folder)
+    if doc is None:
         return {}
     files = doc.get("files")
     if not isinstance(files, dict):
