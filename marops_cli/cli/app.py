@@ -8,7 +8,7 @@ import os
 import signal
 import sys
 import warnings
-from typing import Annotated, NoReturn
+from typing import Annotated, Any, NoReturn
 
 import typer
 import typer.core
@@ -123,20 +123,31 @@ def _run() -> int | str | None:
         typer.echo(f"marops: error: {text}{hint}", err=True)
         status = int(getattr(exc, "exit_code", 2))
         if ctx is not None and _wants_json(ctx.command):
-            error_json(str(ctx.info_name), f"{text}{hint}", status)
+            error_json(_command_name(ctx), f"{text}{hint}", status)
         return status
     return code if isinstance(code, int) else 0
 
 
 def _wants_json(command: object) -> bool:
     """Whether a command line that failed before its command ran asked for ``--json``
-    (on the line, or ``MAROPS_JSON`` as the option reads it), of a command that has it."""
-    if not any(getattr(p, "name", None) == "as_json" for p in getattr(command, "params", [])):
+    (on the line, or ``MAROPS_JSON`` as the option reads it), of a command that has it
+    or of a command name marops does not know (the failing command is then the group)."""
+    known = any(getattr(p, "name", None) == "as_json" for p in getattr(command, "params", []))
+    if not known and not hasattr(command, "commands"):
         return False
     args = sys.argv[1:]
     if "--json" in (args[: args.index("--")] if "--" in args else args):
         return True
     return os.environ.get("MAROPS_JSON", "").strip().lower() in _TRUE
+
+
+def _command_name(ctx: Any) -> str:
+    """The command an error document names: the command's own, or for a name marops
+    does not know, that name as typed."""
+    if not hasattr(ctx.command, "commands"):
+        return str(ctx.info_name)
+    words = [a for a in sys.argv[1:] if not a.startswith("-")]
+    return words[0] if words else str(ctx.info_name)
 
 
 _TRUE = ("1", "true", "t", "yes", "y", "on")

@@ -7,6 +7,7 @@ import json
 import os
 import re
 import signal
+import stat
 import tempfile
 import threading
 from collections.abc import Callable, Iterator
@@ -15,7 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from ..data.reader import sha256_file
-from ..errors import RunError
+from ..errors import InputError, RunError
 from .ownership import (
     JOURNAL,
     TMP_MARK,
@@ -186,17 +187,23 @@ def _take(folder: Path, lock: Path) -> Any:
     import fcntl
 
     while True:
-        fh = open(lock, "a+")  # noqa: SIM115 (held for the whole run)
+        fh = _open_lock(lock)
         try:
             fcntl.flock(fh.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
         except OSError:
             fh.seek(0)
             holder = fh.read().strip() or "another process"
             fh.close()
+            if not _OURS.fullmatch(holder) and holder != "another process":
+                raise _foreign(lock) from None
             raise RunError(
                 f"{folder}: another marops run ({holder}) is writing here; wait for it to "
                 "finish or choose another --out"
             ) from None
+        fh.seek(0)
+        if (held := fh.read().strip()) and not _OURS.fullmatch(held):
+            fh.close()  # a file of the same name marops did not write: left as it is
+            raise _foreign(lock)
         # The holder removes the file as it ends: a lock taken on a file already
         # removed holds nothing, so take the one now at that name.
         try:
@@ -211,6 +218,32 @@ def _take(folder: Path, lock: Path) -> Any:
     fh.write(f"pid {os.getpid()}")
     fh.flush()
     return fh
+
+
+# What a marops lock holds: the holder's process id (empty for a moment after creation).
+_OURS = re.compile(r"pid \d+")
+
+
+def _open_lock(lock: Path) -> Any:
+    """The lock file opened for reading and appending, created if absent; never through
+    a link, and never anything but a plain file (it is truncated and removed later)."""
+    try:
+        fd = os.open(lock, os.O_RDWR | os.O_APPEND | os.O_CREAT | os.O_NOFOLLOW, 0o666)
+    except OSError as exc:
+        if lock.is_symlink() or (lock.exists() and not lock.is_file()):
+            raise _foreign(lock) from None
+        raise RunError(f"{lock}: cannot open the folder's lock ({exc.strerror})") from None
+    if not stat.S_ISREG(os.fstat(fd).st_mode):
+        os.close(fd)
+        raise _foreign(lock)
+    return os.fdopen(fd, "a+")
+
+
+def _foreign(lock: Path) -> InputError:
+    return InputError(
+        f"{lock}: a file of this name that marops did not write is in the way of the "
+        "folder's lock; marops leaves it as it is: move it or choose another --out"
+    )
 
 
 # Folders under a lock this process holds, and those already cleaned of stale

@@ -91,8 +91,15 @@ def test_usage_errors_are_one_plain_line(tmp_path: Path, args: list[str], needle
         # before the command runs: a usage error of a command that has --json
         (["segment", "x.csv", "--out", "d.json", "--json", "--n-depots", "many"], {}, "--n-"),
         (["report", "--json", "--bogus", "."], {}, "No such option: --bogus"),
+        (["segmnt", "x.csv", "--json"], {}, "No such command 'segmnt'"),
     ],
-    ids=["in-the-command", "from-the-environment", "bad-value", "unknown-option"],
+    ids=[
+        "in-the-command",
+        "from-the-environment",
+        "bad-value",
+        "unknown-option",
+        "unknown-command",
+    ],
 )
 def test_json_errors_are_one_document_on_stdout(
     tmp_path: Path, args: list[str], env: dict[str, str], needle: str

@@ -72,3 +72,36 @@ def test_the_cli_refused_twice_while_a_run_holds_the_folder(
             assert not (folder / "stops.parquet").exists()
     finally:
         first.communicate("", timeout=60)
+
+
+def test_a_file_of_the_lock_s_name_that_marops_did_not_write_is_left_as_it_is(
+    tmp_path: Path,
+) -> None:
+    from marops_cli.errors import InputError
+    from marops_cli.io.atomic import folder_lock
+
+    folder = tmp_path / "out"
+    folder.mkdir()
+    mine = folder / LOCK
+    mine.write_text("my notes\n")
+    try:
+        with folder_lock(folder):
+            raise AssertionError("the folder was taken")
+    except InputError as exc:
+        assert f"{mine}: a file of this name that marops did not write" in str(exc)
+    assert mine.read_text() == "my notes\n"
+    mine.unlink()
+    target = tmp_path / "elsewhere.txt"
+    target.write_text("keep\n")
+    mine.symlink_to(target)  # never followed: the file it names is not truncated
+    try:
+        with folder_lock(folder):
+            raise AssertionError("the folder was taken")
+    except InputError as exc:
+        assert "did not write" in str(exc)
+    assert target.read_text() == "keep\n" and mine.is_symlink()
+    mine.unlink()
+    mine.write_text("pid 12345")  # a killed run's lock is taken over and removed
+    with folder_lock(folder):
+        assert mine.read_text() == f"pid {__import__('os').getpid()}"
+    assert not mine.exists()
