@@ -393,6 +393,17 @@ def _kinds(annotation: Any) -> set[type]:
     return {annotation} if plain else set()
 
 
+def _item_kinds(annotation: Any) -> set[type]:
+    """The plain types the items of a tuple field allow (``tuple[float, float] | None``
+    -> {float}); empty for a field that is no tuple."""
+    args = typing.get_args(annotation)
+    if args and typing.get_origin(annotation) in (typing.Union, types.UnionType):
+        return set().union(*(_item_kinds(a) for a in args if a is not type(None)))
+    if typing.get_origin(annotation) is tuple:
+        return set().union(*(_kinds(a) for a in args if a is not Ellipsis))
+    return set()
+
+
 def check_file_types(
     model: type[BaseModel], table: dict[str, Any], path: str | Path, prefix: str = ""
 ) -> None:
@@ -419,6 +430,15 @@ def check_file_types(
         ):
             raise SettingError(
                 f"expected a number, got {_shown(value)}", key=prefix + name, file=path
+            )
+        elif (
+            isinstance(value, list)
+            and _item_kinds(field.annotation) in ({int}, {float}, {int, float})
+            and any(isinstance(v, bool | str) for v in value)
+        ):
+            # A list of numbers (``data.center``): neither true nor "121.4" is one.
+            raise SettingError(
+                f"expected numbers, got {_shown(value)}", key=prefix + name, file=path
             )
 
 

@@ -159,6 +159,8 @@ CONFIG: dict[str, Callable[[Path], None]] = {
     "bool_drones.toml": _text("[sim]\ndrones = true\n"),
     "text_year.toml": _text('[data]\nyear = "2022"\n'),
     "number_bound.toml": _text("[plan]\nbound = 1\n"),
+    "center_text.toml": _text('[data]\ncenter = ["121.44", "31.22"]\n'),
+    "center_bools.toml": _text("[data]\ncenter = [true, false]\n"),
     # Inside the old ranges yet impossible: a delay price (1 - alpha)/alpha that overflows,
     # a rotor disc whose area underflows to 0, a zone name too long to look up.
     "alpha_1e-300.toml": _text("[plan]\nalpha = 1e-300\n"),
@@ -374,6 +376,8 @@ NEEDLES: dict[str, str | tuple[str, ...]] = {
     "bool_drones.toml": "key 'sim.drones'",
     "text_year.toml": "key 'data.year'",
     "number_bound.toml": "key 'plan.bound'",
+    "center_text.toml": "key 'data.center'",
+    "center_bools.toml": "key 'data.center'",
     "fleet_bool_battery.json": "types.a.battery_j",
     "fleet_drone_colour.json": "drones[0].color",
 }
