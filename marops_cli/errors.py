@@ -108,3 +108,14 @@ def not_found(path: str | Path, what: str = "file") -> InputError:
                 file=path,
             )
     return InputError(f"{what} not found", file=path)
+
+
+def not_a_file(path: str | Path, what: str = "file") -> InputError:
+    """The error for an input ``path`` that is no regular file: :func:`not_found` when it
+    leads to nothing, else what it is (a folder, a pipe or a device) and what was
+    expected (``what``: "policy file")."""
+    if not os.path.exists(path):
+        return not_found(path, what)
+    if os.path.isdir(path):
+        return InputError(f"is a folder, expected a {what}", file=path)
+    return InputError(f"is not a regular file (a pipe or a device), expected a {what}", file=path)

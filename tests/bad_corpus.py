@@ -287,6 +287,8 @@ POLICY: dict[str, Callable[[Path], None]] = {
     "evil_on_load_alone.pt": _writes_on_load,
     "evil_pickle.pt": lambda p: p.write_bytes(pickle.dumps(_System(p.parent / "planted.pth"))),
     "deep_sidecar.pt": _bytes(b"x"),
+    "folder.pt": lambda p: p.mkdir(),
+    "folder.safetensors": lambda p: p.mkdir(),
 }
 SIDECARS: dict[str, Callable[[Path], None]] = {
     "not_torchscript.json": _json(SIDE),
@@ -361,6 +363,8 @@ NEEDLES: dict[str, str | tuple[str, ...]] = {
     "fleet_inf_count.json": "counts.default",
     "fleet_too_long.json": "'drones'",
     "evil_on_load.pt": "--trust-actor",
+    "folder.pt": "is a folder, expected a",
+    "folder.safetensors": "is a folder, expected a",
     "evil_on_load_alone.pt": "not found",
     "deep.toml": "nested too deeply",
     "huge_int.toml": "digits",

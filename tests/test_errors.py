@@ -33,3 +33,21 @@ def test_not_found_says_why_a_path_leads_to_nothing(tmp_path: Path) -> None:
     loop = tmp_path / "loop"
     loop.symlink_to(loop)
     assert str(not_found(loop)) == f"{loop}: is a loop of symbolic links, not a file"
+
+
+def test_a_path_that_is_no_file_says_what_it_is(tmp_path: Path) -> None:
+    """A folder or a pipe where a policy file goes exists: not 'not found'."""
+    import os
+
+    from marops_cli.errors import not_a_file
+
+    folder = tmp_path / "actor.pt"
+    folder.mkdir()
+    assert str(not_a_file(folder, "policy file")) == (
+        f"{folder}: is a folder, expected a policy file"
+    )
+    pipe = tmp_path / "actor.safetensors"
+    os.mkfifo(pipe)
+    assert "is not a regular file" in str(not_a_file(pipe, "policy file"))
+    missing = tmp_path / "missing.pt"
+    assert str(not_a_file(missing, "policy file")) == f"{missing}: policy file not found"

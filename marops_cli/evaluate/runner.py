@@ -24,7 +24,7 @@ from ..config import OpsConfig, PlannerConfig, override
 from ..data.dates import format_days
 from ..data.reader import read_lade, sha256_file
 from ..data.table import LadeTable
-from ..errors import InputError
+from ..errors import InputError, not_a_file
 from ..methods import Method, register
 from ..methods import method as method_spec
 from ..segment.hubs import Hub, hub_areas
@@ -94,7 +94,8 @@ def check_methods(
             raise InputError(f"unknown method {m!r}: this build has {', '.join(METHODS)}")
     for kind, path in (actors or {}).items():
         if any(method_spec(m).policy == kind for m in methods) and not Path(path).is_file():
-            raise InputError(f"trained actor not found ({ACTOR_FLAGS[kind]})", file=path)
+            missing = not_a_file(path, "trained actor")  # not found, or a folder
+            raise InputError(f"{missing.message} ({ACTOR_FLAGS[kind]})", file=path)
     files: dict[str, Path] = {}
     for m in methods:
         try:

@@ -9,7 +9,7 @@ from importlib import resources
 from pathlib import Path
 from typing import Literal
 
-from ..errors import InputError, not_found
+from ..errors import InputError, not_a_file
 from .base import Policy
 from .baselines import GlobalPolicy, GreedyPolicy, MyopicPolicy, RandomPolicy, StayPolicy
 from .landing import check_trained_for
@@ -142,7 +142,7 @@ def make_policy(
 
         weights = Path(spec.path)
         if not weights.is_file():
-            raise not_found(weights, "policy file")
+            raise not_a_file(weights, "policy file")
         sidecar = weights.with_suffix(".json")
         actor = load_landing_actor(weights, read_json(sidecar, "landing actor sidecar"), sidecar)
         actor.check_model(model)

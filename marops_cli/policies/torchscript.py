@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import Any, Literal
 
 from ..data.jsonfile import first_line, read_json
-from ..errors import InputError, not_found
+from ..errors import InputError, not_a_file
 from .base import WindowView
 from .observation import OBS_VERSION, OBS_VERSIONS, n_choices, obs_dim
 from .recurrent import RecurrentPolicy
@@ -28,7 +28,7 @@ def sidecar_path(model_path: str | Path) -> Path:
 
 def read_sidecar(model_path: str | Path) -> dict[str, Any]:
     if not Path(model_path).is_file():
-        raise not_found(model_path, "policy file")
+        raise not_a_file(model_path, "policy file")
     side = sidecar_path(model_path)
     doc = read_json(side, "policy sidecar beside the .pt file")
     if not isinstance(doc, dict):
@@ -122,7 +122,7 @@ class TorchScriptPolicy(RecurrentPolicy):
         file without a weights file beside it load (and run its code)."""
         self.path = Path(path)
         if not self.path.is_file():
-            raise not_found(self.path, "policy file")
+            raise not_a_file(self.path, "policy file")
         self.sidecar = read_sidecar(self.path)
         if slots is not None and "plan_slots" not in self.sidecar:
             raise InputError("not a MAPPO actor: its sidecar has no plan_slots", file=self.path)
