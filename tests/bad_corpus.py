@@ -287,6 +287,7 @@ POLICY: dict[str, Callable[[Path], None]] = {
     "evil_on_load_alone.pt": _writes_on_load,
     "evil_pickle.pt": lambda p: p.write_bytes(pickle.dumps(_System(p.parent / "planted.pth"))),
     "deep_sidecar.pt": _bytes(b"x"),
+    "sidecar_model_list.pt": _bytes(b"x"),
     "folder.pt": lambda p: p.mkdir(),
     "folder.safetensors": lambda p: p.mkdir(),
 }
@@ -298,6 +299,7 @@ SIDECARS: dict[str, Callable[[Path], None]] = {
     "sidecar_old_version.json": _json({**SIDE, "obs_version": 1}),
     "evil_on_load.json": _json(SIDE),
     "evil_pickle.json": _json(SIDE),
+    "sidecar_model_list.json": _json({**SIDE, "operating_model": ["paper"]}),
     "deep_sidecar.json": _text("{" + '"a":{' * 50_000 + "}" * 50_001),
 }
 FLEET: dict[str, Callable[[Path], None]] = {
@@ -363,6 +365,7 @@ NEEDLES: dict[str, str | tuple[str, ...]] = {
     "fleet_inf_count.json": "counts.default",
     "fleet_too_long.json": "'drones'",
     "evil_on_load.pt": "--trust-actor",
+    "sidecar_model_list.pt": "key 'operating_model'",
     "folder.pt": "is a folder, expected a",
     "folder.safetensors": "is a folder, expected a",
     "evil_on_load_alone.pt": "not found",

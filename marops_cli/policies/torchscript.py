@@ -42,6 +42,13 @@ def read_sidecar(model_path: str | Path) -> dict[str, Any]:
             raise InputError(
                 f"expected a positive whole number, got {value!r}", file=side, column=key
             )
+    model = doc.get("operating_model")  # none: a sidecar from before marops recorded it
+    if model is not None and (not isinstance(model, str) or not model):
+        raise InputError(
+            f"expected the operating model the actor was trained for, got {model!r}",
+            file=side,
+            column="operating_model",
+        )
     if int(doc["obs_version"]) not in OBS_VERSIONS:
         raise InputError(
             f"policy was trained on observation version {doc['obs_version']}, "
