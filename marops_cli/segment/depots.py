@@ -119,41 +119,39 @@ class Depots:
     @classmethod
     def from_dict(cls, doc: dict[str, Any], source: str = "depots.json") -> Depots:
         _known_keys(doc, source)
-        try:
-            frame = Frame(
-                **{k: json_number(v, source, f"frame.{k}") for k, v in doc["frame"].items()}
-            )
-            listed = list(doc["depots"])
-            ids = [d["id"] for d in listed]
-            order = sorted(range(len(listed)), key=lambda i: int(listed[i]["id"]))
-            rows = [listed[i] for i in order]
-            xy = np.array(
-                [
-                    [json_number(d[k], source, f"depots[{i}].{k}") for k in ("x_m", "y_m")]
-                    for i, d in zip(order, rows, strict=True)
-                ],
-                dtype=np.float64,
-            )
-            n_hist = np.array(
-                [
-                    json_number(d.get("n_history", 0), source, f"depots[{i}].n_history", whole=True)
-                    for i, d in zip(order, rows, strict=True)
-                ],
-                dtype=np.int64,
-            )
-            method = str(doc.get("method", "kmeans"))
-        except (KeyError, TypeError, ValueError, OverflowError, AttributeError) as exc:
-            raise InputError(
-                f"not a marops depots file (missing or bad {exc})", file=source
-            ) from exc
-        if xy.shape[0] == 0:
+        frame, listed = _shape(doc, source)
+        if not listed:
             raise InputError("the depots file lists no depots", file=source)
+        ids = [d["id"] for d in listed]
         whole = all(isinstance(v, int) and not isinstance(v, bool) for v in ids)
         if not whole or sorted(ids) != list(range(len(ids))):
             raise InputError(
                 f"expected the depot ids 0..{len(ids) - 1} (whole numbers), each once",
                 file=source,
                 column="depots[].id",
+            )
+        order = sorted(range(len(listed)), key=lambda i: ids[i])
+        rows = [listed[i] for i in order]
+        xy = np.array(
+            [
+                [json_number(d[k], source, f"depots[{i}].{k}") for k in ("x_m", "y_m")]
+                for i, d in zip(order, rows, strict=True)
+            ],
+            dtype=np.float64,
+        )
+        n_hist = np.array(
+            [
+                _count(d.get("n_history", 0), source, f"depots[{i}].n_history")
+                for i, d in zip(order, rows, strict=True)
+            ],
+            dtype=np.int64,
+        )
+        method = doc.get("method", "kmeans")
+        if not isinstance(method, str):
+            raise InputError(
+                f"expected the segmentation method's name, got {_json_kind(method)}",
+                file=source,
+                column="method",
             )
         bad = np.flatnonzero(~np.isfinite(xy).all(axis=1))
         if bad.size:
@@ -188,6 +186,72 @@ class Depots:
         from ..data.jsonfile import read_json
 
         return cls.from_dict(read_json(path, "depots file"), source=str(path))
+
+
+_FRAME_KEYS = ("center_lng", "center_lat", "size_km")
+
+
+def _shape(doc: Any, source: str) -> tuple[Frame, list[dict[str, Any]]]:
+    """The study frame and the listed depots of a depots file ``doc``, each depot an
+    object with an ``id``, ``x_m`` and ``y_m``; a part of another shape is refused
+    naming its key."""
+    if not isinstance(doc, dict):
+        raise InputError(
+            f"not a marops depots file: expected an object with frame, depots and candidates, "
+            f"got {_json_kind(doc)}",
+            file=source,
+        )
+    value = doc.get("frame")
+    if not isinstance(value, dict):
+        got = "nothing" if value is None else _json_kind(value)
+        raise InputError(
+            f"not a marops depots file: expected the frame {{center_lng, center_lat, size_km}}, "
+            f"got {got}",
+            file=source,
+            column="frame",
+        )
+    extra = sorted(set(value) - set(_FRAME_KEYS))
+    if extra:
+        raise InputError(
+            f"unknown key {extra[0]!r} in the frame", file=source, column=f"frame.{extra[0]}"
+        )
+    for k in _FRAME_KEYS:
+        if k not in value:
+            raise InputError(
+                f"not a marops depots file: the frame has no {k}", file=source, column=f"frame.{k}"
+            )
+    frame = Frame(*(json_number(value[k], source, f"frame.{k}") for k in _FRAME_KEYS))
+    listed = doc.get("depots")
+    if not isinstance(listed, list):
+        got = "nothing" if listed is None else _json_kind(listed)
+        raise InputError(
+            f"not a marops depots file: expected a list of depots, got {got}",
+            file=source,
+            column="depots",
+        )
+    for i, d in enumerate(listed):
+        if not isinstance(d, dict):
+            raise InputError(
+                f"expected a depot {{id, x_m, y_m, …}}, got {_json_kind(d)}",
+                file=source,
+                column=f"depots[{i}]",
+            )
+        for k in ("id", "x_m", "y_m"):
+            if k not in d:
+                raise InputError(f"a depot needs {k}", file=source, column=f"depots[{i}].{k}")
+    return frame, listed
+
+
+MAX_HISTORY = 2**53
+"""The largest count of history requests a depots file's ``n_history`` may give."""
+
+
+def _count(value: Any, source: str, key: str) -> int:
+    """A depot's ``n_history``: a whole number from 0 to :data:`MAX_HISTORY`."""
+    n = json_number(value, source, key, whole=True)
+    if not 0 <= n <= MAX_HISTORY:
+        raise InputError(f"expected a count from 0 to 2^53, got {value!r}", file=source, column=key)
+    return int(n)
 
 
 _CANDIDATES_SHAPE = '{"0": [0, 4, 1], "1": [1, 0, 2], …}, each depot\'s id to its candidates'

@@ -182,6 +182,45 @@ def test_candidates_of_the_wrong_shape_name_the_key_and_the_shape(
         assert '{"0": [0, 4, 1], "1": [1, 0, 2], …}' in line
 
 
+@pytest.mark.parametrize(
+    ("edit", "key", "says"),
+    [
+        (lambda d: d["depots"][1].pop("x_m"), "depots[1].x_m", "a depot needs x_m"),
+        (lambda d: d["depots"][1].pop("id"), "depots[1].id", "a depot needs id"),
+        (lambda d: d["depots"][1].__setitem__("id", None), "depots[].id", "whole numbers"),
+        (lambda d: d["depots"][1].__setitem__("id", [1]), "depots[].id", "whole numbers"),
+        (lambda d: d["depots"].__setitem__(1, [0.0, 0.0]), "depots[1]", "got a list"),
+        (lambda d: d.__setitem__("depots", {"0": {}}), "depots", "got an object"),
+        (lambda d: d.pop("depots"), "depots", "got nothing"),
+        (lambda d: d.__setitem__("frame", None), "frame", "got nothing"),
+        (lambda d: d["frame"].pop("size_km"), "frame.size_km", "the frame has no size_km"),
+        (lambda d: d["frame"].__setitem__("zoom", 3), "frame.zoom", "unknown key 'zoom'"),
+        (lambda d: d["depots"][2].__setitem__("n_history", -5), "depots[2].n_history", "-5"),
+        (lambda d: d["depots"][2].__setitem__("n_history", 10**30), "depots[2].n_history", "2^53"),
+        (lambda d: d.__setitem__("method", ["kmeans"]), "method", "got a list"),
+    ],
+    ids=["no-x", "no-id", "null-id", "list-id", "depot-list", "depots-object", "no-depots"]
+    + ["no-frame", "frame-no-size", "frame-extra", "negative-count", "huge-count", "method-list"],
+)
+def test_a_depots_file_of_another_shape_names_the_key(tmp_path, edit, key, says) -> None:
+    """A depot without x_m, an id of null, a frame without its size, a count too large
+    for a 64-bit integer: one line naming the key (each said only 'not a marops depots
+    file' with Python's words for the failure: 'x_m', 'Frame.__init__() missing 1
+    required positional argument', 'Python int too large to convert to C long'; a
+    negative count and a method that is a list were taken)."""
+    xy = np.array([[0.0, 0.0], [2000.0, 0.0], [0.0, 3000.0]])
+    doc = Depots("kmeans", FRAME, xy, np.array([5, 6, 7]), nearest_candidates(xy, 2)).to_dict({})
+    edit(doc)
+    path = tmp_path / "depots.json"
+    path.write_text(json.dumps(doc))
+    with pytest.raises(InputError) as err:
+        Depots.load(path)
+    line = str(err.value)
+    assert line.startswith(f"{path}, key '{key}': "), line
+    assert says in line, line
+    assert "__init__" not in line and "C long" not in line, line
+
+
 # Areas (m²) of the example's 16 service areas (README's `segment --dates 0801..0810`)
 # as the half-plane clipping that shapely's Voronoi cells replaced drew them.
 EXAMPLE_AREAS_M2 = [
