@@ -89,6 +89,8 @@ def hubs_doc(hubs: Sequence[Hub], total: int, meta: dict[str, Any]) -> dict[str,
 
 _HUB_KEYS = frozenset({"id", "center_lng", "center_lat", "size_km", "orders", "share", "drones"})
 """The keys of a hub in a hubs file (what ``marops segment --hubs`` writes, docs/outputs.md)."""
+_FILE_KEYS = frozenset({"meta", "orders", "hubs"})
+"""The keys of a hubs file itself."""
 
 
 def load_hubs(path: str | Path, cfg: DataConfig) -> list[Hub]:
@@ -96,6 +98,15 @@ def load_hubs(path: str | Path, cfg: DataConfig) -> list[Hub]:
     (or the list itself); ``size_km`` defaults to ``cfg.size_km``; ids are list order."""
     p = Path(path)
     doc = read_json(p, "hubs file")
+    if isinstance(doc, dict):
+        unknown = sorted(set(doc) - _FILE_KEYS)
+        if unknown:
+            raise InputError(
+                f"unknown key {unknown[0]!r} in a hubs file "
+                f"(expected some of: {', '.join(sorted(_FILE_KEYS))})",
+                file=p,
+                column=unknown[0],
+            )
     items = doc.get("hubs") if isinstance(doc, dict) else doc
     if not isinstance(items, list) or not items:
         raise InputError("expected a list of hubs under 'hubs'", file=p, column="hubs")
@@ -115,6 +126,15 @@ def load_hubs(path: str | Path, cfg: DataConfig) -> list[Hub]:
                 file=p,
                 column=f"{col}.{unknown[0]}",
             )
+        # Ids are list order: an id written by hand that says otherwise would be ignored.
+        if "id" in h and (isinstance(h["id"], bool) or h["id"] != i):
+            raise InputError(
+                f"expected {i}, the hub's place in the list (ids are list order), got {h['id']!r}",
+                file=p,
+                column=f"{col}.id",
+            )
+        if "share" in h:
+            json_number(h["share"], p, f"{col}.share")
         lng = json_number(h["center_lng"], p, f"{col}.center_lng")
         lat = json_number(h["center_lat"], p, f"{col}.center_lat")
         size = json_number(h["size_km"], p, f"{col}.size_km") if "size_km" in h else None

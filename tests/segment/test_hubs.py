@@ -89,6 +89,23 @@ def test_an_order_belongs_to_the_first_hub_that_holds_it(points_table):
             "hubs[0].foo",
             "unknown hub key",
         ),
+        # What was taken without a word: a top-level typo, an id the list order overrules
+        # (hub-0 held the hub that said id 1), a share that is text.
+        (
+            {"hubs": [{"center_lng": 121.4, "center_lat": 31.0}], "drone": 4},
+            "drone",
+            "unknown key 'drone' in a hubs file",
+        ),
+        (
+            {"hubs": [{"id": 1, "center_lng": 121.4, "center_lat": 31.0}]},
+            "hubs[0].id",
+            "expected 0, the hub's place in the list",
+        ),
+        (
+            {"hubs": [{"center_lng": 121.4, "center_lat": 31.0, "share": "half"}]},
+            "hubs[0].share",
+            "number",
+        ),
     ],
 )
 def test_bad_hubs_files_name_the_key(tmp_path, doc, column, needle):
