@@ -3,9 +3,13 @@ same way (``replay-day`` resumes a run by keeping such days, docs/outputs.md).""
 
 from __future__ import annotations
 
+import datetime as dt
+import math
+from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from ..config import clipped
 from ..data.jsonfile import parse_json, read_small_text
 from ..errors import InputError
 from ..io import run_meta
@@ -58,8 +62,13 @@ def _flatten(doc: Any, prefix: str = "") -> dict[str, Any]:
     return out
 
 
-def matching_days(done: Path, ident: dict[str, Any]) -> list[dict[str, Any]]:
-    """The day records of ``done`` if it was made with ``ident``; else a clear error."""
+def matching_days(
+    done: Path, ident: dict[str, Any], day: dt.date, required: Sequence[str] = ()
+) -> list[dict[str, Any]]:
+    """The day records of ``done`` if it was made with ``ident``; else a clear error. A
+    record kept must be the day's (``day``, the method of ``ident``) and give each metric
+    as a finite number (``required``: the ones a run's totals read), as marops wrote it:
+    an edited one is refused, naming its key."""
     try:
         doc = parse_json(read_small_text(done, "earlier output"))
         prior = doc["meta"].get("settings")
@@ -69,7 +78,7 @@ def matching_days(done: Path, ident: dict[str, Any]) -> list[dict[str, Any]]:
             f"unreadable earlier output ({exc}); pass --force to replay or choose another --out",
             file=done,
         ) from exc
-    if prior is None:
+    if not isinstance(prior, dict):
         raise InputError(
             "earlier output without recorded settings; pass --force to replay or choose "
             "another --out",
@@ -85,4 +94,45 @@ def matching_days(done: Path, ident: dict[str, Any]) -> list[dict[str, Any]]:
             "replay it or choose another --out",
             file=done,
         )
+    _check_records(done, days, day, ident.get("method"), required)
     return list(days)
+
+
+def _check_records(
+    done: Path, days: Any, day: dt.date, method: Any, required: Sequence[str]
+) -> None:
+    """Refuse day records that are not the one record of ``day`` and ``method`` with
+    finite numbers for its metrics (``required`` present)."""
+    from ..sim.metrics import DAY_METRICS, OPS_METRICS
+
+    fix = "pass --force to replay it or choose another --out"
+    if not isinstance(days, list) or len(days) != 1 or not isinstance(days[0], dict):
+        raise InputError(
+            f"expected the one record of {day.isoformat()} under days; {fix}",
+            file=done,
+            column="days",
+        )
+    rec = days[0]
+    for key, want in (("day", day.isoformat()), ("method", method)):
+        if rec.get(key) != want:
+            raise InputError(
+                f"expected {want!r}, got {clipped(repr(rec.get(key)))}; {fix}",
+                file=done,
+                column=f"days[0].{key}",
+            )
+    for name in (m.name for m in (*DAY_METRICS, *OPS_METRICS)):
+        if name not in rec and name not in required:
+            continue
+        value = rec.get(name)
+        if value is None and name not in required:
+            continue  # a metric without a value that day (charged_min of unlimited swaps)
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            finite = False
+        else:  # a whole number beyond a float's range is no metric either
+            finite = math.isfinite(value) if isinstance(value, float) else abs(value) < 2**63
+        if not finite:
+            raise InputError(
+                f"expected a number, got {clipped(repr(value))}; {fix}",
+                file=done,
+                column=f"days[0].{name}",
+            )

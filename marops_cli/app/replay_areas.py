@@ -36,6 +36,9 @@ SUMMED = (
     "runtime_s",
 )
 
+TOTALLED = (*SUMMED, "avg_delay_h", "mean_energy_kj", "delivered_share")
+"""What ``aggregate_days`` reads of each day's record."""
+
 
 @dataclass(frozen=True)
 class DayTables:
@@ -136,7 +139,7 @@ def make_area(
         folder = area.folder(day)
         # A day is done when all its files are there: one lost since is replayed.
         if folder is not None and all((folder / f).is_file() for f in DAY_FILES) and not run.force:
-            area.keep[day] = matching_days(folder / "metrics.json", ident)
+            area.keep[day] = matching_days(folder / "metrics.json", ident, day, TOTALLED)
     return area
 
 

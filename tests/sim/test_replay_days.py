@@ -6,6 +6,7 @@ import json
 from pathlib import Path
 
 import pyarrow.parquet as pq
+import pytest
 from typer.testing import CliRunner
 
 from marops_cli.cli.app import app
@@ -94,6 +95,37 @@ def test_rerun_with_other_settings_is_refused_and_changes_nothing(
     days = json.loads((out / "2022-08-11" / "metrics.json").read_text())
     assert days["meta"]["settings"]["method"] == "greedy"
     assert days["meta"]["settings"]["frame"]["size_km"] == 10.0
+
+
+@pytest.mark.parametrize(
+    ("edit", "key"),
+    [
+        (lambda d: d["days"][0].__setitem__("delivered", "lots"), "days[0].delivered"),
+        (lambda d: d["days"][0].pop("requests"), "days[0].requests"),
+        (lambda d: d["days"][0].__setitem__("energy_kj", None), "days[0].energy_kj"),
+        (lambda d: d["days"][0].__setitem__("co2_g", 10**400), "days[0].co2_g"),
+        (lambda d: d["days"][0].__setitem__("day", "2022-08-12"), "days[0].day"),
+        (lambda d: d.__setitem__("days", []), "days"),
+        (lambda d: d.__setitem__("days", ["x"]), "days"),
+        (lambda d: d.__setitem__("days", d["days"] * 2), "days"),
+    ],
+    ids=["text-count", "no-requests", "null-energy", "huge", "other-day", "none", "text", "twice"],
+)
+def test_an_edited_earlier_day_is_refused_naming_its_key(
+    example_csv: Path, tmp_path: Path, fails_cleanly, edit, key
+) -> None:
+    """A day folder kept on a rerun must hold the day's record as marops wrote it: one
+    whose counts were edited to text or removed was a traceback while summing the days
+    (TypeError, KeyError), one of another day or none at all went into the totals."""
+    out = tmp_path / "week"
+    _replay(example_csv, out)
+    path = out / "2022-08-11" / "metrics.json"
+    doc = json.loads(path.read_text())
+    edit(doc)
+    path.write_text(json.dumps(doc))
+    args = ["replay-day", str(example_csv), "--dates", "0811..0812", "--method", "greedy"]
+    line = fails_cleanly([*args, "--out", str(out)], tmp_path, str(path), "--force")
+    assert f"key '{key}'" in line, line
 
 
 def test_json_format_matches_parquet(example_csv: Path, tmp_path: Path) -> None:
