@@ -196,13 +196,25 @@ def _path(value: Any) -> Path | None:
 def _outputs(
     out: Path, days: list[dt.date], several: bool, hubs: bool, options: ReplayOptions
 ) -> list[Path]:
-    """Every file a replay into ``out`` may write (hub folders: those there already)."""
+    """Every file a replay into ``out`` may write (hub folders: those there already): a
+    day's files in its folder, and over several days or hubs ``metrics.json`` (and
+    ``report.html``) in the folder above them."""
     fmt = options.fmt
     names = [f"stops.{fmt}", f"routes.{fmt}", "metrics.json"]
     names += ["routes.png", "operations.png"] * options.plot + ["routes.geojson"] * options.geojson
     names += ["report.html"] * options.report
-    folders = [out, *(out / d.isoformat() for d in days)] if several else [out]
-    if hubs:  # out/hub-<id>/ below the city's metrics.json
-        areas = [p for p in out.glob("hub-*") if p.is_dir()] if out.is_dir() else []
-        folders += [a / (d.isoformat() if several else "") for a in areas for d in days]
-    return [f / n for f in folders for n in names]
+    above = ["metrics.json", *["report.html"] * options.report]
+
+    def area(folder: Path) -> list[Path]:
+        """One study area's files: its days' folders below ``folder`` when several."""
+        if not several:
+            return [folder / n for n in names]
+        return [folder / n for n in above] + [
+            folder / d.isoformat() / n for d in days for n in names
+        ]
+
+    if not hubs:
+        return area(out)
+    # out/hub-<id>/ below the city's metrics.json
+    hub_folders = [p for p in out.glob("hub-*") if p.is_dir()] if out.is_dir() else []
+    return [out / n for n in above] + [p for a in hub_folders for p in area(a)]

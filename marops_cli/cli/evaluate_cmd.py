@@ -131,14 +131,19 @@ def evaluate_command(
         from ..workers.cluster import require_distributed
 
         require_distributed()
+    sweep = sweep_fields(alpha, drones, coverage, n_depots)
+    # The files this run writes, and only those: a paired.csv of one's own stays put
+    # without --against, as a figure does with --no-plot (evaluate/report.py names them).
+    swept = [f"{flag}.png" for flag, values in sweep.items() if values and len(values) > 1]
+    figures = [*swept, "unfairness.png", "actions.png"] if plots else []
     protect_inputs(
-        [out / n for n in ("results.parquet", "summary.csv", "summary.md", "paired.csv")]
+        [out / n for n in ("results.parquet", "summary.csv", "summary.md", *figures)]
+        + [out / "paired.csv"] * (against is not None)
         + [out / "report.html"] * report,
         [data, config, policy, mappo_policy, hubs],
     )
     cfg = planner_config(config, year=year, strict=strict, seed=seed, trust_actor=trust_actor)
     hub_list = _hubs(hubs, cfg)
-    sweep = sweep_fields(alpha, drones, coverage, n_depots)
     days = parse_days(dates, cfg.data.year, "--dates") if dates else None
     if days and split:
         raise InputError("give at most one of --dates or --split")

@@ -80,7 +80,8 @@ def plan_window_command(
         raise InputError("--out must be a folder; this is a file", file=out)
     check_format(fmt)
     protect_inputs(
-        [out / f"stops.{fmt}", out / f"routes.{fmt}", out / "routes.geojson"]
+        [out / f"stops.{fmt}", out / f"routes.{fmt}"]
+        + [out / "routes.geojson"] * geojson
         + [out / "report.html"] * report,
         [data, depots, fleet, delivered, config],
     )

@@ -98,7 +98,7 @@ def segment_command(
         return
     _check_json_out(out, "depots")
     gj_path, png_path = out.with_suffix(".geojson"), out.with_suffix(".png")
-    protect_inputs([out, gj_path, png_path], [data, config])
+    protect_inputs([out, *[gj_path] * geojson, *[png_path] * plot], [data, config])
     cfg = planner_config(
         config,
         year=year,

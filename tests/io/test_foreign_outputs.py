@@ -33,6 +33,16 @@ CASES = {
         ["evaluate", "{data}", "--methods", "stay,greedy", "--against", "stay", "--dates", E]
         + ["--out", "{out}"],
     ),
+    # Refused before the replays run (it was refused after them, the jobs written).
+    "evaluate unfairness.png": (
+        "unfairness.png",
+        ["evaluate", "{data}", "--methods", "stay", "--dates", E, "--out", "{out}"],
+    ),
+    "evaluate alpha.png": (
+        "alpha.png",
+        ["evaluate", "{data}", "--methods", "stay", "--alpha", "0.3,0.6", "--dates", E]
+        + ["--out", "{out}"],
+    ),
     "train a.pt": ("a.pt", ["train", "{data}", "--episodes", "1", "--out", "{out}/a.pt"]),
     "train a.ckpt": ("a.ckpt", ["train", "{data}", "--episodes", "1", "--out", "{out}/a.pt"]),
     "train a.curve.png": (
@@ -56,18 +66,61 @@ def test_a_foreign_file_where_a_command_writes(
     assert foreign.read_bytes() == b"someone's own file"
 
 
-def test_a_file_no_option_asks_for_is_no_obstacle(example_csv: Path, tmp_path: Path) -> None:
+NOT_ASKED = {
+    "replay-day routes.png": (
+        "routes.png",
+        ["replay-day", "{data}", "--date", E, "--method", "stay", "--out", "{out}"],
+    ),
+    "replay-day --dates stops.parquet": (
+        "stops.parquet",  # the days' files go to a folder each, below it
+        ["replay-day", "{data}", "--dates", "0811..0812", "--method", "stay", "--out", "{out}"],
+    ),
+    "segment depots.png": ("depots.png", ["segment", "{data}", "--out", "{out}/depots.json"]),
+    "segment depots.geojson": (
+        "depots.geojson",
+        ["segment", "{data}", "--out", "{out}/depots.json"],
+    ),
+    "plan-window routes.geojson": (
+        "routes.geojson",
+        ["plan-window", "{data}", "--depots", "{depots}", "--date", E, "--window", "1"]
+        + ["--out", "{out}"],
+    ),
+    "evaluate paired.csv": (
+        "paired.csv",
+        ["evaluate", "{data}", "--methods", "stay", "--dates", E, "--out", "{out}"],
+    ),
+    "evaluate --no-plot unfairness.png": (
+        "unfairness.png",
+        ["evaluate", "{data}", "--methods", "stay", "--dates", E, "--no-plot", "--out", "{out}"],
+    ),
+}
+
+
+@pytest.mark.parametrize("case", NOT_ASKED)
+def test_a_file_no_option_asks_for_is_no_obstacle(
+    case: str, example_csv: Path, tmp_path: Path
+) -> None:
+    """A file by the name of an output the options do not ask for is left alone and
+    stops nothing (segment refused a depots.png without --plot, plan-window a
+    routes.geojson without --geojson, evaluate a paired.csv without --against, and
+    replay-day --dates a stops.parquet above the days' folders, each asking for
+    --force)."""
     from typer.testing import CliRunner
 
     from marops_cli.cli.app import app
 
+    name, args = NOT_ASKED[case]
     out = tmp_path / "out"
     out.mkdir()
-    (out / "routes.png").write_bytes(b"a user's map")  # replay-day without --plot
-    args = ["replay-day", str(example_csv), "--date", E, "--method", "stay", "--out", str(out)]
-    res = CliRunner().invoke(app, args)
+    (out / name).write_bytes(b"a user's own file")
+    depots = tmp_path / "depots.json"
+    if "{depots}" in args:
+        res = CliRunner().invoke(app, ["segment", str(example_csv), "--out", str(depots)])
+        assert res.exit_code == 0, res.output
+    argv = [a.format(out=out, data=example_csv, depots=depots) for a in args]
+    res = CliRunner().invoke(app, argv)
     assert res.exit_code == 0, res.output
-    assert (out / "routes.png").read_bytes() == b"a user's map"
+    assert (out / name).read_bytes() == b"a user's own file"
 
 
 @pytest.mark.parametrize("hubs", [[], ["--hubs", "auto"]], ids=["depots", "hubs"])
