@@ -419,6 +419,12 @@ def check_file_types(
         sub = next((k for k in kinds if issubclass(k, BaseModel)), None)
         if sub is not None and isinstance(value, dict):
             check_file_types(sub, value, path, f"{prefix}{name}.")
+        elif sub is not None:  # `plan = 3` or `[[plan]]`: no stage's table
+            raise SettingError(
+                f"expected a table [{prefix}{name}] of settings, got {_shown(value)}",
+                key=prefix + name,
+                file=path,
+            )
         elif kinds == {bool} and not isinstance(value, bool):
             raise SettingError(
                 f"expected true or false, got {_shown(value)}", key=prefix + name, file=path
