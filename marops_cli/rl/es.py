@@ -181,7 +181,7 @@ class LandingTrainer:
             )
         try:
             self._restore(state)
-        except (KeyError, TypeError, ValueError) as exc:
+        except (KeyError, TypeError, ValueError, OverflowError) as exc:  # int(inf): Overflow
             raise edited_checkpoint(self.ckpt, "a landing actor's checkpoint", exc) from None
         return True
 

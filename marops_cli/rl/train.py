@@ -112,8 +112,8 @@ class Trainer:
             )
         try:
             self._restore(state)
-        except (KeyError, TypeError, ValueError, AttributeError, RuntimeError) as exc:
-            raise edited_checkpoint(self.ckpt, "a training checkpoint", exc) from None
+        except (KeyError, TypeError, ValueError, AttributeError, RuntimeError, OverflowError) as e:
+            raise edited_checkpoint(self.ckpt, "a training checkpoint", e) from None
         return True
 
     def _restore(self, state: dict[str, Any]) -> None:

@@ -102,6 +102,10 @@ def test_train_refuses_a_checkpoint_that_is_not_this_runs(
     torch.save(state, ckpt)
     line = fails_cleanly([*args, "--episodes", "2", "--out", str(out)], tmp_path, str(ckpt))
     assert "counts from 0" in line and "pass --no-resume" in line
+    state["episode"] = state["update"] = float("inf")  # int() of it: an OverflowError
+    torch.save(state, ckpt)
+    line = fails_cleanly([*args, "--episodes", "2", "--out", str(out)], tmp_path, str(ckpt))
+    assert "infinity" in line and "pass --no-resume" in line
 
 
 def test_train_rejects_bad_options(tiny_csv: Path, tmp_path: Path) -> None:

@@ -73,6 +73,7 @@ EDITS = {
     "int()": lambda s: {**s, "generation": None},
     "must be lists": lambda s: {**s, "history": {}},
     "counts from 0": lambda s: {**s, "episode": -5},
+    "infinity": lambda s: {**s, "generation": float("inf")},  # was an OverflowError
 }
 
 
