@@ -101,3 +101,26 @@ def test_a_table_in_memory_is_checked_as_a_file_is(depots: Path, example_csv: Pa
         marops.read_lade(bad)
     with pytest.raises(InputError, match="has no data rows"):
         marops.read_lade(rows.slice(0, 0))
+
+
+def test_a_frame_reads_its_lade_columns_as_a_file_does(example_csv: Path) -> None:
+    # Columns the planner does not read are not read (a file's are not), and a column
+    # of mixed cells, as frames joined together hold, is read as its text: a stray
+    # word in lat is a dropped row, as in a file.
+    import pandas as pd
+
+    frame = pd.read_csv(example_csv)
+    base = marops.read_lade(frame)
+    extra = frame.assign(note=[1, "a"] * (len(frame) // 2) + [1] * (len(frame) % 2))
+    extra["shape"] = [object()] * len(frame)
+    assert marops.read_lade(extra).equals(base)
+    mixed = frame.astype({"order_id": object, "lat": object})
+    mixed.loc[3, "order_id"] = "X3"
+    mixed.loc[5, "lat"] = "abc"
+    rows = marops.read_lade(mixed)
+    assert "X3" in rows.column("order_id").to_pylist() and 7 not in rows.column("row").to_pylist()
+    with pytest.raises(InputError, match=r"^DataFrame, row 7, column 'lat': row would be dropped"):
+        marops.read_lade(mixed, strict=True)
+    twice = pd.concat([frame, frame[["lat"]]], axis=1)
+    with pytest.raises(InputError, match="column 'lat' appears 2 times"):
+        marops.read_lade(twice)

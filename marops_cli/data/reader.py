@@ -34,6 +34,7 @@ import stat
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pyarrow as pa
@@ -485,10 +486,7 @@ def read_lade_table(data: object, cfg: DataConfig | None = None) -> LadeTable:
         where, table = IN_MEMORY[1], data
     elif type(data).__name__ == "DataFrame" and hasattr(data, "columns"):
         where = IN_MEMORY[0]
-        try:
-            table = pa.Table.from_pandas(data, preserve_index=False)
-        except (pa.ArrowException, TypeError, ValueError) as exc:
-            raise InputError(f"cannot read the columns ({exc})", file=where) from exc
+        table = _frame_table(data, where)
     else:
         raise InputError(
             f"expected a LaDe file path, a pandas DataFrame or a pyarrow Table, got "
@@ -508,6 +506,27 @@ def read_lade_table(data: object, cfg: DataConfig | None = None) -> LadeTable:
         return SourceInfo(path=where, name=where, size=buf.size, sha256=sha)
 
     return _lade_table(table, where, cfg, source)
+
+
+def _frame_table(frame: Any, where: str) -> pa.Table:
+    """The LaDe columns of a pandas DataFrame as a table: the other columns are not
+    read (as a file's are not), and a column of mixed cells (numbers and words, as
+    frames joined together hold) is read as its text, as a file's cells are."""
+    names = [str(n) for n in frame.columns]
+    include = _check_columns(names, Path(where))
+    columns = {}
+    for name in include:
+        col = frame.iloc[:, names.index(name)]
+        try:
+            columns[name] = pa.Array.from_pandas(col)
+        except (pa.ArrowException, TypeError, ValueError) as exc:
+            if col.dtype != object:
+                msg = f"cannot read the column ({exc})"
+                raise InputError(msg, file=where, column=name) from exc
+            text = col.astype(str).to_numpy(dtype=object)
+            text[col.isna().to_numpy(dtype=bool)] = None
+            columns[name] = pa.array(text, type=pa.string())
+    return pa.table(columns)
 
 
 def _lade_table(
