@@ -117,6 +117,8 @@ def _accept(name: str, hint: str, v: Any) -> tuple[bool, Any]:
     if "Path" in hint and isinstance(v, str | os.PathLike):
         return True, v
     if name == "date":  # read as str(date): "0820", 820, or a date's ISO form
+        if isinstance(v, dt.datetime):  # a datetime or a pandas Timestamp: its day
+            return True, v.date()
         return _is_int(v) or isinstance(v, str | dt.date), v
     if _listed(hint):
         return _text(v) is not None, v
@@ -351,7 +353,7 @@ def plan_window(
         res = run(
             data,
             cfg,
-            parse_day(str(date), cfg.data.year),
+            parse_day(str(date), cfg.data.year, "--date"),
             int(window),
             depots=Path(depots),
             method=method,
@@ -413,7 +415,7 @@ def replay_day(
         seed=seed,
         policy=policy,
     )
-    day = parse_day(str(date), cfg.data.year)
+    day = parse_day(str(date), cfg.data.year, "--date")
     with replacing_foreign_files(force):
         res = replay_days(
             data,
@@ -484,7 +486,7 @@ def evaluate(
     from .segment.hubs import load_hubs
 
     cfg = planner_config(config, year=year, strict=strict, seed=seed)
-    days = parse_days(_text(dates) or "", cfg.data.year) if dates else None
+    days = parse_days(_text(dates) or "", cfg.data.year, "--dates") if dates else None
     if days and split:
         raise InputError("give at most one of dates or split")
     spec = EvaluateConfig(

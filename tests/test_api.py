@@ -123,5 +123,10 @@ def test_api_takes_lists_and_dates_where_the_flag_takes_them(
     a = marops.plan_window(example_csv, tmp_path / "depots.json", dt.date(2022, 8, 11), 5)
     b = marops.plan_window(example_csv, str(tmp_path / "depots.json"), 811, 5)
     assert a.routes.equals(b.routes)
+    # A datetime (a pandas Timestamp is one) is its day.
+    c = marops.plan_window(example_csv, tmp_path / "depots.json", dt.datetime(2022, 8, 11, 9), 5)
+    assert a.routes.equals(c.routes)
+    with pytest.raises(InputError, match=r"^invalid option --date: expected a date"):
+        marops.plan_window(example_csv, tmp_path / "depots.json", "0931", 5)
     with pytest.raises(InputError, match="--drones expects whole numbers"):
         marops.evaluate(example_csv, drones=[4, "x"], workers=1)
