@@ -435,14 +435,20 @@ def replay_day(
 
 
 def _read_back(folder: Path, metrics: dict[str, Any]) -> DayResult:
-    """A day kept from an earlier run into ``folder``: its tables read from its files."""
+    """A day kept from an earlier run into ``folder``: its tables read from its files,
+    in the unit of a replayed day's (Parquet keeps seconds as milliseconds)."""
+    import pyarrow as pa
     import pyarrow.parquet as pq
 
-    stops, routes = (
-        pq.read_table(folder / "stops.parquet"),
-        pq.read_table(folder / "routes.parquet"),
-    )
-    return DayResult(stops, routes, metrics, folder)
+    def read(name: str) -> pa.Table:
+        table = pq.read_table(folder / name)
+        fields = [
+            f.with_type(pa.timestamp("s", f.type.tz)) if pa.types.is_timestamp(f.type) else f
+            for f in table.schema
+        ]
+        return table.cast(pa.schema(fields, metadata=table.schema.metadata))
+
+    return DayResult(read("stops.parquet"), read("routes.parquet"), metrics, folder)
 
 
 @_checked

@@ -46,6 +46,12 @@ def test_api_runs_what_the_cli_runs(example_csv: Path, tmp_path: Path, capsys) -
     assert day.routes.equals(from_file.cast(day.routes.schema))
     assert day.routes.schema.metadata == from_file.schema.metadata
     assert day.folder == tmp_path / "api"
+    # The same call again keeps the day written: the same tables, in the same units.
+    again = marops.replay_day(
+        example_csv, "0811", out=tmp_path / "api", depots=tmp_path / "depots.json", method="stay"
+    )
+    for kept, made in ((again.stops, day.stops), (again.routes, day.routes)):
+        assert kept.schema.equals(made.schema, check_metadata=True) and kept.equals(made)
     # pandas reads the stops' nullable integers as integers, from the file and in memory
     # (docs/outputs.md, "Integers"); a column without a missing value stays int32.
     pd = pytest.importorskip("pandas")
