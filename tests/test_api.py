@@ -136,3 +136,18 @@ def test_api_takes_lists_and_dates_where_the_flag_takes_them(
         marops.plan_window(example_csv, tmp_path / "depots.json", "0931", 5)
     with pytest.raises(InputError, match="--drones expects whole numbers"):
         marops.evaluate(example_csv, drones=[4, "x"], workers=1)
+
+
+def test_api_segment_out_names_a_json_file_as_the_flag_does(
+    example_csv: Path, tmp_path: Path
+) -> None:
+    # As `marops segment --out`: a folder or a name of another kind is refused before
+    # any work, not a ValueError from deep inside nor JSON under a .csv name.
+    for out, this in ((tmp_path, "a folder"), (tmp_path / "depots.csv", "a .csv file")):
+        with pytest.raises(InputError, match=f"--out names the depots file.*this is {this}"):
+            marops.segment(example_csv, out=out)
+        with pytest.raises(InputError, match=f"--out names the hubs file.*this is {this}"):
+            marops.segment(example_csv, out=out, hubs=2)
+    with pytest.raises(InputError, match="this is a folder"):
+        marops.segment(example_csv, out=".")
+    assert list(tmp_path.iterdir()) == []

@@ -59,6 +59,18 @@ class HubTiling:
         return hubs_doc(self.hubs, self.total, self.meta)
 
 
+def check_json_out(out: str | Path, what: str) -> None:
+    """``--out`` names the ``what`` file (``depots.json``): a ``.json`` name, not a folder
+    (``--out .``) nor a file of another kind."""
+    out = Path(out)
+    if out.suffix == ".json" and not out.is_dir():
+        return
+    this = f"a {out.suffix} file" if out.suffix else "a name without .json"
+    if out.is_dir():
+        this = "a folder"
+    raise InputError(f"--out names the {what} file, e.g. {what}.json; this is {this}", file=out)
+
+
 def history_days(days: str | list[dt.date] | None, year: int) -> list[dt.date] | None:
     """``days`` as dates (``"0801..0810"``, ``"801,802"`` or dates); None for all."""
     from ..data.dates import parse_days
@@ -85,6 +97,8 @@ def segment(
     from ..segment.run import segment_table
 
     register_inputs([data])  # never an output
+    if out is not None:
+        check_json_out(out, "depots")
     day_list = history_days(days, cfg.data.year)
     progress.start("segmenting…", 0, "")  # no steps to count: a spinner on a terminal
     try:
@@ -153,6 +167,8 @@ def segment_hubs(
     register_inputs([data])  # never an output
 
     n_hubs = hub_count(hubs)
+    if out is not None:
+        check_json_out(out, "hubs")
     if cfg.data.center is not None:
         raise InputError("--hubs places the study areas itself: drop [data] center")
     day_list = history_days(days, cfg.data.year)
