@@ -151,3 +151,23 @@ def test_api_segment_out_names_a_json_file_as_the_flag_does(
     with pytest.raises(InputError, match="this is a folder"):
         marops.segment(example_csv, out=".")
     assert list(tmp_path.iterdir()) == []
+
+
+def test_api_evaluate_checks_its_out_folder_before_any_work(
+    example_csv: Path, tmp_path: Path
+) -> None:
+    # As `marops evaluate --out`: a file is no folder, and a table marops did not write
+    # is refused before a replay runs, leaving the folder as it was (no jobs/).
+    afile = tmp_path / "afile.txt"
+    afile.write_text("x")
+    with pytest.raises(InputError, match="--out must be a folder; this is a file"):
+        marops.evaluate(example_csv, methods="stay", dates="0811", out=afile, workers=1)
+    with pytest.raises(InputError, match="cannot be created"):
+        marops.evaluate(example_csv, methods="stay", dates="0811", out=afile / "x", workers=1)
+    folder = tmp_path / "ev"
+    folder.mkdir()
+    (folder / "summary.csv").write_text("mine\n")
+    with pytest.raises(InputError, match="summary.csv: exists and was not written by marops"):
+        marops.evaluate(example_csv, methods="stay", dates="0811", out=folder, workers=1)
+    assert [p.name for p in folder.iterdir()] == ["summary.csv"]
+    assert (folder / "summary.csv").read_text() == "mine\n" and afile.read_text() == "x"

@@ -11,6 +11,7 @@ docs/method.md §7-9). Given an output folder, it keeps each finished job in
 from __future__ import annotations
 
 import datetime as dt
+import os
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -31,6 +32,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "JOBS",
+    "OUTPUT_FILES",
     "EvaluateConfig",
     "EvaluationResult",
     "actor_paths",
@@ -42,6 +44,9 @@ __all__ = [
 
 JOBS = "jobs"
 """The jobs dataset in the output folder: one file per finished replay (docs/outputs.md)."""
+OUTPUT_FILES = ("results.parquet", "summary.csv", "summary.md", "paired.csv")
+"""The tables the output folder gets, checked before any work (the figures are named
+by the run's settings)."""
 
 
 @dataclass(frozen=True)
@@ -107,11 +112,14 @@ def evaluate(
     with ``out``, keep its jobs there as they finish (resuming the ones already there)
     and write its tables and figures."""
     from ..evaluate import expand_settings, prepare
-    from ..io.ownership import register_inputs
+    from ..io.ownership import check_outputs, register_inputs
     from .report import check_report
 
     check_report(config.report and out is not None)
     register_inputs([data, *config.actors.values()])  # never an output
+    if out is not None:  # before any work: a folder, no file marops did not write
+        check_out(out)
+        check_outputs([out / n for n in OUTPUT_FILES] + [out / "report.html"] * config.report)
     cfg = config.planner
     settings = expand_settings(
         cfg,
@@ -159,6 +167,20 @@ def evaluate(
         paired = _paired(ev, config.against)
         return EvaluationResult(ev.results, ev.summary, paired, prep.days, [], None)
     return _evaluate_into(out, prep, config, progress)
+
+
+def check_out(out: Path) -> None:
+    """--out must be a folder this user can write (or create), found out before anything
+    runs and without writing anything."""
+    if out.exists() and not out.is_dir():
+        raise InputError("--out must be a folder; this is a file", file=out)
+    probe = out.absolute()
+    while not probe.exists():  # the nearest existing folder must let us create the rest
+        probe = probe.parent
+    if not probe.is_dir():
+        raise InputError(f"--out cannot be created: {probe} is a file", file=out)
+    if not os.access(probe, os.W_OK | os.X_OK):
+        raise InputError(f"--out is not writable ({probe})", file=out)
 
 
 def default_methods(
