@@ -171,3 +171,15 @@ def test_api_evaluate_checks_its_out_folder_before_any_work(
         marops.evaluate(example_csv, methods="stay", dates="0811", out=folder, workers=1)
     assert [p.name for p in folder.iterdir()] == ["summary.csv"]
     assert (folder / "summary.csv").read_text() == "mine\n" and afile.read_text() == "x"
+
+
+def test_api_plan_window_out_is_a_folder_as_the_flag_is(example_csv: Path, tmp_path: Path) -> None:
+    # As `marops plan-window --out`: a file's name is refused before any work, not made
+    # into a folder named stops.parquet.
+    marops.segment(example_csv, out=tmp_path / "depots.json", dates="0801..0810")
+    for name in ("stops.parquet", "window.json"):
+        with pytest.raises(InputError, match=f"--out is a folder .*not a file: {name}"):
+            marops.plan_window(
+                example_csv, tmp_path / "depots.json", "0811", 5, out=tmp_path / name
+            )
+    assert [p.name for p in tmp_path.iterdir()] == ["depots.json"]
