@@ -65,11 +65,16 @@ class DayResult:
 
 @dataclass(frozen=True)
 class EvaluationResult:
+    """An evaluation's tables (docs/outputs.md, "Evaluation")."""
+
     results: pa.Table
     """One row per setting × method × day × repeat (docs/outputs.md, "Evaluation")."""
     summary: pa.Table
     """Mean and std per setting and method."""
     folder: Path | None
+    paired: pa.Table | None = None
+    """With ``against``: each method's per-day difference to it, with a bootstrap 95 %
+    interval (``paired.csv``); None without."""
 
 
 def _path(value: str | Path | None) -> Path | None:
@@ -514,7 +519,7 @@ def evaluate(
     source = read_data(data, cfg.data) if in_memory(data) else Path(data)
     with replacing_foreign_files(force):
         res = run(source, spec, out=_path(out))
-    return EvaluationResult(res.results, res.summary, res.folder)
+    return EvaluationResult(res.results, res.summary, res.folder, res.paired)
 
 
 @_checked

@@ -183,3 +183,15 @@ def test_api_plan_window_out_is_a_folder_as_the_flag_is(example_csv: Path, tmp_p
                 example_csv, tmp_path / "depots.json", "0811", 5, out=tmp_path / name
             )
     assert [p.name for p in tmp_path.iterdir()] == ["depots.json"]
+
+
+def test_api_evaluate_returns_the_paired_comparison_with_against(example_csv: Path) -> None:
+    # `against` pairs each method's days with the reference's: the table paired.csv
+    # holds, here in memory without `out`.
+    ev = marops.evaluate(
+        example_csv, methods="stay,ops-global", dates="0811", against="ops-global", workers=1
+    )
+    assert ev.paired is not None and ev.folder is None
+    rows = ev.paired.to_pylist()
+    assert {r["against"] for r in rows} == {"ops-global"} and rows[0]["days"] == 1
+    assert marops.evaluate(example_csv, methods="stay", dates="0811", workers=1).paired is None
