@@ -195,3 +195,10 @@ def test_api_evaluate_returns_the_paired_comparison_with_against(example_csv: Pa
     rows = ev.paired.to_pylist()
     assert {r["against"] for r in rows} == {"ops-global"} and rows[0]["days"] == 1
     assert marops.evaluate(example_csv, methods="stay", dates="0811", workers=1).paired is None
+
+
+def test_api_data_may_be_any_path_like(example_csv: Path) -> None:
+    # A path is any os.PathLike, for the data as for out and depots (py.path, PurePath).
+    from pathlib import PurePath
+
+    assert marops.read_lade(PurePath(example_csv)).equals(marops.read_lade(str(example_csv)))
