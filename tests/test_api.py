@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 from pathlib import Path
 
 import pyarrow.parquet as pq
@@ -202,3 +203,33 @@ def test_api_data_may_be_any_path_like(example_csv: Path) -> None:
     from pathlib import PurePath
 
     assert marops.read_lade(PurePath(example_csv)).equals(marops.read_lade(str(example_csv)))
+
+
+def test_api_figures_leave_the_callers_matplotlib_backend(
+    example_csv: Path, tmp_path: Path
+) -> None:
+    # A notebook's backend (inline, here svg) is the caller's: drawing segment's and a
+    # day's figures chooses none, in a fresh interpreter where the modules load first.
+    import subprocess
+    import sys
+
+    code = (
+        "import matplotlib, sys, warnings\n"
+        "matplotlib.use('svg')\n"
+        "warnings.simplefilter('ignore')\n"
+        "from marops_cli import api\n"
+        "csv, out = sys.argv[1], sys.argv[2]\n"
+        "api.segment(csv, out=out + '/depots.json', dates='0801', plot=True)\n"
+        "api.replay_day(csv, '0811', method='stay', out=out + '/day', plot=True)\n"
+        "print(matplotlib.get_backend())\n"
+    )
+    env = {**os.environ, "MAROPS_CACHE_DIR": "off"}
+    done = subprocess.run(
+        [sys.executable, "-c", code, str(example_csv), str(tmp_path)],
+        capture_output=True,
+        text=True,
+        env=env,
+        check=True,
+    )
+    assert done.stdout.strip() == "svg"
+    assert (tmp_path / "depots.png").is_file() and (tmp_path / "day" / "routes.png").is_file()
