@@ -195,7 +195,7 @@ def _checked(fn: F) -> F:
         try:
             bound = sig.bind(*args, **kwargs)
         except TypeError as exc:
-            raise InputError(f"{fn.__name__}(): {exc}") from None
+            raise InputError(f"{fn.__name__}(): {exc}{_did_you_mean(sig, kwargs)}") from None
         for name, value in list(bound.arguments.items()):
             hint = str(sig.parameters[name].annotation)
             ok, passed = _accept(name, hint, value)
@@ -208,6 +208,20 @@ def _checked(fn: F) -> F:
         return fn(*bound.args, **bound.kwargs)
 
     return call  # type: ignore[return-value]
+
+
+def _did_you_mean(sig: inspect.Signature, kwargs: dict[str, Any]) -> str:
+    """`` (did you mean method?)`` for a mistyped keyword, as a mistyped flag is
+    answered; empty when nothing is close."""
+    import difflib
+
+    names = [n for n in sig.parameters if n not in ("data", "args", "kwargs")]
+    for key in kwargs:
+        if key not in sig.parameters:
+            close = difflib.get_close_matches(key, names, n=3)
+            if close:
+                return f" (did you mean {' or '.join(close)}?)"
+    return ""
 
 
 def _shown(value: Any) -> str:

@@ -107,6 +107,7 @@ def test_api_raises_input_errors(example_csv: Path, tmp_path: Path) -> None:
         (lambda d: marops.replay_day(d, "0811", drones=2.5), r"drones expects an integer"),
         (lambda d: marops.replay_day(d, "0811", strict="yes"), r"strict expects True or False"),
         (lambda d: marops.evaluate(d, nonsense=1), r"evaluate\(\): got an unexpected keyword"),
+        (lambda d: marops.replay_day(d, "0811", methd="x"), r"'methd' \(did you mean method\?\)$"),
         (lambda d: marops.report(5), r"report\(\): folder expects a path"),
     ],
 )
