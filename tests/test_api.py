@@ -234,3 +234,27 @@ def test_api_figures_leave_the_callers_matplotlib_backend(
     )
     assert done.stdout.strip() == "svg"
     assert (tmp_path / "depots.png").is_file() and (tmp_path / "day" / "routes.png").is_file()
+
+
+def test_api_workers_in_an_unguarded_script_stop_with_the_reason(
+    example_csv: Path, tmp_path: Path
+) -> None:
+    # Python's multiprocessing has each worker import the script that started it: one
+    # that calls evaluate() outside `if __name__ == "__main__":` fails, naming the
+    # remedy in the parent and in the worker, not with a Broken pipe from deep inside.
+    import subprocess
+    import sys
+
+    script = tmp_path / "unguarded.py"
+    script.write_text(
+        "from marops_cli import api\n"
+        f"api.evaluate({str(example_csv)!r}, methods='stay,ops-global', dates='0811', workers=2)\n"
+    )
+    env = {**os.environ, "MAROPS_CACHE_DIR": str(tmp_path / "cache"), "PYTHONWARNINGS": "ignore"}
+    done = subprocess.run(
+        [sys.executable, str(script)], capture_output=True, text=True, env=env, timeout=300
+    )
+    assert done.returncode == 1
+    last = done.stderr.strip().splitlines()[-1]
+    assert last.startswith("marops_cli.errors.RunError: ") and 'if __name__ == "__main__":' in last
+    assert "RuntimeError" not in done.stderr
