@@ -124,3 +124,14 @@ def test_a_frame_reads_its_lade_columns_as_a_file_does(example_csv: Path) -> Non
     twice = pd.concat([frame, frame[["lat"]]], axis=1)
     with pytest.raises(InputError, match="column 'lat' appears 2 times"):
         marops.read_lade(twice)
+
+
+class DataFrame:
+    """A frame of another library (polars, say): not pandas, whatever its name."""
+
+    columns = ("order_id", "lng", "lat", "accept_time", "delivery_time")
+
+
+def test_a_frame_of_another_library_is_named_not_read_as_pandas() -> None:
+    with pytest.raises(InputError, match=r"or a pyarrow Table, got [\w.]*test_api_in_memory\.Da"):
+        marops.read_lade(DataFrame())

@@ -484,13 +484,18 @@ def read_lade_table(data: object, cfg: DataConfig | None = None) -> LadeTable:
     cfg = cfg if cfg is not None else DataConfig()
     if isinstance(data, pa.Table):
         where, table = IN_MEMORY[1], data
-    elif type(data).__name__ == "DataFrame" and hasattr(data, "columns"):
+    elif type(data).__name__ == "DataFrame" and hasattr(data, "iloc"):  # pandas
         where = IN_MEMORY[0]
         table = _frame_table(data, where)
     else:
+        kind = type(data)
+        name = (
+            kind.__name__
+            if kind.__module__ == "builtins"
+            else f"{kind.__module__}.{kind.__qualname__}"
+        )
         raise InputError(
-            f"expected a LaDe file path, a pandas DataFrame or a pyarrow Table, got "
-            f"{type(data).__name__}"
+            f"expected a LaDe file path, a pandas DataFrame or a pyarrow Table, got {name}"
         )
     include = _check_columns([str(n) for n in table.column_names], Path(where))
     table = table.select(include)
