@@ -135,3 +135,36 @@ class DataFrame:
 def test_a_frame_of_another_library_is_named_not_read_as_pandas() -> None:
     with pytest.raises(InputError, match=r"or a pyarrow Table, got [\w.]*test_api_in_memory\.Da"):
         marops.read_lade(DataFrame())
+
+
+def test_calls_without_figures_leave_no_file_in_home(example_csv: Path, tmp_path: Path) -> None:
+    # Nothing written unasked, a library's own cache included: matplotlib, whose first
+    # import writes its font cache under HOME, loads only to draw a figure.
+    import os
+    import subprocess
+    import sys
+
+    code = (
+        "import sys, warnings\n"
+        "warnings.simplefilter('ignore')\n"
+        "import pandas as pd\n"
+        "from marops_cli import api\n"
+        "frame = pd.read_csv(sys.argv[1])\n"
+        "api.segment(frame, dates='0801..0803')\n"
+        "api.replay_day(frame, '0811', method='stay')\n"
+        "print('matplotlib' in sys.modules)\n"
+    )
+    home = tmp_path / "home"
+    home.mkdir()
+    env = {k: v for k, v in os.environ.items() if k not in ("XDG_CACHE_HOME", "MPLCONFIGDIR")}
+    env.update(HOME=str(home), MAROPS_CACHE_DIR=str(tmp_path / "cache"))
+    done = subprocess.run(
+        [sys.executable, "-c", code, str(example_csv)],
+        capture_output=True,
+        text=True,
+        env=env,
+        cwd=tmp_path,
+        check=True,
+    )
+    assert done.stdout.strip() == "False"
+    assert sorted(p.name for p in tmp_path.rglob("*")) == ["home"]

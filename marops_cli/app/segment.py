@@ -93,7 +93,6 @@ def segment(
     """Depots for the requests of ``days`` (all days when None); with ``out`` (the
     depots file) write it, and beside it the areas as GeoJSON and a PNG map when asked."""
     from ..segment import areas_geojson
-    from ..segment.plot import plot_depots
     from ..segment.run import segment_table
 
     register_inputs([data])  # never an output
@@ -127,7 +126,9 @@ def segment(
         files.write_json(path, done.doc())
         if geojson:
             files.write_json(gj_path, areas_geojson(res.depots, meta))
-        if plot:
+        if plot:  # matplotlib loads only to draw (its first import writes its font cache)
+            from ..segment.plot import plot_depots
+
             title = (
                 f"{cfg.segment.method}: {len(res.depots)} depots, "
                 f"{res.history_xy.shape[0]:,} history requests, {len(res.days)} days"
