@@ -168,3 +168,19 @@ def test_calls_without_figures_leave_no_file_in_home(example_csv: Path, tmp_path
     )
     assert done.stdout.strip() == "False"
     assert sorted(p.name for p in tmp_path.rglob("*")) == ["home"]
+
+
+def test_an_error_in_a_frames_row_names_its_index_label(example_csv: Path) -> None:
+    # Rows count as in a file (the first is row 2); a frame's own index, as a filtered
+    # frame keeps it, finds the row too.
+    import pandas as pd
+
+    frame = pd.read_csv(example_csv).astype({"accept_time": object})
+    part = frame[frame.lat > 31.14].copy()
+    part.loc[part.index[3], "accept_time"] = "soon"
+    label = part.index[3]
+    assert label != 3
+    with pytest.raises(
+        InputError, match=rf"^DataFrame, row 5, .*'soon' \(the frame's index {label}\)$"
+    ):
+        marops.read_lade(part)

@@ -480,7 +480,7 @@ def read_lade_table(data: object, cfg: DataConfig | None = None) -> LadeTable:
     checks, drops and errors, which name ``DataFrame`` (or ``Table``) where they would
     name the file. Its identity (``input`` in the metadata) is the SHA-256 of its
     columns in Arrow's stream format. Rows are numbered as in a file: the first row
-    is row 2."""
+    is row 2; an error in a DataFrame's row names its index label too."""
     cfg = cfg if cfg is not None else DataConfig()
     if isinstance(data, pa.Table):
         where, table = IN_MEMORY[1], data
@@ -510,7 +510,18 @@ def read_lade_table(data: object, cfg: DataConfig | None = None) -> LadeTable:
     def source() -> SourceInfo:
         return SourceInfo(path=where, name=where, size=buf.size, sha256=sha)
 
-    return _lade_table(table, where, cfg, source)
+    try:
+        return _lade_table(table, where, cfg, source)
+    except InputError as exc:  # a frame's row is found by its index label: say it too
+        index = getattr(data, "index", None) if where == IN_MEMORY[0] else None
+        if type(exc) is not InputError or index is None or exc.row is None:
+            raise
+        if not 2 <= exc.row < len(index) + 2:
+            raise
+        label = index[exc.row - 2]
+        shown = repr(label) if isinstance(label, str) else str(label)
+        message = f"{exc.message} (the frame's index {shown})"
+        raise InputError(message, file=exc.file, row=exc.row, column=exc.column) from None
 
 
 def _frame_table(frame: Any, where: str) -> pa.Table:
