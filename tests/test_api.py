@@ -258,3 +258,14 @@ def test_api_workers_in_an_unguarded_script_stop_with_the_reason(
     last = done.stderr.strip().splitlines()[-1]
     assert last.startswith("marops_cli.errors.RunError: ") and 'if __name__ == "__main__":' in last
     assert "RuntimeError" not in done.stderr
+
+
+def test_api_warnings_are_said_at_the_callers_line(example_csv: Path) -> None:
+    # A day left partly undelivered warns where the notebook called, not inside marops.
+    import warnings
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        marops.replay_day(example_csv, "0811", method="stay", drones=2)
+    said = [w for w in caught if "stayed undelivered" in str(w.message)]
+    assert said and said[0].filename == __file__
