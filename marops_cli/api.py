@@ -347,6 +347,7 @@ def plan_window(
     geojson: bool = False,
     report: bool = False,
     force: bool = False,
+    trust_actor: bool = False,
     config: str | Path | None = None,
 ) -> DayResult:
     """``marops plan-window``: one window's stops and routes, and its solver and window
@@ -367,6 +368,7 @@ def plan_window(
         drones=drones,
         seed=seed,
         policy=policy,
+        trust_actor=trust_actor,
     )
     with replacing_foreign_files(force):
         res = run(
@@ -411,6 +413,7 @@ def replay_day(
     plot: bool = False,
     report: bool = False,
     force: bool = False,
+    trust_actor: bool = False,
     config: str | Path | None = None,
 ) -> DayResult:
     """``marops replay-day --date``: the day's stops, routes and metrics."""
@@ -433,6 +436,7 @@ def replay_day(
         drones=drones,
         seed=seed,
         policy=policy,
+        trust_actor=trust_actor,
     )
     day = parse_day(str(date), cfg.data.year, "--date")
     with replacing_foreign_files(force):
@@ -495,6 +499,7 @@ def evaluate(
     year: int | None = None,
     strict: bool = False,
     force: bool = False,
+    trust_actor: bool = False,
     config: str | Path | None = None,
 ) -> EvaluationResult:
     """``marops evaluate``: per-day results and their summary. Sweeps take "a,b,c"
@@ -510,7 +515,7 @@ def evaluate(
     from .io.ownership import replacing_foreign_files
     from .segment.hubs import load_hubs
 
-    cfg = planner_config(config, year=year, strict=strict, seed=seed)
+    cfg = planner_config(config, year=year, strict=strict, seed=seed, trust_actor=trust_actor)
     days = parse_days(_text(dates) or "", cfg.data.year, "--dates") if dates else None
     if days and split:
         raise InputError("give at most one of dates or split")
