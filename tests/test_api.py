@@ -269,3 +269,14 @@ def test_api_warnings_are_said_at_the_callers_line(example_csv: Path) -> None:
         marops.replay_day(example_csv, "0811", method="stay", drones=2)
     said = [w for w in caught if "stayed undelivered" in str(w.message)]
     assert said and said[0].filename == __file__
+
+
+def test_api_a_day_kept_without_the_files_asked_for_now_is_replayed(
+    example_csv: Path, tmp_path: Path
+) -> None:
+    # A day already in out is kept only when it holds what this call asks for: the map
+    # asked for now is written, not silently missing.
+    first = marops.replay_day(example_csv, "0811", method="stay", out=tmp_path)
+    assert not (tmp_path / "routes.geojson").exists()
+    again = marops.replay_day(example_csv, "0811", method="stay", out=tmp_path, geojson=True)
+    assert (tmp_path / "routes.geojson").is_file() and again.routes.equals(first.routes)
