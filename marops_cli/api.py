@@ -65,11 +65,16 @@ class DayResult:
 
 @dataclass(frozen=True)
 class EvaluationResult:
+    """An evaluation's tables (docs/outputs.md, "Evaluation")."""
+
     results: pa.Table
     """One row per setting × method × day × repeat (docs/outputs.md, "Evaluation")."""
     summary: pa.Table
     """Mean and std per setting and method."""
     folder: Path | None
+    paired: pa.Table | None = None
+    """With ``against``: each method's per-day difference to it, with a bootstrap 95 %
+    interval (``paired.csv``); None without."""
 
 
 def _path(value: str | Path | None) -> Path | None:
@@ -117,6 +122,8 @@ def _accept(name: str, hint: str, v: Any) -> tuple[bool, Any]:
     if "Path" in hint and isinstance(v, str | os.PathLike):
         return True, v
     if name == "date":  # read as str(date): "0820", 820, or a date's ISO form
+        if isinstance(v, dt.datetime):  # a datetime or a pandas Timestamp: its day
+            return True, v.date()
         return _is_int(v) or isinstance(v, str | dt.date), v
     if _listed(hint):
         return _text(v) is not None, v
@@ -188,7 +195,7 @@ def _checked(fn: F) -> F:
         try:
             bound = sig.bind(*args, **kwargs)
         except TypeError as exc:
-            raise InputError(f"{fn.__name__}(): {exc}") from None
+            raise InputError(f"{fn.__name__}(): {exc}{_did_you_mean(sig, kwargs)}") from None
         for name, value in list(bound.arguments.items()):
             hint = str(sig.parameters[name].annotation)
             ok, passed = _accept(name, hint, value)
@@ -201,6 +208,20 @@ def _checked(fn: F) -> F:
         return fn(*bound.args, **bound.kwargs)
 
     return call  # type: ignore[return-value]
+
+
+def _did_you_mean(sig: inspect.Signature, kwargs: dict[str, Any]) -> str:
+    """`` (did you mean method?)`` for a mistyped keyword, as a mistyped flag is
+    answered; empty when nothing is close."""
+    import difflib
+
+    names = [n for n in sig.parameters if n not in ("data", "args", "kwargs")]
+    for key in kwargs:
+        if key not in sig.parameters:
+            close = difflib.get_close_matches(key, names, n=3)
+            if close:
+                return f" (did you mean {' or '.join(close)}?)"
+    return ""
 
 
 def _shown(value: Any) -> str:
@@ -326,6 +347,7 @@ def plan_window(
     geojson: bool = False,
     report: bool = False,
     force: bool = False,
+    trust_actor: bool = False,
     config: str | Path | None = None,
 ) -> DayResult:
     """``marops plan-window``: one window's stops and routes, and its solver and window
@@ -346,12 +368,13 @@ def plan_window(
         drones=drones,
         seed=seed,
         policy=policy,
+        trust_actor=trust_actor,
     )
     with replacing_foreign_files(force):
         res = run(
             data,
             cfg,
-            parse_day(str(date), cfg.data.year),
+            parse_day(str(date), cfg.data.year, "--date"),
             int(window),
             depots=Path(depots),
             method=method,
@@ -390,6 +413,7 @@ def replay_day(
     plot: bool = False,
     report: bool = False,
     force: bool = False,
+    trust_actor: bool = False,
     config: str | Path | None = None,
 ) -> DayResult:
     """``marops replay-day --date``: the day's stops, routes and metrics."""
@@ -412,8 +436,9 @@ def replay_day(
         drones=drones,
         seed=seed,
         policy=policy,
+        trust_actor=trust_actor,
     )
-    day = parse_day(str(date), cfg.data.year)
+    day = parse_day(str(date), cfg.data.year, "--date")
     with replacing_foreign_files(force):
         res = replay_days(
             data,
@@ -433,14 +458,20 @@ def replay_day(
 
 
 def _read_back(folder: Path, metrics: dict[str, Any]) -> DayResult:
-    """A day kept from an earlier run into ``folder``: its tables read from its files."""
+    """A day kept from an earlier run into ``folder``: its tables read from its files,
+    in the unit of a replayed day's (Parquet keeps seconds as milliseconds)."""
+    import pyarrow as pa
     import pyarrow.parquet as pq
 
-    stops, routes = (
-        pq.read_table(folder / "stops.parquet"),
-        pq.read_table(folder / "routes.parquet"),
-    )
-    return DayResult(stops, routes, metrics, folder)
+    def read(name: str) -> pa.Table:
+        table = pq.read_table(folder / name)
+        fields = [
+            f.with_type(pa.timestamp("s", f.type.tz)) if pa.types.is_timestamp(f.type) else f
+            for f in table.schema
+        ]
+        return table.cast(pa.schema(fields, metadata=table.schema.metadata))
+
+    return DayResult(read("stops.parquet"), read("routes.parquet"), metrics, folder)
 
 
 @_checked
@@ -468,6 +499,7 @@ def evaluate(
     year: int | None = None,
     strict: bool = False,
     force: bool = False,
+    trust_actor: bool = False,
     config: str | Path | None = None,
 ) -> EvaluationResult:
     """``marops evaluate``: per-day results and their summary. Sweeps take "a,b,c"
@@ -483,8 +515,8 @@ def evaluate(
     from .io.ownership import replacing_foreign_files
     from .segment.hubs import load_hubs
 
-    cfg = planner_config(config, year=year, strict=strict, seed=seed)
-    days = parse_days(_text(dates) or "", cfg.data.year) if dates else None
+    cfg = planner_config(config, year=year, strict=strict, seed=seed, trust_actor=trust_actor)
+    days = parse_days(_text(dates) or "", cfg.data.year, "--dates") if dates else None
     if days and split:
         raise InputError("give at most one of dates or split")
     spec = EvaluateConfig(
@@ -506,7 +538,7 @@ def evaluate(
     source = read_data(data, cfg.data) if in_memory(data) else Path(data)
     with replacing_foreign_files(force):
         res = run(source, spec, out=_path(out))
-    return EvaluationResult(res.results, res.summary, res.folder)
+    return EvaluationResult(res.results, res.summary, res.folder, res.paired)
 
 
 @_checked

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 from pathlib import Path
 
 import pyarrow.parquet as pq
@@ -46,6 +47,12 @@ def test_api_runs_what_the_cli_runs(example_csv: Path, tmp_path: Path, capsys) -
     assert day.routes.equals(from_file.cast(day.routes.schema))
     assert day.routes.schema.metadata == from_file.schema.metadata
     assert day.folder == tmp_path / "api"
+    # The same call again keeps the day written: the same tables, in the same units.
+    again = marops.replay_day(
+        example_csv, "0811", out=tmp_path / "api", depots=tmp_path / "depots.json", method="stay"
+    )
+    for kept, made in ((again.stops, day.stops), (again.routes, day.routes)):
+        assert kept.schema.equals(made.schema, check_metadata=True) and kept.equals(made)
     # pandas reads the stops' nullable integers as integers, from the file and in memory
     # (docs/outputs.md, "Integers"); a column without a missing value stays int32.
     pd = pytest.importorskip("pandas")
@@ -100,6 +107,7 @@ def test_api_raises_input_errors(example_csv: Path, tmp_path: Path) -> None:
         (lambda d: marops.replay_day(d, "0811", drones=2.5), r"drones expects an integer"),
         (lambda d: marops.replay_day(d, "0811", strict="yes"), r"strict expects True or False"),
         (lambda d: marops.evaluate(d, nonsense=1), r"evaluate\(\): got an unexpected keyword"),
+        (lambda d: marops.replay_day(d, "0811", methd="x"), r"'methd' \(did you mean method\?\)$"),
         (lambda d: marops.report(5), r"report\(\): folder expects a path"),
     ],
 )
@@ -123,5 +131,152 @@ def test_api_takes_lists_and_dates_where_the_flag_takes_them(
     a = marops.plan_window(example_csv, tmp_path / "depots.json", dt.date(2022, 8, 11), 5)
     b = marops.plan_window(example_csv, str(tmp_path / "depots.json"), 811, 5)
     assert a.routes.equals(b.routes)
+    # A datetime (a pandas Timestamp is one) is its day.
+    c = marops.plan_window(example_csv, tmp_path / "depots.json", dt.datetime(2022, 8, 11, 9), 5)
+    assert a.routes.equals(c.routes)
+    with pytest.raises(InputError, match=r"^invalid option --date: expected a date"):
+        marops.plan_window(example_csv, tmp_path / "depots.json", "0931", 5)
     with pytest.raises(InputError, match="--drones expects whole numbers"):
         marops.evaluate(example_csv, drones=[4, "x"], workers=1)
+
+
+def test_api_segment_out_names_a_json_file_as_the_flag_does(
+    example_csv: Path, tmp_path: Path
+) -> None:
+    # As `marops segment --out`: a folder or a name of another kind is refused before
+    # any work, not a ValueError from deep inside nor JSON under a .csv name.
+    for out, this in ((tmp_path, "a folder"), (tmp_path / "depots.csv", "a .csv file")):
+        with pytest.raises(InputError, match=f"--out names the depots file.*this is {this}"):
+            marops.segment(example_csv, out=out)
+        with pytest.raises(InputError, match=f"--out names the hubs file.*this is {this}"):
+            marops.segment(example_csv, out=out, hubs=2)
+    with pytest.raises(InputError, match="this is a folder"):
+        marops.segment(example_csv, out=".")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_api_evaluate_checks_its_out_folder_before_any_work(
+    example_csv: Path, tmp_path: Path
+) -> None:
+    # As `marops evaluate --out`: a file is no folder, and a table marops did not write
+    # is refused before a replay runs, leaving the folder as it was (no jobs/).
+    afile = tmp_path / "afile.txt"
+    afile.write_text("x")
+    with pytest.raises(InputError, match="--out must be a folder; this is a file"):
+        marops.evaluate(example_csv, methods="stay", dates="0811", out=afile, workers=1)
+    with pytest.raises(InputError, match="cannot be created"):
+        marops.evaluate(example_csv, methods="stay", dates="0811", out=afile / "x", workers=1)
+    folder = tmp_path / "ev"
+    folder.mkdir()
+    (folder / "summary.csv").write_text("mine\n")
+    with pytest.raises(InputError, match="summary.csv: exists and was not written by marops"):
+        marops.evaluate(example_csv, methods="stay", dates="0811", out=folder, workers=1)
+    assert [p.name for p in folder.iterdir()] == ["summary.csv"]
+    assert (folder / "summary.csv").read_text() == "mine\n" and afile.read_text() == "x"
+
+
+def test_api_plan_window_out_is_a_folder_as_the_flag_is(example_csv: Path, tmp_path: Path) -> None:
+    # As `marops plan-window --out`: a file's name is refused before any work, not made
+    # into a folder named stops.parquet.
+    marops.segment(example_csv, out=tmp_path / "depots.json", dates="0801..0810")
+    for name in ("stops.parquet", "window.json"):
+        with pytest.raises(InputError, match=f"--out is a folder .*not a file: {name}"):
+            marops.plan_window(
+                example_csv, tmp_path / "depots.json", "0811", 5, out=tmp_path / name
+            )
+    assert [p.name for p in tmp_path.iterdir()] == ["depots.json"]
+
+
+def test_api_evaluate_returns_the_paired_comparison_with_against(example_csv: Path) -> None:
+    # `against` pairs each method's days with the reference's: the table paired.csv
+    # holds, here in memory without `out`.
+    ev = marops.evaluate(
+        example_csv, methods="stay,ops-global", dates="0811", against="ops-global", workers=1
+    )
+    assert ev.paired is not None and ev.folder is None
+    rows = ev.paired.to_pylist()
+    assert {r["against"] for r in rows} == {"ops-global"} and rows[0]["days"] == 1
+    assert marops.evaluate(example_csv, methods="stay", dates="0811", workers=1).paired is None
+
+
+def test_api_data_may_be_any_path_like(example_csv: Path) -> None:
+    # A path is any os.PathLike, for the data as for out and depots (py.path, PurePath).
+    from pathlib import PurePath
+
+    assert marops.read_lade(PurePath(example_csv)).equals(marops.read_lade(str(example_csv)))
+
+
+def test_api_figures_leave_the_callers_matplotlib_backend(
+    example_csv: Path, tmp_path: Path
+) -> None:
+    # A notebook's backend (inline, here svg) is the caller's: drawing segment's and a
+    # day's figures chooses none, in a fresh interpreter where the modules load first.
+    import subprocess
+    import sys
+
+    code = (
+        "import matplotlib, sys, warnings\n"
+        "matplotlib.use('svg')\n"
+        "warnings.simplefilter('ignore')\n"
+        "from marops_cli import api\n"
+        "csv, out = sys.argv[1], sys.argv[2]\n"
+        "api.segment(csv, out=out + '/depots.json', dates='0801', plot=True)\n"
+        "api.replay_day(csv, '0811', method='stay', out=out + '/day', plot=True)\n"
+        "print(matplotlib.get_backend())\n"
+    )
+    env = {**os.environ, "MAROPS_CACHE_DIR": "off"}
+    done = subprocess.run(
+        [sys.executable, "-c", code, str(example_csv), str(tmp_path)],
+        capture_output=True,
+        text=True,
+        env=env,
+        check=True,
+    )
+    assert done.stdout.strip() == "svg"
+    assert (tmp_path / "depots.png").is_file() and (tmp_path / "day" / "routes.png").is_file()
+
+
+def test_api_workers_in_an_unguarded_script_stop_with_the_reason(
+    example_csv: Path, tmp_path: Path
+) -> None:
+    # Python's multiprocessing has each worker import the script that started it: one
+    # that calls evaluate() outside `if __name__ == "__main__":` fails, naming the
+    # remedy in the parent and in the worker, not with a Broken pipe from deep inside.
+    import subprocess
+    import sys
+
+    script = tmp_path / "unguarded.py"
+    script.write_text(
+        "from marops_cli import api\n"
+        f"api.evaluate({str(example_csv)!r}, methods='stay,ops-global', dates='0811', workers=2)\n"
+    )
+    env = {**os.environ, "MAROPS_CACHE_DIR": str(tmp_path / "cache"), "PYTHONWARNINGS": "ignore"}
+    done = subprocess.run(
+        [sys.executable, str(script)], capture_output=True, text=True, env=env, timeout=300
+    )
+    assert done.returncode == 1
+    last = done.stderr.strip().splitlines()[-1]
+    assert last.startswith("marops_cli.errors.RunError: ") and 'if __name__ == "__main__":' in last
+    assert "RuntimeError" not in done.stderr
+
+
+def test_api_warnings_are_said_at_the_callers_line(example_csv: Path) -> None:
+    # A day left partly undelivered warns where the notebook called, not inside marops.
+    import warnings
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        marops.replay_day(example_csv, "0811", method="stay", drones=2)
+    said = [w for w in caught if "stayed undelivered" in str(w.message)]
+    assert said and said[0].filename == __file__
+
+
+def test_api_a_day_kept_without_the_files_asked_for_now_is_replayed(
+    example_csv: Path, tmp_path: Path
+) -> None:
+    # A day already in out is kept only when it holds what this call asks for: the map
+    # asked for now is written, not silently missing.
+    first = marops.replay_day(example_csv, "0811", method="stay", out=tmp_path)
+    assert not (tmp_path / "routes.geojson").exists()
+    again = marops.replay_day(example_csv, "0811", method="stay", out=tmp_path, geojson=True)
+    assert (tmp_path / "routes.geojson").is_file() and again.routes.equals(first.routes)

@@ -101,3 +101,86 @@ def test_a_table_in_memory_is_checked_as_a_file_is(depots: Path, example_csv: Pa
         marops.read_lade(bad)
     with pytest.raises(InputError, match="has no data rows"):
         marops.read_lade(rows.slice(0, 0))
+
+
+def test_a_frame_reads_its_lade_columns_as_a_file_does(example_csv: Path) -> None:
+    # Columns the planner does not read are not read (a file's are not), and a column
+    # of mixed cells, as frames joined together hold, is read as its text: a stray
+    # word in lat is a dropped row, as in a file.
+    import pandas as pd
+
+    frame = pd.read_csv(example_csv)
+    base = marops.read_lade(frame)
+    extra = frame.assign(note=[1, "a"] * (len(frame) // 2) + [1] * (len(frame) % 2))
+    extra["shape"] = [object()] * len(frame)
+    assert marops.read_lade(extra).equals(base)
+    mixed = frame.astype({"order_id": object, "lat": object})
+    mixed.loc[3, "order_id"] = "X3"
+    mixed.loc[5, "lat"] = "abc"
+    rows = marops.read_lade(mixed)
+    assert "X3" in rows.column("order_id").to_pylist() and 7 not in rows.column("row").to_pylist()
+    with pytest.raises(InputError, match=r"^DataFrame, row 7, column 'lat': row would be dropped"):
+        marops.read_lade(mixed, strict=True)
+    twice = pd.concat([frame, frame[["lat"]]], axis=1)
+    with pytest.raises(InputError, match="column 'lat' appears 2 times"):
+        marops.read_lade(twice)
+
+
+class DataFrame:
+    """A frame of another library (polars, say): not pandas, whatever its name."""
+
+    columns = ("order_id", "lng", "lat", "accept_time", "delivery_time")
+
+
+def test_a_frame_of_another_library_is_named_not_read_as_pandas() -> None:
+    with pytest.raises(InputError, match=r"or a pyarrow Table, got [\w.]*test_api_in_memory\.Da"):
+        marops.read_lade(DataFrame())
+
+
+def test_calls_without_figures_leave_no_file_in_home(example_csv: Path, tmp_path: Path) -> None:
+    # Nothing written unasked, a library's own cache included: matplotlib, whose first
+    # import writes its font cache under HOME, loads only to draw a figure.
+    import os
+    import subprocess
+    import sys
+
+    code = (
+        "import sys, warnings\n"
+        "warnings.simplefilter('ignore')\n"
+        "import pandas as pd\n"
+        "from marops_cli import api\n"
+        "frame = pd.read_csv(sys.argv[1])\n"
+        "api.segment(frame, dates='0801..0803')\n"
+        "api.replay_day(frame, '0811', method='stay')\n"
+        "print('matplotlib' in sys.modules)\n"
+    )
+    home = tmp_path / "home"
+    home.mkdir()
+    env = {k: v for k, v in os.environ.items() if k not in ("XDG_CACHE_HOME", "MPLCONFIGDIR")}
+    env.update(HOME=str(home), MAROPS_CACHE_DIR=str(tmp_path / "cache"))
+    done = subprocess.run(
+        [sys.executable, "-c", code, str(example_csv)],
+        capture_output=True,
+        text=True,
+        env=env,
+        cwd=tmp_path,
+        check=True,
+    )
+    assert done.stdout.strip() == "False"
+    assert sorted(p.name for p in tmp_path.rglob("*")) == ["home"]
+
+
+def test_an_error_in_a_frames_row_names_its_index_label(example_csv: Path) -> None:
+    # Rows count as in a file (the first is row 2); a frame's own index, as a filtered
+    # frame keeps it, finds the row too.
+    import pandas as pd
+
+    frame = pd.read_csv(example_csv).astype({"accept_time": object})
+    part = frame[frame.lat > 31.14].copy()
+    part.loc[part.index[3], "accept_time"] = "soon"
+    label = part.index[3]
+    assert label != 3
+    with pytest.raises(
+        InputError, match=rf"^DataFrame, row 5, .*'soon' \(the frame's index {label}\)$"
+    ):
+        marops.read_lade(part)

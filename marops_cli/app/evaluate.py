@@ -11,7 +11,8 @@ docs/method.md §7-9). Given an output folder, it keeps each finished job in
 from __future__ import annotations
 
 import datetime as dt
-from collections.abc import Sequence
+import os
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -31,6 +32,8 @@ if TYPE_CHECKING:
 
 __all__ = [
     "JOBS",
+    "OUTPUT_FILES",
+    "output_files",
     "EvaluateConfig",
     "EvaluationResult",
     "actor_paths",
@@ -42,6 +45,27 @@ __all__ = [
 
 JOBS = "jobs"
 """The jobs dataset in the output folder: one file per finished replay (docs/outputs.md)."""
+OUTPUT_FILES = ("results.parquet", "summary.csv", "summary.md")
+"""The tables the output folder always gets (:func:`output_files`: all it may get)."""
+
+
+def output_files(
+    out: Path,
+    *,
+    sweep: Mapping[str, Sequence[Any] | None],
+    against: str | None,
+    plots: bool,
+    report: bool,
+) -> list[Path]:
+    """The files an evaluation into ``out`` writes, and only those, checked before any
+    work: ``paired.csv`` with ``against``, a figure per swept flag (``sweep``: the
+    :func:`sweep_fields`) and the others with ``plots`` (evaluate/report.py names them),
+    ``report.html`` with ``report``. A file of one's own by another of these names
+    stays where it is."""
+    swept = [f"{flag}.png" for flag, values in sweep.items() if values and len(set(values)) > 1]
+    figures = [*swept, "unfairness.png", "actions.png"] if plots else []
+    names = [*OUTPUT_FILES, *figures, *["paired.csv"] * (against is not None)]
+    return [out / n for n in names] + [out / "report.html"] * report
 
 
 @dataclass(frozen=True)
@@ -107,11 +131,24 @@ def evaluate(
     with ``out``, keep its jobs there as they finish (resuming the ones already there)
     and write its tables and figures."""
     from ..evaluate import expand_settings, prepare
-    from ..io.ownership import register_inputs
+    from ..io.ownership import check_outputs, register_inputs
     from .report import check_report
 
     check_report(config.report and out is not None)
     register_inputs([data, *config.actors.values()])  # never an output
+    if out is not None:  # before any work: a folder, no file marops did not write
+        check_out(out)
+        sweep = {
+            "alpha": config.alpha,
+            "drones": config.drones,
+            "coverage": config.coverage,
+            "depots_n": config.depots_n,
+        }
+        check_outputs(
+            output_files(
+                out, sweep=sweep, against=config.against, plots=config.plots, report=config.report
+            )
+        )
     cfg = config.planner
     settings = expand_settings(
         cfg,
@@ -159,6 +196,20 @@ def evaluate(
         paired = _paired(ev, config.against)
         return EvaluationResult(ev.results, ev.summary, paired, prep.days, [], None)
     return _evaluate_into(out, prep, config, progress)
+
+
+def check_out(out: Path) -> None:
+    """--out must be a folder this user can write (or create), found out before anything
+    runs and without writing anything."""
+    if out.exists() and not out.is_dir():
+        raise InputError("--out must be a folder; this is a file", file=out)
+    probe = out.absolute()
+    while not probe.exists():  # the nearest existing folder must let us create the rest
+        probe = probe.parent
+    if not probe.is_dir():
+        raise InputError(f"--out cannot be created: {probe} is a file", file=out)
+    if not os.access(probe, os.W_OK | os.X_OK):
+        raise InputError(f"--out is not writable ({probe})", file=out)
 
 
 def default_methods(

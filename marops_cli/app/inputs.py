@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 from collections.abc import Iterable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TypeAlias
@@ -18,8 +19,9 @@ with the export's columns."""
 
 
 def in_memory(data: Any) -> bool:
-    """Whether ``data`` is a table in memory rather than a file's path."""
-    return not isinstance(data, str | Path)
+    """Whether ``data`` is a table in memory rather than a file's path (a ``str`` or
+    any ``os.PathLike``)."""
+    return not isinstance(data, str | os.PathLike)
 
 
 def data_name(data: Any) -> str:

@@ -9,6 +9,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from ..config import PlannerConfig
+from ..errors import InputError
 from .inputs import Data, check_format, data_name, in_memory, read_data
 from .messages import day_scope, drop_report
 from .progress import SILENT, Progress
@@ -48,6 +49,17 @@ class PlannedWindow:
     def objective(self) -> dict[str, Any] | None:
         """The window objective (docs/method.md §4.2), or None."""
         return self.meta["objective"]
+
+
+def check_out(out: str | Path, fmt: str) -> None:
+    """``--out`` is the folder of the route files, not a file nor a file's name."""
+    out = Path(out)
+    if out.suffix in (".parquet", ".json"):
+        raise InputError(
+            f"--out is a folder (it gets stops.{fmt} and routes.{fmt}), not a file: {out.name}"
+        )
+    if out.exists() and not out.is_dir():
+        raise InputError("--out must be a folder; this is a file", file=out)
 
 
 def plan_window(
@@ -91,6 +103,7 @@ def plan_window(
     check_format(fmt)
     check_report(report and out is not None)
     if out is not None:  # before any work: an input or a file marops did not write
+        check_out(out, fmt)
         check_outputs(route_file_paths(Path(out), fmt, geojson))
     pol = method_policy(
         method, cfg.sim.policy, cfg.sim.seed, trust=cfg.sim.trust_actor, ops=cfg.ops

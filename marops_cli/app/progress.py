@@ -7,7 +7,10 @@ rest; a notebook may pass its own object with the same five methods.
 
 from __future__ import annotations
 
+import os
+import sys
 import warnings
+from types import FrameType
 from typing import Protocol, runtime_checkable
 
 __all__ = ["SILENT", "Progress", "Silent"]
@@ -42,7 +45,8 @@ class Silent:
         return None
 
     def warning(self, text: str) -> None:
-        warnings.warn(text, stacklevel=2)
+        # Said at the caller's line (``day = api.replay_day(...)``), not inside marops.
+        warnings.warn(text, stacklevel=_caller_level())
 
     def start(self, label: str, total: int, unit: str) -> None:
         return None
@@ -52,6 +56,16 @@ class Silent:
 
     def finish(self) -> None:
         return None
+
+
+def _caller_level() -> int:
+    """The ``stacklevel`` of the first frame outside the package (for ``warning``)."""
+    package = os.path.dirname(os.path.dirname(os.path.abspath(__file__))) + os.sep
+    frame: FrameType | None = sys._getframe(2)
+    level = 2
+    while frame is not None and os.path.abspath(frame.f_code.co_filename).startswith(package):
+        frame, level = frame.f_back, level + 1
+    return level
 
 
 SILENT: Progress = Silent()

@@ -135,10 +135,15 @@ def make_area(
         scn, run.method, run.pol.identity, depots, run.fmt, drones.describe(cfg.energy)
     )
     area = Area(scn, drones, out, days, several, ident, {}, label)
+    # The files asked for too: a day kept without the map or figures asked for now is
+    # replayed to write them, not kept without a word.
+    asked = (
+        DAY_FILES + ("routes.geojson",) * run.geojson + ("routes.png", "operations.png") * run.plot
+    )
     for day in days:
         folder = area.folder(day)
         # A day is done when all its files are there: one lost since is replayed.
-        if folder is not None and all((folder / f).is_file() for f in DAY_FILES) and not run.force:
+        if folder is not None and all((folder / f).is_file() for f in asked) and not run.force:
             area.keep[day] = matching_days(folder / "metrics.json", ident, day, TOTALLED)
     return area
 

@@ -59,6 +59,18 @@ class HubTiling:
         return hubs_doc(self.hubs, self.total, self.meta)
 
 
+def check_json_out(out: str | Path, what: str) -> None:
+    """``--out`` names the ``what`` file (``depots.json``): a ``.json`` name, not a folder
+    (``--out .``) nor a file of another kind."""
+    out = Path(out)
+    if out.suffix == ".json" and not out.is_dir():
+        return
+    this = f"a {out.suffix} file" if out.suffix else "a name without .json"
+    if out.is_dir():
+        this = "a folder"
+    raise InputError(f"--out names the {what} file, e.g. {what}.json; this is {this}", file=out)
+
+
 def history_days(days: str | list[dt.date] | None, year: int) -> list[dt.date] | None:
     """``days`` as dates (``"0801..0810"``, ``"801,802"`` or dates); None for all."""
     from ..data.dates import parse_days
@@ -81,10 +93,11 @@ def segment(
     """Depots for the requests of ``days`` (all days when None); with ``out`` (the
     depots file) write it, and beside it the areas as GeoJSON and a PNG map when asked."""
     from ..segment import areas_geojson
-    from ..segment.plot import plot_depots
     from ..segment.run import segment_table
 
     register_inputs([data])  # never an output
+    if out is not None:
+        check_json_out(out, "depots")
     day_list = history_days(days, cfg.data.year)
     progress.start("segmenting…", 0, "")  # no steps to count: a spinner on a terminal
     try:
@@ -113,7 +126,9 @@ def segment(
         files.write_json(path, done.doc())
         if geojson:
             files.write_json(gj_path, areas_geojson(res.depots, meta))
-        if plot:
+        if plot:  # matplotlib loads only to draw (its first import writes its font cache)
+            from ..segment.plot import plot_depots
+
             title = (
                 f"{cfg.segment.method}: {len(res.depots)} depots, "
                 f"{res.history_xy.shape[0]:,} history requests, {len(res.days)} days"
@@ -153,6 +168,8 @@ def segment_hubs(
     register_inputs([data])  # never an output
 
     n_hubs = hub_count(hubs)
+    if out is not None:
+        check_json_out(out, "hubs")
     if cfg.data.center is not None:
         raise InputError("--hubs places the study areas itself: drop [data] center")
     day_list = history_days(days, cfg.data.year)

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated
 
@@ -123,23 +122,24 @@ def evaluate_command(
     """Compare methods on held-out days (paper Table III); sweep flags given several values."""
     data = begin(data, quiet=quiet, as_json=as_json, force=force)
     # The library (pyarrow, matplotlib, the planner) loads here, so `marops --help` stays fast.
-    from ..app.evaluate import EvaluateConfig, actor_paths, method_list, sweep_fields
+    from ..app.evaluate import (
+        EvaluateConfig,
+        actor_paths,
+        check_out,
+        method_list,
+        output_files,
+        sweep_fields,
+    )
     from ..app.evaluate import evaluate as run_evaluation
 
-    _check_out(out)  # before any computing
+    check_out(out)  # before any computing
     if scheduler is not None:
         from ..workers.cluster import require_distributed
 
         require_distributed()
     sweep = sweep_fields(alpha, drones, coverage, n_depots)
-    # The files this run writes, and only those: a paired.csv of one's own stays put
-    # without --against, as a figure does with --no-plot (evaluate/report.py names them).
-    swept = [f"{flag}.png" for flag, values in sweep.items() if values and len(values) > 1]
-    figures = [*swept, "unfairness.png", "actions.png"] if plots else []
     protect_inputs(
-        [out / n for n in ("results.parquet", "summary.csv", "summary.md", *figures)]
-        + [out / "paired.csv"] * (against is not None)
-        + [out / "report.html"] * report,
+        output_files(out, sweep=sweep, against=against, plots=plots, report=report),
         [data, config, policy, mappo_policy, hubs],
     )
     cfg = planner_config(config, year=year, strict=strict, seed=seed, trust_actor=trust_actor)
@@ -231,20 +231,6 @@ def _print_paired(paired: pa.Table, summary: pa.Table, n_days: int) -> None:
             verdict(r),
         )
     show_table(t, keys=3)
-
-
-def _check_out(out: Path) -> None:
-    """--out must be a folder this user can write (or create), found out before anything
-    runs and without writing anything."""
-    if out.exists() and not out.is_dir():
-        raise InputError("--out must be a folder; this is a file", file=out)
-    probe = out.absolute()
-    while not probe.exists():  # the nearest existing folder must let us create the rest
-        probe = probe.parent
-    if not probe.is_dir():
-        raise InputError(f"--out cannot be created: {probe} is a file", file=out)
-    if not os.access(probe, os.W_OK | os.X_OK):
-        raise InputError(f"--out is not writable ({probe})", file=out)
 
 
 def _print_tables(summary: pa.Table) -> None:

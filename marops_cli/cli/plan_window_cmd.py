@@ -8,7 +8,6 @@ from typing import TYPE_CHECKING, Annotated, Any
 import typer
 
 from ..app.options import planner_config
-from ..errors import InputError
 from . import options as o
 from .common import (
     STATE,
@@ -69,15 +68,11 @@ def plan_window_command(
     """Plan one time window: flight ranges, candidate plans, optimal plan selection."""
     data = begin(data, quiet=quiet, as_json=as_json, force=force)
     from ..app.inputs import check_format
+    from ..app.plan_window import check_out
     from ..app.plan_window import plan_window as plan
     from ..data.dates import parse_day
 
-    if out.suffix in (".parquet", ".json"):
-        raise InputError(
-            f"--out is a folder (it gets stops.{fmt} and routes.{fmt}), not a file: {out.name}"
-        )
-    if out.exists() and not out.is_dir():
-        raise InputError("--out must be a folder; this is a file", file=out)
+    check_out(out, fmt)
     check_format(fmt)
     protect_inputs(
         [out / f"stops.{fmt}", out / f"routes.{fmt}"]

@@ -8,7 +8,6 @@ from typing import TYPE_CHECKING, Annotated
 import typer
 
 from ..app.options import planner_config
-from ..errors import InputError
 from . import options as o
 from .common import (
     STATE,
@@ -91,12 +90,13 @@ def segment_command(
     """Cluster a LaDe export into depots and service areas (k-means or squares), or tile
     a city into hubs (--hubs)."""
     data = begin(data, quiet=quiet, as_json=as_json, force=force)
+    from ..app.segment import check_json_out
     from ..app.segment import segment as segment_data
 
     if hubs is not None:
         _segment_hubs(data, out, hubs, size_km, dates, year, strict, config)
         return
-    _check_json_out(out, "depots")
+    check_json_out(out, "depots")
     gj_path, png_path = out.with_suffix(".geojson"), out.with_suffix(".png")
     protect_inputs([out, *[gj_path] * geojson, *[png_path] * plot], [data, config])
     cfg = planner_config(
@@ -152,10 +152,10 @@ def _segment_hubs(  # type: ignore[no-untyped-def]
     data: Path, out: Path, hubs: str, size_km, dates, year, strict, config
 ) -> None:
     """``segment --hubs``: hub squares over the city, densest first, into a hubs file."""
-    from ..app.segment import hub_count, segment_hubs
+    from ..app.segment import check_json_out, hub_count, segment_hubs
 
     hub_count(hubs)  # a bad --hubs is the first error
-    _check_json_out(out, "hubs")
+    check_json_out(out, "hubs")
     protect_inputs([out], [data, config])
     cfg = planner_config(config, year=year, size_km=size_km, strict=strict)
     res = segment_hubs(data, cfg, hubs, days=dates, out=out, progress=Terminal())
@@ -186,14 +186,3 @@ def _segment_hubs(  # type: ignore[no-untyped-def]
                 "covered_share": held / total if total else 0.0,
             }
         )
-
-
-def _check_json_out(out: Path, what: str) -> None:
-    """``--out`` names the ``what`` file (``depots.json``): a ``.json`` name, not a folder
-    (``--out .``) nor a file of another kind."""
-    if out.suffix == ".json" and not out.is_dir():
-        return
-    this = f"a {out.suffix} file" if out.suffix else "a name without .json"
-    if out.is_dir():
-        this = "a folder"
-    raise InputError(f"--out names the {what} file, e.g. {what}.json; this is {this}", file=out)

@@ -34,6 +34,7 @@ import stat
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pyarrow as pa
@@ -479,20 +480,22 @@ def read_lade_table(data: object, cfg: DataConfig | None = None) -> LadeTable:
     checks, drops and errors, which name ``DataFrame`` (or ``Table``) where they would
     name the file. Its identity (``input`` in the metadata) is the SHA-256 of its
     columns in Arrow's stream format. Rows are numbered as in a file: the first row
-    is row 2."""
+    is row 2; an error in a DataFrame's row names its index label too."""
     cfg = cfg if cfg is not None else DataConfig()
     if isinstance(data, pa.Table):
         where, table = IN_MEMORY[1], data
-    elif type(data).__name__ == "DataFrame" and hasattr(data, "columns"):
+    elif type(data).__name__ == "DataFrame" and hasattr(data, "iloc"):  # pandas
         where = IN_MEMORY[0]
-        try:
-            table = pa.Table.from_pandas(data, preserve_index=False)
-        except (pa.ArrowException, TypeError, ValueError) as exc:
-            raise InputError(f"cannot read the columns ({exc})", file=where) from exc
+        table = _frame_table(data, where)
     else:
+        kind = type(data)
+        name = (
+            kind.__name__
+            if kind.__module__ == "builtins"
+            else f"{kind.__module__}.{kind.__qualname__}"
+        )
         raise InputError(
-            f"expected a LaDe file path, a pandas DataFrame or a pyarrow Table, got "
-            f"{type(data).__name__}"
+            f"expected a LaDe file path, a pandas DataFrame or a pyarrow Table, got {name}"
         )
     include = _check_columns([str(n) for n in table.column_names], Path(where))
     table = table.select(include)
@@ -507,7 +510,39 @@ def read_lade_table(data: object, cfg: DataConfig | None = None) -> LadeTable:
     def source() -> SourceInfo:
         return SourceInfo(path=where, name=where, size=buf.size, sha256=sha)
 
-    return _lade_table(table, where, cfg, source)
+    try:
+        return _lade_table(table, where, cfg, source)
+    except InputError as exc:  # a frame's row is found by its index label: say it too
+        index = getattr(data, "index", None) if where == IN_MEMORY[0] else None
+        if type(exc) is not InputError or index is None or exc.row is None:
+            raise
+        if not 2 <= exc.row < len(index) + 2:
+            raise
+        label = index[exc.row - 2]
+        shown = repr(label) if isinstance(label, str) else str(label)
+        message = f"{exc.message} (the frame's index {shown})"
+        raise InputError(message, file=exc.file, row=exc.row, column=exc.column) from None
+
+
+def _frame_table(frame: Any, where: str) -> pa.Table:
+    """The LaDe columns of a pandas DataFrame as a table: the other columns are not
+    read (as a file's are not), and a column of mixed cells (numbers and words, as
+    frames joined together hold) is read as its text, as a file's cells are."""
+    names = [str(n) for n in frame.columns]
+    include = _check_columns(names, Path(where))
+    columns = {}
+    for name in include:
+        col = frame.iloc[:, names.index(name)]
+        try:
+            columns[name] = pa.Array.from_pandas(col)
+        except (pa.ArrowException, TypeError, ValueError) as exc:
+            if col.dtype != object:
+                msg = f"cannot read the column ({exc})"
+                raise InputError(msg, file=where, column=name) from exc
+            text = col.astype(str).to_numpy(dtype=object)
+            text[col.isna().to_numpy(dtype=bool)] = None
+            columns[name] = pa.array(text, type=pa.string())
+    return pa.table(columns)
 
 
 def _lade_table(

@@ -5,11 +5,8 @@ from __future__ import annotations
 import io
 from typing import Any
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+import numpy as np
+from matplotlib.figure import Figure  # the object API: no pyplot state, no backend chosen
 
 
 def curve_png(sidecar: dict[str, Any]) -> bytes:
@@ -17,7 +14,8 @@ def curve_png(sidecar: dict[str, Any]) -> bytes:
     cost (docs/method.md §8) of the actor and the baselines at every evaluation (right),
     from the sidecar's ``learning_curve`` and ``evaluations``; the exported evaluation is
     marked."""
-    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(10, 3.8), dpi=100)
+    fig = Figure(figsize=(10, 3.8), dpi=100)
+    ax1, ax2 = fig.subplots(1, 2)
     lc = sidecar.get("learning_curve") or []
     if lc:
         x = [p["episode"] for p in lc]
@@ -45,5 +43,4 @@ def curve_png(sidecar: dict[str, Any]) -> bytes:
     fig.tight_layout()
     buf = io.BytesIO()
     fig.savefig(buf, format="png", metadata={"Software": None})
-    plt.close(fig)
     return buf.getvalue()

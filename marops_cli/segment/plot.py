@@ -5,15 +5,12 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-import matplotlib
+import numpy as np
+from matplotlib.axes import Axes
+from matplotlib.figure import Figure  # the object API: no pyplot state, no backend chosen
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from matplotlib.axes import Axes  # noqa: E402
-
-from .areas import area_polygons  # noqa: E402
-from .depots import Depots  # noqa: E402
+from .areas import area_polygons
+from .depots import Depots
 
 # Depots: black squares, apart from every colour the maps use for data (the blue
 # customers here, the green-to-red delay scale and the drones' colours of routes.png).
@@ -46,7 +43,8 @@ def draw_areas(ax: Axes, depots: Depots, *, labels: bool = True) -> None:
 
 def plot_depots(depots: Depots, customers_xy: np.ndarray, path: str | Path, title: str) -> None:
     """Write a PNG map of history customers, depots and service areas."""
-    fig, ax = plt.subplots(figsize=(7, 7), dpi=110)
+    fig = Figure(figsize=(7, 7), dpi=110)
+    ax = fig.subplots()
     if customers_xy.size:
         pts = customers_xy
         if pts.shape[0] > 40_000:  # thin the cloud deterministically; the map looks the same
@@ -56,4 +54,3 @@ def plot_depots(depots: Depots, customers_xy: np.ndarray, path: str | Path, titl
     ax.set_title(title, fontsize=10)
     fig.tight_layout()
     fig.savefig(path, format="png")
-    plt.close(fig)

@@ -8,18 +8,14 @@ import math
 from pathlib import Path
 from typing import Any
 
-import matplotlib
+import numpy as np
+from matplotlib.figure import Figure  # the object API: no pyplot state, no backend chosen
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from matplotlib.figure import Figure  # noqa: E402
-
-from ..data.table import DayRequests  # noqa: E402
-from ..plans.ranges import delays_h  # noqa: E402
-from ..segment.plot import draw_areas  # noqa: E402
-from .ops import BUSY, WAITING  # noqa: E402
-from .replay import FlownDay  # noqa: E402
+from ..data.table import DayRequests
+from ..plans.ranges import delays_h
+from ..segment.plot import draw_areas
+from .ops import BUSY, WAITING
+from .replay import FlownDay
 
 # The delay scale: green (on time) to red (late); depots and drones keep clear of it.
 DELAY_CMAP = "RdYlGn_r"
@@ -40,7 +36,6 @@ def plot_day(res: FlownDay, reqs: DayRequests, path: str | Path) -> None:
     """Write :func:`day_figure` as a PNG."""
     fig = day_figure(res, reqs)
     fig.savefig(path, format="png")
-    plt.close(fig)
 
 
 def day_figure(res: FlownDay, reqs: DayRequests) -> Figure:
@@ -51,16 +46,8 @@ def day_figure(res: FlownDay, reqs: DayRequests) -> Figure:
     n = len(res.plans)
     cols = math.ceil(math.sqrt(n))
     rows = math.ceil(n / cols)
-    fig, axes = plt.subplots(
-        rows,
-        cols,
-        figsize=(3.2 * cols + 1.0, 3.2 * rows + 0.8),
-        dpi=90,
-        squeeze=False,
-        sharex=True,
-        sharey=True,
-        constrained_layout=True,
-    )
+    fig = Figure(figsize=(3.2 * cols + 1.0, 3.2 * rows + 0.8), dpi=90, constrained_layout=True)
+    axes = fig.subplots(rows, cols, squeeze=False, sharex=True, sharey=True)
     vmax = max(1.0, float(reqs.n_windows * reqs.window_hours) / 2)
     span = dt.timedelta(hours=reqs.window_hours)
     sc = None
@@ -158,15 +145,12 @@ def plot_operations(res: FlownDay, reqs: DayRequests, path: str | Path) -> None:
     waiting = st.waiting_w
     n_w, n_dep = waiting.shape
     ops = st.ops
-    fig, (top, bottom) = plt.subplots(
-        2,
-        1,
+    fig = Figure(
         figsize=(max(6.0, 0.35 * n_w + 2.5), 3.0 + 0.18 * n_dep + 2.6),
         dpi=90,
-        sharex=True,
-        height_ratios=[max(2.0, 0.18 * n_dep + 1.0), 2.0],
         constrained_layout=True,
     )
+    top, bottom = fig.subplots(2, 1, sharex=True, height_ratios=[max(2.0, 0.18 * n_dep + 1.0), 2.0])
     im = top.imshow(
         waiting.T,
         aspect="auto",
@@ -207,4 +191,3 @@ def plot_operations(res: FlownDay, reqs: DayRequests, path: str | Path) -> None:
         f"{reqs.day.isoformat()} — {res.method}, {res.n_drones} drones: operations", fontsize=11
     )
     fig.savefig(path, format="png")
-    plt.close(fig)

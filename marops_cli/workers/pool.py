@@ -17,6 +17,7 @@ import sys
 from collections.abc import Iterable, Iterator, Sequence
 from typing import Any
 
+from ..errors import RunError
 from .threads import one_thread
 from .work import Job, Outcome, Work, run_safe
 
@@ -45,12 +46,25 @@ def _context() -> Any:
 
 _server_started = False
 
+_MAIN_GUARD = (
+    "a worker imports the script that started it, so a script runs marops under "
+    '`if __name__ == "__main__":` (or with one worker)'
+)
+
+
+def _not_in_a_starting_worker() -> None:
+    """A worker importing the main script as it starts (as Python's multiprocessing
+    does), asked there for workers of its own, stops with the reason."""
+    if getattr(mp.current_process(), "_inheriting", False):
+        raise RunError(f"a worker process was asked for workers: {_MAIN_GUARD}")
+
 
 def warm_up(modules: Sequence[str]) -> None:
     """Start the fork server now, importing ``modules`` (a work's :attr:`~.work.Work.preload`),
     so its imports overlap with the parent's own work; later pools fork from it. Harmless
     where there is none, or when it runs already."""
     global _server_started
+    _not_in_a_starting_worker()
     ctx = _context()
     if ctx.get_start_method() != "forkserver" or _server_started:
         return
@@ -91,8 +105,14 @@ class LocalPool:
         if workers <= 1:
             _init(work)
             return
+        _not_in_a_starting_worker()
         warm_up(work.preload)
-        self._pool = _context().Pool(workers, initializer=_init, initargs=(work,))
+        try:
+            self._pool = _context().Pool(workers, initializer=_init, initargs=(work,))
+        except (BrokenPipeError, EOFError, ConnectionResetError) as exc:
+            raise RunError(
+                f"the worker processes stopped as they started ({exc}): {_MAIN_GUARD}"
+            ) from exc
 
     def outcomes(self, jobs: Iterable[Job]) -> Iterator[Outcome]:
         """The outcomes of ``jobs`` as they finish."""

@@ -345,3 +345,29 @@ def test_outputs_record_the_weights_that_ran(tmp_path: Path) -> None:
     }
     weights_path(path).unlink()  # a TorchScript-only actor: its file is what runs
     assert "weights_sha256" not in run_meta(command="x", policy=path)["policy"]
+
+
+def test_the_api_trusts_an_actor_file_as_the_flag_does(
+    example_csv: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # The API's keywords are the commands' flags: trust_actor=True is --trust-actor.
+    from marops_cli import api
+
+    path, _ = _valid(tmp_path)
+    weights_path(path).unlink()  # TorchScript and sidecar only
+    monkeypatch.setenv("XDG_DATA_HOME", str(tmp_path / "elsewhere"))
+    paper = example_csv.parent / "paper.toml"
+    day = {"method": "marops", "policy": str(path), "config": paper}
+    with pytest.raises(InputError, match="--trust-actor"):
+        api.replay_day(example_csv, "0811", **day)
+    assert api.replay_day(example_csv, "0811", trust_actor=True, **day).metrics["delivered"] > 0
+    run = {"methods": "marops", "dates": "0811", "policy": path, "config": paper, "workers": 1}
+    with pytest.raises(InputError, match="--trust-actor"):
+        api.evaluate(example_csv, **run)
+    assert api.evaluate(example_csv, trust_actor=True, **run).results.num_rows == 1
+    depots = tmp_path / "depots.json"
+    api.segment(example_csv, out=depots, dates="0801..0810")
+    window = {"method": "marops", "policy": str(path), "config": paper}
+    with pytest.raises(InputError, match="--trust-actor"):
+        api.plan_window(example_csv, depots, "0811", 5, **window)
+    assert api.plan_window(example_csv, depots, "0811", 5, trust_actor=True, **window).metrics
