@@ -333,6 +333,16 @@ def _first(mask: np.ndarray) -> int | None:
     return int(idx[0]) if idx.size else None
 
 
+def _shown(column: pa.ChunkedArray, i: int) -> str:
+    """Cell ``i`` as it reads in a message (its Python repr); a time or date Python
+    cannot hold (beyond the year 9999) as its stored count and type."""
+    cell = column[i]
+    try:
+        return repr(cell.as_py())
+    except (OverflowError, ValueError):
+        return f"{getattr(cell, 'value', cell)} ({cell.type}), outside the years 1-9999"
+
+
 def _check_errors(table: pa.Table, path: Path, cfg: DataConfig) -> dict[str, np.ndarray]:
     """Parse times, ds and weights; raise at the first cell that is an error, not a drop."""
     out: dict[str, np.ndarray] = {}
@@ -341,8 +351,8 @@ def _check_errors(table: pa.Table, path: Path, cfg: DataConfig) -> dict[str, np.
         secs, status = parse_times(table[name], cfg.year, cfg.tz)
         out[name], out[name + "_status"] = secs, status
         if (i := _first(status == TIME_BAD)) is not None:
-            value = table[name][i].as_py()
-            msg = f"expected a time MM-DD HH:MM:SS or YYYY-MM-DD HH:MM:SS, got {value!r}"
+            value = _shown(table[name], i)
+            msg = f"expected a time MM-DD HH:MM:SS or YYYY-MM-DD HH:MM:SS, got {value}"
             bad.append((i, name, msg))
     has_ds = "ds" in table.column_names
     # An empty ds is harmless (the day comes from delivery_time); a malformed one is not.
@@ -355,8 +365,8 @@ def _check_errors(table: pa.Table, path: Path, cfg: DataConfig) -> dict[str, np.
         else None
     )
     if ds_bad is not None and (i := _first(ds_bad)) is not None:
-        value = table["ds"][i].as_py()
-        bad.append((i, "ds", f"expected a date MMDD in {cfg.year}, got {value!r}"))
+        value = _shown(table["ds"], i)
+        bad.append((i, "ds", f"expected a date MMDD in {cfg.year}, got {value}"))
     oid = table["order_id"]
     empty_id = pc.fill_null(pc.equal(pc.utf8_length(oid.cast(pa.string())), 0), True)
     if (i := _first(empty_id.to_numpy(zero_copy_only=False))) is not None:

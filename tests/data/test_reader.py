@@ -396,6 +396,29 @@ def test_parquet_times_with_fractions_of_a_second_read_as_whole_seconds(tmp_path
         np.testing.assert_array_equal(got.delivery_s, plain.delivery_s)
 
 
+def test_parquet_times_beyond_the_year_9999_are_one_error_naming_the_cell(
+    tmp_path: Path,
+) -> None:
+    """A Parquet time or date no calendar date holds (a timestamp past the year 9999, a
+    ``ds`` date32 of 2**31 - 1 days) is one error naming its row and column, with its stored
+    count in the message: no traceback from the check, nor later from the day list."""
+    t = pq.read_table(_as_parquet(tmp_path, "d.parquet"))
+    ms = sec("2022-08-20T08:00:00") * 1000
+    day = sec("2022-08-20T00:00:00") // 86_400
+    cases = (
+        ("delivery_time", pa.array([ms, 2**60, ms]).cast(pa.timestamp("ms"))),
+        ("accept_time", pa.array([ms, -(2**60), ms]).cast(pa.timestamp("ms"))),
+        ("delivery_time", pa.array([ms, 2**60, ms]).cast(pa.timestamp("ms", "UTC"))),
+        ("ds", pa.array([day, 2**31 - 1, day], pa.int32()).cast(pa.date32())),
+    )
+    for name, column in cases:
+        bad = t.set_column(t.schema.get_field_index(name), name, column)
+        pq.write_table(bad, tmp_path / "far.parquet")
+        with pytest.raises(InputError, match="outside the years 1-9999") as err:
+            read_lade(tmp_path / "far.parquet", DataConfig())
+        assert (err.value.row, err.value.column) == (3, name)
+
+
 def test_parquet_text_that_is_not_utf8_names_its_row_and_column(tmp_path: Path) -> None:
     """pyarrow reads Parquet strings without checking them: bytes that are not UTF-8 in
     a text column are one error naming the row and column, as in a CSV."""
