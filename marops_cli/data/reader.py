@@ -146,13 +146,28 @@ def _csv_header(path: Path, compression: str | None) -> list[str]:
     return names
 
 
+_SEPARATORS = {";": "semicolons", "\t": "tabs", "|": "bars"}
+
+
+def _separator_hint(names: list[str], name: str) -> str:
+    """``; the header is separated by semicolons, ...`` when the header is one column
+    that holds ``name`` between semicolons (tabs, bars): a CSV saved with another
+    separator, which the error would otherwise call no LaDe file at all."""
+    if len(names) != 1:
+        return ""
+    for sep, word in _SEPARATORS.items():
+        if name in (part.strip().strip('"') for part in names[0].split(sep)):
+            return f"; the header is separated by {word}, not commas: save it as comma-separated"
+    return ""
+
+
 def _check_columns(names: list[str], path: Path) -> list[str]:
     """The columns to load; raises for a missing required column or one named twice."""
     for name in REQUIRED_COLUMNS:
         if name not in names:
             raise InputError(
                 f"missing required column '{name}': not a LaDe delivery file "
-                f"(expected columns {', '.join(REQUIRED_COLUMNS)})",
+                f"(expected columns {', '.join(REQUIRED_COLUMNS)}){_separator_hint(names, name)}",
                 file=path,
                 row=1,
                 column=name,

@@ -162,6 +162,19 @@ def test_missing_column(tmp_path: Path) -> None:
     assert "nodlv.csv" in str(e) and "row 1" in str(e) and "'delivery_time'" in str(e)
 
 
+@pytest.mark.parametrize("sep, word", [(";", "semicolons"), ("\t", "tabs"), ("|", "bars")])
+def test_a_csv_with_another_separator_is_named_as_such(tmp_path: Path, sep: str, word: str) -> None:
+    """A spreadsheet's semicolon (tab, bar) separated export has every column, in one
+    header cell: the missing-column error says which separator it found."""
+    path = write_csv(tmp_path / "semi.csv", CLEAN)
+    path.write_text(path.read_text(encoding="utf-8").replace(",", sep), encoding="utf-8")
+    with pytest.raises(InputError, match=f"the header is separated by {word}, not commas"):
+        read_lade(path, DataConfig())
+    with pytest.raises(InputError) as err:  # a file that is no LaDe export gets no hint
+        read_lade(write_csv(tmp_path / "other.csv", [], ["a;b"]), DataConfig())
+    assert "separated" not in str(err.value)
+
+
 def test_extra_columns_and_any_order(tmp_path: Path) -> None:
     cols = ["note", *reversed(LADE_COLUMNS)]
     rows = [dict(r, note="x,y") for r in CLEAN]  # an extra column with a comma
