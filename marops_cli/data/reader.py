@@ -95,6 +95,8 @@ def _sniff(path: Path) -> tuple[str, str | None]:
         raise InputError("not a Parquet file (no PAR1 magic bytes)", file=path)
     if head[:2] == b"\x1f\x8b":
         return "csv", "gzip"
+    if (wide := _wide_text(head)) is not None:
+        raise InputError(f"{wide} text, not UTF-8 (save the file as UTF-8)", file=path)
     if b"\x00" in head:
         raise InputError("not a CSV or Parquet file", file=path)
     try:
@@ -104,6 +106,21 @@ def _sniff(path: Path) -> tuple[str, str | None]:
         if exc.start < len(head) - 4:
             raise _not_utf8(head, exc.start, path) from exc
     return "csv", None
+
+
+def _wide_text(head: bytes) -> str | None:
+    """``UTF-16`` (``UTF-32``) when a file's first bytes are text in it (spreadsheets'
+    "Unicode text"): a byte-order mark, or ASCII with a zero byte beside every
+    character; else None."""
+    if head[:4] in (b"\xff\xfe\x00\x00", b"\x00\x00\xfe\xff"):
+        return "UTF-32"
+    if head[:2] in (b"\xff\xfe", b"\xfe\xff"):
+        return "UTF-16"
+    sample = head[: min(64, len(head) // 2 * 2)]
+    even, odd = sample[0::2], sample[1::2]
+    if len(sample) >= 8 and ((not any(odd) and all(even)) or (not any(even) and all(odd))):
+        return "UTF-16"
+    return None
 
 
 def _not_utf8(head: bytes, at: int, path: Path) -> InputError:

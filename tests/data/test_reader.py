@@ -175,6 +175,23 @@ def test_a_csv_with_another_separator_is_named_as_such(tmp_path: Path, sep: str,
     assert "separated" not in str(err.value)
 
 
+@pytest.mark.parametrize(
+    "encoding, name",
+    [("utf-16", "UTF-16"), ("utf-16-le", "UTF-16"), ("utf-16-be", "UTF-16"), ("utf-32", "UTF-32")],
+)
+def test_a_csv_in_utf16_is_named_as_such(tmp_path: Path, encoding: str, name: str) -> None:
+    """A spreadsheet's "Unicode text" export (UTF-16, with or without a byte-order mark)
+    is told apart from a binary file: the error names its encoding."""
+    text = write_csv(tmp_path / "u.csv", CLEAN).read_text(encoding="utf-8")
+    path = tmp_path / "wide.csv"
+    path.write_bytes(text.encode(encoding))
+    with pytest.raises(InputError, match=f"wide.csv: {name} text, not UTF-8"):
+        read_lade(path, DataConfig())
+    path.write_bytes(bytes(range(256)) * 4)  # binary stays binary
+    with pytest.raises(InputError, match="not a CSV or Parquet file"):
+        read_lade(path, DataConfig())
+
+
 def test_extra_columns_and_any_order(tmp_path: Path) -> None:
     cols = ["note", *reversed(LADE_COLUMNS)]
     rows = [dict(r, note="x,y") for r in CLEAN]  # an extra column with a comma
