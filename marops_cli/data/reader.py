@@ -222,9 +222,14 @@ def _read_csv(path: Path, compression: str | None) -> pa.Table:
             return pacsv.read_csv(f, read_options=opts, convert_options=convert)
 
     try:
-        table = read(threads=True)
-    except pa.ArrowInvalid as exc:
-        raise _csv_error(exc, path, names, compression, lambda: read(threads=False)) from exc
+        try:
+            table = read(threads=True)
+        except pa.ArrowInvalid as exc:
+            raise _csv_error(exc, path, names, compression, lambda: read(threads=False)) from exc
+    except OSError as exc:  # a gzip stream damaged or cut short past its first megabyte
+        why = " ".join(str(exc).split())
+        what = "not a valid gzip file" if compression == "gzip" else "cannot read the file"
+        raise InputError(f"{what} ({why})", file=path) from exc
     if table.num_rows == 0:
         raise InputError("the file has a header but no data rows", file=path, row=2)
     return table

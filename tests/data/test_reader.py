@@ -510,6 +510,25 @@ def test_gzip_csv(tmp_path: Path) -> None:
         np.testing.assert_array_equal(t.delivery_s, read_lade(plain, DataConfig()).delivery_s)
 
 
+def test_a_gzip_stream_damaged_past_its_first_megabyte_is_one_error(tmp_path: Path) -> None:
+    """The header is read from the first megabyte; damage further on (a stream cut
+    short, a flipped byte, bytes after its end) surfaced as zlib's OSError with exit 1
+    and no file named. It is now one error naming the file, exit 2."""
+    rows = [row(str(i)) for i in range(30_000)]  # about 2 MB of text
+    packed = gzip.compress(write_csv(tmp_path / "d.csv", rows).read_bytes())
+    flipped = bytearray(packed)
+    flipped[len(packed) // 2] ^= 0xFF
+    for name, data in (
+        ("cut.csv.gz", packed[: len(packed) * 3 // 4]),
+        ("flipped.csv.gz", bytes(flipped)),
+        ("trailing.csv.gz", packed + b"not gzip"),
+    ):
+        (tmp_path / name).write_bytes(data)
+        with pytest.raises(InputError, match=f"{name}: not a valid gzip file") as err:
+            read_lade(tmp_path / name, DataConfig())
+        assert err.value.exit_code == 2
+
+
 def test_weight_column(tmp_path: Path) -> None:
     cols = [*LADE_COLUMNS, "weight_kg"]
     rows = [dict(r, weight_kg=w) for r, w in zip(CLEAN, ["0.25", "1.5", "2"], strict=True)]
