@@ -306,9 +306,13 @@ def _check_column_types(table: pa.Table, path: Path) -> pa.Table:
     ``lng``, ``lat`` and ``weight_kg`` (a Parquet file's booleans or dates there would
     otherwise read as 0/1 or fail late), and text, a number or a time in the others (a
     list or a struct is no id or time). Binary columns (Parquet strings some writers
-    leave unannotated) become text, which must be UTF-8."""
+    leave unannotated) become text, which must be UTF-8; Arrow's view layouts of text and
+    binary (polars' ``to_arrow()`` gives them) are read as the plain ones."""
     for k, name in enumerate(table.column_names):
         t = table.schema.field(name).type
+        if pa.types.is_string_view(t) or pa.types.is_binary_view(t):
+            t = pa.string() if pa.types.is_string_view(t) else pa.binary()
+            table = table.set_column(k, name, table[name].cast(t))
         if pa.types.is_dictionary(t):  # a categorical column: judged by its values
             t = t.value_type
         numeric = (

@@ -449,6 +449,31 @@ def test_parquet_times_beyond_the_year_9999_are_one_error_naming_the_cell(
         assert (err.value.row, err.value.column) == (3, name)
 
 
+def test_text_in_arrow_view_layouts_reads_as_text(tmp_path: Path) -> None:
+    """string_view and binary_view columns (polars' to_arrow() writes them, and Parquet
+    files keep them) are text like string columns, in a file and in memory: they were
+    refused as "expected a column of text, numbers or times"."""
+    from marops_cli.data.reader import read_lade_table
+
+    path = _as_parquet(tmp_path, "d.parquet")
+    plain = read_lade(path, DataConfig())
+    t = pq.read_table(path)
+    views = {
+        "order_id": t["order_id"].cast(pa.string()).cast(pa.string_view()),
+        "accept_time": t["accept_time"].cast(pa.string_view()),
+        "delivery_time": t["delivery_time"].cast(pa.binary()).cast(pa.binary_view()),
+        "lat": t["lat"].cast(pa.string()).cast(pa.string_view()),
+    }
+    for name, column in views.items():
+        t = t.set_column(t.schema.get_field_index(name), name, column)
+    pq.write_table(t, tmp_path / "views.parquet")
+    for got in (read_lade(tmp_path / "views.parquet", DataConfig()), read_lade_table(t)):
+        np.testing.assert_array_equal(got.order_id, plain.order_id)
+        np.testing.assert_array_equal(got.accept_s, plain.accept_s)
+        np.testing.assert_array_equal(got.delivery_s, plain.delivery_s)
+        np.testing.assert_array_equal(got.lat, plain.lat)
+
+
 def test_parquet_text_that_is_not_utf8_names_its_row_and_column(tmp_path: Path) -> None:
     """pyarrow reads Parquet strings without checking them: bytes that are not UTF-8 in
     a text column are one error naming the row and column, as in a CSV."""
