@@ -315,6 +315,10 @@ def _check_column_types(table: pa.Table, path: Path) -> pa.Table:
             table = table.set_column(k, name, table[name].cast(t))
         if pa.types.is_dictionary(t):  # a categorical column: judged by its values
             t = t.value_type
+        binary = pa.types.is_binary(t) or pa.types.is_large_binary(t)
+        if binary:  # text, numbers in lng and lat included, once it is UTF-8
+            table = table.set_column(k, name, _utf8(table[name], path, name))
+            t = pa.string()
         numeric = (
             pa.types.is_integer(t)
             or pa.types.is_floating(t)
@@ -322,20 +326,17 @@ def _check_column_types(table: pa.Table, path: Path) -> pa.Table:
             or is_text(t)
             or pa.types.is_null(t)
         )
-        binary = pa.types.is_binary(t) or pa.types.is_large_binary(t)
         if name in _NUMBER_COLUMNS and not numeric:
             raise InputError(
                 f"expected a column of numbers, got a column of type {t}", file=path, column=name
             )
-        if not (numeric or binary or pa.types.is_timestamp(t) or pa.types.is_date(t)):
+        if not (numeric or pa.types.is_timestamp(t) or pa.types.is_date(t)):
             raise InputError(
                 f"expected a column of text, numbers or times, got a column of type {t}",
                 file=path,
                 column=name,
             )
-        if binary:
-            table = table.set_column(k, name, _utf8(table[name], path, name))
-        elif is_text(t) and not pa.types.is_dictionary(table.schema.field(name).type):
+        if not binary and is_text(t) and not pa.types.is_dictionary(table.schema.field(name).type):
             _check_utf8(table[name], path, name)
     return table
 

@@ -351,14 +351,18 @@ def test_parquet_equals_csv(tmp_path: Path, name: str) -> None:
 
 
 def test_a_parquet_column_of_numbers_holds_numbers_or_text(tmp_path: Path) -> None:
-    """Categorical (dictionary-encoded) text reads as the text; booleans are refused
-    naming the column, instead of reading as longitudes 0 and 1."""
+    """Categorical (dictionary-encoded) text and unannotated strings (binary) read as the
+    text; booleans are refused naming the column, instead of reading as longitudes 0 and 1."""
     path = _as_parquet(tmp_path, "d.parquet")
     t = pq.read_table(path)
     i = t.schema.get_field_index("lng")
     text = pa.array([str(v) for v in t["lng"].to_pylist()])
     pq.write_table(t.set_column(i, "lng", text.dictionary_encode()), tmp_path / "cat.parquet")
     got = read_lade(tmp_path / "cat.parquet", DataConfig())
+    np.testing.assert_array_equal(got.lng, read_lade(path, DataConfig()).lng)
+    # Unannotated strings (binary) are text here too, as in the id and time columns.
+    pq.write_table(t.set_column(i, "lng", text.cast(pa.binary())), tmp_path / "bin.parquet")
+    got = read_lade(tmp_path / "bin.parquet", DataConfig())
     np.testing.assert_array_equal(got.lng, read_lade(path, DataConfig()).lng)
     flags = pa.array([True] * t.num_rows)
     pq.write_table(t.set_column(i, "lng", flags), tmp_path / "flags.parquet")
