@@ -29,6 +29,7 @@ import csv
 import errno
 import hashlib
 import io
+import os
 import re
 import stat
 from collections.abc import Callable
@@ -142,10 +143,16 @@ def _not_utf8(head: bytes, at: int, path: Path) -> InputError:
     )
 
 
+def _stream(path: Path, compression: str | None) -> pa.NativeFile:
+    """The file as a pyarrow stream, opened by its bytes: pyarrow's own opening of a path
+    fails on a name that is not UTF-8 (an archive's GBK file names, say)."""
+    return pa.input_stream(pa.OSFile(os.fsencode(path)), compression=compression)
+
+
 def _csv_header(path: Path, compression: str | None) -> list[str]:
     """Column names from the first line of a CSV file."""
     try:
-        with pa.input_stream(str(path), compression=compression) as f:
+        with _stream(path, compression) as f:
             head = f.read(1 << 20)
     except (OSError, pa.ArrowException) as exc:
         raise InputError(f"cannot read the file ({exc})", file=path) from exc
@@ -218,7 +225,7 @@ def _read_csv(path: Path, compression: str | None) -> pa.Table:
         opts = pacsv.ReadOptions(
             column_names=names, skip_rows=1, block_size=_BLOCK_BYTES, use_threads=threads
         )
-        with pa.input_stream(str(path), compression=compression) as f:
+        with _stream(path, compression) as f:
             return pacsv.read_csv(f, read_options=opts, convert_options=convert)
 
     try:
@@ -261,7 +268,7 @@ def _csv_error(
 
 
 def _first_non_utf8_line(path: Path, compression: str | None) -> int | None:
-    with pa.input_stream(str(path), compression=compression) as f:
+    with _stream(path, compression) as f:
         for number, line in enumerate(io.BufferedReader(f), start=1):  # type: ignore[arg-type]
             try:
                 line.decode("utf-8")
@@ -272,7 +279,7 @@ def _first_non_utf8_line(path: Path, compression: str | None) -> int | None:
 
 def _read_parquet(path: Path) -> pa.Table:
     try:
-        pf = pq.ParquetFile(str(path))
+        pf = pq.ParquetFile(_stream(path, None))
         include = _check_columns(list(pf.schema_arrow.names), path)
         table = pf.read(columns=include)
     except (pa.ArrowException, OSError, UnicodeDecodeError) as exc:

@@ -176,3 +176,26 @@ def test_segment_of_a_file_whose_rows_are_all_dropped_says_why(
     data.write_text("\n".join([header, *rows]) + "\n", encoding="utf-8")
     args = ["segment", str(data), *extra, "--out", str(tmp_path / "out" / "d.json")]
     fails_cleanly(args, tmp_path, "swapped.csv: none of its 5 rows can be used (5 bad coordinates)")
+
+
+def test_segment_of_a_file_named_in_another_encoding_writes_its_name_escaped(
+    example_csv: Path, tmp_path: Path
+) -> None:
+    """depots.json records the input's name; a name that is not UTF-8 is written as JSON
+    escapes (\\udcc9...) that read back as the same name, not a UnicodeEncodeError."""
+    import json
+    import os
+
+    from typer.testing import CliRunner
+
+    from marops_cli.cli.app import app
+
+    name = os.fsdecode(b"\xc9\xcf\xba\xa3.csv")
+    data = tmp_path / name
+    data.write_bytes(example_csv.read_bytes())
+    out = tmp_path / "depots.json"
+    res = CliRunner().invoke(
+        app, ["segment", str(data), "--dates", "0801..0810", "--out", str(out)]
+    )
+    assert res.exit_code == 0, res.output
+    assert json.loads(out.read_text(encoding="utf-8"))["meta"]["input"]["name"] == name

@@ -558,6 +558,24 @@ def test_a_gzip_stream_damaged_past_its_first_megabyte_is_one_error(tmp_path: Pa
         assert err.value.exit_code == 2
 
 
+def test_a_file_name_that_is_not_utf8_reads(tmp_path: Path) -> None:
+    """A name in another encoding (an archive's GBK names) is no reason to fail: pyarrow
+    opened the path as UTF-8 and raised UnicodeEncodeError, a traceback."""
+    plain = write_csv(tmp_path / "d.csv", CLEAN)
+    want = read_lade(plain, DataConfig())
+    gbk = os.fsdecode(b"\xc9\xcf\xba\xa3")  # "Shanghai" in GBK
+    csv_path = tmp_path / f"{gbk}.csv"
+    csv_path.write_bytes(plain.read_bytes())
+    gz_path = tmp_path / f"{gbk}.csv.gz"
+    gz_path.write_bytes(gzip.compress(plain.read_bytes()))
+    pq_path = tmp_path / f"{gbk}.parquet"
+    pq_path.write_bytes(_as_parquet(tmp_path, "p.parquet").read_bytes())
+    for path in (csv_path, gz_path, pq_path):
+        got = read_lade(path, DataConfig())
+        np.testing.assert_array_equal(got.delivery_s, want.delivery_s)
+        assert got.source.name == path.name
+
+
 def test_weight_column(tmp_path: Path) -> None:
     cols = [*LADE_COLUMNS, "weight_kg"]
     rows = [dict(r, weight_kg=w) for r, w in zip(CLEAN, ["0.25", "1.5", "2"], strict=True)]
