@@ -434,12 +434,9 @@ def replay_day(
 
 def _read_back(folder: Path, metrics: dict[str, Any]) -> DayResult:
     """A day kept from an earlier run into ``folder``: its tables read from its files."""
-    import pyarrow.parquet as pq
+    from .data.arrow import read_parquet
 
-    stops, routes = (
-        pq.read_table(folder / "stops.parquet"),
-        pq.read_table(folder / "routes.parquet"),
-    )
+    stops, routes = read_parquet(folder / "stops.parquet"), read_parquet(folder / "routes.parquet")
     return DayResult(stops, routes, metrics, folder)
 
 

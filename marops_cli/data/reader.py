@@ -29,7 +29,6 @@ import csv
 import errno
 import hashlib
 import io
-import os
 import re
 import stat
 from collections.abc import Callable
@@ -44,7 +43,7 @@ import pyarrow.parquet as pq
 
 from ..config import DataConfig
 from ..errors import InputError, not_found
-from .arrow import is_text
+from .arrow import is_text, native_file
 from .dates import TIME_BAD, TIME_EMPTY, parse_ds, parse_times
 from .table import DROP_REASONS, REQUIRED_COLUMNS, DropReport, LadeTable, SourceInfo
 
@@ -144,9 +143,8 @@ def _not_utf8(head: bytes, at: int, path: Path) -> InputError:
 
 
 def _stream(path: Path, compression: str | None) -> pa.NativeFile:
-    """The file as a pyarrow stream, opened by its bytes: pyarrow's own opening of a path
-    fails on a name that is not UTF-8 (an archive's GBK file names, say)."""
-    return pa.input_stream(pa.OSFile(os.fsencode(path)), compression=compression)
+    """The file as a pyarrow stream (:func:`native_file`: a name that is not UTF-8 opens)."""
+    return pa.input_stream(native_file(path), compression=compression)
 
 
 def _csv_header(path: Path, compression: str | None) -> list[str]:
