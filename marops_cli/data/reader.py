@@ -400,6 +400,8 @@ def _check_errors(table: pa.Table, path: Path, cfg: DataConfig) -> dict[str, np.
         if (i := _first(status == TIME_BAD)) is not None:
             value = _shown(table[name], i)
             msg = f"expected a time MM-DD HH:MM:SS or YYYY-MM-DD HH:MM:SS, got {value}"
+            if re.fullmatch(r"'\s*02-29[ T][\d:.]+\s*'", value):  # the form is right
+                msg += f": February 29 is no day of {cfg.year}, the year of MM-DD times (--year)"
             bad.append((i, name, msg))
     has_ds = "ds" in table.column_names
     # An empty ds is harmless (the day comes from delivery_time); a malformed one is not.

@@ -218,7 +218,7 @@ def test_only_required_columns(tmp_path: Path) -> None:
     [
         ("accept_time", "08-32 08:00:00", "08-32 08:00:00"),
         ("delivery_time", "2022/08/20 10h15", "2022/08/20 10h15"),
-        ("accept_time", "02-29 08:00:00", "02-29"),  # no Feb 29 in 2022
+        ("accept_time", "02-29 08:00:00", "02-29 08:00:00': February 29 is no day of 2022, "),
         ("ds", "2013", "2013"),
         ("ds", "aug", "aug"),
     ],
