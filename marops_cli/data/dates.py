@@ -277,8 +277,8 @@ def _lenient(
 def parse_ds(column: pa.ChunkedArray | pa.Array, year: int) -> np.ndarray:
     """Mask of ``ds`` cells that are a valid ``MMDD`` (or ``YYYYMMDD``) date in ``year``.
 
-    ``ds`` is read as text or as integers; empty, non-digit and impossible dates
-    (``231``, ``1301``) are not valid.
+    ``ds`` is read as text or as integers (a date or time column as its date); empty,
+    non-digit and impossible dates (``231``, ``1301``) are not valid.
     """
     arr = column.combine_chunks() if isinstance(column, pa.ChunkedArray) else column
     if pa.types.is_floating(arr.type):  # a column with gaps re-saved by pandas: 820.0
@@ -289,6 +289,8 @@ def parse_ds(column: pa.ChunkedArray | pa.Array, year: int) -> np.ndarray:
         # An unsigned value past int64 wraps to a negative one, which is no date.
         value = arr.cast(pa.int64(), safe=False).fill_null(-1).to_numpy()
     else:
+        if pa.types.is_timestamp(arr.type):  # ds turned into a time by a DataFrame: its date
+            arr = arr.cast(pa.date32())
         text = arr.cast(pa.string())
         try:  # fast path: a clean column casts at once
             value = text.cast(pa.int64()).fill_null(-1).to_numpy()

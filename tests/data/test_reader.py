@@ -530,6 +530,24 @@ def test_parquet_ds_past_int64_is_a_bad_date(tmp_path: Path) -> None:
     assert (err.value.row, err.value.column) == (2, "ds")
 
 
+def test_parquet_ds_as_dates_or_times_reads_as_its_date(tmp_path: Path) -> None:
+    """A ds a DataFrame parsed into dates or times (``pd.to_datetime(ds, format="%m%d")``
+    gives 1900-08-20 00:00) is its date, as a date32 ds already was: a timestamp ds was
+    refused as "expected a date MMDD"."""
+    import datetime as dt
+
+    t = pq.read_table(_as_parquet(tmp_path, "d.parquet"))
+    days = [dt.datetime(1900, 8, 20), dt.datetime(1900, 8, 20), dt.datetime(1900, 8, 21)]
+    for ds in (
+        pa.array(days, pa.timestamp("ns")),
+        pa.array(days, pa.timestamp("ms", "UTC")),
+        pa.array([d.date() for d in days], pa.date32()),
+    ):
+        out = t.set_column(t.schema.get_field_index("ds"), "ds", ds)
+        pq.write_table(out, tmp_path / "ds.parquet")
+        assert read_lade(tmp_path / "ds.parquet", DataConfig()).report.kept == 3
+
+
 def test_gzip_csv(tmp_path: Path) -> None:
     plain = write_csv(tmp_path / "d.csv", CLEAN)
     for name in ("d.csv.gz", "d_gz_no_suffix"):
