@@ -461,10 +461,11 @@ def _read_back(folder: Path, metrics: dict[str, Any]) -> DayResult:
     """A day kept from an earlier run into ``folder``: its tables read from its files,
     in the unit of a replayed day's (Parquet keeps seconds as milliseconds)."""
     import pyarrow as pa
-    import pyarrow.parquet as pq
+
+    from .data.arrow import read_parquet
 
     def read(name: str) -> pa.Table:
-        table = pq.read_table(folder / name)
+        table = read_parquet(folder / name)
         fields = [
             f.with_type(pa.timestamp("s", f.type.tz)) if pa.types.is_timestamp(f.type) else f
             for f in table.schema

@@ -349,10 +349,9 @@ def _paired(ev: Evaluation, against: str | None) -> pa.Table | None:
 
 def _write_paired(out: Path, paired: pa.Table) -> Path:
     """``paired.csv``."""
-    import pyarrow.csv as pacsv
-
     from ..io import output_set
+    from ..io.tables import write_csv
 
     with output_set() as files:
-        files.write_with(out / "paired.csv", lambda p: pacsv.write_csv(paired, str(p)))
+        files.write_with(out / "paired.csv", lambda p: write_csv(paired, p))
     return out / "paired.csv"

@@ -144,6 +144,13 @@ def _valid_ymd(year: np.ndarray, month: np.ndarray, day: np.ndarray) -> np.ndarr
     return ok & (day <= last)
 
 
+# Seconds of 0001-01-01 00:00:00 and 9999-12-31 23:59:59 since 1970-01-01.
+_FIRST_S = (dt.datetime.min - dt.datetime(1970, 1, 1)) // dt.timedelta(seconds=1)
+_LAST_S = (dt.datetime(9999, 12, 31, 23, 59, 59) - dt.datetime(1970, 1, 1)) // dt.timedelta(
+    seconds=1
+)
+
+
 def _string_bytes(arr: pa.Array) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """(data bytes, start offset, length, is-null) of a string array, without copying rows."""
     arr = arr.cast(pa.large_string()) if arr.type != pa.large_string() else arr
@@ -165,7 +172,7 @@ def parse_times(
     (pyarrow's strptime would roll the first over to March). A timestamp column
     (from Parquet) is taken as it is when it has no zone, and as the wall-clock time
     in ``tz`` (the data's zone) when it has one, so a zone-aware export reads like the
-    CSV of the same rows.
+    CSV of the same rows; one outside the years 1-9999 is bad.
     """
     arr = column.combine_chunks() if isinstance(column, pa.ChunkedArray) else column
     if pa.types.is_timestamp(arr.type):
@@ -180,7 +187,11 @@ def parse_times(
             return np.zeros(len(arr), np.int64), np.where(empty, TIME_EMPTY, TIME_BAD).astype(
                 np.int8
             )
-        return secs.fill_null(0).to_numpy(), np.where(empty, TIME_EMPTY, TIME_OK).astype(np.int8)
+        values = secs.fill_null(0).to_numpy()
+        # A time outside the years 1-9999 has no date (the text form cannot write one).
+        bad = ~empty & ((values < _FIRST_S) | (values > _LAST_S))
+        status = np.where(empty, TIME_EMPTY, np.where(bad, TIME_BAD, TIME_OK)).astype(np.int8)
+        return np.where(bad, 0, values), status
     if not is_text(arr.type):
         arr = arr.cast(pa.string())
     data, start, length, isnull = _string_bytes(arr)
@@ -266,8 +277,8 @@ def _lenient(
 def parse_ds(column: pa.ChunkedArray | pa.Array, year: int) -> np.ndarray:
     """Mask of ``ds`` cells that are a valid ``MMDD`` (or ``YYYYMMDD``) date in ``year``.
 
-    ``ds`` is read as text or as integers; empty, non-digit and impossible dates
-    (``231``, ``1301``) are not valid.
+    ``ds`` is read as text or as integers (a date or time column as its date); empty,
+    non-digit and impossible dates (``231``, ``1301``) are not valid.
     """
     arr = column.combine_chunks() if isinstance(column, pa.ChunkedArray) else column
     if pa.types.is_floating(arr.type):  # a column with gaps re-saved by pandas: 820.0
@@ -278,6 +289,8 @@ def parse_ds(column: pa.ChunkedArray | pa.Array, year: int) -> np.ndarray:
         # An unsigned value past int64 wraps to a negative one, which is no date.
         value = arr.cast(pa.int64(), safe=False).fill_null(-1).to_numpy()
     else:
+        if pa.types.is_timestamp(arr.type):  # ds turned into a time by a DataFrame: its date
+            arr = arr.cast(pa.date32())
         text = arr.cast(pa.string())
         try:  # fast path: a clean column casts at once
             value = text.cast(pa.int64()).fill_null(-1).to_numpy()

@@ -44,7 +44,7 @@ import pyarrow.parquet as pq
 
 from ..config import DataConfig
 from ..errors import InputError, not_found
-from .arrow import is_text
+from .arrow import is_text, native_file
 from .dates import TIME_BAD, TIME_EMPTY, parse_ds, parse_times
 from .table import DROP_REASONS, REQUIRED_COLUMNS, DropReport, LadeTable, SourceInfo
 
@@ -96,6 +96,8 @@ def _sniff(path: Path) -> tuple[str, str | None]:
         raise InputError("not a Parquet file (no PAR1 magic bytes)", file=path)
     if head[:2] == b"\x1f\x8b":
         return "csv", "gzip"
+    if (wide := _wide_text(head)) is not None:
+        raise InputError(f"{wide} text, not UTF-8 (save the file as UTF-8)", file=path)
     if b"\x00" in head:
         raise InputError("not a CSV or Parquet file", file=path)
     try:
@@ -105,6 +107,21 @@ def _sniff(path: Path) -> tuple[str, str | None]:
         if exc.start < len(head) - 4:
             raise _not_utf8(head, exc.start, path) from exc
     return "csv", None
+
+
+def _wide_text(head: bytes) -> str | None:
+    """``UTF-16`` (``UTF-32``) when a file's first bytes are text in it (spreadsheets'
+    "Unicode text"): a byte-order mark, or ASCII with a zero byte beside every
+    character; else None."""
+    if head[:4] in (b"\xff\xfe\x00\x00", b"\x00\x00\xfe\xff"):
+        return "UTF-32"
+    if head[:2] in (b"\xff\xfe", b"\xfe\xff"):
+        return "UTF-16"
+    sample = head[: min(64, len(head) // 2 * 2)]
+    even, odd = sample[0::2], sample[1::2]
+    if len(sample) >= 8 and ((not any(odd) and all(even)) or (not any(even) and all(odd))):
+        return "UTF-16"
+    return None
 
 
 def _not_utf8(head: bytes, at: int, path: Path) -> InputError:
@@ -126,10 +143,15 @@ def _not_utf8(head: bytes, at: int, path: Path) -> InputError:
     )
 
 
+def _stream(path: Path, compression: str | None) -> pa.NativeFile:
+    """The file as a pyarrow stream (:func:`native_file`: a name that is not UTF-8 opens)."""
+    return pa.input_stream(native_file(path), compression=compression)
+
+
 def _csv_header(path: Path, compression: str | None) -> list[str]:
     """Column names from the first line of a CSV file."""
     try:
-        with pa.input_stream(str(path), compression=compression) as f:
+        with _stream(path, compression) as f:
             head = f.read(1 << 20)
     except (OSError, pa.ArrowException) as exc:
         raise InputError(f"cannot read the file ({exc})", file=path) from exc
@@ -147,13 +169,28 @@ def _csv_header(path: Path, compression: str | None) -> list[str]:
     return names
 
 
+_SEPARATORS = {";": "semicolons", "\t": "tabs", "|": "bars"}
+
+
+def _separator_hint(names: list[str], name: str) -> str:
+    """``; the header is separated by semicolons, ...`` when the header is one column
+    that holds ``name`` between semicolons (tabs, bars): a CSV saved with another
+    separator, which the error would otherwise call no LaDe file at all."""
+    if len(names) != 1:
+        return ""
+    for sep, word in _SEPARATORS.items():
+        if name in (part.strip().strip('"') for part in names[0].split(sep)):
+            return f"; the header is separated by {word}, not commas: save it as comma-separated"
+    return ""
+
+
 def _check_columns(names: list[str], path: Path) -> list[str]:
     """The columns to load; raises for a missing required column or one named twice."""
     for name in REQUIRED_COLUMNS:
         if name not in names:
             raise InputError(
                 f"missing required column '{name}': not a LaDe delivery file "
-                f"(expected columns {', '.join(REQUIRED_COLUMNS)})",
+                f"(expected columns {', '.join(REQUIRED_COLUMNS)}){_separator_hint(names, name)}",
                 file=path,
                 row=1,
                 column=name,
@@ -187,13 +224,18 @@ def _read_csv(path: Path, compression: str | None) -> pa.Table:
         opts = pacsv.ReadOptions(
             column_names=names, skip_rows=1, block_size=_BLOCK_BYTES, use_threads=threads
         )
-        with pa.input_stream(str(path), compression=compression) as f:
+        with _stream(path, compression) as f:
             return pacsv.read_csv(f, read_options=opts, convert_options=convert)
 
     try:
-        table = read(threads=True)
-    except pa.ArrowInvalid as exc:
-        raise _csv_error(exc, path, names, compression, lambda: read(threads=False)) from exc
+        try:
+            table = read(threads=True)
+        except pa.ArrowInvalid as exc:
+            raise _csv_error(exc, path, names, compression, lambda: read(threads=False)) from exc
+    except OSError as exc:  # a gzip stream damaged or cut short past its first megabyte
+        why = " ".join(str(exc).split())
+        what = "not a valid gzip file" if compression == "gzip" else "cannot read the file"
+        raise InputError(f"{what} ({why})", file=path) from exc
     if table.num_rows == 0:
         raise InputError("the file has a header but no data rows", file=path, row=2)
     return table
@@ -225,7 +267,7 @@ def _csv_error(
 
 
 def _first_non_utf8_line(path: Path, compression: str | None) -> int | None:
-    with pa.input_stream(str(path), compression=compression) as f:
+    with _stream(path, compression) as f:
         for number, line in enumerate(io.BufferedReader(f), start=1):  # type: ignore[arg-type]
             try:
                 line.decode("utf-8")
@@ -236,7 +278,7 @@ def _first_non_utf8_line(path: Path, compression: str | None) -> int | None:
 
 def _read_parquet(path: Path) -> pa.Table:
     try:
-        pf = pq.ParquetFile(str(path))
+        pf = pq.ParquetFile(_stream(path, None))
         include = _check_columns(list(pf.schema_arrow.names), path)
         table = pf.read(columns=include)
     except (pa.ArrowException, OSError, UnicodeDecodeError) as exc:
@@ -270,11 +312,19 @@ def _check_column_types(table: pa.Table, path: Path) -> pa.Table:
     ``lng``, ``lat`` and ``weight_kg`` (a Parquet file's booleans or dates there would
     otherwise read as 0/1 or fail late), and text, a number or a time in the others (a
     list or a struct is no id or time). Binary columns (Parquet strings some writers
-    leave unannotated) become text, which must be UTF-8."""
+    leave unannotated) become text, which must be UTF-8; Arrow's view layouts of text and
+    binary (polars' ``to_arrow()`` gives them) are read as the plain ones."""
     for k, name in enumerate(table.column_names):
         t = table.schema.field(name).type
+        if pa.types.is_string_view(t) or pa.types.is_binary_view(t):
+            t = pa.string() if pa.types.is_string_view(t) else pa.binary()
+            table = table.set_column(k, name, table[name].cast(t))
         if pa.types.is_dictionary(t):  # a categorical column: judged by its values
             t = t.value_type
+        binary = pa.types.is_binary(t) or pa.types.is_large_binary(t)
+        if binary:  # text, numbers in lng and lat included, once it is UTF-8
+            table = table.set_column(k, name, _utf8(table[name], path, name))
+            t = pa.string()
         numeric = (
             pa.types.is_integer(t)
             or pa.types.is_floating(t)
@@ -282,20 +332,17 @@ def _check_column_types(table: pa.Table, path: Path) -> pa.Table:
             or is_text(t)
             or pa.types.is_null(t)
         )
-        binary = pa.types.is_binary(t) or pa.types.is_large_binary(t)
         if name in _NUMBER_COLUMNS and not numeric:
             raise InputError(
                 f"expected a column of numbers, got a column of type {t}", file=path, column=name
             )
-        if not (numeric or binary or pa.types.is_timestamp(t) or pa.types.is_date(t)):
+        if not (numeric or pa.types.is_timestamp(t) or pa.types.is_date(t)):
             raise InputError(
                 f"expected a column of text, numbers or times, got a column of type {t}",
                 file=path,
                 column=name,
             )
-        if binary:
-            table = table.set_column(k, name, _utf8(table[name], path, name))
-        elif is_text(t) and not pa.types.is_dictionary(table.schema.field(name).type):
+        if not binary and is_text(t) and not pa.types.is_dictionary(table.schema.field(name).type):
             _check_utf8(table[name], path, name)
     return table
 
@@ -334,6 +381,16 @@ def _first(mask: np.ndarray) -> int | None:
     return int(idx[0]) if idx.size else None
 
 
+def _shown(column: pa.ChunkedArray, i: int) -> str:
+    """Cell ``i`` as it reads in a message (its Python repr); a time or date Python
+    cannot hold (beyond the year 9999) as its stored count and type."""
+    cell = column[i]
+    try:
+        return repr(cell.as_py())
+    except (OverflowError, ValueError):
+        return f"{getattr(cell, 'value', cell)} ({cell.type}), outside the years 1-9999"
+
+
 def _check_errors(table: pa.Table, path: Path, cfg: DataConfig) -> dict[str, np.ndarray]:
     """Parse times, ds and weights; raise at the first cell that is an error, not a drop."""
     out: dict[str, np.ndarray] = {}
@@ -342,8 +399,10 @@ def _check_errors(table: pa.Table, path: Path, cfg: DataConfig) -> dict[str, np.
         secs, status = parse_times(table[name], cfg.year, cfg.tz)
         out[name], out[name + "_status"] = secs, status
         if (i := _first(status == TIME_BAD)) is not None:
-            value = table[name][i].as_py()
-            msg = f"expected a time MM-DD HH:MM:SS or YYYY-MM-DD HH:MM:SS, got {value!r}"
+            value = _shown(table[name], i)
+            msg = f"expected a time MM-DD HH:MM:SS or YYYY-MM-DD HH:MM:SS, got {value}"
+            if re.fullmatch(r"'\s*02-29[ T][\d:.]+\s*'", value):  # the form is right
+                msg += f": February 29 is no day of {cfg.year}, the year of MM-DD times (--year)"
             bad.append((i, name, msg))
     has_ds = "ds" in table.column_names
     # An empty ds is harmless (the day comes from delivery_time); a malformed one is not.
@@ -356,8 +415,8 @@ def _check_errors(table: pa.Table, path: Path, cfg: DataConfig) -> dict[str, np.
         else None
     )
     if ds_bad is not None and (i := _first(ds_bad)) is not None:
-        value = table["ds"][i].as_py()
-        bad.append((i, "ds", f"expected a date MMDD in {cfg.year}, got {value!r}"))
+        value = _shown(table["ds"], i)
+        bad.append((i, "ds", f"expected a date MMDD in {cfg.year}, got {value}"))
     oid = table["order_id"]
     empty_id = pc.fill_null(pc.equal(pc.utf8_length(oid.cast(pa.string())), 0), True)
     if (i := _first(empty_id.to_numpy(zero_copy_only=False))) is not None:

@@ -19,8 +19,7 @@ from pathlib import Path
 from typing import Any
 from urllib.parse import quote
 
-import pyarrow.parquet as pq
-
+from ..data.arrow import read_parquet, read_parquet_schema
 from ..data.jsonfile import parse_json, read_small_text
 from ..errors import InputError, RunError
 from ..io import output_set, run_meta
@@ -180,7 +179,7 @@ class JobStore:
         if not path.is_file():
             return None
         try:
-            table = pq.read_table(path)
+            table = read_parquet(path)
             meta = parse_json((table.schema.metadata or {})[b"marops"])
         except (OSError, ValueError, KeyError):
             return None
@@ -226,7 +225,7 @@ def _job_file(path: Path) -> bool:
     """A job file of some ``marops evaluate`` run: Parquet whose ``marops`` metadata names
     its job."""
     try:
-        meta = parse_json(pq.read_schema(path).metadata[b"marops"])
+        meta = parse_json(read_parquet_schema(path).metadata[b"marops"])
     except (OSError, ValueError, KeyError, TypeError):
         return False
     return isinstance(meta, dict) and "job" in meta

@@ -8,10 +8,9 @@ from typing import Any
 
 import numpy as np
 import pyarrow as pa
-import pyarrow.csv as pacsv
 
 from ..io import file_sha256, output_set, run_meta
-from ..io.tables import with_meta, write_parquet
+from ..io.tables import with_meta, write_csv, write_parquet
 from ..sim.metrics import metric_specs
 from .plots import actions_figure, base_values, save_png, sweep_figure, unfairness_figure
 from .runner import Prepared
@@ -151,7 +150,7 @@ def write_outputs(
     figs = figures(summary, results, prep) if plots else {}
     with output_set() as files:
         files.write_with(paths[0], lambda p: write_parquet(with_meta(results, meta), p))
-        files.write_with(paths[1], lambda p: pacsv.write_csv(_csv_summary(summary), str(p)))
+        files.write_with(paths[1], lambda p: write_csv(_csv_summary(summary), p))
         files.write_bytes(paths[2], summary_markdown(summary, prep).encode("utf-8"))
         for name, fig in figs.items():
             files.write_with(out / name, partial(_save_to, fig))

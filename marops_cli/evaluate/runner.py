@@ -22,6 +22,7 @@ import numpy as np
 
 from ..config import OpsConfig, PlannerConfig, override
 from ..data.dates import format_days
+from ..data.prepare import prepare_day
 from ..data.reader import read_lade, sha256_file
 from ..data.table import LadeTable
 from ..errors import InputError, not_a_file
@@ -164,6 +165,10 @@ def prepare(
             scenarios[(hub, *key)] = Scenario(
                 test_table, scn.frame, scn.depots, seg_cfg, scn.history_days, hub
             )
+        if not hubs:  # every day has requests to plan, before any replay runs (as replay-day)
+            frame = next(iter(scenarios.values())).frame
+            for day in days_h:
+                prepare_day(table_h, frame, day, cfg_h.data)
         hub_days.append((hub, days_h))
     jobs = plan_jobs(len(settings), methods, chosen, repeats, cfg.sim.seed, hub_days=hub_days)
     if not jobs:

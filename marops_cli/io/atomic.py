@@ -57,7 +57,7 @@ class OutputSet:
         self.write_with(final, lambda tmp: tmp.write_bytes(data))
 
     def write_json(self, final: str | Path, doc: Any) -> None:
-        self.write_bytes(final, dumps_json(doc).encode("utf-8"))
+        self.write_bytes(final, dumps_json(doc).encode("utf-8", "backslashreplace"))
 
     def write_with(self, final: str | Path, writer: Callable[[Path], object]) -> None:
         tmp = self.path_for(final)

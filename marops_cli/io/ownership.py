@@ -94,9 +94,9 @@ def written_by_marops(path: Path) -> bool:
     suffix = path.suffix.lower()
     try:
         if suffix == ".parquet":
-            import pyarrow.parquet as pq
+            from ..data.arrow import read_parquet_schema
 
-            ours = b"marops" in (pq.read_schema(path).metadata or {})
+            ours = b"marops" in (read_parquet_schema(path).metadata or {})
         elif suffix in (".json", ".geojson"):
             ours = _json_is_ours(path)
         else:

@@ -13,6 +13,7 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 
+from ..data.arrow import native_file
 from ..data.table import DayRequests
 from ..energy import EnergyModel
 from ..plans.window import WindowPlan
@@ -206,7 +207,16 @@ def pandas_metadata(table: pa.Table) -> str | None:
 
 def write_parquet(table: pa.Table, path: str | Path) -> None:
     """Deterministic Parquet: no statistics that vary, fixed compression."""
-    pq.write_table(table, str(path), compression="zstd", write_statistics=True)
+    with native_file(path, "w") as sink:  # a folder name that is not UTF-8 included
+        pq.write_table(table, sink, compression="zstd", write_statistics=True)
+
+
+def write_csv(table: pa.Table, path: str | Path) -> None:
+    """``table`` as CSV (pyarrow's writer), in a folder of any name."""
+    import pyarrow.csv as pacsv
+
+    with native_file(path, "w") as sink:
+        pacsv.write_csv(table, sink)
 
 
 def table_records(table: pa.Table) -> list[dict[str, Any]]:

@@ -12,14 +12,13 @@ from .page import Page
 
 def _tables(folder: Path) -> tuple[Any, Any, Any | None, dict[str, Any]]:
     """(summary, results, paired or None, the results' metadata) of ``folder``."""
-    import pyarrow.csv as pacsv
-    import pyarrow.parquet as pq
+    from ..data.arrow import read_csv_file, read_parquet
 
-    summary = read_input(folder / "summary.csv", pacsv.read_csv)
-    results = read_input(folder / "results.parquet", pq.read_table)
+    summary = read_input(folder / "summary.csv", read_csv_file)
+    results = read_input(folder / "results.parquet", read_parquet)
     meta = table_meta(results, folder / "results.parquet")
     paired_path = folder / "paired.csv"
-    paired = read_input(paired_path, pacsv.read_csv) if paired_path.is_file() else None
+    paired = read_input(paired_path, read_csv_file) if paired_path.is_file() else None
     return summary, results, paired, meta
 
 

@@ -32,9 +32,9 @@ class RouteFiles:
 def route_files(folder: Path) -> RouteFiles | None:
     """The stops and routes of ``folder`` (Parquet, else JSON); None when it has none."""
     if (folder / "routes.parquet").is_file():
-        import pyarrow.parquet as pq
+        from ..data.arrow import read_parquet
 
-        tables = [read_input(folder / f"{n}.parquet", pq.read_table) for n in ("stops", "routes")]
+        tables = [read_input(folder / f"{n}.parquet", read_parquet) for n in ("stops", "routes")]
         meta = table_meta(tables[1], folder / "routes.parquet")
         stops, routes = (t.to_pylist() for t in tables)
     elif (folder / "routes.json").is_file():

@@ -43,8 +43,12 @@ def _prepared(
     table: LadeTable, frame: Frame, dates: list[dt.date], cfg: PlannerConfig
 ) -> tuple[list[dt.date], list[DayRequests]]:
     """The days of ``dates`` that have requests in ``frame``, prepared."""
-    pairs = [(d, prepare_day(table, frame, d, cfg.data)) for d in dates]
-    pairs = [(d, r) for d, r in pairs if len(r) > 0]  # a day with no request teaches nothing
+    pairs = []
+    for d in dates:
+        try:
+            pairs.append((d, prepare_day(table, frame, d, cfg.data)))
+        except InputError:  # nothing due in the area in service hours: the day teaches nothing
+            continue
     return [d for d, _ in pairs], [r for _, r in pairs]
 
 

@@ -48,6 +48,7 @@ def segment_table(
     table: LadeTable, cfg: PlannerConfig, days: list[dt.date] | None = None
 ) -> SegmentResult:
     """Depots and service areas for the rows of ``table`` due on ``days`` (all when None)."""
+    check_days_in_file(table, days or [])  # every row dropped: says why, with or without days
     frame = study_frame(table, cfg.data, days or None)
     pts, used_days = history_points(table, frame, days)
     try:

@@ -15,10 +15,9 @@ from pathlib import Path
 
 import numpy as np
 import pyarrow as pa
-import pyarrow.parquet as pq
 
 from ..config import OpsConfig, PlannerConfig
-from ..data.arrow import is_text
+from ..data.arrow import is_text, read_parquet
 from ..data.frame import Frame
 from ..data.jsonfile import first_line
 from ..data.prepare import arrival_windows, check_days_in_file, prepare_day, study_frame
@@ -219,7 +218,7 @@ def delivered_orders(path: str | Path) -> set[str]:
     if not p.is_file():  # a pipe or a device: no stops file
         raise InputError("not a marops stops file (not a regular file)", file=p)
     try:
-        table = pq.read_table(p, columns=["kind", "order_id"])
+        table = read_parquet(p, columns=["kind", "order_id"])
     except FileNotFoundError as exc:  # removed meanwhile
         raise not_found(p, "delivered file") from exc
     except (OSError, ValueError, KeyError) as exc:

@@ -311,3 +311,19 @@ def test_json_counts_the_rows_dropped_and_the_orders_left_out(
     assert rows["dropped"]["duplicate"] > 0 and rows["kept"] > 0
     assert orders["due"] == orders["planned"] + orders["outside_area"] + orders["outside_hours"]
     assert orders["outside_area"] > 0 and orders["planned"] > 0
+
+
+def test_a_folder_whose_name_is_not_utf8_takes_the_outputs(
+    example_csv: Path, depots_file: Path, parquet_out: Path, tmp_path: Path
+) -> None:
+    """pyarrow opened paths as UTF-8: an output folder named in another encoding gave a
+    UnicodeEncodeError traceback, and a second run took its own files for foreign ones.
+    Now the same bytes are written, the run repeats, and --delivered reads them."""
+    import os
+
+    out = tmp_path / os.fsdecode(b"\xc9\xcf\xba\xa3") / "w5"
+    plan(example_csv, depots_file, out)
+    plan(example_csv, depots_file, out)  # its own files: replaced, not refused
+    for name in ("stops.parquet", "routes.parquet"):
+        assert (out / name).read_bytes() == (parquet_out / name).read_bytes()
+    plan(example_csv, depots_file, out.parent / "w6", "--delivered", str(out))

@@ -158,3 +158,44 @@ def test_synth_refuses_gzipped_parquet(tmp_path: Path, fails_cleanly, args: list
     """The reader takes a gzipped file for CSV: Parquet under .gz is refused, naming --out."""
     args = [*args[:-1], str(tmp_path / args[-1])]
     fails_cleanly(["synth", "--days", "1", *args], tmp_path, "invalid option --out", ".csv.gz")
+
+
+@pytest.mark.parametrize(
+    "extra",
+    [[], ["--hubs", "auto"], ["--center", "121.47,31.23"]],
+    ids=["kmeans", "hubs", "center"],
+)
+def test_segment_of_a_file_whose_rows_are_all_dropped_says_why(
+    tmp_path: Path, fails_cleanly, extra: list[str]
+) -> None:
+    """Without --dates, a file none of whose rows can be used gets the line --dates gives
+    (how many rows, dropped for what), not "no requests to place a study area on"."""
+    header = "order_id,lng,lat,accept_time,delivery_time"
+    rows = [f"{i},31.23,121.47,08-11 08:00:00,08-11 10:00:00" for i in range(5)]  # swapped
+    data = tmp_path / "swapped.csv"
+    data.write_text("\n".join([header, *rows]) + "\n", encoding="utf-8")
+    args = ["segment", str(data), *extra, "--out", str(tmp_path / "out" / "d.json")]
+    fails_cleanly(args, tmp_path, "swapped.csv: none of its 5 rows can be used (5 bad coordinates)")
+
+
+def test_segment_of_a_file_named_in_another_encoding_writes_its_name_escaped(
+    example_csv: Path, tmp_path: Path
+) -> None:
+    """depots.json records the input's name; a name that is not UTF-8 is written as JSON
+    escapes (\\udcc9...) that read back as the same name, not a UnicodeEncodeError."""
+    import json
+    import os
+
+    from typer.testing import CliRunner
+
+    from marops_cli.cli.app import app
+
+    name = os.fsdecode(b"\xc9\xcf\xba\xa3.csv")
+    data = tmp_path / name
+    data.write_bytes(example_csv.read_bytes())
+    out = tmp_path / "depots.json"
+    res = CliRunner().invoke(
+        app, ["segment", str(data), "--dates", "0801..0810", "--out", str(out)]
+    )
+    assert res.exit_code == 0, res.output
+    assert json.loads(out.read_text(encoding="utf-8"))["meta"]["input"]["name"] == name

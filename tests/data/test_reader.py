@@ -162,6 +162,36 @@ def test_missing_column(tmp_path: Path) -> None:
     assert "nodlv.csv" in str(e) and "row 1" in str(e) and "'delivery_time'" in str(e)
 
 
+@pytest.mark.parametrize("sep, word", [(";", "semicolons"), ("\t", "tabs"), ("|", "bars")])
+def test_a_csv_with_another_separator_is_named_as_such(tmp_path: Path, sep: str, word: str) -> None:
+    """A spreadsheet's semicolon (tab, bar) separated export has every column, in one
+    header cell: the missing-column error says which separator it found."""
+    path = write_csv(tmp_path / "semi.csv", CLEAN)
+    path.write_text(path.read_text(encoding="utf-8").replace(",", sep), encoding="utf-8")
+    with pytest.raises(InputError, match=f"the header is separated by {word}, not commas"):
+        read_lade(path, DataConfig())
+    with pytest.raises(InputError) as err:  # a file that is no LaDe export gets no hint
+        read_lade(write_csv(tmp_path / "other.csv", [], ["a;b"]), DataConfig())
+    assert "separated" not in str(err.value)
+
+
+@pytest.mark.parametrize(
+    "encoding, name",
+    [("utf-16", "UTF-16"), ("utf-16-le", "UTF-16"), ("utf-16-be", "UTF-16"), ("utf-32", "UTF-32")],
+)
+def test_a_csv_in_utf16_is_named_as_such(tmp_path: Path, encoding: str, name: str) -> None:
+    """A spreadsheet's "Unicode text" export (UTF-16, with or without a byte-order mark)
+    is told apart from a binary file: the error names its encoding."""
+    text = write_csv(tmp_path / "u.csv", CLEAN).read_text(encoding="utf-8")
+    path = tmp_path / "wide.csv"
+    path.write_bytes(text.encode(encoding))
+    with pytest.raises(InputError, match=f"wide.csv: {name} text, not UTF-8"):
+        read_lade(path, DataConfig())
+    path.write_bytes(bytes(range(256)) * 4)  # binary stays binary
+    with pytest.raises(InputError, match="not a CSV or Parquet file"):
+        read_lade(path, DataConfig())
+
+
 def test_extra_columns_and_any_order(tmp_path: Path) -> None:
     cols = ["note", *reversed(LADE_COLUMNS)]
     rows = [dict(r, note="x,y") for r in CLEAN]  # an extra column with a comma
@@ -188,7 +218,7 @@ def test_only_required_columns(tmp_path: Path) -> None:
     [
         ("accept_time", "08-32 08:00:00", "08-32 08:00:00"),
         ("delivery_time", "2022/08/20 10h15", "2022/08/20 10h15"),
-        ("accept_time", "02-29 08:00:00", "02-29"),  # no Feb 29 in 2022
+        ("accept_time", "02-29 08:00:00", "02-29 08:00:00': February 29 is no day of 2022, "),
         ("ds", "2013", "2013"),
         ("ds", "aug", "aug"),
     ],
@@ -321,14 +351,18 @@ def test_parquet_equals_csv(tmp_path: Path, name: str) -> None:
 
 
 def test_a_parquet_column_of_numbers_holds_numbers_or_text(tmp_path: Path) -> None:
-    """Categorical (dictionary-encoded) text reads as the text; booleans are refused
-    naming the column, instead of reading as longitudes 0 and 1."""
+    """Categorical (dictionary-encoded) text and unannotated strings (binary) read as the
+    text; booleans are refused naming the column, instead of reading as longitudes 0 and 1."""
     path = _as_parquet(tmp_path, "d.parquet")
     t = pq.read_table(path)
     i = t.schema.get_field_index("lng")
     text = pa.array([str(v) for v in t["lng"].to_pylist()])
     pq.write_table(t.set_column(i, "lng", text.dictionary_encode()), tmp_path / "cat.parquet")
     got = read_lade(tmp_path / "cat.parquet", DataConfig())
+    np.testing.assert_array_equal(got.lng, read_lade(path, DataConfig()).lng)
+    # Unannotated strings (binary) are text here too, as in the id and time columns.
+    pq.write_table(t.set_column(i, "lng", text.cast(pa.binary())), tmp_path / "bin.parquet")
+    got = read_lade(tmp_path / "bin.parquet", DataConfig())
     np.testing.assert_array_equal(got.lng, read_lade(path, DataConfig()).lng)
     flags = pa.array([True] * t.num_rows)
     pq.write_table(t.set_column(i, "lng", flags), tmp_path / "flags.parquet")
@@ -396,6 +430,54 @@ def test_parquet_times_with_fractions_of_a_second_read_as_whole_seconds(tmp_path
         np.testing.assert_array_equal(got.delivery_s, plain.delivery_s)
 
 
+def test_parquet_times_beyond_the_year_9999_are_one_error_naming_the_cell(
+    tmp_path: Path,
+) -> None:
+    """A Parquet time or date no calendar date holds (a timestamp past the year 9999, a
+    ``ds`` date32 of 2**31 - 1 days) is one error naming its row and column, with its stored
+    count in the message: no traceback from the check, nor later from the day list."""
+    t = pq.read_table(_as_parquet(tmp_path, "d.parquet"))
+    ms = sec("2022-08-20T08:00:00") * 1000
+    day = sec("2022-08-20T00:00:00") // 86_400
+    cases = (
+        ("delivery_time", pa.array([ms, 2**60, ms]).cast(pa.timestamp("ms"))),
+        ("accept_time", pa.array([ms, -(2**60), ms]).cast(pa.timestamp("ms"))),
+        ("delivery_time", pa.array([ms, 2**60, ms]).cast(pa.timestamp("ms", "UTC"))),
+        ("ds", pa.array([day, 2**31 - 1, day], pa.int32()).cast(pa.date32())),
+    )
+    for name, column in cases:
+        bad = t.set_column(t.schema.get_field_index(name), name, column)
+        pq.write_table(bad, tmp_path / "far.parquet")
+        with pytest.raises(InputError, match="outside the years 1-9999") as err:
+            read_lade(tmp_path / "far.parquet", DataConfig())
+        assert (err.value.row, err.value.column) == (3, name)
+
+
+def test_text_in_arrow_view_layouts_reads_as_text(tmp_path: Path) -> None:
+    """string_view and binary_view columns (polars' to_arrow() writes them, and Parquet
+    files keep them) are text like string columns, in a file and in memory: they were
+    refused as "expected a column of text, numbers or times"."""
+    from marops_cli.data.reader import read_lade_table
+
+    path = _as_parquet(tmp_path, "d.parquet")
+    plain = read_lade(path, DataConfig())
+    t = pq.read_table(path)
+    views = {
+        "order_id": t["order_id"].cast(pa.string()).cast(pa.string_view()),
+        "accept_time": t["accept_time"].cast(pa.string_view()),
+        "delivery_time": t["delivery_time"].cast(pa.binary()).cast(pa.binary_view()),
+        "lat": t["lat"].cast(pa.string()).cast(pa.string_view()),
+    }
+    for name, column in views.items():
+        t = t.set_column(t.schema.get_field_index(name), name, column)
+    pq.write_table(t, tmp_path / "views.parquet")
+    for got in (read_lade(tmp_path / "views.parquet", DataConfig()), read_lade_table(t)):
+        np.testing.assert_array_equal(got.order_id, plain.order_id)
+        np.testing.assert_array_equal(got.accept_s, plain.accept_s)
+        np.testing.assert_array_equal(got.delivery_s, plain.delivery_s)
+        np.testing.assert_array_equal(got.lat, plain.lat)
+
+
 def test_parquet_text_that_is_not_utf8_names_its_row_and_column(tmp_path: Path) -> None:
     """pyarrow reads Parquet strings without checking them: bytes that are not UTF-8 in
     a text column are one error naming the row and column, as in a CSV."""
@@ -448,6 +530,24 @@ def test_parquet_ds_past_int64_is_a_bad_date(tmp_path: Path) -> None:
     assert (err.value.row, err.value.column) == (2, "ds")
 
 
+def test_parquet_ds_as_dates_or_times_reads_as_its_date(tmp_path: Path) -> None:
+    """A ds a DataFrame parsed into dates or times (``pd.to_datetime(ds, format="%m%d")``
+    gives 1900-08-20 00:00) is its date, as a date32 ds already was: a timestamp ds was
+    refused as "expected a date MMDD"."""
+    import datetime as dt
+
+    t = pq.read_table(_as_parquet(tmp_path, "d.parquet"))
+    days = [dt.datetime(1900, 8, 20), dt.datetime(1900, 8, 20), dt.datetime(1900, 8, 21)]
+    for ds in (
+        pa.array(days, pa.timestamp("ns")),
+        pa.array(days, pa.timestamp("ms", "UTC")),
+        pa.array([d.date() for d in days], pa.date32()),
+    ):
+        out = t.set_column(t.schema.get_field_index("ds"), "ds", ds)
+        pq.write_table(out, tmp_path / "ds.parquet")
+        assert read_lade(tmp_path / "ds.parquet", DataConfig()).report.kept == 3
+
+
 def test_gzip_csv(tmp_path: Path) -> None:
     plain = write_csv(tmp_path / "d.csv", CLEAN)
     for name in ("d.csv.gz", "d_gz_no_suffix"):
@@ -455,6 +555,43 @@ def test_gzip_csv(tmp_path: Path) -> None:
         gz.write_bytes(gzip.compress(plain.read_bytes()))
         t = read_lade(gz, DataConfig())
         np.testing.assert_array_equal(t.delivery_s, read_lade(plain, DataConfig()).delivery_s)
+
+
+def test_a_gzip_stream_damaged_past_its_first_megabyte_is_one_error(tmp_path: Path) -> None:
+    """The header is read from the first megabyte; damage further on (a stream cut
+    short, a flipped byte, bytes after its end) surfaced as zlib's OSError with exit 1
+    and no file named. It is now one error naming the file, exit 2."""
+    rows = [row(str(i)) for i in range(30_000)]  # about 2 MB of text
+    packed = gzip.compress(write_csv(tmp_path / "d.csv", rows).read_bytes())
+    flipped = bytearray(packed)
+    flipped[len(packed) // 2] ^= 0xFF
+    for name, data in (
+        ("cut.csv.gz", packed[: len(packed) * 3 // 4]),
+        ("flipped.csv.gz", bytes(flipped)),
+        ("trailing.csv.gz", packed + b"not gzip"),
+    ):
+        (tmp_path / name).write_bytes(data)
+        with pytest.raises(InputError, match=f"{name}: not a valid gzip file") as err:
+            read_lade(tmp_path / name, DataConfig())
+        assert err.value.exit_code == 2
+
+
+def test_a_file_name_that_is_not_utf8_reads(tmp_path: Path) -> None:
+    """A name in another encoding (an archive's GBK names) is no reason to fail: pyarrow
+    opened the path as UTF-8 and raised UnicodeEncodeError, a traceback."""
+    plain = write_csv(tmp_path / "d.csv", CLEAN)
+    want = read_lade(plain, DataConfig())
+    gbk = os.fsdecode(b"\xc9\xcf\xba\xa3")  # "Shanghai" in GBK
+    csv_path = tmp_path / f"{gbk}.csv"
+    csv_path.write_bytes(plain.read_bytes())
+    gz_path = tmp_path / f"{gbk}.csv.gz"
+    gz_path.write_bytes(gzip.compress(plain.read_bytes()))
+    pq_path = tmp_path / f"{gbk}.parquet"
+    pq_path.write_bytes(_as_parquet(tmp_path, "p.parquet").read_bytes())
+    for path in (csv_path, gz_path, pq_path):
+        got = read_lade(path, DataConfig())
+        np.testing.assert_array_equal(got.delivery_s, want.delivery_s)
+        assert got.source.name == path.name
 
 
 def test_weight_column(tmp_path: Path) -> None:

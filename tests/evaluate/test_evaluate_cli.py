@@ -97,3 +97,16 @@ def test_against_outside_the_listed_methods_names_both_flags(
 ) -> None:
     args = ["evaluate", str(example_csv), "--methods", "greedy", "--against", "myopic"]
     fails_cleanly([*args, "--out", str(tmp_path / "out")], tmp_path, "--against", "--methods")
+
+
+def test_a_split_day_with_nothing_to_plan_is_refused_before_any_replay(
+    example_csv: Path, tmp_path: Path, fails_cleanly
+) -> None:
+    """One delivery past midnight after the file's last day makes that day part of the
+    test split with nothing due in service hours: one line naming the day, before any
+    replay runs or a job is kept (replay-day checks its days the same way)."""
+    data = tmp_path / "straggler.csv"
+    row = "999999,1,Shanghai,7,121.34,31.13,1,2,08-12 23:50:00,,,,08-13 00:20:00,,,,813"
+    data.write_text(example_csv.read_text(encoding="utf-8") + row + "\n", encoding="utf-8")
+    args = ["evaluate", str(data), "--methods", "ops-global", "--workers", "1", "--no-plot"]
+    fails_cleanly([*args, "--out", str(tmp_path / "out")], tmp_path, "no requests on 2022-08-13")

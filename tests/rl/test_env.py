@@ -79,3 +79,18 @@ def test_an_episode_flies_at_its_own_alpha(tiny_csv: Path, small_cfg: PlannerCon
         rewards[alpha] = r
     env.reset(scn.train_days[0])
     assert env.alpha == 0.5 and env.how is env.base_how
+
+
+def test_a_day_with_nothing_to_plan_is_left_out_of_training(
+    tiny_csv: Path, small_cfg: PlannerConfig, tmp_path: Path
+) -> None:
+    """One delivery past midnight after the last day adds a held-out day with nothing due
+    in service hours: it is left out (a day with no request teaches nothing), where it
+    stopped the run with "no requests on 2022-08-04"."""
+    data = tmp_path / "straggler.csv"
+    row = "999999,1,Shanghai,7,121.34,31.13,1,2,08-03 23:50:00,,,,08-04 00:20:00,,,,804"
+    data.write_text(tiny_csv.read_text(encoding="utf-8") + row + "\n", encoding="utf-8")
+    td = load_training_data(data, small_cfg, TrainConfig())
+    assert td.files[0]["train_days"] == ["2022-08-01", "2022-08-02", "2022-08-03"]
+    assert td.files[0]["heldout_days"] == []
+    assert len(td.ctx.scenarios[0].train_days) == 3 and td.ctx.scenarios[0].eval_days == []
