@@ -190,6 +190,12 @@ def evaluate(
         hubs=config.hubs,
     )
     drop_report(progress, prep.source.report, prep.source.source.name)
+    if prep.skipped:
+        left = ", ".join(d.isoformat() for d in prep.skipped)
+        progress.warning(
+            f"left out {left} of the {config.split} split: nothing due inside the study "
+            "area within service hours"
+        )
     progress.message(_plan_line(prep, config))
     if out is None:
         ev = _run(prep, config, None, progress)

@@ -65,6 +65,8 @@ class Prepared:
     time (marops_cli/methods.py)."""
     hubs: list[Hub] = field(default_factory=list)
     """The hubs of a city run (``--hubs``); empty: one study area."""
+    skipped: list[dt.date] = field(default_factory=list)
+    """Days of the split left out: nothing to plan in the study area in service hours."""
 
     def drones(self, job: Job) -> int:
         """The fleet size of ``job``: its hub's own, else its setting's."""
@@ -147,6 +149,7 @@ def prepare(
     path = Path(table.source.path)
     scenarios: dict[tuple[int, str, int], Scenario] = {}
     hub_days: list[tuple[int, list[dt.date]]] = []
+    skipped: list[dt.date] = []
     areas = (
         [(0, cfg, table, chosen)]
         if not hubs
@@ -168,7 +171,13 @@ def prepare(
         if not hubs:  # every day has requests to plan, before any replay runs (as replay-day)
             frame = next(iter(scenarios.values())).frame
             for day in days_h:
-                prepare_day(table_h, frame, day, cfg_h.data)
+                try:
+                    prepare_day(table_h, frame, day, cfg_h.data)
+                except InputError:
+                    if days or len(skipped) + 1 == len(days_h):  # a day asked for, or none left
+                        raise
+                    skipped.append(day)  # a split's day with nothing to plan: left out
+            days_h = chosen = [d for d in days_h if d not in skipped]
         hub_days.append((hub, days_h))
     jobs = plan_jobs(len(settings), methods, chosen, repeats, cfg.sim.seed, hub_days=hub_days)
     if not jobs:
@@ -187,6 +196,7 @@ def prepare(
         actor_files,
         specs,
         list(hubs or ()),
+        skipped,
     )
 
 

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import re
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -99,14 +101,25 @@ def test_against_outside_the_listed_methods_names_both_flags(
     fails_cleanly([*args, "--out", str(tmp_path / "out")], tmp_path, "--against", "--methods")
 
 
-def test_a_split_day_with_nothing_to_plan_is_refused_before_any_replay(
+def test_a_split_day_with_nothing_to_plan_is_left_out_and_a_named_one_refused(
     example_csv: Path, tmp_path: Path, fails_cleanly
 ) -> None:
     """One delivery past midnight after the file's last day makes that day part of the
-    test split with nothing due in service hours: one line naming the day, before any
-    replay runs or a job is kept (replay-day checks its days the same way)."""
+    test split with nothing due in service hours: the split leaves it out with a warning
+    naming it; asked for by --dates it is one line naming the day, before any replay
+    runs or a job is kept (replay-day checks its days the same way)."""
+    import pyarrow.parquet as pq
+
     data = tmp_path / "straggler.csv"
     row = "999999,1,Shanghai,7,121.34,31.13,1,2,08-12 23:50:00,,,,08-13 00:20:00,,,,813"
     data.write_text(example_csv.read_text(encoding="utf-8") + row + "\n", encoding="utf-8")
     args = ["evaluate", str(data), "--methods", "ops-global", "--workers", "1", "--no-plot"]
-    fails_cleanly([*args, "--out", str(tmp_path / "out")], tmp_path, "no requests on 2022-08-13")
+    named = [*args, "--dates", "0812,0813", "--out", str(tmp_path / "named")]
+    fails_cleanly(named, tmp_path, "no requests on 2022-08-13")
+    main = "from marops_cli.cli.app import main; main()"
+    cmd = [sys.executable, "-c", main, *args, "--out", str(tmp_path / "split")]
+    res = subprocess.run(cmd, capture_output=True, text=True, cwd=tmp_path)
+    assert res.returncode == 0, res.stderr
+    assert "warning: left out 2022-08-13 of the test split: nothing due" in res.stderr
+    days = set(pq.read_table(tmp_path / "split" / "results.parquet").column("day").to_pylist())
+    assert days and "2022-08-13" not in {str(d) for d in days}
