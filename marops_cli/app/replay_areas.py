@@ -311,7 +311,7 @@ def _finish_day(
     from ..io.tables import with_meta, write_route_files
 
     day_scope(progress, out.scope, area.scn.cfg, area.label)
-    undelivered(progress, out.metrics, len(area.fleet))
+    undelivered(progress, out.metrics, len(area.fleet), area.label)
     # The route files' metadata: the run's identity (less the file format) and the day.
     meta = {k: v for k, v in area.identity.items() if k != "format"}
     meta.update(command="replay-day", day=day.isoformat())
