@@ -186,11 +186,11 @@ def replay_areas(
                     "again to replay the others"
                 )
             raise
-        return _collect(areas, run, done)
+        return _collect(areas, run, done, progress)
 
 
 def _collect(
-    areas: list[Area], run: Run, done: _Done
+    areas: list[Area], run: Run, done: _Done, progress: Progress
 ) -> tuple[list[list[dict[str, Any]]], list[DayTables]]:
     """Each area's day records (kept or replayed) in day order, with the metrics.json of
     an area replayed a folder per day; the tables kept."""
@@ -216,9 +216,9 @@ def _collect(
                 )
             a.written.append(a.out / "metrics.json")
         if run.report and a.out is not None:
-            from ..report import write_reports
+            from .report import write_pages
 
-            a.written += write_reports(a.out, a.scn.depots)
+            a.written += write_pages(a.out, a.scn.depots, progress)
         per_area.append(rows)
     return per_area, tables
 
