@@ -36,19 +36,20 @@ def day_scope(progress: Progress, scope: Any, cfg: Any, label: str = "") -> None
     )
 
 
-def undelivered(progress: Progress, metrics: dict[str, Any], drones: int) -> None:
+def undelivered(progress: Progress, metrics: dict[str, Any], drones: int, label: str = "") -> None:
     """Warn when more than 10 % of a day's requests stayed undelivered, and about
-    requests no drone can serve at all (too heavy, too far)."""
+    requests no drone can serve at all (too heavy, too far); ``label`` names the hub of
+    a city run."""
     heavy, far = metrics.get("unservable_heavy", 0), metrics.get("unservable_far", 0)
     if heavy or far:
         progress.warning(
-            f"{metrics['day']}: {heavy:,} parcels heavier than the payload limit and {far:,} "
-            "requests beyond any drone's reach from the nearest depot cannot be served"
+            f"{label}{metrics['day']}: {heavy:,} parcels heavier than the payload limit and "
+            f"{far:,} requests beyond any drone's reach from the nearest depot cannot be served"
         )
     share = metrics["undelivered"] / max(metrics["requests"], 1)
     if share > UNDELIVERED_WARN:
         progress.warning(
-            f"{metrics['day']}: {metrics['undelivered']:,} of {metrics['requests']:,} "
+            f"{label}{metrics['day']}: {metrics['undelivered']:,} of {metrics['requests']:,} "
             f"requests ({share:.0%}) stayed undelivered with {drones} "
             + ("drone" if drones == 1 else "drones")
         )

@@ -191,11 +191,11 @@ def replay_areas(
                     "again to replay the others"
                 )
             raise
-        return _collect(areas, run, done)
+        return _collect(areas, run, done, progress)
 
 
 def _collect(
-    areas: list[Area], run: Run, done: _Done
+    areas: list[Area], run: Run, done: _Done, progress: Progress
 ) -> tuple[list[list[dict[str, Any]]], list[DayTables]]:
     """Each area's day records (kept or replayed) in day order, with the metrics.json of
     an area replayed a folder per day; the tables kept."""
@@ -221,9 +221,9 @@ def _collect(
                 )
             a.written.append(a.out / "metrics.json")
         if run.report and a.out is not None:
-            from ..report import write_reports
+            from .report import write_pages
 
-            a.written += write_reports(a.out, a.scn.depots)
+            a.written += write_pages(a.out, a.scn.depots, progress)
         per_area.append(rows)
     return per_area, tables
 
@@ -316,7 +316,7 @@ def _finish_day(
     from ..io.tables import with_meta, write_route_files
 
     day_scope(progress, out.scope, area.scn.cfg, area.label)
-    undelivered(progress, out.metrics, len(area.fleet))
+    undelivered(progress, out.metrics, len(area.fleet), area.label)
     # The route files' metadata: the run's identity (less the file format) and the day.
     meta = {k: v for k, v in area.identity.items() if k != "format"}
     meta.update(command="replay-day", day=day.isoformat())

@@ -7,11 +7,12 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from ..errors import InputError, naming, not_found
+from .progress import SILENT, Progress
 
 if TYPE_CHECKING:
     from ..segment.depots import Depots
 
-__all__ = ["check_report", "make_report", "report_outputs"]
+__all__ = ["check_report", "make_report", "report_outputs", "write_pages"]
 
 
 def check_report(wanted: bool) -> None:
@@ -29,13 +30,36 @@ def report_outputs(folders: list[Path]) -> list[Path]:
     return [f / REPORT for f in folders]
 
 
-def make_report(folder: str | Path, *, depots: str | Path | None = None) -> list[Path]:
+def write_pages(
+    folder: Path, depots: Depots | None = None, progress: Progress = SILENT
+) -> list[Path]:
+    """``report.html`` into ``folder`` and its day and hub folders, a progress step per
+    page where there are several (a city's month holds hundreds); the files written."""
+    from ..report import report_folders, write_reports
+
+    pages = len(report_folders(folder))
+    if pages < 2:
+        return write_reports(folder, depots)
+
+    def on_page(k: int, n: int, path: Path) -> None:
+        progress.advance(f"report {k}/{n}: {path}")
+
+    progress.start("report", pages, "pages")
+    try:
+        return write_reports(folder, depots, on_page=on_page)
+    finally:
+        progress.finish()
+
+
+def make_report(
+    folder: str | Path, *, depots: str | Path | None = None, progress: Progress = SILENT
+) -> list[Path]:
     """Write ``report.html`` into an output folder of an earlier run (and into each of its
     day and hub folders); ``depots``: the run's depots file, for the service areas and the
     depots no route used. The files written."""
     from ..io import folder_lock
     from ..io.ownership import check_outputs, register_inputs
-    from ..report import report_folders, require_plotly, write_reports
+    from ..report import report_folders, require_plotly
 
     folder = Path(folder)
     if not folder.exists():
@@ -57,7 +81,7 @@ def make_report(folder: str | Path, *, depots: str | Path | None = None) -> list
     loaded = _depots(depots)
     with folder_lock(folder):
         try:
-            return write_reports(folder, loaded)
+            return write_pages(folder, loaded, progress)
         except InputError as exc:
             if depots is not None and exc.column == "frame":
                 raise naming(exc, depots) from None  # the depots of another study square

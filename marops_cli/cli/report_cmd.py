@@ -10,6 +10,15 @@ import typer
 from ..io.ownership import allow_replacing_foreign
 from . import options as o
 from .common import STATE, emit_json, guarded, info, set_output
+from .progress import Terminal
+
+
+def wrote_pages(files: list[Path]) -> str:
+    """The closing line: the pages written; for many (a day and hub folder each), their
+    count, the first and the last."""
+    if len(files) <= 8:
+        return "wrote " + ", ".join(map(str, files))
+    return f"wrote {len(files)} files: {files[0]}, …, {files[-1]}"
 
 
 @guarded
@@ -38,7 +47,7 @@ def report_command(
     allow_replacing_foreign(force)
     from ..app.report import make_report
 
-    written = make_report(folder, depots=depots)
-    info("wrote " + ", ".join(str(p) for p in written))
+    written = make_report(folder, depots=depots, progress=Terminal())
+    info(wrote_pages(written))
     if STATE["json"]:
         emit_json({"command": "report", "files": [str(p) for p in written]})

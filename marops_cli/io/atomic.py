@@ -37,10 +37,15 @@ class OutputSet:
 
     def __init__(self) -> None:
         self._pending: list[tuple[Path, Path]] = []
+        self._journal: set[Path] = set()
+        """Files journaled whatever their suffix (:meth:`path_for`)."""
 
-    def path_for(self, final: str | Path) -> Path:
+    def path_for(self, final: str | Path, journal: bool = False) -> Path:
+        """A temporary for ``final``; ``journal``: ``final`` goes into its folder's
+        journal even where its suffix is one that carries metadata (a Parquet file
+        without marops metadata, such as ``synth``'s data)."""
         final = Path(final)
-        check_replaceable([final])
+        check_replaceable([final], journal)
         try:
             final.parent.mkdir(parents=True, exist_ok=True)
             _clean_once(final.parent)
@@ -51,6 +56,8 @@ class OutputSet:
             raise cannot_write(final, exc) from None
         os.close(fd)
         self._pending.append((Path(tmp), final))
+        if journal:
+            self._journal.add(final)
         return Path(tmp)
 
     def write_bytes(self, final: str | Path, data: bytes) -> None:
@@ -59,8 +66,10 @@ class OutputSet:
     def write_json(self, final: str | Path, doc: Any) -> None:
         self.write_bytes(final, dumps_json(doc).encode("utf-8", "backslashreplace"))
 
-    def write_with(self, final: str | Path, writer: Callable[[Path], object]) -> None:
-        tmp = self.path_for(final)
+    def write_with(
+        self, final: str | Path, writer: Callable[[Path], object], journal: bool = False
+    ) -> None:
+        tmp = self.path_for(final, journal)
         try:
             writer(tmp)
         except OSError as exc:
@@ -74,7 +83,7 @@ class OutputSet:
         # place with them (docs/outputs.md).
         journaled: dict[Path, dict[str, str]] = {}
         for tmp, final in self._pending:
-            if needs_journal(final):
+            if needs_journal(final) or final in self._journal:
                 journaled.setdefault(final.parent, {})[final.name] = sha256_file(tmp)
         with ExitStack() as held:
             for folder in journaled:

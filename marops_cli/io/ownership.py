@@ -131,9 +131,10 @@ def _checkpoint_is_ours(path: Path) -> bool:
         return any(b"marops-train-ckpt/" in archive.read(n) for n in pickles[:1])
 
 
-def check_replaceable(paths: Iterable[Path]) -> None:
+def check_replaceable(paths: Iterable[Path], journal: bool = False) -> None:
     """Refuse an output that is an input of the run, or an existing file marops did not
-    write (unless ``--force``)."""
+    write (unless ``--force``); ``journal``: the outputs go into their folder's journal
+    whatever their suffix (a Parquet file without marops metadata: ``synth``'s)."""
     for final in paths:
         final = Path(final)
         try:
@@ -153,7 +154,7 @@ def check_replaceable(paths: Iterable[Path]) -> None:
             raise InputError(
                 "exists and was not written by marops; pass --force to replace it", file=final
             )
-        if needs_journal(final) and not _REPLACE_FOREIGN.get():
+        if (journal or needs_journal(final)) and not _REPLACE_FOREIGN.get():
             _check_journal(final.parent)
 
 
@@ -170,13 +171,13 @@ def _check_journal(folder: Path) -> None:
         )
 
 
-def check_outputs(paths: Iterable[Path]) -> None:
-    """Before any work: each output may be replaced (above) and its folder written,
-    found out by creating and removing a temporary there (or, for a folder still to be
-    made, by the nearest existing one)."""
+def check_outputs(paths: Iterable[Path], journal: bool = False) -> None:
+    """Before any work: each output may be replaced (above; ``journal`` as there) and
+    its folder written, found out by creating and removing a temporary there (or, for a
+    folder still to be made, by the nearest existing one)."""
     for final in paths:
         final = Path(final)
-        check_replaceable([final])
+        check_replaceable([final], journal)
         folder = final.absolute().parent
         while not folder.exists():
             folder = folder.parent

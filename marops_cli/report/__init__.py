@@ -5,6 +5,7 @@ imported only when a report is made."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -53,13 +54,21 @@ def report_folders(folder: Path, *, below: bool = True) -> list[Path]:
     return found
 
 
-def write_reports(folder: Path, depots: Depots | None = None, *, below: bool = True) -> list[Path]:
+def write_reports(
+    folder: Path,
+    depots: Depots | None = None,
+    *,
+    below: bool = True,
+    on_page: Callable[[int, int, Path], None] | None = None,
+) -> list[Path]:
     """Write ``report.html`` into ``folder`` (and, with ``below``, into its day and hub
-    folders); the files written."""
+    folders); the files written. ``on_page(k, n, path)`` is told as the k-th of the ``n``
+    pages to make is done (a city's month holds hundreds)."""
     from ..io import output_set
 
     written = []
-    for f in report_folders(folder, below=below):
+    folders = report_folders(folder, below=below)
+    for k, f in enumerate(folders, start=1):
         try:
             page = report_page(f, depots)
         except (TypeError, ValueError, KeyError, AttributeError, IndexError) as exc:
@@ -69,9 +78,10 @@ def write_reports(folder: Path, depots: Depots | None = None, *, below: bool = T
             raise InputError(
                 f"holds outputs marops cannot report on, edited or not marops's ({why})", file=f
             ) from exc
-        if page is None:
-            continue
-        with output_set() as files:
-            files.write_bytes(f / REPORT, page.html().encode("utf-8"))
-        written.append(f / REPORT)
+        if page is not None:
+            with output_set() as files:
+                files.write_bytes(f / REPORT, page.html().encode("utf-8"))
+            written.append(f / REPORT)
+        if on_page is not None:
+            on_page(k, len(folders), f / REPORT)
     return written

@@ -174,6 +174,23 @@ def test_replay_day_ends_naming_the_files_it_wrote(example_csv: Path, tmp_path: 
     assert res.stderr.strip().splitlines()[-1].startswith("nothing written:")
 
 
+def test_the_closing_line_of_a_city_names_its_first_and_last_hub() -> None:
+    """Many files: their count and the folders right below --out, hub-10 after hub-9
+    (it named hub-0, …, hub-9/2022-08-03 of eleven hubs)."""
+    from marops_cli.cli.replay_cmd import _wrote
+
+    out = Path("city")
+    files = [out / f"hub-{h}" / "2022-08-0{d}" / "stops.parquet" for h in range(11) for d in (1, 2)]
+    files += [out / f"hub-{h}" / "metrics.json" for h in range(11)] + [out / "metrics.json"]
+    assert _wrote(out, files) == (
+        f"wrote {len(files)} files: city/metrics.json and those in city/hub-0, …, city/hub-10"
+    )
+    days = [out / f"2022-08-{d:02}" / n for d in range(1, 31) for n in ("a", "b")]
+    assert _wrote(out, days) == (
+        "wrote 60 files: city/metrics.json and those in city/2022-08-01, …, city/2022-08-30"
+    )
+
+
 def test_a_missing_fleet_file_is_the_only_line(
     example_csv: Path, tmp_path: Path, fails_cleanly
 ) -> None:

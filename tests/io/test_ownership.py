@@ -78,6 +78,30 @@ def test_synth_replaces_its_own_file_until_someone_edits_it(tmp_path: Path) -> N
     assert data.read_text().endswith("an analyst's extra line\n")
 
 
+def test_synth_replaces_its_own_parquet_file(tmp_path: Path) -> None:
+    """synth's Parquet carries no marops metadata (a reader cannot tell it from an
+    export): the journal records it, so the same command runs again without --force."""
+    data = tmp_path / "city.parquet"
+    args = ("synth", "--days", "1", "--orders-per-day", "50", "--out", data)
+    assert marops(*args).returncode == 0
+    assert data.name in json.loads((tmp_path / JOURNAL).read_text())["files"]
+    res = marops(*args)
+    assert res.returncode == 0, res.stderr
+    assert written_by_marops(data)
+
+
+def test_synth_parquet_keeps_a_foreign_journal_name(tmp_path: Path) -> None:
+    """A file by the journal's name that is no journal stops synth's Parquet as it
+    stops its CSV: recording the data would replace it."""
+    from marops_cli.app.synth import synth
+
+    (tmp_path / JOURNAL).write_text("my own file\n")
+    with pytest.raises(InputError, match="is not the journal marops keeps"):
+        synth(days=1, orders_per_day=50, out=tmp_path / "city.parquet")
+    assert (tmp_path / JOURNAL).read_text() == "my own file\n"
+    assert not (tmp_path / "city.parquet").exists()
+
+
 def test_a_figure_is_marops_s_only_while_the_journal_holds_its_content(tmp_path: Path) -> None:
     fig = tmp_path / "alpha.png"
     fig.write_bytes(b"\x89PNG a user's figure")

@@ -205,16 +205,35 @@ def test_several_days_link_each_day_report(
     example_csv: Path, depots_json: Path, small_config: Path, tmp_path: Path
 ) -> None:
     out = tmp_path / "days"
-    invoke(
+    res = invoke(
         "replay-day", example_csv, "--dates", "0811..0812", "--depots", depots_json,
         "--drones", 2, "--config", small_config, "--workers", 1, "--report", "--out", out,
-        "--quiet",
     )  # fmt: skip
     top = (out / "report.html").read_text(encoding="utf-8")
     for day in ("2022-08-11", "2022-08-12"):
         assert f'href="{day}/report.html"' in top
         assert (out / day / "report.html").is_file()
     figure(top, "days")
+    # A page at a time: a city's month makes hundreds, each said as it is written.
+    pages = [
+        f"report 1/3: {out / '2022-08-11' / 'report.html'}",
+        f"report 2/3: {out / '2022-08-12' / 'report.html'}",
+        f"report 3/3: {out / 'report.html'}",
+    ]
+    assert [line for line in res.output.splitlines() if line.startswith("report ")] == pages
+    res = invoke("report", out)
+    assert res.output.splitlines()[:3] == pages
+
+
+def test_the_closing_line_of_many_pages_names_the_first_and_the_last() -> None:
+    from marops_cli.cli.report_cmd import wrote_pages
+
+    few = [Path(f"out/2022-08-0{d}/report.html") for d in range(1, 4)]
+    assert wrote_pages(few) == "wrote " + ", ".join(map(str, few))
+    many = [Path(f"out/2022-08-{d:02}/report.html") for d in range(1, 31)] + [
+        Path("out/report.html")
+    ]
+    assert wrote_pages(many) == "wrote 31 files: out/2022-08-01/report.html, …, out/report.html"
 
 
 def test_evaluate_report_tables_paired_and_sweep(

@@ -185,6 +185,20 @@ def test_city_day_covers_the_hubs_once_each(city):
     assert 0 < c["covered_share"] < 1
 
 
+def test_a_hub_days_warning_names_its_hub(example_csv, city, tmp_path):
+    """Hub-days finish in any order on workers: a day's warning names its hub, as the
+    day's status line above it does."""
+    doc = json.loads(city["hubs"].read_text())
+    doc["hubs"] = [dict(doc["hubs"][0], drones=1)]
+    hubs = tmp_path / "hubs.json"
+    hubs.write_text(json.dumps(doc))
+    args = ["replay-day", str(example_csv), "--date", "0811", "--hubs", str(hubs)]
+    res = runner.invoke(app, [*args, "--method", "ops-global", "--out", str(tmp_path / "o")])
+    assert res.exit_code == 0, res.output
+    warned = [line for line in res.output.splitlines() if "stayed undelivered" in line]
+    assert warned and all(w.startswith("warning: hub 0: 2022-08-11: ") for w in warned), warned
+
+
 def test_a_single_hub_writes_the_plain_runs_bytes(city):
     """Hub 0 of the city run is the plain run with its square as the study area: the
     route files are the same bytes, the day's metrics the same bar wall times."""
