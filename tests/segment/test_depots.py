@@ -146,6 +146,22 @@ def test_a_depots_file_s_ids_and_numbers_are_never_converted(tmp_path, edit, key
         Depots.load(path)
 
 
+def _edited_depots_error(tmp_path, edit, key: str, says: str) -> str:
+    """The error line of a depots file marops wrote, once ``edit`` has changed it: it
+    names the file and ``key`` and says ``says``."""
+    xy = np.array([[0.0, 0.0], [2000.0, 0.0], [0.0, 3000.0]])
+    doc = Depots("kmeans", FRAME, xy, np.array([5, 6, 7]), nearest_candidates(xy, 2)).to_dict({})
+    edit(doc)
+    path = tmp_path / "depots.json"
+    path.write_text(json.dumps(doc))
+    with pytest.raises(InputError) as err:
+        Depots.load(path)
+    line = str(err.value)
+    assert line.startswith(f"{path}, key '{key}': "), line
+    assert says in line, line
+    return line
+
+
 @pytest.mark.parametrize(
     ("edit", "key", "says"),
     [
@@ -168,16 +184,7 @@ def test_candidates_of_the_wrong_shape_name_the_key_and_the_shape(
     """A ``candidates`` that is not one list per depot, itself first, all as long: one
     line naming the key and what it should hold (an empty list was a traceback, a list
     of lists said only 'list indices must be integers')."""
-    xy = np.array([[0.0, 0.0], [2000.0, 0.0], [0.0, 3000.0]])
-    doc = Depots("kmeans", FRAME, xy, np.array([5, 6, 7]), nearest_candidates(xy, 2)).to_dict({})
-    edit(doc)
-    path = tmp_path / "depots.json"
-    path.write_text(json.dumps(doc))
-    with pytest.raises(InputError) as err:
-        Depots.load(path)
-    line = str(err.value)
-    assert line.startswith(f"{path}, key '{key}': "), line
-    assert says in line, line
+    line = _edited_depots_error(tmp_path, edit, key, says)
     if "unknown" not in says and "itself" not in says:
         assert '{"0": [0, 4, 1], "1": [1, 0, 2], …}' in line
 
@@ -208,16 +215,7 @@ def test_a_depots_file_of_another_shape_names_the_key(tmp_path, edit, key, says)
     file' with Python's words for the failure: 'x_m', 'Frame.__init__() missing 1
     required positional argument', 'Python int too large to convert to C long'; a
     negative count and a method that is a list were taken)."""
-    xy = np.array([[0.0, 0.0], [2000.0, 0.0], [0.0, 3000.0]])
-    doc = Depots("kmeans", FRAME, xy, np.array([5, 6, 7]), nearest_candidates(xy, 2)).to_dict({})
-    edit(doc)
-    path = tmp_path / "depots.json"
-    path.write_text(json.dumps(doc))
-    with pytest.raises(InputError) as err:
-        Depots.load(path)
-    line = str(err.value)
-    assert line.startswith(f"{path}, key '{key}': "), line
-    assert says in line, line
+    line = _edited_depots_error(tmp_path, edit, key, says)
     assert "__init__" not in line and "C long" not in line, line
 
 
