@@ -42,9 +42,14 @@ def split_days(days: list[dt.date], train: list[dt.date] | None = None) -> tuple
 def _prepared(
     table: LadeTable, frame: Frame, dates: list[dt.date], cfg: PlannerConfig
 ) -> tuple[list[dt.date], list[DayRequests]]:
-    """The days of ``dates`` that have requests in ``frame``, prepared."""
-    pairs = [(d, prepare_day(table, frame, d, cfg.data)) for d in dates]
-    pairs = [(d, r) for d, r in pairs if len(r) > 0]  # a day with no request teaches nothing
+    """The days of ``dates`` that have requests in ``frame``, prepared; a day with none
+    (all outside the study area or service hours) teaches nothing and is left out."""
+    pairs = []
+    for d in dates:  # every date is the file's: prepare_day raises only for an empty day
+        try:
+            pairs.append((d, prepare_day(table, frame, d, cfg.data)))
+        except InputError:
+            continue
     return [d for d, _ in pairs], [r for _, r in pairs]
 
 
