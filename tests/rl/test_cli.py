@@ -108,6 +108,29 @@ def test_train_refuses_a_checkpoint_that_is_not_this_runs(
     assert "infinity" in line and "pass --no-resume" in line
 
 
+def test_train_names_what_differs_from_the_checkpoint(
+    tiny_csv: Path, tmp_path: Path, fails_cleanly
+) -> None:
+    """Resuming after changing an option names the setting and both values; a checkpoint
+    of the other --algorithm says so (it was 'not valid JSON', or torch's advice to load
+    it unsafely)."""
+    args = ["train", str(tiny_csv), "--workers", "1", "--drones", "4", "--n-depots", "8"]
+    out = tmp_path / "a.pt"
+    res = runner.invoke(app, [*args, "--episodes", "1", "--out", str(out)])
+    assert res.exit_code == 0, res.output
+    line = fails_cleanly([*args, "--episodes", "2", "--seed", "3", "--out", str(out)], tmp_path)
+    assert "other settings (train.seed: 0 in it, 3 now); pass --no-resume" in line
+    line = fails_cleanly([*args, "--episodes", "2", "--alpha", "0.3", "--out", str(out)], tmp_path)
+    assert "(planner.plan.alpha: 0.5 in it, 0.3 now)" in line
+    es = [*args, "--algorithm", "es", "--episodes", "1", "--out", str(tmp_path / "a.safetensors")]
+    line = fails_cleanly(es, tmp_path, str(out.with_suffix(".ckpt")))
+    assert "the recurrent actor's training checkpoint (--algorithm ppo)" in line
+    landing = tmp_path / "b.pt"
+    landing.with_suffix(".ckpt").write_text('{"format": "marops-landing-ckpt/1"}')
+    line = fails_cleanly([*args, "--episodes", "1", "--out", str(landing)], tmp_path)
+    assert "the landing actor's training checkpoint (--algorithm es)" in line
+
+
 def test_train_rejects_bad_options(tiny_csv: Path, tmp_path: Path) -> None:
     res = runner.invoke(app, ["train", str(tiny_csv), "--out", str(tmp_path / "x.onnx")])
     assert res.exit_code != 0 and ".pt" in res.output
