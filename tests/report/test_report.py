@@ -217,6 +217,21 @@ def test_several_days_link_each_day_report(
     figure(top, "days")
 
 
+def test_a_day_folder_named_like_a_script_url_links_as_a_path(tmp_path: Path) -> None:
+    """A several-day folder from elsewhere whose day is named ``javascript:…``: its link
+    is that folder, percent-encoded, not a script run by a click."""
+    name = "javascript:document.title='x';0"
+    out = tmp_path / "days"
+    (out / name).mkdir(parents=True)
+    (out / name / "metrics.json").write_text('{"total": {"delivered": 1}}')
+    days = {"days": [{"day": name, "method": "stay"}], "total": {"delivered": 1}}
+    (out / "metrics.json").write_text(json.dumps(days))
+    invoke("report", out, "--quiet")
+    top = (out / "report.html").read_text(encoding="utf-8")
+    assert 'href="javascript%3Adocument.title%3D%27x%27%3B0/report.html"' in top
+    assert 'href="javascript:' not in top.split("</head>")[1]
+
+
 def test_evaluate_report_tables_paired_and_sweep(
     example_csv: Path, small_config: Path, tmp_path: Path
 ) -> None:
