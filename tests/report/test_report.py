@@ -117,6 +117,10 @@ def test_marops_report_refuses_what_it_cannot_read_or_replace(
     empty.mkdir()
     res = runner.invoke(app, ["report", str(empty)])
     assert res.exit_code == 2 and "holds no marops outputs" in res.output
+    (empty / "metrics.json").write_text('{"a": 1}')  # another tool's: it said "wrote " (exit 0)
+    res = runner.invoke(app, ["report", str(empty)])
+    assert res.exit_code == 2 and "holds no marops outputs" in res.output
+    assert sorted(p.name for p in empty.iterdir()) == ["metrics.json"]
     copy = tmp_path / "copy"
     shutil.copytree(day_run, copy)
     (copy / "report.html").write_text("my notes")  # not marops's any more
