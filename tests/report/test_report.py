@@ -153,6 +153,18 @@ def test_marops_report_on_a_damaged_output_is_one_line(
     assert (copy / "report.html").read_bytes() == page
 
 
+def test_marops_report_names_a_missing_stops_file(day_run: Path, tmp_path: Path) -> None:
+    """Routes without their stops: the stops file is named as missing (the reason was
+    the bare path)."""
+    copy = tmp_path / "copy"
+    shutil.copytree(day_run, copy)
+    (copy / "stops.parquet").unlink()
+    res = runner.invoke(app, ["report", str(copy), "--force"])
+    assert res.exit_code == 2, res.output
+    line = f"marops: error: {copy / 'stops.parquet'}: not found: the report reads it with"
+    assert res.stderr.startswith(line)
+
+
 def test_marops_report_on_an_edited_column_is_one_line(day_run: Path, tmp_path: Path) -> None:
     """Route files that read but hold what no run writes (times replaced by numbers) are
     one line naming the folder, not a traceback; the page is left as it was."""
