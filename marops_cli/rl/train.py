@@ -123,6 +123,13 @@ class Trainer:
             self._restore(state)
         except (KeyError, TypeError, ValueError, AttributeError, RuntimeError, OverflowError) as e:
             raise edited_checkpoint(self.ckpt, "a training checkpoint", e) from None
+        if self.episode > self.tcfg.episodes:  # it would export that actor as this run's
+            raise InputError(
+                f"checkpoint is at episode {self.episode}, past --episodes "
+                f"{self.tcfg.episodes}: pass --episodes {self.episode} or more to go on from "
+                "it, or --no-resume to start over",
+                file=self.ckpt,
+            )
         return True
 
     def _restore(self, state: dict[str, Any]) -> None:

@@ -122,6 +122,11 @@ def test_train_names_what_differs_from_the_checkpoint(
     assert "other settings (train.seed: 0 in it, 3 now); pass --no-resume" in line
     line = fails_cleanly([*args, "--episodes", "2", "--alpha", "0.3", "--out", str(out)], tmp_path)
     assert "(planner.plan.alpha: 0.5 in it, 0.3 now)" in line
+    res = runner.invoke(app, [*args, "--episodes", "2", "--out", str(out)])
+    assert res.exit_code == 0, res.output
+    # fewer episodes than it holds: it exported the longer run's actor as this one's
+    line = fails_cleanly([*args, "--episodes", "1", "--out", str(out)], tmp_path)
+    assert "checkpoint is at episode 2, past --episodes 1: pass --episodes 2 or more" in line
     es = [*args, "--algorithm", "es", "--episodes", "1", "--out", str(tmp_path / "a.safetensors")]
     line = fails_cleanly(es, tmp_path, str(out.with_suffix(".ckpt")))
     assert "the recurrent actor's training checkpoint (--algorithm ppo)" in line
