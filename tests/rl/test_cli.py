@@ -145,6 +145,18 @@ def test_train_rejects_bad_options(tiny_csv: Path, tmp_path: Path) -> None:
     assert res.exit_code != 0 and "method" in res.output
 
 
+def test_train_refuses_an_observation_version_the_actor_does_not_use(
+    tiny_csv: Path, tmp_path: Path, fails_cleanly
+) -> None:
+    """--obs-version 5 with mappo or the landing actor was ignored (the sidecar's
+    train_config said 5 of an actor of version 2)."""
+    args = ["train", str(tiny_csv), "--obs-version", "5", "--episodes", "1"]
+    line = fails_cleanly([*args, "--method", "mappo", "--out", str(tmp_path / "a.pt")], tmp_path)
+    assert "--obs-version is the recurrent marops actor's; --method mappo has its own" in line
+    es = [*args, "--algorithm", "es", "--out", str(tmp_path / "a.safetensors")]
+    assert "--algorithm es (the landing actor)" in fails_cleanly(es, tmp_path)
+
+
 def test_train_days_the_file_lacks_name_the_file(
     tiny_csv: Path, tmp_path: Path, fails_cleanly
 ) -> None:
