@@ -71,21 +71,28 @@ def make_report(
     require_plotly()
     targets = report_folders(folder)
     if not targets:
-        raise InputError(
-            "holds no marops outputs to report on (routes, metrics.json or an evaluation's "
-            "summary.csv and results.parquet)",
-            file=folder,
-        )
+        raise _nothing_to_report(folder)
     register_inputs([depots])
     check_outputs(report_outputs(targets))
     loaded = _depots(depots)
     with folder_lock(folder):
         try:
-            return write_pages(folder, loaded, progress)
+            written = write_pages(folder, loaded, progress)
         except InputError as exc:
             if depots is not None and exc.column == "frame":
                 raise naming(exc, depots) from None  # the depots of another study square
             raise
+    if not written:  # a metrics.json of no day, no several days and no city
+        raise _nothing_to_report(folder)
+    return written
+
+
+def _nothing_to_report(folder: Path) -> InputError:
+    return InputError(
+        "holds no marops outputs to report on (routes, metrics.json or an evaluation's "
+        "summary.csv and results.parquet)",
+        file=folder,
+    )
 
 
 def _depots(path: str | Path | None) -> Depots | None:

@@ -225,8 +225,9 @@ def train_command(
         int,
         typer.Option(
             "--obs-version",
-            help="Observation version of the flight-range actor: 4, or 5 (adds the drone's own "
-            "type: payload, battery, speed; for mixed fleets) [default: 4].",
+            help="Observation version of the flight-range actor (--method marops): 4, or 5 "
+            "(adds the drone's own type: payload, battery, speed; for mixed fleets) "
+            "[default: 4].",
             show_default=False,
         ),
     ] = 4,
@@ -255,6 +256,9 @@ def train_command(
     if out.suffix != (".safetensors" if algorithm == "es" else ".pt"):
         want = "a .safetensors file (--algorithm es)" if algorithm == "es" else "a .pt file"
         raise InputError(f"--out must name {want} (the sidecar goes beside it)", file=out)
+    if obs_version != 4 and (method == "mappo" or algorithm == "es"):  # it was ignored
+        who = "--algorithm es (the landing actor)" if algorithm == "es" else "--method mappo"
+        raise InputError(f"--obs-version is the recurrent marops actor's; {who} has its own")
     allow_replacing_foreign(force)
     protect_inputs(actor_files(out, algorithm), [*data, config])  # before the long work
     fleets, depot_counts = _sizes(drones, "--drones"), _sizes(n_depots, "--n-depots")

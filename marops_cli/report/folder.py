@@ -64,6 +64,10 @@ def metrics(folder: Path) -> dict[str, Any] | None:
 def read_input(path: Path, read: Callable[[Path], T]) -> T:
     """``read(path)``; a file that cannot be read (missing, damaged: Arrow's and JSON's
     errors are ValueErrors) is one line naming it."""
+    if not path.exists():  # Arrow's error is the bare path
+        raise InputError(
+            "not found: the report reads it with the folder's other outputs", file=path
+        )
     try:
         return read(path)
     except (OSError, ValueError) as exc:

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from pathlib import Path
 from typing import Any
+from urllib.parse import quote
 
 from .folder import REPORT
 from .page import Page
@@ -21,11 +22,12 @@ _COLUMNS = (
 
 
 def _link(folder: Path, row: dict[str, Any]) -> tuple[str, str] | str:
-    """The day's own report below ``folder``, as (text, relative link), when there."""
+    """The day's own report below ``folder``, as (text, relative link), when there. The
+    link is percent-encoded: a folder named ``javascript:…`` is a path, never a script."""
     day, hub = str(row["day"]), row.get("hub", 0)
     for rel in (f"hub-{hub}/{day}", f"hub-{hub}", day):
         if (folder / rel / REPORT).is_file() or (folder / rel / "metrics.json").is_file():
-            return ("report", f"{rel}/{REPORT}")
+            return ("report", quote(f"{rel}/{REPORT}"))
     return ""
 
 

@@ -8,6 +8,7 @@ training scenario (docs/method.md §6, generalisation).
 from __future__ import annotations
 
 import datetime as dt
+import zipfile
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -42,12 +43,13 @@ def split_days(days: list[dt.date], train: list[dt.date] | None = None) -> tuple
 def _prepared(
     table: LadeTable, frame: Frame, dates: list[dt.date], cfg: PlannerConfig
 ) -> tuple[list[dt.date], list[DayRequests]]:
-    """The days of ``dates`` that have requests in ``frame``, prepared."""
+    """The days of ``dates`` that have requests in ``frame``, prepared; a day with none
+    (all outside the study area or service hours) teaches nothing and is left out."""
     pairs = []
-    for d in dates:
+    for d in dates:  # every date is the file's: prepare_day raises only for an empty day
         try:
             pairs.append((d, prepare_day(table, frame, d, cfg.data)))
-        except InputError:  # nothing due in the area in service hours: the day teaches nothing
+        except InputError:
             continue
     return [d for d, _ in pairs], [r for _, r in pairs]
 
@@ -139,6 +141,58 @@ def fingerprint(td: TrainData) -> dict[str, Any]:
         out["files"] = [(f["sha256"], f["train_days"]) for f in td.files]
         out["scenarios"] = [(s.name, len(s.depots), s.cfg.sim.drones) for s in td.ctx.scenarios]
     return out
+
+
+def other_run(ckpt: Path, stored: Any, now: dict[str, Any]) -> InputError | None:
+    """The refusal of a checkpoint whose fingerprint ``stored`` is not this run's
+    ``now``, naming the first setting that differs; None when they agree."""
+    where = _difference(stored, now)
+    if where is None:
+        return None
+    path, old, new = where
+    what = "other data" if path in ("data_sha256", "files") else "other settings"
+    return InputError(
+        f"checkpoint was made with {what} ({path}: {_short(old)} in it, {_short(new)} now); "
+        "pass --no-resume to start over",
+        file=ckpt,
+    )
+
+
+def _difference(old: Any, new: Any, path: str = "") -> tuple[str, Any, Any] | None:
+    """(dotted key, old value, new value) of the first difference, or None."""
+    if isinstance(old, dict) and isinstance(new, dict):
+        for k in [*new, *(k for k in old if k not in new)]:
+            if k not in old or k not in new:
+                return f"{path}{k}", old.get(k, "nothing"), new.get(k, "nothing")
+            found = _difference(old[k], new[k], f"{path}{k}.")
+            if found is not None:
+                return found
+        return None
+    if isinstance(old, list | tuple) and isinstance(new, list | tuple) and len(old) == len(new):
+        for a, b in zip(old, new, strict=True):
+            if _difference(a, b, path) is not None:
+                return path.rstrip("."), old, new
+        return None
+    return None if old == new else (path.rstrip(".") or "fingerprint", old, new)
+
+
+def _short(value: Any) -> str:
+    text = repr(value)
+    return text if len(text) <= 40 else text[:37] + "..."
+
+
+def other_algorithm(ckpt: Path, algorithm: str) -> InputError | None:
+    """The refusal of a checkpoint of the other ``--algorithm`` (the recurrent actor's
+    is a torch archive, the landing actor's JSON); None for one of ``algorithm``'s kind
+    or any other file (its own loader says why)."""
+    ppo = zipfile.is_zipfile(ckpt)
+    if algorithm == "es" and ppo:
+        kind = "the recurrent actor's training checkpoint (--algorithm ppo), not the landing's"
+    elif algorithm != "es" and not ppo and ckpt.read_bytes()[:1] == b"{":
+        kind = "the landing actor's training checkpoint (--algorithm es), not the recurrent's"
+    else:
+        return None
+    return InputError(f"{kind}; pass --no-resume or another --out", file=ckpt)
 
 
 def edited_checkpoint(ckpt: Path, kind: str, exc: Exception) -> InputError:

@@ -60,7 +60,7 @@ from ..sim.replay import fly_day
 from ..sim.state import default_fleet
 from ..sim.step import WindowStep
 from ..workers import LocalPool
-from .data import TrainData, edited_checkpoint, fingerprint
+from .data import TrainData, edited_checkpoint, fingerprint, other_algorithm, other_run
 from .rollout import TrainScenario, WorkerContext, derive_seed
 
 __all__ = ["RULES", "LandingTrainer", "day_cost", "landing_weights_bytes", "write_landing_actor"]
@@ -171,14 +171,16 @@ class LandingTrainer:
         """Resume from ``NAME.ckpt`` when there is one; refuse one made differently."""
         if not self.ckpt.is_file():
             return False
+        wrong = other_algorithm(self.ckpt, "es")
+        if wrong is not None:
+            raise wrong
         state = read_json(self.ckpt, "training checkpoint")
         if not isinstance(state, dict) or state.get("format") != _CKPT_FORMAT:
             raise InputError("not a landing actor's checkpoint; pass --no-resume", file=self.ckpt)
-        if state.get("fingerprint") != json.loads(json.dumps(fingerprint(self.td))):
-            raise InputError(
-                "checkpoint was made with other data or settings; pass --no-resume to start over",
-                file=self.ckpt,
-            )
+        now = json.loads(json.dumps(fingerprint(self.td)))
+        mismatch = other_run(self.ckpt, state.get("fingerprint"), now)
+        if mismatch is not None:
+            raise mismatch
         try:
             self._restore(state)
         except (KeyError, TypeError, ValueError, OverflowError) as exc:  # int(inf): Overflow

@@ -22,7 +22,15 @@ from ..io.atomic import output_set
 from ..policies.landing import operating_model
 from ..policies.observation import ObsVersion
 from ..workers import LocalPool, single_threaded
-from .data import TrainData, edited_checkpoint, fingerprint, load_training_data, split_days
+from .data import (
+    TrainData,
+    edited_checkpoint,
+    fingerprint,
+    load_training_data,
+    other_algorithm,
+    other_run,
+    split_days,
+)
 from .env import DeliveryEnv
 from .evaluate import summarise
 from .export import write_actor
@@ -93,6 +101,9 @@ class Trainer:
         """Resume from ``NAME.ckpt`` when there is one; refuse one made differently."""
         if not self.ckpt.is_file():
             return False
+        wrong = other_algorithm(self.ckpt, "ppo")
+        if wrong is not None:
+            raise wrong
         try:
             state = torch.load(self.ckpt, map_location="cpu", weights_only=True)
         except Exception as exc:  # a torn or foreign file: say which, never guess
@@ -105,15 +116,20 @@ class Trainer:
                 f"not a training checkpoint (format {CKPT_FORMAT}); pass --no-resume",
                 file=self.ckpt,
             )
-        if state.get("fingerprint") != fingerprint(self.td):
-            raise InputError(
-                "checkpoint was made with other data or settings; pass --no-resume to start over",
-                file=self.ckpt,
-            )
+        mismatch = other_run(self.ckpt, state.get("fingerprint"), fingerprint(self.td))
+        if mismatch is not None:
+            raise mismatch
         try:
             self._restore(state)
         except (KeyError, TypeError, ValueError, AttributeError, RuntimeError, OverflowError) as e:
             raise edited_checkpoint(self.ckpt, "a training checkpoint", e) from None
+        if self.episode > self.tcfg.episodes:  # it would export that actor as this run's
+            raise InputError(
+                f"checkpoint is at episode {self.episode}, past --episodes "
+                f"{self.tcfg.episodes}: pass --episodes {self.episode} or more to go on from "
+                "it, or --no-resume to start over",
+                file=self.ckpt,
+            )
         return True
 
     def _restore(self, state: dict[str, Any]) -> None:

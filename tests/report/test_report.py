@@ -117,6 +117,10 @@ def test_marops_report_refuses_what_it_cannot_read_or_replace(
     empty.mkdir()
     res = runner.invoke(app, ["report", str(empty)])
     assert res.exit_code == 2 and "holds no marops outputs" in res.output
+    (empty / "metrics.json").write_text('{"a": 1}')  # another tool's: it said "wrote " (exit 0)
+    res = runner.invoke(app, ["report", str(empty)])
+    assert res.exit_code == 2 and "holds no marops outputs" in res.output
+    assert sorted(p.name for p in empty.iterdir()) == ["metrics.json"]
     copy = tmp_path / "copy"
     shutil.copytree(day_run, copy)
     (copy / "report.html").write_text("my notes")  # not marops's any more
@@ -147,6 +151,18 @@ def test_marops_report_on_a_damaged_output_is_one_line(
     assert res.exit_code == 2 and len(lines) == 1, res.output
     assert name in lines[0] and says in lines[0]
     assert (copy / "report.html").read_bytes() == page
+
+
+def test_marops_report_names_a_missing_stops_file(day_run: Path, tmp_path: Path) -> None:
+    """Routes without their stops: the stops file is named as missing (the reason was
+    the bare path)."""
+    copy = tmp_path / "copy"
+    shutil.copytree(day_run, copy)
+    (copy / "stops.parquet").unlink()
+    res = runner.invoke(app, ["report", str(copy), "--force"])
+    assert res.exit_code == 2, res.output
+    line = f"marops: error: {copy / 'stops.parquet'}: not found: the report reads it with"
+    assert res.stderr.startswith(line)
 
 
 def test_marops_report_on_an_edited_column_is_one_line(day_run: Path, tmp_path: Path) -> None:
@@ -234,6 +250,21 @@ def test_the_closing_line_of_many_pages_names_the_first_and_the_last() -> None:
         Path("out/report.html")
     ]
     assert wrote_pages(many) == "wrote 31 files: out/2022-08-01/report.html, …, out/report.html"
+
+
+def test_a_day_folder_named_like_a_script_url_links_as_a_path(tmp_path: Path) -> None:
+    """A several-day folder from elsewhere whose day is named ``javascript:…``: its link
+    is that folder, percent-encoded, not a script run by a click."""
+    name = "javascript:document.title='x';0"
+    out = tmp_path / "days"
+    (out / name).mkdir(parents=True)
+    (out / name / "metrics.json").write_text('{"total": {"delivered": 1}}')
+    days = {"days": [{"day": name, "method": "stay"}], "total": {"delivered": 1}}
+    (out / "metrics.json").write_text(json.dumps(days))
+    invoke("report", out, "--quiet")
+    top = (out / "report.html").read_text(encoding="utf-8")
+    assert 'href="javascript%3Adocument.title%3D%27x%27%3B0/report.html"' in top
+    assert 'href="javascript:' not in top.split("</head>")[1]
 
 
 def test_evaluate_report_tables_paired_and_sweep(

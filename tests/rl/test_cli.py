@@ -108,6 +108,34 @@ def test_train_refuses_a_checkpoint_that_is_not_this_runs(
     assert "infinity" in line and "pass --no-resume" in line
 
 
+def test_train_names_what_differs_from_the_checkpoint(
+    tiny_csv: Path, tmp_path: Path, fails_cleanly
+) -> None:
+    """Resuming after changing an option names the setting and both values; a checkpoint
+    of the other --algorithm says so (it was 'not valid JSON', or torch's advice to load
+    it unsafely)."""
+    args = ["train", str(tiny_csv), "--workers", "1", "--drones", "4", "--n-depots", "8"]
+    out = tmp_path / "a.pt"
+    res = runner.invoke(app, [*args, "--episodes", "1", "--out", str(out)])
+    assert res.exit_code == 0, res.output
+    line = fails_cleanly([*args, "--episodes", "2", "--seed", "3", "--out", str(out)], tmp_path)
+    assert "other settings (train.seed: 0 in it, 3 now); pass --no-resume" in line
+    line = fails_cleanly([*args, "--episodes", "2", "--alpha", "0.3", "--out", str(out)], tmp_path)
+    assert "(planner.plan.alpha: 0.5 in it, 0.3 now)" in line
+    res = runner.invoke(app, [*args, "--episodes", "2", "--out", str(out)])
+    assert res.exit_code == 0, res.output
+    # fewer episodes than it holds: it exported the longer run's actor as this one's
+    line = fails_cleanly([*args, "--episodes", "1", "--out", str(out)], tmp_path)
+    assert "checkpoint is at episode 2, past --episodes 1: pass --episodes 2 or more" in line
+    es = [*args, "--algorithm", "es", "--episodes", "1", "--out", str(tmp_path / "a.safetensors")]
+    line = fails_cleanly(es, tmp_path, str(out.with_suffix(".ckpt")))
+    assert "the recurrent actor's training checkpoint (--algorithm ppo)" in line
+    landing = tmp_path / "b.pt"
+    landing.with_suffix(".ckpt").write_text('{"format": "marops-landing-ckpt/1"}')
+    line = fails_cleanly([*args, "--episodes", "1", "--out", str(landing)], tmp_path)
+    assert "the landing actor's training checkpoint (--algorithm es)" in line
+
+
 def test_train_rejects_bad_options(tiny_csv: Path, tmp_path: Path) -> None:
     res = runner.invoke(app, ["train", str(tiny_csv), "--out", str(tmp_path / "x.onnx")])
     assert res.exit_code != 0 and ".pt" in res.output
@@ -115,6 +143,18 @@ def test_train_rejects_bad_options(tiny_csv: Path, tmp_path: Path) -> None:
         app, ["train", str(tiny_csv), "--method", "dqn", "--out", str(tmp_path / "x.pt")]
     )
     assert res.exit_code != 0 and "method" in res.output
+
+
+def test_train_refuses_an_observation_version_the_actor_does_not_use(
+    tiny_csv: Path, tmp_path: Path, fails_cleanly
+) -> None:
+    """--obs-version 5 with mappo or the landing actor was ignored (the sidecar's
+    train_config said 5 of an actor of version 2)."""
+    args = ["train", str(tiny_csv), "--obs-version", "5", "--episodes", "1"]
+    line = fails_cleanly([*args, "--method", "mappo", "--out", str(tmp_path / "a.pt")], tmp_path)
+    assert "--obs-version is the recurrent marops actor's; --method mappo has its own" in line
+    es = [*args, "--algorithm", "es", "--out", str(tmp_path / "a.safetensors")]
+    assert "--algorithm es (the landing actor)" in fails_cleanly(es, tmp_path)
 
 
 def test_train_days_the_file_lacks_name_the_file(

@@ -33,6 +33,28 @@ def test_split_days_is_80_20() -> None:
     assert train == [days[0], days[5]] and len(held) == 8
 
 
+def test_a_day_with_no_request_in_service_hours_is_left_out(
+    tiny_csv: Path, small_cfg: PlannerConfig, tmp_path: Path
+) -> None:
+    """A day whose deliveries all fall outside service hours teaches nothing: training
+    leaves it out (it stopped the run, naming the day)."""
+    import csv
+
+    rows = list(csv.reader(tiny_csv.open(newline="")))
+    head = rows[0]
+    acc, dlv, ds = head.index("accept_time"), head.index("delivery_time"), head.index("ds")
+    for r in rows[1:]:
+        if r[ds] == "802":
+            r[acc], r[dlv] = "08-02 20:00:00", "08-02 21:00:00"
+    path = tmp_path / "evening.csv"
+    with path.open("w", newline="") as f:
+        csv.writer(f).writerows(rows)
+    td = load_training_data(path, small_cfg, TrainConfig())
+    assert td.files[0]["train_days"] == ["2022-08-01"]
+    assert td.files[0]["heldout_days"] == ["2022-08-03"]
+    assert [len(s.train_days) for s in td.ctx.scenarios] == [1]
+
+
 def test_episode_adds_up_to_the_day_delay(tiny_csv: Path, small_cfg: PlannerConfig) -> None:
     """Summed over a day, the per-window delay of the reward is the metric's delivery delay."""
     for scope in ("team", "observed"):
