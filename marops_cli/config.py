@@ -37,6 +37,8 @@ BOUND_LABELS = 500_000
 seconds of CPU on a 150-request window."""
 
 MAX_SEED = 2**32 - 1  # the seeds numpy and scikit-learn accept
+MAX_EPISODES = 10_000_000
+"""The most training episodes (days) one run takes: a year of them a day for decades."""
 
 
 class _Stage(BaseModel):

@@ -132,9 +132,11 @@ def evaluate(
     and write its tables and figures."""
     from ..evaluate import expand_settings, prepare
     from ..io.ownership import check_outputs, register_inputs
+    from ..workers.pool import check_workers
     from .report import check_report
 
     check_report(config.report and out is not None)
+    check_workers(config.workers)
     register_inputs([data, *config.actors.values()])  # never an output
     if out is not None:  # before any work: a folder, no file marops did not write
         check_out(out)

@@ -62,9 +62,11 @@ class ReplayOptions:
 def check_options(options: ReplayOptions) -> None:
     """Refuse options no replay can run with, before any work."""
     from ..sim.scenario import METHODS
+    from ..workers.pool import check_workers
     from .report import check_report
 
     check_report(options.report)
+    check_workers(options.workers)
     if options.scheduler is not None:
         from ..workers.cluster import require_distributed
 

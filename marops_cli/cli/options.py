@@ -133,8 +133,8 @@ Workers = Annotated[
     typer.Option(
         "--workers",
         min=1,
-        help="Worker processes (with --scheduler local: the cluster's); without --scheduler, "
-        "a single job runs here.",
+        help="Worker processes, 1 to 256 (with --scheduler local: the cluster's); without "
+        "--scheduler, a single job runs here.",
     ),
 ]
 Scheduler = Annotated[

@@ -196,7 +196,7 @@ def train_command(
             show_default=False,
         ),
     ] = 2.0,
-    workers: Annotated[int, typer.Option("--workers", help="Rollout processes.")] = 2,
+    workers: Annotated[int, typer.Option("--workers", help="Rollout processes, 1 to 256.")] = 2,
     resume: Annotated[
         bool, typer.Option("--resume/--no-resume", help="Continue from NAME.ckpt if present.")
     ] = True,

@@ -41,6 +41,7 @@ from ..sim.scenario import (
     replay_modules,
 )
 from ..workers import outcomes
+from ..workers.pool import check_workers
 from .settings import Job, Setting, check_repeats, check_settings, plan_jobs, split_days
 
 OnResult = Callable[[int, int, Job], None]
@@ -335,8 +336,7 @@ def run(
     (or on the Dask cluster at ``scheduler``, ``local`` for one on this machine); with
     a ``sink``, the jobs it holds are not run again and each finished job goes to it at
     once."""
-    if workers < 1:
-        raise InputError(f"--workers expects at least 1, got {workers}")
+    check_workers(workers)
     total = len(prep.jobs)
     skip = sink.finished() if sink is not None else set()
     todo = [job for job in prep.jobs if job.index not in skip]

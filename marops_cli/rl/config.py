@@ -6,7 +6,8 @@ from typing import Literal
 
 from pydantic import BaseModel, ConfigDict, Field, field_validator
 
-from ..config import MAX_SEED
+from ..config import MAX_EPISODES, MAX_SEED
+from ..workers.pool import MAX_WORKERS
 
 
 class TrainConfig(BaseModel):
@@ -28,9 +29,13 @@ class TrainConfig(BaseModel):
     method: Literal["marops", "mappo"] = Field(
         "marops", description="marops: actions pick a destination; mappo: destination × plan slot"
     )
-    episodes: int = Field(2000, ge=1, description="training episodes (one episode = one day)")
+    episodes: int = Field(
+        2000, ge=1, le=MAX_EPISODES, description="training episodes (one episode = one day)"
+    )
     seed: int = Field(0, ge=0, le=MAX_SEED, description="seed of every random stream of the run")
-    workers: int = Field(2, ge=1, description="rollout processes (results do not depend on it)")
+    workers: int = Field(
+        2, ge=1, le=MAX_WORKERS, description="rollout processes (results do not depend on it)"
+    )
     episodes_per_update: int = Field(8, ge=1, description="episodes gathered per PPO update")
     hidden_size: int = Field(64, ge=1, description="GRU units of the actor (paper: 64)")
     critic_hidden: int = Field(

@@ -17,7 +17,7 @@ import sys
 from collections.abc import Iterable, Iterator, Sequence
 from typing import Any
 
-from ..errors import RunError
+from ..errors import InputError, RunError
 from .threads import one_thread
 from .work import Job, Outcome, Work, run_safe
 
@@ -79,6 +79,17 @@ def warm_up(modules: Sequence[str]) -> None:
 _WORK: list[Work] = []
 
 
+MAX_WORKERS = 256
+"""The most local worker processes a run starts (results never depend on how many)."""
+
+
+def check_workers(workers: int) -> None:
+    """Refuse a count of worker processes below 1 or above :data:`MAX_WORKERS` (a
+    mistyped count, not a machine of that many cores), before any work."""
+    if not 1 <= workers <= MAX_WORKERS:
+        raise InputError(f"--workers expects 1 to {MAX_WORKERS}, got {workers}")
+
+
 def _init(work: Work) -> None:
     # Ctrl-C reaches the whole process group: the parent stops the pool and keeps what
     # finished; workers ignore it, so no worker prints a traceback.
@@ -100,6 +111,7 @@ class LocalPool:
     included) stops the workers."""
 
     def __init__(self, work: Work, workers: int) -> None:
+        check_workers(max(workers, 1))
         self.work = work
         self._pool: Any = None
         if workers <= 1:

@@ -1,0 +1,26 @@
+"""Counts of processes and episodes past what any machine runs are refused before any
+work: a mistyped --workers 10000 would start that many processes (docs/outputs.md)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+
+@pytest.mark.parametrize(
+    ("command", "needle"),
+    [
+        (["evaluate", "--dates", "0811", "--methods", "stay", "--workers", "10000"], "1 to 256"),
+        (["replay-day", "--dates", "0811..0812", "--method", "stay", "--workers", "999"], "256"),
+        (["train", "--workers", "1000"], "workers ≤ 256"),
+        (["train", "--episodes", "100000000"], "episodes ≤ 1e7"),
+    ],
+    ids=["evaluate-workers", "replay-workers", "train-workers", "train-episodes"],
+)
+def test_counts_past_any_machine_are_one_line(
+    example_csv: Path, tmp_path: Path, fails_cleanly, command: list[str], needle: str
+) -> None:
+    out = tmp_path / ("a.pt" if command[0] == "train" else "out")
+    args = [command[0], str(example_csv), *command[1:], "--out", str(out)]
+    fails_cleanly(args, tmp_path, needle)
