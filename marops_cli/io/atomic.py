@@ -200,17 +200,16 @@ def _take(folder: Path, lock: Path) -> Any:
         try:
             fcntl.flock(fh.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
         except OSError:
-            fh.seek(0)
-            holder = fh.read().strip() or "another process"
+            holder = _held(fh)
             fh.close()
-            if not _OURS.fullmatch(holder) and holder != "another process":
+            if holder and not _OURS.fullmatch(holder):
                 raise _foreign(lock) from None
             raise RunError(
-                f"{folder}: another marops run ({holder}) is writing here; wait for it to "
-                "finish or choose another --out"
+                f"{folder}: another marops run ({holder or 'another process'}) is writing "
+                "here; wait for it to finish or choose another --out"
             ) from None
-        fh.seek(0)
-        if (held := fh.read().strip()) and not _OURS.fullmatch(held):
+        # Empty, it is a run's that has not written its pid yet, or a killed one's.
+        if (held := _held(fh)) and not _OURS.fullmatch(held):
             fh.close()  # a file of the same name marops did not write: left as it is
             raise _foreign(lock)
         # The holder removes the file as it ends: a lock taken on a file already
@@ -224,13 +223,20 @@ def _take(folder: Path, lock: Path) -> Any:
         fh.close()
     fh.seek(0)
     fh.truncate()
-    fh.write(f"pid {os.getpid()}")
+    fh.write(f"pid {os.getpid()}".encode())
     fh.flush()
     return fh
 
 
-# What a marops lock holds: the holder's process id (empty for a moment after creation).
+# What a marops lock holds: the holder's process id.
 _OURS = re.compile(r"pid \d+")
+
+
+def _held(fh: Any) -> str:
+    """What a lock file holds, as text (bytes that are no UTF-8 replaced: no marops
+    lock holds them)."""
+    fh.seek(0)
+    return fh.read(256).decode("utf-8", errors="replace").strip()
 
 
 def _open_lock(lock: Path) -> Any:
@@ -245,7 +251,7 @@ def _open_lock(lock: Path) -> Any:
     if not stat.S_ISREG(os.fstat(fd).st_mode):
         os.close(fd)
         raise _foreign(lock)
-    return os.fdopen(fd, "a+")
+    return os.fdopen(fd, "a+b")
 
 
 def _foreign(lock: Path) -> InputError:

@@ -101,6 +101,14 @@ def test_a_file_of_the_lock_s_name_that_marops_did_not_write_is_left_as_it_is(
         assert "did not write" in str(exc)
     assert target.read_text() == "keep\n" and mine.is_symlink()
     mine.unlink()
+    mine.write_bytes(b"\xff\xfe\x00binary")  # not text at all: left as it is too
+    try:
+        with folder_lock(folder):
+            raise AssertionError("the folder was taken")
+    except InputError as exc:
+        assert "did not write" in str(exc)
+    assert mine.read_bytes() == b"\xff\xfe\x00binary"
+    mine.unlink()
     mine.write_text("pid 12345")  # a killed run's lock is taken over and removed
     with folder_lock(folder):
         assert mine.read_text() == f"pid {__import__('os').getpid()}"
