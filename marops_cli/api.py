@@ -463,6 +463,8 @@ def _read_back(folder: Path, metrics: dict[str, Any]) -> DayResult:
     import pyarrow as pa
 
     from .data.arrow import read_parquet
+    from .data.jsonfile import first_line
+    from .errors import InputError
 
     def read(name: str) -> pa.Table:
         table = read_parquet(folder / name)
@@ -470,7 +472,14 @@ def _read_back(folder: Path, metrics: dict[str, Any]) -> DayResult:
             f.with_type(pa.timestamp("s", f.type.tz)) if pa.types.is_timestamp(f.type) else f
             for f in table.schema
         ]
-        return table.cast(pa.schema(fields, metadata=table.schema.metadata))
+        try:
+            return table.cast(pa.schema(fields, metadata=table.schema.metadata))
+        except pa.ArrowInvalid as exc:  # times marops writes in whole seconds: edited since
+            raise InputError(
+                f"a day's file edited since marops wrote it ({first_line(exc)}); pass "
+                "force=True to replay the day",
+                file=folder / name,
+            ) from None
 
     return DayResult(read("stops.parquet"), read("routes.parquet"), metrics, folder)
 

@@ -6,6 +6,8 @@ import json
 import os
 from pathlib import Path
 
+import pyarrow as pa
+import pyarrow.compute as pc
 import pyarrow.parquet as pq
 import pytest
 from typer.testing import CliRunner
@@ -53,6 +55,21 @@ def test_api_runs_what_the_cli_runs(example_csv: Path, tmp_path: Path, capsys) -
     )
     for kept, made in ((again.stops, day.stops), (again.routes, day.routes)):
         assert kept.schema.equals(made.schema, check_metadata=True) and kept.equals(made)
+    # A kept day's file edited to times of a fraction of a second (no marops file holds
+    # one): one InputError naming it, not pyarrow's ArrowInvalid.
+    routes = tmp_path / "api" / "routes.parquet"
+    table = pq.read_table(routes)
+    k = next(i for i, f in enumerate(table.schema) if pa.types.is_timestamp(f.type))
+    col = pc.add(table.column(k), pa.scalar(500, pa.duration("ms")))
+    pq.write_table(table.set_column(k, table.schema.field(k), col), routes)
+    with pytest.raises(InputError, match=r"routes\.parquet"):
+        marops.replay_day(
+            example_csv,
+            "0811",
+            out=tmp_path / "api",
+            depots=tmp_path / "depots.json",
+            method="stay",
+        )
     # pandas reads the stops' nullable integers as integers, from the file and in memory
     # (docs/outputs.md, "Integers"); a column without a missing value stays int32.
     pd = pytest.importorskip("pandas")

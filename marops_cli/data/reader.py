@@ -278,9 +278,9 @@ def _first_non_utf8_line(path: Path, compression: str | None) -> int | None:
 
 def _read_parquet(path: Path) -> pa.Table:
     try:
-        pf = pq.ParquetFile(_stream(path, None))
-        include = _check_columns(list(pf.schema_arrow.names), path)
-        table = pf.read(columns=include)
+        with pq.ParquetFile(_stream(path, None)) as pf:  # closed on every way out
+            include = _check_columns(list(pf.schema_arrow.names), path)
+            table = pf.read(columns=include)
     except (pa.ArrowException, OSError, UnicodeDecodeError) as exc:
         # A damaged file raises OSError (a thrift or compression error) or, where a
         # name is not UTF-8, UnicodeDecodeError, as often as ArrowException.

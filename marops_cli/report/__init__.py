@@ -82,6 +82,6 @@ def write_reports(
             with output_set() as files:
                 files.write_bytes(f / REPORT, page.html().encode("utf-8"))
             written.append(f / REPORT)
-        if on_page is not None:
-            on_page(k, len(folders), f / REPORT)
+        if on_page is not None:  # the page, or the folder that had none to write
+            on_page(k, len(folders), f / REPORT if page is not None else f)
     return written
