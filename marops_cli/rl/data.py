@@ -41,15 +41,18 @@ def split_days(days: list[dt.date], train: list[dt.date] | None = None) -> tuple
 
 
 def _prepared(
-    table: LadeTable, frame: Frame, dates: list[dt.date], cfg: PlannerConfig
+    table: LadeTable, frame: Frame, dates: list[dt.date], cfg: PlannerConfig, named: bool
 ) -> tuple[list[dt.date], list[DayRequests]]:
     """The days of ``dates`` that have requests in ``frame``, prepared; a day with none
-    (all outside the study area or service hours) teaches nothing and is left out."""
+    (all outside the study area or service hours) teaches nothing and is left out,
+    unless ``named`` (asked for by ``--dates``: an error naming it, as evaluate's)."""
     pairs = []
     for d in dates:  # every date is the file's: prepare_day raises only for an empty day
         try:
             pairs.append((d, prepare_day(table, frame, d, cfg.data)))
         except InputError:
+            if named:
+                raise
             continue
     return [d for d, _ in pairs], [r for _, r in pairs]
 
@@ -106,11 +109,13 @@ def load_training_data(
             c = override(cfg, segment__n_depots=n)
             scn = load_scenario(path, c, replay_days=eval_dates, table=table)
             if k == 0:  # the study area and the days do not depend on the area count
-                tr_dates, tr_reqs = _prepared(table, scn.frame, train_dates, cfg)
-                ev_dates, ev_reqs = _prepared(table, scn.frame, eval_dates, cfg)
+                named = fi == 0 and train is not None
+                tr_dates, tr_reqs = _prepared(table, scn.frame, train_dates, cfg, named)
+                ev_dates, ev_reqs = _prepared(table, scn.frame, eval_dates, cfg, False)
                 if not tr_reqs:
                     raise InputError(
-                        "no training day has requests in the study area", file=str(path)
+                        "no training day has requests in the study area within service hours",
+                        file=str(path),
                     )
             for u in fleets:
                 name = f"{path.name}:{n}x{u}"

@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
+import datetime as dt
 from pathlib import Path
 
 import numpy as np
+import pytest
 from numpy.testing import assert_allclose
 
 from marops_cli.config import PlannerConfig
+from marops_cli.errors import InputError
 from marops_cli.rl.config import TrainConfig
 from marops_cli.rl.env import DeliveryEnv, reward, squash
 from marops_cli.rl.train import load_training_data, split_days
@@ -53,6 +56,9 @@ def test_a_day_with_no_request_in_service_hours_is_left_out(
     assert td.files[0]["train_days"] == ["2022-08-01"]
     assert td.files[0]["heldout_days"] == ["2022-08-03"]
     assert [len(s.train_days) for s in td.ctx.scenarios] == [1]
+    # Asked for by --dates, the same day is an error naming it, as evaluate's is.
+    with pytest.raises(InputError, match="no requests on 2022-08-02"):
+        load_training_data(path, small_cfg, TrainConfig(), train=[dt.date(2022, 8, 2)])
 
 
 def test_episode_adds_up_to_the_day_delay(tiny_csv: Path, small_cfg: PlannerConfig) -> None:
