@@ -58,7 +58,6 @@ from __future__ import annotations
 import argparse
 import datetime as dt
 import json
-import os
 import statistics
 import sys
 import tempfile
@@ -81,7 +80,7 @@ from marops_cli.data.synth import SynthConfig, generate, write  # noqa: E402
 from marops_cli.data.table import DayRequests  # noqa: E402
 from marops_cli.energy import EnergyModel  # noqa: E402
 from marops_cli.plans.bound import window_bound  # noqa: E402
-from marops_cli.plans.kernels import JIT_ENV, load_kernels  # noqa: E402
+from marops_cli.plans.kernels import kernels_now  # noqa: E402
 from marops_cli.plans.objective import lam_j, relative_gap  # noqa: E402
 from marops_cli.plans.pool import finish_route  # noqa: E402
 from marops_cli.plans.pyvrp_routes import solve_window  # noqa: E402
@@ -760,7 +759,7 @@ def main(argv: list[str] | None = None) -> None:
     setup = make_setup(args)
     # The planner's steady state: the pool's compiled kernels from the first window (a
     # process loads them after a day's windows otherwise), unless MAROPS_JIT=0.
-    jit = os.environ.get(JIT_ENV, "").strip() != "0" and load_kernels() is not None
+    jit = kernels_now() is not None
     print(f"route pool: {'compiled kernels' if jit else 'numpy'}")
     print(
         f"operating model: stock {setup.cfg.ops.stock}, batteries "

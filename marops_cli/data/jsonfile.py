@@ -104,3 +104,22 @@ def json_number(value: Any, path: str | Path, column: str, *, whole: bool = Fals
     if not ok or not math.isfinite(value) or (whole and int(value) != value):
         raise InputError(f"expected a {kind}, got {value!r}", file=path, column=column)
     return float(value)
+
+
+def refuse_unknown_keys(
+    doc: dict[str, Any],
+    known: frozenset[str] | set[str],
+    where: str,
+    file: str | Path,
+    at: str = "",
+    listed: bool = False,
+) -> None:
+    """One line naming the first key of ``doc`` (a table of a JSON file) not in
+    ``known``: ``unknown key 'x' {where}`` (``listed``: and the keys expected), its key
+    path ``at`` + the key; a typo such as ``x-m`` must not read as a missing value."""
+    unknown = sorted(set(doc) - set(known))
+    if unknown:
+        expected = f" (expected some of: {', '.join(sorted(known))})" if listed else ""
+        raise InputError(
+            f"unknown key {unknown[0]!r} {where}{expected}", file=file, column=f"{at}{unknown[0]}"
+        )

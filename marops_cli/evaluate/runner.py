@@ -13,7 +13,6 @@ from __future__ import annotations
 import datetime as dt
 import hashlib
 import json
-import os
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -269,10 +268,9 @@ class EvaluateWork:
         load(self.prep)
         # The route pool's compiled kernels before the first job, so that no job's
         # running time carries their loading (plans are the same with or without them).
-        from ..plans.kernels import JIT_ENV, load_kernels
+        from ..plans.kernels import kernels_now
 
-        if os.environ.get(JIT_ENV, "").strip() != "0":
-            load_kernels()
+        kernels_now()
 
     def run(self, job: Job) -> dict[str, Any]:
         return run_job(job)

@@ -21,7 +21,7 @@ from __future__ import annotations
 import os
 from types import ModuleType
 
-__all__ = ["JIT_ENV", "NUMPY_POOLS", "kernels", "load_kernels"]
+__all__ = ["JIT_ENV", "NUMPY_POOLS", "kernels", "kernels_now", "load_kernels"]
 
 JIT_ENV = "MAROPS_JIT"
 """``1``: the kernels from the first window; ``0``: never; unset: after :data:`NUMPY_POOLS`."""
@@ -43,6 +43,12 @@ def kernels() -> ModuleType | None:
     if mode != "1" and _pools <= NUMPY_POOLS and not _tried:
         return None
     return load_kernels()
+
+
+def kernels_now() -> ModuleType | None:
+    """The kernels loaded now, before any pool (a worker about to run timed jobs), or
+    None when ``MAROPS_JIT=0`` turns them off or they cannot load."""
+    return None if os.environ.get(JIT_ENV, "").strip() == "0" else load_kernels()
 
 
 def load_kernels() -> ModuleType | None:

@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 
 from ..data.frame import Frame
-from ..data.jsonfile import json_number
+from ..data.jsonfile import json_number, refuse_unknown_keys
 from ..errors import InputError
 
 MAX_DEPOT_OFFSET_M = 1_000_000.0
@@ -210,11 +210,7 @@ def _shape(doc: Any, source: str) -> tuple[Frame, list[dict[str, Any]]]:
             file=source,
             column="frame",
         )
-    extra = sorted(set(value) - set(_FRAME_KEYS))
-    if extra:
-        raise InputError(
-            f"unknown key {extra[0]!r} in the frame", file=source, column=f"frame.{extra[0]}"
-        )
+    refuse_unknown_keys(value, set(_FRAME_KEYS), "in the frame", source, "frame.")
     for k in _FRAME_KEYS:
         if k not in value:
             raise InputError(
@@ -349,15 +345,8 @@ def _known_keys(doc: Any, source: str) -> None:
     the top or in a depot: a typo such as ``x-m`` must not read as a missing value."""
     if not isinstance(doc, dict):
         return  # from_dict's own checks name what is wrong
-    extra = sorted(set(doc) - _KEYS)
-    if extra:
-        raise InputError(f"unknown key {extra[0]!r} in a depots file", file=source, column=extra[0])
+    refuse_unknown_keys(doc, _KEYS, "in a depots file", source)
     listed = doc.get("depots")
     for i, d in enumerate(listed if isinstance(listed, list) else []):
-        extra = sorted(set(d) - _DEPOT_KEYS) if isinstance(d, dict) else []
-        if extra:
-            raise InputError(
-                f"unknown key {extra[0]!r} in a depot",
-                file=source,
-                column=f"depots[{i}].{extra[0]}",
-            )
+        if isinstance(d, dict):
+            refuse_unknown_keys(d, _DEPOT_KEYS, "in a depot", source, f"depots[{i}].")

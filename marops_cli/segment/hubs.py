@@ -20,7 +20,7 @@ import numpy as np
 
 from ..config import MAX_DRONES, DataConfig, PlannerConfig, override
 from ..data.frame import Frame, hub_squares
-from ..data.jsonfile import json_number, read_json
+from ..data.jsonfile import json_number, read_json, refuse_unknown_keys
 from ..data.prepare import check_days_in_file, prepare_day
 from ..data.table import LadeTable
 from ..errors import InputError, naming
@@ -93,26 +93,13 @@ _FILE_KEYS = frozenset({"meta", "orders", "hubs"})
 """The keys of a hubs file itself."""
 
 
-def _known_keys(
-    doc: dict[str, Any], known: frozenset[str], what: str, where: str, at: str, p: Path
-) -> None:
-    """One line naming the first key of ``doc`` not in ``known`` (``at``: its place)."""
-    unknown = sorted(set(doc) - known)
-    if unknown:
-        raise InputError(
-            f"unknown {what} {unknown[0]!r} {where}(expected some of: {', '.join(sorted(known))})",
-            file=p,
-            column=f"{at}{unknown[0]}",
-        )
-
-
 def load_hubs(path: str | Path, cfg: DataConfig) -> list[Hub]:
     """The hubs of a hubs file: ``{"hubs": [{center_lng, center_lat, size_km?, drones?}]}``
     (or the list itself); ``size_km`` defaults to ``cfg.size_km``; ids are list order."""
     p = Path(path)
     doc = read_json(p, "hubs file")
     if isinstance(doc, dict):
-        _known_keys(doc, _FILE_KEYS, "key", "in a hubs file ", "", p)
+        refuse_unknown_keys(doc, _FILE_KEYS, "in a hubs file", p, listed=True)
     items = doc.get("hubs") if isinstance(doc, dict) else doc
     if not isinstance(items, list) or not items:
         raise InputError("expected a list of hubs under 'hubs'", file=p, column="hubs")
@@ -124,7 +111,7 @@ def load_hubs(path: str | Path, cfg: DataConfig) -> list[Hub]:
         for key in ("center_lng", "center_lat"):
             if key not in h:
                 raise InputError(f"a hub needs {key}", file=p, column=f"{col}.{key}")
-        _known_keys(h, _HUB_KEYS, "hub key", "", f"{col}.", p)
+        refuse_unknown_keys(h, _HUB_KEYS, "in a hub", p, f"{col}.", listed=True)
         # Ids are list order: an id written by hand that says otherwise would be ignored.
         if "id" in h and (isinstance(h["id"], bool) or h["id"] != i):
             raise InputError(

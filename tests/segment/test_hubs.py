@@ -87,7 +87,7 @@ def test_an_order_belongs_to_the_first_hub_that_holds_it(points_table):
         (
             {"hubs": [{"center_lng": 121.4, "center_lat": 31.0, "foo": 1}]},
             "hubs[0].foo",
-            "unknown hub key",
+            "unknown key 'foo' in a hub (expected some of",
         ),
         # What was taken without a word: a top-level typo, an id the list order overrules
         # (hub-0 held the hub that said id 1), a share that is text.
