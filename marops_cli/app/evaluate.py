@@ -32,7 +32,6 @@ if TYPE_CHECKING:
 
 __all__ = [
     "JOBS",
-    "OUTPUT_FILES",
     "output_files",
     "EvaluateConfig",
     "EvaluationResult",
@@ -45,8 +44,8 @@ __all__ = [
 
 JOBS = "jobs"
 """The jobs dataset in the output folder: one file per finished replay (docs/outputs.md)."""
-OUTPUT_FILES = ("results.parquet", "summary.csv", "summary.md")
-"""The tables the output folder always gets (:func:`output_files`: all it may get)."""
+PAIRED = "paired.csv"
+"""The paired comparison against ``against``, when one is asked for."""
 
 
 def output_files(
@@ -62,9 +61,11 @@ def output_files(
     :func:`sweep_fields`) and the others with ``plots`` (evaluate/report.py names them),
     ``report.html`` with ``report``. A file of one's own by another of these names
     stays where it is."""
+    from ..evaluate.report import ACTIONS, TABLES, UNFAIRNESS
+
     swept = [f"{flag}.png" for flag, values in sweep.items() if values and len(set(values)) > 1]
-    figures = [*swept, "unfairness.png", "actions.png"] if plots else []
-    names = [*OUTPUT_FILES, *figures, *["paired.csv"] * (against is not None)]
+    figures = [*swept, UNFAIRNESS, ACTIONS] if plots else []
+    names = [*TABLES, *figures, *[PAIRED] * (against is not None)]
     return [out / n for n in names] + [out / "report.html"] * report
 
 
@@ -361,5 +362,5 @@ def _write_paired(out: Path, paired: pa.Table) -> Path:
     from ..io.tables import write_csv
 
     with output_set() as files:
-        files.write_with(out / "paired.csv", lambda p: write_csv(paired, p))
-    return out / "paired.csv"
+        files.write_with(out / PAIRED, lambda p: write_csv(paired, p))
+    return out / PAIRED

@@ -71,13 +71,12 @@ def plan_window_command(
     from ..app.plan_window import check_out
     from ..app.plan_window import plan_window as plan
     from ..data.dates import parse_day
+    from ..io.tables import route_file_paths
 
     check_out(out, fmt)
     check_format(fmt)
     protect_inputs(
-        [out / f"stops.{fmt}", out / f"routes.{fmt}"]
-        + [out / "routes.geojson"] * geojson
-        + [out / "report.html"] * report,
+        route_file_paths(out, fmt, geojson) + [out / "report.html"] * report,
         [data, depots, fleet, delivered, config],
     )
     cfg = planner_config(

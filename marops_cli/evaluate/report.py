@@ -101,6 +101,12 @@ def summary_markdown(summary: pa.Table, prep: Prepared) -> str:
     return "\n".join(parts) + "\n"
 
 
+TABLES = ("results.parquet", "summary.csv", "summary.md")
+"""The tables every evaluation writes into its folder."""
+UNFAIRNESS, ACTIONS = "unfairness.png", "actions.png"
+"""The figures every evaluation draws, beside one ``<flag>.png`` per swept flag."""
+
+
 def figures(summary: pa.Table, results: pa.Table, prep: Prepared) -> dict[str, Any]:
     """File name -> figure: one per swept flag, the delay-unfairness bars and the
     methods' decisions and battery waits."""
@@ -111,8 +117,8 @@ def figures(summary: pa.Table, results: pa.Table, prep: Prepared) -> dict[str, A
         f"{flag}.png": sweep_figure(summary, results, flag, prep.methods, held)
         for flag in swept_flags(prep.settings)
     }
-    figs["unfairness.png"] = unfairness_figure(summary, prep.methods)
-    figs["actions.png"] = actions_figure(summary, prep.methods, held)
+    figs[UNFAIRNESS] = unfairness_figure(summary, prep.methods)
+    figs[ACTIONS] = actions_figure(summary, prep.methods, held)
     return figs
 
 
@@ -146,7 +152,7 @@ def write_outputs(
 ) -> list[Path]:
     """``results.parquet``, ``summary.csv``, ``summary.md`` and the PNGs, all or none."""
     meta = evaluation_meta(prep)
-    paths = [out / "results.parquet", out / "summary.csv", out / "summary.md"]
+    paths = [out / name for name in TABLES]
     figs = figures(summary, results, prep) if plots else {}
     with output_set() as files:
         files.write_with(paths[0], lambda p: write_parquet(with_meta(results, meta), p))
