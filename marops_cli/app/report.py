@@ -31,22 +31,27 @@ def report_outputs(folders: list[Path]) -> list[Path]:
 
 
 def write_pages(
-    folder: Path, depots: Depots | None = None, progress: Progress = SILENT
+    folder: Path,
+    depots: Depots | None = None,
+    progress: Progress = SILENT,
+    folders: list[Path] | None = None,
 ) -> list[Path]:
-    """``report.html`` into ``folder`` and its day and hub folders, a progress step per
-    page where there are several (a city's month holds hundreds); the files written."""
+    """``report.html`` into ``folder`` and its day and hub folders (``folders``: its
+    :func:`~marops_cli.report.report_folders`, where the caller has them already), a
+    progress step per page where there are several (a city's month holds hundreds);
+    the files written."""
     from ..report import report_folders, write_reports
 
-    pages = len(report_folders(folder))
-    if pages < 2:
-        return write_reports(folder, depots)
+    folders = report_folders(folder) if folders is None else folders
+    if len(folders) < 2:
+        return write_reports(folder, depots, folders=folders)
 
     def on_page(k: int, n: int, path: Path) -> None:
         progress.advance(f"report {k}/{n}: {path}")
 
-    progress.start("report", pages, "pages")
+    progress.start("report", len(folders), "pages")
     try:
-        return write_reports(folder, depots, on_page=on_page)
+        return write_reports(folder, depots, on_page=on_page, folders=folders)
     finally:
         progress.finish()
 
@@ -77,7 +82,7 @@ def make_report(
     loaded = _depots(depots)
     with folder_lock(folder):
         try:
-            written = write_pages(folder, loaded, progress)
+            written = write_pages(folder, loaded, progress, targets)
         except InputError as exc:
             if depots is not None and exc.column == "frame":
                 raise naming(exc, depots) from None  # the depots of another study square

@@ -60,14 +60,16 @@ def write_reports(
     *,
     below: bool = True,
     on_page: Callable[[int, int, Path], None] | None = None,
+    folders: list[Path] | None = None,
 ) -> list[Path]:
     """Write ``report.html`` into ``folder`` (and, with ``below``, into its day and hub
     folders); the files written. ``on_page(k, n, path)`` is told as the k-th of the ``n``
-    pages to make is done (a city's month holds hundreds)."""
+    pages to make is done (a city's month holds hundreds). ``folders``: the
+    :func:`report_folders` of ``folder`` where the caller has them already."""
     from ..io import output_set
 
     written = []
-    folders = report_folders(folder, below=below)
+    folders = report_folders(folder, below=below) if folders is None else folders
     for k, f in enumerate(folders, start=1):
         try:
             page = report_page(f, depots)
