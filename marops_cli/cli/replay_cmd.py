@@ -2,13 +2,13 @@
 
 from __future__ import annotations
 
-import re
 from pathlib import Path
 from typing import Annotated, Any
 
 import typer
 
 from ..errors import InputError
+from ..io.paths import natural_key
 from . import options as o
 from .common import (
     STATE,
@@ -157,15 +157,10 @@ def _wrote(out: Path, files: list[Path]) -> str:
         return "wrote " + ", ".join(map(str, files))
     # The folders right below ``out`` (days, or hubs holding days), hub-10 after hub-9.
     below_out = {out / f.relative_to(out).parts[0] for f in files if f.parent != out}
-    folders = sorted(below_out, key=_natural)
+    folders = sorted(below_out, key=natural_key)
     shown = folders if len(folders) <= 2 else [folders[0], "…", folders[-1]]
     below = ", ".join(map(str, shown))
     return f"wrote {len(files)} files: {out}/metrics.json and those in {below}"
-
-
-def _natural(path: Path) -> list[Any]:
-    """A sort key that orders the numbers in a name by value (hub-9 before hub-10)."""
-    return [int(p) if p.isdigit() else p for p in re.split(r"(\d+)", path.name)]
 
 
 def _print_metrics(rows: list[dict[str, Any]], hubs: bool = False) -> None:

@@ -11,6 +11,7 @@ from typing import Any, TypeVar
 
 from ..data.jsonfile import first_line, parse_json
 from ..errors import InputError
+from ..io.paths import natural_key
 
 T = TypeVar("T")
 
@@ -98,8 +99,9 @@ def is_evaluation(folder: Path) -> bool:
 
 def sub_reports(folder: Path) -> list[Path]:
     """The folders below a several-day or city run's ``folder`` that hold a day or a hub
-    (``YYYY-MM-DD/``, ``hub-<id>/``), in name order."""
-    subs = [p for p in sorted(folder.iterdir()) if p.is_dir()]
+    (``YYYY-MM-DD/``, ``hub-<id>/``), in name order with numbers by value (hub-9 before
+    hub-10)."""
+    subs = [p for p in sorted(folder.iterdir(), key=natural_key) if p.is_dir()]
     return [p for p in subs if (p / "metrics.json").is_file() or route_files_exist(p)]
 
 

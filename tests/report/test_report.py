@@ -252,6 +252,19 @@ def test_the_closing_line_of_many_pages_names_the_first_and_the_last() -> None:
     assert wrote_pages(many) == "wrote 31 files: out/2022-08-01/report.html, …, out/report.html"
 
 
+def test_hub_folders_are_walked_in_the_order_of_their_numbers(tmp_path: Path) -> None:
+    """A city run's hub-2 comes before hub-10 (not after it, as in plain text order)."""
+    from marops_cli.report import report_folders
+
+    out = tmp_path / "city"
+    for hub in (10, 2, 1):
+        (out / f"hub-{hub}").mkdir(parents=True)
+        (out / f"hub-{hub}" / "metrics.json").write_text('{"total": {"delivered": 1}}')
+    (out / "metrics.json").write_text('{"total": {"delivered": 3}}')
+    found = [p.relative_to(out).as_posix() for p in report_folders(out)]
+    assert found == ["hub-1", "hub-2", "hub-10", "."]
+
+
 def test_a_day_folder_named_like_a_script_url_links_as_a_path(tmp_path: Path) -> None:
     """A several-day folder from elsewhere whose day is named ``javascript:…``: its link
     is that folder, percent-encoded, not a script run by a click."""
