@@ -161,15 +161,14 @@ def replay_areas(
 
     done: _Done = {}
     jobs: list[DayJob] = []
+    kept: list[tuple[str, Path | None]] = []
     for i, a in enumerate(areas):
         for day in a.days:
             if day in a.keep:
-                progress.message(
-                    f"{a.label}{day.isoformat()}: output with the same settings exists in "
-                    f"{a.folder(day)}, skipped (--force replays)"
-                )
+                kept.append((f"{a.label}{day.isoformat()}", a.folder(day)))
             else:
                 jobs.append(DayJob(len(jobs), i, day))
+    _say_kept(kept, areas, progress)
     with ExitStack() as locks:
         for a in areas:  # one run at a time in a folder; stale temporaries go
             if a.out is not None:
@@ -192,6 +191,23 @@ def replay_areas(
                 )
             raise
         return _collect(areas, run, done, progress)
+
+
+def _say_kept(kept: list[tuple[str, Path | None]], areas: list[Area], progress: Progress) -> None:
+    """Name the days kept as they were (their output exists with the same settings): each
+    of a few, one line for many (a month re-run to add a day)."""
+    if len(kept) <= 3:
+        for name, folder in kept:
+            progress.message(
+                f"{name}: output with the same settings exists in {folder}, "
+                "skipped (--force replays)"
+            )
+    elif kept:
+        unit = "hub-days" if any(a.label for a in areas) else "days"
+        progress.message(
+            f"{len(kept)} {unit} have output with the same settings ({kept[0][0]} … "
+            f"{kept[-1][0]}), skipped (--force replays)"
+        )
 
 
 def _collect(

@@ -217,3 +217,33 @@ def test_ctrl_c_keeps_the_finished_days_and_a_rerun_replays_the_rest(
     assert res.exit_code == 0, res.output
     assert res.output.count("skipped") == len(kept)
     assert len(json.loads((out / "metrics.json").read_text())["days"]) == 12
+
+
+def test_a_rerun_names_a_few_kept_days_each_and_many_in_one_line() -> None:
+    """Re-running a month to add a day says once that the others are kept, not 30 times."""
+    import datetime as dt
+
+    from marops_cli.app.replay_areas import _say_kept
+
+    class Said:
+        def __init__(self) -> None:
+            self.lines: list[str] = []
+
+        def message(self, text: str) -> None:
+            self.lines.append(text)
+
+    days = [dt.date(2022, 8, d) for d in range(1, 31)]
+    kept = [(d.isoformat(), Path("out") / d.isoformat()) for d in days]
+    said = Said()
+    _say_kept(kept[:3], [], said)  # type: ignore[arg-type]
+    assert len(said.lines) == 3
+    assert said.lines[0] == (
+        "2022-08-01: output with the same settings exists in out/2022-08-01, "
+        "skipped (--force replays)"
+    )
+    said = Said()
+    _say_kept(kept, [], said)  # type: ignore[arg-type]
+    assert said.lines == [
+        "30 days have output with the same settings (2022-08-01 … 2022-08-30), "
+        "skipped (--force replays)"
+    ]
