@@ -235,6 +235,16 @@ def guarded(fn: F) -> F:
             # A path the system cannot even look up is bad usage; other failures are the run's.
             code = 2 if exc.errno in _BAD_PATH else 1
             _fail(_error_line(exc), code, command, kwargs)
+        except MemoryError:
+            if STATE["debug"]:
+                raise
+            # What was being written is removed on the way out (an output set's
+            # temporaries); a run the system kills for memory never gets here.
+            text = (
+                f"out of memory during {command}: ask for less at once (fewer days, a "
+                "smaller file or fleet) or run it on a machine with more memory"
+            )
+            _fail(text, 1, command, kwargs)
         except KeyboardInterrupt as exc:  # Ctrl-C, or SIGTERM (Terminated)
             # A use case interrupted after some of its work was written says what it
             # keeps in the exception's notes (marops_cli/app/replay_areas.py).

@@ -69,6 +69,43 @@ def test_synth_refuses_seeds_and_spans_it_cannot_make(
     assert "seed" not in args[0] or "(expected 0 ≤ seed ≤ 4294967295)" in line
 
 
+def test_synth_refuses_a_file_larger_than_the_memory_before_any_work(
+    tmp_path: Path, fails_cleanly, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The generator holds the whole table: a request the memory cannot hold is one line
+    naming the options and both sizes, not a run the system kills half-way."""
+    import marops_cli.app.synth as app_synth
+
+    monkeypatch.setattr(app_synth, "available_memory", lambda: 10**9)
+    args = ["synth", "--days", "10", "--orders-per-day", "200000"]
+    line = fails_cleanly([*args, "--out", str(tmp_path / "s.csv")], tmp_path, "--orders-per-day")
+    # 0.2 GB + 0.7 kB × 1.1 × 2,000,000 rows
+    assert "10 days of 200,000 orders need about 1.7 GB of memory" in line
+    assert "1.0 GB is available" in line
+    small = tmp_path / "small.csv"
+    res = runner.invoke(app, ["synth", "--days", "2", "--out", str(small)])
+    assert res.exit_code == 0, res.output
+    assert small.is_file()
+
+
+def test_out_of_memory_is_one_line_and_leaves_nothing(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import marops_cli.data.synth as data_synth
+
+    def write(*_a: object, **_k: object) -> None:
+        raise MemoryError
+
+    monkeypatch.setattr(data_synth, "write", write)
+    res = runner.invoke(app, ["synth", "--days", "1", "--out", str(tmp_path / "s.csv")])
+    assert res.exit_code == 1
+    assert res.stderr.strip().splitlines() == [
+        "marops: error: out of memory during synth: ask for less at once (fewer days, a "
+        "smaller file or fleet) or run it on a machine with more memory"
+    ]
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_synth_parquet_reads_like_csv(tmp_path: Path) -> None:
     for fmt in ("csv", "parquet"):
         res = runner.invoke(
