@@ -161,7 +161,14 @@ def _csv_header(path: Path, compression: str | None) -> list[str]:
     line = text.splitlines()[0]
     if not line.strip():
         raise InputError("expected column names on the first line, found a blank", file=path, row=1)
-    names = [name.strip() for name in next(csv.reader([line]))]
+    try:
+        names = [name.strip() for name in next(csv.reader([line]))]
+    except csv.Error as exc:  # a field past csv's limit of 131,072 characters
+        raise InputError(
+            f"expected column names on the first line, found no CSV header ({exc})",
+            file=path,
+            row=1,
+        ) from None
     if len(head) < 1 << 20 and "\n" not in text and "\r" not in text:
         # A header with no line end: pyarrow would fail on skipping it, with no hint why.
         _check_columns(names, path)
