@@ -62,7 +62,15 @@ class Trainer:
         torch.manual_seed(self.tcfg.seed)
         scns = td.ctx.scenarios
         if len({s.depots.n_actions for s in scns}) > 1:
-            raise InputError("every training scenario needs the same number of actions")
+            # A city with fewer depots than segment.n_actions gives each drone fewer
+            # destinations, and one actor has one number of choices.
+            counts = sorted({(len(s.depots), s.depots.n_actions) for s in scns})
+            said = ", ".join(f"{k} with {n} depots" for n, k in counts)
+            raise InputError(
+                "every training scenario needs the same number of destinations per drone "
+                f"(segment.n_actions), and these have {said}: train on at least "
+                f"{max(k for _, k in counts)} depots in every city (--n-depots)"
+            )
         env = DeliveryEnv(scns[0].depots, scns[0].cfg, self.tcfg)
         self.n_actions, self.n_slots = env.n_dest, env.n_slots
         self.obs_version = env.obs_version

@@ -136,6 +136,18 @@ def test_train_names_what_differs_from_the_checkpoint(
     assert "the landing actor's training checkpoint (--algorithm es)" in line
 
 
+def test_train_on_cities_with_fewer_depots_than_destinations_names_them(
+    tiny_csv: Path, tmp_path: Path, fails_cleanly
+) -> None:
+    """A segmentation of 2 depots gives each drone 2 destinations, 8 depots give 4: one
+    actor cannot serve both, and the line says which counts differ and what to ask."""
+    args = ["train", str(tiny_csv), "--workers", "1", "--drones", "4", "--n-depots", "8,2"]
+    line = fails_cleanly([*args, "--episodes", "1", "--out", str(tmp_path / "a.pt")], tmp_path)
+    assert "destinations per drone (segment.n_actions)" in line
+    assert "2 with 2 depots, 4 with 8 depots" in line
+    assert "at least 4 depots in every city (--n-depots)" in line
+
+
 def test_train_rejects_bad_options(tiny_csv: Path, tmp_path: Path) -> None:
     res = runner.invoke(app, ["train", str(tiny_csv), "--out", str(tmp_path / "x.onnx")])
     assert res.exit_code != 0 and ".pt" in res.output
