@@ -7,7 +7,7 @@ from pathlib import Path
 from typing import Any
 
 from .folder import read_input, table_meta
-from .page import Page
+from .page import Page, plain
 
 
 def _tables(folder: Path) -> tuple[Any, Any, Any | None, dict[str, Any]]:
@@ -71,13 +71,15 @@ def _paired(page: Page, paired: Any, titles: dict[int, str]) -> None:
         ],
     )
     metrics = list(dict.fromkeys(r["metric"] for r in rows))
-    fig = make_subplots(rows=len(metrics), cols=1, subplot_titles=metrics, vertical_spacing=0.08)
+    fig = make_subplots(
+        rows=len(metrics), cols=1, subplot_titles=[plain(m) for m in metrics], vertical_spacing=0.08
+    )
     for i, metric in enumerate(metrics, start=1):
         sel = [r for r in rows if r["metric"] == metric]
         fig.add_trace(
             go.Scatter(
                 x=[r["mean_diff"] for r in sel],
-                y=[f"{r['method']} · {titles.get(r['setting'], r['setting'])}" for r in sel],
+                y=[plain(f"{r['method']} · {titles.get(r['setting'], r['setting'])}") for r in sel],
                 mode="markers",
                 marker={"size": 9},
                 error_x={
@@ -86,7 +88,7 @@ def _paired(page: Page, paired: Any, titles: dict[int, str]) -> None:
                     "array": [r["ci_high"] - r["mean_diff"] for r in sel],
                     "arrayminus": [r["mean_diff"] - r["ci_low"] for r in sel],
                 },
-                name=metric,
+                name=plain(metric),
                 showlegend=False,
             ),
             row=i,
@@ -119,8 +121,8 @@ def _sweep(page: Page, summary: Any, flag: str, meta: dict[str, Any]) -> None:
                     y=[r[f"{metric}_mean"] for r in mine],
                     error_y={"type": "data", "array": [r[f"{metric}_std"] or 0 for r in mine]},
                     mode="lines+markers",
-                    name=m,
-                    legendgroup=m,
+                    name=plain(m),
+                    legendgroup=plain(m),
                     showlegend=i == 1,
                 ),
                 row=1,
@@ -166,12 +168,12 @@ def _per_day(page: Page, results: Any, titles: dict[int, str]) -> None:
         mine = [r for r in rows if (r["setting"], r["method"]) == key]
         fig.add_trace(
             go.Scatter(
-                x=[str(r["day"]) for r in mine],
+                x=[plain(r["day"]) for r in mine],
                 y=[r["objective_j_mj"] for r in mine],
                 mode="markers",
                 marker={"size": 9},
                 text=[f"delivered share {r['delivered_share']:.3f}" for r in mine],
-                name=f"{key[1]} · {titles.get(key[0], key[0])}",
+                name=plain(f"{key[1]} · {titles.get(key[0], key[0])}"),
             )
         )
     fig.update_layout(

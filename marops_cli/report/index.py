@@ -8,7 +8,7 @@ from typing import Any
 from urllib.parse import quote
 
 from .folder import REPORT
-from .page import Page
+from .page import Page, plain
 
 _COLUMNS = (
     ("delivered", "{}"),
@@ -56,7 +56,7 @@ def index_page(folder: Path, doc: dict[str, Any]) -> Page:
         page.heading("The city's coverage")
         page.table(("quantity", "value"), [(k, _fmt(v)) for k, v in city.items() if k != "days"])
     if days:
-        labels = [f"hub {d.get('hub', 0)} {d['day']}" if hubs else str(d["day"]) for d in days]
+        labels = [plain(f"hub {d.get('hub', 0)} {d['day']}" if hubs else d["day"]) for d in days]
         fig = make_subplots(
             rows=1,
             cols=3,

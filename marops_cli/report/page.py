@@ -13,6 +13,14 @@ EXTRA = "report"
 """The optional dependencies' extra: ``pip install 'marops[report]'``."""
 
 
+def plain(value: Any) -> str:
+    """A value from the folder's files as text on a figure. plotly reads a figure's
+    strings (hover texts, legend entries, titles, tick labels) as a little HTML, so an
+    order id ``<a href=…>`` would be drawn as a link and ``<b>`` as bold: ``&``, ``<``
+    and ``>`` are escaped, which plotly shows as the characters."""
+    return html.escape(str(value), quote=False)
+
+
 def require_plotly() -> None:
     """Stop with one line (exit 2) naming the extra when plotly is not installed."""
     try:

@@ -53,6 +53,21 @@ def day_run(
     return out
 
 
+@pytest.fixture(scope="session")
+def evaluation_run(
+    example_csv: Path, small_config: Path, tmp_path_factory: pytest.TempPathFactory
+) -> Path:
+    """``evaluate --report`` of stay and greedy over two values of alpha, paired against
+    stay (tests copy it before changing it)."""
+    out = tmp_path_factory.mktemp("ev") / "ev"
+    invoke(
+        "evaluate", example_csv, "--dates", "0811", "--methods", "stay,greedy",
+        "--against", "stay", "--alpha", "0.2,0.8", "--drones", 2, "--config", small_config,
+        "--workers", 1, "--no-plot", "--report", "--out", out, "--quiet",
+    )  # fmt: skip
+    return out
+
+
 def figure(html: str, div_id: str) -> tuple[list[dict[str, Any]], dict[str, Any]]:
     """(data, layout) of the plotly figure drawn into ``div_id``, read from the page."""
     start = re.search(r'Plotly\.newPlot\(\s*"' + re.escape(div_id) + r'",\s*', html)

@@ -267,15 +267,9 @@ def test_a_day_folder_named_like_a_script_url_links_as_a_path(tmp_path: Path) ->
     assert 'href="javascript:' not in top.split("</head>")[1]
 
 
-def test_evaluate_report_tables_paired_and_sweep(
-    example_csv: Path, small_config: Path, tmp_path: Path
-) -> None:
+def test_evaluate_report_tables_paired_and_sweep(evaluation_run: Path, tmp_path: Path) -> None:
     out = tmp_path / "ev"
-    invoke(
-        "evaluate", example_csv, "--dates", "0811", "--methods", "stay,greedy",
-        "--against", "stay", "--alpha", "0.2,0.8", "--drones", 2, "--config", small_config,
-        "--workers", 1, "--no-plot", "--report", "--out", out, "--quiet",
-    )  # fmt: skip
+    shutil.copytree(evaluation_run, out)
     html = (out / "report.html").read_text(encoding="utf-8")
     assert "Setting 0: α = 0.2" in html and "Setting 1: α = 0.8" in html
     assert "<th>stay</th><th>greedy</th>" in html

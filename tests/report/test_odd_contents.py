@@ -1,0 +1,93 @@
+"""report.html of folders holding what a run rarely writes: names that look like HTML,
+very long names."""
+
+from __future__ import annotations
+
+import html
+import json
+import shutil
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import pyarrow as pa
+import pyarrow.csv as pacsv
+import pyarrow.parquet as pq
+
+from .conftest import figure, invoke
+
+# An order id, a drone type or a method name from a file: plotly reads a figure's strings
+# as HTML, so unescaped this would be drawn as a link and in bold.
+NAME = "<a href='https://example.com/'>x</a><b>&amp;</b>"
+SHOWN = html.escape(NAME, quote=False)
+
+
+def _strings(obj: Any) -> Iterator[str]:
+    if isinstance(obj, str):
+        yield obj
+    elif isinstance(obj, dict):
+        for v in obj.values():
+            yield from _strings(v)
+    elif isinstance(obj, list | tuple):
+        for v in obj:
+            yield from _strings(v)
+
+
+def _figure_strings(page: Path, div_id: str) -> list[str]:
+    return list(_strings(figure(page.read_text(encoding="utf-8"), div_id)))
+
+
+def _no_markup_but_ours(strings: list[str]) -> None:
+    assert any(SHOWN in s for s in strings)
+    assert not any(NAME in s or "<a " in s or "<b>" in s for s in strings)
+
+
+def _rewrite(path: Path, column: str, value: Any) -> None:
+    """Parquet ``column`` set to ``value`` (callable of the old value) in every row, the
+    file's marops metadata kept."""
+    table = pq.read_table(path)
+    i = table.schema.get_field_index(column)
+    new = pa.array([value(v) for v in table.column(column).to_pylist()])
+    table = table.set_column(i, pa.field(column, new.type), new)
+    pq.write_table(table.replace_schema_metadata(pq.read_schema(path).metadata), path)
+
+
+def test_names_from_a_days_files_are_text_on_its_figures(day_run: Path, tmp_path: Path) -> None:
+    copy = tmp_path / "copy"
+    shutil.copytree(day_run, copy)
+    _rewrite(copy / "stops.parquet", "order_id", lambda v: v if v is None else NAME + v)
+    _rewrite(copy / "routes.parquet", "drone_type", lambda v: NAME)
+    invoke("report", copy, "--quiet")
+    strings = _figure_strings(copy / "report.html", "map")
+    _no_markup_but_ours(strings)
+    assert any(s.startswith(f"order {SHOWN}") for s in strings)  # a stop's hover
+    assert any(s.endswith(f"({SHOWN})") for s in strings)  # a drone's legend entry
+
+
+def test_names_from_an_evaluations_files_are_text_on_its_figures(
+    evaluation_run: Path, tmp_path: Path
+) -> None:
+    copy = tmp_path / "ev"
+    shutil.copytree(evaluation_run, copy)
+    for name in ("summary.csv", "paired.csv"):
+        table = pacsv.read_csv(copy / name)
+        for column in ("method", "metric"):
+            if column in table.column_names:
+                i = table.schema.get_field_index(column)
+                new = pa.array([NAME + v for v in table.column(column).to_pylist()])
+                table = table.set_column(i, column, new)
+        pacsv.write_csv(table, copy / name)
+    _rewrite(copy / "results.parquet", "method", lambda v: NAME + v)
+    _rewrite(copy / "results.parquet", "day", lambda v: NAME + str(v))
+    invoke("report", copy, "--quiet", "--force")  # the tables edited are no more marops's
+    for div_id in ("paired", "sweep-alpha", "days"):
+        _no_markup_but_ours(_figure_strings(copy / "report.html", div_id))
+
+
+def test_day_names_are_text_on_the_chart_over_the_days(tmp_path: Path) -> None:
+    out = tmp_path / "days"
+    out.mkdir()
+    doc = {"days": [{"day": NAME, "method": "stay", "delivered_share": 0.5}], "total": {}}
+    (out / "metrics.json").write_text(json.dumps(doc))
+    invoke("report", out, "--quiet")
+    _no_markup_but_ours(_figure_strings(out / "report.html", "days"))
