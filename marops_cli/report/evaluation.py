@@ -103,6 +103,7 @@ def _sweep(page: Page, summary: Any, flag: str, meta: dict[str, Any]) -> None:
     """The metrics against a swept flag, one line per method (± one std), the other
     flags at their base values."""
     import plotly.graph_objects as go
+    from plotly.colors import qualitative
     from plotly.subplots import make_subplots
 
     from ..evaluate.plots import PANELS
@@ -112,8 +113,10 @@ def _sweep(page: Page, summary: Any, flag: str, meta: dict[str, Any]) -> None:
     rows = [r for r in summary.to_pylist() if _held(r, flag, meta)]
     methods = list(dict.fromkeys(r["method"] for r in rows))
     fig = make_subplots(rows=1, cols=len(panels), subplot_titles=[p[1] for p in panels])
-    for m in methods:
+    for k, m in enumerate(methods):
         mine = sorted((r for r in rows if r["method"] == m), key=lambda r: r[flag])
+        # A method's colour in every panel, as its one legend entry shows it.
+        colour = qualitative.Plotly[k % len(qualitative.Plotly)]
         for i, (metric, _) in enumerate(panels, start=1):
             fig.add_trace(
                 go.Scatter(
@@ -121,6 +124,8 @@ def _sweep(page: Page, summary: Any, flag: str, meta: dict[str, Any]) -> None:
                     y=[r[f"{metric}_mean"] for r in mine],
                     error_y={"type": "data", "array": [r[f"{metric}_std"] or 0 for r in mine]},
                     mode="lines+markers",
+                    line={"color": colour},
+                    marker={"color": colour},
                     name=plain(m),
                     legendgroup=plain(m),
                     showlegend=i == 1,

@@ -292,6 +292,20 @@ def test_evaluate_report_tables_paired_and_sweep(evaluation_run: Path, tmp_path:
     assert (out / "report.html").read_text(encoding="utf-8") == html
 
 
+def test_a_sweep_draws_each_method_in_its_legend_colour_in_every_panel(
+    evaluation_run: Path,
+) -> None:
+    """One legend entry per method stands for its line in every panel: the same colour
+    there (plotly would give each panel's line the next colour)."""
+    sweep, _ = figure((evaluation_run / "report.html").read_text(encoding="utf-8"), "sweep-alpha")
+    colours: dict[str, set[str]] = {}
+    for t in sweep:
+        colours.setdefault(t["name"], set()).add(t.get("line", {}).get("color"))
+    assert len({t.get("xaxis") for t in sweep}) > 1  # several panels
+    assert all(len(c) == 1 and None not in c for c in colours.values()), colours
+    assert len({c for cs in colours.values() for c in cs}) == len(colours)
+
+
 def _csv_rows(path: Path) -> list[dict]:
     import csv
 
