@@ -12,7 +12,7 @@ from typing import Any
 from ..data.frame import Frame
 from .basemap import ATTRIBUTION, extent, tile_images
 from .folder import RouteFiles
-from .page import plain
+from .page import plain, short
 
 ROUTE_UID = "route-w{window}-d{drone}"
 """The uid of a route's trace: one trace (one line) per route flown."""
@@ -114,7 +114,7 @@ def map_figure(
                 },
                 text=[_hover(s) for s in pts],
                 hovertemplate=f"%{{text}}<extra>drone {plain(d)}, window {plain(w)}</extra>",
-                name=f"drone {plain(d)} ({plain(r['drone_type'])})",
+                name=f"drone {plain(d)} ({plain(short(r['drone_type']))})",
                 legendgroup=f"drone {d}",
                 showlegend=d not in seen,
                 uid=ROUTE_UID.format(window=w, drone=d),

@@ -7,7 +7,7 @@ from pathlib import Path
 from typing import Any
 
 from .folder import read_input, table_meta
-from .page import Page, plain
+from .page import Page, plain, short
 
 
 def _tables(folder: Path) -> tuple[Any, Any, Any | None, dict[str, Any]]:
@@ -79,7 +79,10 @@ def _paired(page: Page, paired: Any, titles: dict[int, str]) -> None:
         fig.add_trace(
             go.Scatter(
                 x=[r["mean_diff"] for r in sel],
-                y=[plain(f"{r['method']} · {titles.get(r['setting'], r['setting'])}") for r in sel],
+                y=[
+                    plain(f"{short(r['method'])} · {titles.get(r['setting'], r['setting'])}")
+                    for r in sel
+                ],
                 mode="markers",
                 marker={"size": 9},
                 error_x={
@@ -126,7 +129,7 @@ def _sweep(page: Page, summary: Any, flag: str, meta: dict[str, Any]) -> None:
                     mode="lines+markers",
                     line={"color": colour},
                     marker={"color": colour},
-                    name=plain(m),
+                    name=plain(short(m)),
                     legendgroup=plain(m),
                     showlegend=i == 1,
                 ),
@@ -178,7 +181,7 @@ def _per_day(page: Page, results: Any, titles: dict[int, str]) -> None:
                 mode="markers",
                 marker={"size": 9},
                 text=[f"delivered share {r['delivered_share']:.3f}" for r in mine],
-                name=plain(f"{key[1]} · {titles.get(key[0], key[0])}"),
+                name=plain(f"{short(key[1])} · {titles.get(key[0], key[0])}"),
             )
         )
     fig.update_layout(

@@ -21,6 +21,13 @@ def plain(value: Any) -> str:
     return html.escape(str(value), quote=False)
 
 
+def short(value: Any, most: int = 40) -> str:
+    """A name from the folder's files cut to ``most`` characters for a legend or an axis
+    label, which would otherwise take the figure's width from its plot."""
+    text = str(value)
+    return text if len(text) <= most else text[: most - 1] + "…"
+
+
 def require_plotly() -> None:
     """Stop with one line (exit 2) naming the extra when plotly is not installed."""
     try:
@@ -32,6 +39,7 @@ def require_plotly() -> None:
 _STYLE = """
 body { font-family: system-ui, sans-serif; margin: 1.5em; color: #222; max-width: 1400px; }
 h1 { font-size: 1.5em; } h2 { font-size: 1.2em; margin-top: 1.6em; }
+h1, h2, p { overflow-wrap: anywhere; }
 table { border-collapse: collapse; margin: 0.5em 0; font-size: 0.9em; }
 th, td { border: 1px solid #ccc; padding: 0.25em 0.6em; }
 td.num { text-align: right; font-variant-numeric: tabular-nums; }

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import re
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -66,6 +67,22 @@ def evaluation_run(
         "--workers", 1, "--no-plot", "--report", "--out", out, "--quiet",
     )  # fmt: skip
     return out
+
+
+def rewrite_parquet(path: Path, column: str, value: Callable[[Any], Any], **meta: Any) -> None:
+    """Parquet ``column`` set to ``value(old value)`` in every row; the file's marops
+    metadata kept, with the ``meta`` keys given replaced."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    table = pq.read_table(path)
+    i = table.schema.get_field_index(column)
+    new = pa.array([value(v) for v in table.column(column).to_pylist()])
+    table = table.set_column(i, pa.field(column, new.type), new)
+    metadata = dict(pq.read_schema(path).metadata or {})
+    if meta:
+        metadata[b"marops"] = json.dumps({**json.loads(metadata[b"marops"]), **meta}).encode()
+    pq.write_table(table.replace_schema_metadata(metadata), path)
 
 
 def figure(html: str, div_id: str) -> tuple[list[dict[str, Any]], dict[str, Any]]:

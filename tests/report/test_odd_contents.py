@@ -12,13 +12,12 @@ from typing import Any
 
 import pyarrow as pa
 import pyarrow.csv as pacsv
-import pyarrow.parquet as pq
 
-from .conftest import figure, invoke
+from .conftest import figure, invoke, rewrite_parquet
 
 # An order id, a drone type or a method name from a file: plotly reads a figure's strings
 # as HTML, so unescaped this would be drawn as a link and in bold.
-NAME = "<a href='https://example.com/'>x</a><b>&amp;</b>"
+NAME = "<a href='https://e.x/'>x</a><b>&amp;</b>"
 SHOWN = html.escape(NAME, quote=False)
 
 
@@ -42,21 +41,11 @@ def _no_markup_but_ours(strings: list[str]) -> None:
     assert not any(NAME in s or "<a " in s or "<b>" in s for s in strings)
 
 
-def _rewrite(path: Path, column: str, value: Any) -> None:
-    """Parquet ``column`` set to ``value`` (callable of the old value) in every row, the
-    file's marops metadata kept."""
-    table = pq.read_table(path)
-    i = table.schema.get_field_index(column)
-    new = pa.array([value(v) for v in table.column(column).to_pylist()])
-    table = table.set_column(i, pa.field(column, new.type), new)
-    pq.write_table(table.replace_schema_metadata(pq.read_schema(path).metadata), path)
-
-
 def test_names_from_a_days_files_are_text_on_its_figures(day_run: Path, tmp_path: Path) -> None:
     copy = tmp_path / "copy"
     shutil.copytree(day_run, copy)
-    _rewrite(copy / "stops.parquet", "order_id", lambda v: v if v is None else NAME + v)
-    _rewrite(copy / "routes.parquet", "drone_type", lambda v: NAME)
+    rewrite_parquet(copy / "stops.parquet", "order_id", lambda v: v if v is None else NAME + v)
+    rewrite_parquet(copy / "routes.parquet", "drone_type", lambda v: NAME)
     invoke("report", copy, "--quiet")
     strings = _figure_strings(copy / "report.html", "map")
     _no_markup_but_ours(strings)
@@ -77,8 +66,8 @@ def test_names_from_an_evaluations_files_are_text_on_its_figures(
                 new = pa.array([NAME + v for v in table.column(column).to_pylist()])
                 table = table.set_column(i, column, new)
         pacsv.write_csv(table, copy / name)
-    _rewrite(copy / "results.parquet", "method", lambda v: NAME + v)
-    _rewrite(copy / "results.parquet", "day", lambda v: NAME + str(v))
+    rewrite_parquet(copy / "results.parquet", "method", lambda v: NAME + v)
+    rewrite_parquet(copy / "results.parquet", "day", lambda v: NAME + str(v))
     invoke("report", copy, "--quiet", "--force")  # the tables edited are no more marops's
     for div_id in ("paired", "sweep-alpha", "days"):
         _no_markup_but_ours(_figure_strings(copy / "report.html", div_id))
