@@ -70,20 +70,23 @@ def write_reports(
 
     written = []
     folders = report_folders(folder, below=below) if folders is None else folders
-    for k, f in enumerate(folders, start=1):
-        try:
-            page = report_page(f, depots)
-        except (TypeError, ValueError, KeyError, AttributeError, IndexError) as exc:
-            # Files that read, but hold what no marops run writes (a column of another
-            # type, a key gone): edited since, or not marops's.
-            why = first_line(exc)
-            raise InputError(
-                f"holds outputs marops cannot report on, edited or not marops's ({why})", file=f
-            ) from exc
-        if page is not None:
-            with output_set() as files:
+    # All the pages appear together or none does: a folder that cannot be reported on
+    # (a damaged day among thirty) leaves every page as it was.
+    with output_set() as files:
+        for k, f in enumerate(folders, start=1):
+            try:
+                page = report_page(f, depots)
+            except (TypeError, ValueError, KeyError, AttributeError, IndexError) as exc:
+                # Files that read, but hold what no marops run writes (a column of another
+                # type, a key gone): edited since, or not marops's.
+                why = first_line(exc)
+                raise InputError(
+                    f"holds outputs marops cannot report on, edited or not marops's ({why})",
+                    file=f,
+                ) from exc
+            if page is not None:
                 files.write_bytes(f / REPORT, page.html().encode("utf-8"))
-            written.append(f / REPORT)
-        if on_page is not None:  # the page, or the folder that had none to write
-            on_page(k, len(folders), f / REPORT if page is not None else f)
+                written.append(f / REPORT)
+            if on_page is not None:  # the page, or the folder that had none to write
+                on_page(k, len(folders), f / REPORT if page is not None else f)
     return written

@@ -13,7 +13,9 @@ from typing import Any
 import pyarrow as pa
 import pyarrow.csv as pacsv
 
-from .conftest import figure, invoke, rewrite_parquet
+from marops_cli.cli.app import app
+
+from .conftest import figure, invoke, rewrite_parquet, runner
 
 # An order id, a drone type or a method name from a file: plotly reads a figure's strings
 # as HTML, so unescaped this would be drawn as a link and in bold.
@@ -80,3 +82,23 @@ def test_day_names_are_text_on_the_chart_over_the_days(tmp_path: Path) -> None:
     (out / "metrics.json").write_text(json.dumps(doc))
     invoke("report", out, "--quiet")
     _no_markup_but_ours(_figure_strings(out / "report.html", "days"))
+
+
+def test_a_damaged_day_among_several_leaves_every_page_as_it_was(
+    day_run: Path, tmp_path: Path
+) -> None:
+    """The pages of a several-day folder appear together or not at all: the second
+    day's damaged metrics stop the report before the first day's page is in place."""
+    out = tmp_path / "days"
+    for day in ("2022-08-11", "2022-08-12"):
+        shutil.copytree(day_run, out / day)
+        (out / day / "report.html").unlink()
+    (out / "2022-08-12" / "metrics.json").write_text("{")
+    doc = json.loads((day_run / "metrics.json").read_text())
+    (out / "metrics.json").write_text(json.dumps({**doc, "total": {"delivered": 1}}))
+    res = runner.invoke(app, ["report", str(out)])
+    assert res.exit_code == 2 and "2022-08-12" in res.stderr, res.output
+    assert sorted(p.name for p in out.rglob("*") if p.name.startswith(("report", "."))) == [
+        ".marops-files.json",
+        ".marops-files.json",
+    ]
