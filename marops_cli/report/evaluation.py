@@ -171,6 +171,13 @@ def _per_day(page: Page, results: Any, titles: dict[int, str]) -> None:
 
     cols = ("setting", "method", "day", "repeat", "hub", "objective_j_mj", "delivered_share")
     rows = results.select([c for c in cols if c in results.column_names]).to_pylist()
+    # A city's hubs and the repeats put several points on a day: the hover says which.
+    which = [c for c in ("hub", "repeat") if any(r.get(c) for r in rows)]
+
+    def hover(r: dict[str, Any]) -> str:
+        said = [f"{c} {plain(r[c])}" for c in which]
+        return ", ".join([*said, f"delivered share {r['delivered_share']:.3f}"])
+
     fig = go.Figure()
     for key in dict.fromkeys((r["setting"], r["method"]) for r in rows):
         mine = [r for r in rows if (r["setting"], r["method"]) == key]
@@ -180,7 +187,7 @@ def _per_day(page: Page, results: Any, titles: dict[int, str]) -> None:
                 y=[r["objective_j_mj"] for r in mine],
                 mode="markers",
                 marker={"size": 9},
-                text=[f"delivered share {r['delivered_share']:.3f}" for r in mine],
+                text=[hover(r) for r in mine],
                 name=plain(f"{short(key[1])} · {titles.get(key[0], key[0])}"),
             )
         )

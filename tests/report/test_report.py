@@ -15,7 +15,7 @@ import pytest
 from marops_cli.cli.app import app
 from marops_cli.report.basemap import TILE_HOST
 
-from .conftest import figure, invoke, runner
+from .conftest import figure, invoke, rewrite_parquet, runner
 
 
 def _flown(routes: list[dict]) -> list[dict]:
@@ -304,6 +304,27 @@ def test_a_sweep_draws_each_method_in_its_legend_colour_in_every_panel(
     assert len({t.get("xaxis") for t in sweep}) > 1  # several panels
     assert all(len(c) == 1 and None not in c for c in colours.values()), colours
     assert len({c for cs in colours.values() for c in cs}) == len(colours)
+
+
+def test_the_days_of_several_hubs_and_repeats_say_which_on_hover(
+    evaluation_run: Path, tmp_path: Path
+) -> None:
+    """A city's evaluation puts a point per hub (and per repeat) on each day: its hover
+    names them."""
+    copy = tmp_path / "ev"
+    shutil.copytree(evaluation_run, copy)
+    n = iter(range(10**6))
+    rewrite_parquet(copy / "results.parquet", "hub", lambda v: next(n) % 3)
+    rewrite_parquet(copy / "results.parquet", "repeat", lambda v: 1)
+    invoke("report", copy, "--quiet")
+    days, _ = figure((copy / "report.html").read_text(encoding="utf-8"), "days")
+    texts = [t for trace in days for t in trace["text"]]
+    assert {t.split(",")[0] for t in texts} == {"hub 0", "hub 1", "hub 2"}
+    assert all(t.split(", ")[1] == "repeat 1" for t in texts)
+    assert all(t.split(", ")[2].startswith("delivered share ") for t in texts)
+    # One study area, one run a day: the hover as it was.
+    days, _ = figure((evaluation_run / "report.html").read_text(encoding="utf-8"), "days")
+    assert all(t.startswith("delivered share ") for trace in days for t in trace["text"])
 
 
 def _csv_rows(path: Path) -> list[dict]:
