@@ -98,7 +98,16 @@ def timeline_figure(files: RouteFiles) -> Any:
         barmode="overlay",
         height=max(260, 36 * len(drones) + 120),
         margin={"l": 80, "r": 20, "t": 30, "b": 40},
-        xaxis={"type": "date", "title": "local time", "tickformat": "%H:%M"},
+        xaxis={
+            "type": "date",
+            "title": "local time",
+            # Ticks less than a minute apart (one short window) show their seconds, or
+            # two ticks would read the same.
+            "tickformatstops": [
+                {"dtickrange": [None, 60_000], "value": "%H:%M:%S"},
+                {"dtickrange": [60_000, None], "value": "%H:%M"},
+            ],
+        },
         yaxis={
             "categoryorder": "array",
             "categoryarray": [f"drone {plain(d)}" for d in reversed(drones)],

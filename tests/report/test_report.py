@@ -215,6 +215,13 @@ def test_plan_window_report(
     assert sum(t.get("uid", "").startswith("route-") for t in data) == len(flown)
     assert "sliders" not in layout  # one window: nothing to slide
     assert "solver status" in html
+    # A window's flights last minutes: ticks half a minute apart show their seconds (at
+    # %H:%M two of them read the same), ticks a minute or more apart do not.
+    _, timeline = figure(html, "timeline")
+    stops = timeline["xaxis"]["tickformatstops"]
+    assert {"dtickrange": [None, 60_000], "value": "%H:%M:%S"} in stops
+    assert {"dtickrange": [60_000, None], "value": "%H:%M"} in stops
+    assert "tickformat" not in timeline["xaxis"]
 
 
 def test_several_days_link_each_day_report(
