@@ -159,7 +159,11 @@ def _window(page: Page, meta: dict[str, Any]) -> None:
     page.heading("The window's plan (docs/method.md §4.2)")
     rows: list[tuple[str, Any]] = []
     solver = meta.get("solver") or {}
-    rows += [(f"solver {k}", v) for k, v in solver.items() if v is not None]
-    for k, v in (meta.get("objective") or {}).items():
-        rows.append((k, f"{v:.6g}" if isinstance(v, float) else v))
+    rows += [(f"solver {k}", _fmt(v)) for k, v in solver.items() if v is not None]
+    rows += [(k, _fmt(v)) for k, v in (meta.get("objective") or {}).items()]
     page.table(("quantity", "value"), rows)
+
+
+def _fmt(v: Any) -> Any:
+    """A float to six significant digits (the solver's objective has sixteen)."""
+    return f"{v:.6g}" if isinstance(v, float) else v

@@ -215,6 +215,8 @@ def test_plan_window_report(
     assert sum(t.get("uid", "").startswith("route-") for t in data) == len(flown)
     assert "sliders" not in layout  # one window: nothing to slide
     assert "solver status" in html
+    long_numbers = re.findall(r'<td class="num">[-+]?\d*\.\d{7,}</td>', html)
+    assert long_numbers == []  # six significant digits, the solver's objective's too
     # A window's flights last minutes: ticks half a minute apart show their seconds (at
     # %H:%M two of them read the same), ticks a minute or more apart do not.
     _, timeline = figure(html, "timeline")
