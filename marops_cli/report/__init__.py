@@ -85,7 +85,9 @@ def write_reports(
                     file=f,
                 ) from exc
             if page is not None:
-                files.write_bytes(f / REPORT, page.html().encode("utf-8"))
+                # A folder name that is not UTF-8 (Linux allows any bytes) is shown
+                # escaped, as marops's JSON outputs write it.
+                files.write_bytes(f / REPORT, page.html().encode("utf-8", "backslashreplace"))
                 written.append(f / REPORT)
             if on_page is not None:  # the page, or the folder that had none to write
                 on_page(k, len(folders), f / REPORT if page is not None else f)

@@ -3,6 +3,7 @@ coverage, a chart over the days, and a link to each day's own report."""
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 from typing import Any
 from urllib.parse import quote
@@ -27,7 +28,8 @@ def _link(folder: Path, row: dict[str, Any]) -> tuple[str, str] | str:
     day, hub = str(row["day"]), row.get("hub", 0)
     for rel in (f"hub-{hub}/{day}", f"hub-{hub}", day):
         if (folder / rel / REPORT).is_file() or (folder / rel / "metrics.json").is_file():
-            return ("report", quote(f"{rel}/{REPORT}"))
+            # The name's bytes, as the file system holds them (any, on Linux).
+            return ("report", quote(os.fsencode(f"{rel}/{REPORT}")))
     return ""
 
 

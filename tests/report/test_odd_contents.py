@@ -102,3 +102,19 @@ def test_a_damaged_day_among_several_leaves_every_page_as_it_was(
         ".marops-files.json",
         ".marops-files.json",
     ]
+
+
+def test_folder_names_that_are_not_utf8_are_shown_and_linked(tmp_path: Path) -> None:
+    """Linux names a folder with any bytes: the page names it escaped (as the JSON
+    outputs do), and the link to a day holds its bytes, percent-encoded."""
+    out = tmp_path / "days\udcff"  # the byte 0xFF, as Python holds it
+    day = "d\udcfe"
+    (out / day).mkdir(parents=True)
+    (out / day / "metrics.json").write_text('{"total": {"delivered": 1}}')
+    doc = {"days": [{"day": day, "method": "stay"}], "total": {"delivered": 1}}
+    (out / "metrics.json").write_text(json.dumps(doc))
+    res = runner.invoke(app, ["report", str(out), "--quiet"])
+    assert res.exit_code == 0, res.output
+    page = (out / "report.html").read_text(encoding="utf-8")
+    assert "<title>marops: 1 days — days\\udcff</title>" in page
+    assert 'href="d%FE/report.html"' in page
