@@ -36,6 +36,16 @@ def require_plotly() -> None:
         raise InputError(f"--report needs plotly: pip install 'marops[{EXTRA}]'") from None
 
 
+CONFIG = {
+    "displaylogo": False,
+    "responsive": True,
+    # plotly.js's "Share chart..." button uploads the figure, every order id and stop
+    # of it, to Plotly Cloud: the page sends nothing anywhere.
+    "showSendToCloud": False,
+    "plotlyServerURL": "",
+}
+"""The figures' plotly config."""
+
 _STYLE = """
 body { font-family: system-ui, sans-serif; margin: 1.5em; color: #222; max-width: 1400px; }
 h1 { font-size: 1.5em; } h2 { font-size: 1.2em; margin-top: 1.6em; }
@@ -94,7 +104,7 @@ class Page:
                 include_plotlyjs=False,
                 full_html=False,
                 div_id=div_id,
-                config={"displaylogo": False, "responsive": True},
+                config=CONFIG,
             )
         )
 

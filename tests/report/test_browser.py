@@ -42,6 +42,7 @@ def test_report_in_chromium(day_run: Path, tmp_path: Path) -> None:
             "traces": f"{_MAP}.data.filter(t => (t.uid || '').startsWith('route-')).length",
             "slider": "document.querySelectorAll('#map .slider-container').length",
             "bars": "document.querySelectorAll('#timeline .bars .point').length",
+            "buttons": "[...document.querySelectorAll('.modebar-btn')].map(b => b.dataset.title)",
         },
         screenshot=shot,
     )
@@ -51,6 +52,9 @@ def test_report_in_chromium(day_run: Path, tmp_path: Path) -> None:
     assert run.values["drawn"] == flown  # one drawn line per route
     assert run.values["slider"] == 1
     assert run.values["bars"] >= flown
+    # The figures' buttons: none uploads the figure (plotly's "Share chart...").
+    assert "Download plot as a PNG" in run.values["buttons"]
+    assert not [b for b in run.values["buttons"] if "share" in b.lower() or "cloud" in b.lower()]
     # Offline the map tiles fail to load (the service areas stay the map); nothing else may.
     errors = [
         e
