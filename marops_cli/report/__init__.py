@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any, TypeGuard
 
 from ..data.jsonfile import first_line
 from ..errors import InputError
@@ -34,23 +34,44 @@ def report_page(folder: Path, depots: Depots | None = None) -> Page | None:
         from .day import day_page
 
         return day_page(files, doc, depots)
-    if doc is not None and ("total" in doc or "city" in doc):
+    if _over_several(doc):
         from .index import index_page
 
         return index_page(folder, doc)
     return None
 
 
+def _over_several(doc: object) -> TypeGuard[dict[str, Any]]:
+    """A ``metrics.json`` of several days or of a city (its page links theirs)."""
+    return isinstance(doc, dict) and ("total" in doc or "city" in doc)
+
+
+def _has_page(folder: Path) -> bool:
+    """``folder`` gets a page: an evaluation, a day or window, or several days or a city.
+    A ``metrics.json`` that does not read is counted in, for its page to name it; one of
+    another tool (a folder of one's own among the days) is not, so its folder is left
+    alone."""
+    if is_evaluation(folder) or route_files_exist(folder):
+        return True
+    if not (folder / "metrics.json").is_file():
+        return False
+    try:
+        return _over_several(metrics(folder))
+    except InputError:
+        return True
+
+
 def report_folders(folder: Path, *, below: bool = True) -> list[Path]:
     """The folders that get a ``report.html``: ``folder`` and, with ``below``, the day and
     hub folders of a several-day or city run (those first, so the top page links them)."""
     found: list[Path] = []
+    if not _has_page(folder):
+        return found
     several = not is_evaluation(folder) and not route_files_exist(folder)
-    if below and several and (folder / "metrics.json").is_file():
+    if below and several:
         for sub in sub_reports(folder):
             found += report_folders(sub)
-    if is_evaluation(folder) or route_files_exist(folder) or (folder / "metrics.json").is_file():
-        found.append(folder)
+    found.append(folder)
     return found
 
 

@@ -118,3 +118,22 @@ def test_folder_names_that_are_not_utf8_are_shown_and_linked(tmp_path: Path) -> 
     page = (out / "report.html").read_text(encoding="utf-8")
     assert "<title>marops: 1 days — days\\udcff</title>" in page
     assert 'href="d%FE/report.html"' in page
+
+
+def test_a_folder_of_ones_own_among_the_days_is_left_alone(day_run: Path, tmp_path: Path) -> None:
+    """A folder among the days with a metrics.json and a report.html of another tool:
+    the days get their pages, that folder keeps its files (no --force asked for)."""
+    out = tmp_path / "days"
+    shutil.copytree(day_run, out / "2022-08-11")
+    doc = json.loads((day_run / "metrics.json").read_text())
+    (out / "metrics.json").write_text(json.dumps({**doc, "total": {"delivered": 1}}))
+    mine = out / "notes"
+    mine.mkdir()
+    (mine / "metrics.json").write_text('{"accuracy": 0.9}')
+    (mine / "report.html").write_text("my page")
+    res = runner.invoke(app, ["report", str(out)])
+    assert res.exit_code == 0, res.output
+    assert (out / "report.html").is_file() and (out / "2022-08-11" / "report.html").is_file()
+    assert sorted(p.name for p in mine.iterdir()) == ["metrics.json", "report.html"]
+    assert (mine / "report.html").read_text() == "my page"
+    assert "notes" not in res.output
