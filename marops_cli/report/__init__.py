@@ -87,13 +87,16 @@ def write_reports(
     folders); the files written. ``on_page(k, n, path)`` is told as the k-th of the ``n``
     pages to make is done (a city's month holds hundreds). ``folders``: the
     :func:`report_folders` of ``folder`` where the caller has them already."""
-    from ..io import output_set
+    from ..io import OutputSet
 
     written = []
     folders = report_folders(folder, below=below) if folders is None else folders
-    # All the pages appear together or none does: a folder that cannot be reported on
-    # (a damaged day among thirty) leaves every page as it was.
-    with output_set() as files:
+    # Every page is made before any is put in place: a folder that cannot be reported on
+    # (a damaged day among thirty) leaves every page as it was. Each folder's page is a
+    # set of its own, put in place one after the other (one set over a city's month
+    # would hold every folder open at once).
+    pages: list[OutputSet] = []
+    try:
         for k, f in enumerate(folders, start=1):
             try:
                 page = report_page(f, depots)
@@ -106,10 +109,18 @@ def write_reports(
                     file=f,
                 ) from exc
             if page is not None:
+                files = OutputSet()
+                pages.append(files)
                 # A folder name that is not UTF-8 (Linux allows any bytes) is shown
                 # escaped, as marops's JSON outputs write it.
                 files.write_bytes(f / REPORT, page.html().encode("utf-8", "backslashreplace"))
                 written.append(f / REPORT)
             if on_page is not None:  # the page, or the folder that had none to write
                 on_page(k, len(folders), f / REPORT if page is not None else f)
+        while pages:
+            pages[0].commit()
+            pages.pop(0)
+    finally:
+        for files in pages:  # those not in place: their temporaries
+            files.discard()
     return written

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import html
 import json
+import os
 import shutil
 from collections.abc import Iterator
 from pathlib import Path
@@ -137,3 +138,24 @@ def test_a_folder_of_ones_own_among_the_days_is_left_alone(day_run: Path, tmp_pa
     assert sorted(p.name for p in mine.iterdir()) == ["metrics.json", "report.html"]
     assert (mine / "report.html").read_text() == "my page"
     assert "notes" not in res.output
+
+
+def test_hundreds_of_pages_are_put_in_place_within_few_open_files(tmp_path: Path) -> None:
+    """A city's month is hundreds of folders: their pages are put in place a folder at
+    a time, not with every folder held open at once (the usual limit is 1024 files)."""
+    import resource
+
+    out = tmp_path / "city"
+    doc = json.dumps({"days": [], "total": {"delivered": 1}})
+    for sub in ("", *(f"hub-{i}" for i in range(200))):
+        (out / sub).mkdir(parents=True, exist_ok=True)
+        (out / sub / "metrics.json").write_text(doc)
+    soft, hard = resource.getrlimit(resource.RLIMIT_NOFILE)
+    in_use = len(os.listdir("/proc/self/fd"))
+    resource.setrlimit(resource.RLIMIT_NOFILE, (in_use + 100, hard))
+    try:
+        res = runner.invoke(app, ["report", str(out), "--quiet"])
+    finally:
+        resource.setrlimit(resource.RLIMIT_NOFILE, (soft, hard))
+    assert res.exit_code == 0, res.output
+    assert len(list(out.rglob("report.html"))) == 201
