@@ -7,7 +7,7 @@ from pathlib import Path
 from typing import Any
 
 from .folder import read_input, table_meta
-from .page import Page, plain, short
+from .page import Page, count, plain, short
 
 
 def _tables(folder: Path) -> tuple[Any, Any, Any | None, dict[str, Any]]:
@@ -30,7 +30,8 @@ def evaluation_page(folder: Path) -> Page:
     days = meta.get("days", [])
     page = Page(f"marops evaluate: {', '.join(meta.get('methods', []))} — {folder.name}")
     page.note(
-        f"{len(days)} days ({', '.join(days)}), {meta.get('repeats', 1)} repeat(s); "
+        f"{count(len(days), 'day')} ({', '.join(days)}), "
+        f"{count(meta.get('repeats', 1), 'repeat')}; "
         f"mean ± std over days and repeats. Combined cost: {COMBINED_COST_RULE}."
     )
     settings = sorted(set(summary.column("setting").to_pylist()))

@@ -9,7 +9,7 @@ from typing import Any
 from urllib.parse import quote
 
 from .folder import REPORT
-from .page import Page, plain
+from .page import Page, count, plain
 
 _COLUMNS = (
     ("delivered", "{}"),
@@ -40,7 +40,7 @@ def index_page(folder: Path, doc: dict[str, Any]) -> Page:
 
     days = doc.get("days", [])
     hubs = any(d.get("hub", 0) for d in days)
-    page = Page(f"marops: {len(days)} {'hub-days' if hubs else 'days'} — {folder.name}")
+    page = Page(f"marops: {count(len(days), 'hub-day' if hubs else 'day')} — {folder.name}")
     page.heading("Days")
     header = ["hub"] * hubs + ["day", "method", *(c for c, _ in _COLUMNS), "report"]
     rows = []

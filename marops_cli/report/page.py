@@ -28,6 +28,11 @@ def short(value: Any, most: int = 40) -> str:
     return text if len(text) <= most else text[: most - 1] + "…"
 
 
+def count(n: int, thing: str) -> str:
+    """``1 drone``, ``3 drones``."""
+    return f"{n} {thing}" + ("" if n == 1 else "s")
+
+
 def require_plotly() -> None:
     """Stop with one line (exit 2) naming the extra when plotly is not installed."""
     try:

@@ -117,7 +117,7 @@ def test_folder_names_that_are_not_utf8_are_shown_and_linked(tmp_path: Path) -> 
     res = runner.invoke(app, ["report", str(out), "--quiet"])
     assert res.exit_code == 0, res.output
     page = (out / "report.html").read_text(encoding="utf-8")
-    assert "<title>marops: 1 days — days\\udcff</title>" in page
+    assert "<title>marops: 1 day — days\\udcff</title>" in page
     assert 'href="d%FE/report.html"' in page
 
 
@@ -159,3 +159,13 @@ def test_hundreds_of_pages_are_put_in_place_within_few_open_files(tmp_path: Path
         resource.setrlimit(resource.RLIMIT_NOFILE, (soft, hard))
     assert res.exit_code == 0, res.output
     assert len(list(out.rglob("report.html"))) == 201
+
+
+def test_one_of_a_thing_is_said_in_the_singular(evaluation_run: Path) -> None:
+    from marops_cli.report.day import _title
+    from marops_cli.report.folder import RouteFiles
+
+    one = RouteFiles([], [{"drone": 0, "day": "2022-08-11", "hub": 0}], {"method": "stay"})
+    assert _title(one, None) == "marops: 2022-08-11 — stay, 1 drone"
+    page = (evaluation_run / "report.html").read_text(encoding="utf-8")
+    assert "1 day (2022-08-11), 1 repeat;" in page
