@@ -8,6 +8,7 @@ from collections.abc import Sequence
 from typing import Any
 
 from ..errors import InputError
+from .basemap import TILE_HOST
 
 EXTRA = "report"
 """The optional dependencies' extra: ``pip install 'marops[report]'``."""
@@ -50,6 +51,19 @@ CONFIG = {
     "plotlyServerURL": "",
 }
 """The figures' plotly config."""
+
+_POLICY = "; ".join(
+    (
+        "default-src 'none'",
+        "script-src 'unsafe-inline'",  # plotly.js and the figures, inlined
+        "style-src 'unsafe-inline'",
+        f"img-src data: blob: {TILE_HOST.rstrip('/')}",  # the map tiles
+        "base-uri 'none'",
+        "form-action 'none'",
+    )
+)
+"""What the browser lets the page load: its own inline scripts and styles and the map
+tiles, nothing else (no fetch, no other image host), whatever a figure's text holds."""
 
 _STYLE = """
 body { font-family: system-ui, sans-serif; margin: 1.5em; color: #222; max-width: 1400px; }
@@ -122,6 +136,7 @@ class Page:
             script = f'<script type="text/javascript">{get_plotlyjs()}</script>'
         return (
             '<!DOCTYPE html>\n<html lang="en">\n<head>\n<meta charset="utf-8">\n'
+            f'<meta http-equiv="Content-Security-Policy" content="{_POLICY}">\n'
             f"<title>{html.escape(self.title)}</title>\n<style>{_STYLE}</style>\n"
             f"{script}\n</head>\n<body>\n" + "\n".join(self._parts) + "\n</body>\n</html>\n"
         )

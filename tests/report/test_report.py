@@ -69,6 +69,12 @@ def test_the_page_is_self_contained_and_journaled(day_run: Path) -> None:
     html = (day_run / "report.html").read_text(encoding="utf-8")
     head = html.split("</head>")[0]
     assert "<script src" not in html and "<link " not in head
+    # The browser lets the page load nothing but its own inline code and the tiles.
+    policy = re.search(r'<meta http-equiv="Content-Security-Policy" content="([^"]+)">', head)
+    assert policy is not None and head.index(policy.group(0)) < head.index("<script")
+    rules = dict(r.split(" ", 1) for r in policy.group(1).split("; "))
+    assert rules["default-src"] == "'none'"
+    assert rules["img-src"] == f"data: blob: {TILE_HOST.rstrip('/')}"
     assert len(head) > 1_000_000  # plotly.js inlined
     journal = json.loads((day_run / ".marops-files.json").read_text())
     assert "report.html" in journal["files"]
