@@ -53,11 +53,18 @@ def _paired(page: Page, paired: Any, titles: dict[int, str]) -> None:
     import plotly.graph_objects as go
     from plotly.subplots import make_subplots
 
+    from ..evaluate.paired import MIN_DAYS, verdict
+
     rows = paired.to_pylist()
     against = rows[0].get("against", "the reference")
     page.heading(f"Paired against {against}: per-day difference, bootstrap 95 % CI")
+    if any(r.get("few_days") for r in rows):  # as evaluate warns on the terminal
+        page.note(
+            f"Fewer than {MIN_DAYS} days back these differences: the intervals are wide "
+            "and the verdicts fragile."
+        )
     page.table(
-        ("setting", "method", "metric", "days", "mean diff", "95 % CI", "days better"),
+        ("setting", "method", "metric", "days", "mean diff", "95 % CI", "days better", "verdict"),
         [
             (
                 titles.get(r["setting"], r["setting"]),
@@ -67,6 +74,7 @@ def _paired(page: Page, paired: Any, titles: dict[int, str]) -> None:
                 f"{r['mean_diff']:+.4g}",
                 f"[{r['ci_low']:+.4g}, {r['ci_high']:+.4g}]",
                 f"{r['days_better']}/{r['days']}",
+                verdict(r),
             )
             for r in rows
         ],

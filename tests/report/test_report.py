@@ -342,6 +342,33 @@ def test_the_days_of_several_hubs_and_repeats_say_which_on_hover(
     assert all(t.startswith("delivered share ") for trace in days for t in trace["text"])
 
 
+def test_the_paired_table_says_each_verdict_and_how_few_days_back_it(
+    evaluation_run: Path, tmp_path: Path
+) -> None:
+    """As evaluate says on the terminal: a verdict per row, and a warning where fewer
+    than ten days back the intervals."""
+    html = (evaluation_run / "report.html").read_text(encoding="utf-8")
+    assert "<th>days better</th><th>verdict</th>" in html
+    assert "<td>n/a</td></tr>" in html  # one day: no interval to judge by
+    assert "Fewer than 10 days back these differences" in html
+    # Ten days or more: no warning; a verdict from the interval.
+    copy = tmp_path / "ev"
+    shutil.copytree(evaluation_run, copy)
+    rows = _csv_rows(copy / "paired.csv")
+    for r in rows:
+        r.update(days="12", few_days="false", ci_low="-2.0", ci_high="-1.0")
+    with (copy / "paired.csv").open("w", newline="") as fh:
+        import csv
+
+        writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
+        writer.writeheader()
+        writer.writerows(rows)
+    invoke("report", copy, "--quiet", "--force")  # the table edited is no more marops's
+    html = (copy / "report.html").read_text(encoding="utf-8")
+    assert "Fewer than 10 days" not in html
+    assert "<td>better</td>" in html and "<td>worse</td>" in html
+
+
 def _csv_rows(path: Path) -> list[dict]:
     import csv
 
