@@ -1,5 +1,6 @@
-"""report.html of folders holding what a run rarely writes: names that look like HTML,
-very long names."""
+"""report.html of folders holding what a run rarely writes: names that look like HTML or
+are not UTF-8, a damaged day among several, a folder of one's own among the days,
+hundreds of folders, one of a thing."""
 
 from __future__ import annotations
 
