@@ -9,7 +9,7 @@ from ..data.frame import Frame
 from ..errors import InputError
 from .daymap import flown, map_figure
 from .folder import RouteFiles
-from .page import Page
+from .page import Page, count
 from .timeline import timeline_figure
 
 if TYPE_CHECKING:
@@ -102,7 +102,7 @@ def day_page(files: RouteFiles, metrics_doc: dict[str, Any] | None, depots: Depo
     page.heading("Map")
     n = sum(flown(r) for r in files.routes)
     page.note(
-        f"{n} routes flown, one line each in its drone's colour; hover a stop for its "
+        f"{count(n, 'route')} flown, one line each in its drone's colour; hover a stop for its "
         "arrival time, weight and delay; the slider shows one window; click a drone in "
         "the legend to hide it. Map tiles appear when the browser is online; offline, "
         "the service areas are the map."
@@ -130,9 +130,10 @@ def _title(files: RouteFiles, day: dict[str, Any] | None) -> str:
     method = meta.get("method", "")
     hub = files.routes[0]["hub"] if files.routes else 0
     where = f"hub {hub}, " if hub else ""
+    fleet = count(drones, "drone")
     if day is None and "window" in meta:
-        return f"marops: {where}{when} window {meta['window']} — {method}, {drones} drones"
-    return f"marops: {where}{when} — {method}, {drones} drones"
+        return f"marops: {where}{when} window {meta['window']} — {method}, {fleet}"
+    return f"marops: {where}{when} — {method}, {fleet}"
 
 
 def _metrics(page: Page, day: dict[str, Any]) -> None:
@@ -159,7 +160,11 @@ def _window(page: Page, meta: dict[str, Any]) -> None:
     page.heading("The window's plan (docs/method.md §4.2)")
     rows: list[tuple[str, Any]] = []
     solver = meta.get("solver") or {}
-    rows += [(f"solver {k}", v) for k, v in solver.items() if v is not None]
-    for k, v in (meta.get("objective") or {}).items():
-        rows.append((k, f"{v:.6g}" if isinstance(v, float) else v))
+    rows += [(f"solver {k}", _fmt(v)) for k, v in solver.items() if v is not None]
+    rows += [(k, _fmt(v)) for k, v in (meta.get("objective") or {}).items()]
     page.table(("quantity", "value"), rows)
+
+
+def _fmt(v: Any) -> Any:
+    """A float to six significant digits (the solver's objective has sixteen)."""
+    return f"{v:.6g}" if isinstance(v, float) else v

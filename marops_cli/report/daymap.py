@@ -12,6 +12,7 @@ from typing import Any
 from ..data.frame import Frame
 from .basemap import ATTRIBUTION, extent, tile_images
 from .folder import RouteFiles
+from .page import plain, short
 
 ROUTE_UID = "route-w{window}-d{drone}"
 """The uid of a route's trace: one trace (one line) per route flown."""
@@ -41,13 +42,14 @@ def route_stops(files: RouteFiles) -> dict[tuple[int, int], list[dict[str, Any]]
 
 def _hover(s: dict[str, Any]) -> str:
     at = s["arrive_time"].strftime("%H:%M:%S")
+    depot = plain(s["depot"])
     if s["kind"] == "start":
-        return f"takes off from depot {s['depot']} at {at}<br>{s['payload_kg']:.2f} kg on board"
+        return f"takes off from depot {depot} at {at}<br>{s['payload_kg']:.2f} kg on board"
     if s["kind"] == "end":
-        return f"lands at depot {s['depot']} at {at}"
+        return f"lands at depot {depot} at {at}"
     return (
-        f"order {s['order_id']}<br>arrives {at}<br>{s['weight_kg']:.2f} kg, "
-        f"delay {s['delay_h']:.2f} h (due in window {s['due_window']})"
+        f"order {plain(s['order_id'])}<br>arrives {at}<br>{s['weight_kg']:.2f} kg, "
+        f"delay {s['delay_h']:.2f} h (due in window {plain(s['due_window'])})"
     )
 
 
@@ -73,7 +75,7 @@ def map_figure(
                 line={"color": "rgba(80,80,80,0.55)", "width": 1},
                 hoveron="fills",
                 hoverinfo="text",
-                text=f"service area of depot {depot}",
+                text=f"service area of depot {plain(depot)}",
                 name="service areas",
                 legendgroup="areas",
                 showlegend=n == 0,
@@ -86,7 +88,7 @@ def map_figure(
             y=[depots[i][1] for i in ids],
             mode="markers",
             marker={"symbol": "square", "size": 10, "color": DEPOT_COLOUR},
-            text=[f"depot {i}" for i in ids],
+            text=[f"depot {plain(i)}" for i in ids],
             hovertemplate="%{text}<extra></extra>",
             name="depots",
         )
@@ -111,8 +113,8 @@ def map_figure(
                     "color": drone_colour(d),
                 },
                 text=[_hover(s) for s in pts],
-                hovertemplate=f"%{{text}}<extra>drone {d}, window {w}</extra>",
-                name=f"drone {d} ({r['drone_type']})",
+                hovertemplate=f"%{{text}}<extra>drone {plain(d)}, window {plain(w)}</extra>",
+                name=f"drone {plain(d)} ({plain(short(r['drone_type']))})",
                 legendgroup=f"drone {d}",
                 showlegend=d not in seen,
                 uid=ROUTE_UID.format(window=w, drone=d),
@@ -136,7 +138,7 @@ def _window_slider(
     steps = [{"label": "all", "method": "restyle", "args": [{"visible": [True] * len(fig.data)}]}]
     for w in windows:
         vis = [True] * fixed + [rw == w for rw in route_windows]
-        label = f"{w} {starts[w].strftime('%H:%M')}"
+        label = f"{plain(w)} {starts[w].strftime('%H:%M')}"
         steps.append({"label": label, "method": "restyle", "args": [{"visible": vis}]})
     fig.update_layout(
         sliders=[

@@ -7,7 +7,7 @@ from pathlib import Path
 from typing import Any
 
 from .folder import read_input, table_meta
-from .page import Page
+from .page import Page, count, plain, short
 
 
 def _tables(folder: Path) -> tuple[Any, Any, Any | None, dict[str, Any]]:
@@ -30,7 +30,8 @@ def evaluation_page(folder: Path) -> Page:
     days = meta.get("days", [])
     page = Page(f"marops evaluate: {', '.join(meta.get('methods', []))} — {folder.name}")
     page.note(
-        f"{len(days)} days ({', '.join(days)}), {meta.get('repeats', 1)} repeat(s); "
+        f"{count(len(days), 'day')} ({', '.join(days)}), "
+        f"{count(meta.get('repeats', 1), 'repeat')}; "
         f"mean ± std over days and repeats. Combined cost: {COMBINED_COST_RULE}."
     )
     settings = sorted(set(summary.column("setting").to_pylist()))
@@ -52,11 +53,18 @@ def _paired(page: Page, paired: Any, titles: dict[int, str]) -> None:
     import plotly.graph_objects as go
     from plotly.subplots import make_subplots
 
+    from ..evaluate.paired import MIN_DAYS, verdict
+
     rows = paired.to_pylist()
     against = rows[0].get("against", "the reference")
     page.heading(f"Paired against {against}: per-day difference, bootstrap 95 % CI")
+    if any(r.get("few_days") for r in rows):  # as evaluate warns on the terminal
+        page.note(
+            f"Fewer than {MIN_DAYS} days back these differences: the intervals are wide "
+            "and the verdicts fragile."
+        )
     page.table(
-        ("setting", "method", "metric", "days", "mean diff", "95 % CI", "days better"),
+        ("setting", "method", "metric", "days", "mean diff", "95 % CI", "days better", "verdict"),
         [
             (
                 titles.get(r["setting"], r["setting"]),
@@ -66,18 +74,24 @@ def _paired(page: Page, paired: Any, titles: dict[int, str]) -> None:
                 f"{r['mean_diff']:+.4g}",
                 f"[{r['ci_low']:+.4g}, {r['ci_high']:+.4g}]",
                 f"{r['days_better']}/{r['days']}",
+                verdict(r),
             )
             for r in rows
         ],
     )
     metrics = list(dict.fromkeys(r["metric"] for r in rows))
-    fig = make_subplots(rows=len(metrics), cols=1, subplot_titles=metrics, vertical_spacing=0.08)
+    fig = make_subplots(
+        rows=len(metrics), cols=1, subplot_titles=[plain(m) for m in metrics], vertical_spacing=0.08
+    )
     for i, metric in enumerate(metrics, start=1):
         sel = [r for r in rows if r["metric"] == metric]
         fig.add_trace(
             go.Scatter(
                 x=[r["mean_diff"] for r in sel],
-                y=[f"{r['method']} · {titles.get(r['setting'], r['setting'])}" for r in sel],
+                y=[
+                    plain(f"{short(r['method'])} · {titles.get(r['setting'], r['setting'])}")
+                    for r in sel
+                ],
                 mode="markers",
                 marker={"size": 9},
                 error_x={
@@ -86,7 +100,7 @@ def _paired(page: Page, paired: Any, titles: dict[int, str]) -> None:
                     "array": [r["ci_high"] - r["mean_diff"] for r in sel],
                     "arrayminus": [r["mean_diff"] - r["ci_low"] for r in sel],
                 },
-                name=metric,
+                name=plain(metric),
                 showlegend=False,
             ),
             row=i,
@@ -101,6 +115,7 @@ def _sweep(page: Page, summary: Any, flag: str, meta: dict[str, Any]) -> None:
     """The metrics against a swept flag, one line per method (± one std), the other
     flags at their base values."""
     import plotly.graph_objects as go
+    from plotly.colors import qualitative
     from plotly.subplots import make_subplots
 
     from ..evaluate.plots import PANELS
@@ -110,8 +125,10 @@ def _sweep(page: Page, summary: Any, flag: str, meta: dict[str, Any]) -> None:
     rows = [r for r in summary.to_pylist() if _held(r, flag, meta)]
     methods = list(dict.fromkeys(r["method"] for r in rows))
     fig = make_subplots(rows=1, cols=len(panels), subplot_titles=[p[1] for p in panels])
-    for m in methods:
+    for k, m in enumerate(methods):
         mine = sorted((r for r in rows if r["method"] == m), key=lambda r: r[flag])
+        # A method's colour in every panel, as its one legend entry shows it.
+        colour = qualitative.Plotly[k % len(qualitative.Plotly)]
         for i, (metric, _) in enumerate(panels, start=1):
             fig.add_trace(
                 go.Scatter(
@@ -119,8 +136,10 @@ def _sweep(page: Page, summary: Any, flag: str, meta: dict[str, Any]) -> None:
                     y=[r[f"{metric}_mean"] for r in mine],
                     error_y={"type": "data", "array": [r[f"{metric}_std"] or 0 for r in mine]},
                     mode="lines+markers",
-                    name=m,
-                    legendgroup=m,
+                    line={"color": colour},
+                    marker={"color": colour},
+                    name=plain(short(m)),
+                    legendgroup=plain(m),
                     showlegend=i == 1,
                 ),
                 row=1,
@@ -161,17 +180,24 @@ def _per_day(page: Page, results: Any, titles: dict[int, str]) -> None:
 
     cols = ("setting", "method", "day", "repeat", "hub", "objective_j_mj", "delivered_share")
     rows = results.select([c for c in cols if c in results.column_names]).to_pylist()
+    # A city's hubs and the repeats put several points on a day: the hover says which.
+    which = [c for c in ("hub", "repeat") if any(r.get(c) for r in rows)]
+
+    def hover(r: dict[str, Any]) -> str:
+        said = [f"{c} {plain(r[c])}" for c in which]
+        return ", ".join([*said, f"delivered share {r['delivered_share']:.3f}"])
+
     fig = go.Figure()
     for key in dict.fromkeys((r["setting"], r["method"]) for r in rows):
         mine = [r for r in rows if (r["setting"], r["method"]) == key]
         fig.add_trace(
             go.Scatter(
-                x=[str(r["day"]) for r in mine],
+                x=[plain(r["day"]) for r in mine],
                 y=[r["objective_j_mj"] for r in mine],
                 mode="markers",
                 marker={"size": 9},
-                text=[f"delivered share {r['delivered_share']:.3f}" for r in mine],
-                name=f"{key[1]} · {titles.get(key[0], key[0])}",
+                text=[hover(r) for r in mine],
+                name=plain(f"{short(key[1])} · {titles.get(key[0], key[0])}"),
             )
         )
     fig.update_layout(

@@ -3,12 +3,13 @@ coverage, a chart over the days, and a link to each day's own report."""
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 from typing import Any
 from urllib.parse import quote
 
 from .folder import REPORT
-from .page import Page
+from .page import Page, count, plain
 
 _COLUMNS = (
     ("delivered", "{}"),
@@ -27,7 +28,8 @@ def _link(folder: Path, row: dict[str, Any]) -> tuple[str, str] | str:
     day, hub = str(row["day"]), row.get("hub", 0)
     for rel in (f"hub-{hub}/{day}", f"hub-{hub}", day):
         if (folder / rel / REPORT).is_file() or (folder / rel / "metrics.json").is_file():
-            return ("report", quote(f"{rel}/{REPORT}"))
+            # The name's bytes, as the file system holds them (any, on Linux).
+            return ("report", quote(os.fsencode(f"{rel}/{REPORT}")))
     return ""
 
 
@@ -38,7 +40,7 @@ def index_page(folder: Path, doc: dict[str, Any]) -> Page:
 
     days = doc.get("days", [])
     hubs = any(d.get("hub", 0) for d in days)
-    page = Page(f"marops: {len(days)} {'hub-days' if hubs else 'days'} — {folder.name}")
+    page = Page(f"marops: {count(len(days), 'hub-day' if hubs else 'day')} — {folder.name}")
     page.heading("Days")
     header = ["hub"] * hubs + ["day", "method", *(c for c, _ in _COLUMNS), "report"]
     rows = []
@@ -56,7 +58,7 @@ def index_page(folder: Path, doc: dict[str, Any]) -> Page:
         page.heading("The city's coverage")
         page.table(("quantity", "value"), [(k, _fmt(v)) for k, v in city.items() if k != "days"])
     if days:
-        labels = [f"hub {d.get('hub', 0)} {d['day']}" if hubs else str(d["day"]) for d in days]
+        labels = [plain(f"hub {d.get('hub', 0)} {d['day']}" if hubs else d["day"]) for d in days]
         fig = make_subplots(
             rows=1,
             cols=3,

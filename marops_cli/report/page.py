@@ -8,9 +8,30 @@ from collections.abc import Sequence
 from typing import Any
 
 from ..errors import InputError
+from .basemap import TILE_HOST
 
 EXTRA = "report"
 """The optional dependencies' extra: ``pip install 'marops[report]'``."""
+
+
+def plain(value: Any) -> str:
+    """A value from the folder's files as text on a figure. plotly reads a figure's
+    strings (hover texts, legend entries, titles, tick labels) as a little HTML, so an
+    order id ``<a href=…>`` would be drawn as a link and ``<b>`` as bold: ``&``, ``<``
+    and ``>`` are escaped, which plotly shows as the characters."""
+    return html.escape(str(value), quote=False)
+
+
+def short(value: Any, most: int = 40) -> str:
+    """A name from the folder's files cut to ``most`` characters for a legend or an axis
+    label, which would otherwise take the figure's width from its plot."""
+    text = str(value)
+    return text if len(text) <= most else text[: most - 1] + "…"
+
+
+def count(n: int, thing: str) -> str:
+    """``1 drone``, ``3 drones``."""
+    return f"{n} {thing}" + ("" if n == 1 else "s")
 
 
 def require_plotly() -> None:
@@ -21,9 +42,33 @@ def require_plotly() -> None:
         raise InputError(f"--report needs plotly: pip install 'marops[{EXTRA}]'") from None
 
 
+CONFIG = {
+    "displaylogo": False,
+    "responsive": True,
+    # plotly.js's "Share chart..." button uploads the figure, every order id and stop
+    # of it, to Plotly Cloud: the page sends nothing anywhere.
+    "showSendToCloud": False,
+    "plotlyServerURL": "",
+}
+"""The figures' plotly config."""
+
+_POLICY = "; ".join(
+    (
+        "default-src 'none'",
+        "script-src 'unsafe-inline'",  # plotly.js and the figures, inlined
+        "style-src 'unsafe-inline'",
+        f"img-src data: blob: {TILE_HOST.rstrip('/')}",  # the map tiles
+        "base-uri 'none'",
+        "form-action 'none'",
+    )
+)
+"""What the browser lets the page load: its own inline scripts and styles and the map
+tiles, nothing else (no fetch, no other image host), whatever a figure's text holds."""
+
 _STYLE = """
 body { font-family: system-ui, sans-serif; margin: 1.5em; color: #222; max-width: 1400px; }
 h1 { font-size: 1.5em; } h2 { font-size: 1.2em; margin-top: 1.6em; }
+h1, h2, p { overflow-wrap: anywhere; }
 table { border-collapse: collapse; margin: 0.5em 0; font-size: 0.9em; }
 th, td { border: 1px solid #ccc; padding: 0.25em 0.6em; }
 td.num { text-align: right; font-variant-numeric: tabular-nums; }
@@ -78,7 +123,7 @@ class Page:
                 include_plotlyjs=False,
                 full_html=False,
                 div_id=div_id,
-                config={"displaylogo": False, "responsive": True},
+                config=CONFIG,
             )
         )
 
@@ -91,6 +136,7 @@ class Page:
             script = f'<script type="text/javascript">{get_plotlyjs()}</script>'
         return (
             '<!DOCTYPE html>\n<html lang="en">\n<head>\n<meta charset="utf-8">\n'
+            f'<meta http-equiv="Content-Security-Policy" content="{_POLICY}">\n'
             f"<title>{html.escape(self.title)}</title>\n<style>{_STYLE}</style>\n"
             f"{script}\n</head>\n<body>\n" + "\n".join(self._parts) + "\n</body>\n</html>\n"
         )

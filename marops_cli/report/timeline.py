@@ -8,6 +8,7 @@ from typing import Any
 
 from .daymap import drone_colour, flown, route_stops
 from .folder import RouteFiles
+from .page import plain
 
 _WAIT_COLOUR = "rgba(150,150,150,0.35)"
 
@@ -39,12 +40,12 @@ def timeline_figure(files: RouteFiles) -> Any:
     waits: dict[str, list[Any]] = {"base": [], "x": [], "y": [], "text": []}
     for r in sorted(files.routes, key=lambda r: (r["drone"], r["window"])):
         d, w, start = r["drone"], r["window"], r["window_start"]
-        label = f"drone {d}"
+        label = f"drone {plain(d)}"
         if not flown(r):
             waits["base"].append(_iso(start))
             waits["x"].append(length.total_seconds() * ms)
             waits["y"].append(label)
-            waits["text"].append(f"window {w}: waits at depot {r['start_depot']}")
+            waits["text"].append(f"window {plain(w)}: waits at depot {plain(r['start_depot'])}")
             continue
         pts = stops[(w, d)]
         seconds = max(s["arrive_s"] for s in pts)
@@ -53,10 +54,10 @@ def timeline_figure(files: RouteFiles) -> Any:
         bars["base"].append(_iso(start))
         bars["x"].append(seconds * ms)
         bars["y"].append(label)
-        bars["text"].append(f"→{r['end_depot']}")
+        bars["text"].append(f"→{plain(r['end_depot'])}")
         bars["hover"].append(
-            f"window {w}: depot {r['start_depot']} {start:%H:%M:%S} → depot "
-            f"{r['end_depot']} {land:%H:%M:%S}<br>{r['n_parcels']} parcels, "
+            f"window {plain(w)}: depot {plain(r['start_depot'])} {start:%H:%M:%S} → depot "
+            f"{plain(r['end_depot'])} {land:%H:%M:%S}<br>{plain(r['n_parcels'])} parcels, "
             f"{r['distance_m'] / 1000:.2f} km, {r['energy_j'] / 1000:.1f} kJ "
             f"({100 * r['battery_frac']:.0f} % of the battery)"
         )
@@ -88,7 +89,7 @@ def timeline_figure(files: RouteFiles) -> Any:
                 hovertext=bars["hover"],
                 hoverinfo="text",
                 marker={"color": drone_colour(d)},
-                name=f"drone {d} flies",
+                name=f"drone {plain(d)} flies",
                 legendgroup=f"drone {d}",
             )
         )
@@ -97,10 +98,19 @@ def timeline_figure(files: RouteFiles) -> Any:
         barmode="overlay",
         height=max(260, 36 * len(drones) + 120),
         margin={"l": 80, "r": 20, "t": 30, "b": 40},
-        xaxis={"type": "date", "title": "local time", "tickformat": "%H:%M"},
+        xaxis={
+            "type": "date",
+            "title": "local time",
+            # Ticks less than a minute apart (one short window) show their seconds, or
+            # two ticks would read the same.
+            "tickformatstops": [
+                {"dtickrange": [None, 60_000], "value": "%H:%M:%S"},
+                {"dtickrange": [60_000, None], "value": "%H:%M"},
+            ],
+        },
         yaxis={
             "categoryorder": "array",
-            "categoryarray": [f"drone {d}" for d in reversed(drones)],
+            "categoryarray": [f"drone {plain(d)}" for d in reversed(drones)],
         },
         uniformtext={"minsize": 8, "mode": "hide"},
         plot_bgcolor="white",

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import re
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -51,6 +52,37 @@ def day_run(
         "--drones", 3, "--config", small_config, "--report", "--out", out, "--quiet",
     )  # fmt: skip
     return out
+
+
+@pytest.fixture(scope="session")
+def evaluation_run(
+    example_csv: Path, small_config: Path, tmp_path_factory: pytest.TempPathFactory
+) -> Path:
+    """``evaluate --report`` of stay and greedy over two values of alpha, paired against
+    stay (tests copy it before changing it)."""
+    out = tmp_path_factory.mktemp("ev") / "ev"
+    invoke(
+        "evaluate", example_csv, "--dates", "0811", "--methods", "stay,greedy",
+        "--against", "stay", "--alpha", "0.2,0.8", "--drones", 2, "--config", small_config,
+        "--workers", 1, "--no-plot", "--report", "--out", out, "--quiet",
+    )  # fmt: skip
+    return out
+
+
+def rewrite_parquet(path: Path, column: str, value: Callable[[Any], Any], **meta: Any) -> None:
+    """Parquet ``column`` set to ``value(old value)`` in every row; the file's marops
+    metadata kept, with the ``meta`` keys given replaced."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    table = pq.read_table(path)
+    i = table.schema.get_field_index(column)
+    new = pa.array([value(v) for v in table.column(column).to_pylist()])
+    table = table.set_column(i, pa.field(column, new.type), new)
+    metadata = dict(pq.read_schema(path).metadata or {})
+    if meta:
+        metadata[b"marops"] = json.dumps({**json.loads(metadata[b"marops"]), **meta}).encode()
+    pq.write_table(table.replace_schema_metadata(metadata), path)
 
 
 def figure(html: str, div_id: str) -> tuple[list[dict[str, Any]], dict[str, Any]]:

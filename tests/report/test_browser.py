@@ -5,6 +5,7 @@ where no Chromium is on PATH; .ci/run installs the distribution's package."""
 from __future__ import annotations
 
 import os
+import shutil
 import struct
 from pathlib import Path
 
@@ -14,6 +15,7 @@ import pytest
 from marops_cli.report.basemap import TILE_HOST
 
 from .cdp import chromium, open_page
+from .conftest import invoke, rewrite_parquet
 
 pytestmark = pytest.mark.skipif(chromium() is None, reason="no chromium on PATH")
 
@@ -40,6 +42,7 @@ def test_report_in_chromium(day_run: Path, tmp_path: Path) -> None:
             "traces": f"{_MAP}.data.filter(t => (t.uid || '').startsWith('route-')).length",
             "slider": "document.querySelectorAll('#map .slider-container').length",
             "bars": "document.querySelectorAll('#timeline .bars .point').length",
+            "buttons": "[...document.querySelectorAll('.modebar-btn')].map(b => b.dataset.title)",
         },
         screenshot=shot,
     )
@@ -49,6 +52,9 @@ def test_report_in_chromium(day_run: Path, tmp_path: Path) -> None:
     assert run.values["drawn"] == flown  # one drawn line per route
     assert run.values["slider"] == 1
     assert run.values["bars"] >= flown
+    # The figures' buttons: none uploads the figure (plotly's "Share chart...").
+    assert "Download plot as a PNG" in run.values["buttons"]
+    assert not [b for b in run.values["buttons"] if "share" in b.lower() or "cloud" in b.lower()]
     # Offline the map tiles fail to load (the service areas stay the map); nothing else may.
     errors = [
         e
@@ -58,3 +64,46 @@ def test_report_in_chromium(day_run: Path, tmp_path: Path) -> None:
     assert errors == []
     width, height = _png_size(shot.read_bytes())
     assert (width, height) == (1300, 1000)
+
+
+def _offline_errors(errors: list[dict]) -> list[dict]:
+    """What the page logged but the failed tile loads (offline they must fail)."""
+    return [
+        e
+        for e in errors
+        if not (e["source"] == "network" and str(e.get("url", "")).startswith(TILE_HOST))
+    ]
+
+
+def test_odd_names_show_as_text_and_leave_the_map_its_width(day_run: Path, tmp_path: Path) -> None:
+    """A drone type that looks like HTML and runs long, a method name without a space:
+    the legend shows the characters (cut short, so the map keeps its width), nothing
+    on the page becomes a link, and the page does not grow wider than the window."""
+    copy = tmp_path / "odd"
+    shutil.copytree(day_run, copy)
+    kind = "<b>heavy</b> " + "T" * 300
+    rewrite_parquet(copy / "routes.parquet", "drone_type", lambda v: kind, method="M" * 400)
+    rewrite_parquet(copy / "stops.parquet", "order_id", lambda v: v and f"<a href='x'>{v}</a>")
+    invoke("report", copy, "--quiet")
+    run = open_page(
+        (copy / "report.html").as_uri(),
+        ready=READY,
+        expressions={
+            # What a script slipped into the page would do to send the data away: the
+            # page's policy lets it load nothing but the map tiles.
+            "leak": "(new Image()).src = 'https://example.invalid/leak.png'",
+            "legend": "[...document.querySelectorAll('#map .legendtext')].map(e => e.textContent)",
+            "links": "document.querySelectorAll('a').length",
+            "plot": f"+{_MAP}.querySelector('.nsewdrag').getAttribute('width')",
+            "page": "document.documentElement.scrollWidth - window.innerWidth",
+        },
+    )
+    drones = [t for t in run.values["legend"] if t.startswith("drone ")]
+    assert drones and all(t.endswith(" (<b>heavy</b> TTTTTTTTTTTTTTTTTTTTTTTTTT…)") for t in drones)
+    assert run.values["links"] == 0
+    assert run.values["plot"] > 400  # the legend left the map its width
+    assert run.values["page"] <= 0  # the long title wraps
+    blocked = [e for e in run.errors if "example.invalid" in e["text"]]
+    assert blocked and all(e["source"] == "security" for e in blocked), run.errors
+    assert "Content Security Policy" in blocked[0]["text"]
+    assert [e for e in _offline_errors(run.errors) if e not in blocked] == []

@@ -15,7 +15,7 @@ import pytest
 from marops_cli.cli.app import app
 from marops_cli.report.basemap import TILE_HOST
 
-from .conftest import figure, invoke, runner
+from .conftest import figure, invoke, rewrite_parquet, runner
 
 
 def _flown(routes: list[dict]) -> list[dict]:
@@ -69,6 +69,12 @@ def test_the_page_is_self_contained_and_journaled(day_run: Path) -> None:
     html = (day_run / "report.html").read_text(encoding="utf-8")
     head = html.split("</head>")[0]
     assert "<script src" not in html and "<link " not in head
+    # The browser lets the page load nothing but its own inline code and the tiles.
+    policy = re.search(r'<meta http-equiv="Content-Security-Policy" content="([^"]+)">', head)
+    assert policy is not None and head.index(policy.group(0)) < head.index("<script")
+    rules = dict(r.split(" ", 1) for r in policy.group(1).split("; "))
+    assert rules["default-src"] == "'none'"
+    assert rules["img-src"] == f"data: blob: {TILE_HOST.rstrip('/')}"
     assert len(head) > 1_000_000  # plotly.js inlined
     journal = json.loads((day_run / ".marops-files.json").read_text())
     assert "report.html" in journal["files"]
@@ -215,6 +221,15 @@ def test_plan_window_report(
     assert sum(t.get("uid", "").startswith("route-") for t in data) == len(flown)
     assert "sliders" not in layout  # one window: nothing to slide
     assert "solver status" in html
+    long_numbers = re.findall(r'<td class="num">[-+]?\d*\.\d{7,}</td>', html)
+    assert long_numbers == []  # six significant digits, the solver's objective's too
+    # A window's flights last minutes: ticks half a minute apart show their seconds (at
+    # %H:%M two of them read the same), ticks a minute or more apart do not.
+    _, timeline = figure(html, "timeline")
+    stops = timeline["xaxis"]["tickformatstops"]
+    assert {"dtickrange": [None, 60_000], "value": "%H:%M:%S"} in stops
+    assert {"dtickrange": [60_000, None], "value": "%H:%M"} in stops
+    assert "tickformat" not in timeline["xaxis"]
 
 
 def test_several_days_link_each_day_report(
@@ -280,15 +295,9 @@ def test_a_day_folder_named_like_a_script_url_links_as_a_path(tmp_path: Path) ->
     assert 'href="javascript:' not in top.split("</head>")[1]
 
 
-def test_evaluate_report_tables_paired_and_sweep(
-    example_csv: Path, small_config: Path, tmp_path: Path
-) -> None:
+def test_evaluate_report_tables_paired_and_sweep(evaluation_run: Path, tmp_path: Path) -> None:
     out = tmp_path / "ev"
-    invoke(
-        "evaluate", example_csv, "--dates", "0811", "--methods", "stay,greedy",
-        "--against", "stay", "--alpha", "0.2,0.8", "--drones", 2, "--config", small_config,
-        "--workers", 1, "--no-plot", "--report", "--out", out, "--quiet",
-    )  # fmt: skip
+    shutil.copytree(evaluation_run, out)
     html = (out / "report.html").read_text(encoding="utf-8")
     assert "Setting 0: α = 0.2" in html and "Setting 1: α = 0.8" in html
     assert "<th>stay</th><th>greedy</th>" in html
@@ -309,6 +318,68 @@ def test_evaluate_report_tables_paired_and_sweep(
     lines = res.output.strip().splitlines()
     assert res.exit_code == 2 and len(lines) == 1 and "results.parquet" in lines[0], res.output
     assert (out / "report.html").read_text(encoding="utf-8") == html
+
+
+def test_a_sweep_draws_each_method_in_its_legend_colour_in_every_panel(
+    evaluation_run: Path,
+) -> None:
+    """One legend entry per method stands for its line in every panel: the same colour
+    there (plotly would give each panel's line the next colour)."""
+    sweep, _ = figure((evaluation_run / "report.html").read_text(encoding="utf-8"), "sweep-alpha")
+    colours: dict[str, set[str]] = {}
+    for t in sweep:
+        colours.setdefault(t["name"], set()).add(t.get("line", {}).get("color"))
+    assert len({t.get("xaxis") for t in sweep}) > 1  # several panels
+    assert all(len(c) == 1 and None not in c for c in colours.values()), colours
+    assert len({c for cs in colours.values() for c in cs}) == len(colours)
+
+
+def test_the_days_of_several_hubs_and_repeats_say_which_on_hover(
+    evaluation_run: Path, tmp_path: Path
+) -> None:
+    """A city's evaluation puts a point per hub (and per repeat) on each day: its hover
+    names them."""
+    copy = tmp_path / "ev"
+    shutil.copytree(evaluation_run, copy)
+    n = iter(range(10**6))
+    rewrite_parquet(copy / "results.parquet", "hub", lambda v: next(n) % 3)
+    rewrite_parquet(copy / "results.parquet", "repeat", lambda v: 1)
+    invoke("report", copy, "--quiet")
+    days, _ = figure((copy / "report.html").read_text(encoding="utf-8"), "days")
+    texts = [t for trace in days for t in trace["text"]]
+    assert {t.split(",")[0] for t in texts} == {"hub 0", "hub 1", "hub 2"}
+    assert all(t.split(", ")[1] == "repeat 1" for t in texts)
+    assert all(t.split(", ")[2].startswith("delivered share ") for t in texts)
+    # One study area, one run a day: the hover as it was.
+    days, _ = figure((evaluation_run / "report.html").read_text(encoding="utf-8"), "days")
+    assert all(t.startswith("delivered share ") for trace in days for t in trace["text"])
+
+
+def test_the_paired_table_says_each_verdict_and_how_few_days_back_it(
+    evaluation_run: Path, tmp_path: Path
+) -> None:
+    """As evaluate says on the terminal: a verdict per row, and a warning where fewer
+    than ten days back the intervals."""
+    html = (evaluation_run / "report.html").read_text(encoding="utf-8")
+    assert "<th>days better</th><th>verdict</th>" in html
+    assert "<td>n/a</td></tr>" in html  # one day: no interval to judge by
+    assert "Fewer than 10 days back these differences" in html
+    # Ten days or more: no warning; a verdict from the interval.
+    copy = tmp_path / "ev"
+    shutil.copytree(evaluation_run, copy)
+    rows = _csv_rows(copy / "paired.csv")
+    for r in rows:
+        r.update(days="12", few_days="false", ci_low="-2.0", ci_high="-1.0")
+    with (copy / "paired.csv").open("w", newline="") as fh:
+        import csv
+
+        writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
+        writer.writeheader()
+        writer.writerows(rows)
+    invoke("report", copy, "--quiet", "--force")  # the table edited is no more marops's
+    html = (copy / "report.html").read_text(encoding="utf-8")
+    assert "Fewer than 10 days" not in html
+    assert "<td>better</td>" in html and "<td>worse</td>" in html
 
 
 def _csv_rows(path: Path) -> list[dict]:
