@@ -75,6 +75,17 @@ def report_folders(folder: Path, *, below: bool = True) -> list[Path]:
     return found
 
 
+def _link_up(page: Page, folder: Path, folders: list[Path]) -> None:
+    """A day's or hub's page links the page of the run above it (a hub's, a city's or a
+    several-day run's), where that page is made in the same run."""
+    from urllib.parse import quote
+
+    for up, rel in ((folder.parent, "../"), (folder.parent.parent, "../../")):
+        if up in folders:
+            page.up(quote(rel + REPORT), f"the run's page ({up.name or up})")
+            return
+
+
 def write_reports(
     folder: Path,
     depots: Depots | None = None,
@@ -109,6 +120,7 @@ def write_reports(
                     file=f,
                 ) from exc
             if page is not None:
+                _link_up(page, f, folders)
                 files = OutputSet()
                 pages.append(files)
                 # A folder name that is not UTF-8 (Linux allows any bytes) is shown

@@ -8,7 +8,7 @@ from pathlib import Path
 from typing import Any
 from urllib.parse import quote
 
-from .folder import REPORT
+from .folder import REPORT, route_files_exist
 from .page import Page, count, plain
 
 _COLUMNS = (
@@ -49,6 +49,17 @@ def index_page(folder: Path, doc: dict[str, Any]) -> Page:
         cells += [f.format(d[c]) if d.get(c) is not None else "" for c, f in _COLUMNS]
         rows.append([*cells, _link(folder, d)])
     page.table(header, rows, links=len(header) - 1)
+    # A city's hubs have pages of their own (their days and totals): linked here too.
+    pages = [(h, folder / f"hub-{h}") for h in sorted({d.get("hub", 0) for d in days})]
+    pages = [(h, p) for h, p in pages if hubs and (p / "metrics.json").is_file()]
+    pages = [(h, p) for h, p in pages if not route_files_exist(p)]  # one day: linked above
+    if pages:
+        page.heading("Hubs")
+        page.table(
+            ("hub", "report"),
+            [(h, ("report", quote(f"{p.name}/{REPORT}"))) for h, p in pages],
+            links=1,
+        )
     total = doc.get("total")
     if total:
         page.heading("Totals over the days")

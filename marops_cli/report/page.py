@@ -85,6 +85,11 @@ class Page:
         self._parts: list[str] = [f"<h1>{html.escape(title)}</h1>"]
         self._figures = 0
 
+    def up(self, href: str, text: str) -> None:
+        """A link under the title to the page of the run this page is part of."""
+        link = f'<a href="{html.escape(href)}">{html.escape(text)}</a>'
+        self._parts.insert(1, f'<p class="note">↑ {link}</p>')
+
     def heading(self, text: str) -> None:
         self._parts.append(f"<h2>{html.escape(text)}</h2>")
 

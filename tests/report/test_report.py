@@ -243,7 +243,8 @@ def test_several_days_link_each_day_report(
     top = (out / "report.html").read_text(encoding="utf-8")
     for day in ("2022-08-11", "2022-08-12"):
         assert f'href="{day}/report.html"' in top
-        assert (out / day / "report.html").is_file()
+        page = (out / day / "report.html").read_text(encoding="utf-8")
+        assert '↑ <a href="../report.html">the run&#x27;s page (days)</a>' in page
     figure(top, "days")
     # A page at a time: a city's month makes hundreds, each said as it is written.
     pages = [
@@ -278,6 +279,26 @@ def test_hub_folders_are_walked_in_the_order_of_their_numbers(tmp_path: Path) ->
     (out / "metrics.json").write_text('{"total": {"delivered": 3}}')
     found = [p.relative_to(out).as_posix() for p in report_folders(out)]
     assert found == ["hub-1", "hub-2", "hub-10", "."]
+
+
+def test_a_city_page_links_its_hubs_and_each_page_links_the_one_above(tmp_path: Path) -> None:
+    """From the city's page to a hub's, and from a hub's or a day's back up: an analyst
+    moves through a city's month by links."""
+    out = tmp_path / "city"
+    day = {"day": "2022-08-11", "method": "stay", "hub": 1}
+    (out / "hub-1" / "2022-08-11").mkdir(parents=True)
+    (out / "hub-1" / "2022-08-11" / "metrics.json").write_text(json.dumps(day))
+    (out / "hub-1" / "metrics.json").write_text(json.dumps({"days": [day], "total": {"days": 1}}))
+    (out / "metrics.json").write_text(
+        json.dumps({"days": [day], "total": {"days": 1}, "city": {"hubs": 1}})
+    )
+    invoke("report", out, "--quiet")
+    city = (out / "report.html").read_text(encoding="utf-8")
+    assert city.count('href="hub-1/report.html"') == 1  # the hubs' table
+    assert city.count('href="hub-1/2022-08-11/report.html"') == 1  # the days' table
+    assert "../report.html" not in city  # the top page has nothing above it
+    hub = (out / "hub-1" / "report.html").read_text(encoding="utf-8")
+    assert '↑ <a href="../report.html">the run&#x27;s page (city)</a>' in hub
 
 
 def test_a_day_folder_named_like_a_script_url_links_as_a_path(tmp_path: Path) -> None:
