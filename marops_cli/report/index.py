@@ -39,7 +39,8 @@ def index_page(folder: Path, doc: dict[str, Any]) -> Page:
     from plotly.subplots import make_subplots
 
     days = doc.get("days", [])
-    hubs = any(d.get("hub", 0) for d in days)
+    # A city's days are hub-days, a city of one hub (hub 0) too.
+    hubs = "city" in doc or any(d.get("hub", 0) for d in days)
     page = Page(f"marops: {count(len(days), 'hub-day' if hubs else 'day')} — {folder.name}")
     page.heading("Days")
     header = ["hub"] * hubs + ["day", "method", *(c for c, _ in _COLUMNS), "report"]

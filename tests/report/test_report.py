@@ -283,21 +283,22 @@ def test_hub_folders_are_walked_in_the_order_of_their_numbers(tmp_path: Path) ->
 
 def test_a_city_page_links_its_hubs_and_each_page_links_the_one_above(tmp_path: Path) -> None:
     """From the city's page to a hub's, and from a hub's or a day's back up: an analyst
-    moves through a city's month by links."""
+    moves through a city's month by links. A city of one hub (hub 0) has hub-days too."""
     out = tmp_path / "city"
-    day = {"day": "2022-08-11", "method": "stay", "hub": 1}
-    (out / "hub-1" / "2022-08-11").mkdir(parents=True)
-    (out / "hub-1" / "2022-08-11" / "metrics.json").write_text(json.dumps(day))
-    (out / "hub-1" / "metrics.json").write_text(json.dumps({"days": [day], "total": {"days": 1}}))
+    day = {"day": "2022-08-11", "method": "stay", "hub": 0}
+    (out / "hub-0" / "2022-08-11").mkdir(parents=True)
+    (out / "hub-0" / "2022-08-11" / "metrics.json").write_text(json.dumps(day))
+    (out / "hub-0" / "metrics.json").write_text(json.dumps({"days": [day], "total": {"days": 1}}))
     (out / "metrics.json").write_text(
         json.dumps({"days": [day], "total": {"days": 1}, "city": {"hubs": 1}})
     )
     invoke("report", out, "--quiet")
     city = (out / "report.html").read_text(encoding="utf-8")
-    assert city.count('href="hub-1/report.html"') == 1  # the hubs' table
-    assert city.count('href="hub-1/2022-08-11/report.html"') == 1  # the days' table
+    assert city.count('href="hub-0/report.html"') == 1  # the hubs' table
+    assert city.count('href="hub-0/2022-08-11/report.html"') == 1  # the days' table
     assert "../report.html" not in city  # the top page has nothing above it
-    hub = (out / "hub-1" / "report.html").read_text(encoding="utf-8")
+    assert "<title>marops: 1 hub-day — city</title>" in city
+    hub = (out / "hub-0" / "report.html").read_text(encoding="utf-8")
     assert '↑ <a href="../report.html">the run&#x27;s page (city)</a>' in hub
 
 
