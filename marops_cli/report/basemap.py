@@ -5,6 +5,7 @@ shows (docs/report.md)."""
 from __future__ import annotations
 
 import math
+import os
 from typing import Any
 
 import numpy as np
@@ -18,9 +19,24 @@ TILE_URL = (
 """Esri's light grey canvas: raster tiles that need no key and no referrer (a page opened
 from a file sends none), quiet enough for the routes to stand out."""
 TILE_HOST = "https://server.arcgisonline.com/"
+TILES_ENV = "MAROPS_TILES"
+"""``off``: pages draw no tiles and may fetch nothing at all (the study area's location
+never leaves the machine); unset or ``on``: the tiles under the map."""
 ATTRIBUTION = "Tiles © Esri — Esri, DeLorme, NAVTEQ"
 _MAX_ZOOM = 16  # the canvas's deepest tiles
 _MAX_TILES_ACROSS = 4
+
+
+def tiles_on() -> bool:
+    """Whether pages draw the map's tiles (:data:`TILES_ENV`, docs/report.md)."""
+    from ..errors import InputError
+
+    value = os.environ.get(TILES_ENV, "").strip().lower()
+    if value in ("", "on", "1", "true", "yes"):
+        return True
+    if value in ("off", "0", "false", "no"):
+        return False
+    raise InputError(f"{TILES_ENV} expects on or off, got {value!r}")
 
 
 def extent(frame: Frame) -> tuple[float, float, float, float]:

@@ -7,6 +7,7 @@ from typing import TYPE_CHECKING, Any
 
 from ..data.frame import Frame
 from ..errors import InputError
+from .basemap import tiles_on
 from .daymap import flown, map_figure
 from .folder import RouteFiles
 from .page import Page, count
@@ -104,8 +105,12 @@ def day_page(files: RouteFiles, metrics_doc: dict[str, Any] | None, depots: Depo
     page.note(
         f"{count(n, 'route')} flown, one line each in its drone's colour; hover a stop for its "
         "arrival time, weight and delay; the slider shows one window; click a drone in "
-        "the legend to hide it. Map tiles appear when the browser is online; offline, "
-        "the service areas are the map."
+        "the legend to hide it. "
+        + (
+            "Map tiles appear when the browser is online; offline, the service areas are the map."
+            if tiles_on()
+            else "The service areas are the map (MAROPS_TILES=off: no tiles fetched)."
+        )
         + ("" if depots is not None else " Depots: those the routes use (no depots file given).")
     )
     points = depot_points(files, depots)

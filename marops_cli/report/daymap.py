@@ -10,7 +10,7 @@ from collections.abc import Sequence
 from typing import Any
 
 from ..data.frame import Frame
-from .basemap import ATTRIBUTION, extent, tile_images
+from .basemap import ATTRIBUTION, extent, tile_images, tiles_on
 from .folder import RouteFiles
 from .page import plain, short
 
@@ -174,10 +174,11 @@ def _axes(fig: Any, frame: Frame | None, depots: dict[int, tuple[float, float]])
     if frame is None:
         return
     west, south, east, north = extent(frame)
+    fig.update_layout(xaxis={"range": [west, east]}, yaxis={"range": [south, north]})
+    if not tiles_on():
+        return
     fig.update_layout(
         images=tile_images(frame),
-        xaxis={"range": [west, east]},
-        yaxis={"range": [south, north]},
         annotations=[
             {
                 "text": ATTRIBUTION,

@@ -8,7 +8,7 @@ from collections.abc import Sequence
 from typing import Any
 
 from ..errors import InputError
-from .basemap import TILE_HOST
+from .basemap import TILE_HOST, tiles_on
 
 EXTRA = "report"
 """The optional dependencies' extra: ``pip install 'marops[report]'``."""
@@ -35,11 +35,13 @@ def count(n: int, thing: str) -> str:
 
 
 def require_plotly() -> None:
-    """Stop with one line (exit 2) naming the extra when plotly is not installed."""
+    """Stop with one line (exit 2) naming the extra when plotly is not installed, or the
+    variable when ``MAROPS_TILES`` says neither on nor off: before any work."""
     try:
         import plotly  # noqa: F401
     except ImportError:
         raise InputError(f"--report needs plotly: pip install 'marops[{EXTRA}]'") from None
+    tiles_on()
 
 
 CONFIG = {
@@ -52,18 +54,23 @@ CONFIG = {
 }
 """The figures' plotly config."""
 
-_POLICY = "; ".join(
-    (
-        "default-src 'none'",
-        "script-src 'unsafe-inline'",  # plotly.js and the figures, inlined
-        "style-src 'unsafe-inline'",
-        f"img-src data: blob: {TILE_HOST.rstrip('/')}",  # the map tiles
-        "base-uri 'none'",
-        "form-action 'none'",
+
+def _policy() -> str:
+    """What the browser lets the page load: its own inline scripts and styles and the map
+    tiles (none with ``MAROPS_TILES=off``), nothing else (no fetch, no other image host),
+    whatever a figure's text holds."""
+    images = "img-src data: blob:" + (f" {TILE_HOST.rstrip('/')}" if tiles_on() else "")
+    return "; ".join(
+        (
+            "default-src 'none'",
+            "script-src 'unsafe-inline'",  # plotly.js and the figures, inlined
+            "style-src 'unsafe-inline'",
+            images,  # the map tiles
+            "base-uri 'none'",
+            "form-action 'none'",
+        )
     )
-)
-"""What the browser lets the page load: its own inline scripts and styles and the map
-tiles, nothing else (no fetch, no other image host), whatever a figure's text holds."""
+
 
 _STYLE = """
 body { font-family: system-ui, sans-serif; margin: 1.5em; color: #222; max-width: 1400px; }
@@ -141,7 +148,7 @@ class Page:
             script = f'<script type="text/javascript">{get_plotlyjs()}</script>'
         return (
             '<!DOCTYPE html>\n<html lang="en">\n<head>\n<meta charset="utf-8">\n'
-            f'<meta http-equiv="Content-Security-Policy" content="{_POLICY}">\n'
+            f'<meta http-equiv="Content-Security-Policy" content="{_policy()}">\n'
             f"<title>{html.escape(self.title)}</title>\n<style>{_STYLE}</style>\n"
             f"{script}\n</head>\n<body>\n" + "\n".join(self._parts) + "\n</body>\n</html>\n"
         )

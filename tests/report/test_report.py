@@ -81,6 +81,28 @@ def test_the_page_is_self_contained_and_journaled(day_run: Path) -> None:
     assert all(img["source"].startswith(TILE_HOST) for img in figure(html, "map")[1]["images"])
 
 
+def test_without_tiles_the_page_fetches_nothing(
+    day_run: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, fails_cleanly
+) -> None:
+    """MAROPS_TILES=off: no tile on the map and none allowed, so the study area's
+    location never leaves the machine; a value neither on nor off is one line."""
+    copy = tmp_path / "copy"
+    shutil.copytree(day_run, copy)
+    (copy / "report.html").unlink()
+    monkeypatch.setenv("MAROPS_TILES", "off")
+    invoke("report", copy, "--quiet")
+    html = (copy / "report.html").read_text(encoding="utf-8")
+    head, body = html.split("</head>")
+    assert "img-src data: blob:; base-uri" in head
+    assert not re.findall(r"https?://[^\"'\s]+", body.replace("\\u002f", "/"))
+    assert "images" not in figure(html, "map")[1]
+    assert "no tiles fetched" in body
+    monkeypatch.setenv("MAROPS_TILES", "maybe")
+    (copy / "report.html").unlink()
+    line = fails_cleanly(["report", str(copy)], copy)
+    assert line == "marops: error: MAROPS_TILES expects on or off, got 'maybe'"
+
+
 def test_marops_report_builds_the_same_page_from_the_folder(
     day_run: Path, depots_json: Path, tmp_path: Path
 ) -> None:
