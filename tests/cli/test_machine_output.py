@@ -73,6 +73,8 @@ def test_json_prints_the_summary_on_stdout_only(cron_run) -> None:
         (["replay-day", "--bogus"], "No such option: --bogus"),
         (["replay-day"], "Missing argument"),
         (["segment", "x.csv", "--out", "d.json", "--n-depots", "many"], "--n-depots"),
+        # an option without its value: click's parser raised it without the command
+        (["replay-day", "x.csv", "--date"], "'--date' requires an argument. (see '"),
     ],
 )
 def test_usage_errors_are_one_plain_line(tmp_path: Path, args: list[str], needle: str) -> None:
@@ -92,6 +94,8 @@ def test_usage_errors_are_one_plain_line(tmp_path: Path, args: list[str], needle
         (["segment", "x.csv", "--out", "d.json", "--json", "--n-depots", "many"], {}, "--n-"),
         (["report", "--json", "--bogus", "."], {}, "No such option: --bogus"),
         (["segmnt", "x.csv", "--json"], {}, "No such command 'segmnt'"),
+        (["replay-day", "x.csv", "--json", "--date"], {}, "'--date' requires an argument"),
+        (["segment", "x.csv", "--out"], {"MAROPS_JSON": "1"}, "'--out' requires an argument"),
     ],
     ids=[
         "in-the-command",
@@ -99,6 +103,8 @@ def test_usage_errors_are_one_plain_line(tmp_path: Path, args: list[str], needle
         "bad-value",
         "unknown-option",
         "unknown-command",
+        "no-value",
+        "no-value-from-the-environment",
     ],
 )
 def test_json_errors_are_one_document_on_stdout(
