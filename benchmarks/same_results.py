@@ -56,7 +56,8 @@ SMOKE = ("example", "synth-river-greedy", "fleet")
 # JSON keys, at any depth (metrics.json, hubs.json, the actor's sidecar, Parquet metadata):
 VOLATILE_KEYS = frozenset({"created", "runtime_s", "solve_s", "training_time_s", "version"})
 # Keys by path: the actor sidecar's package version, and the SHA-256 of the hubs file a
-# hub replay read (that file holds its own `created`; its content is fingerprinted).
+# hub replay read (kept out from when that file held its own `created`; its content is
+# fingerprinted).
 VOLATILE_PATHS = frozenset({"marops", "meta.hubs_file.sha256"})
 # Columns (evaluate's results.parquet): wall times.
 VOLATILE_COLUMNS = frozenset({"runtime_s", "solver_solve_s"})

@@ -105,12 +105,15 @@ def segment(
     finally:
         progress.finish()
     drop_report(progress, res.table.report, data_name(data))
+    # No time stamp: the runs that read a depots file record its SHA-256 and keep their
+    # days only while it matches, so segmenting again the same way gives the same bytes.
     meta = run_meta(
         command="segment",
         config=cfg,
         source=res.table.source,
         method=cfg.segment.method,
         seed=cfg.segment.seed,
+        stamp=False,
         extra={
             "days": [d.isoformat() for d in res.days],
             "n_history": int(res.history_xy.shape[0]),
@@ -176,11 +179,12 @@ def segment_hubs(
     table = read_data(data, cfg.data)
     found, total = find_hubs(table, cfg.data, day_list, n_hubs)
     drop_report(progress, table.report, data_name(data))
-    meta = run_meta(
+    meta = run_meta(  # no time stamp, as a depots file's
         command="segment",
         config=cfg,
         source=table.source,
         extra={"days": [d.isoformat() for d in day_list or table.days()], "hubs": str(hubs)},
+        stamp=False,
     )
     done = HubTiling(found, total, table, meta, [])
     if out is not None:

@@ -29,7 +29,7 @@ app = typer.Typer(
     cls=Group,
     help="Operations planner for drone last-mile delivery (MAR-OPS): LaDe export -> depots -> "
     "flight ranges -> energy-aware multi-parcel routes, window by window.",
-    no_args_is_help=True,
+    no_args_is_help=False,  # a bare `marops` is a usage error: one line, as every other
     add_completion=False,
     pretty_exceptions_enable=False,
     # Help texts give defaults as "[default: kmeans]": rich markup would take them for style tags
@@ -114,12 +114,11 @@ def _run() -> int | str | None:
         message = getattr(exc, "format_message", None)
         if message is None:
             raise
-        if type(exc).__name__ == "NoArgsIsHelpError":  # bare `marops CMD`: its help
-            typer.echo(message(), err=True)
-            return 2
         ctx = getattr(exc, "ctx", None)
         hint = f" (see '{ctx.command_path} --help')" if ctx is not None else ""
         text = " ".join(str(message()).split())
+        if text == "Missing command." and ctx is not None:  # a bare `marops`: name them
+            text = f"Missing command: one of {', '.join(ctx.command.list_commands(ctx))}."
         typer.echo(f"marops: error: {text}{hint}", err=True)
         status = int(getattr(exc, "exit_code", 2))
         if ctx is not None and _wants_json(ctx.command):

@@ -131,8 +131,7 @@ OutFolder = Annotated[Path, typer.Option("--out", help="Output folder.")]
 Workers = Annotated[
     int,
     typer.Option(
-        "--workers",
-        min=1,
+        "--workers",  # its range is checked with the run's (workers/pool.py: check_workers)
         help="Worker processes, 1 to 256 (with --scheduler local: the cluster's); without "
         "--scheduler, a single job runs here.",
     ),

@@ -57,3 +57,14 @@ class Command(typer.core.TyperCommand):
         for param in self.params:
             if type(param) is typer.core.TyperArgument:
                 param.__class__ = Argument  # the same state, shown the way above
+
+    def parse_args(self, ctx: Any, args: list[str]) -> list[str]:
+        """The command line's usage errors all know their command: click's parser raises
+        "Option '--date' requires an argument." without one, which left that line
+        without its help hint and, with ``--json``, without its JSON document."""
+        try:
+            return super().parse_args(ctx, args)
+        except Exception as exc:  # click's UsageError, wherever this typer keeps click
+            if hasattr(exc, "format_message") and getattr(exc, "ctx", False) is None:
+                exc.ctx = ctx  # type: ignore[attr-defined]
+            raise

@@ -24,3 +24,20 @@ def test_counts_past_any_machine_are_one_line(
     out = tmp_path / ("a.pt" if command[0] == "train" else "out")
     args = [command[0], str(example_csv), *command[1:], "--out", str(out)]
     fails_cleanly(args, tmp_path, needle)
+
+
+@pytest.mark.parametrize("command", ["evaluate", "replay-day"])
+def test_no_workers_is_the_same_line_as_too_many(
+    example_csv: Path, tmp_path: Path, fails_cleanly, command: str
+) -> None:
+    """--workers 0 says the range, as --workers 999 does, and --help gives that range
+    alone (it read "[default: 2; x>=1]" beside "1 to 256")."""
+    from typer.testing import CliRunner
+
+    from marops_cli.cli.app import app
+
+    args = [command, str(example_csv), "--dates", "0811", "--workers", "0"]
+    line = fails_cleanly([*args, "--out", str(tmp_path / "out")], tmp_path)
+    assert line == "marops: error: --workers expects 1 to 256, got 0", line
+    text = " ".join(CliRunner().invoke(app, [command, "--help"]).output.split())
+    assert "x>=1" not in text and "--workers" in text and "1 to 256" in text

@@ -224,3 +224,24 @@ def test_a_file_name_with_a_line_break_is_still_one_line(tmp_path: Path) -> None
     res = runner.invoke(app, ["segment", str(missing), "--out", str(tmp_path / "d.json")])
     assert res.exit_code == 2 and len(res.output.strip().splitlines()) == 1, res.output
     assert "two\\nlines.csv" in res.output
+
+
+def test_segmenting_again_keeps_the_days_replayed_with_its_depots(
+    example_csv: Path, tmp_path: Path
+) -> None:
+    """The README's worked example run twice: segment writes the same bytes again (no
+    time stamp), so the replay that names the depots file keeps its day instead of
+    stopping with "holds a replay made with other settings"; hubs files alike."""
+    depots, hubs = tmp_path / "depots.json", tmp_path / "hubs.json"
+    segment = ["segment", str(example_csv), "--dates", "0801..0810"]
+    replay = ["replay-day", str(example_csv), "--depots", str(depots), "--date", "0811"]
+    replay += ["--method", "stay", "--out", str(tmp_path / "day")]
+    first: dict[Path, bytes] = {}
+    for _ in range(2):
+        for out, extra in ((depots, []), (hubs, ["--hubs", "2"])):
+            res = runner.invoke(app, [*segment, *extra, "--out", str(out)])
+            assert res.exit_code == 0, res.output
+            assert first.setdefault(out, out.read_bytes()) == out.read_bytes(), out.name
+        res = runner.invoke(app, replay)
+        assert res.exit_code == 0, res.output
+    assert res.stderr.strip().splitlines()[-1].startswith("nothing written:"), res.stderr

@@ -73,6 +73,11 @@ def test_json_prints_the_summary_on_stdout_only(cron_run) -> None:
         (["replay-day", "--bogus"], "No such option: --bogus"),
         (["replay-day"], "Missing argument"),
         (["segment", "x.csv", "--out", "d.json", "--n-depots", "many"], "--n-depots"),
+        # an option without its value: click's parser raised it without the command
+        (["replay-day", "x.csv", "--date"], "'--date' requires an argument. (see '"),
+        # a bare marops: the commands in one line, not 20 lines of help with exit 2
+        ([], "Missing command: one of synth, segment, plan-window, replay-day, train,"),
+        (["--debug"], "Missing command: one of synth,"),
     ],
 )
 def test_usage_errors_are_one_plain_line(tmp_path: Path, args: list[str], needle: str) -> None:
@@ -92,6 +97,8 @@ def test_usage_errors_are_one_plain_line(tmp_path: Path, args: list[str], needle
         (["segment", "x.csv", "--out", "d.json", "--json", "--n-depots", "many"], {}, "--n-"),
         (["report", "--json", "--bogus", "."], {}, "No such option: --bogus"),
         (["segmnt", "x.csv", "--json"], {}, "No such command 'segmnt'"),
+        (["replay-day", "x.csv", "--json", "--date"], {}, "'--date' requires an argument"),
+        (["segment", "x.csv", "--out"], {"MAROPS_JSON": "1"}, "'--out' requires an argument"),
     ],
     ids=[
         "in-the-command",
@@ -99,6 +106,8 @@ def test_usage_errors_are_one_plain_line(tmp_path: Path, args: list[str], needle
         "bad-value",
         "unknown-option",
         "unknown-command",
+        "no-value",
+        "no-value-from-the-environment",
     ],
 )
 def test_json_errors_are_one_document_on_stdout(
@@ -111,6 +120,14 @@ def test_json_errors_are_one_document_on_stdout(
     doc = json.loads(res.stdout)
     assert doc == {"command": args[0], "error": doc["error"], "exit_code": 2}
     assert needle in doc["error"]
+    assert res.stderr.strip().splitlines() == [f"marops: error: {doc['error']}"]
+
+
+def test_a_bare_marops_with_json_is_one_document(tmp_path: Path) -> None:
+    res = run([], tmp_path, MAROPS_JSON="1")
+    assert res.returncode == 2
+    doc = json.loads(res.stdout)
+    assert doc["exit_code"] == 2 and doc["error"].startswith("Missing command: one of synth")
     assert res.stderr.strip().splitlines() == [f"marops: error: {doc['error']}"]
 
 
