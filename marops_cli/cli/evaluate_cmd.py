@@ -169,7 +169,7 @@ def evaluate_command(
         stopped(exc, "; ".join(getattr(exc, "__notes__", ())), "evaluate")
     _print_tables(res.summary)
     if res.paired is not None:
-        _print_paired(res.paired, res.summary, len(res.days))
+        _print_paired(res.paired, res.summary)
     info(f"wrote {', '.join(str(p) for p in res.files)}")
     if STATE["json"]:
         _emit_json(res)
@@ -197,7 +197,7 @@ def _emit_json(res: EvaluationResult) -> None:
     )
 
 
-def _print_paired(paired: pa.Table, summary: pa.Table, n_days: int) -> None:
+def _print_paired(paired: pa.Table, summary: pa.Table) -> None:
     """One row per setting (named by its values: ``α=0.3``), method and metric."""
     from ..evaluate.paired import MIN_DAYS, verdict
     from ..evaluate.tables import setting_label
@@ -205,6 +205,8 @@ def _print_paired(paired: pa.Table, summary: pa.Table, n_days: int) -> None:
     rows = paired.to_pylist()
     if not rows:
         return
+    # The days each difference is over, as its table says (a city's hub-days count each).
+    n_days = min(int(r["days"]) for r in rows)
     if n_days < MIN_DAYS:
         backs = "day backs" if n_days == 1 else "days back"
         warn(

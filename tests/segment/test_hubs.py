@@ -246,7 +246,8 @@ def test_evaluate_over_hubs_keys_rows_and_pairs_by_hub(example_csv, city, tmp_pa
     out = tmp_path / "ev"
     args = ["evaluate", str(example_csv), "--hubs", str(city["hubs"]), "--dates", "0811"]
     args += ["--methods", "marops,stay", "--against", "stay", "--no-plot", "--out", str(out)]
-    _ok(args)
+    res = runner.invoke(app, [*args, "-q"])
+    assert res.exit_code == 0, res.output
     rows = pq.read_table(out / "results.parquet").to_pylist()
     assert [(r["method"], r["hub"], r["drones"]) for r in rows] == [
         ("marops", 0, 8),
@@ -270,6 +271,8 @@ def test_evaluate_over_hubs_keys_rows_and_pairs_by_hub(example_csv, city, tmp_pa
 
     paired = list(csv.DictReader((out / "paired.csv").open()))
     assert paired and {(p["method"], p["days"]) for p in paired} == {("marops", "3")}
+    # the warning counts the hub-days the differences are over, as the table does
+    assert "warning: only 3 days back the paired comparison" in res.stderr
     summary = list(csv.DictReader((out / "summary.csv").open()))
     assert [(s["method"], s["n"]) for s in summary] == [("marops", "3"), ("stay", "3")]
 
