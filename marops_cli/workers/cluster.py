@@ -68,7 +68,10 @@ def connect(scheduler: str, workers: int) -> Iterator[Any]:
                 threads_per_worker=1,
                 processes=True,
                 dashboard_address=None,
-                silence_logs=logging.ERROR,
+                # A worker's errors reach this process with its job's result; what the
+                # workers log besides (a heartbeat lost while the cluster closes) is
+                # not the user's business.
+                silence_logs=logging.CRITICAL,
             )
         try:
             with distributed.Client(cluster) as client:
