@@ -371,3 +371,15 @@ def test_the_api_trusts_an_actor_file_as_the_flag_does(
     with pytest.raises(InputError, match="--trust-actor"):
         api.plan_window(example_csv, depots, "0811", 5, **window)
     assert api.plan_window(example_csv, depots, "0811", 5, trust_actor=True, **window).metrics
+
+
+def test_an_actor_whose_file_name_is_not_utf8_loads_its_weights(tmp_path: Path) -> None:
+    """A file name may be any bytes: the weights still load as data, the same numbers."""
+    path, actor = _valid(tmp_path)
+    odd = Path(os.fsdecode(bytes(tmp_path) + b"/\xffactor.pt"))
+    for ext in (".pt", ".json", ".safetensors"):
+        path.with_suffix(ext).rename(odd.with_suffix(ext))
+    pol = make_policy(f"torchscript:{odd}")
+    assert isinstance(pol._module, Actor)
+    got = pol._module.state_dict()
+    assert all(torch.equal(got[k], v) for k, v in actor.state_dict().items())
