@@ -9,6 +9,7 @@ weights file. Loading needs torch only: no training code is imported.
 
 from __future__ import annotations
 
+import os
 import warnings
 from collections.abc import Callable
 from pathlib import Path
@@ -82,8 +83,11 @@ def load_module(path: Path, side: dict[str, Any], trust: bool) -> Any:
     from .installation import trained_here
     from .weights import load_weights, weights_path
 
-    if weights_path(path).is_file():
+    weights = weights_path(path)
+    if weights.is_file():
         return load_weights(path, side, sidecar_path(path))
+    if os.path.lexists(weights):  # a folder, a pipe, a broken link: never taken for none
+        raise not_a_file(weights, "weights file")
     if path.stat().st_size > MAX_TORCHSCRIPT_BYTES:
         raise InputError(f"larger than {MAX_TORCHSCRIPT_BYTES:,} bytes", file=path)
     # The bytes judged are the bytes loaded: the file cannot change in between.

@@ -383,3 +383,24 @@ def test_an_actor_whose_file_name_is_not_utf8_loads_its_weights(tmp_path: Path) 
     assert isinstance(pol._module, Actor)
     got = pol._module.state_dict()
     assert all(torch.equal(got[k], v) for k, v in actor.state_dict().items())
+
+
+@pytest.mark.parametrize("kind", ["folder", "pipe", "broken link"])
+def test_a_weights_path_that_is_no_file_is_an_error_not_a_missing_file(
+    tmp_path: Path, kind: str
+) -> None:
+    """``NAME.safetensors`` that is a folder, a pipe or a link to nothing is named, even
+    with trust: it is not read as "no weights file" (which would run the TorchScript)."""
+    path, _ = _valid(tmp_path)
+    weights = weights_path(path)
+    weights.unlink()
+    if kind == "folder":
+        weights.mkdir()
+    elif kind == "pipe":
+        os.mkfifo(weights)
+    else:
+        weights.symlink_to(tmp_path / "gone.safetensors")
+    with pytest.raises(InputError) as err:
+        TorchScriptPolicy(path, trust=True)
+    line = str(err.value)
+    assert line.startswith(f"{weights}:") and "weights file" in line, line
