@@ -314,6 +314,38 @@ def test_a_torn_or_foreign_record_line_grants_nothing(
     assert not trained_here(b"x")
 
 
+def test_a_record_that_is_a_pipe_is_neither_waited_on_nor_written(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The installation's record as a named pipe: reading it does not wait for a writer
+    (it grants nothing), and training does not write its line into it."""
+    import signal
+
+    from marops_cli.policies.installation import record_path, record_trained, trained_here
+
+    monkeypatch.setenv("XDG_DATA_HOME", str(tmp_path))
+    record_path().parent.mkdir(parents=True)
+    os.mkfifo(record_path())
+
+    def hung(*_: object) -> None:
+        raise AssertionError("waited on the pipe")
+
+    # A guard against hanging the suite, not a time limit on the work.
+    previous = signal.signal(signal.SIGALRM, hung)
+    signal.alarm(60)
+    try:
+        assert not trained_here(b"x")
+        reader = os.open(record_path(), os.O_RDONLY | os.O_NONBLOCK)
+        try:
+            assert not record_trained(b"x", tmp_path / "a.pt")
+            assert os.read(reader, 1) == b"", "a line was written into the pipe"
+        finally:
+            os.close(reader)
+    finally:
+        signal.alarm(0)
+        signal.signal(signal.SIGALRM, previous)
+
+
 def test_weights_that_are_not_the_sidecars_are_refused(tmp_path: Path) -> None:
     """The sidecar records the weights' SHA-256: other weights of the same shapes (another
     actor's) are refused, naming the sidecar's key."""
