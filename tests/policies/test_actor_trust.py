@@ -436,3 +436,24 @@ def test_a_weights_path_that_is_no_file_is_an_error_not_a_missing_file(
         TorchScriptPolicy(path, trust=True)
     line = str(err.value)
     assert line.startswith(f"{weights}:") and "weights file" in line, line
+
+
+@pytest.mark.parametrize(
+    ("change", "key"),
+    [({"n_actions": 10**6}, "n_actions"), ({"hidden_size": 10**6}, "hidden_size")],
+)
+def test_a_trusted_actor_is_not_called_with_sizes_beyond_the_bounds(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, change: dict, key: str
+) -> None:
+    """A TorchScript-only actor's sidecar (no obs_dim: one written before it) is bounded
+    too: its first call would allocate by n_actions and hidden_size."""
+    monkeypatch.setenv("XDG_DATA_HOME", str(tmp_path / "elsewhere"))
+    path, _ = _valid(tmp_path)
+    weights_path(path).unlink()
+    side = json.loads(path.with_suffix(".json").read_text())
+    del side["obs_dim"], side["n_logits"]
+    path.with_suffix(".json").write_text(json.dumps({**side, **change}))
+    with pytest.raises(InputError) as err:
+        TorchScriptPolicy(path, trust=True)
+    line = str(err.value)
+    assert line.startswith(f"{path.with_suffix('.json')}, key '{key}': expected a whole number")
