@@ -9,6 +9,7 @@ that never stopped, whatever the number of workers.
 from __future__ import annotations
 
 import math
+import pickle
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -18,6 +19,7 @@ import numpy as np
 import torch
 
 from .. import __version__
+from ..config import clipped
 from ..errors import InputError
 from ..io.atomic import output_set
 from ..policies.landing import operating_model
@@ -107,6 +109,15 @@ class Trainer:
             raise wrong
         try:
             state = torch.load(self.ckpt, map_location="cpu", weights_only=True)
+        except pickle.UnpicklingError as exc:  # what torch refused to load, not its advice
+            lines = [x.strip() for x in str(exc).splitlines() if x.strip()]
+            why = next((x for x in lines if x.startswith(("Trying", "Unsupported"))), None)
+            raise InputError(
+                "not a training checkpoint: it holds objects other than tensors and plain "
+                f"data, which marops never loads ({clipped(why or type(exc).__name__, 120)}); "
+                "pass --no-resume",
+                file=self.ckpt,
+            ) from None
         except Exception as exc:  # a torn or foreign file: say which, never guess
             why = (str(exc).strip().splitlines() or [type(exc).__name__])[0]  # torch's is long
             raise InputError(

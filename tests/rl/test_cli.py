@@ -252,3 +252,32 @@ def test_a_bad_training_flag_is_named_as_typed(
     assert res.stderr.count("\n") == 1 and res.stderr.startswith(f"marops: error: {line}")
     assert "_" not in res.stderr.split(":")[2]  # the flag as typed, not the setting's name
     assert not list(tmp_path.iterdir())
+
+
+class _RunsOnUnpickle:
+    """A pickled object whose loading would run a shell command creating ``target``."""
+
+    def __init__(self, target: Path) -> None:
+        self.target = target
+
+    def __reduce__(self) -> tuple[object, tuple[str]]:
+        import os
+
+        return (os.system, (f"touch '{self.target}'",))
+
+
+def test_a_checkpoint_that_would_run_code_is_refused_without_running_it(
+    tiny_csv: Path, tmp_path: Path, fails_cleanly
+) -> None:
+    """A checkpoint holding a pickled callable: one line saying what it would load,
+    nothing run, and not torch's advice to load it unsafely."""
+    import torch
+
+    planted = tmp_path / "planted"
+    out = tmp_path / "a.pt"
+    ckpt = out.with_suffix(".ckpt")
+    torch.save({"format": "marops-train-ckpt/1", "x": _RunsOnUnpickle(planted)}, ckpt)
+    args = ["train", str(tiny_csv), "--workers", "1", "--episodes", "1", "--out", str(out)]
+    line = fails_cleanly(args, tmp_path, str(ckpt), "pass --no-resume")
+    assert "never loads" in line and "system" in line and "weights_only" not in line, line
+    assert not planted.exists()
