@@ -457,3 +457,47 @@ def test_a_trusted_actor_is_not_called_with_sizes_beyond_the_bounds(
         TorchScriptPolicy(path, trust=True)
     line = str(err.value)
     assert line.startswith(f"{path.with_suffix('.json')}, key '{key}': expected a whole number")
+
+
+@pytest.mark.parametrize("flag", ["--policy", "--mappo-policy"])
+def test_evaluate_runs_nothing_of_a_hostile_actor_file(
+    example_csv: Path, tmp_path: Path, fails_cleanly, monkeypatch: pytest.MonkeyPatch, flag: str
+) -> None:
+    """evaluate loads every method's actor up front, with worker processes too: a
+    TorchScript file that writes when loaded is refused without running, for either
+    learned method."""
+    monkeypatch.setenv("XDG_DATA_HOME", str(tmp_path / "elsewhere"))
+    folder, target = tmp_path / "actor", tmp_path / "planted.pth"
+    folder.mkdir()
+    path = _hostile("setstate", folder, target)
+    side = {**SIDECAR, "plan_slots": 2, "n_logits": 2 * LOGITS} if flag == "--mappo-policy" else {}
+    path.with_suffix(".json").write_text(json.dumps({**SIDECAR, **side}))
+    method = "mappo" if flag == "--mappo-policy" else "marops"
+    args = ["evaluate", str(example_csv), "--methods", method, "--dates", "0811"]
+    args += [flag, str(path), "--workers", "2", "--out", str(tmp_path / "ev"), *_paper(example_csv)]
+    fails_cleanly(args, tmp_path, str(path), "--trust-actor")
+    assert not target.exists(), "the actor file's payload ran"
+
+
+def test_the_api_runs_nothing_of_a_hostile_actor_file(
+    example_csv: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from marops_cli import api
+
+    monkeypatch.setenv("XDG_DATA_HOME", str(tmp_path / "elsewhere"))
+    target = tmp_path / "planted.pth"
+    path = _hostile("setstate", tmp_path, target)
+    path.with_suffix(".json").write_text(json.dumps(SIDECAR))
+    paper = example_csv.parent / "paper.toml"
+    depots = tmp_path / "depots.json"
+    api.segment(example_csv, out=depots, dates="0801..0810")
+    actor = {"policy": str(path), "config": paper}
+    calls = [
+        lambda: api.replay_day(example_csv, "0811", method="marops", **actor),
+        lambda: api.plan_window(example_csv, depots, "0811", 5, method="marops", **actor),
+        lambda: api.evaluate(example_csv, methods="marops", dates="0811", workers=1, **actor),
+    ]
+    for call in calls:
+        with pytest.raises(InputError, match="--trust-actor"):
+            call()
+    assert not target.exists(), "the actor file's payload ran"
