@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import Any, Literal
 
 from ..config import clipped
-from ..data.jsonfile import first_line, read_json
+from ..data.jsonfile import first_line, read_json, refuse_misspelt_keys
 from ..errors import InputError, not_a_file
 from .base import WindowView
 from .observation import OBS_VERSION, OBS_VERSIONS, n_choices, obs_dim
@@ -35,6 +35,10 @@ network is built or called (a TorchScript actor's first call, too, allocates by 
 the weights' bounds are :data:`~.weights.MAX_SIZES`."""
 
 
+SIDECAR_KEYS = (*SIDECAR_BOUNDS, "format", "weights_sha256", "operating_model")
+"""The sidecar's keys the loader reads; its others are provenance, kept as they are."""
+
+
 def sidecar_path(model_path: str | Path) -> Path:
     """``policies/marops-basic.pt`` -> ``policies/marops-basic.json``."""
     return Path(model_path).with_suffix(".json")
@@ -47,6 +51,7 @@ def read_sidecar(model_path: str | Path) -> dict[str, Any]:
     doc = read_json(side, "policy sidecar beside the .pt file")
     if not isinstance(doc, dict):
         raise InputError("policy sidecar must be a JSON object", file=side)
+    refuse_misspelt_keys(doc, SIDECAR_KEYS, side)
     for key in ("obs_version", "n_actions", "hidden_size"):
         if key not in doc:
             raise InputError("policy sidecar lacks a field", file=side, column=key)

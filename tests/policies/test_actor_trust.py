@@ -501,3 +501,19 @@ def test_the_api_runs_nothing_of_a_hostile_actor_file(
         with pytest.raises(InputError, match="--trust-actor"):
             call()
     assert not target.exists(), "the actor file's payload ran"
+
+
+def test_a_misspelt_sidecar_key_is_not_read_as_a_missing_one(tmp_path: Path) -> None:
+    """A sidecar without ``operating_model`` loads under any model: one whose key is
+    misspelt is refused naming it, not flown as if it named none. Keys the loader does
+    not read (provenance) are kept as they are."""
+    path, _ = _valid(tmp_path)
+    side = json.loads(path.with_suffix(".json").read_text())
+    path.with_suffix(".json").write_text(json.dumps({**side, "notes": "mine", "alpha": 0.3}))
+    assert isinstance(make_policy(f"torchscript:{path}")._module, Actor)
+    path.with_suffix(".json").write_text(json.dumps({**side, "operating-model": "stock=home"}))
+    line = _load_error(path)
+    assert line == (
+        f"{path.with_suffix('.json')}, key 'operating-model': unknown key 'operating-model' "
+        "(did you mean operating_model?)"
+    )
