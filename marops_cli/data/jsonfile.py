@@ -123,3 +123,19 @@ def refuse_unknown_keys(
         raise InputError(
             f"unknown key {unknown[0]!r} {where}{expected}", file=file, column=f"{at}{unknown[0]}"
         )
+
+
+def refuse_misspelt_keys(doc: dict[str, Any], read: tuple[str, ...], file: str | Path) -> None:
+    """One line naming the first key of ``doc`` (a file whose other keys are kept as
+    they are, an actor's sidecar) that reads as a misspelling of a key in ``read`` that
+    ``doc`` lacks (``operating-model``): a typo must not read as a missing value."""
+    import difflib
+
+    for key in doc:
+        if key in read or not isinstance(key, str):
+            continue
+        close = difflib.get_close_matches(key, read, n=1, cutoff=0.75)
+        if close and close[0] not in doc:
+            raise InputError(
+                f"unknown key {key!r} (did you mean {close[0]}?)", file=file, column=key
+            )

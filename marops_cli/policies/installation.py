@@ -14,9 +14,12 @@ import datetime as dt
 import hashlib
 import json
 import os
+import stat
 from pathlib import Path
 
 RECORD = "trained-actors.jsonl"
+MAX_RECORD = 64 << 20
+"""Bytes of the record read at most (about 400,000 trained actors)."""
 
 
 def record_path() -> Path:
@@ -43,8 +46,11 @@ def record_trained(actor: bytes, path: str | Path) -> bool:
     record = record_path()
     try:
         record.parent.mkdir(parents=True, exist_ok=True)
-        fd = os.open(record, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o600)
+        # Without blocking: a named pipe nobody reads would hold the open for ever.
+        fd = os.open(record, os.O_WRONLY | os.O_APPEND | os.O_CREAT | os.O_NONBLOCK, 0o600)
         try:
+            if not stat.S_ISREG(os.fstat(fd).st_mode):
+                return False  # a pipe or a device is no record
             os.write(fd, (line + "\n").encode("utf-8"))
         finally:
             os.close(fd)
@@ -53,14 +59,27 @@ def record_trained(actor: bytes, path: str | Path) -> bool:
     return True
 
 
+def _record_lines() -> list[str]:
+    """The record's lines; none when it is missing, unreadable, no regular file (a pipe
+    is never waited on) or larger than :data:`MAX_RECORD`."""
+    try:
+        fd = os.open(record_path(), os.O_RDONLY | os.O_NONBLOCK)
+    except OSError:
+        return []
+    with os.fdopen(fd, "rb") as f:
+        try:
+            info = os.fstat(fd)
+            if not stat.S_ISREG(info.st_mode) or info.st_size > MAX_RECORD:
+                return []
+            return f.read(MAX_RECORD + 1).decode("utf-8").splitlines()
+        except (OSError, UnicodeDecodeError):
+            return []
+
+
 def trained_here(actor: bytes) -> bool:
     """Whether this installation's ``marops train`` wrote a file of exactly these bytes."""
     digest = sha256_bytes(actor)
-    try:
-        lines = record_path().read_text(encoding="utf-8").splitlines()
-    except (OSError, UnicodeDecodeError):
-        return False
-    for line in lines:
+    for line in _record_lines():
         try:
             if json.loads(line).get("sha256") == digest:
                 return True

@@ -55,7 +55,7 @@ from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 
-from ..data.jsonfile import first_line
+from ..data.jsonfile import first_line, refuse_misspelt_keys
 from ..errors import InputError
 from ..plans.view import FREE
 from .base import WindowView
@@ -301,6 +301,7 @@ def load_landing_actor(path: Path, side: Any, sidecar: Path) -> LandingActor:
 
     if not isinstance(side, dict):
         raise InputError(f"expected a JSON object, got {type(side).__name__}", file=sidecar)
+    refuse_misspelt_keys(side, ("format", "operating_model"), sidecar)
     fmt = side.get("format")
     size = _FORMATS.get(fmt) if isinstance(fmt, str) else None
     if size is None:

@@ -9,16 +9,34 @@ weights file. Loading needs torch only: no training code is imported.
 
 from __future__ import annotations
 
+import os
 import warnings
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any, Literal
 
-from ..data.jsonfile import first_line, read_json
+from ..config import clipped
+from ..data.jsonfile import first_line, read_json, refuse_misspelt_keys
 from ..errors import InputError, not_a_file
 from .base import WindowView
 from .observation import OBS_VERSION, OBS_VERSIONS, n_choices, obs_dim
 from .recurrent import RecurrentPolicy
+
+SIDECAR_BOUNDS = {
+    "obs_version": 1_000,
+    "n_actions": 4096,  # segment.n_actions' bound: an actor of more never runs
+    "hidden_size": 4096,
+    "obs_dim": 100_000,
+    "n_logits": 100_000,
+    "plan_slots": 100_000,
+}
+"""The sidecar's counts, each a whole number from 1 to its bound, checked before any
+network is built or called (a TorchScript actor's first call, too, allocates by them);
+the weights' bounds are :data:`~.weights.MAX_SIZES`."""
+
+
+SIDECAR_KEYS = (*SIDECAR_BOUNDS, "format", "weights_sha256", "operating_model")
+"""The sidecar's keys the loader reads; its others are provenance, kept as they are."""
 
 
 def sidecar_path(model_path: str | Path) -> Path:
@@ -33,14 +51,19 @@ def read_sidecar(model_path: str | Path) -> dict[str, Any]:
     doc = read_json(side, "policy sidecar beside the .pt file")
     if not isinstance(doc, dict):
         raise InputError("policy sidecar must be a JSON object", file=side)
+    refuse_misspelt_keys(doc, SIDECAR_KEYS, side)
     for key in ("obs_version", "n_actions", "hidden_size"):
         if key not in doc:
             raise InputError("policy sidecar lacks a field", file=side, column=key)
-    for key in ("obs_version", "n_actions", "hidden_size", "obs_dim", "n_logits", "plan_slots"):
+    for key, bound in SIDECAR_BOUNDS.items():
         value = doc.get(key)
-        if key in doc and (isinstance(value, bool) or not isinstance(value, int) or value < 1):
+        if key in doc and (
+            isinstance(value, bool) or not isinstance(value, int) or not 1 <= value <= bound
+        ):
             raise InputError(
-                f"expected a positive whole number, got {value!r}", file=side, column=key
+                f"expected a whole number from 1 to {bound:,}, got {clipped(repr(value))}",
+                file=side,
+                column=key,
             )
     model = doc.get("operating_model")  # none: a sidecar from before marops recorded it
     if model is not None and (not isinstance(model, str) or not model):
@@ -82,8 +105,11 @@ def load_module(path: Path, side: dict[str, Any], trust: bool) -> Any:
     from .installation import trained_here
     from .weights import load_weights, weights_path
 
-    if weights_path(path).is_file():
+    weights = weights_path(path)
+    if weights.is_file():
         return load_weights(path, side, sidecar_path(path))
+    if os.path.lexists(weights):  # a folder, a pipe, a broken link: never taken for none
+        raise not_a_file(weights, "weights file")
     if path.stat().st_size > MAX_TORCHSCRIPT_BYTES:
         raise InputError(f"larger than {MAX_TORCHSCRIPT_BYTES:,} bytes", file=path)
     # The bytes judged are the bytes loaded: the file cannot change in between.

@@ -77,9 +77,11 @@ def load_weights(model_path: str | Path, side: dict[str, Any], sidecar: Path) ->
             f"larger than the network its sidecar describes ({limit:,} bytes)", file=path
         )
     try:
-        with safe_open(str(path), framework="pt", device="cpu") as f:
+        # Read as NumPy: torch's reader takes the path as UTF-8 only, and a file name may
+        # be any bytes (the same float32 values either way).
+        with safe_open(str(path), framework="numpy") as f:
             _check_tensors(f, expect, path)
-            state = {name: f.get_tensor(name) for name in expect}
+            state = {name: torch.from_numpy(f.get_tensor(name)) for name in expect}
     except (SafetensorError, OSError, ValueError) as exc:
         first = first_line(exc)
         raise InputError(f"not a safetensors weights file ({first})", file=path) from None

@@ -33,6 +33,7 @@ same weights with any number of workers, and resumes from its checkpoint to the 
 from __future__ import annotations
 
 import json
+import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -202,11 +203,22 @@ class LandingTrainer:
             raise TypeError("held_out_rules, history and evals must be lists, reference an object")
         if not all(_numbers(ref, "j", "energy") for ref in reference.values()):
             raise TypeError("each reference must hold the numbers j and energy")
-        if best is not None and not (
-            _numbers(best, "cost", "episode")
-            and np.array(best["weight"], dtype=np.float64).shape == weight.shape
+        rules, history, evals = lists
+        if not all(_numbers(r, *_KEYS) for r in rules):
+            raise TypeError(f"each held-out rule must hold the numbers {', '.join(_KEYS)}")
+        if not all(_numbers(h, "episode", "generation", "cost") for h in history):
+            raise TypeError("each history entry must hold the numbers episode, generation, cost")
+        if not all(
+            _numbers(e, "episode", "cost") and isinstance(e.get("methods"), dict) for e in evals
         ):
-            raise TypeError(f"best must hold cost, episode and {weight.size} weights")
+            raise TypeError("each evaluation must hold the numbers episode, cost and its methods")
+        if best is not None:
+            ok = _numbers(best, "cost", "episode") and "weight" in best
+            best_weight = np.array(best["weight"] if ok else [], dtype=np.float64)
+            if not (ok and best_weight.shape == weight.shape and np.isfinite(best_weight).all()):
+                raise TypeError(f"best must hold cost, episode and {weight.size} finite weights")
+            if best["episode"] not in [e["episode"] for e in evals]:
+                raise ValueError("best must be one of the evaluations")
         self.weight = weight
         self.generation, self.episode, self.elapsed_s = counts
         self.reference = reference
@@ -398,9 +410,13 @@ class LandingTrainer:
 
 
 def _numbers(d: Any, *keys: str) -> bool:
-    """Whether ``d`` is an object holding a number (not a boolean) under each of ``keys``."""
-    return isinstance(d, dict) and all(
-        isinstance(d.get(k), int | float) and not isinstance(d.get(k), bool) for k in keys
+    """Whether ``d`` is an object holding a finite number (not a boolean) under each of
+    ``keys``."""
+    if not isinstance(d, dict):
+        return False
+    values = [d.get(k) for k in keys]
+    return all(
+        isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v) for v in values
     )
 
 

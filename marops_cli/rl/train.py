@@ -8,6 +8,8 @@ that never stopped, whatever the number of workers.
 
 from __future__ import annotations
 
+import math
+import pickle
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -17,6 +19,7 @@ import numpy as np
 import torch
 
 from .. import __version__
+from ..config import clipped
 from ..errors import InputError
 from ..io.atomic import output_set
 from ..policies.landing import operating_model
@@ -114,6 +117,15 @@ class Trainer:
             raise wrong
         try:
             state = torch.load(self.ckpt, map_location="cpu", weights_only=True)
+        except pickle.UnpicklingError as exc:  # what torch refused to load, not its advice
+            lines = [x.strip() for x in str(exc).splitlines() if x.strip()]
+            why = next((x for x in lines if x.startswith(("Trying", "Unsupported"))), None)
+            raise InputError(
+                "not a training checkpoint: it holds objects other than tensors and plain "
+                f"data, which marops never loads ({clipped(why or type(exc).__name__, 120)}); "
+                "pass --no-resume",
+                file=self.ckpt,
+            ) from None
         except Exception as exc:  # a torn or foreign file: say which, never guess
             why = (str(exc).strip().splitlines() or [type(exc).__name__])[0]  # torch's is long
             raise InputError(
@@ -142,21 +154,45 @@ class Trainer:
 
     def _restore(self, state: dict[str, Any]) -> None:
         """The networks, optimiser and progress of a checkpoint's ``state``; raises
-        KeyError, TypeError, ValueError or RuntimeError on one of another shape."""
+        KeyError, TypeError, ValueError or RuntimeError on one of another shape, or with
+        weights that are not finite numbers, before any training: what the run reads
+        back later (the best actor, the evaluations, the learning curve) is checked too."""
         self.actor.load_state_dict(state["actor"])
         self.critic.load_state_dict(state["critic"])
         self.optimizer.load_state_dict(state["optimizer"])
+        _all_finite("actor", state["actor"])
+        _all_finite("critic", state["critic"])
+        _all_finite("optimizer", state["optimizer"]["state"])
         lists = [state[k] for k in ("history", "evals", "baselines")]
         best = state.get("best")
         if not all(isinstance(v, list) for v in lists) or not isinstance(best, dict | None):
             raise TypeError("history, evals and baselines must be lists, best a dict")
-        episode, update, elapsed = int(state["episode"]), int(state["update"]), state["elapsed_s"]
-        if min(episode, update) < 0 or not 0.0 <= float(elapsed) < float("inf"):
+        episode, update, elapsed = state["episode"], state["update"], state["elapsed_s"]
+        if not all(_count(v) for v in (episode, update)) or not _real(elapsed) or elapsed < 0:
             raise ValueError("episode, update and elapsed_s must be counts from 0")
+        history, evals, baselines = lists
+        _name_daily_cost(evals, best)
+        for h in history:
+            if not (isinstance(h, dict) and all(_real(h.get(k)) for k in _CURVE)):
+                raise ValueError(f"each history entry must hold the numbers {', '.join(_CURVE)}")
+        for e in evals:
+            methods = e.get("methods") if isinstance(e, dict) else None
+            if not (isinstance(methods, dict) and _count(e.get("episode"))) or not all(
+                isinstance(v, dict) and _real(v.get("daily_combined_cost"))
+                for v in methods.values()
+            ):
+                raise ValueError("each evaluation must hold its episode and each method's costs")
+        if best is not None:
+            if best.get("episode") not in [e["episode"] for e in evals] or not _real(
+                best.get("daily_combined_cost")
+            ):
+                raise ValueError("best must be one of the evaluations, with its cost")
+            if _shapes(best.get("actor")) != _shapes(self.actor.state_dict()):
+                raise ValueError("best's actor is not this run's network")
+            _all_finite("best actor", best["actor"])
         self.episode, self.update, self.elapsed_s = episode, update, float(elapsed)
-        self.history, self.evals, self.baselines = lists
+        self.history, self.evals, self.baselines = history, evals, baselines
         self.best = best
-        _name_daily_cost(self.evals, self.best)
 
     # -- one update --------------------------------------------------------------------
     def _scenario_of(self, update: int) -> int:
@@ -332,6 +368,37 @@ class Trainer:
         if t.method == "mappo":
             side["plan_slots"] = t.plan_slots
         return write_actor(self.actor, self.out, side)
+
+
+_CURVE = ("episode", "reward", "delay_h", "energy_kj")
+"""The numbers of a history entry the learning curve keeps."""
+
+
+def _count(v: Any) -> bool:
+    return isinstance(v, int) and not isinstance(v, bool) and v >= 0
+
+
+def _real(v: Any) -> bool:
+    return isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
+
+
+def _shapes(state: Any) -> dict[str, tuple[Any, ...]] | None:
+    """Each tensor's name, shape and dtype of the state dict ``state`` (None: no state
+    dict of tensors)."""
+    if not isinstance(state, dict) or not all(isinstance(v, torch.Tensor) for v in state.values()):
+        return None
+    return {k: (tuple(v.shape), v.dtype) for k, v in state.items()}
+
+
+def _all_finite(what: str, tensors: Any) -> None:
+    """Raise ValueError naming ``what`` when a tensor in ``tensors`` (a state dict, or
+    the optimiser's state: dicts of them) holds NaN or infinity."""
+    if isinstance(tensors, torch.Tensor):
+        if tensors.is_floating_point() and not bool(torch.isfinite(tensors).all()):
+            raise ValueError(f"{what} holds NaN or infinite numbers")
+    elif isinstance(tensors, dict):
+        for v in tensors.values():
+            _all_finite(what, v)
 
 
 def _name_daily_cost(evals: list[dict[str, Any]], best: dict[str, Any] | None) -> None:

@@ -314,6 +314,38 @@ def test_a_torn_or_foreign_record_line_grants_nothing(
     assert not trained_here(b"x")
 
 
+def test_a_record_that_is_a_pipe_is_neither_waited_on_nor_written(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The installation's record as a named pipe: reading it does not wait for a writer
+    (it grants nothing), and training does not write its line into it."""
+    import signal
+
+    from marops_cli.policies.installation import record_path, record_trained, trained_here
+
+    monkeypatch.setenv("XDG_DATA_HOME", str(tmp_path))
+    record_path().parent.mkdir(parents=True)
+    os.mkfifo(record_path())
+
+    def hung(*_: object) -> None:
+        raise AssertionError("waited on the pipe")
+
+    # A guard against hanging the suite, not a time limit on the work.
+    previous = signal.signal(signal.SIGALRM, hung)
+    signal.alarm(60)
+    try:
+        assert not trained_here(b"x")
+        reader = os.open(record_path(), os.O_RDONLY | os.O_NONBLOCK)
+        try:
+            assert not record_trained(b"x", tmp_path / "a.pt")
+            assert os.read(reader, 1) == b"", "a line was written into the pipe"
+        finally:
+            os.close(reader)
+    finally:
+        signal.alarm(0)
+        signal.signal(signal.SIGALRM, previous)
+
+
 def test_weights_that_are_not_the_sidecars_are_refused(tmp_path: Path) -> None:
     """The sidecar records the weights' SHA-256: other weights of the same shapes (another
     actor's) are refused, naming the sidecar's key."""
@@ -371,3 +403,117 @@ def test_the_api_trusts_an_actor_file_as_the_flag_does(
     with pytest.raises(InputError, match="--trust-actor"):
         api.plan_window(example_csv, depots, "0811", 5, **window)
     assert api.plan_window(example_csv, depots, "0811", 5, trust_actor=True, **window).metrics
+
+
+def test_an_actor_whose_file_name_is_not_utf8_loads_its_weights(tmp_path: Path) -> None:
+    """A file name may be any bytes: the weights still load as data, the same numbers."""
+    path, actor = _valid(tmp_path)
+    odd = Path(os.fsdecode(bytes(tmp_path) + b"/\xffactor.pt"))
+    for ext in (".pt", ".json", ".safetensors"):
+        path.with_suffix(ext).rename(odd.with_suffix(ext))
+    pol = make_policy(f"torchscript:{odd}")
+    assert isinstance(pol._module, Actor)
+    got = pol._module.state_dict()
+    assert all(torch.equal(got[k], v) for k, v in actor.state_dict().items())
+
+
+@pytest.mark.parametrize("kind", ["folder", "pipe", "broken link"])
+def test_a_weights_path_that_is_no_file_is_an_error_not_a_missing_file(
+    tmp_path: Path, kind: str
+) -> None:
+    """``NAME.safetensors`` that is a folder, a pipe or a link to nothing is named, even
+    with trust: it is not read as "no weights file" (which would run the TorchScript)."""
+    path, _ = _valid(tmp_path)
+    weights = weights_path(path)
+    weights.unlink()
+    if kind == "folder":
+        weights.mkdir()
+    elif kind == "pipe":
+        os.mkfifo(weights)
+    else:
+        weights.symlink_to(tmp_path / "gone.safetensors")
+    with pytest.raises(InputError) as err:
+        TorchScriptPolicy(path, trust=True)
+    line = str(err.value)
+    assert line.startswith(f"{weights}:") and "weights file" in line, line
+
+
+@pytest.mark.parametrize(
+    ("change", "key"),
+    [({"n_actions": 10**6}, "n_actions"), ({"hidden_size": 10**6}, "hidden_size")],
+)
+def test_a_trusted_actor_is_not_called_with_sizes_beyond_the_bounds(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, change: dict, key: str
+) -> None:
+    """A TorchScript-only actor's sidecar (no obs_dim: one written before it) is bounded
+    too: its first call would allocate by n_actions and hidden_size."""
+    monkeypatch.setenv("XDG_DATA_HOME", str(tmp_path / "elsewhere"))
+    path, _ = _valid(tmp_path)
+    weights_path(path).unlink()
+    side = json.loads(path.with_suffix(".json").read_text())
+    del side["obs_dim"], side["n_logits"]
+    path.with_suffix(".json").write_text(json.dumps({**side, **change}))
+    with pytest.raises(InputError) as err:
+        TorchScriptPolicy(path, trust=True)
+    line = str(err.value)
+    assert line.startswith(f"{path.with_suffix('.json')}, key '{key}': expected a whole number")
+
+
+@pytest.mark.parametrize("flag", ["--policy", "--mappo-policy"])
+def test_evaluate_runs_nothing_of_a_hostile_actor_file(
+    example_csv: Path, tmp_path: Path, fails_cleanly, monkeypatch: pytest.MonkeyPatch, flag: str
+) -> None:
+    """evaluate loads every method's actor up front, with worker processes too: a
+    TorchScript file that writes when loaded is refused without running, for either
+    learned method."""
+    monkeypatch.setenv("XDG_DATA_HOME", str(tmp_path / "elsewhere"))
+    folder, target = tmp_path / "actor", tmp_path / "planted.pth"
+    folder.mkdir()
+    path = _hostile("setstate", folder, target)
+    side = {**SIDECAR, "plan_slots": 2, "n_logits": 2 * LOGITS} if flag == "--mappo-policy" else {}
+    path.with_suffix(".json").write_text(json.dumps({**SIDECAR, **side}))
+    method = "mappo" if flag == "--mappo-policy" else "marops"
+    args = ["evaluate", str(example_csv), "--methods", method, "--dates", "0811"]
+    args += [flag, str(path), "--workers", "2", "--out", str(tmp_path / "ev"), *_paper(example_csv)]
+    fails_cleanly(args, tmp_path, str(path), "--trust-actor")
+    assert not target.exists(), "the actor file's payload ran"
+
+
+def test_the_api_runs_nothing_of_a_hostile_actor_file(
+    example_csv: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from marops_cli import api
+
+    monkeypatch.setenv("XDG_DATA_HOME", str(tmp_path / "elsewhere"))
+    target = tmp_path / "planted.pth"
+    path = _hostile("setstate", tmp_path, target)
+    path.with_suffix(".json").write_text(json.dumps(SIDECAR))
+    paper = example_csv.parent / "paper.toml"
+    depots = tmp_path / "depots.json"
+    api.segment(example_csv, out=depots, dates="0801..0810")
+    actor = {"policy": str(path), "config": paper}
+    calls = [
+        lambda: api.replay_day(example_csv, "0811", method="marops", **actor),
+        lambda: api.plan_window(example_csv, depots, "0811", 5, method="marops", **actor),
+        lambda: api.evaluate(example_csv, methods="marops", dates="0811", workers=1, **actor),
+    ]
+    for call in calls:
+        with pytest.raises(InputError, match="--trust-actor"):
+            call()
+    assert not target.exists(), "the actor file's payload ran"
+
+
+def test_a_misspelt_sidecar_key_is_not_read_as_a_missing_one(tmp_path: Path) -> None:
+    """A sidecar without ``operating_model`` loads under any model: one whose key is
+    misspelt is refused naming it, not flown as if it named none. Keys the loader does
+    not read (provenance) are kept as they are."""
+    path, _ = _valid(tmp_path)
+    side = json.loads(path.with_suffix(".json").read_text())
+    path.with_suffix(".json").write_text(json.dumps({**side, "notes": "mine", "alpha": 0.3}))
+    assert isinstance(make_policy(f"torchscript:{path}")._module, Actor)
+    path.with_suffix(".json").write_text(json.dumps({**side, "operating-model": "stock=home"}))
+    line = _load_error(path)
+    assert line == (
+        f"{path.with_suffix('.json')}, key 'operating-model': unknown key 'operating-model' "
+        "(did you mean operating_model?)"
+    )

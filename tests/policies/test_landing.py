@@ -181,6 +181,11 @@ def test_file_round_trip(tmp_path: Path, fmt: str, size: int) -> None:
         ({"weight": np.zeros(12, np.float32)}, _side(fmt="/2"), r"expected float32 \[16\]"),
         ({"weight": np.zeros(16, np.float32)}, _side(), r"expected float32 \[12\]"),
         ({"weight": np.zeros(12, np.float32)}, {**_side(), "format": ["x"]}, "got \\['x'\\]"),
+        (
+            {"weight": np.zeros(12, np.float32)},
+            {"format": "marops-landing-actor/1", "operating-model": "paper"},
+            "key 'operating-model': unknown key 'operating-model' \\(did you mean operating_model",
+        ),
     ],
     ids=[
         "shape",
@@ -194,6 +199,7 @@ def test_file_round_trip(tmp_path: Path, fmt: str, size: int) -> None:
         "joint-of-12",
         "sequential-of-16",
         "format-list",
+        "model-misspelt",
     ],
 )
 def test_bad_files(tmp_path: Path, tensors: dict, side: object, match: str) -> None:

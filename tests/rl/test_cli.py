@@ -102,10 +102,53 @@ def test_train_refuses_a_checkpoint_that_is_not_this_runs(
     torch.save(state, ckpt)
     line = fails_cleanly([*args, "--episodes", "2", "--out", str(out)], tmp_path, str(ckpt))
     assert "counts from 0" in line and "pass --no-resume" in line
-    state["episode"] = state["update"] = float("inf")  # int() of it: an OverflowError
+    state["episode"] = state["update"] = float("inf")
     torch.save(state, ckpt)
     line = fails_cleanly([*args, "--episodes", "2", "--out", str(out)], tmp_path, str(ckpt))
-    assert "infinity" in line and "pass --no-resume" in line
+    assert "counts from 0" in line and "pass --no-resume" in line
+
+
+def test_train_refuses_an_edited_checkpoint_before_training(
+    tiny_csv: Path, tmp_path: Path, fails_cleanly
+) -> None:
+    """A checkpoint with this run's fingerprint whose weights are not finite or whose
+    progress (best actor, evaluations, learning curve, counts) could not be read back
+    at the end is refused up front in one line, not by a traceback after the training."""
+    import pickle
+
+    import torch
+
+    args = ["train", str(tiny_csv), "--workers", "1", "--drones", "4", "--n-depots", "8"]
+    out = tmp_path / "a.pt"
+    res = runner.invoke(app, [*args, "--episodes", "2", "--out", str(out)])
+    assert res.exit_code == 0, res.output
+    ckpt = out.with_suffix(".ckpt")
+    good = torch.load(ckpt, weights_only=True)
+
+    def nan(part: str):
+        return lambda s: s[part]["head.bias"].fill_(float("nan"))
+
+    edits = {
+        "actor holds NaN": nan("actor"),
+        "critic holds NaN": lambda s: next(iter(s["critic"].values())).fill_(float("inf")),
+        "best actor holds NaN": lambda s: s["best"]["actor"]["head.bias"].fill_(float("nan")),
+        "best must be one of the evaluations": lambda s: s["best"].update(episode=99),
+        "best must be one of the evaluations, with its cost": lambda s: s["best"].pop(
+            "daily_combined_cost"
+        ),
+        "best's actor is not this run's network": lambda s: s["best"]["actor"].update(
+            {"head.bias": torch.zeros(1)}
+        ),
+        "each history entry": lambda s: s.update(history=[{"episode": 1}]),
+        "each evaluation": lambda s: s["evals"][0].update(episode="2"),
+        "counts from 0": lambda s: s.update(episode=1.5),
+    }
+    for needle, edit in edits.items():
+        state = pickle.loads(pickle.dumps(good))
+        edit(state)
+        torch.save(state, ckpt)
+        line = fails_cleanly([*args, "--episodes", "4", "--out", str(out)], tmp_path, str(ckpt))
+        assert needle in line and "pass --no-resume" in line, (needle, line)
 
 
 def test_train_names_what_differs_from_the_checkpoint(
@@ -221,3 +264,32 @@ def test_a_bad_training_flag_is_named_as_typed(
     assert res.stderr.count("\n") == 1 and res.stderr.startswith(f"marops: error: {line}")
     assert "_" not in res.stderr.split(":")[2]  # the flag as typed, not the setting's name
     assert not list(tmp_path.iterdir())
+
+
+class _RunsOnUnpickle:
+    """A pickled object whose loading would run a shell command creating ``target``."""
+
+    def __init__(self, target: Path) -> None:
+        self.target = target
+
+    def __reduce__(self) -> tuple[object, tuple[str]]:
+        import os
+
+        return (os.system, (f"touch '{self.target}'",))
+
+
+def test_a_checkpoint_that_would_run_code_is_refused_without_running_it(
+    tiny_csv: Path, tmp_path: Path, fails_cleanly
+) -> None:
+    """A checkpoint holding a pickled callable: one line saying what it would load,
+    nothing run, and not torch's advice to load it unsafely."""
+    import torch
+
+    planted = tmp_path / "planted"
+    out = tmp_path / "a.pt"
+    ckpt = out.with_suffix(".ckpt")
+    torch.save({"format": "marops-train-ckpt/1", "x": _RunsOnUnpickle(planted)}, ckpt)
+    args = ["train", str(tiny_csv), "--workers", "1", "--episodes", "1", "--out", str(out)]
+    line = fails_cleanly(args, tmp_path, str(ckpt), "pass --no-resume")
+    assert "never loads" in line and "system" in line and "weights_only" not in line, line
+    assert not planted.exists()

@@ -5,6 +5,7 @@ weights, and the paper's operating model is refused."""
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 
 import numpy as np
@@ -88,6 +89,45 @@ def test_a_malformed_checkpoint_is_refused(
     state = json.loads(ckpt.read_text())
     rest = load_training_data(tiny_csv, small_cfg, _es(episodes=13))
     for needle, edit in EDITS.items():
+        ckpt.write_text(json.dumps(edit(state)))
+        with pytest.raises(InputError) as err:
+            train_actor(rest, out, resume=True)
+        line = str(err.value)
+        assert line.startswith(f"{ckpt}: not a landing actor's checkpoint of this run ("), line
+        assert needle in line and "\n" not in line, line
+
+
+def _set(key: str, value: object):  # noqa: ANN202
+    return lambda s: {**s, key: value}
+
+
+def _in_best(**change: object):  # noqa: ANN202
+    return lambda s: {**s, "best": {**s["best"], **change}}
+
+
+READ_LATER = {
+    "best must be one of the evaluations": _in_best(episode=12345),
+    "finite weights": _in_best(weight=[float("nan")] * JOINT_START.size),
+    "each history entry": _set("history", [{"episode": 1}]),
+    "each evaluation": _set("evals", [{"episode": 4, "cost": "low", "methods": {}}]),
+    "each held-out rule": _set("held_out_rules", [{"rule": "backlog"}]),
+    "each reference must hold": lambda s: {**s, "reference": {"d": {"j": 1, "energy": math.inf}}},
+}
+
+
+def test_a_checkpoint_that_could_not_be_read_back_later_is_refused_up_front(
+    tiny_csv: Path, small_cfg: PlannerConfig, tmp_path: Path
+) -> None:
+    """What the run reads back only later (the best weights at export, the evaluations,
+    the learning curve, the held-out rules) is checked on resuming, not found by a
+    traceback after the training, nor exported as NaN weights."""
+    out = tmp_path / "a.safetensors"
+    train_actor(load_training_data(tiny_csv, small_cfg, _es(episodes=4)), out, resume=False)
+    ckpt = out.with_suffix(".ckpt")
+    state = json.loads(ckpt.read_text())
+    assert state["best"] and state["evals"] and state["held_out_rules"] and state["history"]
+    rest = load_training_data(tiny_csv, small_cfg, _es(episodes=13))
+    for needle, edit in READ_LATER.items():
         ckpt.write_text(json.dumps(edit(state)))
         with pytest.raises(InputError) as err:
             train_actor(rest, out, resume=True)
