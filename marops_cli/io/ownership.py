@@ -128,7 +128,12 @@ def _checkpoint_is_ours(path: Path) -> bool:
         return _json_is_ours(path)
     with zipfile.ZipFile(path) as archive:
         pickles = [n for n in archive.namelist() if n.endswith("/data.pkl")]
-        return any(b"marops-train-ckpt/" in archive.read(n) for n in pickles[:1])
+        if not pickles:
+            return False
+        # The format is the state's first key: the pickle's first bytes hold it. Only
+        # those are read, so a foreign archive that inflates to gigabytes stays shut.
+        with archive.open(pickles[0]) as fh:
+            return b"marops-train-ckpt/" in fh.read(1 << 16)
 
 
 def check_replaceable(paths: Iterable[Path], journal: bool = False) -> None:

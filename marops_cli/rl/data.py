@@ -200,6 +200,29 @@ def other_algorithm(ckpt: Path, algorithm: str) -> InputError | None:
     return InputError(f"{kind}; pass --no-resume or another --out", file=ckpt)
 
 
+MAX_CHECKPOINT_BYTES = 1 << 30
+"""What a training checkpoint may unpack to: a recurrent actor's is well under a
+megabyte (its networks, optimiser and learning curve)."""
+
+
+def oversized_checkpoint(ckpt: Path) -> InputError | None:
+    """The refusal of a torch archive that says it unpacks to more than
+    :data:`MAX_CHECKPOINT_BYTES` (loading it would take that memory first); None for any
+    other file."""
+    try:
+        with zipfile.ZipFile(ckpt) as archive:
+            size = sum(info.file_size for info in archive.infolist())
+    except (OSError, ValueError, zipfile.BadZipFile):
+        return None  # the loader says why
+    if size <= MAX_CHECKPOINT_BYTES:
+        return None
+    return InputError(
+        f"not a training checkpoint: it unpacks to {size / 1e9:,.1f} GB, far more than a "
+        "checkpoint holds; pass --no-resume or another --out",
+        file=ckpt,
+    )
+
+
 def edited_checkpoint(ckpt: Path, kind: str, exc: Exception) -> InputError:
     """The refusal of a checkpoint ``ckpt`` with this run's fingerprint whose contents
     do not restore (``exc``): an edited file, not this run's; ``kind`` says whose."""

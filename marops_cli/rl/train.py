@@ -32,6 +32,7 @@ from .data import (
     load_training_data,
     other_algorithm,
     other_run,
+    oversized_checkpoint,
     split_days,
 )
 from .env import DeliveryEnv
@@ -112,7 +113,7 @@ class Trainer:
         """Resume from ``NAME.ckpt`` when there is one; refuse one made differently."""
         if not self.ckpt.is_file():
             return False
-        wrong = other_algorithm(self.ckpt, "ppo")
+        wrong = other_algorithm(self.ckpt, "ppo") or oversized_checkpoint(self.ckpt)
         if wrong is not None:
             raise wrong
         try:

@@ -191,6 +191,29 @@ def test_train_on_cities_with_fewer_depots_than_destinations_names_them(
     assert "at least 4 depots in every city (--n-depots)" in line
 
 
+def test_a_checkpoint_that_unpacks_to_gigabytes_is_refused_unopened(
+    tiny_csv: Path, tmp_path: Path, fails_cleanly
+) -> None:
+    """A torch archive whose listing says its pickle unpacks to 5 GB is neither read to
+    see whose it is nor loaded to resume: one line, nothing written."""
+    import pickle
+    import struct
+    import zipfile
+
+    out = tmp_path / "a.pt"
+    ckpt = out.with_suffix(".ckpt")
+    with zipfile.ZipFile(ckpt, "w") as archive:
+        archive.writestr("a/data.pkl", pickle.dumps({"format": "marops-train-ckpt/1"}))
+    raw = bytearray(ckpt.read_bytes())
+    central = raw.rindex(b"PK\x01\x02")  # the listing's entry: its uncompressed size
+    raw[central + 24 : central + 28] = struct.pack("<I", 0xFFFFFFF0)
+    ckpt.write_bytes(bytes(raw))
+    assert zipfile.ZipFile(ckpt).infolist()[0].file_size == 0xFFFFFFF0
+    args = ["train", str(tiny_csv), "--workers", "1", "--drones", "4", "--n-depots", "8"]
+    line = fails_cleanly([*args, "--episodes", "1", "--out", str(out)], tmp_path, str(ckpt))
+    assert "not a training checkpoint: it unpacks to 4.3 GB" in line
+
+
 def test_train_rejects_bad_options(tiny_csv: Path, tmp_path: Path) -> None:
     res = runner.invoke(app, ["train", str(tiny_csv), "--out", str(tmp_path / "x.onnx")])
     assert res.exit_code != 0 and ".pt" in res.output
