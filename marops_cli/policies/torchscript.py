@@ -118,7 +118,8 @@ def load_module(path: Path, side: dict[str, Any], trust: bool) -> Any:
         raise InputError(
             f"no weights file {weights_path(path).name} beside this actor, this installation "
             "did not train it, and loading TorchScript runs its author's code: pass "
-            "--trust-actor if you trust its author, or re-export it with marops train",
+            f"--trust-actor if you trust its author, or ask them for {weights.name}, the "
+            "weights file marops train writes beside it",
             file=path,
         )
     import io

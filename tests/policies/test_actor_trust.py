@@ -300,7 +300,9 @@ def test_an_actor_this_installation_trained_loads_without_the_flag(
     assert "--trust-actor" in _load_error(path)
     monkeypatch.setenv("XDG_DATA_HOME", str(tmp_path / "elsewhere"))
     path.write_bytes(path.read_bytes()[:-1])
-    assert "this installation did not train it" in _load_error(path)
+    said = _load_error(path)
+    assert "this installation did not train it" in said
+    assert f"ask them for {path.stem}.safetensors, the weights file marops train" in said
 
 
 def test_a_torn_or_foreign_record_line_grants_nothing(
