@@ -87,8 +87,9 @@ def evaluate_command(
         Path | None,
         typer.Option(
             "--policy",
-            help="Trained actor for marops and squares (.pt, or a landing actor's "
-            ".safetensors) [default: the shipped one of the run's operating model].",
+            help="Trained actor for marops and squares (.pt, or its weights "
+            ".safetensors with the sidecar beside) [default: the shipped one of the "
+            "run's operating model].",
         ),
     ] = None,
     mappo_policy: Annotated[

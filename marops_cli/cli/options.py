@@ -63,7 +63,7 @@ Policy = Annotated[
     typer.Option(
         "--policy",
         help="Flight-range policy: stay, random, greedy, global, myopic, backlog, rebalance, "
-        "or a trained actor (PATH.pt, a landing actor's PATH.safetensors, or "
+        "or a trained actor (PATH.pt, an actor's weights PATH.safetensors, or "
         "torchscript:PATH) [default: the method's own].",
     ),
 ]

@@ -60,7 +60,7 @@ class PolicySpec:
             return cls.actor(path)
         raise InputError(
             f"unknown policy {spec!r}: expected one of {', '.join(SIMPLE)}, "
-            "torchscript:PATH, a .pt file or a landing actor's .safetensors file"
+            "torchscript:PATH, a .pt file or an actor's .safetensors file"
         )
 
     @classmethod
@@ -136,24 +136,35 @@ def make_policy(
     if spec.kind == "rebalance":
         return RebalancePolicy()
     assert spec.path is not None
-    if spec.path.endswith(".safetensors"):  # a landing actor: data only
+    path = spec.path
+    if path.endswith(".safetensors"):  # data only: a landing actor, or a recurrent one's
         from ..data.jsonfile import read_json
         from .landing import load_landing_actor
 
-        weights = Path(spec.path)
+        weights = Path(path)
         if not weights.is_file():
             raise not_a_file(weights, "policy file")
         sidecar = weights.with_suffix(".json")
-        actor = load_landing_actor(weights, read_json(sidecar, "landing actor sidecar"), sidecar)
-        actor.check_model(model)
-        return actor
+        doc = read_json(sidecar, "actor sidecar")
+        if not _recurrent(doc):
+            actor = load_landing_actor(weights, doc, sidecar)
+            actor.check_model(model)
+            return actor
+        # The recurrent actor's weights and sidecar, shared without its TorchScript file:
+        # rebuilt from the weights as with the file, which it no longer needs.
+        path = str(weights.with_suffix(".pt"))
     from .torchscript import TorchScriptPolicy, read_sidecar
 
-    side = read_sidecar(spec.path)
+    side = read_sidecar(path)
     # A sidecar written before marops recorded the model names none: any model.
-    check_trained_for(side.get("operating_model"), model, spec.path)
+    check_trained_for(side.get("operating_model"), model, path)
     if "plan_slots" in side:  # a MAPPO actor: destination x plan slot
         from .direct import DirectPolicy
 
-        return DirectPolicy(Path(spec.path), trust=trust)
-    return TorchScriptPolicy(Path(spec.path), trust=trust)
+        return DirectPolicy(Path(path), trust=trust)
+    return TorchScriptPolicy(Path(path), trust=trust)
+
+
+def _recurrent(doc: object) -> bool:
+    """A sidecar of the recurrent actor (``marops-actor/N``), not the landing actor's."""
+    return isinstance(doc, dict) and str(doc.get("format", "")).startswith("marops-actor/")

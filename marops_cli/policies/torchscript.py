@@ -45,7 +45,9 @@ def sidecar_path(model_path: str | Path) -> Path:
 
 
 def read_sidecar(model_path: str | Path) -> dict[str, Any]:
-    if not Path(model_path).is_file():
+    """The sidecar of the actor file ``model_path``, checked; the file itself may be
+    missing where its weights file is there (the actor is rebuilt from them)."""
+    if not _present(model_path):
         raise not_a_file(model_path, "policy file")
     side = sidecar_path(model_path)
     doc = read_json(side, "policy sidecar beside the .pt file")
@@ -91,6 +93,13 @@ def read_sidecar(model_path: str | Path) -> dict[str, Any]:
             column="obs_dim",
         )
     return doc
+
+
+def _present(model_path: str | Path) -> bool:
+    """The actor file is there, or its weights file is (all a data-only actor needs)."""
+    from .weights import weights_path
+
+    return Path(model_path).is_file() or weights_path(model_path).is_file()
 
 
 MAX_TORCHSCRIPT_BYTES = 1 << 30
@@ -155,7 +164,7 @@ class TorchScriptPolicy(RecurrentPolicy):
         its sidecar names ``plan_slots``) from their number; ``trust`` lets a TorchScript
         file without a weights file beside it load (and run its code)."""
         self.path = Path(path)
-        if not self.path.is_file():
+        if not _present(self.path):
             raise not_a_file(self.path, "policy file")
         self.sidecar = read_sidecar(self.path)
         if slots is not None and "plan_slots" not in self.sidecar:
@@ -221,7 +230,10 @@ class TorchScriptPolicy(RecurrentPolicy):
 
     @property
     def identity(self) -> str | Path:
-        return self.path
+        """The actor's file; its weights file where it was shared without one."""
+        from .weights import weights_path
+
+        return self.path if self.path.is_file() else weights_path(self.path)
 
     def _check(self, view: WindowView) -> None:
         n, a = view.depots.candidates.shape

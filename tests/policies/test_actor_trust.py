@@ -194,6 +194,23 @@ def test_a_valid_actor_loads_as_data_with_the_actions_of_its_torchscript(tmp_pat
     assert got.argmax(1).tolist() == want.argmax(1).tolist()
 
 
+def test_an_actor_shared_as_data_alone_loads_from_its_weights(tmp_path: Path) -> None:
+    """The weights and the sidecar, without the TorchScript file: ``--policy
+    NAME.safetensors`` flies the same network, named by its weights file; without the
+    sidecar it is one line naming it."""
+    path, _ = _valid(tmp_path)
+    whole = make_policy(f"torchscript:{path}")
+    path.unlink()  # what is left is data only
+    alone = make_policy(str(weights_path(path)))
+    assert isinstance(alone, TorchScriptPolicy) and isinstance(alone._module, Actor)
+    assert alone.identity == weights_path(path)
+    for name, tensor in whole._module.state_dict().items():
+        assert torch.equal(alone._module.state_dict()[name], tensor), name
+    path.with_suffix(".json").unlink()
+    with pytest.raises(InputError, match=r"\.json"):
+        make_policy(str(weights_path(path)))
+
+
 def _load_error(path: Path) -> str:
     with pytest.raises(InputError) as err:
         TorchScriptPolicy(path)
