@@ -119,3 +119,18 @@ def not_a_file(path: str | Path, what: str = "file") -> InputError:
     if os.path.isdir(path):
         return InputError(f"is a folder, expected a {what}", file=path)
     return InputError(f"is not a regular file (a pipe or a device), expected a {what}", file=path)
+
+
+BAD_PATH = (errno.ENAMETOOLONG, errno.ELOOP)
+"""System errors of a path the system cannot even look up: bad usage, not a failed run."""
+
+
+def bad_path(exc: OSError) -> InputError | None:
+    """``exc`` as the one-line error of a path the system cannot look up (a name longer
+    than the file system takes, a loop of symbolic links), naming the path:
+    ``FILE: File name too long``; None for any other system error."""
+    if exc.errno not in BAD_PATH:
+        return None
+    path = exc.filename if exc.filename is not None else exc.filename2
+    message = exc.strerror or os.strerror(exc.errno)
+    return InputError(message, file=os.fsdecode(path) if path is not None else None)

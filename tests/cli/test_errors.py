@@ -217,3 +217,37 @@ def test_a_loop_of_symbolic_links_as_an_input(
     loop = str(loops / ("loop.pt" if name == "policy" else "loop"))
     line = fails_cleanly(args, tmp_path, f"marops: error: {loop}: is a loop of symbolic links")
     assert "Errno" not in line and "Too many levels" not in line
+
+
+TOO_LONG = {
+    "plan-window --out": [
+        "plan-window",
+        "{data}",
+        "--depots",
+        "{depots}",
+        "--date",
+        "0811",
+        "--window",
+        "5",
+        "--out",
+        "{long}",
+    ],
+    "replay-day --out": ["replay-day", "{data}", "--date", "0811", "--out", "{long}"],
+    "segment --out": ["segment", "{data}", "--out", "{long}/depots.json"],
+}
+
+
+@pytest.mark.parametrize("name", sorted(TOO_LONG))
+def test_a_folder_name_too_long_is_one_line_naming_the_path(
+    example_csv: Path, tmp_path: Path, fails_cleanly, name: str
+) -> None:
+    # A name in the path longer than the file system takes, under a folder that exists:
+    # the path and the reason, not Python's "[Errno 36] ..." (exit 2: bad usage).
+    depots = tmp_path / "depots.json"
+    depots.write_text("{}")
+    (tmp_path / "sub").mkdir()
+    long = tmp_path / "sub" / ("x" * 300)
+    values = {"data": str(example_csv), "depots": str(depots), "long": str(long)}
+    args = [a.format(**values) for a in TOO_LONG[name]]
+    line = fails_cleanly(args, tmp_path, f"marops: error: {long}", "File name too long")
+    assert "Errno" not in line
