@@ -120,7 +120,7 @@ def _accept(name: str, hint: str, v: Any) -> tuple[bool, Any]:
     if v is None:
         return "None" in hint, v
     if "Path" in hint and isinstance(v, str | os.PathLike):
-        return True, v
+        return os.fspath(v) != "", v  # "" would be the current folder, as for the flags
     if name == "date":  # read as str(date): "0820", 820, or a date's ISO form
         if isinstance(v, dt.datetime):  # a datetime or a pandas Timestamp: its day
             return True, v.date()

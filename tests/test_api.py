@@ -314,3 +314,14 @@ def test_api_a_path_too_long_to_look_up_is_an_input_error(example_csv: Path, tmp
             call()
         assert str(long) in str(err.value) and "Errno" not in str(err.value)
     assert [p.name for p in tmp_path.iterdir()] == ["sub"] and not any(long.parent.iterdir())
+
+
+def test_api_an_empty_path_is_an_input_error_not_the_current_folder(
+    example_csv: Path, tmp_path: Path, monkeypatch
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(InputError, match=r"plan_window\(\): out expects a path, got str ''"):
+        marops.plan_window(example_csv, tmp_path / "d.json", "0811", 5, out="")
+    with pytest.raises(InputError, match=r"replay_day\(\): out expects a path, got str ''"):
+        marops.replay_day(example_csv, "0811", out="")
+    assert list(tmp_path.iterdir()) == []
