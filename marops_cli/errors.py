@@ -91,6 +91,15 @@ def naming(exc: InputError, file: str | Path) -> InputError:
     return InputError(exc.message, file=file, row=exc.row, column=exc.column)
 
 
+def in_hub(exc: InputError, hub: int) -> InputError:
+    """``exc`` of one hub of a city run (``--hubs``) saying which hub (``hub 3: ...``),
+    blaming what it blamed (a :class:`SettingError` its setting)."""
+    message = f"hub {hub}: {exc.message}"
+    if isinstance(exc, SettingError):
+        return SettingError(message, key=exc.key, file=exc.file)
+    return InputError(message, file=exc.file, row=exc.row, column=exc.column)
+
+
 def not_found(path: str | Path, what: str = "file") -> InputError:
     """The error for an input ``path`` that leads to nothing (``what``: "depots file"):
     ``FILE: depots file not found``; for a loop of symbolic links ``FILE: is a loop of
