@@ -120,7 +120,7 @@ def _accept(name: str, hint: str, v: Any) -> tuple[bool, Any]:
     if v is None:
         return "None" in hint, v
     if "Path" in hint and isinstance(v, str | os.PathLike):
-        return True, v
+        return os.fspath(v) != "", v  # "" would be the current folder, as for the flags
     if name == "date":  # read as str(date): "0820", 820, or a date's ISO form
         if isinstance(v, dt.datetime):  # a datetime or a pandas Timestamp: its day
             return True, v.date()
@@ -185,12 +185,13 @@ F = TypeVar("F", bound=Callable[..., Any])
 
 
 def _checked(fn: F) -> F:
-    """Check ``fn``'s arguments against its annotations before it runs (see above)."""
+    """Check ``fn``'s arguments against its annotations before it runs (see above); a path
+    the system cannot look up (a name too long, a loop of links) is an InputError too."""
     sig = inspect.signature(fn)
 
     @functools.wraps(fn)
     def call(*args: Any, **kwargs: Any) -> Any:
-        from .errors import InputError
+        from .errors import InputError, bad_path
 
         try:
             bound = sig.bind(*args, **kwargs)
@@ -205,7 +206,13 @@ def _checked(fn: F) -> F:
                     f"got {type(value).__name__} {_shown(value)}"
                 )
             bound.arguments[name] = passed
-        return fn(*bound.args, **bound.kwargs)
+        try:
+            return fn(*bound.args, **bound.kwargs)
+        except OSError as exc:  # a path the system cannot look up is bad input, as for a flag
+            bad = bad_path(exc)
+            if bad is None:
+                raise
+            raise bad from None
 
     return call  # type: ignore[return-value]
 

@@ -91,6 +91,15 @@ def naming(exc: InputError, file: str | Path) -> InputError:
     return InputError(exc.message, file=file, row=exc.row, column=exc.column)
 
 
+def in_hub(exc: InputError, hub: int) -> InputError:
+    """``exc`` of one hub of a city run (``--hubs``) saying which hub (``hub 3: ...``),
+    blaming what it blamed (a :class:`SettingError` its setting)."""
+    message = f"hub {hub}: {exc.message}"
+    if isinstance(exc, SettingError):
+        return SettingError(message, key=exc.key, file=exc.file)
+    return InputError(message, file=exc.file, row=exc.row, column=exc.column)
+
+
 def not_found(path: str | Path, what: str = "file") -> InputError:
     """The error for an input ``path`` that leads to nothing (``what``: "depots file"):
     ``FILE: depots file not found``; for a loop of symbolic links ``FILE: is a loop of
@@ -119,3 +128,18 @@ def not_a_file(path: str | Path, what: str = "file") -> InputError:
     if os.path.isdir(path):
         return InputError(f"is a folder, expected a {what}", file=path)
     return InputError(f"is not a regular file (a pipe or a device), expected a {what}", file=path)
+
+
+BAD_PATH = (errno.ENAMETOOLONG, errno.ELOOP)
+"""System errors of a path the system cannot even look up: bad usage, not a failed run."""
+
+
+def bad_path(exc: OSError) -> InputError | None:
+    """``exc`` as the one-line error of a path the system cannot look up (a name longer
+    than the file system takes, a loop of symbolic links), naming the path:
+    ``FILE: File name too long``; None for any other system error."""
+    if exc.errno not in BAD_PATH:
+        return None
+    path = exc.filename if exc.filename is not None else exc.filename2
+    message = exc.strerror or os.strerror(exc.errno)
+    return InputError(message, file=os.fsdecode(path) if path is not None else None)

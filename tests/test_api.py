@@ -297,3 +297,31 @@ def test_api_a_day_kept_without_the_files_asked_for_now_is_replayed(
     assert not (tmp_path / "routes.geojson").exists()
     again = marops.replay_day(example_csv, "0811", method="stay", out=tmp_path, geojson=True)
     assert (tmp_path / "routes.geojson").is_file() and again.routes.equals(first.routes)
+
+
+def test_api_a_path_too_long_to_look_up_is_an_input_error(example_csv: Path, tmp_path: Path):
+    # As the flags: a folder name longer than the file system takes is bad input naming
+    # the path, not an OSError from deep inside.
+    (tmp_path / "sub").mkdir()
+    long = tmp_path / "sub" / ("x" * 300)
+    for call in (
+        lambda: marops.plan_window(example_csv, long / "depots.json", "0811", 5),
+        lambda: marops.plan_window(example_csv, tmp_path / "d.json", "0811", 5, out=long),
+        lambda: marops.replay_day(example_csv, "0811", out=long),
+        lambda: marops.read_lade(long / "lade.csv"),
+    ):
+        with pytest.raises(InputError, match="File name too long") as err:
+            call()
+        assert str(long) in str(err.value) and "Errno" not in str(err.value)
+    assert [p.name for p in tmp_path.iterdir()] == ["sub"] and not any(long.parent.iterdir())
+
+
+def test_api_an_empty_path_is_an_input_error_not_the_current_folder(
+    example_csv: Path, tmp_path: Path, monkeypatch
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(InputError, match=r"plan_window\(\): out expects a path, got str ''"):
+        marops.plan_window(example_csv, tmp_path / "d.json", "0811", 5, out="")
+    with pytest.raises(InputError, match=r"replay_day\(\): out expects a path, got str ''"):
+        marops.replay_day(example_csv, "0811", out="")
+    assert list(tmp_path.iterdir()) == []

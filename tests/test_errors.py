@@ -51,3 +51,16 @@ def test_a_path_that_is_no_file_says_what_it_is(tmp_path: Path) -> None:
     assert "is not a regular file" in str(not_a_file(pipe, "policy file"))
     missing = tmp_path / "missing.pt"
     assert str(not_a_file(missing, "policy file")) == f"{missing}: policy file not found"
+
+
+def test_a_number_too_long_to_read_is_said_as_such() -> None:
+    # Python's message advises calling sys.set_int_max_str_digits(): no use on a command line.
+    import pytest
+
+    from marops_cli.data.jsonfile import parse_json, parse_toml
+
+    for parse, text in ((parse_json, "[1" + "0" * 5000 + "]"), (parse_toml, "x = 1" + "0" * 5000)):
+        with pytest.raises(ValueError, match="^a number of 5001 digits, more than the 4300 read$"):
+            parse(text)
+    with pytest.raises(ValueError, match="Expecting"):  # other malformed documents as before
+        parse_json("[1,")

@@ -6,6 +6,7 @@ import datetime as dt
 from pathlib import Path
 from typing import Any
 
+from ..errors import InputError, in_hub
 from ..io import output_set, run_meta
 from ..io.meta import file_sha256
 from .inputs import data_name, in_memory, read_data
@@ -43,14 +44,17 @@ def replay_hubs(
         ]
         if not a.days:
             continue
-        scn = load_scenario(
-            table.source.path,
-            a.cfg,
-            replay_days=days,
-            table=a.table,
-            hub=a.hub.id,
-            cache=not in_memory(data),
-        )
+        try:
+            scn = load_scenario(
+                table.source.path,
+                a.cfg,
+                replay_days=days,
+                table=a.table,
+                hub=a.hub.id,
+                cache=not in_memory(data),
+            )
+        except InputError as exc:  # a hub too sparse for its depots: which one
+            raise in_hub(exc, a.hub.id) from None
         folder = out / f"hub-{a.hub.id}" if out is not None else None
         areas.append(make_area(scn, folder, a.days, several, fleet, run, None, f"hub {a.hub.id}: "))
     # Said once every hub's fleet and folder passed: an error is a failed run's only line.

@@ -5,7 +5,6 @@
 
 from __future__ import annotations
 
-import errno
 import functools
 import json
 import os
@@ -19,7 +18,7 @@ from rich.console import Console
 from rich.table import Table
 
 from ..app.inputs import protect_inputs, require_input
-from ..errors import InputError, MaropsError
+from ..errors import InputError, MaropsError, bad_path
 from ..io.ownership import allow_replacing_foreign
 
 __all__ = [
@@ -211,7 +210,6 @@ def show_table(t: Table, keys: int = 1) -> None:
 
 
 F = TypeVar("F", bound=Callable[..., Any])
-_BAD_PATH = (errno.ENAMETOOLONG, errno.ELOOP)
 
 
 def guarded(fn: F) -> F:
@@ -233,8 +231,8 @@ def guarded(fn: F) -> F:
             if STATE["debug"]:
                 raise
             # A path the system cannot even look up is bad usage; other failures are the run's.
-            code = 2 if exc.errno in _BAD_PATH else 1
-            _fail(_error_line(exc), code, command, kwargs)
+            bad = bad_path(exc)
+            _fail(_error_line(bad or exc), 1 if bad is None else 2, command, kwargs)
         except MemoryError:
             if STATE["debug"]:
                 raise

@@ -7,6 +7,7 @@ from __future__ import annotations
 from pathlib import PurePath
 from typing import Any, get_args
 
+import typer
 import typer.core
 
 
@@ -50,13 +51,16 @@ def hoist_debug(args: list[str]) -> list[str]:
 
 
 class Command(typer.core.TyperCommand):
-    """A marops command: its arguments shown as :class:`Argument`."""
+    """A marops command: its arguments shown as :class:`Argument`; a path given as an
+    empty string is bad usage (:func:`refuse_empty_path`)."""
 
     def __init__(self, *args: Any, **kwargs: Any) -> None:
         super().__init__(*args, **kwargs)
         for param in self.params:
             if type(param) is typer.core.TyperArgument:
                 param.__class__ = Argument  # the same state, shown the way above
+            if _takes_paths(param):
+                refuse_empty_path(param)
 
     def parse_args(self, ctx: Any, args: list[str]) -> list[str]:
         """The command line's usage errors all know their command: click's parser raises
@@ -68,3 +72,26 @@ class Command(typer.core.TyperCommand):
             if hasattr(exc, "format_message") and getattr(exc, "ctx", False) is None:
                 exc.ctx = ctx  # type: ignore[attr-defined]
             raise
+
+
+def _takes_paths(param: Any) -> bool:
+    desc = getattr(param, "type_descriptor", None)
+    if desc is None:
+        return False
+    kind = get_args(desc.annotation)[0] if desc.is_list else desc.annotation
+    return isinstance(kind, type) and issubclass(kind, PurePath)
+
+
+def refuse_empty_path(param: Any) -> None:
+    """Make ``param`` (a path, or a list of them) refuse an empty string: ``Path("")`` is
+    the current folder, so ``--out "$UNSET"`` would write there, and ``--config ""`` be
+    called a folder. One line naming the option instead, exit 2."""
+    process = param.process_value
+
+    def process_value(ctx: Any, value: Any) -> Any:
+        values = value if isinstance(value, list | tuple) else [value]
+        if any(isinstance(v, str) and not v for v in values):
+            raise typer.BadParameter("expected a path, got an empty string", ctx=ctx, param=param)
+        return process(ctx, value)
+
+    param.process_value = process_value

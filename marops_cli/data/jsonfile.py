@@ -8,6 +8,7 @@ import json
 import math
 import os
 import stat
+import sys
 from pathlib import Path
 from typing import Any, Literal
 
@@ -45,11 +46,13 @@ def read_small_text(path: str | Path, what: str) -> str:
 
 def parse_json(text: str | bytes) -> Any:
     """``json.loads``; a document nested too deeply for the parser is a ``ValueError`` as
-    any malformed one is (numbers too long to convert already are)."""
+    any malformed one is (numbers too long to convert already are: :func:`_long_number`)."""
     try:
         return json.loads(text)
     except RecursionError:
         raise ValueError("nested too deeply") from None
+    except ValueError as exc:
+        raise _long_number(exc) from None
 
 
 def parse_toml(text: str) -> dict[str, Any]:
@@ -61,6 +64,20 @@ def parse_toml(text: str) -> dict[str, Any]:
         return tomllib.loads(text)
     except RecursionError:
         raise ValueError("nested too deeply") from None
+    except ValueError as exc:
+        raise _long_number(exc) from None
+
+
+def _long_number(exc: ValueError) -> ValueError:
+    """``exc``; for a whole number longer than Python converts, what the file holds
+    (``a number of 5001 digits, ...``) rather than advice to call a Python function."""
+    import re
+
+    found = re.search(r"integer string conversion.*?value has (\d+) digits", str(exc))
+    if found is None:
+        return exc
+    limit = sys.get_int_max_str_digits()
+    return ValueError(f"a number of {found.group(1)} digits, more than the {limit} read")
 
 
 def read_document(path: str | Path, what: str, kind: Literal["json", "toml"] | None = None) -> Any:

@@ -25,7 +25,7 @@ from ..data.dates import format_days
 from ..data.prepare import prepare_day
 from ..data.reader import read_lade, sha256_file
 from ..data.table import LadeTable
-from ..errors import InputError, not_a_file
+from ..errors import InputError, in_hub, not_a_file
 from ..methods import Method, register
 from ..methods import method as method_spec
 from ..segment.hubs import Hub, hub_areas
@@ -165,7 +165,10 @@ def prepare(
             {(method_spec(m).segmentation, s.depots_n) for m in methods for s in settings}
         ):
             seg_cfg = override(cfg_h, segment__method=key[0], segment__n_depots=key[1])
-            scn = load_scenario(path, seg_cfg, replay_days=chosen, table=table_h, hub=hub)
+            try:
+                scn = load_scenario(path, seg_cfg, replay_days=chosen, table=table_h, hub=hub)
+            except InputError as exc:  # a hub too sparse for its depots: which one
+                raise in_hub(exc, hub) if hubs else exc from None
             scenarios[(hub, *key)] = Scenario(
                 test_table, scn.frame, scn.depots, seg_cfg, scn.history_days, hub
             )

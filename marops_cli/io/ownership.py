@@ -179,15 +179,19 @@ def _check_journal(folder: Path) -> None:
 def check_outputs(paths: Iterable[Path], journal: bool = False) -> None:
     """Before any work: each output may be replaced (above; ``journal`` as there) and
     its folder written, found out by creating and removing a temporary there (or, for a
-    folder still to be made, by the nearest existing one)."""
+    folder still to be made, by the nearest existing one, whose file system must take
+    the names of the folders to make there)."""
     for final in paths:
         final = Path(final)
         check_replaceable([final], journal)
         folder = final.absolute().parent
+        to_make: list[str] = []
         while not folder.exists():
+            to_make.append(folder.name)
             folder = folder.parent
         if not folder.is_dir():
             raise InputError(f"cannot be created: {folder} is a file", file=final)
+        _names_fit(final, folder, to_make)
         try:
             fd, probe = tempfile.mkstemp(
                 prefix=f".{final.name}.{TMP_MARK}", suffix=".tmp", dir=folder
@@ -196,6 +200,20 @@ def check_outputs(paths: Iterable[Path], journal: bool = False) -> None:
             os.unlink(probe)
         except OSError as exc:  # found before the work: bad usage, exit 2
             raise InputError(f"cannot write ({_reason(exc)})", file=final) from None
+
+
+def _names_fit(final: Path, folder: Path, to_make: list[str]) -> None:
+    """The folders ``to_make`` under ``folder`` (and the whole path of ``final``) fit the
+    file system's limits: a name too long would fail only when the folders are made,
+    after the work and with the folders above it already made."""
+    try:
+        name_max = os.pathconf(folder, "PC_NAME_MAX")
+        path_max = os.pathconf(folder, "PC_PATH_MAX")
+    except (OSError, ValueError):  # no limit known: the write says it, if it comes to that
+        return
+    too_long = any(len(os.fsencode(n)) > name_max for n in to_make)
+    if too_long or len(os.fsencode(final.absolute())) >= path_max:
+        raise InputError(f"cannot write ({os.strerror(errno.ENAMETOOLONG)})", file=final)
 
 
 def cannot_write(final: Path, exc: OSError) -> RunError:

@@ -217,3 +217,109 @@ def test_a_loop_of_symbolic_links_as_an_input(
     loop = str(loops / ("loop.pt" if name == "policy" else "loop"))
     line = fails_cleanly(args, tmp_path, f"marops: error: {loop}: is a loop of symbolic links")
     assert "Errno" not in line and "Too many levels" not in line
+
+
+TOO_LONG = {
+    "plan-window --out": [
+        "plan-window",
+        "{data}",
+        "--depots",
+        "{depots}",
+        "--date",
+        "0811",
+        "--window",
+        "5",
+        "--out",
+        "{long}",
+    ],
+    "replay-day --out": ["replay-day", "{data}", "--date", "0811", "--out", "{long}"],
+    "segment --out": ["segment", "{data}", "--out", "{long}/depots.json"],
+}
+
+
+@pytest.mark.parametrize("name", sorted(TOO_LONG))
+def test_a_folder_name_too_long_is_one_line_naming_the_path(
+    example_csv: Path, tmp_path: Path, fails_cleanly, name: str
+) -> None:
+    # A name in the path longer than the file system takes, under a folder that exists:
+    # the path and the reason, not Python's "[Errno 36] ..." (exit 2: bad usage).
+    depots = tmp_path / "depots.json"
+    depots.write_text("{}")
+    (tmp_path / "sub").mkdir()
+    long = tmp_path / "sub" / ("x" * 300)
+    values = {"data": str(example_csv), "depots": str(depots), "long": str(long)}
+    args = [a.format(**values) for a in TOO_LONG[name]]
+    line = fails_cleanly(args, tmp_path, f"marops: error: {long}", "File name too long")
+    assert "Errno" not in line
+
+
+EMPTY_PATH = {
+    "plan-window --out": [
+        "plan-window",
+        "{data}",
+        "--depots",
+        "{depots}",
+        "--date",
+        "0811",
+        "--window",
+        "5",
+        "--out",
+        "",
+    ],
+    "plan-window --delivered": [
+        "plan-window",
+        "{data}",
+        "--depots",
+        "{depots}",
+        "--date",
+        "0811",
+        "--window",
+        "5",
+        "--out",
+        "o",
+        "--delivered",
+        "",
+    ],
+    "plan-window --config": [
+        "plan-window",
+        "{data}",
+        "--depots",
+        "{depots}",
+        "--date",
+        "0811",
+        "--window",
+        "5",
+        "--out",
+        "o",
+        "--config=",
+    ],
+    "replay-day --out": ["replay-day", "{data}", "--date", "0811", "--out", ""],
+    "segment DATA": ["segment", "", "--out", "d.json"],
+    "evaluate --out": ["evaluate", "{data}", "--dates", "0811", "--out", ""],
+}
+
+
+@pytest.mark.parametrize("name", sorted(EMPTY_PATH))
+def test_an_empty_path_is_bad_usage_not_the_current_folder(
+    example_csv: Path, tmp_path: Path, name: str
+) -> None:
+    # Path("") is the current folder: `--out "$UNSET"` would write the run there.
+    import os
+    import subprocess
+    import sys
+
+    depots = tmp_path / "depots.json"
+    depots.write_text("{}")
+    args = [a.format(data=example_csv, depots=depots) for a in EMPTY_PATH[name]]
+    main = "from marops_cli.cli.app import main; main()"
+    root = str(Path(__file__).resolve().parents[2])  # this marops, run from tmp_path
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([root, os.environ.get("PYTHONPATH", "")])}
+    res = subprocess.run(
+        [sys.executable, "-c", main, *args], capture_output=True, text=True, cwd=tmp_path, env=env
+    )
+    assert res.returncode == 2, res.stderr
+    lines = res.stderr.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in res.stderr, res.stderr
+    option = name.split()[1]
+    assert f"'{option}'" in lines[0] and "expected a path, got an empty string" in lines[0]
+    assert [p.name for p in tmp_path.iterdir()] == ["depots.json"]

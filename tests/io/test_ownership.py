@@ -16,6 +16,7 @@ from marops_cli.errors import InputError
 from marops_cli.io import output_set
 from marops_cli.io.ownership import (
     JOURNAL,
+    check_outputs,
     check_replaceable,
     register_inputs,
     replacing_foreign_files,
@@ -203,6 +204,45 @@ def test_a_folder_or_a_loop_where_a_file_goes_is_refused_before_the_work(tmp_pat
         check_replaceable([tmp_path / "a" / "stops.parquet"])
     with pytest.raises(InputError, match="cannot write .File name too long"):
         check_replaceable([tmp_path / ("x" * 300)])
+
+
+def test_a_folder_to_make_whose_name_is_too_long_is_refused_before_the_work(
+    tmp_path: Path,
+) -> None:
+    """A folder still to be made whose name the file system cannot take fails only when
+    it is made: after the work, with the folders above it already made. It is refused
+    up front, and nothing is made."""
+    long = tmp_path / "new" / ("x" * 300)
+    with pytest.raises(InputError, match="stops.parquet: cannot write .File name too long"):
+        check_outputs([long / "stops.parquet"])
+    deep = tmp_path / "new" / "/".join(["y" * 250] * 20)  # each name fits, the path does not
+    with pytest.raises(InputError, match="cannot write .File name too long"):
+        check_outputs([deep / "stops.parquet"])
+    check_outputs([tmp_path / "new" / "a" / "b" / "stops.parquet"])  # names that fit
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_plan_window_into_a_folder_whose_name_is_too_long_does_no_work(
+    example_csv: Path, tmp_path: Path
+) -> None:
+    depots = tmp_path / "in" / "depots.json"
+    assert marops("segment", example_csv, "--dates", "0801..0810", "--out", depots).returncode == 0
+    out = tmp_path / "new" / ("x" * 300)
+    res = marops(
+        "plan-window",
+        example_csv,
+        "--depots",
+        depots,
+        "--date",
+        "0811",
+        "--window",
+        "5",
+        "--out",
+        out,
+    )
+    assert res.returncode == 2
+    assert one_line(res.stderr).endswith("stops.parquet: cannot write (File name too long)")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["in"]
 
 
 def test_a_path_too_long_to_look_up_is_bad_usage(tmp_path: Path) -> None:

@@ -302,3 +302,23 @@ def test_depot_load_heatmap_of_a_city_shows_one_hubs_depots():
     _depot_panel(fig, ax, results, "drones", "marops", {"alpha": 0.5, "coverage": 0.25})
     assert ax.get_title() == "depot load (kg/day), marops, hub 0"
     assert ax.images[0].get_array().tolist() == [[1.0, 3.0], [2.0, 4.0]]
+
+
+@pytest.mark.parametrize("command", ["replay-day", "evaluate"])
+def test_a_hub_too_sparse_for_its_depots_is_named(example_csv, tmp_path, fails_cleanly, command):
+    # Hub 0 holds nothing (skipped); hub 1, a 200 m square around one order of the day,
+    # has far fewer history requests than the 16 depots: the line says which hub.
+    hubs = tmp_path / "h.json"
+    hubs.write_text(
+        json.dumps(
+            [
+                {"center_lng": 0.5, "center_lat": 0.5},
+                {"center_lng": 121.342616, "center_lat": 31.135035, "size_km": 0.2},
+            ]
+        )
+    )
+    days = ["--date", "0811"] if command == "replay-day" else ["--dates", "0811"]
+    args = [command, str(example_csv), *days, "--hubs", str(hubs), "--out", str(tmp_path / "o")]
+    if command == "evaluate":
+        args += ["--methods", "stay"]
+    fails_cleanly(args, tmp_path, "setting segment.n_depots: hub 1: 16 depots asked for")
