@@ -73,7 +73,7 @@ def test_paired_table_fits_and_names_settings_and_columns(terminal: io.StringIO)
         }
         for s in (0, 1)
     ]
-    _print_paired(pa.Table.from_pylist(paired), summary, 12)
+    _print_paired(pa.Table.from_pylist(paired), summary)
     text = terminal.getvalue()
     _whole(text, ["-333.8", "[-412.6, -255.1]", "11/12", "better"])
     assert "α=0.3" in text and "α=0.8" in text  # settings by their values, not 0 / 1
