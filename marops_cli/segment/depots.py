@@ -9,6 +9,7 @@ from typing import Any
 
 import numpy as np
 
+from ..config import clipped
 from ..data.frame import Frame
 from ..data.jsonfile import json_number, refuse_unknown_keys
 from ..errors import InputError
@@ -126,7 +127,8 @@ class Depots:
         whole = all(isinstance(v, int) and not isinstance(v, bool) for v in ids)
         if not whole or sorted(ids) != list(range(len(ids))):
             raise InputError(
-                f"expected the depot ids 0..{len(ids) - 1} (whole numbers), each once",
+                f"expected the depot ids 0..{len(ids) - 1} (whole numbers), each once: "
+                + _id_fault(ids),
                 file=source,
                 column="depots[].id",
             )
@@ -164,7 +166,8 @@ class Depots:
         if far.size:
             i, axis = (int(v) for v in far[0])
             raise InputError(
-                f"depot {i} lies {abs(xy[i, axis]) / 1000:.3g} km from the study frame's centre, "
+                f"depot {i} lies {abs(xy[i, axis]) / 1000:,.1f} km from the study frame's "
+                "centre, "
                 f"more than {MAX_DEPOT_OFFSET_M / 1000:.0f} km (docs/config.md)",
                 file=source,
                 column=f"depots[{order[i]}].{'xy'[axis]}_m",
@@ -350,3 +353,17 @@ def _known_keys(doc: Any, source: str) -> None:
     for i, d in enumerate(listed if isinstance(listed, list) else []):
         if isinstance(d, dict):
             refuse_unknown_keys(d, _DEPOT_KEYS, "in a depot", source, f"depots[{i}].")
+
+
+def _id_fault(ids: list[Any]) -> str:
+    """What is wrong with a depots file's ids, at the first depot at fault."""
+    seen: set[int] = set()
+    for k, v in enumerate(ids):
+        if isinstance(v, bool) or not isinstance(v, int):
+            return f"depots[{k}] has id {clipped(repr(v))}"
+        if not 0 <= v < len(ids):
+            return f"depots[{k}] has id {v}, outside 0..{len(ids) - 1}"
+        if v in seen:
+            return f"depots[{k}] has id {v}, as an earlier depot does"
+        seen.add(v)
+    return "an id is missing"

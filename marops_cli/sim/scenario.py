@@ -17,7 +17,7 @@ import numpy as np
 import pyarrow as pa
 
 from ..config import OpsConfig, PlannerConfig
-from ..data.arrow import is_text, read_parquet
+from ..data.arrow import is_text, read_parquet, read_parquet_schema
 from ..data.frame import Frame
 from ..data.jsonfile import first_line
 from ..data.prepare import arrival_windows, check_days_in_file, prepare_day, study_frame
@@ -213,11 +213,21 @@ def delivered_orders(path: str | Path) -> set[str]:
     """Order ids already delivered according to an earlier stops Parquet file (or the
     ``stops.parquet`` of an output folder)."""
     p = delivered_file(path)
+    if p.suffix.lower() == ".json" or (not p.exists() and (p.parent / "stops.json").is_file()):
+        raise InputError(
+            "--delivered reads the stops.parquet a run writes, and a run with --format "
+            "json writes stops.json instead: replay that day with --format parquet",
+            file=p,
+        )
     if not p.exists():  # missing, a dangling link or a loop of links
         raise not_found(p, "delivered file")
     if not p.is_file():  # a pipe or a device: no stops file
         raise InputError("not a marops stops file (not a regular file)", file=p)
     try:
+        names = set(read_parquet_schema(p).names)
+        for name in ("kind", "order_id"):
+            if name not in names:
+                raise InputError(f"not a marops stops file (no column {name!r})", file=p)
         table = read_parquet(p, columns=["kind", "order_id"])
     except FileNotFoundError as exc:  # removed meanwhile
         raise not_found(p, "delivered file") from exc

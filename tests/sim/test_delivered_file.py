@@ -49,3 +49,18 @@ def test_a_pipe_is_no_stops_file(tmp_path: Path) -> None:
     os.mkfifo(fifo)
     with pytest.raises(InputError, match="not a regular file"):
         delivered_orders(fifo)
+
+
+def test_a_file_without_the_columns_or_of_json_says_what_it_lacks(tmp_path: Path) -> None:
+    """A Parquet file of other columns names the one missing (it showed Arrow's
+    'No match for FieldRef.Name(kind)'); a JSON run's stops say why they cannot serve."""
+    p = tmp_path / "other.parquet"
+    pq.write_table(pa.table({"order_id": ["7"]}), p)
+    with pytest.raises(InputError, match=r"not a marops stops file \(no column 'kind'\)$"):
+        delivered_orders(p)
+    day = tmp_path / "json-day"
+    day.mkdir()
+    (day / "stops.json").write_text("{}")
+    for given in (day, day / "stops.json"):
+        with pytest.raises(InputError, match="writes stops.json instead: replay that day"):
+            delivered_orders(given)
