@@ -3,6 +3,7 @@ one wording for the command line and the Python API."""
 
 from __future__ import annotations
 
+import datetime as dt
 from typing import Any
 
 from ..data.table import DropReport
@@ -36,16 +37,32 @@ def day_scope(progress: Progress, scope: Any, cfg: Any, label: str = "") -> None
     )
 
 
+def unservable_requests(
+    progress: Progress, day: dt.date, reqs: Any, depots_xy: Any, models: list[Any]
+) -> None:
+    """Warn about a day's requests no drone of the fleet can serve at all (too heavy, too
+    far), as a replayed day's metrics count them (``plan-window``)."""
+    from ..sim.metrics import unservable
+
+    heavy, far = unservable(reqs, depots_xy, models)
+    if heavy or far:
+        _unservable(progress, day.isoformat(), heavy, far)
+
+
+def _unservable(progress: Progress, day: str, heavy: int, far: int, label: str = "") -> None:
+    progress.warning(
+        f"{label}{day}: {heavy:,} parcels heavier than the payload limit and "
+        f"{far:,} requests beyond any drone's reach from the nearest depot cannot be served"
+    )
+
+
 def undelivered(progress: Progress, metrics: dict[str, Any], drones: int, label: str = "") -> None:
     """Warn when more than 10 % of a day's requests stayed undelivered, and about
     requests no drone can serve at all (too heavy, too far); ``label`` names the hub of
     a city run."""
     heavy, far = metrics.get("unservable_heavy", 0), metrics.get("unservable_far", 0)
     if heavy or far:
-        progress.warning(
-            f"{label}{metrics['day']}: {heavy:,} parcels heavier than the payload limit and "
-            f"{far:,} requests beyond any drone's reach from the nearest depot cannot be served"
-        )
+        _unservable(progress, str(metrics["day"]), heavy, far, label)
     share = metrics["undelivered"] / max(metrics["requests"], 1)
     if share > UNDELIVERED_WARN:
         progress.warning(

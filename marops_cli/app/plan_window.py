@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING, Any
 from ..config import PlannerConfig
 from ..errors import InputError
 from .inputs import Data, check_format, data_name, in_memory, read_data
-from .messages import day_scope, drop_report
+from .messages import day_scope, drop_report, unservable_requests
 from .progress import SILENT, Progress
 
 if TYPE_CHECKING:
@@ -127,6 +127,7 @@ def plan_window(
     scope = DayScope.of(reqs)
     drop_report(progress, scn.table.report, data_name(data))
     day_scope(progress, scope, cfg)
+    unservable_requests(progress, day, reqs, scn.depots.xy, list(dict.fromkeys(drones.models())))
     stops, routes = route_tables(scn, reqs, [plan], drones, method)
     meta = _meta(scn, cfg, pol, method, day, window, plan, Path(depots), drones)
     written: list[Path] = []

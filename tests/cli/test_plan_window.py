@@ -313,6 +313,31 @@ def test_json_counts_the_rows_dropped_and_the_orders_left_out(
     assert orders["outside_area"] > 0 and orders["planned"] > 0
 
 
+def test_requests_no_drone_can_lift_are_said_as_replay_day_says_them(
+    example_csv, depots_file, tmp_path
+) -> None:
+    """With a 0.5 kg payload the day's heavier parcels can never fly: plan-window warns
+    with the count replay-day gives for the same day."""
+    light = tmp_path / "light.toml"
+    light.write_text("[energy]\nmax_payload_kg = 0.5\n")
+    common = [str(example_csv), "--depots", str(depots_file), "--method", "greedy"]
+    common += ["--date", "0811", "--config", str(light)]
+    res = runner.invoke(
+        app, ["plan-window", *common, "--window", str(WINDOW), "--out", str(tmp_path / "w")]
+    )
+    assert res.exit_code == 0, res.output
+    said = [x for x in res.stderr.splitlines() if "heavier than the payload limit" in x]
+    day = runner.invoke(app, ["replay-day", *common, "--out", str(tmp_path / "d")])
+    assert day.exit_code == 0, day.output
+    metrics = json.loads((tmp_path / "d" / "metrics.json").read_text())
+    heavy = metrics["days"][0]["unservable_heavy"]
+    assert heavy > 0
+    assert said == [
+        f"warning: 2022-08-11: {heavy:,} parcels heavier than the payload limit and 0 "
+        "requests beyond any drone's reach from the nearest depot cannot be served"
+    ]
+
+
 def test_a_folder_whose_name_is_not_utf8_takes_the_outputs(
     example_csv: Path, depots_file: Path, parquet_out: Path, tmp_path: Path
 ) -> None:
