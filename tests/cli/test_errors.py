@@ -219,19 +219,9 @@ def test_a_loop_of_symbolic_links_as_an_input(
     assert "Errno" not in line and "Too many levels" not in line
 
 
+PLAN_WINDOW = ["plan-window", "{data}", "--depots", "{depots}", "--date", "0811", "--window", "5"]
 TOO_LONG = {
-    "plan-window --out": [
-        "plan-window",
-        "{data}",
-        "--depots",
-        "{depots}",
-        "--date",
-        "0811",
-        "--window",
-        "5",
-        "--out",
-        "{long}",
-    ],
+    "plan-window --out": [*PLAN_WINDOW, "--out", "{long}"],
     "replay-day --out": ["replay-day", "{data}", "--date", "0811", "--out", "{long}"],
     "segment --out": ["segment", "{data}", "--out", "{long}/depots.json"],
 }
@@ -254,45 +244,9 @@ def test_a_folder_name_too_long_is_one_line_naming_the_path(
 
 
 EMPTY_PATH = {
-    "plan-window --out": [
-        "plan-window",
-        "{data}",
-        "--depots",
-        "{depots}",
-        "--date",
-        "0811",
-        "--window",
-        "5",
-        "--out",
-        "",
-    ],
-    "plan-window --delivered": [
-        "plan-window",
-        "{data}",
-        "--depots",
-        "{depots}",
-        "--date",
-        "0811",
-        "--window",
-        "5",
-        "--out",
-        "o",
-        "--delivered",
-        "",
-    ],
-    "plan-window --config": [
-        "plan-window",
-        "{data}",
-        "--depots",
-        "{depots}",
-        "--date",
-        "0811",
-        "--window",
-        "5",
-        "--out",
-        "o",
-        "--config=",
-    ],
+    "plan-window --out": [*PLAN_WINDOW, "--out", ""],
+    "plan-window --delivered": [*PLAN_WINDOW, "--out", "o", "--delivered", ""],
+    "plan-window --config": [*PLAN_WINDOW, "--out", "o", "--config="],
     "replay-day --out": ["replay-day", "{data}", "--date", "0811", "--out", ""],
     "segment DATA": ["segment", "", "--out", "d.json"],
     "evaluate --out": ["evaluate", "{data}", "--dates", "0811", "--out", ""],
