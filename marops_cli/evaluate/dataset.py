@@ -24,7 +24,7 @@ from ..data.jsonfile import parse_json, read_small_text
 from ..errors import InputError, RunError
 from ..io import output_set, run_meta
 from ..io.tables import with_meta, write_parquet
-from .runner import Prepared
+from .runner import Prepared, identity_changes, identity_doc
 from .settings import Job
 from .tables import KEY_COLUMNS, job_row, key_columns, row_table
 
@@ -88,9 +88,12 @@ class JobStore:
             )
         if held is not None and held != self.identity:
             if not force:
+                held_doc = self._held_doc()  # none in a dataset of an older marops
+                changes = identity_changes(held_doc, identity_doc(self.prep)) if held_doc else []
+                what = f" ({'; '.join(changes)})" if changes else ""
                 raise InputError(
-                    "holds the jobs of an evaluation with other settings; run with --force "
-                    "to clear them, or choose another --out",
+                    f"holds the jobs of an evaluation with other settings{what}; run with "
+                    "--force to clear them, or choose another --out",
                     file=self.root,
                 )
             self._clear = True
@@ -116,6 +119,16 @@ class JobStore:
             return str(doc["identity"])
         except (OSError, ValueError, KeyError, TypeError):
             return ""  # unreadable: another run's, whatever it was
+
+    def _held_doc(self) -> dict[str, Any]:
+        """What the identity ``root`` holds was made of (empty for a dataset written before
+        marops recorded it, or an unreadable one)."""
+        try:
+            doc = parse_json(read_small_text(self.root / IDENTITY_FILE, "evaluation identity"))
+            run = doc["run"]
+        except (OSError, ValueError, KeyError, TypeError, InputError):
+            return {}
+        return run if isinstance(run, dict) else {}
 
     def finished(self) -> set[int]:
         """Indices of the jobs whose file is in place."""
@@ -166,6 +179,7 @@ class JobStore:
         doc = {
             "identity": self.identity,
             "jobs": len(self.prep.jobs),
+            "run": identity_doc(self.prep),
             "meta": run_meta(command="evaluate", source=self.prep.source.source, stamp=False),
         }
         with output_set() as files:
