@@ -100,7 +100,8 @@ class EvaluateConfig:
     among them); with one, it must be in it."""
     plots: bool = True
     force: bool = False
-    """Clear another evaluation's jobs found in the output folder."""
+    """Clear another evaluation's jobs found in the output folder, and the outputs marops
+    built from them."""
     report: bool = False
     """Write report.html into the output folder (docs/report.md)."""
 
@@ -299,7 +300,7 @@ def _evaluate_into(
     from ..io.atomic import folder_lock
 
     with folder_lock(out):  # one run at a time in a folder; stale temporaries go
-        store = JobStore(out / JOBS, prep, run_identity(prep))
+        store = JobStore(out / JOBS, prep, run_identity(prep), built=_built_files(out))
         store.open(force=config.force)  # this run's finished jobs, or an error for another's
         if store.resumed:
             n = len(prep.jobs)
@@ -321,6 +322,16 @@ def _evaluate_into(
 
             files += write_reports(out)
     return EvaluationResult(ev.results, ev.summary, paired, prep.days, files, out)
+
+
+def _built_files(out: Path) -> list[Path]:
+    """Every output an evaluation may build from its jobs in ``out``, whatever its flags:
+    ``--force`` removes another run's (marops's own only) with its jobs, so that no
+    figure or paired.csv of that run stays beside this run's tables."""
+    from ..evaluate.settings import SWEEP_FLAGS
+
+    every = {flag: [0, 1] for flag in SWEEP_FLAGS}
+    return output_files(out, sweep=every, against="any", plots=True, report=True)
 
 
 def _run(

@@ -15,6 +15,7 @@ these files in job order, whichever worker, machine or session wrote them.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 from urllib.parse import quote
@@ -23,6 +24,7 @@ from ..data.arrow import read_parquet, read_parquet_schema
 from ..data.jsonfile import parse_json, read_small_text
 from ..errors import InputError, RunError
 from ..io import output_set, run_meta
+from ..io.ownership import check_not_input, written_by_marops
 from ..io.tables import with_meta, write_parquet
 from .runner import Prepared, identity_changes, identity_doc
 from .settings import Job
@@ -53,8 +55,13 @@ class JobStore:
     :meth:`rows` reads every job's row back, in job order.
     """
 
-    def __init__(self, root: Path, prep: Prepared, identity: str) -> None:
+    def __init__(
+        self, root: Path, prep: Prepared, identity: str, built: Sequence[Path] = ()
+    ) -> None:
         self.root = Path(root)
+        self.built = [Path(p) for p in built]
+        """The outputs an evaluation builds from its jobs (tables, figures, paired.csv,
+        report.html): those marops wrote go with another run's jobs (:meth:`_start`)."""
         self.prep = prep
         self.identity = identity
         self._done: set[int] = set()
@@ -165,8 +172,9 @@ class JobStore:
         )
 
     def _start(self) -> None:
-        """Clear another run's jobs (``--force``): the job files ``open`` found marops's
-        and the folders they leave empty; then record this run's identity."""
+        """Clear another run's jobs (``--force``): the job files ``open`` found marops's,
+        the folders they leave empty and the outputs marops built from them; then record
+        this run's identity."""
         if self._clear:
             for p in self._files():
                 p.unlink()
@@ -176,6 +184,9 @@ class JobStore:
                     d = d.parent
             if self._held_identity():  # an evaluation's identity, read as such
                 (self.root / IDENTITY_FILE).unlink()
+            for p in self.built:  # built from those jobs: they would read as this run's
+                if _own_output(p):
+                    p.unlink()
         doc = {
             "identity": self.identity,
             "jobs": len(self.prep.jobs),
@@ -233,6 +244,18 @@ def _sound(row: dict[str, Any]) -> bool:
     return all(
         v is None or isinstance(v, (int, float)) for k, v in row.items() if k not in KEY_COLUMNS
     )
+
+
+def _own_output(path: Path) -> bool:
+    """An output file marops wrote (judged by its content, docs/outputs.md), and no input
+    of this run."""
+    if path.is_symlink() or not path.is_file():
+        return False
+    try:
+        check_not_input(path)
+    except InputError:
+        return False
+    return written_by_marops(path)
 
 
 def _job_file(path: Path) -> bool:

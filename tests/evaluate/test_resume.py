@@ -208,3 +208,33 @@ def test_jobs_of_an_older_marops_run_are_refused_without_naming_a_difference(
     with pytest.raises(InputError) as err:
         JobStore(jobs, prep, run_identity(prep)).open()
     assert err.value.message.startswith("holds the jobs of an evaluation with other settings;")
+
+
+def test_force_clears_the_outputs_built_from_the_other_runs_jobs(prep, tmp_path: Path) -> None:
+    """Another run's paired.csv or sweep figure would otherwise stay beside this run's
+    tables as if it were this run's; a file of one's own by such a name stays."""
+    from marops_cli.io import output_set
+
+    out = tmp_path / "ev"
+    jobs = out / "jobs"
+    built = [out / n for n in ("results.parquet", "paired.csv", "alpha.png", "drones.png")]
+    first = JobStore(jobs, prep, "another run", built=built)
+    first.open()
+    first.add(prep.jobs[0], {"mean_energy_kj": 1.0, "delivered": 1})
+    with output_set() as files:  # that run's outputs, as marops writes them
+        files.write_bytes(out / "paired.csv", b"against,method\n")
+        files.write_bytes(out / "alpha.png", b"\x89PNG figure")
+        files.write_with(out / "results.parquet", lambda p: pq.write_table(store_meta_table(), p))
+    (out / "drones.png").write_bytes(b"a user's own figure")
+    store = JobStore(jobs, prep, run_identity(prep), built=built)
+    store.open(force=True)
+    assert (out / "paired.csv").is_file()  # nothing goes before this run's first replay
+    store.add(prep.jobs[1], {"mean_energy_kj": 1.5, "delivered": 3})
+    left = sorted(p.name for p in out.iterdir() if not p.name.startswith("."))
+    assert left == ["drones.png", "jobs"]
+    assert (out / "drones.png").read_bytes() == b"a user's own figure"
+
+
+def store_meta_table() -> pa.Table:
+    """A one-row table with marops metadata, as results.parquet carries."""
+    return pa.table({"x": [1]}).replace_schema_metadata({b"marops": b'{"package": "marops"}'})
