@@ -273,21 +273,27 @@ def actor_paths(policy: str | Path | None, mappo_policy: str | Path | None) -> d
 
 
 def _plan_line(prep: Prepared, config: EvaluateConfig) -> str:
-    """``evaluate: 3 methods x 1 settings x 4 days x 1 repeats = 12 replays, on 2 workers``."""
+    """``evaluate: 3 methods x 1 setting x 4 days x 1 repeat = 12 replays, on 2 workers``."""
     workers, scheduler = config.workers, config.scheduler
     where = (
-        f"{workers} workers"
+        _count(workers, "worker")
         if scheduler is None
-        else f"a local Dask cluster of {workers} workers"
+        else f"a local Dask cluster of {_count(workers, 'worker')}"
         if scheduler == "local"
         else f"the Dask scheduler at {scheduler}"
     )
     hub_note = f" over {len(prep.hubs)} hubs (hub-days with requests)" if prep.hubs else ""
     return (
-        f"evaluate: {len(prep.methods)} methods x {len(prep.settings)} settings x "
-        f"{len(prep.days)} days x {prep.repeats} repeats{hub_note} = {len(prep.jobs)} "
-        f"replays, on {where}"
+        f"evaluate: {_count(len(prep.methods), 'method')} x "
+        f"{_count(len(prep.settings), 'setting')} x {_count(len(prep.days), 'day')} x "
+        f"{_count(prep.repeats, 'repeat')}{hub_note} = {_count(len(prep.jobs), 'replay')}, "
+        f"on {where}"
     )
+
+
+def _count(n: int, noun: str) -> str:
+    """``1 day``, ``2 days``."""
+    return f"{n} {noun}" if n == 1 else f"{n} {noun}s"
 
 
 def _evaluate_into(

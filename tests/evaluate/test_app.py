@@ -56,7 +56,9 @@ def test_a_table_in_memory_gives_tables_and_writes_nothing(in_memory) -> None:
     assert res.results.column("method").to_pylist() == ["stay", "greedy"]
     assert res.paired is not None and set(res.paired.column("method").to_pylist()) == {"greedy"}
     assert told.messages[0].startswith("shanghai_synth.csv: 22,043 rows read")
-    assert told.messages[1].startswith("evaluate: 2 methods x 1 settings x 1 days")
+    # counted as read: "1 setting", not "1 settings"
+    want = "evaluate: 2 methods x 1 setting x 1 day x 1 repeat = 2 replays, on 1 worker"
+    assert told.messages[1] == want, told.messages[1]
     assert told.steps == [("evaluate", 2, "replays")] and told.finished == 1
     assert [a.split(":")[0] for a in told.advances] == ["evaluate 1/2", "evaluate 2/2"]
 
