@@ -314,9 +314,12 @@ def _evaluate_into(
         try:
             ev = _run(prep, config, store, progress)
         except KeyboardInterrupt as exc:  # Ctrl-C or SIGTERM: the caller says what is kept
+            kept = store.kept()
             exc.add_note(
-                f"{store.kept()} of {len(prep.jobs)} replays are kept in {store.root}: run "
+                f"{kept} of {len(prep.jobs)} replays are kept in {store.root}: run "
                 "the same command again to resume"
+                if kept
+                else f"no replay of {len(prep.jobs)} had finished: nothing is kept"
             )
             raise
         files = write_outputs(out, prep, ev.results, ev.summary, plots=config.plots)

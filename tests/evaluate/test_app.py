@@ -77,3 +77,20 @@ def test_a_folder_gets_the_same_rows_and_the_files(
     evaluate(example_csv, config, out=tmp_path, progress=told)
     assert told.messages[2] == f"resumed: 2 of 2 replays from {tmp_path / 'jobs'}"
     assert told.advances == ["", ""]
+
+
+def test_a_run_stopped_before_any_replay_says_nothing_is_kept(
+    example_csv: Path, tmp_path: Path
+) -> None:
+    """Not "0 of 2 replays are kept in OUT/jobs", a folder that is not left behind."""
+
+    class StoppedAtOnce(Told):
+        def start(self, label: str, total: int, unit: str) -> None:
+            raise KeyboardInterrupt
+
+    out = tmp_path / "ev"
+    config = EvaluateConfig(PlannerConfig(), ["stay", "greedy"], days=[DAY], workers=1)
+    with pytest.raises(KeyboardInterrupt) as stop:
+        evaluate(example_csv, config, out=out, progress=StoppedAtOnce())
+    assert stop.value.__notes__ == ["no replay of 2 had finished: nothing is kept"]
+    assert not out.exists()
