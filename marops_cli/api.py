@@ -164,7 +164,7 @@ def _expects(name: str, hint: str) -> str:
     if name == "date":
         return "a date like '0820', 820 or a datetime.date"
     if _listed(hint):
-        return "a string like 'a,b' or a list"
+        return "a string like 'a,b' or a non-empty list"
     words = []
     for word, say in (
         ("Path", "a path"),
@@ -533,15 +533,16 @@ def evaluate(
     from .segment.hubs import load_hubs
 
     cfg = planner_config(config, year=year, strict=strict, seed=seed, trust_actor=trust_actor)
-    days = parse_days(_text(dates) or "", cfg.data.year, "--dates") if dates else None
-    if days and split:
+    # An empty list of dates is an error, not the split's days.
+    days = parse_days(_text(dates) or "", cfg.data.year, "--dates") if dates is not None else None
+    if dates is not None and split is not None:
         raise InputError("give at most one of dates or split")
     spec = EvaluateConfig(
         cfg,
         method_list(_text(methods)),
         **sweep_fields(*(_text(v) for v in (alpha, drones, coverage, n_depots))),
         days=days,
-        split=split or "test",
+        split=split if split is not None else "test",
         repeats=repeats,
         workers=workers,
         scheduler=scheduler,

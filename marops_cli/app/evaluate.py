@@ -100,7 +100,8 @@ class EvaluateConfig:
     among them); with one, it must be in it."""
     plots: bool = True
     force: bool = False
-    """Clear another evaluation's jobs found in the output folder."""
+    """Clear another evaluation's jobs found in the output folder, and the outputs marops
+    built from them."""
     report: bool = False
     """Write report.html into the output folder (docs/report.md)."""
 
@@ -272,21 +273,27 @@ def actor_paths(policy: str | Path | None, mappo_policy: str | Path | None) -> d
 
 
 def _plan_line(prep: Prepared, config: EvaluateConfig) -> str:
-    """``evaluate: 3 methods x 1 settings x 4 days x 1 repeats = 12 replays, on 2 workers``."""
+    """``evaluate: 3 methods x 1 setting x 4 days x 1 repeat = 12 replays, on 2 workers``."""
     workers, scheduler = config.workers, config.scheduler
     where = (
-        f"{workers} workers"
+        _count(workers, "worker")
         if scheduler is None
-        else f"a local Dask cluster of {workers} workers"
+        else f"a local Dask cluster of {_count(workers, 'worker')}"
         if scheduler == "local"
         else f"the Dask scheduler at {scheduler}"
     )
     hub_note = f" over {len(prep.hubs)} hubs (hub-days with requests)" if prep.hubs else ""
     return (
-        f"evaluate: {len(prep.methods)} methods x {len(prep.settings)} settings x "
-        f"{len(prep.days)} days x {prep.repeats} repeats{hub_note} = {len(prep.jobs)} "
-        f"replays, on {where}"
+        f"evaluate: {_count(len(prep.methods), 'method')} x "
+        f"{_count(len(prep.settings), 'setting')} x {_count(len(prep.days), 'day')} x "
+        f"{_count(prep.repeats, 'repeat')}{hub_note} = {_count(len(prep.jobs), 'replay')}, "
+        f"on {where}"
     )
+
+
+def _count(n: int, noun: str) -> str:
+    """``1 day``, ``2 days``."""
+    return f"{n} {noun}" if n == 1 else f"{n} {noun}s"
 
 
 def _evaluate_into(
@@ -299,7 +306,7 @@ def _evaluate_into(
     from ..io.atomic import folder_lock
 
     with folder_lock(out):  # one run at a time in a folder; stale temporaries go
-        store = JobStore(out / JOBS, prep, run_identity(prep))
+        store = JobStore(out / JOBS, prep, run_identity(prep), built=_built_files(out))
         store.open(force=config.force)  # this run's finished jobs, or an error for another's
         if store.resumed:
             n = len(prep.jobs)
@@ -307,9 +314,12 @@ def _evaluate_into(
         try:
             ev = _run(prep, config, store, progress)
         except KeyboardInterrupt as exc:  # Ctrl-C or SIGTERM: the caller says what is kept
+            kept = store.kept()
             exc.add_note(
-                f"{store.kept()} of {len(prep.jobs)} replays are kept in {store.root}: run "
+                f"{kept} of {len(prep.jobs)} replays are kept in {store.root}: run "
                 "the same command again to resume"
+                if kept
+                else f"no replay of {len(prep.jobs)} had finished: nothing is kept"
             )
             raise
         files = write_outputs(out, prep, ev.results, ev.summary, plots=config.plots)
@@ -321,6 +331,16 @@ def _evaluate_into(
 
             files += write_reports(out)
     return EvaluationResult(ev.results, ev.summary, paired, prep.days, files, out)
+
+
+def _built_files(out: Path) -> list[Path]:
+    """Every output an evaluation may build from its jobs in ``out``, whatever its flags:
+    ``--force`` removes another run's (marops's own only) with its jobs, so that no
+    figure or paired.csv of that run stays beside this run's tables."""
+    from ..evaluate.settings import SWEEP_FLAGS
+
+    every = {flag: [0, 1] for flag in SWEEP_FLAGS}
+    return output_files(out, sweep=every, against="any", plots=True, report=True)
 
 
 def _run(

@@ -79,8 +79,9 @@ app.command("report", cls=Command)(report_command)
 
 def _terminate(signum: int, frame: object) -> None:
     """SIGTERM unwinds like Ctrl-C (temporaries removed, one line, exit 143)."""
-    from ..io.atomic import Terminated
+    from ..io.atomic import TERM_RECEIVED, Terminated
 
+    TERM_RECEIVED.set()
     raise Terminated()
 
 

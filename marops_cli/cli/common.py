@@ -247,6 +247,15 @@ def guarded(fn: F) -> F:
             # A use case interrupted after some of its work was written says what it
             # keeps in the exception's notes (marops_cli/app/replay_areas.py).
             stopped(exc, "; ".join(getattr(exc, "__notes__", ())), command)
+        except Exception:
+            from ..io.atomic import TERM_RECEIVED, Terminated
+
+            # SIGTERM inside a library's import (pandas's, loaded lazily) leaves that
+            # module half made, and the next use fails with some other error: the run
+            # was terminated all the same, and says so in one line.
+            if TERM_RECEIVED.is_set() and not STATE["debug"]:
+                stopped(Terminated(), "", command)
+            raise
 
     return wrapper  # type: ignore[return-value]
 

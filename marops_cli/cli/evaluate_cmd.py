@@ -145,15 +145,16 @@ def evaluate_command(
     )
     cfg = planner_config(config, year=year, strict=strict, seed=seed, trust_actor=trust_actor)
     hub_list = _hubs(hubs, cfg)
-    days = parse_days(dates, cfg.data.year, "--dates") if dates else None
-    if days and split:
+    # --dates "" (an empty list from a script) is an error, not the split's days.
+    days = parse_days(dates, cfg.data.year, "--dates") if dates is not None else None
+    if dates is not None and split is not None:
         raise InputError("give at most one of --dates or --split")
     run = EvaluateConfig(
         cfg,
         method_list(methods),
         **sweep,
         days=days,
-        split=split or "test",
+        split=split if split is not None else "test",
         repeats=repeats,
         workers=workers,
         scheduler=scheduler,

@@ -15,6 +15,7 @@ these files in job order, whichever worker, machine or session wrote them.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 from urllib.parse import quote
@@ -23,8 +24,9 @@ from ..data.arrow import read_parquet, read_parquet_schema
 from ..data.jsonfile import parse_json, read_small_text
 from ..errors import InputError, RunError
 from ..io import output_set, run_meta
+from ..io.ownership import check_not_input, written_by_marops
 from ..io.tables import with_meta, write_parquet
-from .runner import Prepared
+from .runner import Prepared, identity_changes, identity_doc
 from .settings import Job
 from .tables import KEY_COLUMNS, job_row, key_columns, row_table
 
@@ -53,8 +55,13 @@ class JobStore:
     :meth:`rows` reads every job's row back, in job order.
     """
 
-    def __init__(self, root: Path, prep: Prepared, identity: str) -> None:
+    def __init__(
+        self, root: Path, prep: Prepared, identity: str, built: Sequence[Path] = ()
+    ) -> None:
         self.root = Path(root)
+        self.built = [Path(p) for p in built]
+        """The outputs an evaluation builds from its jobs (tables, figures, paired.csv,
+        report.html): those marops wrote go with another run's jobs (:meth:`_start`)."""
         self.prep = prep
         self.identity = identity
         self._done: set[int] = set()
@@ -88,9 +95,12 @@ class JobStore:
             )
         if held is not None and held != self.identity:
             if not force:
+                held_doc = self._held_doc()  # none in a dataset of an older marops
+                changes = identity_changes(held_doc, identity_doc(self.prep)) if held_doc else []
+                what = f" ({'; '.join(changes)})" if changes else ""
                 raise InputError(
-                    "holds the jobs of an evaluation with other settings; run with --force "
-                    "to clear them, or choose another --out",
+                    f"holds the jobs of an evaluation with other settings{what}; run with "
+                    "--force to clear them, or choose another --out",
                     file=self.root,
                 )
             self._clear = True
@@ -116,6 +126,16 @@ class JobStore:
             return str(doc["identity"])
         except (OSError, ValueError, KeyError, TypeError):
             return ""  # unreadable: another run's, whatever it was
+
+    def _held_doc(self) -> dict[str, Any]:
+        """What the identity ``root`` holds was made of (empty for a dataset written before
+        marops recorded it, or an unreadable one)."""
+        try:
+            doc = parse_json(read_small_text(self.root / IDENTITY_FILE, "evaluation identity"))
+            run = doc["run"]
+        except (OSError, ValueError, KeyError, TypeError, InputError):
+            return {}
+        return run if isinstance(run, dict) else {}
 
     def finished(self) -> set[int]:
         """Indices of the jobs whose file is in place."""
@@ -152,8 +172,9 @@ class JobStore:
         )
 
     def _start(self) -> None:
-        """Clear another run's jobs (``--force``): the job files ``open`` found marops's
-        and the folders they leave empty; then record this run's identity."""
+        """Clear another run's jobs (``--force``): the job files ``open`` found marops's,
+        the folders they leave empty and the outputs marops built from them; then record
+        this run's identity."""
         if self._clear:
             for p in self._files():
                 p.unlink()
@@ -163,9 +184,13 @@ class JobStore:
                     d = d.parent
             if self._held_identity():  # an evaluation's identity, read as such
                 (self.root / IDENTITY_FILE).unlink()
+            for p in self.built:  # built from those jobs: they would read as this run's
+                if _own_output(p):
+                    p.unlink()
         doc = {
             "identity": self.identity,
             "jobs": len(self.prep.jobs),
+            "run": identity_doc(self.prep),
             "meta": run_meta(command="evaluate", source=self.prep.source.source, stamp=False),
         }
         with output_set() as files:
@@ -219,6 +244,18 @@ def _sound(row: dict[str, Any]) -> bool:
     return all(
         v is None or isinstance(v, (int, float)) for k, v in row.items() if k not in KEY_COLUMNS
     )
+
+
+def _own_output(path: Path) -> bool:
+    """An output file marops wrote (judged by its content, docs/outputs.md), and no input
+    of this run."""
+    if path.is_symlink() or not path.is_file():
+        return False
+    try:
+        check_not_input(path)
+    except InputError:
+        return False
+    return written_by_marops(path)
 
 
 def _job_file(path: Path) -> bool:

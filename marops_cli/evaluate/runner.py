@@ -295,9 +295,16 @@ class EvaluateWork:
 
 def run_identity(prep: Prepared) -> str:
     """A digest of everything that decides an evaluation's rows: input, config, methods,
-    settings, days, repeats and actors. A jobs dataset is resumed only under the same one
-    (docs/outputs.md "Evaluation")."""
-    doc = {
+    settings, days, repeats and actors (:func:`identity_doc`). A jobs dataset is resumed
+    only under the same one (docs/outputs.md "Evaluation")."""
+    doc = identity_doc(prep)
+    return hashlib.sha256(json.dumps(doc, sort_keys=True, default=str).encode()).hexdigest()
+
+
+def identity_doc(prep: Prepared) -> dict[str, Any]:
+    """What :func:`run_identity` digests, as JSON values: kept in the jobs dataset so that
+    a run refused there can name what differs (:func:`identity_changes`)."""
+    doc: dict[str, Any] = {
         "input": prep.source.source.to_dict(),
         "config": prep.cfg.model_dump(mode="json"),
         "methods": prep.methods,
@@ -311,7 +318,90 @@ def run_identity(prep: Prepared) -> str:
             [h.id, h.frame.center_lng, h.frame.center_lat, h.frame.size_km, h.drones]
             for h in prep.hubs
         ]
-    return hashlib.sha256(json.dumps(doc, sort_keys=True, default=str).encode()).hexdigest()
+    return dict(json.loads(json.dumps(doc, sort_keys=True, default=str)))
+
+
+_IDENTITY_NAMES = {
+    "input": "the input file",
+    "config": "config",
+    "methods": "--methods",
+    "days": "days",
+    "repeats": "--repeats",
+    "actors": "trained actors",
+    "hubs": "--hubs",
+}
+
+
+def identity_changes(held: dict[str, Any], now: dict[str, Any], most: int = 4) -> list[str]:
+    """What differs between the identity document ``held`` (of the jobs found) and
+    ``now`` (this run's), each as ``WHAT: THERE there, HERE here`` (``--alpha: 0.5
+    there, 0.3 here``, ``config sim.seed: 0 there, 3 here``); at most ``most`` named,
+    then how many more."""
+    changes: list[str] = []
+    for key in ("input", "methods", "settings", "days", "repeats", "config", "actors", "hubs"):
+        a, b = held.get(key), now.get(key)
+        if a == b:
+            continue
+        if key == "settings" and isinstance(a, list) and isinstance(b, list):
+            changes += _setting_changes(a, b) or ["the sweep's settings"]
+        elif key == "config" and isinstance(a, dict) and isinstance(b, dict):
+            changes += [
+                f"config {path}: {_short(x)} there, {_short(y)} here"
+                for path, x, y in _leaf_changes(a, b)
+            ]
+        elif key == "input" and isinstance(a, dict) and isinstance(b, dict):
+            changes.append(f"the input file: {_input(a)} there, {_input(b)} here")
+        elif key in ("methods", "days", "repeats"):
+            changes.append(f"{_IDENTITY_NAMES[key]}: {_short(a)} there, {_short(b)} here")
+        else:
+            changes.append(_IDENTITY_NAMES.get(key, key))
+    if len(changes) > most:
+        changes = [*changes[:most], f"{len(changes) - most} more"]
+    return changes
+
+
+def _setting_changes(held: list[Any], now: list[Any]) -> list[str]:
+    """Each sweep flag whose values differ: ``--alpha: 0.5 there, 0.3, 0.7 here``."""
+    out = []
+    for flag, option in (
+        ("alpha", "--alpha"),
+        ("drones", "--drones"),
+        ("coverage", "--coverage"),
+        ("depots_n", "--n-depots"),
+    ):
+        a = list(dict.fromkeys(s.get(flag) for s in held if isinstance(s, dict)))
+        b = list(dict.fromkeys(s.get(flag) for s in now if isinstance(s, dict)))
+        if a != b:
+            out.append(f"{option}: {_short(a)} there, {_short(b)} here")
+    return out
+
+
+def _leaf_changes(a: Any, b: Any, path: str = "") -> list[tuple[str, Any, Any]]:
+    """The dotted keys whose values differ between two JSON documents."""
+    if isinstance(a, dict) and isinstance(b, dict):
+        found = []
+        for k in sorted(set(a) | set(b), key=str):
+            sub = f"{path}.{k}" if path else str(k)
+            found += _leaf_changes(a.get(k), b.get(k), sub)
+        return found
+    return [] if a == b else [(path, a, b)]
+
+
+def _input(doc: dict[str, Any]) -> str:
+    sha = str(doc.get("sha256") or "")
+    return f"{doc.get('name')} (SHA-256 {sha[:12]}…)" if sha else str(doc.get("name"))
+
+
+def _short(value: Any, most: int = 6) -> str:
+    """A value of the identity as a reader would write it: lists joined, long ones cut."""
+    if isinstance(value, list):
+        items = [_short(v) for v in value]
+        if len(items) > most:
+            items = [*items[: most - 2], "…", items[-1]]
+        return ", ".join(items) if items else "none"
+    if isinstance(value, float):
+        return f"{value:g}"
+    return "none" if value is None else str(value)
 
 
 class JobSink(Protocol):

@@ -156,6 +156,12 @@ class Terminated(KeyboardInterrupt):
     """SIGTERM, raised where the program runs so temporaries are removed on the way out."""
 
 
+TERM_RECEIVED = threading.Event()
+"""Set when SIGTERM arrived: an error it caused on its way (raised inside a library's
+module import, it can surface as an ``AttributeError`` of that module) ends the run as
+the termination it is."""
+
+
 LOCK = ".marops.lock"
 
 

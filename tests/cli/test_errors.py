@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 from pathlib import Path
 
 import pytest
@@ -277,3 +278,29 @@ def test_an_empty_path_is_bad_usage_not_the_current_folder(
     option = name.split()[1]
     assert f"'{option}'" in lines[0] and "expected a path, got an empty string" in lines[0]
     assert [p.name for p in tmp_path.iterdir()] == ["depots.json"]
+
+
+def test_sigterm_inside_a_library_import_ends_as_terminated_not_a_traceback(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    """SIGTERM landing inside pandas's lazy import leaves the module half made; the next
+    use then fails with an AttributeError, which once printed a traceback."""
+    import typer
+
+    from marops_cli.cli import app as app_module
+    from marops_cli.cli.common import guarded
+    from marops_cli.io.atomic import TERM_RECEIVED, Terminated
+
+    @guarded
+    def evaluate_command() -> None:
+        with contextlib.suppress(Terminated):  # swallowed by the extension's import
+            app_module._terminate(15, None)  # the signal, inside the import
+        raise AttributeError("partially initialized module 'pandas' has no attribute 'x'")
+
+    try:
+        with pytest.raises(typer.Exit) as stop:
+            evaluate_command()
+    finally:
+        TERM_RECEIVED.clear()
+    assert stop.value.exit_code == 143
+    assert capsys.readouterr().err == "marops: terminated\n"

@@ -56,7 +56,9 @@ def test_a_table_in_memory_gives_tables_and_writes_nothing(in_memory) -> None:
     assert res.results.column("method").to_pylist() == ["stay", "greedy"]
     assert res.paired is not None and set(res.paired.column("method").to_pylist()) == {"greedy"}
     assert told.messages[0].startswith("shanghai_synth.csv: 22,043 rows read")
-    assert told.messages[1].startswith("evaluate: 2 methods x 1 settings x 1 days")
+    # counted as read: "1 setting", not "1 settings"
+    want = "evaluate: 2 methods x 1 setting x 1 day x 1 repeat = 2 replays, on 1 worker"
+    assert told.messages[1] == want, told.messages[1]
     assert told.steps == [("evaluate", 2, "replays")] and told.finished == 1
     assert [a.split(":")[0] for a in told.advances] == ["evaluate 1/2", "evaluate 2/2"]
 
@@ -75,3 +77,20 @@ def test_a_folder_gets_the_same_rows_and_the_files(
     evaluate(example_csv, config, out=tmp_path, progress=told)
     assert told.messages[2] == f"resumed: 2 of 2 replays from {tmp_path / 'jobs'}"
     assert told.advances == ["", ""]
+
+
+def test_a_run_stopped_before_any_replay_says_nothing_is_kept(
+    example_csv: Path, tmp_path: Path
+) -> None:
+    """Not "0 of 2 replays are kept in OUT/jobs", a folder that is not left behind."""
+
+    class StoppedAtOnce(Told):
+        def start(self, label: str, total: int, unit: str) -> None:
+            raise KeyboardInterrupt
+
+    out = tmp_path / "ev"
+    config = EvaluateConfig(PlannerConfig(), ["stay", "greedy"], days=[DAY], workers=1)
+    with pytest.raises(KeyboardInterrupt) as stop:
+        evaluate(example_csv, config, out=out, progress=StoppedAtOnce())
+    assert stop.value.__notes__ == ["no replay of 2 had finished: nothing is kept"]
+    assert not out.exists()

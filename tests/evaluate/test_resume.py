@@ -5,6 +5,7 @@ from __future__ import annotations
 import datetime as dt
 import json
 import signal
+from dataclasses import replace
 from pathlib import Path
 
 import pyarrow as pa
@@ -13,7 +14,7 @@ import pytest
 from typer.testing import CliRunner
 
 from marops_cli.cli.app import app
-from marops_cli.config import PlannerConfig
+from marops_cli.config import PlannerConfig, override
 from marops_cli.errors import InputError
 from marops_cli.evaluate import evaluate_jobs, expand_settings, prepare
 from marops_cli.evaluate.dataset import JobStore
@@ -176,3 +177,64 @@ def test_ctrl_c_exits_130_keeps_finished_jobs_and_prints_no_traceback(
     assert res.exit_code == 0, res.output
     assert f"resumed: {kept} of 8 replays" in res.output
     assert (out / "results.parquet").is_file() and len(list(jobs.rglob("*.parquet"))) == 8
+
+
+def test_jobs_of_another_run_are_refused_naming_what_differs(prep, tmp_path: Path) -> None:
+    """A nightly job rerun with another flag is told which one, not only that one differs."""
+    jobs = tmp_path / "jobs"
+    first = JobStore(jobs, prep, run_identity(prep))
+    first.open()
+    first.add(prep.jobs[0], {"mean_energy_kj": 1.0, "delivered": 1})
+    other = replace(
+        prep,
+        methods=["stay"],
+        settings=[replace(prep.settings[0], alpha=0.3)],
+        cfg=override(prep.cfg, sim__seed=4),
+    )
+    with pytest.raises(InputError) as err:
+        JobStore(jobs, other, run_identity(other)).open()
+    msg = err.value.message
+    assert "--methods: stay, greedy there, stay here" in msg, msg
+    assert "--alpha: 0.5 there, 0.3 here" in msg and "config sim.seed: 0 there, 4 here" in msg
+    assert "--force" in msg and err.value.file == str(jobs)
+
+
+def test_jobs_of_an_older_marops_run_are_refused_without_naming_a_difference(
+    prep, tmp_path: Path
+) -> None:
+    jobs = tmp_path / "jobs"
+    jobs.mkdir()
+    (jobs / "_identity.json").write_text(json.dumps({"identity": "older", "jobs": 4}))
+    with pytest.raises(InputError) as err:
+        JobStore(jobs, prep, run_identity(prep)).open()
+    assert err.value.message.startswith("holds the jobs of an evaluation with other settings;")
+
+
+def test_force_clears_the_outputs_built_from_the_other_runs_jobs(prep, tmp_path: Path) -> None:
+    """Another run's paired.csv or sweep figure would otherwise stay beside this run's
+    tables as if it were this run's; a file of one's own by such a name stays."""
+    from marops_cli.io import output_set
+
+    out = tmp_path / "ev"
+    jobs = out / "jobs"
+    built = [out / n for n in ("results.parquet", "paired.csv", "alpha.png", "drones.png")]
+    first = JobStore(jobs, prep, "another run", built=built)
+    first.open()
+    first.add(prep.jobs[0], {"mean_energy_kj": 1.0, "delivered": 1})
+    with output_set() as files:  # that run's outputs, as marops writes them
+        files.write_bytes(out / "paired.csv", b"against,method\n")
+        files.write_bytes(out / "alpha.png", b"\x89PNG figure")
+        files.write_with(out / "results.parquet", lambda p: pq.write_table(store_meta_table(), p))
+    (out / "drones.png").write_bytes(b"a user's own figure")
+    store = JobStore(jobs, prep, run_identity(prep), built=built)
+    store.open(force=True)
+    assert (out / "paired.csv").is_file()  # nothing goes before this run's first replay
+    store.add(prep.jobs[1], {"mean_energy_kj": 1.5, "delivered": 3})
+    left = sorted(p.name for p in out.iterdir() if not p.name.startswith("."))
+    assert left == ["drones.png", "jobs"]
+    assert (out / "drones.png").read_bytes() == b"a user's own figure"
+
+
+def store_meta_table() -> pa.Table:
+    """A one-row table with marops metadata, as results.parquet carries."""
+    return pa.table({"x": [1]}).replace_schema_metadata({b"marops": b'{"package": "marops"}'})
