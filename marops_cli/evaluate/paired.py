@@ -1,12 +1,12 @@
 """Paired comparisons against a reference method (``evaluate --against``).
 
 For each setting and method, the per-day difference method − reference of each metric
-(same day, repeat and hub), its mean and a bootstrap 95 % confidence interval (resampling
-days with replacement, a fixed seed, so the interval is reproducible), and how many
-days the method was better. A comparison backed by fewer than :data:`MIN_DAYS` days
-is flagged: the combined cost alone can be won by delivering less, so the day
-objective J (which charges every request left waiting) and the delivered share come
-first (docs/method.md §8).
+(same day, repeat and hub; a day's repeats averaged into its one difference), its mean
+and a bootstrap 95 % confidence interval (resampling days with replacement, a fixed
+seed, so the interval is reproducible), and how many days the method was better. A
+comparison backed by fewer than :data:`MIN_DAYS` days is flagged: the combined cost
+alone can be won by delivering less, so the day objective J (which charges every
+request left waiting) and the delivered share come first (docs/method.md §8).
 """
 
 from __future__ import annotations
@@ -64,12 +64,15 @@ def paired_table(results: pa.Table, against: str) -> pa.Table:
         ref = by[(setting, against)]
         keys = sorted(k for k in days if k in ref)
         for metric, lower in PAIRED_METRICS.items():
-            pairs = [
-                (days[k][metric], ref[k][metric])
-                for k in keys
-                if days[k].get(metric) is not None and ref[k].get(metric) is not None
-            ]
-            diff = np.array([a - b for a, b in pairs], dtype=np.float64)
+            # One difference per day (a city's hub-day): the repeats of a day are one
+            # day's draws, not days of their own, so they are averaged before the
+            # bootstrap resamples days.
+            per_day: dict[tuple[int, str], list[float]] = defaultdict(list)
+            for k in keys:
+                a, b = days[k].get(metric), ref[k].get(metric)
+                if a is not None and b is not None:
+                    per_day[k[:2]].append(a - b)
+            diff = np.array([np.mean(v) for v in per_day.values()], dtype=np.float64)
             lo, hi = bootstrap_ci(diff)
             better = int(((diff < 0) if lower else (diff > 0)).sum())
             out["setting"].append(setting)

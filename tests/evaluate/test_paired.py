@@ -58,6 +58,26 @@ def test_paired_table_by_hand() -> None:
     assert verdict(row) == "worse" and row["few_days"] is False
 
 
+def test_repeats_of_one_day_are_one_paired_day() -> None:
+    """Two repeats of one day are one day's draws: one difference (their mean, by hand:
+    new − ref = -10 and -20 → -15), one day, flagged few, no verdict from one day."""
+    rows = []
+    for method, js in (("ref", [100.0, 200.0]), ("new", [90.0, 180.0])):
+        for repeat, j in enumerate(js):
+            row = dict.fromkeys(("delivered_share", "avg_delay_h", "mean_energy_kj"), 1.0)
+            rows.append(
+                {"setting": 0, "method": method, "day": "2022-08-11", "repeat": repeat}
+                | row
+                | {"objective_j_mj": j, "combined_cost": 0.5}
+            )
+    table = paired_table(pa.Table.from_pylist(rows), "ref")
+    row = next(r for r in table.to_pylist() if r["metric"] == "objective_j_mj")
+    assert (row["days"], row["days_better"], row["few_days"]) == (1, 1, True)
+    assert row["mean_diff"] == pytest.approx(-15.0)
+    assert (row["ci_low"], row["ci_high"]) == pytest.approx((-15.0, -15.0))
+    assert verdict(row) == "n/a"
+
+
 def test_evaluate_against_writes_paired_csv_and_warns_on_few_days(
     example_csv: Path, tmp_path: Path
 ) -> None:
