@@ -33,14 +33,18 @@ _FORMAT = 1  # bump when the stored arrays change meaning
 
 
 def cache_dir() -> Path | None:
-    """Where depots are cached; None when ``MAROPS_CACHE_DIR=off``."""
+    """Where depots are cached; None when ``MAROPS_CACHE_DIR=off`` or when it names a
+    home that cannot be found."""
     env = os.environ.get("MAROPS_CACHE_DIR", "").strip()
     if env.lower() in ("off", "0", "none", "false"):
         return None
-    if env:
-        return Path(env).expanduser()
     base = os.environ.get("XDG_CACHE_HOME", "").strip()
-    return (Path(base) if base else Path.home() / ".cache") / "marops"
+    try:  # a home that cannot be found (~user of no user, no HOME): no cache, no error
+        if env:
+            return Path(env).expanduser()
+        return (Path(base) if base else Path.home() / ".cache") / "marops"
+    except (RuntimeError, KeyError):
+        return None
 
 
 def depots_key(

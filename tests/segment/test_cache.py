@@ -123,3 +123,13 @@ def test_a_damaged_or_edited_cache_is_a_miss(tmp_path, monkeypatch, points_table
         assert made == [name] and got.xy.tobytes() == good.xy.tobytes(), name
         assert cached_depots(*key, make).xy.tobytes() == good.xy.tobytes()
         assert made == [name], name  # cached anew: the next run is a hit
+
+
+def test_a_cache_folder_under_an_unknown_home_is_no_cache(monkeypatch, points_table):
+    """``~nosuchuser/…`` (or no home at all) cannot be expanded: the run segments
+    without the cache rather than stopping on a traceback."""
+    cfg = PlannerConfig()
+    key = (points_table([121.47] * 3, [31.23] * 3, "abc"), DAYS, FRAME, cfg.data, cfg.segment)
+    monkeypatch.setenv("MAROPS_CACHE_DIR", "~no-such-user-of-marops/cache")
+    assert cache_dir() is None
+    assert cached_depots(*key, _depots).xy.shape == (2, 2)
