@@ -67,15 +67,19 @@ def depots_key(
     return hashlib.sha256(json.dumps(doc, sort_keys=True).encode()).hexdigest()
 
 
-def _load(path: Path, frame: Frame) -> Depots | None:
+def _load(path: Path, key: str, frame: Frame, segment: SegmentConfig) -> Depots | None:
     """The cached depots, or None (segment again, and cache anew) when the file is
-    unreadable, from another format, or holds what no segmentation makes: a damaged
-    or edited cache must not stop a run, nor move its depots."""
+    unreadable, from another format, made for another key (a file copied or renamed
+    into the cache), or holds what no segmentation makes: a damaged or edited cache
+    must not stop a run, nor move its depots."""
     try:
         with np.load(path, allow_pickle=False) as z:
+            stored = str(z["key"])
             method = str(z["method"])
             xy, n_hist, cand = z["xy"], z["n_history"], z["candidates"]
     except Exception:  # noqa: BLE001 - zip, format and dtype errors alike mean a miss
+        return None
+    if stored != key or method != segment.method:
         return None
     if not _plausible(xy, n_hist, cand, frame):
         return None
@@ -106,13 +110,14 @@ def _plausible(xy: np.ndarray, n_hist: np.ndarray, cand: np.ndarray, frame: Fram
     )
 
 
-def _store(path: Path, depots: Depots) -> None:
+def _store(path: Path, key: str, depots: Depots) -> None:
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
         with tmp.open("wb") as fh:
             np.savez(
                 fh,
+                key=np.array(key),
                 method=np.array(depots.method),
                 xy=depots.xy,
                 n_history=depots.n_history,
@@ -141,9 +146,9 @@ def cached_depots(
     key = depots_key(f"{table.source.sha256}:{rows}", days, frame, data, segment)
     path = root / "depots" / f"{key}.npz"
     if path.is_file():
-        hit = _load(path, frame)
+        hit = _load(path, key, frame, segment)
         if hit is not None:
             return hit
     depots = make()
-    _store(path, depots)
+    _store(path, key, depots)
     return depots
