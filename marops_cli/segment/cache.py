@@ -12,6 +12,7 @@ ever saves time.
 
 from __future__ import annotations
 
+import contextlib
 import datetime as dt
 import hashlib
 import json
@@ -111,9 +112,11 @@ def _plausible(xy: np.ndarray, n_hist: np.ndarray, cand: np.ndarray, frame: Fram
 
 
 def _store(path: Path, key: str, depots: Depots) -> None:
+    """Cache ``depots`` at ``path`` under a temporary name then renamed; where that
+    fails (a full disk, a folder in the way) nothing is left behind."""
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
         with tmp.open("wb") as fh:
             np.savez(
                 fh,
@@ -125,7 +128,8 @@ def _store(path: Path, key: str, depots: Depots) -> None:
             )
         os.replace(tmp, path)
     except OSError:
-        return
+        with contextlib.suppress(OSError):
+            tmp.unlink(missing_ok=True)
 
 
 def cached_depots(

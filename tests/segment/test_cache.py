@@ -163,3 +163,15 @@ def test_a_cache_file_of_other_depots_under_this_key_is_a_miss(tmp_path, monkeyp
     assert got.xy.tobytes() == _depots().xy.tobytes()
     again = cached_depots(table, DAYS, FRAME, cfg.data, cfg.segment, lambda: 1 / 0)
     assert again.xy.tobytes() == _depots().xy.tobytes()  # the file now holds these
+
+
+def test_a_cache_that_cannot_be_stored_leaves_no_temporary_behind(
+    tmp_path, monkeypatch, points_table
+):
+    monkeypatch.setenv("MAROPS_CACHE_DIR", str(tmp_path))
+    cfg = PlannerConfig()
+    table = points_table([121.47] * 3, [31.23] * 3, "abc")
+    path = _key_path(tmp_path, table, cfg)
+    path.mkdir(parents=True)  # a folder where the cache file goes
+    assert cached_depots(table, DAYS, FRAME, cfg.data, cfg.segment, _depots).xy.shape == (2, 2)
+    assert sorted(p.name for p in path.parent.iterdir()) == [path.name]
