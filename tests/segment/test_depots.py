@@ -287,3 +287,15 @@ def test_a_depot_moved_in_degrees_alone_is_refused(tmp_path) -> None:
     says = r"key 'depots\[2\]\.lng': depot 2's lng/lat lie 1,1\d\d m"
     with pytest.raises(InputError, match=says):
         Depots.load(path)
+
+
+def test_a_study_area_placed_away_from_the_requests_names_center(points_table) -> None:
+    """--center where no request is: the one line says where the square is and which
+    option moves it."""
+    from marops_cli.config import PlannerConfig, override
+    from marops_cli.segment.run import segment_table
+
+    table = points_table([121.47, 121.48], [31.23, 31.24], "abc")
+    cfg = override(PlannerConfig(), data__center=(0.5, 0.5))
+    with pytest.raises(InputError, match=r"around 0\.50000, 0\.50000.*--center"):
+        segment_table(table, cfg)
