@@ -18,6 +18,7 @@ from .common import (
     protect_inputs,
     show_table,
     table,
+    warn,
 )
 from .progress import Terminal
 
@@ -160,9 +161,15 @@ def _segment_hubs(  # type: ignore[no-untyped-def]
     cfg = planner_config(config, year=year, size_km=size_km, strict=strict)
     res = segment_hubs(data, cfg, hubs, days=dates, out=out, progress=Terminal())
     held, total = sum(h.orders for h in res.hubs), res.total
+    asked = hub_count(hubs)
+    if asked is not None and len(res.hubs) < asked:
+        warn(
+            f"--hubs {asked}: the orders fill only {len(res.hubs)} non-overlapping "
+            f"{cfg.data.size_km:g} km square{'s' * (len(res.hubs) != 1)}"
+        )
     t = table(
-        f"{len(res.hubs)} hubs of {cfg.data.size_km:g} km, holding {held:,} of {total:,} "
-        f"orders ({100 * held / max(total, 1):.1f} %)"
+        f"{len(res.hubs)} hub{'s' * (len(res.hubs) != 1)} of {cfg.data.size_km:g} km, "
+        f"holding {held:,} of {total:,} orders ({100 * held / max(total, 1):.1f} %)"
     )
     for col in ("hub", "centre lng", "centre lat", "orders", "share %"):
         t.add_column(col, justify="right")
