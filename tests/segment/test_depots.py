@@ -299,3 +299,36 @@ def test_a_study_area_placed_away_from_the_requests_names_center(points_table) -
     cfg = override(PlannerConfig(), data__center=(0.5, 0.5))
     with pytest.raises(InputError, match=r"around 0\.50000, 0\.50000.*--center"):
         segment_table(table, cfg)
+
+
+def _two_towns(example_csv, tmp_path, km: float):
+    """300 rows of the example moved onto two points ``km`` apart (east-west)."""
+    lines = example_csv.read_text().splitlines()
+    head = lines[0].split(",")
+    ilng, ilat = head.index("lng"), head.index("lat")
+    rows = []
+    for k, line in enumerate(lines[1:301]):
+        cells = line.split(",")
+        lng = 121.47 + (km / 95.0 if k % 2 else 0.0) + 0.00001 * (k % 5)
+        cells[ilng], cells[ilat] = f"{lng:.6f}", "31.230000"
+        rows.append(",".join(cells))
+    path = tmp_path / "towns.csv"
+    path.write_text("\n".join([lines[0], *rows]) + "\n")
+    return path
+
+
+def test_a_depot_between_two_towns_is_a_warning_naming_n_depots(example_csv, tmp_path) -> None:
+    """k-means' one centroid between two towns 8 km apart serves neither: segment warns,
+    naming the options that place depots where the requests are; two depots are quiet."""
+    import warnings
+
+    from marops_cli.app.segment import segment
+    from marops_cli.config import PlannerConfig, override
+
+    data = _two_towns(example_csv, tmp_path, 8.0)
+    cfg = override(PlannerConfig(), segment__n_depots=1, segment__n_actions=1)
+    with pytest.warns(UserWarning, match=r"depot 0 lies more than 2 km .*4\.0 km.*--n-depots"):
+        segment(data, cfg)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        segment(data, override(cfg, segment__n_depots=2))
