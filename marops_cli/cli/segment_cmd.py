@@ -137,7 +137,8 @@ def segment_command(
 def _print_summary(depots: Depots) -> None:
     f = depots.frame
     t = table(
-        f"{len(depots)} depots around ({f.center_lng:.5f}, {f.center_lat:.5f}), "
+        f"{len(depots)} depot{'s' * (len(depots) != 1)} around ({f.center_lng:.5f}, "
+        f"{f.center_lat:.5f}), "
         f"{f.size_km:g} km square"
     )
     for col in ("depot", "x km", "y km", "history", "candidates"):
