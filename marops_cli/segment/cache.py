@@ -43,7 +43,10 @@ def cache_dir() -> Path | None:
     try:  # a home that cannot be found (~user of no user, no HOME): no cache, no error
         if env:
             return Path(env).expanduser()
-        return (Path(base) if base else Path.home() / ".cache") / "marops"
+        # A relative XDG_CACHE_HOME is invalid (XDG Base Directory): not a folder in
+        # whatever directory the run started from.
+        xdg = Path(base) if base and Path(base).is_absolute() else Path.home() / ".cache"
+        return xdg / "marops"
     except (RuntimeError, KeyError):
         return None
 

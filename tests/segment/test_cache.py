@@ -175,3 +175,14 @@ def test_a_cache_that_cannot_be_stored_leaves_no_temporary_behind(
     path.mkdir(parents=True)  # a folder where the cache file goes
     assert cached_depots(table, DAYS, FRAME, cfg.data, cfg.segment, _depots).xy.shape == (2, 2)
     assert sorted(p.name for p in path.parent.iterdir()) == [path.name]
+
+
+def test_a_relative_xdg_cache_home_is_ignored(tmp_path, monkeypatch):
+    """XDG_CACHE_HOME=cache names no folder (the XDG rule for a relative path): the cache
+    is ~/.cache/marops, not a folder of the directory the run started in."""
+    monkeypatch.delenv("MAROPS_CACHE_DIR", raising=False)
+    monkeypatch.setenv("HOME", str(tmp_path / "home"))
+    monkeypatch.setenv("XDG_CACHE_HOME", "cache")
+    assert cache_dir() == tmp_path / "home" / ".cache" / "marops"
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
+    assert cache_dir() == tmp_path / "xdg" / "marops"
