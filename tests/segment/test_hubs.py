@@ -345,3 +345,26 @@ def test_fewer_hubs_than_asked_for_say_so(example_csv: Path, tmp_path: Path) -> 
     assert "1 hub of 10 km" in text
     assert "warning: --hubs 3: the orders fill only 1 non-overlapping 10 km square" in text
     assert len(json.loads((tmp_path / "h.json").read_text())["hubs"]) == 1
+
+
+@pytest.mark.parametrize(
+    ("extra", "named"),
+    [
+        (["--center", "121.47,31.23"], "--center"),
+        (["--n-depots", "4", "--plot"], "--n-depots, --plot"),
+        (["--method", "squares"], "--method"),
+    ],
+)
+def test_options_of_one_study_area_are_refused_with_hubs(
+    example_csv: Path, tmp_path: Path, extra: list[str], named: str
+) -> None:
+    """--hubs places its squares itself and writes only the hubs file: an option that
+    would be ignored (--center, --n-depots, --plot …) is one line naming it, exit 2,
+    nothing written."""
+    out = tmp_path / "hubs.json"
+    res = runner.invoke(
+        app, ["segment", str(example_csv), "--hubs", "2", *extra, "--out", str(out)]
+    )
+    assert res.exit_code == 2, res.output
+    assert f"drop {named} " in " ".join(res.output.split())
+    assert not out.exists()
