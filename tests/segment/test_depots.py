@@ -332,3 +332,31 @@ def test_a_depot_between_two_towns_is_a_warning_naming_n_depots(example_csv, tmp
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         segment(data, override(cfg, segment__n_depots=2))
+
+
+def test_areas_across_the_antimeridian_are_cut_there_in_geojson() -> None:
+    """A service area across 180° is a MultiPolygon of its parts on either side (RFC
+    7946), never a ring jumping round the globe; areas elsewhere stay Polygons."""
+    from marops_cli.segment import areas_geojson
+
+    xy = np.array([[-2000.0, 0.0], [2000.0, 0.0]])
+    for center, crossing in ((179.99, True), (121.47, False)):
+        dep = Depots(
+            "kmeans",
+            Frame(center, -16.8, 10.0),
+            xy,
+            np.array([1, 1]),
+            np.array([[0], [1]]),
+        )
+        areas = [
+            f
+            for f in areas_geojson(dep, {})["features"]
+            if f["properties"]["kind"] == "service_area"
+        ]
+        kinds = [f["geometry"]["type"] for f in areas]
+        assert kinds == (["Polygon", "MultiPolygon"] if crossing else ["Polygon", "Polygon"])
+        for f in areas:
+            polys = f["geometry"]["coordinates"]
+            for poly in polys if f["geometry"]["type"] == "MultiPolygon" else [polys]:
+                lngs = [c[0] for c in poly[0]]
+                assert min(lngs) >= -180 and max(lngs) <= 180 and max(lngs) - min(lngs) < 1
