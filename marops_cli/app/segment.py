@@ -8,6 +8,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+import numpy as np
+
 from ..config import PlannerConfig
 from ..errors import InputError
 from ..io import output_set, run_meta
@@ -17,8 +19,6 @@ from .messages import drop_report
 from .progress import SILENT, Progress
 
 if TYPE_CHECKING:
-    import numpy as np
-
     from ..data.table import LadeTable
     from ..segment.depots import Depots
     from ..segment.hubs import Hub
@@ -105,6 +105,7 @@ def segment(
     finally:
         progress.finish()
     drop_report(progress, res.table.report, data_name(data))
+    _far_depots(progress, res.depots, res.history_xy)
     # No time stamp: the runs that read a depots file record its SHA-256 and keep their
     # days only while it matches, so segmenting again the same way gives the same bytes.
     meta = run_meta(
@@ -139,6 +140,33 @@ def segment(
             files.write_with(png_path, lambda p: plot_depots(res.depots, res.history_xy, p, title))
     done.files.extend([path, *(p for p, want in ((gj_path, geojson), (png_path, plot)) if want)])
     return done
+
+
+FAR_DEPOT_M = 2000.0
+"""How far from every history request a depot may lie before ``segment`` warns: a
+k-means centroid between clusters (across a river, between two towns) serves none. Well above
+what a sparse single day of history leaves between a centroid and its nearest request
+(under 0.8 km over the example's and the synthetic cities' days)."""
+
+
+def _far_depots(progress: Progress, depots: Depots, history_xy: np.ndarray) -> None:
+    """Warn of the k-means depots no history request lies near, naming the options that
+    place depots where the requests are."""
+    from ..segment.depots import nearest_depot
+
+    if depots.method != "kmeans" or not history_xy.size:
+        return  # squares' depots sit on a grid whatever the requests
+    _, dist = nearest_depot(depots.xy, history_xy)
+    far = np.flatnonzero(dist > FAR_DEPOT_M)
+    if far.size:
+        worst = int(far[np.argmax(dist[far])])
+        ids = ", ".join(str(int(i)) for i in far[:8]) + (", …" if far.size > 8 else "")
+        progress.warning(
+            f"depot{'s' * (far.size > 1)} {ids} lie{'s' * (far.size == 1)} more than "
+            f"{FAR_DEPOT_M / 1000:g} km from every history request (depot {worst}: "
+            f"{dist[worst] / 1000:,.1f} km), between clusters of requests; more --n-depots, "
+            "a smaller --size-km or --center places depots where the requests are"
+        )
 
 
 def hub_count(text: str | int) -> int | None:

@@ -18,6 +18,7 @@ from .common import (
     protect_inputs,
     show_table,
     table,
+    warn,
 )
 from .progress import Terminal
 
@@ -94,6 +95,18 @@ def segment_command(
     from ..app.segment import segment as segment_data
 
     if hubs is not None:
+        _refuse_with_hubs(
+            hubs,
+            {
+                "--center": center,
+                "--n-depots": n_depots,
+                "--method": method,
+                "--actions": actions,
+                "--seed": seed,
+                "--geojson": geojson or None,
+                "--plot": plot or None,
+            },
+        )
         _segment_hubs(data, out, hubs, size_km, dates, year, strict, config)
         return
     check_json_out(out, "depots")
@@ -133,10 +146,27 @@ def segment_command(
         )
 
 
+def _refuse_with_hubs(hubs: str, given: dict[str, object]) -> None:
+    """``--hubs`` writes only the hubs file: an option of one study area's depots, which
+    it would ignore, is refused naming it (after a bad ``--hubs``, the first error)."""
+    from ..app.segment import hub_count
+    from ..errors import InputError
+
+    hub_count(hubs)
+    moot = [k for k, v in given.items() if v is not None]
+    if moot:
+        raise InputError(
+            f"--hubs places the study areas itself and writes only the hubs file: drop "
+            f"{', '.join(moot)} (each hub's depots are segmented when replay-day --hubs "
+            "runs it)"
+        )
+
+
 def _print_summary(depots: Depots) -> None:
     f = depots.frame
     t = table(
-        f"{len(depots)} depots around ({f.center_lng:.5f}, {f.center_lat:.5f}), "
+        f"{len(depots)} depot{'s' * (len(depots) != 1)} around ({f.center_lng:.5f}, "
+        f"{f.center_lat:.5f}), "
         f"{f.size_km:g} km square"
     )
     for col in ("depot", "x km", "y km", "history", "candidates"):
@@ -160,9 +190,15 @@ def _segment_hubs(  # type: ignore[no-untyped-def]
     cfg = planner_config(config, year=year, size_km=size_km, strict=strict)
     res = segment_hubs(data, cfg, hubs, days=dates, out=out, progress=Terminal())
     held, total = sum(h.orders for h in res.hubs), res.total
+    asked = hub_count(hubs)
+    if asked is not None and len(res.hubs) < asked:
+        warn(
+            f"--hubs {asked}: the orders fill only {len(res.hubs)} non-overlapping "
+            f"{cfg.data.size_km:g} km square{'s' * (len(res.hubs) != 1)}"
+        )
     t = table(
-        f"{len(res.hubs)} hubs of {cfg.data.size_km:g} km, holding {held:,} of {total:,} "
-        f"orders ({100 * held / max(total, 1):.1f} %)"
+        f"{len(res.hubs)} hub{'s' * (len(res.hubs) != 1)} of {cfg.data.size_km:g} km, "
+        f"holding {held:,} of {total:,} orders ({100 * held / max(total, 1):.1f} %)"
     )
     for col in ("hub", "centre lng", "centre lat", "orders", "share %"):
         t.add_column(col, justify="right")

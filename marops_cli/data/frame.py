@@ -39,14 +39,15 @@ class Frame:
         return EARTH_RADIUS_M * math.pi / 180.0
 
     def to_xy(self, lng: np.ndarray, lat: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Degrees -> metres in this frame."""
-        x = (np.asarray(lng, dtype=np.float64) - self.center_lng) * self._kx
+        """Degrees -> metres in this frame. Longitudes are taken the short way round, so
+        a study area across the antimeridian (180°) holds the requests on both sides."""
+        x = (_wrap(np.asarray(lng, dtype=np.float64) - self.center_lng)) * self._kx
         y = (np.asarray(lat, dtype=np.float64) - self.center_lat) * self._ky
         return x, y
 
     def to_lnglat(self, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Metres in this frame -> degrees."""
-        lng = np.asarray(x, dtype=np.float64) / self._kx + self.center_lng
+        """Metres in this frame -> degrees (longitudes in -180..180)."""
+        lng = _wrap(np.asarray(x, dtype=np.float64) / self._kx + self.center_lng)
         lat = np.asarray(y, dtype=np.float64) / self._ky + self.center_lat
         return lng, lat
 
@@ -63,6 +64,22 @@ class Frame:
         }
 
 
+def _wrap(deg: np.ndarray) -> np.ndarray:
+    """Longitudes (or their differences) brought into -180..180; values already there are
+    returned untouched, to the last bit."""
+    out = np.where(deg > 180.0, deg - 360.0, deg)
+    return np.where(out < -180.0, out + 360.0, out)
+
+
+def _median_lng(lng: np.ndarray) -> float:
+    """The median longitude, or, for a city across the antimeridian whose plain median
+    falls on the far side of the globe, the median taken on 0..360."""
+    plain = float(np.median(lng))
+    if np.abs(_wrap(lng - plain)).min() * 111.32 <= 150.0:
+        return plain
+    return float(_wrap(np.array(np.median(np.mod(lng, 360.0)))))
+
+
 MAX_GRID_CELLS = 16_000_000
 """Cells the densest-square search may count (128 MB, and as much for its sums): a 10 m
 step over 40 km."""
@@ -77,7 +94,7 @@ def _square_grid(
     lat = np.asarray(lat, dtype=np.float64)
     if lng.size == 0:
         raise ValueError("no points to place a study area on")
-    ref = Frame(float(np.median(lng)), float(np.median(lat)), size_km)
+    ref = Frame(_median_lng(lng), float(np.median(lat)), size_km)
     x, y = ref.to_xy(lng, lat)
     # Points far from the bulk (another city, a bad fix) would only blow up the grid.
     keep = (np.abs(x) <= 150_000) & (np.abs(y) <= 150_000)

@@ -36,6 +36,30 @@ def _ring(cell: Any) -> list[tuple[float, float]]:
     return [(float(x), float(y)) for x, y in list(coords)[:-1]]
 
 
+def _rounded(lng: Any, lat: Any) -> list[list[float]]:
+    return [[round(float(a), 7), round(float(b), 7)] for a, b in zip(lng, lat, strict=True)]
+
+
+def _area_geometry(lng: np.ndarray, lat: np.ndarray, center_lng: float) -> dict[str, Any]:
+    """A service area's ring as GeoJSON: a Polygon, or, for an area across the
+    antimeridian, a MultiPolygon of its parts on either side (RFC 7946 §3.1.9), so no
+    ring jumps from 180° to -180° around the globe."""
+    unwrapped = center_lng + (lng - center_lng + 180.0) % 360.0 - 180.0
+    if unwrapped.max() <= 180.0 and unwrapped.min() >= -180.0:
+        return {"type": "Polygon", "coordinates": [_rounded(lng, lat)]}
+    import shapely
+
+    whole = shapely.Polygon(np.column_stack([unwrapped, lat]))
+    parts = []
+    for shift in (-360.0, 0.0, 360.0):
+        piece = whole.intersection(shapely.box(-180.0 - shift, -90.0, 180.0 - shift, 90.0))
+        for part in shapely.get_parts(piece):
+            if part.geom_type == "Polygon" and not part.is_empty:
+                xy = np.asarray(shapely.orient_polygons(part).exterior.coords)
+                parts.append([_rounded(xy[:, 0] + shift, xy[:, 1])])
+    return {"type": "MultiPolygon", "coordinates": parts}
+
+
 def areas_geojson(depots: Depots, meta: dict[str, Any]) -> dict[str, Any]:
     """A GeoJSON FeatureCollection of depots (points) and service areas (polygons)."""
     features: list[dict[str, Any]] = []
@@ -44,14 +68,11 @@ def areas_geojson(depots: Depots, meta: dict[str, Any]) -> dict[str, Any]:
         if poly:
             arr = np.array(poly + [poly[0]])
             plng, plat = depots.frame.to_lnglat(arr[:, 0], arr[:, 1])
-            ring = [
-                [round(float(a), 7), round(float(b), 7)] for a, b in zip(plng, plat, strict=True)
-            ]
             features.append(
                 {
                     "type": "Feature",
                     "properties": {"kind": "service_area", "depot": i},
-                    "geometry": {"type": "Polygon", "coordinates": [ring]},
+                    "geometry": _area_geometry(plng, plat, depots.frame.center_lng),
                 }
             )
         features.append(

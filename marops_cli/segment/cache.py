@@ -12,6 +12,7 @@ ever saves time.
 
 from __future__ import annotations
 
+import contextlib
 import datetime as dt
 import hashlib
 import json
@@ -33,14 +34,21 @@ _FORMAT = 1  # bump when the stored arrays change meaning
 
 
 def cache_dir() -> Path | None:
-    """Where depots are cached; None when ``MAROPS_CACHE_DIR=off``."""
+    """Where depots are cached; None when ``MAROPS_CACHE_DIR=off`` or when it names a
+    home that cannot be found."""
     env = os.environ.get("MAROPS_CACHE_DIR", "").strip()
     if env.lower() in ("off", "0", "none", "false"):
         return None
-    if env:
-        return Path(env).expanduser()
     base = os.environ.get("XDG_CACHE_HOME", "").strip()
-    return (Path(base) if base else Path.home() / ".cache") / "marops"
+    try:  # a home that cannot be found (~user of no user, no HOME): no cache, no error
+        if env:
+            return Path(env).expanduser()
+        # A relative XDG_CACHE_HOME is invalid (XDG Base Directory): not a folder in
+        # whatever directory the run started from.
+        xdg = Path(base) if base and Path(base).is_absolute() else Path.home() / ".cache"
+        return xdg / "marops"
+    except (RuntimeError, KeyError):
+        return None
 
 
 def depots_key(
@@ -63,15 +71,19 @@ def depots_key(
     return hashlib.sha256(json.dumps(doc, sort_keys=True).encode()).hexdigest()
 
 
-def _load(path: Path, frame: Frame) -> Depots | None:
+def _load(path: Path, key: str, frame: Frame, segment: SegmentConfig) -> Depots | None:
     """The cached depots, or None (segment again, and cache anew) when the file is
-    unreadable, from another format, or holds what no segmentation makes: a damaged
-    or edited cache must not stop a run, nor move its depots."""
+    unreadable, from another format, made for another key (a file copied or renamed
+    into the cache), or holds what no segmentation makes: a damaged or edited cache
+    must not stop a run, nor move its depots."""
     try:
         with np.load(path, allow_pickle=False) as z:
+            stored = str(z["key"])
             method = str(z["method"])
             xy, n_hist, cand = z["xy"], z["n_history"], z["candidates"]
     except Exception:  # noqa: BLE001 - zip, format and dtype errors alike mean a miss
+        return None
+    if stored != key or method != segment.method:
         return None
     if not _plausible(xy, n_hist, cand, frame):
         return None
@@ -102,13 +114,16 @@ def _plausible(xy: np.ndarray, n_hist: np.ndarray, cand: np.ndarray, frame: Fram
     )
 
 
-def _store(path: Path, depots: Depots) -> None:
+def _store(path: Path, key: str, depots: Depots) -> None:
+    """Cache ``depots`` at ``path`` under a temporary name then renamed; where that
+    fails (a full disk, a folder in the way) nothing is left behind."""
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
         with tmp.open("wb") as fh:
             np.savez(
                 fh,
+                key=np.array(key),
                 method=np.array(depots.method),
                 xy=depots.xy,
                 n_history=depots.n_history,
@@ -116,7 +131,8 @@ def _store(path: Path, depots: Depots) -> None:
             )
         os.replace(tmp, path)
     except OSError:
-        return
+        with contextlib.suppress(OSError):
+            tmp.unlink(missing_ok=True)
 
 
 def cached_depots(
@@ -137,9 +153,9 @@ def cached_depots(
     key = depots_key(f"{table.source.sha256}:{rows}", days, frame, data, segment)
     path = root / "depots" / f"{key}.npz"
     if path.is_file():
-        hit = _load(path, frame)
+        hit = _load(path, key, frame, segment)
         if hit is not None:
             return hit
     depots = make()
-    _store(path, depots)
+    _store(path, key, depots)
     return depots

@@ -39,7 +39,10 @@ def history_points(
     inside = frame.contains(x, y)
     if not inside.any():
         raise InputError(
-            "the study area holds no requests on the chosen days", file=table.source.path
+            f"the study area ({frame.size_km:g} km square around {frame.center_lng:.5f}, "
+            f"{frame.center_lat:.5f}) holds no requests on the chosen days; place it over "
+            "them with --center (or [data] center) and --size-km",
+            file=table.source.path,
         )
     return np.column_stack([x[inside], y[inside]]), days
 

@@ -236,3 +236,11 @@ def test_segment_of_a_file_named_in_another_encoding_writes_its_name_escaped(
     )
     assert res.exit_code == 0, res.output
     assert json.loads(out.read_text(encoding="utf-8"))["meta"]["input"]["name"] == name
+
+
+def test_one_depot_reads_one_depot(example_csv: Path, tmp_path: Path) -> None:
+    res = runner.invoke(
+        app, ["segment", str(example_csv), "--n-depots", "1", "--out", str(tmp_path / "d.json")]
+    )
+    assert res.exit_code == 0, res.output
+    assert "1 depot around" in " ".join(res.output.split())

@@ -82,3 +82,31 @@ def test_a_grid_too_fine_for_the_city_names_the_step() -> None:
         densest_square(lng, lat, 5.0, 10.0)
     assert err.value.key == "data.grid_m" and "a step of at least" in str(err.value)
     assert densest_square(lng, lat, 5.0, 250.0).size_km == 5.0  # the default step is fine
+
+
+def test_a_city_across_the_antimeridian_is_one_study_area() -> None:
+    """Requests on both sides of 180° lie side by side: the densest square holds them
+    all, and positions map back to longitudes in -180..180."""
+    rng = np.random.default_rng(3)
+    east = 179.99 + rng.uniform(-0.005, 0.005, 500)
+    west = -179.99 + rng.uniform(-0.005, 0.005, 500)  # evenly split: the plain median is 0
+    lng, lat = np.r_[east, west], -16.8 + rng.uniform(-0.01, 0.01, 1000)
+    f = densest_square(lng, lat, 10.0)
+    assert abs(f.center_lng) > 179.9
+    x, y = f.to_xy(lng, lat)
+    assert f.contains(x, y).sum() >= 995  # both sides (the square's very edge aside)
+    back, _ = f.to_lnglat(x, y)
+    np.testing.assert_allclose(back, lng, rtol=0, atol=1e-9)
+    assert np.abs(back).max() <= 180.0
+    # 0.02° of longitude apart across the line, as two points 0.02° apart elsewhere.
+    x2, _ = Frame(180.0, -16.8, 10.0).to_xy(np.array([179.99, -179.99]), np.array([0.0, 0.0]))
+    np.testing.assert_allclose(x2[1] - x2[0], 0.02 * Frame(0, -16.8, 1)._kx, rtol=1e-9)
+
+
+def test_longitudes_away_from_the_antimeridian_map_as_before() -> None:
+    f = Frame(121.47, 31.23, 10.0)
+    lng = 121.47 + np.random.default_rng(0).uniform(-0.2, 0.2, 1000)
+    x, _ = f.to_xy(lng, np.zeros(1000))
+    assert x.tobytes() == ((lng - 121.47) * f._kx).tobytes()
+    back, _ = f.to_lnglat(x, np.zeros(1000))
+    assert back.tobytes() == (x / f._kx + 121.47).tobytes()

@@ -123,3 +123,66 @@ def test_a_damaged_or_edited_cache_is_a_miss(tmp_path, monkeypatch, points_table
         assert made == [name] and got.xy.tobytes() == good.xy.tobytes(), name
         assert cached_depots(*key, make).xy.tobytes() == good.xy.tobytes()
         assert made == [name], name  # cached anew: the next run is a hit
+
+
+def test_a_cache_folder_under_an_unknown_home_is_no_cache(monkeypatch, points_table):
+    """``~nosuchuser/…`` (or no home at all) cannot be expanded: the run segments
+    without the cache rather than stopping on a traceback."""
+    cfg = PlannerConfig()
+    key = (points_table([121.47] * 3, [31.23] * 3, "abc"), DAYS, FRAME, cfg.data, cfg.segment)
+    monkeypatch.setenv("MAROPS_CACHE_DIR", "~no-such-user-of-marops/cache")
+    assert cache_dir() is None
+    assert cached_depots(*key, _depots).xy.shape == (2, 2)
+
+
+def _key_path(root: Path, table, cfg: PlannerConfig) -> Path:
+    import hashlib
+
+    rows = hashlib.sha256(np.ascontiguousarray(table.row).tobytes()).hexdigest()
+    key = depots_key(f"{table.source.sha256}:{rows}", DAYS, FRAME, cfg.data, cfg.segment)
+    return root / "depots" / f"{key}.npz"
+
+
+def test_a_cache_file_of_other_depots_under_this_key_is_a_miss(tmp_path, monkeypatch, points_table):
+    """A file copied or renamed into the cache (well-formed, but made for other inputs)
+    is never taken for these depots: the run segments again and caches anew."""
+    monkeypatch.setenv("MAROPS_CACHE_DIR", str(tmp_path))
+    cfg = override(PlannerConfig(), segment__n_depots=2, segment__n_actions=2)
+    table = points_table([121.47] * 3, [31.23] * 3, "abc")
+    path = _key_path(tmp_path, table, cfg)
+    path.parent.mkdir(parents=True)
+    other = np.array([[5.0, 5.0], [-7.0, 9.0]])
+    np.savez(
+        path,
+        method=np.array("kmeans"),
+        xy=other,
+        n_history=np.array([9, 1]),
+        candidates=nearest_candidates(other, 2),
+    )
+    got = cached_depots(table, DAYS, FRAME, cfg.data, cfg.segment, _depots)
+    assert got.xy.tobytes() == _depots().xy.tobytes()
+    again = cached_depots(table, DAYS, FRAME, cfg.data, cfg.segment, lambda: 1 / 0)
+    assert again.xy.tobytes() == _depots().xy.tobytes()  # the file now holds these
+
+
+def test_a_cache_that_cannot_be_stored_leaves_no_temporary_behind(
+    tmp_path, monkeypatch, points_table
+):
+    monkeypatch.setenv("MAROPS_CACHE_DIR", str(tmp_path))
+    cfg = PlannerConfig()
+    table = points_table([121.47] * 3, [31.23] * 3, "abc")
+    path = _key_path(tmp_path, table, cfg)
+    path.mkdir(parents=True)  # a folder where the cache file goes
+    assert cached_depots(table, DAYS, FRAME, cfg.data, cfg.segment, _depots).xy.shape == (2, 2)
+    assert sorted(p.name for p in path.parent.iterdir()) == [path.name]
+
+
+def test_a_relative_xdg_cache_home_is_ignored(tmp_path, monkeypatch):
+    """XDG_CACHE_HOME=cache names no folder (the XDG rule for a relative path): the cache
+    is ~/.cache/marops, not a folder of the directory the run started in."""
+    monkeypatch.delenv("MAROPS_CACHE_DIR", raising=False)
+    monkeypatch.setenv("HOME", str(tmp_path / "home"))
+    monkeypatch.setenv("XDG_CACHE_HOME", "cache")
+    assert cache_dir() == tmp_path / "home" / ".cache" / "marops"
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
+    assert cache_dir() == tmp_path / "xdg" / "marops"

@@ -287,3 +287,76 @@ def test_a_depot_moved_in_degrees_alone_is_refused(tmp_path) -> None:
     says = r"key 'depots\[2\]\.lng': depot 2's lng/lat lie 1,1\d\d m"
     with pytest.raises(InputError, match=says):
         Depots.load(path)
+
+
+def test_a_study_area_placed_away_from_the_requests_names_center(points_table) -> None:
+    """--center where no request is: the one line says where the square is and which
+    option moves it."""
+    from marops_cli.config import PlannerConfig, override
+    from marops_cli.segment.run import segment_table
+
+    table = points_table([121.47, 121.48], [31.23, 31.24], "abc")
+    cfg = override(PlannerConfig(), data__center=(0.5, 0.5))
+    with pytest.raises(InputError, match=r"around 0\.50000, 0\.50000.*--center"):
+        segment_table(table, cfg)
+
+
+def _two_towns(example_csv, tmp_path, km: float):
+    """300 rows of the example moved onto two points ``km`` apart (east-west)."""
+    lines = example_csv.read_text().splitlines()
+    head = lines[0].split(",")
+    ilng, ilat = head.index("lng"), head.index("lat")
+    rows = []
+    for k, line in enumerate(lines[1:301]):
+        cells = line.split(",")
+        lng = 121.47 + (km / 95.0 if k % 2 else 0.0) + 0.00001 * (k % 5)
+        cells[ilng], cells[ilat] = f"{lng:.6f}", "31.230000"
+        rows.append(",".join(cells))
+    path = tmp_path / "towns.csv"
+    path.write_text("\n".join([lines[0], *rows]) + "\n")
+    return path
+
+
+def test_a_depot_between_two_towns_is_a_warning_naming_n_depots(example_csv, tmp_path) -> None:
+    """k-means' one centroid between two towns 8 km apart serves neither: segment warns,
+    naming the options that place depots where the requests are; two depots are quiet."""
+    import warnings
+
+    from marops_cli.app.segment import segment
+    from marops_cli.config import PlannerConfig, override
+
+    data = _two_towns(example_csv, tmp_path, 8.0)
+    cfg = override(PlannerConfig(), segment__n_depots=1, segment__n_actions=1)
+    with pytest.warns(UserWarning, match=r"depot 0 lies more than 2 km .*4\.0 km.*--n-depots"):
+        segment(data, cfg)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        segment(data, override(cfg, segment__n_depots=2))
+
+
+def test_areas_across_the_antimeridian_are_cut_there_in_geojson() -> None:
+    """A service area across 180° is a MultiPolygon of its parts on either side (RFC
+    7946), never a ring jumping round the globe; areas elsewhere stay Polygons."""
+    from marops_cli.segment import areas_geojson
+
+    xy = np.array([[-2000.0, 0.0], [2000.0, 0.0]])
+    for center, crossing in ((179.99, True), (121.47, False)):
+        dep = Depots(
+            "kmeans",
+            Frame(center, -16.8, 10.0),
+            xy,
+            np.array([1, 1]),
+            np.array([[0], [1]]),
+        )
+        areas = [
+            f
+            for f in areas_geojson(dep, {})["features"]
+            if f["properties"]["kind"] == "service_area"
+        ]
+        kinds = [f["geometry"]["type"] for f in areas]
+        assert kinds == (["Polygon", "MultiPolygon"] if crossing else ["Polygon", "Polygon"])
+        for f in areas:
+            polys = f["geometry"]["coordinates"]
+            for poly in polys if f["geometry"]["type"] == "MultiPolygon" else [polys]:
+                lngs = [c[0] for c in poly[0]]
+                assert min(lngs) >= -180 and max(lngs) <= 180 and max(lngs) - min(lngs) < 1

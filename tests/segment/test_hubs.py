@@ -322,3 +322,49 @@ def test_a_hub_too_sparse_for_its_depots_is_named(example_csv, tmp_path, fails_c
     if command == "evaluate":
         args += ["--methods", "stay"]
     fails_cleanly(args, tmp_path, "setting segment.n_depots: hub 1: 16 depots asked for")
+
+
+def test_fewer_hubs_than_asked_for_say_so(example_csv: Path, tmp_path: Path) -> None:
+    """A town that fits in one square gives one hub, whatever --hubs asks: the table
+    says "1 hub" and a warning says why the others are missing."""
+    lines = example_csv.read_text().splitlines()
+    head = lines[0].split(",")
+    ilng, ilat = head.index("lng"), head.index("lat")
+    rows = []
+    for k, line in enumerate(lines[1:301]):
+        cells = line.split(",")
+        cells[ilng], cells[ilat] = f"{121.47 + 0.0001 * (k % 7):.6f}", "31.230000"
+        rows.append(",".join(cells))
+    town = tmp_path / "town.csv"
+    town.write_text("\n".join([lines[0], *rows]) + "\n")
+    res = runner.invoke(
+        app, ["segment", str(town), "--hubs", "3", "--out", str(tmp_path / "h.json")]
+    )
+    assert res.exit_code == 0, res.output
+    text = " ".join(res.output.split())
+    assert "1 hub of 10 km" in text
+    assert "warning: --hubs 3: the orders fill only 1 non-overlapping 10 km square" in text
+    assert len(json.loads((tmp_path / "h.json").read_text())["hubs"]) == 1
+
+
+@pytest.mark.parametrize(
+    ("extra", "named"),
+    [
+        (["--center", "121.47,31.23"], "--center"),
+        (["--n-depots", "4", "--plot"], "--n-depots, --plot"),
+        (["--method", "squares"], "--method"),
+    ],
+)
+def test_options_of_one_study_area_are_refused_with_hubs(
+    example_csv: Path, tmp_path: Path, extra: list[str], named: str
+) -> None:
+    """--hubs places its squares itself and writes only the hubs file: an option that
+    would be ignored (--center, --n-depots, --plot …) is one line naming it, exit 2,
+    nothing written."""
+    out = tmp_path / "hubs.json"
+    res = runner.invoke(
+        app, ["segment", str(example_csv), "--hubs", "2", *extra, "--out", str(out)]
+    )
+    assert res.exit_code == 2, res.output
+    assert f"drop {named} " in " ".join(res.output.split())
+    assert not out.exists()
