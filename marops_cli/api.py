@@ -7,8 +7,9 @@ as a pandas ``DataFrame`` or a ``pyarrow.Table`` with the export's columns (read
 checked as a file is; errors name ``DataFrame`` or ``Table``). Results are in memory:
 tables as ``pyarrow.Table`` (``.to_pandas()``, ``polars.from_arrow``) carrying the
 files' ``marops`` metadata, metrics as dictionaries. Nothing is written unless
-``out`` is given, then exactly the files its command writes there; nothing is printed
-(warnings are :mod:`warnings`); errors are raised as
+``out`` is given, then exactly the files its command writes there (``plot``,
+``geojson`` and ``report`` ask for files: without ``out`` they are an InputError);
+nothing is printed (warnings are :mod:`warnings`); errors are raised as
 :class:`marops_cli.errors.InputError` (bad input) or
 :class:`marops_cli.errors.MaropsError`. Depots segmented from a file are cached as the
 commands cache them (``MAROPS_CACHE_DIR``, docs/outputs.md "Depots cache"); from data
@@ -231,6 +232,21 @@ def _did_you_mean(sig: inspect.Signature, kwargs: dict[str, Any]) -> str:
     return ""
 
 
+def _files_asked(fn: str, out: Any, **asked: bool) -> None:
+    """Refuse a keyword that asks for a file (``plot``, ``geojson``, ``report``) without
+    ``out``: nothing is written without it, so the figure or map asked for would be
+    silently missing (and nothing is drawn to find that out)."""
+    from .errors import InputError
+
+    if out is None:
+        for name, wanted in asked.items():
+            if wanted:
+                raise InputError(
+                    f"{fn}(): {name}=True writes files into out, and nothing is written "
+                    "without it; pass out (a folder) or leave it False"
+                )
+
+
 def _shown(value: Any) -> str:
     from .config import clipped
 
@@ -310,6 +326,7 @@ def segment(
     from .io.atomic import dumps_json
     from .io.ownership import replacing_foreign_files
 
+    _files_asked("segment", out, geojson=geojson, plot=plot)
     with replacing_foreign_files(force):
         if hubs is not None:
             cfg = planner_config(config, year=year, size_km=size_km, strict=strict)
@@ -364,6 +381,7 @@ def plan_window(
     from .data.dates import parse_day
     from .io.ownership import replacing_foreign_files
 
+    _files_asked("plan_window", out, geojson=geojson, report=report)
     cfg = planner_config(
         config,
         year=year,
@@ -428,6 +446,7 @@ def replay_day(
     from .data.dates import parse_day
     from .io.ownership import replacing_foreign_files
 
+    _files_asked("replay_day", out, geojson=geojson, plot=plot, report=report)
     opts = ReplayOptions(method, fmt, plot, geojson, force, keep_tables=True, report=report)
     check_options(opts)
     cfg = replay_config(
@@ -532,6 +551,7 @@ def evaluate(
     from .io.ownership import replacing_foreign_files
     from .segment.hubs import load_hubs
 
+    _files_asked("evaluate", out, report=report)
     cfg = planner_config(config, year=year, strict=strict, seed=seed, trust_actor=trust_actor)
     days = parse_days(_text(dates) or "", cfg.data.year, "--dates") if dates else None
     if days and split:

@@ -325,3 +325,28 @@ def test_api_an_empty_path_is_an_input_error_not_the_current_folder(
     with pytest.raises(InputError, match=r"replay_day\(\): out expects a path, got str ''"):
         marops.replay_day(example_csv, "0811", out="")
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize(
+    ("call", "message"),
+    [
+        (lambda d: marops.segment(d, plot=True), r"^segment\(\): plot=True writes files into out"),
+        (lambda d: marops.segment(d, geojson=True, hubs=2), r"^segment\(\): geojson=True"),
+        (lambda d: marops.plan_window(d, "d.json", "0811", 5, geojson=True), r"geojson=True"),
+        (lambda d: marops.plan_window(d, "d.json", "0811", 5, report=True), r"report=True"),
+        (lambda d: marops.replay_day(d, "0811", plot=True), r"^replay_day\(\): plot=True"),
+        (lambda d: marops.replay_day(d, "0811", geojson=True), r"geojson=True writes files"),
+        (lambda d: marops.replay_day(d, "0811", report=True), r"report=True writes files"),
+        (lambda d: marops.evaluate(d, report=True, workers=1), r"^evaluate\(\): report=True"),
+    ],
+)
+def test_api_a_file_asked_for_without_out_is_an_input_error(
+    example_csv: Path, tmp_path: Path, monkeypatch, call, message
+) -> None:
+    # Nothing is written without out: a figure, map or page asked for would be silently
+    # missing, so asking for one without out is refused before any work.
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(InputError, match=message) as err:
+        call(example_csv)
+    assert "pass out" in str(err.value) and "\n" not in str(err.value)
+    assert list(tmp_path.iterdir()) == []
