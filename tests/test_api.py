@@ -206,11 +206,19 @@ def test_api_plan_window_out_is_a_folder_as_the_flag_is(example_csv: Path, tmp_p
 
 def test_api_evaluate_returns_the_paired_comparison_with_against(example_csv: Path) -> None:
     # `against` pairs each method's days with the reference's: the table paired.csv
-    # holds, here in memory without `out`.
-    ev = marops.evaluate(
-        example_csv, methods="stay,ops-global", dates="0811", against="ops-global", workers=1
-    )
+    # holds, here in memory without `out`; a comparison over one day warns, as the
+    # command does, at the caller's line.
+    import warnings
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        ev = marops.evaluate(
+            example_csv, methods="stay,ops-global", dates="0811", against="ops-global", workers=1
+        )
     assert ev.paired is not None and ev.folder is None
+    few = [w for w in caught if "backs the paired comparison" in str(w.message)]
+    assert len(few) == 1 and few[0].filename == __file__
+    assert str(few[0].message).startswith("only 1 day backs the paired comparison (fewer than")
     rows = ev.paired.to_pylist()
     assert {r["against"] for r in rows} == {"ops-global"} and rows[0]["days"] == 1
     assert marops.evaluate(example_csv, methods="stay", dates="0811", workers=1).paired is None
