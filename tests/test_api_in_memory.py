@@ -101,6 +101,9 @@ def test_a_table_in_memory_is_checked_as_a_file_is(depots: Path, example_csv: Pa
         marops.read_lade(bad)
     with pytest.raises(InputError, match="has no data rows"):
         marops.read_lade(rows.slice(0, 0))
+    # A day the rows do not hold is said to be missing from them, not from a file.
+    with pytest.raises(InputError, match=r"^Table, .*: date 2022-01-01 not in the Table \(it has"):
+        marops.replay_day(rows, "0101", depots=depots)
 
 
 def test_a_frame_reads_its_lade_columns_as_a_file_does(example_csv: Path) -> None:
