@@ -124,6 +124,9 @@ def test_a_frame_reads_its_lade_columns_as_a_file_does(example_csv: Path) -> Non
     assert "X3" in rows.column("order_id").to_pylist() and 7 not in rows.column("row").to_pylist()
     with pytest.raises(InputError, match=r"^DataFrame, row 7, column 'lat': row would be dropped"):
         marops.read_lade(mixed, strict=True)
+    # A LaDe column made the frame's index (set_index) is named as such.
+    with pytest.raises(InputError, match=r"^DataFrame, row 1, column 'order_id': .*frame's index"):
+        marops.read_lade(frame.set_index(["courier_id", "order_id"]))
     twice = pd.concat([frame, frame[["lat"]]], axis=1)
     with pytest.raises(InputError, match="column 'lat' appears 2 times"):
         marops.read_lade(twice)

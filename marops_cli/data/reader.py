@@ -595,6 +595,16 @@ def _frame_table(frame: Any, where: str) -> pa.Table:
     read (as a file's are not), and a column of mixed cells (numbers and words, as
     frames joined together hold) is read as its text, as a file's cells are."""
     names = [str(n) for n in frame.columns]
+    in_index = [str(n) for n in getattr(frame.index, "names", []) if n is not None]
+    for name in REQUIRED_COLUMNS:  # set_index("order_id") moves a column out of the rows
+        if name not in names and name in in_index:
+            raise InputError(
+                f"missing required column '{name}': it is the frame's index; pass "
+                "frame.reset_index() to read it as a column",
+                file=where,
+                row=1,
+                column=name,
+            )
     include = _check_columns(names, Path(where))
     columns = {}
     for name in include:
