@@ -358,3 +358,16 @@ def test_api_a_file_asked_for_without_out_is_an_input_error(
         call(example_csv)
     assert "pass out" in str(err.value) and "\n" not in str(err.value)
     assert list(tmp_path.iterdir()) == []
+
+
+def test_api_evaluate_results_carry_the_files_metadata(example_csv: Path, tmp_path: Path) -> None:
+    # As every table the API returns: results carries results.parquet's marops metadata
+    # (package, config, input, settings), with out and without.
+    ev = marops.evaluate(
+        example_csv, methods="stay", dates="0811", out=tmp_path, workers=1, plots=False
+    )
+    from_file = pq.read_table(tmp_path / "results.parquet")
+    assert ev.results.schema.metadata[b"marops"] == from_file.schema.metadata[b"marops"]
+    assert ev.results.equals(from_file)
+    in_memory = marops.evaluate(example_csv, methods="stay", dates="0811", workers=1)
+    assert in_memory.results.schema.metadata[b"marops"] == from_file.schema.metadata[b"marops"]
