@@ -59,7 +59,9 @@ class DayResult:
     routes: pa.Table
     metrics: dict[str, Any]
     """The day's ``metrics.json`` record (``replay_day``), or the window's solver and
-    objective (``plan_window``)."""
+    objective (``plan_window``: ``objective`` holds the window objective ``J`` and its
+    part ``G`` in joules, not the MJ of ``metrics.json``; ``energy_j``, its routes' energy
+    in joules; ``served`` and ``pending``, counts of requests)."""
     folder: Path | None
     """Where the files are (None when nothing was written)."""
 

@@ -82,6 +82,11 @@ def test_api_runs_what_the_cli_runs(example_csv: Path, tmp_path: Path, capsys) -
     assert window.folder is None  # a temporary folder, gone
     assert set(window.routes.column("window").to_pylist()) == {5}
     assert window.metrics["objective"]["G"] > 0
+    # The window's objective is in joules, its energy the routes' (DayResult.metrics).
+    score = window.metrics["objective"]
+    assert score["energy_j"] == pytest.approx(pc.sum(window.routes.column("energy_j")).as_py())
+    assert score["served"] == pc.sum(window.routes.column("n_parcels")).as_py()
+    assert score["J"] > score["energy_j"] > 1e5  # joules, not MJ
     captured = capsys.readouterr()
     assert captured.out == ""  # nothing printed by the API
 
