@@ -301,6 +301,8 @@ def _read_parquet(path: Path) -> pa.Table:
 def _numbers(column: pa.ChunkedArray) -> np.ndarray:
     """A column of numbers or numeric text -> float64, NaN where empty or not a number."""
     arr = column.combine_chunks()
+    if pa.types.is_decimal(arr.type):  # read by its digits, as a CSV's: Arrow's own cast
+        arr = arr.cast(pa.string())  # to float64 may miss the nearest double by one ulp
     if not is_text(arr.type):
         # Unchecked: an integer beyond 2**53 (no coordinate) rounds, then reads as bad.
         return arr.cast(pa.float64(), safe=False).to_numpy(zero_copy_only=False)
