@@ -205,3 +205,15 @@ def test_decimal_coordinates_read_as_their_digits(example_csv: Path) -> None:
     got, want = marops.read_lade(table), marops.read_lade(frame)
     assert got.column("lng").equals(want.column("lng"))
     assert got.column("lat").equals(want.column("lat"))
+
+
+def test_float16_coordinates_are_refused_float32_read(example_csv: Path) -> None:
+    # float32 holds a coordinate to about a metre; float16 (a frame downcast to save
+    # memory) to kilometres, which would plan every request on a coarse grid.
+    import pandas as pd
+
+    frame = pd.read_csv(example_csv)
+    rows = marops.read_lade(frame.astype({"lng": "float32", "lat": "float32"}))
+    assert rows.num_rows == marops.read_lade(frame).num_rows
+    with pytest.raises(InputError, match=r"^DataFrame, column 'lat': .* float16, whose numbers"):
+        marops.read_lade(frame.astype({"lat": "float16"}))

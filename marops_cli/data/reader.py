@@ -341,6 +341,13 @@ def _check_column_types(table: pa.Table, path: Path) -> pa.Table:
             or is_text(t)
             or pa.types.is_null(t)
         )
+        if name in ("lng", "lat") and pa.types.is_float16(t):
+            raise InputError(
+                "expected coordinates, got a column of float16, whose numbers are kilometres "
+                "apart at these degrees (0.0625 from 64 to 128); give float32 or float64",
+                file=path,
+                column=name,
+            )
         if name in _NUMBER_COLUMNS and not numeric:
             raise InputError(
                 f"expected a column of numbers, got a column of type {t}", file=path, column=name
