@@ -97,8 +97,19 @@ def _is_real(v: Any) -> bool:
     return isinstance(v, numbers.Real) and not isinstance(v, bool)
 
 
+def _numpy_day(v: Any) -> dt.date | None:
+    """A numpy ``datetime64`` (a frame's ``.unique()`` gives them) as its day; None for
+    anything else, NaT included."""
+    if type(v).__name__ != "datetime64" or not hasattr(v, "astype"):
+        return None
+    day = v.astype("datetime64[D]").item()
+    return day if isinstance(day, dt.date) else None
+
+
 def _item(v: Any) -> str | None:
     """One element of a list keyword as its command spells it (None: not one)."""
+    if (day := _numpy_day(v)) is not None:
+        v = day
     if isinstance(v, str):
         return v
     if isinstance(v, dt.date):
@@ -115,6 +126,16 @@ def _number(v: str, kind: type) -> Any:
         return None
 
 
+def _accept_date(v: Any) -> tuple[bool, Any]:
+    """``date``, read as str(date): "0820", 820, or a date's ISO form; a datetime (a
+    pandas Timestamp, a numpy datetime64) is its day."""
+    if (day := _numpy_day(v)) is not None:
+        return True, day
+    if isinstance(v, dt.datetime):
+        return True, v.date()
+    return _is_int(v) or isinstance(v, str | dt.date), v
+
+
 def _accept(name: str, hint: str, v: Any) -> tuple[bool, Any]:
     """Whether ``v`` is a value of the annotation ``hint`` (a string, as this module's
     annotations are), and the value to pass on (a list joined, digits read)."""
@@ -124,10 +145,8 @@ def _accept(name: str, hint: str, v: Any) -> tuple[bool, Any]:
         return "None" in hint, v
     if "Path" in hint and isinstance(v, str | os.PathLike):
         return os.fspath(v) != "", v  # "" would be the current folder, as for the flags
-    if name == "date":  # read as str(date): "0820", 820, or a date's ISO form
-        if isinstance(v, dt.datetime):  # a datetime or a pandas Timestamp: its day
-            return True, v.date()
-        return _is_int(v) or isinstance(v, str | dt.date), v
+    if name == "date":
+        return _accept_date(v)
     if _listed(hint):
         return _text(v) is not None, v
     if "tuple[" in hint and isinstance(v, list | tuple):
@@ -152,6 +171,10 @@ def _text(v: Any) -> str | None:
     """A list keyword's value as its flag spells it ("a,b"): a string, a date, a number
     or a list or tuple of them; None for anything else."""
     items = [v] if isinstance(v, str | dt.date) or _is_real(v) else v
+    if _numpy_day(v) is not None:
+        items = [v]
+    elif getattr(v, "ndim", None) == 1 and hasattr(v, "__iter__"):  # an array, Series, Index
+        items = list(v)
     if not isinstance(items, list | tuple) or not items:
         return None
     parts = [_item(x) for x in items]
@@ -252,7 +275,7 @@ def _files_asked(fn: str, out: Any, **asked: bool) -> None:
 def _shown(value: Any) -> str:
     from .config import clipped
 
-    return clipped(repr(value))
+    return clipped(" ".join(repr(value).split()))  # one line, a Series' repr too
 
 
 @_checked

@@ -156,6 +156,18 @@ def test_api_takes_lists_and_dates_where_the_flag_takes_them(
     # A datetime (a pandas Timestamp is one) is its day.
     c = marops.plan_window(example_csv, tmp_path / "depots.json", dt.datetime(2022, 8, 11, 9), 5)
     assert a.routes.equals(c.routes)
+    # numpy's datetime64 (a frame's .unique() gives them) is its day, and a numpy array
+    # or a pandas Series is a list.
+    np = pytest.importorskip("numpy")
+    pd = pytest.importorskip("pandas")
+    d = marops.plan_window(example_csv, tmp_path / "depots.json", np.datetime64("2022-08-11T09"), 5)
+    assert a.routes.equals(d.routes)
+    days = pd.to_datetime(["2022-08-01", "2022-08-02"])
+    for given in (days.values, list(days.values), pd.Series(days), pd.Series(["0801", "0802"])):
+        assert marops.segment(example_csv, dates=given, seed=1)["depots"] == by_text["depots"]
+    with pytest.raises(InputError, match=r"dates expects a string like 'a,b' or a list, got") as e:
+        marops.segment(example_csv, dates=pd.Series([{}, {}]))
+    assert "\n" not in str(e.value)  # a Series' repr on one line
     with pytest.raises(InputError, match=r"^invalid option --date: expected a date"):
         marops.plan_window(example_csv, tmp_path / "depots.json", "0931", 5)
     with pytest.raises(InputError, match="--drones expects whole numbers"):
