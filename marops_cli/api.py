@@ -7,8 +7,9 @@ as a pandas ``DataFrame`` or a ``pyarrow.Table`` with the export's columns (read
 checked as a file is; errors name ``DataFrame`` or ``Table``). Results are in memory:
 tables as ``pyarrow.Table`` (``.to_pandas()``, ``polars.from_arrow``) carrying the
 files' ``marops`` metadata, metrics as dictionaries. Nothing is written unless
-``out`` is given, then exactly the files its command writes there; nothing is printed
-(warnings are :mod:`warnings`); errors are raised as
+``out`` is given, then exactly the files its command writes there (``plot``,
+``geojson`` and ``report`` ask for files: without ``out`` they are an InputError);
+nothing is printed (warnings are :mod:`warnings`); errors are raised as
 :class:`marops_cli.errors.InputError` (bad input) or
 :class:`marops_cli.errors.MaropsError`. Depots segmented from a file are cached as the
 commands cache them (``MAROPS_CACHE_DIR``, docs/outputs.md "Depots cache"); from data
@@ -58,7 +59,9 @@ class DayResult:
     routes: pa.Table
     metrics: dict[str, Any]
     """The day's ``metrics.json`` record (``replay_day``), or the window's solver and
-    objective (``plan_window``)."""
+    objective (``plan_window``: ``objective`` holds the window objective ``J`` and its
+    part ``G`` in joules, not the MJ of ``metrics.json``; ``energy_j``, its routes' energy
+    in joules; ``served`` and ``pending``, counts of requests)."""
     folder: Path | None
     """Where the files are (None when nothing was written)."""
 
@@ -94,8 +97,19 @@ def _is_real(v: Any) -> bool:
     return isinstance(v, numbers.Real) and not isinstance(v, bool)
 
 
+def _numpy_day(v: Any) -> dt.date | None:
+    """A numpy ``datetime64`` (a frame's ``.unique()`` gives them) as its day; None for
+    anything else, NaT included."""
+    if type(v).__name__ != "datetime64" or not hasattr(v, "astype"):
+        return None
+    day = v.astype("datetime64[D]").item()
+    return day if isinstance(day, dt.date) else None
+
+
 def _item(v: Any) -> str | None:
     """One element of a list keyword as its command spells it (None: not one)."""
+    if (day := _numpy_day(v)) is not None:
+        v = day
     if isinstance(v, str):
         return v
     if isinstance(v, dt.date):
@@ -112,6 +126,16 @@ def _number(v: str, kind: type) -> Any:
         return None
 
 
+def _accept_date(v: Any) -> tuple[bool, Any]:
+    """``date``, read as str(date): "0820", 820, or a date's ISO form; a datetime (a
+    pandas Timestamp, a numpy datetime64) is its day."""
+    if (day := _numpy_day(v)) is not None:
+        return True, day
+    if isinstance(v, dt.datetime):
+        return True, v.date()
+    return _is_int(v) or isinstance(v, str | dt.date), v
+
+
 def _accept(name: str, hint: str, v: Any) -> tuple[bool, Any]:
     """Whether ``v`` is a value of the annotation ``hint`` (a string, as this module's
     annotations are), and the value to pass on (a list joined, digits read)."""
@@ -121,10 +145,8 @@ def _accept(name: str, hint: str, v: Any) -> tuple[bool, Any]:
         return "None" in hint, v
     if "Path" in hint and isinstance(v, str | os.PathLike):
         return os.fspath(v) != "", v  # "" would be the current folder, as for the flags
-    if name == "date":  # read as str(date): "0820", 820, or a date's ISO form
-        if isinstance(v, dt.datetime):  # a datetime or a pandas Timestamp: its day
-            return True, v.date()
-        return _is_int(v) or isinstance(v, str | dt.date), v
+    if name == "date":
+        return _accept_date(v)
     if _listed(hint):
         return _text(v) is not None, v
     if "tuple[" in hint and isinstance(v, list | tuple):
@@ -149,6 +171,10 @@ def _text(v: Any) -> str | None:
     """A list keyword's value as its flag spells it ("a,b"): a string, a date, a number
     or a list or tuple of them; None for anything else."""
     items = [v] if isinstance(v, str | dt.date) or _is_real(v) else v
+    if _numpy_day(v) is not None:
+        items = [v]
+    elif getattr(v, "ndim", None) == 1 and hasattr(v, "__iter__"):  # an array, Series, Index
+        items = list(v)
     if not isinstance(items, list | tuple) or not items:
         return None
     parts = [_item(x) for x in items]
@@ -231,10 +257,25 @@ def _did_you_mean(sig: inspect.Signature, kwargs: dict[str, Any]) -> str:
     return ""
 
 
+def _files_asked(fn: str, out: Any, **asked: bool) -> None:
+    """Refuse a keyword that asks for a file (``plot``, ``geojson``, ``report``) without
+    ``out``: nothing is written without it, so the figure or map asked for would be
+    silently missing (and nothing is drawn to find that out)."""
+    from .errors import InputError
+
+    if out is None:
+        for name, wanted in asked.items():
+            if wanted:
+                raise InputError(
+                    f"{fn}(): {name}=True writes files into out, and nothing is written "
+                    "without it; pass out (a folder) or leave it False"
+                )
+
+
 def _shown(value: Any) -> str:
     from .config import clipped
 
-    return clipped(repr(value))
+    return clipped(" ".join(repr(value).split()))  # one line, a Series' repr too
 
 
 @_checked
@@ -310,6 +351,7 @@ def segment(
     from .io.atomic import dumps_json
     from .io.ownership import replacing_foreign_files
 
+    _files_asked("segment", out, geojson=geojson, plot=plot)
     with replacing_foreign_files(force):
         if hubs is not None:
             cfg = planner_config(config, year=year, size_km=size_km, strict=strict)
@@ -364,6 +406,7 @@ def plan_window(
     from .data.dates import parse_day
     from .io.ownership import replacing_foreign_files
 
+    _files_asked("plan_window", out, geojson=geojson, report=report)
     cfg = planner_config(
         config,
         year=year,
@@ -428,6 +471,7 @@ def replay_day(
     from .data.dates import parse_day
     from .io.ownership import replacing_foreign_files
 
+    _files_asked("replay_day", out, geojson=geojson, plot=plot, report=report)
     opts = ReplayOptions(method, fmt, plot, geojson, force, keep_tables=True, report=report)
     check_options(opts)
     cfg = replay_config(
@@ -527,11 +571,14 @@ def evaluate(
     from .app.evaluate import evaluate as run
     from .app.inputs import in_memory, read_data
     from .app.options import planner_config
+    from .app.progress import SILENT
     from .data.dates import parse_days
     from .errors import InputError
+    from .evaluate.paired import few_days_warning
     from .io.ownership import replacing_foreign_files
     from .segment.hubs import load_hubs
 
+    _files_asked("evaluate", out, report=report)
     cfg = planner_config(config, year=year, strict=strict, seed=seed, trust_actor=trust_actor)
     # An empty list of dates is an error, not the split's days.
     days = parse_days(_text(dates) or "", cfg.data.year, "--dates") if dates is not None else None
@@ -556,6 +603,8 @@ def evaluate(
     source = read_data(data, cfg.data) if in_memory(data) else Path(data)
     with replacing_foreign_files(force):
         res = run(source, spec, out=_path(out))
+    if res.paired is not None and (few := few_days_warning(res.paired)) is not None:
+        SILENT.warning(few)  # as the command warns, at the caller's line
     return EvaluationResult(res.results, res.summary, res.folder, res.paired)
 
 

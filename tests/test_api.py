@@ -82,6 +82,11 @@ def test_api_runs_what_the_cli_runs(example_csv: Path, tmp_path: Path, capsys) -
     assert window.folder is None  # a temporary folder, gone
     assert set(window.routes.column("window").to_pylist()) == {5}
     assert window.metrics["objective"]["G"] > 0
+    # The window's objective is in joules, its energy the routes' (DayResult.metrics).
+    score = window.metrics["objective"]
+    assert score["energy_j"] == pytest.approx(pc.sum(window.routes.column("energy_j")).as_py())
+    assert score["served"] == pc.sum(window.routes.column("n_parcels")).as_py()
+    assert score["J"] > score["energy_j"] > 1e5  # joules, not MJ
     captured = capsys.readouterr()
     assert captured.out == ""  # nothing printed by the API
 
@@ -151,6 +156,18 @@ def test_api_takes_lists_and_dates_where_the_flag_takes_them(
     # A datetime (a pandas Timestamp is one) is its day.
     c = marops.plan_window(example_csv, tmp_path / "depots.json", dt.datetime(2022, 8, 11, 9), 5)
     assert a.routes.equals(c.routes)
+    # numpy's datetime64 (a frame's .unique() gives them) is its day, and a numpy array
+    # or a pandas Series is a list.
+    np = pytest.importorskip("numpy")
+    pd = pytest.importorskip("pandas")
+    d = marops.plan_window(example_csv, tmp_path / "depots.json", np.datetime64("2022-08-11T09"), 5)
+    assert a.routes.equals(d.routes)
+    days = pd.to_datetime(["2022-08-01", "2022-08-02"])
+    for given in (days.values, list(days.values), pd.Series(days), pd.Series(["0801", "0802"])):
+        assert marops.segment(example_csv, dates=given, seed=1)["depots"] == by_text["depots"]
+    with pytest.raises(InputError, match=r"dates expects a string like 'a,b' or a list, got") as e:
+        marops.segment(example_csv, dates=pd.Series([{}, {}]))
+    assert "\n" not in str(e.value)  # a Series' repr on one line
     with pytest.raises(InputError, match=r"^invalid option --date: expected a date"):
         marops.plan_window(example_csv, tmp_path / "depots.json", "0931", 5)
     with pytest.raises(InputError, match="--drones expects whole numbers"):
@@ -206,11 +223,19 @@ def test_api_plan_window_out_is_a_folder_as_the_flag_is(example_csv: Path, tmp_p
 
 def test_api_evaluate_returns_the_paired_comparison_with_against(example_csv: Path) -> None:
     # `against` pairs each method's days with the reference's: the table paired.csv
-    # holds, here in memory without `out`.
-    ev = marops.evaluate(
-        example_csv, methods="stay,ops-global", dates="0811", against="ops-global", workers=1
-    )
+    # holds, here in memory without `out`; a comparison over one day warns, as the
+    # command does, at the caller's line.
+    import warnings
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        ev = marops.evaluate(
+            example_csv, methods="stay,ops-global", dates="0811", against="ops-global", workers=1
+        )
     assert ev.paired is not None and ev.folder is None
+    few = [w for w in caught if "backs the paired comparison" in str(w.message)]
+    assert len(few) == 1 and few[0].filename == __file__
+    assert str(few[0].message).startswith("only 1 day backs the paired comparison (fewer than")
     rows = ev.paired.to_pylist()
     assert {r["against"] for r in rows} == {"ops-global"} and rows[0]["days"] == 1
     assert marops.evaluate(example_csv, methods="stay", dates="0811", workers=1).paired is None
@@ -325,3 +350,41 @@ def test_api_an_empty_path_is_an_input_error_not_the_current_folder(
     with pytest.raises(InputError, match=r"replay_day\(\): out expects a path, got str ''"):
         marops.replay_day(example_csv, "0811", out="")
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize(
+    ("call", "message"),
+    [
+        (lambda d: marops.segment(d, plot=True), r"^segment\(\): plot=True writes files into out"),
+        (lambda d: marops.segment(d, geojson=True, hubs=2), r"^segment\(\): geojson=True"),
+        (lambda d: marops.plan_window(d, "d.json", "0811", 5, geojson=True), r"geojson=True"),
+        (lambda d: marops.plan_window(d, "d.json", "0811", 5, report=True), r"report=True"),
+        (lambda d: marops.replay_day(d, "0811", plot=True), r"^replay_day\(\): plot=True"),
+        (lambda d: marops.replay_day(d, "0811", geojson=True), r"geojson=True writes files"),
+        (lambda d: marops.replay_day(d, "0811", report=True), r"report=True writes files"),
+        (lambda d: marops.evaluate(d, report=True, workers=1), r"^evaluate\(\): report=True"),
+    ],
+)
+def test_api_a_file_asked_for_without_out_is_an_input_error(
+    example_csv: Path, tmp_path: Path, monkeypatch, call, message
+) -> None:
+    # Nothing is written without out: a figure, map or page asked for would be silently
+    # missing, so asking for one without out is refused before any work.
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(InputError, match=message) as err:
+        call(example_csv)
+    assert "pass out" in str(err.value) and "\n" not in str(err.value)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_api_evaluate_results_carry_the_files_metadata(example_csv: Path, tmp_path: Path) -> None:
+    # As every table the API returns: results carries results.parquet's marops metadata
+    # (package, config, input, settings), with out and without.
+    ev = marops.evaluate(
+        example_csv, methods="stay", dates="0811", out=tmp_path, workers=1, plots=False
+    )
+    from_file = pq.read_table(tmp_path / "results.parquet")
+    assert ev.results.schema.metadata[b"marops"] == from_file.schema.metadata[b"marops"]
+    assert ev.results.equals(from_file)
+    in_memory = marops.evaluate(example_csv, methods="stay", dates="0811", workers=1)
+    assert in_memory.results.schema.metadata[b"marops"] == from_file.schema.metadata[b"marops"]

@@ -101,6 +101,9 @@ def test_a_table_in_memory_is_checked_as_a_file_is(depots: Path, example_csv: Pa
         marops.read_lade(bad)
     with pytest.raises(InputError, match="has no data rows"):
         marops.read_lade(rows.slice(0, 0))
+    # A day the rows do not hold is said to be missing from them, not from a file.
+    with pytest.raises(InputError, match=r"^Table, .*: date 2022-01-01 not in the Table \(it has"):
+        marops.replay_day(rows, "0101", depots=depots)
 
 
 def test_a_frame_reads_its_lade_columns_as_a_file_does(example_csv: Path) -> None:
@@ -121,6 +124,9 @@ def test_a_frame_reads_its_lade_columns_as_a_file_does(example_csv: Path) -> Non
     assert "X3" in rows.column("order_id").to_pylist() and 7 not in rows.column("row").to_pylist()
     with pytest.raises(InputError, match=r"^DataFrame, row 7, column 'lat': row would be dropped"):
         marops.read_lade(mixed, strict=True)
+    # A LaDe column made the frame's index (set_index) is named as such.
+    with pytest.raises(InputError, match=r"^DataFrame, row 1, column 'order_id': .*frame's index"):
+        marops.read_lade(frame.set_index(["courier_id", "order_id"]))
     twice = pd.concat([frame, frame[["lat"]]], axis=1)
     with pytest.raises(InputError, match="column 'lat' appears 2 times"):
         marops.read_lade(twice)
@@ -184,3 +190,30 @@ def test_an_error_in_a_frames_row_names_its_index_label(example_csv: Path) -> No
         InputError, match=rf"^DataFrame, row 5, .*'soon' \(the frame's index {label}\)$"
     ):
         marops.read_lade(part)
+
+
+def test_decimal_coordinates_read_as_their_digits(example_csv: Path) -> None:
+    # A decimal column (a database's NUMERIC, a Parquet DECIMAL) holds the digits a CSV
+    # does: read as the same doubles, not Arrow's cast, which misses some by one ulp.
+    import pandas as pd
+
+    frame = pd.read_csv(example_csv)
+    table = pa.Table.from_pandas(frame, preserve_index=False)
+    for name in ("lng", "lat"):
+        k = table.column_names.index(name)
+        table = table.set_column(k, name, table.column(k).cast(pa.decimal128(12, 6)))
+    got, want = marops.read_lade(table), marops.read_lade(frame)
+    assert got.column("lng").equals(want.column("lng"))
+    assert got.column("lat").equals(want.column("lat"))
+
+
+def test_float16_coordinates_are_refused_float32_read(example_csv: Path) -> None:
+    # float32 holds a coordinate to about a metre; float16 (a frame downcast to save
+    # memory) to kilometres, which would plan every request on a coarse grid.
+    import pandas as pd
+
+    frame = pd.read_csv(example_csv)
+    rows = marops.read_lade(frame.astype({"lng": "float32", "lat": "float32"}))
+    assert rows.num_rows == marops.read_lade(frame).num_rows
+    with pytest.raises(InputError, match=r"^DataFrame, column 'lat': .* float16, whose numbers"):
+        marops.read_lade(frame.astype({"lat": "float16"}))

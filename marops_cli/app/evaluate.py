@@ -204,8 +204,18 @@ def evaluate(
     if out is None:
         ev = _run(prep, config, None, progress)
         paired = _paired(ev, config.against)
-        return EvaluationResult(ev.results, ev.summary, paired, prep.days, [], None)
+        results = _with_meta(ev.results, prep)  # as results.parquet carries it
+        return EvaluationResult(results, ev.summary, paired, prep.days, [], None)
     return _evaluate_into(out, prep, config, progress)
+
+
+def _with_meta(results: pa.Table, prep: Prepared) -> pa.Table:
+    """``results`` carrying the ``marops`` metadata of ``results.parquet`` (the package,
+    config, input and settings), in memory as in the file."""
+    from ..evaluate.report import evaluation_meta
+    from ..io.tables import with_meta
+
+    return with_meta(results, evaluation_meta(prep))
 
 
 def check_out(out: Path) -> None:
@@ -330,7 +340,7 @@ def _evaluate_into(
             from ..report import write_reports
 
             files += write_reports(out)
-    return EvaluationResult(ev.results, ev.summary, paired, prep.days, files, out)
+    return EvaluationResult(_with_meta(ev.results, prep), ev.summary, paired, prep.days, files, out)
 
 
 def _built_files(out: Path) -> list[Path]:

@@ -201,20 +201,14 @@ def _emit_json(res: EvaluationResult) -> None:
 
 def _print_paired(paired: pa.Table, summary: pa.Table) -> None:
     """One row per setting (named by its values: ``α=0.3``), method and metric."""
-    from ..evaluate.paired import MIN_DAYS, verdict
+    from ..evaluate.paired import few_days_warning, verdict
     from ..evaluate.tables import setting_label
 
     rows = paired.to_pylist()
     if not rows:
         return
-    # The days each difference is over, as its table says (a city's hub-days count each).
-    n_days = min(int(r["days"]) for r in rows)
-    if n_days < MIN_DAYS:
-        backs = "day backs" if n_days == 1 else "days back"
-        warn(
-            f"only {n_days} {backs} the paired comparison (fewer than {MIN_DAYS}): "
-            "the intervals are wide and the verdicts fragile"
-        )
+    if (few := few_days_warning(paired)) is not None:
+        warn(few)
     t = table(f"paired against {rows[0]['against']}: per-day difference, bootstrap 95 % CI")
     cols = ("setting", "method", "metric", "days", "mean diff", "95 % CI", "days better", "verdict")
     for col in cols:

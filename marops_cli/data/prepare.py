@@ -59,10 +59,14 @@ def check_days_in_file(table: LadeTable, days: Iterable[dt.date]) -> None:
             "the first",
             file=table.source.path,
         )
+    from .reader import IN_MEMORY
+
+    # Rows in memory are called what they are (the DataFrame, the Table), as elsewhere.
+    held = f"the {table.source.path}" if table.source.path in IN_MEMORY else "the file"
     for day in days:
         if day not in present:
             raise InputError(
-                f"date {day.isoformat()} not in the file (it has {format_days(have)})",
+                f"date {day.isoformat()} not in {held} (it has {format_days(have)})",
                 file=table.source.path,
                 column="delivery_time",
             )

@@ -301,6 +301,8 @@ def _read_parquet(path: Path) -> pa.Table:
 def _numbers(column: pa.ChunkedArray) -> np.ndarray:
     """A column of numbers or numeric text -> float64, NaN where empty or not a number."""
     arr = column.combine_chunks()
+    if pa.types.is_decimal(arr.type):  # read by its digits, as a CSV's: Arrow's own cast
+        arr = arr.cast(pa.string())  # to float64 may miss the nearest double by one ulp
     if not is_text(arr.type):
         # Unchecked: an integer beyond 2**53 (no coordinate) rounds, then reads as bad.
         return arr.cast(pa.float64(), safe=False).to_numpy(zero_copy_only=False)
@@ -339,6 +341,13 @@ def _check_column_types(table: pa.Table, path: Path) -> pa.Table:
             or is_text(t)
             or pa.types.is_null(t)
         )
+        if name in ("lng", "lat") and pa.types.is_float16(t):
+            raise InputError(
+                "expected coordinates, got a column of float16, whose numbers are kilometres "
+                "apart at these degrees (0.0625 from 64 to 128); give float32 or float64",
+                file=path,
+                column=name,
+            )
         if name in _NUMBER_COLUMNS and not numeric:
             raise InputError(
                 f"expected a column of numbers, got a column of type {t}", file=path, column=name
@@ -595,6 +604,16 @@ def _frame_table(frame: Any, where: str) -> pa.Table:
     read (as a file's are not), and a column of mixed cells (numbers and words, as
     frames joined together hold) is read as its text, as a file's cells are."""
     names = [str(n) for n in frame.columns]
+    in_index = [str(n) for n in getattr(frame.index, "names", []) if n is not None]
+    for name in REQUIRED_COLUMNS:  # set_index("order_id") moves a column out of the rows
+        if name not in names and name in in_index:
+            raise InputError(
+                f"missing required column '{name}': it is the frame's index; pass "
+                "frame.reset_index() to read it as a column",
+                file=where,
+                row=1,
+                column=name,
+            )
     include = _check_columns(names, Path(where))
     columns = {}
     for name in include:

@@ -32,6 +32,23 @@ N_BOOT = 2000
 SEED = 20221  # fixed: the same rows give the same interval everywhere
 
 
+def few_days_warning(paired: pa.Table) -> str | None:
+    """The warning a paired comparison over fewer than :data:`MIN_DAYS` days gets (the
+    days each difference is over, as its table says: a city's hub-days count each);
+    None when it has enough, or no rows."""
+    days = paired.column("days").to_pylist() if paired.num_rows else []
+    if not days:
+        return None
+    n_days = min(int(d) for d in days)
+    if n_days >= MIN_DAYS:
+        return None
+    backs = "day backs" if n_days == 1 else "days back"
+    return (
+        f"only {n_days} {backs} the paired comparison (fewer than {MIN_DAYS}): "
+        "the intervals are wide and the verdicts fragile"
+    )
+
+
 def bootstrap_ci(diff: np.ndarray, n_boot: int = N_BOOT, seed: int = SEED) -> tuple[float, float]:
     """95 % percentile interval of the mean of ``diff`` over days resampled with replacement."""
     d = np.asarray(diff, dtype=np.float64)

@@ -59,6 +59,23 @@ def _not_in_a_starting_worker() -> None:
         raise RunError(f"a worker process was asked for workers: {_MAIN_GUARD}")
 
 
+def _main_importable() -> None:
+    """Stop before starting workers when the main script is no file they can import
+    (``python - < script.py`` names it ``<stdin>``): Python's multiprocessing has each
+    worker import it by its path, which fails, guard or not. A notebook's or
+    ``python -c``'s main has no file to import, and needs none."""
+    main = sys.modules.get("__main__")
+    path = getattr(main, "__file__", None)
+    if getattr(main, "__spec__", None) is not None or not isinstance(path, str):
+        return
+    full = os.path.join(getattr(mp.process, "ORIGINAL_DIR", None) or "", path)
+    if not os.path.isfile(full):
+        raise RunError(
+            f"the script that started marops ({path}) is no file a worker process can "
+            "import, as each does: save it to a file and run that, or use one worker"
+        )
+
+
 def warm_up(modules: Sequence[str]) -> None:
     """Start the fork server now, importing ``modules`` (a work's :attr:`~.work.Work.preload`),
     so its imports overlap with the parent's own work; later pools fork from it. Harmless
@@ -118,6 +135,7 @@ class LocalPool:
             _init(work)
             return
         _not_in_a_starting_worker()
+        _main_importable()
         warm_up(work.preload)
         try:
             self._pool = _context().Pool(workers, initializer=_init, initargs=(work,))

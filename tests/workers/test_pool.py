@@ -90,3 +90,34 @@ def test_one_thread_is_taken_back() -> None:
         assert torch.are_deterministic_algorithms_enabled()
     assert (torch.get_num_threads(), os.environ.get("OMP_NUM_THREADS")) == before
     assert torch.are_deterministic_algorithms_enabled() == strict
+
+
+def _main(monkeypatch: pytest.MonkeyPatch, **attrs: object) -> None:
+    """This process's ``__main__`` as a notebook or ``python - < script.py`` has it."""
+    import sys
+    import types
+
+    main = types.ModuleType("__main__")
+    main.__spec__ = None
+    for k, v in attrs.items():
+        setattr(main, k, v)
+    monkeypatch.setitem(sys.modules, "__main__", main)
+
+
+def test_workers_start_under_a_main_without_a_file(monkeypatch: pytest.MonkeyPatch) -> None:
+    # A notebook's (or `python -c`'s) main has no file: workers import nothing of it.
+    _main(monkeypatch)
+    with LocalPool(SquareWork(), 2) as pool:
+        assert [square for square, _, _ in pool.results([Square(0, 3)])] == [9]
+
+
+def test_a_script_read_from_stdin_stops_before_its_workers_start(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # Each worker imports the main script by its path, which `<stdin>` is not, guard or
+    # not: the reason, not "Broken pipe" and advice to add the guard the script has.
+    _main(monkeypatch, __file__="<stdin>")
+    with pytest.raises(RunError, match=r"^the script that started marops \(<stdin>\) is no file"):
+        LocalPool(SquareWork(), 2)
+    with LocalPool(SquareWork(), 1) as pool:  # one worker: this process, as before
+        assert [square for square, _, _ in pool.results([Square(0, 3)])] == [9]
