@@ -165,7 +165,9 @@ def test_api_takes_lists_and_dates_where_the_flag_takes_them(
     days = pd.to_datetime(["2022-08-01", "2022-08-02"])
     for given in (days.values, list(days.values), pd.Series(days), pd.Series(["0801", "0802"])):
         assert marops.segment(example_csv, dates=given, seed=1)["depots"] == by_text["depots"]
-    with pytest.raises(InputError, match=r"dates expects a string like 'a,b' or a list, got") as e:
+    with pytest.raises(
+        InputError, match=r"dates expects a string like 'a,b' or a non-empty list, got"
+    ) as e:
         marops.segment(example_csv, dates=pd.Series([{}, {}]))
     assert "\n" not in str(e.value)  # a Series' repr on one line
     with pytest.raises(InputError, match=r"^invalid option --date: expected a date"):
