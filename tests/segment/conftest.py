@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Callable
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -31,3 +32,19 @@ def _points_table(lng: np.ndarray, lat: np.ndarray, sha256: str = "0") -> LadeTa
 def points_table() -> Callable[..., LadeTable]:
     """``points_table(lng, lat, sha256="0")``: a small LadeTable of orders at points."""
     return _points_table
+
+
+def moved_example(example_csv: Path, out: Path, place) -> Path:  # noqa: ANN001
+    """The example's first 300 rows written to ``out`` with row k at ``place(k)``, a
+    (lng, lat) pair: a town of one's own shape from real rows."""
+    lines = example_csv.read_text().splitlines()
+    head = lines[0].split(",")
+    ilng, ilat = head.index("lng"), head.index("lat")
+    rows = []
+    for k, line in enumerate(lines[1:301]):
+        cells = line.split(",")
+        lng, lat = place(k)
+        cells[ilng], cells[ilat] = f"{lng:.6f}", f"{lat:.6f}"
+        rows.append(",".join(cells))
+    out.write_text("\n".join([lines[0], *rows]) + "\n")
+    return out

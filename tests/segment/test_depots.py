@@ -22,6 +22,8 @@ from marops_cli.segment import (
     squares_depots,
 )
 
+from .conftest import moved_example
+
 FRAME = Frame(121.47, 31.23, 10.0)
 
 
@@ -303,18 +305,11 @@ def test_a_study_area_placed_away_from_the_requests_names_center(points_table) -
 
 def _two_towns(example_csv, tmp_path, km: float):
     """300 rows of the example moved onto two points ``km`` apart (east-west)."""
-    lines = example_csv.read_text().splitlines()
-    head = lines[0].split(",")
-    ilng, ilat = head.index("lng"), head.index("lat")
-    rows = []
-    for k, line in enumerate(lines[1:301]):
-        cells = line.split(",")
-        lng = 121.47 + (km / 95.0 if k % 2 else 0.0) + 0.00001 * (k % 5)
-        cells[ilng], cells[ilat] = f"{lng:.6f}", "31.230000"
-        rows.append(",".join(cells))
-    path = tmp_path / "towns.csv"
-    path.write_text("\n".join([lines[0], *rows]) + "\n")
-    return path
+
+    def place(k: int) -> tuple[float, float]:
+        return 121.47 + (km / 95.0 if k % 2 else 0.0) + 0.00001 * (k % 5), 31.23
+
+    return moved_example(example_csv, tmp_path / "towns.csv", place)
 
 
 def test_a_depot_between_two_towns_is_a_warning_naming_n_depots(example_csv, tmp_path) -> None:

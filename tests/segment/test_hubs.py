@@ -17,6 +17,8 @@ from marops_cli.data.frame import Frame, densest_square, hub_squares
 from marops_cli.errors import InputError
 from marops_cli.segment.hubs import Hub, hub_owner, load_hubs
 
+from .conftest import moved_example
+
 runner = CliRunner()
 LNG, LAT = 121.47, 31.23
 
@@ -327,16 +329,9 @@ def test_a_hub_too_sparse_for_its_depots_is_named(example_csv, tmp_path, fails_c
 def test_fewer_hubs_than_asked_for_say_so(example_csv: Path, tmp_path: Path) -> None:
     """A town that fits in one square gives one hub, whatever --hubs asks: the table
     says "1 hub" and a warning says why the others are missing."""
-    lines = example_csv.read_text().splitlines()
-    head = lines[0].split(",")
-    ilng, ilat = head.index("lng"), head.index("lat")
-    rows = []
-    for k, line in enumerate(lines[1:301]):
-        cells = line.split(",")
-        cells[ilng], cells[ilat] = f"{121.47 + 0.0001 * (k % 7):.6f}", "31.230000"
-        rows.append(",".join(cells))
-    town = tmp_path / "town.csv"
-    town.write_text("\n".join([lines[0], *rows]) + "\n")
+    town = moved_example(
+        example_csv, tmp_path / "town.csv", lambda k: (121.47 + 0.0001 * (k % 7), 31.23)
+    )
     res = runner.invoke(
         app, ["segment", str(town), "--hubs", "3", "--out", str(tmp_path / "h.json")]
     )
