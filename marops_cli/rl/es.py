@@ -33,7 +33,6 @@ same weights with any number of workers, and resumes from its checkpoint to the 
 from __future__ import annotations
 
 import json
-import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -61,7 +60,14 @@ from ..sim.replay import fly_day
 from ..sim.state import default_fleet
 from ..sim.step import WindowStep
 from ..workers import LocalPool
-from .data import TrainData, edited_checkpoint, fingerprint, other_algorithm, other_run
+from .data import (
+    TrainData,
+    edited_checkpoint,
+    fingerprint,
+    finite_number,
+    other_algorithm,
+    other_run,
+)
 from .rollout import TrainScenario, WorkerContext, derive_seed
 
 __all__ = ["RULES", "LandingTrainer", "day_cost", "landing_weights_bytes", "write_landing_actor"]
@@ -412,12 +418,7 @@ class LandingTrainer:
 def _numbers(d: Any, *keys: str) -> bool:
     """Whether ``d`` is an object holding a finite number (not a boolean) under each of
     ``keys``."""
-    if not isinstance(d, dict):
-        return False
-    values = [d.get(k) for k in keys]
-    return all(
-        isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v) for v in values
-    )
+    return isinstance(d, dict) and all(finite_number(d.get(k)) for k in keys)
 
 
 def day_cost(

@@ -8,7 +8,6 @@ that never stopped, whatever the number of workers.
 
 from __future__ import annotations
 
-import math
 import pickle
 import time
 from collections.abc import Callable
@@ -29,6 +28,7 @@ from .data import (
     TrainData,
     edited_checkpoint,
     fingerprint,
+    finite_number,
     load_training_data,
     other_algorithm,
     other_run,
@@ -169,22 +169,26 @@ class Trainer:
         if not all(isinstance(v, list) for v in lists) or not isinstance(best, dict | None):
             raise TypeError("history, evals and baselines must be lists, best a dict")
         episode, update, elapsed = state["episode"], state["update"], state["elapsed_s"]
-        if not all(_count(v) for v in (episode, update)) or not _real(elapsed) or elapsed < 0:
+        if (
+            not all(_count(v) for v in (episode, update))
+            or not finite_number(elapsed)
+            or elapsed < 0
+        ):
             raise ValueError("episode, update and elapsed_s must be counts from 0")
         history, evals, baselines = lists
         _name_daily_cost(evals, best)
         for h in history:
-            if not (isinstance(h, dict) and all(_real(h.get(k)) for k in _CURVE)):
+            if not (isinstance(h, dict) and all(finite_number(h.get(k)) for k in _CURVE)):
                 raise ValueError(f"each history entry must hold the numbers {', '.join(_CURVE)}")
         for e in evals:
             methods = e.get("methods") if isinstance(e, dict) else None
             if not (isinstance(methods, dict) and _count(e.get("episode"))) or not all(
-                isinstance(v, dict) and _real(v.get("daily_combined_cost"))
+                isinstance(v, dict) and finite_number(v.get("daily_combined_cost"))
                 for v in methods.values()
             ):
                 raise ValueError("each evaluation must hold its episode and each method's costs")
         if best is not None:
-            if best.get("episode") not in [e["episode"] for e in evals] or not _real(
+            if best.get("episode") not in [e["episode"] for e in evals] or not finite_number(
                 best.get("daily_combined_cost")
             ):
                 raise ValueError("best must be one of the evaluations, with its cost")
@@ -377,10 +381,6 @@ _CURVE = ("episode", "reward", "delay_h", "energy_kj")
 
 def _count(v: Any) -> bool:
     return isinstance(v, int) and not isinstance(v, bool) and v >= 0
-
-
-def _real(v: Any) -> bool:
-    return isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
 
 
 def _shapes(state: Any) -> dict[str, tuple[Any, ...]] | None:
