@@ -460,6 +460,11 @@ def clipped(text: str, most: int = 60) -> str:
     return text if len(text) <= most else f"{text[: most - 1]}…"
 
 
+def count(n: int, thing: str) -> str:
+    """``1 drone``, ``3 drones``."""
+    return f"{n} {thing}" + ("" if n == 1 else "s")
+
+
 def value_range(stage: str, name: str) -> str | None:
     """The documented range of a numeric setting, as docs/config.md writes it
     (``0 < x ≤ 500``, ``1 ≤ x ≤ 1440``); None for a setting without bounds."""

@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from ..config import OpsConfig, PlannerConfig
+from ..config import OpsConfig, PlannerConfig, count
 from ..data.table import LadeTable
 from ..errors import InputError
 from .messages import drop_report
@@ -286,24 +286,19 @@ def _plan_line(prep: Prepared, config: EvaluateConfig) -> str:
     """``evaluate: 3 methods x 1 setting x 4 days x 1 repeat = 12 replays, on 2 workers``."""
     workers, scheduler = config.workers, config.scheduler
     where = (
-        _count(workers, "worker")
+        count(workers, "worker")
         if scheduler is None
-        else f"a local Dask cluster of {_count(workers, 'worker')}"
+        else f"a local Dask cluster of {count(workers, 'worker')}"
         if scheduler == "local"
         else f"the Dask scheduler at {scheduler}"
     )
     hub_note = f" over {len(prep.hubs)} hubs (hub-days with requests)" if prep.hubs else ""
     return (
-        f"evaluate: {_count(len(prep.methods), 'method')} x "
-        f"{_count(len(prep.settings), 'setting')} x {_count(len(prep.days), 'day')} x "
-        f"{_count(prep.repeats, 'repeat')}{hub_note} = {_count(len(prep.jobs), 'replay')}, "
+        f"evaluate: {count(len(prep.methods), 'method')} x "
+        f"{count(len(prep.settings), 'setting')} x {count(len(prep.days), 'day')} x "
+        f"{count(prep.repeats, 'repeat')}{hub_note} = {count(len(prep.jobs), 'replay')}, "
         f"on {where}"
     )
-
-
-def _count(n: int, noun: str) -> str:
-    """``1 day``, ``2 days``."""
-    return f"{n} {noun}" if n == 1 else f"{n} {noun}s"
 
 
 def _evaluate_into(

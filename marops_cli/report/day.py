@@ -5,12 +5,13 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 
+from ..config import count
 from ..data.frame import Frame
 from ..errors import InputError
 from .basemap import tiles_on
 from .daymap import flown, map_figure
 from .folder import RouteFiles
-from .page import Page, count
+from .page import Page
 from .timeline import timeline_figure
 
 if TYPE_CHECKING:

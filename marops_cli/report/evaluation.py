@@ -6,8 +6,9 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
+from ..config import count
 from .folder import read_input, table_meta
-from .page import Page, count, plain, short
+from .page import Page, plain, short
 
 
 def _tables(folder: Path) -> tuple[Any, Any, Any | None, dict[str, Any]]:

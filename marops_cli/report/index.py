@@ -8,8 +8,9 @@ from pathlib import Path
 from typing import Any
 from urllib.parse import quote
 
+from ..config import count
 from .folder import REPORT, route_files_exist
-from .page import Page, count, plain
+from .page import Page, plain
 
 _COLUMNS = (
     ("delivered", "{}"),

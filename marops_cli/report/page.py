@@ -7,6 +7,7 @@ import html
 from collections.abc import Sequence
 from typing import Any
 
+from ..config import clipped
 from ..errors import InputError
 from .basemap import TILE_HOST, tiles_on
 
@@ -25,13 +26,7 @@ def plain(value: Any) -> str:
 def short(value: Any, most: int = 40) -> str:
     """A name from the folder's files cut to ``most`` characters for a legend or an axis
     label, which would otherwise take the figure's width from its plot."""
-    text = str(value)
-    return text if len(text) <= most else text[: most - 1] + "…"
-
-
-def count(n: int, thing: str) -> str:
-    """``1 drone``, ``3 drones``."""
-    return f"{n} {thing}" + ("" if n == 1 else "s")
+    return clipped(str(value), most)
 
 
 def require_plotly() -> None:
