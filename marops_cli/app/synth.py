@@ -7,7 +7,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Literal
 
-from ..config import option_error
+from ..config import count, option_error
 from ..errors import InputError
 
 if TYPE_CHECKING:
@@ -95,7 +95,7 @@ def _check_memory(days: int, orders_per_day: float) -> None:
     have = available_memory()
     if have is not None and need > have:
         raise InputError(
-            f"invalid option --orders-per-day: {days:,} day{'s' * (days != 1)} of "
+            f"invalid option --orders-per-day: {count(days, 'day')} of "
             f"{orders_per_day:,.0f} orders need about {need / 1e9:,.1f} GB of memory while "
             f"they are made, and {have / 1e9:,.1f} GB is available; ask fewer --days or "
             "--orders-per-day"

@@ -8,6 +8,7 @@ from typing import TYPE_CHECKING, Annotated
 import typer
 
 from ..app.options import planner_config
+from ..config import count
 from . import options as o
 from .common import (
     STATE,
@@ -165,7 +166,7 @@ def _refuse_with_hubs(hubs: str, given: dict[str, object]) -> None:
 def _print_summary(depots: Depots) -> None:
     f = depots.frame
     t = table(
-        f"{len(depots)} depot{'s' * (len(depots) != 1)} around ({f.center_lng:.5f}, "
+        f"{count(len(depots), 'depot')} around ({f.center_lng:.5f}, "
         f"{f.center_lat:.5f}), "
         f"{f.size_km:g} km square"
     )
@@ -197,7 +198,7 @@ def _segment_hubs(  # type: ignore[no-untyped-def]
             f"{cfg.data.size_km:g} km square{'s' * (len(res.hubs) != 1)}"
         )
     t = table(
-        f"{len(res.hubs)} hub{'s' * (len(res.hubs) != 1)} of {cfg.data.size_km:g} km, "
+        f"{count(len(res.hubs), 'hub')} of {cfg.data.size_km:g} km, "
         f"holding {held:,} of {total:,} orders ({100 * held / max(total, 1):.1f} %)"
     )
     for col in ("hub", "centre lng", "centre lat", "orders", "share %"):
