@@ -200,7 +200,7 @@ def _outputs(
 ) -> list[Path]:
     """Every file a replay into ``out`` may write (hub folders: those there already): a
     day's files in its folder, and over several days or hubs ``metrics.json`` (and
-    ``report.html``) in the folder above them."""
+    ``report.html`` and the plotly.js the pages share) in the folder above them."""
     fmt = options.fmt
     names = [f"stops.{fmt}", f"routes.{fmt}", "metrics.json"]
     names += ["routes.png", "operations.png"] * options.plot + ["routes.geojson"] * options.geojson
@@ -215,8 +215,13 @@ def _outputs(
             folder / d.isoformat() / n for d in days for n in names
         ]
 
+    shared = []
+    if options.report and (several or hubs):
+        from ..report.page import script_name
+
+        shared = [out / script_name()]
     if not hubs:
-        return area(out)
+        return area(out) + shared
     # out/hub-<id>/ below the city's metrics.json
     hub_folders = [p for p in out.glob("hub-*") if p.is_dir()] if out.is_dir() else []
-    return [out / n for n in above] + [p for a in hub_folders for p in area(a)]
+    return [out / n for n in above] + shared + [p for a in hub_folders for p in area(a)]

@@ -99,6 +99,9 @@ class Area:
     label: str = ""
     written: list[Path] = field(default_factory=list)
     """The files written into the area's folders so far."""
+    report_top: Path | None = None
+    """The folder above ``out`` whose plotly.js the area's pages load (a city's, for a
+    hub); None: the report's own (docs/report.md)."""
 
     def folder(self, day: dt.date) -> Path | None:
         if self.out is None:
@@ -239,7 +242,7 @@ def _collect(
         if run.report and a.out is not None:
             from .report import write_pages
 
-            a.written += write_pages(a.out, a.scn.depots, progress)
+            a.written += write_pages(a.out, a.scn.depots, progress, shared=a.report_top)
         per_area.append(rows)
     return per_area, tables
 

@@ -56,7 +56,9 @@ def replay_hubs(
         except InputError as exc:  # a hub too sparse for its depots: which one
             raise in_hub(exc, a.hub.id) from None
         folder = out / f"hub-{a.hub.id}" if out is not None else None
-        areas.append(make_area(scn, folder, a.days, several, fleet, run, None, f"hub {a.hub.id}: "))
+        area = make_area(scn, folder, a.days, several, fleet, run, None, f"hub {a.hub.id}: ")
+        area.report_top = out  # the city's pages share one plotly.js (docs/report.md)
+        areas.append(area)
     # Said once every hub's fleet and folder passed: an error is a failed run's only line.
     drop_report(progress, table.report, data_name(data))
     for line in skipped:
@@ -78,7 +80,7 @@ def replay_hubs(
         if run.report:  # the city's page; each hub's was written with its days
             from ..report import write_reports
 
-            written += write_reports(out, below=False)
+            written += write_reports(out, below=False, shared=out)
     progress.message(
         f"city: {city['planned']:,} of {city['orders_due']:,} orders due planned in "
         f"{len(hub_list)} hubs ({100 * city['covered_share']:.1f} %), "

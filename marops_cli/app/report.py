@@ -23,11 +23,13 @@ def check_report(wanted: bool) -> None:
         require_plotly()
 
 
-def report_outputs(folders: list[Path]) -> list[Path]:
-    """The ``report.html`` of each folder: outputs to check before the work."""
-    from ..report import REPORT
+def report_outputs(folder: Path, folders: list[Path]) -> list[Path]:
+    """The ``report.html`` of each of ``folders`` (the report of ``folder``), and the
+    plotly.js they share where there are several: outputs to check before the work."""
+    from ..report import REPORT, shared_script
 
-    return [f / REPORT for f in folders]
+    script = shared_script(folder, folders)
+    return [f / REPORT for f in folders] + ([script] if script is not None else [])
 
 
 def write_pages(
@@ -35,23 +37,25 @@ def write_pages(
     depots: Depots | None = None,
     progress: Progress = SILENT,
     folders: list[Path] | None = None,
+    shared: Path | None = None,
 ) -> list[Path]:
     """``report.html`` into ``folder`` and its day and hub folders (``folders``: its
     :func:`~marops_cli.report.report_folders`, where the caller has them already), a
     progress step per page where there are several (a city's month holds hundreds);
-    the files written."""
+    the files written. ``shared``: the folder above whose plotly.js the pages load (a
+    city's, for a hub's pages)."""
     from ..report import report_folders, write_reports
 
     folders = report_folders(folder) if folders is None else folders
     if len(folders) < 2:
-        return write_reports(folder, depots, folders=folders)
+        return write_reports(folder, depots, folders=folders, shared=shared)
 
     def on_page(k: int, n: int, path: Path) -> None:
         progress.advance(f"report {k}/{n}: {path}")
 
     progress.start("report", len(folders), "pages")
     try:
-        return write_reports(folder, depots, on_page=on_page, folders=folders)
+        return write_reports(folder, depots, on_page=on_page, folders=folders, shared=shared)
     finally:
         progress.finish()
 
@@ -78,7 +82,7 @@ def make_report(
     if not targets:
         raise _nothing_to_report(folder)
     register_inputs([depots])
-    check_outputs(report_outputs(targets))
+    check_outputs(report_outputs(folder, targets))
     loaded = _depots(depots)
     with folder_lock(folder):
         try:

@@ -1,7 +1,7 @@
-"""``report.html``: one self-contained, interactive page per output folder of a run
-(docs/report.md), built from the files the run wrote there, so that ``--report`` and
-``marops report DIR`` give the same page. Needs plotly (``pip install 'marops[report]'``),
-imported only when a report is made."""
+"""``report.html``: one interactive page per output folder of a run (docs/report.md),
+built from the files the run wrote there, so that ``--report`` and ``marops report DIR``
+give the same page; the pages of a report of several share one plotly.js. Needs plotly
+(``pip install 'marops[report]'``), imported only when a report is made."""
 
 from __future__ import annotations
 
@@ -12,12 +12,21 @@ from typing import TYPE_CHECKING, Any, TypeGuard
 from ..data.jsonfile import first_line
 from ..errors import InputError
 from .folder import REPORT, is_evaluation, metrics, route_files, route_files_exist, sub_reports
-from .page import EXTRA, Page, require_plotly
+from .page import EXTRA, Page, require_plotly, script_bytes, script_name
 
 if TYPE_CHECKING:
+    from ..io import OutputSet
     from ..segment.depots import Depots
 
-__all__ = ["EXTRA", "REPORT", "report_folders", "report_page", "require_plotly", "write_reports"]
+__all__ = [
+    "EXTRA",
+    "REPORT",
+    "report_folders",
+    "report_page",
+    "require_plotly",
+    "shared_script",
+    "write_reports",
+]
 
 
 def report_page(folder: Path, depots: Depots | None = None) -> Page | None:
@@ -75,6 +84,43 @@ def report_folders(folder: Path, *, below: bool = True) -> list[Path]:
     return found
 
 
+def shared_script(folder: Path, folders: list[Path]) -> Path | None:
+    """The plotly.js that the pages of a report of ``folder`` over ``folders`` (its
+    :func:`report_folders`) load: one file in ``folder`` where the report makes several
+    pages, none (each page inlines it, and opens on its own) for a single page."""
+    return folder / script_name() if len(folders) > 1 else None
+
+
+def _script_src(page_folder: Path, script: Path) -> str:
+    """The shared plotly.js as the page in ``page_folder`` names it: ``../`` for each
+    folder between them (never a folder's name, which may hold anything)."""
+    depth = len(page_folder.relative_to(script.parent).parts)
+    return "../" * depth + script.name
+
+
+def _script_set(script: Path) -> OutputSet | None:
+    """The shared plotly.js to put in place, or None where the file is marops's with
+    these bytes already (a city's hubs each write their pages with it; a re-run). A file
+    of that name marops did not write is refused (``--force`` replaces it)."""
+    from ..data.reader import sha256_file
+    from ..io import OutputSet
+    from ..io.ownership import written_by_marops
+
+    data = script_bytes()
+    if script.is_file() and not script.is_symlink() and written_by_marops(script):
+        import hashlib
+
+        if sha256_file(script) == hashlib.sha256(data).hexdigest():
+            return None
+    files = OutputSet()
+    try:
+        files.write_bytes(script, data)
+    except BaseException:
+        files.discard()
+        raise
+    return files
+
+
 def _link_up(page: Page, folder: Path, folders: list[Path]) -> None:
     """A day's or hub's page links the page of the run above it (a hub's, a city's or a
     several-day run's), where that page is made in the same run."""
@@ -93,20 +139,27 @@ def write_reports(
     below: bool = True,
     on_page: Callable[[int, int, Path], None] | None = None,
     folders: list[Path] | None = None,
+    shared: Path | None = None,
 ) -> list[Path]:
     """Write ``report.html`` into ``folder`` (and, with ``below``, into its day and hub
     folders); the files written. ``on_page(k, n, path)`` is told as the k-th of the ``n``
     pages to make is done (a city's month holds hundreds). ``folders``: the
-    :func:`report_folders` of ``folder`` where the caller has them already."""
+    :func:`report_folders` of ``folder`` where the caller has them already. ``shared``:
+    the folder above whose plotly.js the pages load (a city's, for a hub's pages);
+    by default :func:`shared_script`'s."""
     from ..io import OutputSet
 
-    written = []
+    written: list[Path] = []
     folders = report_folders(folder, below=below) if folders is None else folders
+    script = shared / script_name() if shared is not None else shared_script(folder, folders)
     # Every page is made before any is put in place: a folder that cannot be reported on
     # (a damaged day among thirty) leaves every page as it was. Each folder's page is a
     # set of its own, put in place one after the other (one set over a city's month
     # would hold every folder open at once).
+    # The shared plotly.js is put in place first, with the pages (none where one of them
+    # cannot be made), so no page in place lacks it.
     pages: list[OutputSet] = []
+    needs_script = False
     try:
         for k, f in enumerate(folders, start=1):
             try:
@@ -125,10 +178,18 @@ def write_reports(
                 pages.append(files)
                 # A folder name that is not UTF-8 (Linux allows any bytes) is shown
                 # escaped, as marops's JSON outputs write it.
-                files.write_bytes(f / REPORT, page.html().encode("utf-8", "backslashreplace"))
+                src = _script_src(f, script) if script is not None else None
+                text = page.html(src)
+                files.write_bytes(f / REPORT, text.encode("utf-8", "backslashreplace"))
                 written.append(f / REPORT)
+                needs_script = needs_script or (src is not None and page.has_figures)
             if on_page is not None:  # the page, or the folder that had none to write
                 on_page(k, len(folders), f / REPORT if page is not None else f)
+        if needs_script and script is not None:
+            script_files = _script_set(script)
+            if script_files is not None:
+                pages.insert(0, script_files)
+                written.insert(0, script)
         while pages:
             pages[0].commit()
             pages.pop(0)

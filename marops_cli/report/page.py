@@ -1,9 +1,11 @@
-"""One self-contained HTML page (docs/report.md): headings, tables, links and plotly
-figures, with plotly.js inlined once so the page opens without a network."""
+"""One HTML page (docs/report.md): headings, tables, links and plotly figures, with
+plotly.js inlined once, or loaded from the one copy a report of several pages shares,
+so the page opens without a network."""
 
 from __future__ import annotations
 
 import html
+import re
 from collections.abc import Sequence
 from typing import Any
 
@@ -50,15 +52,39 @@ CONFIG = {
 """The figures' plotly config."""
 
 
-def _policy() -> str:
-    """What the browser lets the page load: its own inline scripts and styles and the map
-    tiles (none with ``MAROPS_TILES=off``), nothing else (no fetch, no other image host),
-    whatever a figure's text holds."""
+def script_name() -> str:
+    """The name of the plotly.js that the pages of a report share (docs/report.md):
+    ``plotly-<version>.min.js``, so a page keeps the one it was made with."""
+    from plotly.offline import get_plotlyjs_version
+
+    version = re.sub(r"[^0-9A-Za-z.+-]", "_", str(get_plotlyjs_version()))
+    return f"plotly-{version}.min.js"
+
+
+def script_bytes() -> bytes:
+    """plotly.js, as the shared file holds it."""
+    from plotly.offline import get_plotlyjs
+
+    return get_plotlyjs().encode("utf-8")
+
+
+def _policy(shared: bool) -> str:
+    """What the browser lets the page load: its own inline scripts and styles, the shared
+    plotly.js where the page loads it (``shared``) and the map tiles (none with
+    ``MAROPS_TILES=off``), nothing else (no fetch, no other image host), whatever a
+    figure's text holds."""
     images = "img-src data: blob:" + (f" {TILE_HOST.rstrip('/')}" if tiles_on() else "")
+    # The shared plotly.js is a file beside the page (or above it). For a page opened
+    # from a file, Chromium matches 'self' to file: URLs; for the folder served over
+    # HTTP, 'self' is that server. Narrower sources do not work: a path alone is no
+    # valid source ("../plotly.js" is ignored), and a hash source or an integrity
+    # attribute needs a CORS response, which a file: URL never is (the script is
+    # refused). 'file:' would refuse the script of a folder served over HTTP.
+    scripts = "script-src 'self' 'unsafe-inline'" if shared else "script-src 'unsafe-inline'"
     return "; ".join(
         (
             "default-src 'none'",
-            "script-src 'unsafe-inline'",  # plotly.js and the figures, inlined
+            scripts,  # plotly.js (inlined or the shared file) and the figures, inlined
             "style-src 'unsafe-inline'",
             images,  # the map tiles
             "base-uri 'none'",
@@ -134,18 +160,26 @@ class Page:
             )
         )
 
-    def html(self) -> str:
-        """The whole page; plotly.js inlined in the head when the page has a figure."""
-        script = ""
-        if self._figures:
+    @property
+    def has_figures(self) -> bool:
+        return self._figures > 0
+
+    def html(self, script: str | None = None) -> str:
+        """The whole page; when it has a figure, plotly.js in the head: loaded from
+        ``script`` (the shared file's path relative to the page), else inlined."""
+        tag = ""
+        if self._figures and script is not None:
+            tag = f'<script src="{html.escape(script)}"></script>'
+        elif self._figures:
             from plotly.offline import get_plotlyjs
 
-            script = f'<script type="text/javascript">{get_plotlyjs()}</script>'
+            tag = f'<script type="text/javascript">{get_plotlyjs()}</script>'
+        policy = _policy(shared=bool(self._figures) and script is not None)
         return (
             '<!DOCTYPE html>\n<html lang="en">\n<head>\n<meta charset="utf-8">\n'
-            f'<meta http-equiv="Content-Security-Policy" content="{_policy()}">\n'
+            f'<meta http-equiv="Content-Security-Policy" content="{policy}">\n'
             f"<title>{html.escape(self.title)}</title>\n<style>{_STYLE}</style>\n"
-            f"{script}\n</head>\n<body>\n" + "\n".join(self._parts) + "\n</body>\n</html>\n"
+            f"{tag}\n</head>\n<body>\n" + "\n".join(self._parts) + "\n</body>\n</html>\n"
         )
 
 

@@ -55,6 +55,23 @@ def day_run(
 
 
 @pytest.fixture(scope="session")
+def days_run(
+    example_csv: Path,
+    small_config: Path,
+    depots_json: Path,
+    tmp_path_factory: pytest.TempPathFactory,
+) -> Path:
+    """``replay-day --report`` of two small days: three pages sharing one plotly.js."""
+    out = tmp_path_factory.mktemp("days") / "days"
+    invoke(
+        "replay-day", example_csv, "--dates", "0811..0812", "--depots", depots_json,
+        "--drones", 2, "--config", small_config, "--workers", 1, "--report", "--out", out,
+        "--quiet",
+    )  # fmt: skip
+    return out
+
+
+@pytest.fixture(scope="session")
 def evaluation_run(
     example_csv: Path, small_config: Path, tmp_path_factory: pytest.TempPathFactory
 ) -> Path:

@@ -1,6 +1,7 @@
 """The report in a real browser (headless Chromium over the DevTools protocol): the map
-holds one line per route, the page logs no error, and a screenshot is taken. Skipped only
-where no Chromium is on PATH; .ci/run installs the distribution's package."""
+holds one line per route, the page logs no error, and a screenshot is taken; the pages of
+several days load the plotly.js they share from a file. Skipped only where no Chromium is
+on PATH; .ci/run installs the distribution's package."""
 
 from __future__ import annotations
 
@@ -64,6 +65,44 @@ def test_report_in_chromium(day_run: Path, tmp_path: Path) -> None:
     assert errors == []
     width, height = _png_size(shot.read_bytes())
     assert (width, height) == (1300, 1000)
+
+
+def test_pages_sharing_plotly_js_draw_their_figures_from_files(
+    days_run: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A day's page and the page over the days of a several-day run, opened from their
+    files, load the shared plotly.js (the policy lets it in) and draw their figures:
+    with map tiles (which fail offline, nothing else may) and without (nothing fails)."""
+    from marops_cli.report.page import script_name
+
+    assert (days_run / script_name()).is_file()
+    day = days_run / "2022-08-11"
+    drawn = {
+        "plotly": "typeof Plotly",
+        "svgs": "[...document.querySelectorAll('.js-plotly-plot')]"
+        ".map(d => [d.id, d.querySelectorAll('svg.main-svg').length])",
+        "lines": f'document.querySelectorAll("{ROUTE_LINES}").length',
+    }
+    routes = pq.read_table(day / "routes.parquet").to_pylist()
+    flown = sum(r["n_parcels"] > 0 or r["start_depot"] != r["end_depot"] for r in routes)
+    run = open_page((day / "report.html").as_uri(), ready=READY, expressions=drawn)
+    assert run.values["plotly"] == "object"
+    assert dict(run.values["svgs"]).keys() == {"map", "timeline"}
+    assert all(n > 0 for _, n in run.values["svgs"])
+    assert run.values["lines"] == flown
+    assert _offline_errors(run.errors) == []
+
+    copy = tmp_path / "off"
+    shutil.copytree(days_run, copy)
+    monkeypatch.setenv("MAROPS_TILES", "off")
+    invoke("report", copy, "--quiet")
+    assert "<script src=" in (copy / "2022-08-11" / "report.html").read_text(encoding="utf-8")
+    run = open_page((copy / "2022-08-11" / "report.html").as_uri(), ready=READY, expressions=drawn)
+    assert run.values["lines"] == flown and run.errors == []
+    top = "typeof Plotly !== 'undefined' && !!document.querySelector('#days svg.main-svg')"
+    run = open_page((copy / "report.html").as_uri(), ready=top, expressions=drawn)
+    assert run.values["svgs"][0][0] == "days" and run.values["svgs"][0][1] > 0
+    assert run.errors == []
 
 
 def _offline_errors(errors: list[dict]) -> list[dict]:

@@ -279,6 +279,113 @@ def test_several_days_link_each_day_report(
     assert res.output.splitlines()[:3] == pages
 
 
+def _policy(page: str) -> dict[str, str]:
+    head = page.split("</head>")[0]
+    found = re.search(r'<meta http-equiv="Content-Security-Policy" content="([^"]+)">', head)
+    assert found is not None
+    return dict(r.split(" ", 1) for r in found.group(1).split("; "))
+
+
+def test_the_pages_of_several_days_share_one_plotly_js(
+    days_run: Path, depots_json: Path, tmp_path: Path
+) -> None:
+    """One plotly.js under the run's folder, journaled as marops's; each page loads it
+    by its relative path (its policy allows that and no host) instead of inlining it."""
+    from plotly.offline import get_plotlyjs, get_plotlyjs_version
+
+    name = f"plotly-{get_plotlyjs_version()}.min.js"
+    assert [p.relative_to(days_run).as_posix() for p in days_run.rglob("*.js")] == [name]
+    assert (days_run / name).read_bytes() == get_plotlyjs().encode("utf-8")
+    journal = json.loads((days_run / ".marops-files.json").read_text())
+    assert name in journal["files"] and "report.html" in journal["files"]
+    pages = {
+        days_run / "report.html": name,
+        days_run / "2022-08-11" / "report.html": f"../{name}",
+        days_run / "2022-08-12" / "report.html": f"../{name}",
+    }
+    for path, src in pages.items():
+        page = path.read_text(encoding="utf-8")
+        assert page.count("<script src") == 1
+        assert f'<script src="{src}"></script>' in page.split("</head>")[0]
+        assert _policy(page)["script-src"] == "'self' 'unsafe-inline'"
+        assert len(page) < 1_000_000  # plotly.js is not inlined
+    # The same folder gives the same bytes (its name is on the pages); a day's page made
+    # alone inlines plotly.js and opens on its own.
+    copy = tmp_path / days_run.name
+    shutil.copytree(days_run, copy)
+    invoke("report", copy, "--depots", depots_json, "--quiet")
+    for path in [*pages, days_run / name]:
+        assert (copy / path.relative_to(days_run)).read_bytes() == path.read_bytes()
+    invoke("report", copy / "2022-08-11", "--depots", depots_json, "--quiet")
+    alone = (copy / "2022-08-11" / "report.html").read_text(encoding="utf-8")
+    assert "<script src" not in alone and _policy(alone)["script-src"] == "'unsafe-inline'"
+    shared = (days_run / "2022-08-11" / "report.html").read_text(encoding="utf-8")
+    assert len(alone) - len(shared) > 4_000_000
+    assert figure(alone, "map") == figure(shared, "map")  # the same figures
+
+
+def test_a_plotly_js_marops_did_not_write_is_never_replaced(
+    days_run: Path, example_csv: Path, depots_json: Path, small_config: Path, tmp_path: Path,
+    fails_cleanly,
+) -> None:  # fmt: skip
+    """A file of one's own by the shared plotly.js's name (or marops's, edited since)
+    stops the report before any work, as any output marops did not write."""
+    from marops_cli.report.page import script_name
+
+    name = script_name()
+    out = tmp_path / "days"
+    out.mkdir()
+    (out / name).write_text("my script")
+    args = [
+        "replay-day", str(example_csv), "--dates", "0811..0812", "--depots", str(depots_json),
+        "--drones", "2", "--config", str(small_config), "--workers", "1", "--report",
+        "--out", str(out),
+    ]  # fmt: skip
+    fails_cleanly(args, out, str(out / name), "not written by marops")
+    assert (out / name).read_text() == "my script"
+    copy = tmp_path / "copy"
+    shutil.copytree(days_run, copy)
+    with (copy / name).open("a") as fh:
+        fh.write("\n// edited")
+    edited = (copy / name).read_bytes()
+    pages = {p: p.read_bytes() for p in copy.rglob("report.html")}
+    line = fails_cleanly(["report", str(copy)], copy, str(copy / name))
+    assert "not written by marops" in line
+    assert (copy / name).read_bytes() == edited
+    assert {p: p.read_bytes() for p in copy.rglob("report.html")} == pages
+    # The library's own check, where no command checked the outputs before.
+    from marops_cli.errors import InputError
+    from marops_cli.report import write_reports
+
+    with pytest.raises(InputError, match="not written by marops"):
+        write_reports(copy)
+    assert (copy / name).read_bytes() == edited
+    assert {p: p.read_bytes() for p in copy.rglob("report.html")} == pages
+    assert not [p for p in copy.rglob("*.tmp")]
+    # --force replaces it, as any output marops did not write.
+    invoke("report", copy, "--force", "--quiet")
+    assert (copy / name).read_bytes() == (days_run / name).read_bytes()
+
+
+def test_a_folder_that_cannot_be_reported_on_leaves_no_shared_plotly_js(
+    days_run: Path, tmp_path: Path
+) -> None:
+    """The pages of several days and the plotly.js they share are put in place together
+    or not at all: a damaged day leaves the folder as it was."""
+    from marops_cli.report.page import script_name
+
+    copy = tmp_path / "copy"
+    shutil.copytree(days_run, copy)
+    for p in [*copy.rglob("report.html"), copy / script_name()]:
+        p.unlink()
+    routes = copy / "2022-08-12" / "routes.parquet"
+    routes.write_bytes(routes.read_bytes()[:3000])
+    before = sorted(copy.rglob("*"))
+    res = runner.invoke(app, ["report", str(copy)])
+    assert res.exit_code == 2 and "routes.parquet" in res.output, res.output
+    assert sorted(copy.rglob("*")) == before
+
+
 def test_the_closing_line_of_many_pages_names_the_first_and_the_last() -> None:
     from marops_cli.cli.report_cmd import wrote_pages
 
@@ -466,7 +573,15 @@ def test_a_city_run_reports_each_hub_and_the_city(
     )  # fmt: skip
     city = (out / "report.html").read_text(encoding="utf-8")
     assert "The city&#x27;s coverage" in city or "The city's coverage" in city
+    # One plotly.js for the city's pages, in its folder, written once.
+    from marops_cli.report.page import script_name
+
+    name = script_name()
+    assert list(out.rglob("*.js")) == [out / name]
     for hub in (0, 1):
         assert f'href="hub-{hub}/report.html"' in city
-        data, _ = figure((out / f"hub-{hub}" / "report.html").read_text(encoding="utf-8"), "map")
+        page = (out / f"hub-{hub}" / "report.html").read_text(encoding="utf-8")
+        assert f'<script src="../{name}"></script>' in page
+        data, _ = figure(page, "map")
         assert sum(t.get("name") == "service areas" for t in data) > 0  # the hub's own depots
+    assert f'<script src="{name}"></script>' in city
