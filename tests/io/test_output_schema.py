@@ -208,3 +208,25 @@ def test_routes_across_the_antimeridian_are_multilinestrings(
         assert kept == [p for _, p in own]
     lng = np.array([s["lng"] for s in stops])
     assert lng.min() < -179.9 and lng.max() > 179.9  # both sides of the line
+
+
+# docs/outputs.md, the files' metadata: what every output records, and what each adds.
+PROVENANCE = ["package", "version", "command", "config", "input", "policy", "method", "seed"]
+PLAN_WINDOW = ["day", "window", "solver", "objective", "frame", "depots_file", "fleet"]
+
+
+def test_provenance_is_as_documented(window: Path) -> None:
+    text = DOCS.read_text(encoding="utf-8")
+    for key in PROVENANCE + PLAN_WINDOW:
+        assert f"`{key}`" in text, key
+    for name in ("stops", "routes"):
+        schema = pq.read_schema(window / "parquet" / f"{name}.parquet")
+        meta = json.loads(schema.metadata[b"marops"])
+        assert list(meta) == PROVENANCE + PLAN_WINDOW
+        assert list(meta["input"]) == ["name", "size", "sha256"]
+        assert list(meta["objective"])[:2] == ["J", "G"]
+        assert json.loads((window / "json" / f"{name}.json").read_text())["meta"] == meta
+    assert json.loads((window / "parquet" / "routes.geojson").read_text())["marops"] == meta
+    depots = json.loads((window / "depots.json").read_text())["meta"]
+    assert list(depots) == [k for k in PROVENANCE if k != "policy"] + ["days", "n_history", "rows"]
+    assert json.loads((window / "depots.geojson").read_text())["marops"] == depots
