@@ -230,3 +230,16 @@ def test_provenance_is_as_documented(window: Path) -> None:
     depots = json.loads((window / "depots.json").read_text())["meta"]
     assert list(depots) == [k for k in PROVENANCE if k != "policy"] + ["days", "n_history", "rows"]
     assert json.loads((window / "depots.geojson").read_text())["marops"] == depots
+
+
+def test_synth_writes_the_documented_columns(tmp_path: Path) -> None:
+    """synth's Parquet: docs/outputs.md's 17 columns in order, times as text, no metadata."""
+    row = next(r for r in DOCS.read_text("utf-8").splitlines() if r.startswith("| `synth"))
+    names = re.findall(r"`(\w+)`", row.split("in its order (")[1].split(")")[0])
+    out = tmp_path / "lade.parquet"
+    args = ["synth", "--days", "1", "--orders-per-day", "60", "--out", str(out)]
+    assert runner.invoke(app, args).exit_code == 0
+    schema = pq.read_schema(out)
+    assert schema.names == names and len(names) == 17
+    assert {str(f.type) for f in schema} <= {"int64", "double", "string"}
+    assert schema.field("accept_time").type == pa.string() and schema.metadata is None
