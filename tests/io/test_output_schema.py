@@ -243,3 +243,9 @@ def test_synth_writes_the_documented_columns(tmp_path: Path) -> None:
     assert schema.names == names and len(names) == 17
     assert {str(f.type) for f in schema} <= {"int64", "double", "string"}
     assert schema.field("accept_time").type == pa.string() and schema.metadata is None
+
+
+def test_geojson_help_names_the_cut_lines() -> None:
+    for command in ("replay-day", "plan-window"):
+        res = runner.invoke(app, [command, "--help"], env={"COLUMNS": "200"})
+        assert "MultiLineString cut at 180°" in " ".join(res.output.split()), command
