@@ -185,3 +185,14 @@ def test_a_metric_no_row_has_keeps_its_type() -> None:
     assert table.schema.field("charged_min").type == pa.int64()
     assert table.schema.field("co2_g").type == pa.float64()
     assert row_table(rows[0]).schema.field("charged_min").type == pa.int64()
+
+
+def test_every_results_column_is_documented(run_dir: Path) -> None:
+    """Each column of results.parquet is named in docs/outputs.md (a day metric, a key
+    column, or a flattened one: ``solver_calls``, ``depot_load_kg_<depot>``, …)."""
+    text = (Path(__file__).resolve().parents[2] / "docs" / "outputs.md").read_text("utf-8")
+    named = set(re.findall(r"`(\w+)`", text))
+    prefixes = tuple(re.findall(r"`(\w+_)<\w+>`", text))
+    assert "depot_load_kg_" in prefixes and "stock_left_" in prefixes
+    for name in pq.read_schema(run_dir / "results.parquet").names:
+        assert name in named or name.startswith(prefixes), name

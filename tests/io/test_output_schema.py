@@ -249,3 +249,25 @@ def test_geojson_help_names_the_cut_lines() -> None:
     for command in ("replay-day", "plan-window"):
         res = runner.invoke(app, [command, "--help"], env={"COLUMNS": "200"})
         assert "MultiLineString cut at 180°" in " ".join(res.output.split()), command
+
+
+def test_a_days_metrics_are_as_documented(example_csv: Path, window: Path, tmp_path: Path) -> None:
+    """metrics.json of a replayed day: every key of docs/outputs.md's "Day metrics" table
+    (but the two of `[plan] bound`) and no other; its meta the route files' keys with
+    `created` and `settings`."""
+    text = DOCS.read_text(encoding="utf-8")
+    section = text.split("\n## Day metrics")[1].split("\n## ")[0]
+    documented = {
+        name
+        for cells in re.findall(r"^\| (`[^|]+?) \|", section, flags=re.M)
+        for name in re.findall(r"`(\w+)`", cells)
+    }
+    args = ["replay-day", str(example_csv), "--depots", str(window / "depots.json")]
+    res = runner.invoke(app, [*args, "--date", "0811", "--method", "stay", "--out", str(tmp_path)])
+    assert res.exit_code == 0, res.output
+    doc = _strict(tmp_path / "metrics.json")
+    (day,) = doc["days"]
+    assert set(day) == documented - {"objective_bound_mj", "gap_median"}
+    meta = json.loads(pq.read_schema(tmp_path / "routes.parquet").metadata[b"marops"])
+    assert set(meta) == {*PROVENANCE, "frame", "depots_file", "fleet", "day"}
+    assert set(doc["meta"]) == set(meta) | {"created", "settings"}
