@@ -2,7 +2,8 @@
 columns against docs/outputs.md's tables (name, order, type, which hold nulls), the JSON
 route files and GeoJSON against the same columns, and every GeoJSON document valid RFC
 7946 (positions lng, lat in range; rings closed and counter-clockwise; no leg jumping
-round the globe at the antimeridian; no NaN)."""
+round the globe at the antimeridian; no NaN); the files' metadata, a day's metrics.json
+and synth's columns as documented."""
 
 from __future__ import annotations
 
