@@ -115,7 +115,11 @@ Tz = Annotated[
 ]
 Geojson = Annotated[
     bool,
-    typer.Option("--geojson", help="Also write routes.geojson: one LineString per route."),
+    typer.Option(
+        "--geojson",
+        help="Also write routes.geojson: one LineString per route (a MultiLineString cut "
+        "at 180° across the antimeridian).",
+    ),
 ]
 Format = Annotated[
     str,

@@ -20,7 +20,7 @@ import numpy as np
 import pyarrow as pa
 
 from ..methods import method as method_spec
-from ..sim.metrics import combined_cost, metric_names
+from ..sim.metrics import METRICS, combined_cost, metric_names
 from .runner import Prepared
 from .settings import Job
 
@@ -120,6 +120,11 @@ def row_table(row: dict[str, Any]) -> pa.Table:
 def _array(name: str, values: list[Any]) -> pa.Array:
     if name.startswith(DEPOT_LOAD_PREFIX) or any(isinstance(v, float) for v in values):
         return pa.array([None if v is None else float(v) for v in values], type=pa.float64())
+    if name in METRICS and all(v is None for v in values):
+        # A metric no row has a value of (charged_min under unlimited swaps) keeps its
+        # type, a count's int64 or float64, not Arrow's type of nulls alone.
+        kind = pa.int64() if METRICS[name].unit == "count" else pa.float64()
+        return pa.array(values, type=kind)
     return pa.array(values)
 
 

@@ -17,6 +17,7 @@ from ..data.arrow import native_file
 from ..data.table import DayRequests
 from ..energy import EnergyModel
 from ..plans.window import WindowPlan
+from ..segment.areas import line_geometry
 from ..segment.depots import Depots
 
 DEFAULT_TZ = "Asia/Shanghai"  # LaDe's times are Shanghai local time
@@ -238,7 +239,8 @@ def table_records(table: pa.Table) -> list[dict[str, Any]]:
 
 def routes_geojson(stops: pa.Table, routes: pa.Table, meta: dict[str, Any]) -> dict[str, Any]:
     """A GeoJSON FeatureCollection: one LineString per route in lng/lat (start depot,
-    customers, end depot) with the route's columns as properties (docs/outputs.md)."""
+    customers, end depot; a MultiLineString cut at 180° for a route across the
+    antimeridian) with the route's columns as properties (docs/outputs.md)."""
     st = stops.select(["day", "window", "drone", "seq", "lng", "lat"]).to_pylist()
     path: dict[tuple[Any, int, int], list[tuple[int, list[float]]]] = {}
     for r in st:
@@ -252,7 +254,7 @@ def routes_geojson(stops: pa.Table, routes: pa.Table, meta: dict[str, Any]) -> d
         features.append(
             {
                 "type": "Feature",
-                "geometry": {"type": "LineString", "coordinates": coords},
+                "geometry": line_geometry([c[0] for c in coords], [c[1] for c in coords]),
                 "properties": props,
             }
         )

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -40,12 +41,22 @@ def _rounded(lng: Any, lat: Any) -> list[list[float]]:
     return [[round(float(a), 7), round(float(b), 7)] for a, b in zip(lng, lat, strict=True)]
 
 
+def _unwrapped(lng: np.ndarray, ref_lng: float) -> np.ndarray:
+    """Longitudes as one continuous run around ``ref_lng``: a place just across the
+    antimeridian from it reads beyond 180° (or below -180°) instead of round the globe."""
+    return ref_lng + (lng - ref_lng + 180.0) % 360.0 - 180.0
+
+
+def _crosses(unwrapped: np.ndarray) -> bool:
+    return bool(unwrapped.max() > 180.0 or unwrapped.min() < -180.0)
+
+
 def _area_geometry(lng: np.ndarray, lat: np.ndarray, center_lng: float) -> dict[str, Any]:
     """A service area's ring as GeoJSON: a Polygon, or, for an area across the
     antimeridian, a MultiPolygon of its parts on either side (RFC 7946 §3.1.9), so no
     ring jumps from 180° to -180° around the globe."""
-    unwrapped = center_lng + (lng - center_lng + 180.0) % 360.0 - 180.0
-    if unwrapped.max() <= 180.0 and unwrapped.min() >= -180.0:
+    unwrapped = _unwrapped(lng, center_lng)
+    if not _crosses(unwrapped):
         return {"type": "Polygon", "coordinates": [_rounded(lng, lat)]}
     import shapely
 
@@ -58,6 +69,34 @@ def _area_geometry(lng: np.ndarray, lat: np.ndarray, center_lng: float) -> dict[
                 xy = np.asarray(shapely.orient_polygons(part).exterior.coords)
                 parts.append([_rounded(xy[:, 0] + shift, xy[:, 1])])
     return {"type": "MultiPolygon", "coordinates": parts}
+
+
+def line_geometry(lng: Sequence[float], lat: Sequence[float]) -> dict[str, Any]:
+    """A path through ``(lng, lat)`` in order as GeoJSON: a LineString of the positions
+    as they are, or, for a path across the antimeridian, a MultiLineString of its parts
+    on either side, in the path's order, each cut at 180° (RFC 7946 §3.1.9) where the
+    leg that crosses meets it, so no leg jumps from 180° to -180° around the globe."""
+    x = np.asarray(lng, dtype=np.float64)
+    y = np.asarray(lat, dtype=np.float64)
+    unwrapped = _unwrapped(x, float(x[0])) if x.size else x
+    if not x.size or not _crosses(unwrapped):
+        coords = [[a, b] for a, b in zip(lng, lat, strict=True)]
+        return {"type": "LineString", "coordinates": coords}
+    sheet = np.floor((unwrapped + 180.0) / 360.0)  # which copy of -180..180 a position is on
+    parts: list[list[list[float]]] = [[[float(x[0]), float(y[0])]]]
+    for i in range(1, x.size):
+        if sheet[i] != sheet[i - 1]:  # this leg crosses 180° (a leg is far shorter than 360°)
+            east = sheet[i] > sheet[i - 1]
+            edge = 180.0 + 360.0 * float(min(sheet[i], sheet[i - 1]))
+            t = (edge - unwrapped[i - 1]) / (unwrapped[i] - unwrapped[i - 1])
+            at = float(y[i - 1] + t * (y[i] - y[i - 1]))
+            parts[-1].append([180.0 if east else -180.0, at])
+            parts.append([[-180.0 if east else 180.0, at]])
+        parts[-1].append([float(x[i]), float(y[i])])
+    lines = [p for p in parts if any(q != p[0] for q in p)]  # no part of one position
+    if len(lines) == 1:  # a path that only touches 180°
+        return {"type": "LineString", "coordinates": lines[0]}
+    return {"type": "MultiLineString", "coordinates": lines}
 
 
 def areas_geojson(depots: Depots, meta: dict[str, Any]) -> dict[str, Any]:

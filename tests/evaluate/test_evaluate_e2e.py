@@ -5,9 +5,11 @@ from __future__ import annotations
 import csv
 import json
 import math
+import re
 from pathlib import Path
 
 import numpy as np
+import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
 from numpy.testing import assert_allclose
@@ -16,6 +18,8 @@ from typer.testing import CliRunner
 from marops_cli.cli.app import app
 from marops_cli.config import PlannerConfig
 from marops_cli.evaluate import evaluate_jobs, expand_settings, prepare
+from marops_cli.evaluate.tables import KEY_COLUMNS, row_table, rows_table
+from marops_cli.sim.metrics import METRICS
 
 runner = CliRunner()
 METHODS = ["ops-random", "greedy"]
@@ -135,3 +139,60 @@ def test_a_single_day_leaves_the_std_empty(example_csv: Path, tmp_path: Path) ->
     assert all(math.isfinite(float(v)) for v in means)
     assert "nan" not in (out / "summary.csv").read_text()
     assert "± n/a" in (out / "summary.md").read_text()
+
+
+def _documented_key_types() -> dict[str, pa.DataType]:
+    """docs/outputs.md's "Column types" of results.parquet: the key columns' types."""
+    text = (Path(__file__).resolve().parents[2] / "docs" / "outputs.md").read_text("utf-8")
+    section = text.split("**Column types.**")[1].split("**Jobs dataset.**")[0]
+    kinds = {"int64": pa.int64(), "float64": pa.float64(), "string": pa.string()}
+    out = {}
+    for names, kind in re.findall(r"^\| (`[^|]+?) \| ([^|]+?) \|", section, flags=re.M):
+        for name in re.findall(r"`(\w+)`", names):
+            out[name] = kinds[kind.split(",")[0]]
+    return out
+
+
+def test_results_types_are_as_documented(run_dir: Path) -> None:
+    """The key columns as docs/outputs.md types them; a count metric int64, any other
+    float64; a job file's columns as results.parquet's."""
+    documented = _documented_key_types()
+    assert set(KEY_COLUMNS) <= documented.keys()
+    schema = pq.read_schema(run_dir / "results.parquet")
+    counts = ("solver_calls", "solver_fallbacks", "drone_types_", "stock_left_")
+    for f in schema:
+        if f.name in KEY_COLUMNS:
+            want = documented[f.name]
+        elif f.name in METRICS and METRICS[f.name].unit == "count" or f.name.startswith(counts):
+            want = pa.int64()
+        else:
+            want = pa.float64()
+        assert f.type == want, f.name
+    job = next((run_dir / "jobs").rglob("*.parquet"))
+    for f in pq.read_schema(job):
+        assert schema.field(f.name).type == f.type, f.name
+
+
+def test_a_metric_no_row_has_keeps_its_type() -> None:
+    """charged_min is null on every day under unlimited swaps: the column stays int64
+    (pandas reads it as numbers, not objects), as a float metric stays float64."""
+    rows = [
+        {"setting": 0, "method": m, "mean_energy_kj": 1.0, "avg_delay_h": 0.5, "co2_g": None}
+        | {"charged_min": None}
+        for m in ("a", "b")
+    ]
+    table = rows_table(rows)
+    assert table.schema.field("charged_min").type == pa.int64()
+    assert table.schema.field("co2_g").type == pa.float64()
+    assert row_table(rows[0]).schema.field("charged_min").type == pa.int64()
+
+
+def test_every_results_column_is_documented(run_dir: Path) -> None:
+    """Each column of results.parquet is named in docs/outputs.md (a day metric, a key
+    column, or a flattened one: ``solver_calls``, ``depot_load_kg_<depot>``, …)."""
+    text = (Path(__file__).resolve().parents[2] / "docs" / "outputs.md").read_text("utf-8")
+    named = set(re.findall(r"`(\w+)`", text))
+    prefixes = tuple(re.findall(r"`(\w+_)<\w+>`", text))
+    assert "depot_load_kg_" in prefixes and "stock_left_" in prefixes
+    for name in pq.read_schema(run_dir / "results.parquet").names:
+        assert name in named or name.startswith(prefixes), name
