@@ -30,14 +30,15 @@ is its keyword but where one keyword sets another field in another function)."""
 
 
 def option(name: str) -> str:
-    """Option ``name`` (``n_depots``) as a message names it: ``--n-depots`` on the command
-    line, ``n_depots`` in the Python API."""
+    """Option ``name`` (``n_depots``) as an :class:`InputError`'s message names it (only
+    it reads the mark): ``--n-depots`` on the command line, ``n_depots`` in the Python
+    API."""
     return f"{_MARK}{name}{_MARK}"
 
 
 def switch(name: str) -> str:
-    """Switch ``name`` (``force``) as a message asks for it: ``--force`` on the command
-    line, ``force=True`` in the Python API."""
+    """Switch ``name`` (``force``) as an :class:`InputError`'s message asks for it:
+    ``--force`` on the command line, ``force=True`` in the Python API."""
     return f"{_MARK}{name}={_MARK}"
 
 

@@ -8,8 +8,10 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from typer.testing import CliRunner
 
 from marops_cli import api as marops
+from marops_cli.cli.app import app
 from marops_cli.errors import InputError, keyword, option, switch
 
 
@@ -178,3 +180,23 @@ def test_the_command_line_names_the_flag(
     out = {"segment": "d.json"}.get(args[0], "out")
     given = [a.format(data=example_csv, tmp=tmp_path, depots=depots) for a in args]
     fails_cleanly([*given, "--out", str(tmp_path / out)], tmp_path, message)
+
+
+def test_the_api_asks_for_the_keyword_where_the_command_asks_for_the_flag(
+    example_csv: Path, tmp_path: Path
+) -> None:
+    mine = tmp_path / "depots.json"
+    mine.write_text("mine\n")
+    with pytest.raises(InputError) as err:
+        marops.segment(example_csv, out=mine)
+    assert str(err.value).endswith(
+        "depots.json: exists and was not written by marops; pass force=True to replace it"
+    )
+    with pytest.raises(InputError, match=r"is not a folder \(the out of replay-day, "):
+        marops.report(mine)
+    assert mine.read_text() == "mine\n"
+    res = CliRunner().invoke(app, ["segment", str(example_csv), "--out", str(mine)])
+    assert res.exit_code == 2
+    assert res.stderr.endswith(
+        "depots.json: exists and was not written by marops; pass --force to replace it\n"
+    )

@@ -324,11 +324,11 @@ def identity_doc(prep: Prepared) -> dict[str, Any]:
 _IDENTITY_NAMES = {
     "input": "the input file",
     "config": "config",
-    "methods": "--methods",
+    "methods": option("methods"),
     "days": "days",
-    "repeats": "--repeats",
+    "repeats": option("repeats"),
     "actors": "trained actors",
-    "hubs": "--hubs",
+    "hubs": option("hubs"),
 }
 
 
