@@ -212,12 +212,14 @@ F = TypeVar("F", bound=Callable[..., Any])
 
 def _checked(fn: F) -> F:
     """Check ``fn``'s arguments against its annotations before it runs (see above); a path
-    the system cannot look up (a name too long, a loop of links) is an InputError too."""
+    the system cannot look up (a name too long, a loop of links) is an InputError too. An
+    error naming an option names it by its keyword (``alpha``), where the command line
+    names its flag (``--alpha``; marops_cli/errors.py)."""
     sig = inspect.signature(fn)
 
     @functools.wraps(fn)
     def call(*args: Any, **kwargs: Any) -> Any:
-        from .errors import InputError, bad_path
+        from .errors import InputError, bad_path, keyword
 
         try:
             bound = sig.bind(*args, **kwargs)
@@ -234,6 +236,9 @@ def _checked(fn: F) -> F:
             bound.arguments[name] = passed
         try:
             return fn(*bound.args, **bound.kwargs)
+        except InputError as exc:
+            exc.respell(keyword)
+            raise
         except OSError as exc:  # a path the system cannot look up is bad input, as for a flag
             bad = bad_path(exc)
             if bad is None:
@@ -404,6 +409,7 @@ def plan_window(
     from .app.options import planner_config
     from .app.plan_window import plan_window as run
     from .data.dates import parse_day
+    from .errors import option
     from .io.ownership import replacing_foreign_files
 
     _files_asked("plan_window", out, geojson=geojson, report=report)
@@ -424,7 +430,7 @@ def plan_window(
         res = run(
             data,
             cfg,
-            parse_day(str(date), cfg.data.year, "--date"),
+            parse_day(str(date), cfg.data.year, option("date")),
             int(window),
             depots=Path(depots),
             method=method,
@@ -469,6 +475,7 @@ def replay_day(
     """``marops replay-day --date``: the day's stops, routes and metrics."""
     from .app.replay import ReplayOptions, check_options, replay_config, replay_days
     from .data.dates import parse_day
+    from .errors import option
     from .io.ownership import replacing_foreign_files
 
     _files_asked("replay_day", out, geojson=geojson, plot=plot, report=report)
@@ -489,7 +496,7 @@ def replay_day(
         policy=policy,
         trust_actor=trust_actor,
     )
-    day = parse_day(str(date), cfg.data.year, "--date")
+    day = parse_day(str(date), cfg.data.year, option("date"))
     with replacing_foreign_files(force):
         res = replay_days(
             data,
@@ -573,7 +580,7 @@ def evaluate(
     from .app.options import planner_config
     from .app.progress import SILENT
     from .data.dates import parse_days
-    from .errors import InputError
+    from .errors import InputError, option
     from .evaluate.paired import few_days_warning
     from .io.ownership import replacing_foreign_files
     from .segment.hubs import load_hubs
@@ -581,7 +588,8 @@ def evaluate(
     _files_asked("evaluate", out, report=report)
     cfg = planner_config(config, year=year, strict=strict, seed=seed, trust_actor=trust_actor)
     # An empty list of dates is an error, not the split's days.
-    days = parse_days(_text(dates) or "", cfg.data.year, "--dates") if dates is not None else None
+    given = _text(dates) or ""
+    days = parse_days(given, cfg.data.year, option("dates")) if dates is not None else None
     if dates is not None and split is not None:
         raise InputError("give at most one of dates or split")
     spec = EvaluateConfig(

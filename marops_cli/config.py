@@ -510,11 +510,16 @@ def option_error(
 
 
 def validation_message(exc: ValidationError, names: dict[str, str] | None = None) -> str:
-    """``plan.alpha: Input should be …, got 1.5``; ``names`` says what to call a field
-    (``{"plan.alpha": "--alpha"}``)."""
+    """``plan.alpha: Input should be …, got 1.5``; ``names`` says what to call a field,
+    and its parts (``{"plan.alpha": "--alpha"}``, ``{"data.center": option("center")}``
+    names ``data.center.0`` too)."""
     err = exc.errors()[0]
     loc = ".".join(str(p) for p in err["loc"])
-    loc = (names or {}).get(loc, loc)
+    parts = loc.split(".")
+    for i in range(len(parts), 0, -1):
+        if (name := (names or {}).get(".".join(parts[:i]))) is not None:
+            loc = name
+            break
     msg = str(err["msg"]).removeprefix("Value error, ")
     if "input" in err and not isinstance(err["input"], dict | list) and ", got " not in msg:
         msg = f"{msg}, got {clipped(repr(err['input']))}"
@@ -564,7 +569,8 @@ def override(
 ) -> PlannerConfig:
     """Return a copy with ``stage__field=value`` overrides applied (None = keep); an
     invalid value's error calls the field by its name in ``names`` (``stage__field`` ->
-    the flag that set it, ``--alpha``), else ``stage.field``."""
+    the option that set it, ``option("alpha")`` of marops_cli/errors.py), else
+    ``stage.field``."""
     data = cfg.model_dump()
     for key, value in fields.items():
         if value is None:

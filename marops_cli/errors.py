@@ -4,10 +4,59 @@ from __future__ import annotations
 
 import errno
 import os
+import re
+from collections.abc import Callable
 from pathlib import Path
 
 _KEYED = frozenset({".toml", ".json"})
 """File kinds whose places are keys: an error there names the key, not a column."""
+
+
+# --- options named in messages ---------------------------------------------------------
+# The same use case runs under the command line and the Python API, whose callers spell an
+# option differently: ``--n-depots`` there, ``n_depots=`` here. A message names an option
+# by its identity (:func:`option`, :func:`switch`); an error reads with the command line's
+# flags (``str(exc)``, as the commands print it) until the API respells it with its
+# keywords (:meth:`InputError.respell`).
+
+_MARK = "\x1f"  # never in a message's own text
+_MARKED = re.compile(f"{_MARK}([a-z_]+)(=?){_MARK}")
+
+_FLAGS = {"segmentation": "--method", "segment_seed": "--seed", "fmt": "--format"}
+"""Option identity -> its flag, where the two differ beyond ``_`` and ``-``."""
+_KEYWORDS = {"segmentation": "method", "segment_seed": "seed"}
+"""Option identity -> the API's keyword, where the two differ (the identity of an option
+is its keyword but where one keyword sets another field in another function)."""
+
+
+def option(name: str) -> str:
+    """Option ``name`` (``n_depots``) as an :class:`InputError`'s message names it (only
+    it reads the mark): ``--n-depots`` on the command line, ``n_depots`` in the Python
+    API."""
+    return f"{_MARK}{name}{_MARK}"
+
+
+def switch(name: str) -> str:
+    """Switch ``name`` (``force``) as an :class:`InputError`'s message asks for it:
+    ``--force`` on the command line, ``force=True`` in the Python API."""
+    return f"{_MARK}{name}={_MARK}"
+
+
+def flag(name: str, on: bool = False) -> str:
+    """The command line's flag of option ``name`` (``n_depots`` -> ``--n-depots``)."""
+    return _FLAGS.get(name, "--" + name.replace("_", "-"))
+
+
+def keyword(name: str, on: bool = False) -> str:
+    """The Python API's keyword of option ``name``; ``on``: a switch turned on
+    (``force=True``)."""
+    word = _KEYWORDS.get(name, name)
+    return f"{word}=True" if on else word
+
+
+def spelled(text: str, spell: Callable[[str, bool], str] = flag) -> str:
+    """``text`` with the options it names spelled by ``spell`` (:func:`flag`, :func:`keyword`)."""
+    return _MARKED.sub(lambda m: spell(m[1], m[2] == "="), text)
 
 
 class MaropsError(Exception):
@@ -32,11 +81,19 @@ class InputError(MaropsError):
         row: int | None = None,
         column: str | None = None,
     ) -> None:
-        self.message = message
+        self.template = message
+        """The message naming options by their identity (:func:`option`)."""
+        self.message = spelled(message)
         self.file = str(file) if file is not None else None
         self.row = row
         self.column = column
         super().__init__(self.format())
+
+    def respell(self, spell: Callable[[str, bool], str]) -> None:
+        """Name the options in this error as ``spell`` spells them (:func:`keyword`: the
+        Python API's), in place, so that ``raise`` keeps its traceback."""
+        self.message = spelled(self.template, spell)
+        self.args = (self.format(),)
 
     def format(self) -> str:
         where = []
@@ -85,16 +142,16 @@ def naming(exc: InputError, file: str | Path) -> InputError:
     """``exc`` naming ``file`` when it named no file (an error about the data's content);
     a :class:`SettingError` keeps blaming its setting and names ``file`` as the data."""
     if isinstance(exc, SettingError):
-        return SettingError(exc.message.replace("{data}", Path(file).name), key=exc.key)
+        return SettingError(exc.template.replace("{data}", Path(file).name), key=exc.key)
     if exc.file is not None:
         return exc
-    return InputError(exc.message, file=file, row=exc.row, column=exc.column)
+    return InputError(exc.template, file=file, row=exc.row, column=exc.column)
 
 
 def in_hub(exc: InputError, hub: int) -> InputError:
     """``exc`` of one hub of a city run (``--hubs``) saying which hub (``hub 3: ...``),
     blaming what it blamed (a :class:`SettingError` its setting)."""
-    message = f"hub {hub}: {exc.message}"
+    message = f"hub {hub}: {exc.template}"
     if isinstance(exc, SettingError):
         return SettingError(message, key=exc.key, file=exc.file)
     return InputError(message, file=exc.file, row=exc.row, column=exc.column)

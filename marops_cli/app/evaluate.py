@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING, Any
 
 from ..config import OpsConfig, PlannerConfig, count
 from ..data.table import LadeTable
-from ..errors import InputError
+from ..errors import InputError, option
 from .messages import drop_report
 from .progress import SILENT, Progress
 
@@ -169,9 +169,10 @@ def evaluate(
     )
     if config.against is not None and config.against not in methods:
         if config.methods is not None:  # a list given: the reference is one of it
+            listed = option("methods")
             raise InputError(
-                f"--against {config.against!r} is not among --methods ({', '.join(methods)}); "
-                "add it to --methods"
+                f"{option('against')} {config.against!r} is not among {listed} "
+                f"({', '.join(methods)}); add it to {listed}"
             )
         methods.append(config.against)  # the default methods and the reference
     if config.scheduler is None and config.workers > 1:
@@ -222,14 +223,14 @@ def check_out(out: Path) -> None:
     """--out must be a folder this user can write (or create), found out before anything
     runs and without writing anything."""
     if out.exists() and not out.is_dir():
-        raise InputError("--out must be a folder; this is a file", file=out)
+        raise InputError(f"{option('out')} must be a folder; this is a file", file=out)
     probe = out.absolute()
     while not probe.exists():  # the nearest existing folder must let us create the rest
         probe = probe.parent
     if not probe.is_dir():
-        raise InputError(f"--out cannot be created: {probe} is a file", file=out)
+        raise InputError(f"{option('out')} cannot be created: {probe} is a file", file=out)
     if not os.access(probe, os.W_OK | os.X_OK):
-        raise InputError(f"--out is not writable ({probe})", file=out)
+        raise InputError(f"{option('out')} is not writable ({probe})", file=out)
 
 
 def default_methods(
@@ -264,14 +265,14 @@ def sweep_fields(
     alpha: str | None, drones: str | None, coverage: str | None, n_depots: str | None
 ) -> dict[str, Any]:
     """The sweep options' values (``"0.2,0.5"``; None: the config's) as
-    :class:`EvaluateConfig` fields; a bad value names its flag."""
+    :class:`EvaluateConfig` fields; a bad value names its option."""
     from ..evaluate import parse_values
 
     return {
-        "alpha": parse_values(alpha, float, "--alpha"),
-        "drones": parse_values(drones, int, "--drones"),
-        "coverage": parse_values(coverage, float, "--coverage"),
-        "depots_n": parse_values(n_depots, int, "--n-depots"),
+        "alpha": parse_values(alpha, float, option("alpha")),
+        "drones": parse_values(drones, int, option("drones")),
+        "coverage": parse_values(coverage, float, option("coverage")),
+        "depots_n": parse_values(n_depots, int, option("n_depots")),
     }
 
 

@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING, Any
 
 from ..config import clipped
 from ..data.jsonfile import parse_json, read_small_text
-from ..errors import InputError
+from ..errors import InputError, option, switch
 from ..io import run_meta
 from ..io.meta import file_sha256
 
@@ -75,13 +75,14 @@ def matching_days(
         days = doc["days"]
     except (OSError, ValueError, KeyError, TypeError, AttributeError) as exc:
         raise InputError(
-            f"unreadable earlier output ({exc}); pass --force to replay or choose another --out",
+            f"unreadable earlier output ({exc}); pass {switch('force')} to replay or choose "
+            f"another {option('out')}",
             file=done,
         ) from exc
     if not isinstance(prior, dict):
         raise InputError(
-            "earlier output without recorded settings; pass --force to replay or choose "
-            "another --out",
+            f"earlier output without recorded settings; pass {switch('force')} to replay or "
+            f"choose another {option('out')}",
             file=done,
         )
     old, new = _flatten(prior), _flatten(ident)
@@ -90,8 +91,8 @@ def matching_days(
         shown = "; ".join(f"{k}: {old.get(k)!r} here, {new.get(k)!r} now" for k in diff[:3])
         more = f" (+{len(diff) - 3} more)" if len(diff) > 3 else ""
         raise InputError(
-            f"holds a replay made with other settings ({shown}{more}); pass --force to "
-            "replay it or choose another --out",
+            f"holds a replay made with other settings ({shown}{more}); pass "
+            f"{switch('force')} to replay it or choose another {option('out')}",
             file=done,
         )
     _check_records(done, days, day, ident.get("method"), required)
@@ -105,7 +106,7 @@ def _check_records(
     finite numbers for its metrics (``required`` present)."""
     from ..sim.metrics import DAY_METRICS, OPS_METRICS
 
-    fix = "pass --force to replay it or choose another --out"
+    fix = f"pass {switch('force')} to replay it or choose another {option('out')}"
     if not isinstance(days, list) or len(days) != 1 or not isinstance(days[0], dict):
         raise InputError(
             f"expected the one record of {day.isoformat()} under days; {fix}",

@@ -8,7 +8,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, TypeAlias
 
 from ..config import DataConfig
-from ..errors import InputError, not_found
+from ..errors import InputError, not_found, option
 
 if TYPE_CHECKING:
     from ..data.table import LadeTable
@@ -50,16 +50,18 @@ def parse_center(text: str | None) -> tuple[float, float] | None:
         lng_s, lat_s = text.split(",")
         lng, lat = float(lng_s), float(lat_s)
     except ValueError:
-        raise InputError(f"--center expects LNG,LAT (e.g. 121.47,31.23), got {text!r}") from None
+        raise InputError(
+            f"{option('center')} expects LNG,LAT (e.g. 121.47,31.23), got {text!r}"
+        ) from None
     if not (-180 <= lng <= 180 and -90 <= lat <= 90):
-        raise InputError(f"--center {text!r} is not a valid LNG,LAT")
+        raise InputError(f"{option('center')} {text!r} is not a valid LNG,LAT")
     return lng, lat
 
 
 def check_format(fmt: str) -> None:
     """Route files are written as ``parquet`` or ``json``."""
     if fmt not in ("parquet", "json"):
-        raise InputError(f"--format expects parquet or json, got {fmt!r}")
+        raise InputError(f"{option('fmt')} expects parquet or json, got {fmt!r}")
 
 
 def read_data(data: Any, cfg: DataConfig) -> LadeTable:

@@ -7,7 +7,7 @@ from pathlib import Path
 from typing import Any
 
 from ..config import PlannerConfig, load_config, override
-from ..errors import InputError
+from ..errors import InputError, option
 from .inputs import parse_center
 
 # Option name -> config field (``stage__field`` of marops_cli/config.py).
@@ -31,20 +31,12 @@ FIELDS = {
 }
 
 
-# Option name -> the flag that sets it, where the two differ beyond ``_`` and ``-``.
-_FLAGS = {"segmentation": "--method", "actions": "--actions", "segment_seed": "--seed"}
-
-
-def flag(name: str) -> str:
-    """The command-line flag of option ``name`` (``n_depots`` -> ``--n-depots``)."""
-    return _FLAGS.get(name, "--" + name.replace("_", "-"))
-
-
 def planner_config(config: str | Path | None, **options: Any) -> PlannerConfig:
     """The TOML config (or the defaults) with the options applied on top: an option left
     unset (None) or a switch left off (False) keeps the config's value; ``center`` may be
-    ``"LNG,LAT"`` text. An invalid value is an error naming its flag (``--alpha``). An
-    unknown option name is a ``TypeError``."""
+    ``"LNG,LAT"`` text. An invalid value is an error naming its option (``--alpha`` on
+    the command line, ``alpha`` in the API: marops_cli/errors.py). An unknown option name
+    is a ``TypeError``."""
     unknown = set(options) - set(FIELDS)
     if unknown:
         raise TypeError(f"not planner options: {sorted(unknown)}")
@@ -54,15 +46,16 @@ def planner_config(config: str | Path | None, **options: Any) -> PlannerConfig:
         FIELDS[name]: (value or None) if isinstance(value, bool) else value
         for name, value in options.items()
     }
-    names = {FIELDS[name]: flag(name) for name in options}  # an error names the flag
+    names = {FIELDS[name]: option(name) for name in options}  # an error names the option
     cfg = override(load_config(Path(config) if config is not None else None), names, **overrides)
     seg = cfg.segment
     if options.get("actions") is not None and seg.n_actions > seg.n_depots:
         # Each depot's candidates are itself and its nearest others: never more than
         # there are depots, and a depots file with fewer than asked misleads a replay.
+        actions, n_depots = option("actions"), option("n_depots")
         raise InputError(
-            f"--actions {seg.n_actions} asks for more action candidates than {seg.n_depots} "
-            f"depots offer (itself and its nearest others); give --actions {seg.n_depots} "
-            f"or fewer, or --n-depots {seg.n_actions} or more"
+            f"{actions} {seg.n_actions} asks for more action candidates than {seg.n_depots} "
+            f"depots offer (itself and its nearest others); give {actions} {seg.n_depots} "
+            f"or fewer, or {n_depots} {seg.n_actions} or more"
         )
     return cfg

@@ -9,7 +9,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from ..config import PlannerConfig
-from ..errors import InputError
+from ..errors import InputError, option
 from .inputs import Data, check_format, data_name, in_memory, read_data
 from .messages import day_scope, drop_report, unservable_requests
 from .progress import SILENT, Progress
@@ -56,10 +56,18 @@ def check_out(out: str | Path, fmt: str) -> None:
     out = Path(out)
     if out.suffix in (".parquet", ".json"):
         raise InputError(
-            f"--out is a folder (it gets stops.{fmt} and routes.{fmt}), not a file: {out.name}"
+            f"{option('out')} is a folder (it gets stops.{fmt} and routes.{fmt}), not a file: "
+            f"{out.name}"
         )
     if out.exists() and not out.is_dir():
-        raise InputError("--out must be a folder; this is a file", file=out)
+        raise InputError(f"{option('out')} must be a folder; this is a file", file=out)
+
+
+def check_window(window: int, cfg: PlannerConfig) -> None:
+    """``window`` is one of the day's windows (0 to the service hours' last)."""
+    last = cfg.data.n_windows - 1
+    if not 0 <= window <= last:
+        raise InputError(f"{option('window')} {window} is outside 0..{last}")
 
 
 def plan_window(
@@ -123,6 +131,7 @@ def plan_window(
     drones = (
         fleet if isinstance(fleet, Fleet) else load_fleet(fleet, scn.depots, cfg.sim.drones, cfg)
     )
+    check_window(window, cfg)  # as the planner would, naming the option as its caller does
     plan, reqs = plan_one_window(scn, day, window, drones, pol, done)
     scope = DayScope.of(reqs)
     drop_report(progress, scn.table.report, data_name(data))

@@ -11,7 +11,7 @@ from pathlib import Path
 from typing import Any, get_args
 
 from ..config import PlannerConfig, SegmentConfig
-from ..errors import InputError
+from ..errors import InputError, option
 from .inputs import (
     Data,
     check_format,
@@ -74,7 +74,7 @@ def check_options(options: ReplayOptions) -> None:
     check_format(options.fmt)
     if options.method not in METHODS:
         raise InputError(
-            f"unknown --method {options.method!r}: expected one of {', '.join(METHODS)}"
+            f"unknown {option('method')} {options.method!r}: expected one of {', '.join(METHODS)}"
         )
 
 
@@ -87,7 +87,7 @@ def replay_config(
 
     kinds = get_args(SegmentConfig.model_fields["method"].annotation)
     if segment is not None and segment not in kinds:
-        raise InputError(f"--segment expects {' or '.join(kinds)}, got {segment!r}")
+        raise InputError(f"{option('segment')} expects {' or '.join(kinds)}, got {segment!r}")
     return planner_config(
         config, segmentation=segment or method_spec(method).segmentation, **options
     )
@@ -125,9 +125,9 @@ def replay_days(
         warm_up(replay_modules(actor=loads_actor(options.method, cfg.sim.policy)))
     folder = Path(out) if out is not None else None
     if folder is not None and folder.exists() and not folder.is_dir():
-        raise InputError("--out must be a folder; this is a file", file=folder)
+        raise InputError(f"{option('out')} must be a folder; this is a file", file=folder)
     if hubs is not None and depots is not None:
-        raise InputError("--hubs segments each hub itself: drop --depots")
+        raise InputError(f"{option('hubs')} segments each hub itself: drop {option('depots')}")
     if folder is not None:
         inputs = {"data": None if in_memory(data) else Path(data), "depots": depots}
         inputs.update({**(protect or {}), "fleet": fleet, "hubs": hubs})

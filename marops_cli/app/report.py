@@ -6,7 +6,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from ..errors import InputError, naming, not_found
+from ..errors import InputError, naming, not_found, option
 from .progress import SILENT, Progress
 
 if TYPE_CHECKING:
@@ -75,7 +75,8 @@ def make_report(
         raise not_found(folder, "folder")
     if not folder.is_dir():
         raise InputError(
-            "is not a folder (the --out of replay-day, plan-window or evaluate)", file=folder
+            f"is not a folder (the {option('out')} of replay-day, plan-window or evaluate)",
+            file=folder,
         )
     require_plotly()
     targets = report_folders(folder)

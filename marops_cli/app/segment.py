@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..config import PlannerConfig
-from ..errors import InputError
+from ..errors import InputError, option
 from ..io import output_set, run_meta
 from ..io.ownership import register_inputs
 from .inputs import Data, data_name, read_data
@@ -68,7 +68,9 @@ def check_json_out(out: str | Path, what: str) -> None:
     this = f"a {out.suffix} file" if out.suffix else "a name without .json"
     if out.is_dir():
         this = "a folder"
-    raise InputError(f"--out names the {what} file, e.g. {what}.json; this is {this}", file=out)
+    raise InputError(
+        f"{option('out')} names the {what} file, e.g. {what}.json; this is {this}", file=out
+    )
 
 
 def history_days(days: str | list[dt.date] | None, year: int) -> list[dt.date] | None:
@@ -76,7 +78,7 @@ def history_days(days: str | list[dt.date] | None, year: int) -> list[dt.date] |
     from ..data.dates import parse_days
 
     if isinstance(days, str):
-        return parse_days(days, year, "--dates") if days else None
+        return parse_days(days, year, option("dates")) if days else None
     return list(days) if days else None
 
 
@@ -178,7 +180,9 @@ def hub_count(text: str | int) -> int | None:
     except ValueError:
         n = 0
     if n < 1:
-        raise InputError(f"--hubs expects a number of hubs (1 or more) or auto, got {text!r}")
+        raise InputError(
+            f"{option('hubs')} expects a number of hubs (1 or more) or auto, got {text!r}"
+        )
     return n
 
 
@@ -202,7 +206,7 @@ def segment_hubs(
     if out is not None:
         check_json_out(out, "hubs")
     if cfg.data.center is not None:
-        raise InputError("--hubs places the study areas itself: drop [data] center")
+        raise InputError(f"{option('hubs')} places the study areas itself: drop [data] center")
     day_list = history_days(days, cfg.data.year)
     table = read_data(data, cfg.data)
     found, total = find_hubs(table, cfg.data, day_list, n_hubs)

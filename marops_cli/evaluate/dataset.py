@@ -22,7 +22,7 @@ from urllib.parse import quote
 
 from ..data.arrow import read_parquet, read_parquet_schema
 from ..data.jsonfile import parse_json, read_small_text
-from ..errors import InputError, RunError
+from ..errors import InputError, RunError, option, switch
 from ..io import output_set, run_meta
 from ..io.ownership import check_not_input, written_by_marops
 from ..io.tables import with_meta, write_parquet
@@ -90,7 +90,7 @@ class JobStore:
         if foreign is not None:
             raise InputError(
                 "was not written by marops evaluate and lies among its jobs; move it or "
-                "choose another --out",
+                f"choose another {option('out')}",
                 file=foreign,
             )
         if held is not None and held != self.identity:
@@ -100,7 +100,7 @@ class JobStore:
                 what = f" ({'; '.join(changes)})" if changes else ""
                 raise InputError(
                     f"holds the jobs of an evaluation with other settings{what}; run with "
-                    "--force to clear them, or choose another --out",
+                    f"{switch('force')} to clear them, or choose another {option('out')}",
                     file=self.root,
                 )
             self._clear = True
@@ -118,7 +118,7 @@ class JobStore:
             if not any(not p.name.startswith(".") for p in self.root.iterdir()):
                 return None  # empty, or a killed run's temporaries (removed by the lock)
             raise InputError(
-                "exists and was not written by marops evaluate; choose another --out",
+                f"exists and was not written by marops evaluate; choose another {option('out')}",
                 file=self.root,
             )
         try:

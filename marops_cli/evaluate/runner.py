@@ -25,7 +25,7 @@ from ..data.dates import format_days
 from ..data.prepare import prepare_day
 from ..data.reader import read_lade, sha256_file
 from ..data.table import LadeTable
-from ..errors import InputError, in_hub, not_a_file
+from ..errors import InputError, in_hub, not_a_file, option
 from ..methods import Method, register
 from ..methods import method as method_spec
 from ..segment.hubs import Hub, hub_areas
@@ -75,8 +75,8 @@ class Prepared:
         return own if own is not None else self.settings[job.setting].drones
 
 
-# Policy kinds of METHODS that load a trained actor -> the evaluate flag that overrides it.
-ACTOR_FLAGS = {"learned": "--policy", "direct": "--mappo-policy"}
+# Policy kinds of METHODS that load a trained actor -> the evaluate option that overrides it.
+ACTOR_FLAGS = {"learned": option("policy"), "direct": option("mappo_policy")}
 
 
 def check_methods(
@@ -92,7 +92,7 @@ def check_methods(
     Returns the trained actor file of each method that runs one.
     """
     if not methods:
-        raise InputError("--methods lists no method")
+        raise InputError(f"{option('methods')} lists no method")
     for m in methods:
         if m not in METHODS:
             raise InputError(f"unknown method {m!r}: this build has {', '.join(METHODS)}")
@@ -109,7 +109,7 @@ def check_methods(
             if flag is None:
                 raise
             raise InputError(
-                f"{exc}; for evaluate: {flag} PATH.pt, or leave {m} out of --methods"
+                f"{exc}; for evaluate: {flag} PATH.pt, or leave {m} out of {option('methods')}"
             ) from None
         if isinstance(pol.identity, Path):  # a trained actor file
             files[m] = pol.identity
@@ -324,11 +324,11 @@ def identity_doc(prep: Prepared) -> dict[str, Any]:
 _IDENTITY_NAMES = {
     "input": "the input file",
     "config": "config",
-    "methods": "--methods",
+    "methods": option("methods"),
     "days": "days",
-    "repeats": "--repeats",
+    "repeats": option("repeats"),
     "actors": "trained actors",
-    "hubs": "--hubs",
+    "hubs": option("hubs"),
 }
 
 
@@ -363,16 +363,16 @@ def identity_changes(held: dict[str, Any], now: dict[str, Any], most: int = 4) -
 def _setting_changes(held: list[Any], now: list[Any]) -> list[str]:
     """Each sweep flag whose values differ: ``--alpha: 0.5 there, 0.3, 0.7 here``."""
     out = []
-    for flag, option in (
-        ("alpha", "--alpha"),
-        ("drones", "--drones"),
-        ("coverage", "--coverage"),
-        ("depots_n", "--n-depots"),
+    for key, name in (
+        ("alpha", "alpha"),
+        ("drones", "drones"),
+        ("coverage", "coverage"),
+        ("depots_n", "n_depots"),
     ):
-        a = list(dict.fromkeys(s.get(flag) for s in held if isinstance(s, dict)))
-        b = list(dict.fromkeys(s.get(flag) for s in now if isinstance(s, dict)))
+        a = list(dict.fromkeys(s.get(key) for s in held if isinstance(s, dict)))
+        b = list(dict.fromkeys(s.get(key) for s in now if isinstance(s, dict)))
         if a != b:
-            out.append(f"{option}: {_short(a)} there, {_short(b)} here")
+            out.append(f"{option(name)}: {_short(a)} there, {_short(b)} here")
     return out
 
 

@@ -15,7 +15,7 @@ from typing import Any, TypeVar
 
 from ..config import PlannerConfig, override
 from ..data.dates import split_by_date
-from ..errors import InputError
+from ..errors import InputError, option
 from ..methods import method as method_spec
 
 # Flag name -> (config field, label for tables and plots).
@@ -38,7 +38,7 @@ def check_repeats(repeats: int) -> None:
     """``--repeats`` within 1 ≤ repeats ≤ :data:`MAX_REPEATS`, else one line naming it."""
     if not 1 <= repeats <= MAX_REPEATS:
         raise InputError(
-            f"invalid option --repeats: got {repeats} "
+            f"invalid option {option('repeats')}: got {repeats} "
             f"(expected 1 ≤ repeats ≤ {MAX_REPEATS}, docs/config.md)"
         )
 
@@ -81,8 +81,9 @@ class Job:
     hub: int = 0
 
 
-def parse_values(text: str | None, kind: Callable[[str], T], flag: str) -> list[T] | None:
-    """``"0.2,0.5,0.8"`` -> ``[0.2, 0.5, 0.8]`` (None stays None: use the config's value)."""
+def parse_values(text: str | None, kind: Callable[[str], T], name: str) -> list[T] | None:
+    """``"0.2,0.5,0.8"`` -> ``[0.2, 0.5, 0.8]`` (None stays None: use the config's value);
+    a bad value is an error naming ``name`` (``option("alpha")``, marops_cli/errors.py)."""
     if text is None:
         return None
     values: list[T] = []
@@ -91,7 +92,7 @@ def parse_values(text: str | None, kind: Callable[[str], T], flag: str) -> list[
             values.append(kind(item.strip()))
         except ValueError:
             what = "whole numbers" if kind is int else "numbers"
-            raise InputError(f"{flag} expects {what} separated by commas, got {text!r}") from None
+            raise InputError(f"{name} expects {what} separated by commas, got {text!r}") from None
     return list(dict.fromkeys(values))
 
 
@@ -139,9 +140,9 @@ def split_days(days: Sequence[dt.date], split: str) -> list[dt.date]:
     """The last 20 % of the file's dates (``test``) or the first 80 % (``train``): the
     split of ``marops train`` (:func:`~marops_cli.data.dates.split_by_date`)."""
     if split not in ("test", "train"):
-        raise InputError(f"--split expects test or train, got {split!r}")
+        raise InputError(f"{option('split')} expects test or train, got {split!r}")
     if len(days) < 2:
-        raise InputError(f"--split needs at least 2 days in the file, it has {len(days)}")
+        raise InputError(f"{option('split')} needs at least 2 days in the file, it has {len(days)}")
     train, test = split_by_date(days)
     return test if split == "test" else train
 

@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from ..data.reader import sha256_file
-from ..errors import InputError, RunError
+from ..errors import InputError, RunError, option
 from .ownership import (
     JOURNAL,
     TMP_MARK,
@@ -263,7 +263,7 @@ def _open_lock(lock: Path) -> Any:
 def _foreign(lock: Path) -> InputError:
     return InputError(
         f"{lock}: a file of this name that marops did not write is in the way of the "
-        "folder's lock; marops leaves it as it is: move it or choose another --out"
+        f"folder's lock; marops leaves it as it is: move it or choose another {option('out')}"
     )
 
 

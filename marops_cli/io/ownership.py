@@ -24,7 +24,7 @@ from typing import Any
 
 from ..data.jsonfile import parse_json, read_small_text
 from ..data.reader import sha256_file
-from ..errors import InputError, RunError
+from ..errors import InputError, RunError, option, switch
 
 JOURNAL = ".marops-files.json"
 JOURNAL_FORMAT = "marops-files/1"
@@ -84,7 +84,9 @@ def check_not_input(final: Path) -> None:
             with contextlib.suppress(OSError):
                 same = os.path.samefile(inp, final)
         if same:
-            raise InputError(f"is an input of this run ({inp}); choose another --out", file=final)
+            raise InputError(
+                f"is an input of this run ({inp}); choose another {option('out')}", file=final
+            )
 
 
 def written_by_marops(path: Path) -> bool:
@@ -157,7 +159,8 @@ def check_replaceable(paths: Iterable[Path], journal: bool = False) -> None:
             raise InputError(f"cannot write ({_reason(exc)})", file=final) from None
         if foreign:
             raise InputError(
-                "exists and was not written by marops; pass --force to replace it", file=final
+                f"exists and was not written by marops; pass {switch('force')} to replace it",
+                file=final,
             )
         if (journal or needs_journal(final)) and not _REPLACE_FOREIGN.get():
             _check_journal(final.parent)
@@ -171,7 +174,7 @@ def _check_journal(folder: Path) -> None:
     if os.path.lexists(journal) and _journal_doc(folder) is None:
         raise InputError(
             f"exists and is not the journal marops keeps under this name (format "
-            f"{JOURNAL_FORMAT}, docs/outputs.md); move it away or choose another --out",
+            f"{JOURNAL_FORMAT}, docs/outputs.md); move it away or choose another {option('out')}",
             file=journal,
         )
 

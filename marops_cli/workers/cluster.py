@@ -21,7 +21,7 @@ from contextlib import contextmanager
 from types import ModuleType
 from typing import Any
 
-from ..errors import InputError
+from ..errors import InputError, option
 from .threads import one_thread
 from .work import Job, Outcome, Work, run_safe
 
@@ -35,7 +35,9 @@ def require_distributed() -> ModuleType:
     try:
         import distributed
     except ImportError:
-        raise InputError(f"--scheduler needs Dask's distributed package: {INSTALL}") from None
+        raise InputError(
+            f"{option('scheduler')} needs Dask's distributed package: {INSTALL}"
+        ) from None
     return distributed
 
 
@@ -84,7 +86,7 @@ def connect(scheduler: str, workers: int) -> Iterator[Any]:
         client = distributed.Client(scheduler, timeout=CONNECT_TIMEOUT_S)
     except Exception as exc:  # whatever the handshake met, one line (MemoryError included)
         raise InputError(
-            f"--scheduler {scheduler}: no Dask scheduler answered ({_why(exc)})"
+            f"{option('scheduler')} {scheduler}: no Dask scheduler answered ({_why(exc)})"
         ) from None
     with client:
         yield client
@@ -119,7 +121,7 @@ def _probe(scheduler: str) -> None:
         host, port = parse_host_port(location)
     except (ValueError, TypeError) as exc:
         raise InputError(
-            f"--scheduler {scheduler}: not a scheduler address ({_why(exc)})"
+            f"{option('scheduler')} {scheduler}: not a scheduler address ({_why(exc)})"
         ) from None
     first = b""
     try:
@@ -134,17 +136,17 @@ def _probe(scheduler: str) -> None:
         pass  # judged below: it said too little
     except OSError as exc:
         raise InputError(
-            f"--scheduler {scheduler}: no Dask scheduler answered ({_why(exc)})"
+            f"{option('scheduler')} {scheduler}: no Dask scheduler answered ({_why(exc)})"
         ) from None
     if len(first) < 8:
         heard = f"it sent {first!r}" if first else "it sent nothing"
         raise InputError(
-            f"--scheduler {scheduler}: not a Dask scheduler ({heard} within "
+            f"{option('scheduler')} {scheduler}: not a Dask scheduler ({heard} within "
             f"{CONNECT_TIMEOUT_S} s of connecting; a Dask scheduler speaks first)"
         )
     if not 0 < int.from_bytes(first, "little") < _MAX_HANDSHAKE_BYTES:
         raise InputError(
-            f"--scheduler {scheduler}: not a Dask scheduler (it sent {first!r}, "
+            f"{option('scheduler')} {scheduler}: not a Dask scheduler (it sent {first!r}, "
             "not a Dask handshake)"
         )
 

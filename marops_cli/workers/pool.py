@@ -17,7 +17,7 @@ import sys
 from collections.abc import Iterable, Iterator, Sequence
 from typing import Any
 
-from ..errors import InputError, RunError
+from ..errors import InputError, RunError, option
 from .threads import one_thread
 from .work import Job, Outcome, Work, run_safe
 
@@ -104,7 +104,7 @@ def check_workers(workers: int) -> None:
     """Refuse a count of worker processes below 1 or above :data:`MAX_WORKERS` (a
     mistyped count, not a machine of that many cores), before any work."""
     if not 1 <= workers <= MAX_WORKERS:
-        raise InputError(f"--workers expects 1 to {MAX_WORKERS}, got {workers}")
+        raise InputError(f"{option('workers')} expects 1 to {MAX_WORKERS}, got {workers}")
 
 
 def _init(work: Work) -> None:

@@ -73,7 +73,7 @@ def test_api_empty_dates_is_refused(example_csv: Path, tmp_path: Path) -> None:
     from marops_cli import api
     from marops_cli.errors import InputError
 
-    with pytest.raises(InputError, match="--dates"):
+    with pytest.raises(InputError, match="^invalid option dates: "):
         api.evaluate(example_csv, methods="stay", dates="", workers=1)
     with pytest.raises(InputError, match="dates expects .* a non-empty list, got list"):
         api.evaluate(example_csv, methods="stay", dates=[], workers=1)
