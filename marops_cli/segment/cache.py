@@ -17,6 +17,7 @@ import datetime as dt
 import hashlib
 import json
 import os
+import tempfile
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
@@ -116,11 +117,15 @@ def _plausible(xy: np.ndarray, n_hist: np.ndarray, cand: np.ndarray, frame: Fram
 
 def _store(path: Path, key: str, depots: Depots) -> None:
     """Cache ``depots`` at ``path`` under a temporary name then renamed; where that
-    fails (a full disk, a folder in the way) nothing is left behind."""
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    fails (a full disk, a folder in the way) nothing is left behind. The temporary is
+    made new (``O_EXCL``): a link planted under a name it could take is never written
+    through."""
+    tmp: Path | None = None
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        with tmp.open("wb") as fh:
+        fd, name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+        tmp = Path(name)
+        with os.fdopen(fd, "wb") as fh:
             np.savez(
                 fh,
                 key=np.array(key),
@@ -131,8 +136,9 @@ def _store(path: Path, key: str, depots: Depots) -> None:
             )
         os.replace(tmp, path)
     except OSError:
-        with contextlib.suppress(OSError):
-            tmp.unlink(missing_ok=True)
+        if tmp is not None:
+            with contextlib.suppress(OSError):
+                tmp.unlink(missing_ok=True)
 
 
 def cached_depots(

@@ -177,6 +177,29 @@ def test_a_cache_that_cannot_be_stored_leaves_no_temporary_behind(
     assert sorted(p.name for p in path.parent.iterdir()) == [path.name]
 
 
+def test_a_link_planted_at_a_temporary_name_is_never_written_through(
+    tmp_path, monkeypatch, points_table
+):
+    """The cache's temporary is a file made new: a link planted in a shared cache under
+    any name a run could pick for it (the key is computable from the data) leaves its
+    target as it was."""
+    import os
+
+    monkeypatch.setenv("MAROPS_CACHE_DIR", str(tmp_path / "cache"))
+    cfg = PlannerConfig()
+    table = points_table([121.47] * 3, [31.23] * 3, "abc")
+    path = _key_path(tmp_path / "cache", table, cfg)
+    path.parent.mkdir(parents=True)
+    victim = tmp_path / "victim.txt"
+    victim.write_text("PRECIOUS")
+    (path.parent / f".{path.name}.{os.getpid()}.tmp").symlink_to(victim)
+    cached_depots(table, DAYS, FRAME, cfg.data, cfg.segment, _depots)
+    assert victim.read_text() == "PRECIOUS"
+    assert path.is_file() and not path.is_symlink()
+    again = cached_depots(table, DAYS, FRAME, cfg.data, cfg.segment, lambda: 1 / 0)
+    assert again.xy.tobytes() == _depots().xy.tobytes()  # the depots were cached
+
+
 def test_a_relative_xdg_cache_home_is_ignored(tmp_path, monkeypatch):
     """XDG_CACHE_HOME=cache names no folder (the XDG rule for a relative path): the cache
     is ~/.cache/marops, not a folder of the directory the run started in."""
