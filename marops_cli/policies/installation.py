@@ -23,9 +23,12 @@ MAX_RECORD = 64 << 20
 
 
 def record_path() -> Path:
-    """``$XDG_DATA_HOME/marops/trained-actors.jsonl`` (``~/.local/share`` by default)."""
-    base = os.environ.get("XDG_DATA_HOME") or str(Path.home() / ".local" / "share")
-    return Path(base) / "marops" / RECORD
+    """``$XDG_DATA_HOME/marops/trained-actors.jsonl`` (``~/.local/share`` by default). A
+    relative ``XDG_DATA_HOME`` is invalid (XDG Base Directory) and ignored: a folder
+    brought along with an actor, where the run starts, never vouches for it."""
+    base = os.environ.get("XDG_DATA_HOME", "").strip()
+    root = Path(base) if base and Path(base).is_absolute() else Path.home() / ".local" / "share"
+    return root / "marops" / RECORD
 
 
 def sha256_bytes(data: bytes) -> str:
@@ -61,7 +64,8 @@ def record_trained(actor: bytes, path: str | Path) -> bool:
 
 def _record_lines() -> list[str]:
     """The record's lines; none when it is missing, unreadable, no regular file (a pipe
-    is never waited on) or larger than :data:`MAX_RECORD`."""
+    is never waited on), larger than :data:`MAX_RECORD`, or not this user's alone (owned
+    by another user, or writable by others: anyone could vouch for any file there)."""
     try:
         fd = os.open(record_path(), os.O_RDONLY | os.O_NONBLOCK)
     except OSError:
@@ -70,6 +74,8 @@ def _record_lines() -> list[str]:
         try:
             info = os.fstat(fd)
             if not stat.S_ISREG(info.st_mode) or info.st_size > MAX_RECORD:
+                return []
+            if info.st_uid != os.getuid() or info.st_mode & (stat.S_IWGRP | stat.S_IWOTH):
                 return []
             return f.read(MAX_RECORD + 1).decode("utf-8").splitlines()
         except (OSError, UnicodeDecodeError):

@@ -333,6 +333,34 @@ def test_a_torn_or_foreign_record_line_grants_nothing(
     assert not trained_here(b"x")
 
 
+def test_a_relative_xdg_data_home_or_a_record_others_can_write_vouches_for_nothing(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A relative XDG_DATA_HOME (a folder brought along with the actor, where the run
+    starts) is ignored, and a record that others may write grants nothing."""
+    import hashlib
+    import os
+
+    from marops_cli.policies.installation import record_path, trained_here
+
+    monkeypatch.setenv("HOME", str(tmp_path / "home"))
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("XDG_DATA_HOME", "xd")
+    assert record_path() == tmp_path / "home" / ".local" / "share" / "marops" / "trained-actors.jsonl"
+    planted = tmp_path / "xd" / "marops" / "trained-actors.jsonl"
+    planted.parent.mkdir(parents=True)
+    line = '{"sha256": "%s"}\n' % hashlib.sha256(b"evil").hexdigest()
+    planted.write_text(line, encoding="utf-8")
+    assert not trained_here(b"evil")
+    monkeypatch.setenv("XDG_DATA_HOME", str(tmp_path / "xd"))
+    os.chmod(planted, 0o600)
+    assert trained_here(b"evil")  # this user's own record, absolute: it vouches
+    os.chmod(planted, 0o602)
+    assert not trained_here(b"evil")
+    os.chmod(planted, 0o620)
+    assert not trained_here(b"evil")
+
+
 def test_a_record_that_is_a_pipe_is_neither_waited_on_nor_written(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
