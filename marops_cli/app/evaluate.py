@@ -139,7 +139,10 @@ def evaluate(
 
     check_report(config.report and out is not None)
     check_workers(config.workers)
-    register_inputs([data, *config.actors.values()])  # never an output
+    from ..policies.registry import actor_files
+
+    # Never an output: the data, and every file of an actor given (sidecar included).
+    register_inputs([data, *(f for a in config.actors.values() for f in actor_files(a))])
     if out is not None:  # before any work: a folder, no file marops did not write
         check_out(out)
         sweep = {

@@ -102,14 +102,16 @@ def plan_window(
         load_scenario,
         method_policy,
         plan_one_window,
+        policy_files,
         route_tables,
     )
     from .report import check_report
 
     stops = None if delivered is None else delivered_file(delivered)
-    register_inputs([data, depots, fleet, stops, cfg.sim.policy])  # never an output
+    register_inputs([data, depots, fleet, stops])  # never an output
     check_format(fmt)
     check_report(report and out is not None)
+    register_inputs(policy_files(method, cfg.sim.policy, ops=cfg.ops))  # the actor's too
     if out is not None:  # before any work: an input or a file marops did not write
         check_out(out, fmt)
         check_outputs(route_file_paths(Path(out), fmt, geojson))

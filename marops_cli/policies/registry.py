@@ -87,6 +87,13 @@ class PolicySpec:
         return f"torchscript:{self.path}" if self.kind == "torchscript" else self.kind
 
 
+def actor_files(path: str | Path) -> list[Path]:
+    """Every file an actor at ``path`` may be read from: the path as given, its
+    TorchScript ``.pt``, weights ``.safetensors`` and sidecar ``.json``."""
+    path = Path(path)
+    return [path, *(path.with_suffix(s) for s in (".pt", ".safetensors", ".json"))]
+
+
 def default_policy_path(name: str = DEFAULT_POLICY_NAME) -> Path | None:
     """The shipped actor: ``$MAROPS_POLICY``, else ``marops-basic.pt`` of the installed
     package data (``policies/`` in the source tree, ``marops_cli.shipped`` once installed).

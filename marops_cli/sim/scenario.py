@@ -30,7 +30,7 @@ from ..methods import method as method_spec
 from ..plans.window import WindowPlan
 from ..policies.base import Policy, start_day
 from ..policies.landing import operating_model
-from ..policies.registry import SHIPPED, PolicySpec, make_policy
+from ..policies.registry import SHIPPED, PolicySpec, actor_files, make_policy
 from ..segment.cache import cached_depots
 from ..segment.depots import Depots
 from ..segment.methods import segment_points
@@ -100,6 +100,18 @@ def method_policy(
     whose shipped actor ``actors`` replaces by policy kind (``learned``, ``direct``:
     evaluate's ``--policy`` and ``--mappo-policy``); ``trust``: ``cfg.sim.trust_actor``;
     ``ops``: the run's operating model, whose shipped actors it flies (None: the paper's)."""
+    resolved, model = _resolve_policy(method, policy, actors, ops)
+    return make_policy(resolved, seed, trust=trust, model=model)
+
+
+def _resolve_policy(
+    method: str,
+    policy: str | None,
+    actors: Mapping[str, Path] | None,
+    ops: OpsConfig | None,
+) -> tuple[PolicySpec, str]:
+    """:func:`method_policy`'s spec, a shipped actor's as its file's, and the operating
+    model's name."""
     if method not in METHODS:
         raise InputError(f"unknown method {method!r}: expected one of {', '.join(METHODS)}")
     spec = PolicySpec.parse(policy or method_spec(method).policy)
@@ -110,7 +122,21 @@ def method_policy(
     if resolved is None:
         why = _NOT_SHIPPED[spec.kind].format(name=SHIPPED[spec.kind])
         raise InputError(f"method {method!r} {why}")
-    return make_policy(resolved, seed, trust=trust, model=model)
+    return resolved, model
+
+
+def policy_files(
+    method: str,
+    policy: str | None,
+    *,
+    actors: Mapping[str, Path] | None = None,
+    ops: OpsConfig | None = None,
+) -> list[Path]:
+    """The files the actor :func:`method_policy` flies is read from (the given path, its
+    ``.pt``, ``.safetensors`` and sidecar ``.json``); none for a rule. They are inputs of
+    the run: no output may replace one."""
+    resolved, _ = _resolve_policy(method, policy, actors, ops)
+    return [] if resolved.path is None else actor_files(resolved.path)
 
 
 @dataclass

@@ -268,3 +268,28 @@ def test_a_small_input_that_is_a_pipe_never_blocks(tmp_path: Path) -> None:
         assert read_small_text(f"/proc/self/fd/{r}", "config") == "[sim]\ndrones = 3\n"
     finally:
         os.close(r)
+
+
+@pytest.mark.parametrize("command", ["replay-day", "plan-window"])
+def test_no_output_replaces_a_file_of_the_actor_flown(
+    example_csv: Path, tmp_path: Path, command: str
+) -> None:
+    """An actor's sidecar and weights are inputs of the run, whatever their names: an
+    actor named like an output (``metrics``, ``stops``) in the output folder is refused,
+    even with --force, and left as it was."""
+    shipped = Path(__file__).resolve().parents[2] / "policies"
+    out = tmp_path / "out"
+    out.mkdir()
+    name = "metrics" if command == "replay-day" else "stops"
+    for suffix in (".safetensors", ".json"):
+        shutil.copy(shipped / f"marops-ops{suffix}", out / f"{name}{suffix}")
+    before = {p.name: p.read_bytes() for p in out.iterdir()}
+    args = [command, example_csv, "--date", "0811", "--out", out, "--force"]
+    if command == "plan-window":
+        # refused before the depots are read: the file need not exist
+        args += ["--window", "5", "--format", "json", "--depots", tmp_path / "depots.json"]
+    res = marops(*args, "--policy", out / f"{name}.safetensors")
+    assert res.returncode == 2, res.stderr
+    said = one_line(res.stderr)
+    assert "is an input of this run" in said and f"{name}.json" in said
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == before
