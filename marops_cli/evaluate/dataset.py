@@ -86,7 +86,8 @@ class JobStore:
         folder as it was."""
         held = self._held_identity()
         self._done = set()
-        foreign = next((p for p in self._files() if not _job_file(p)), None)
+        # A link (to a file or a folder) is never a job: writing there would write elsewhere.
+        foreign = next((p for p in self._files() if p.is_symlink() or not _job_file(p)), None)
         if foreign is not None:
             raise InputError(
                 "was not written by marops evaluate and lies among its jobs; move it or "
@@ -162,13 +163,15 @@ class JobStore:
 
     def _files(self) -> list[Path]:
         """Every file under ``root`` but the identity file and hidden ones (a killed
-        run's temporaries, removed by the lock)."""
+        run's temporaries, removed by the lock), and every link (never followed)."""
         if not self.root.is_dir():
             return []
         return sorted(
             p
             for p in self.root.rglob("*")
-            if p.is_file() and p.name != IDENTITY_FILE and not p.name.startswith(".")
+            if (p.is_file() or p.is_symlink())
+            and p.name != IDENTITY_FILE
+            and not p.name.startswith(".")
         )
 
     def _start(self) -> None:

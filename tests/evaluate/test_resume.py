@@ -101,6 +101,31 @@ def test_force_deletes_only_the_replays_marops_wrote(prep, tmp_path: Path) -> No
     assert (jobs / "notes").is_dir() and (tmp_path / "mine.txt").read_text() == "mine"
 
 
+def test_a_link_among_the_jobs_is_refused_and_its_target_kept(prep, tmp_path: Path) -> None:
+    """A folder or file among the jobs that is a link (to another evaluation's jobs) is
+    never written through: refused like any file marops did not write there."""
+    other = JobStore(tmp_path / "other", prep, run_identity(prep))
+    other.open()
+    other.add(prep.jobs[0], {"mean_energy_kj": 1.0, "delivered": 1})
+    kept = other.path(prep.jobs[0]).read_bytes()
+    jobs = tmp_path / "jobs"
+    mine = JobStore(jobs, prep, run_identity(prep))
+    mine.open()
+    mine.add(prep.jobs[1], {"mean_energy_kj": 2.0, "delivered": 2})
+    link = jobs / "hub=0" / "method=stay"
+    for p in link.rglob("*.parquet"):
+        p.unlink()
+    for d in sorted(link.rglob("*"), reverse=True):
+        d.rmdir()
+    link.rmdir()
+    link.symlink_to(tmp_path / "other" / "hub=0" / "method=stay")
+    for force in (False, True):
+        with pytest.raises(InputError, match="not written by marops evaluate") as err:
+            JobStore(jobs, prep, run_identity(prep)).open(force=force)
+        assert err.value.file == str(link)
+    assert other.path(prep.jobs[0]).read_bytes() == kept
+
+
 def test_rows_read_back_are_the_rows_in_memory_and_a_damaged_file_runs_again(
     prep, tmp_path: Path
 ) -> None:
