@@ -236,7 +236,14 @@ def _from_drones(
             )
         if "depot" not in d:
             raise InputError("a drone needs a depot", file=path, column=f"{col}.depot")
-        depot.append(_int(d["depot"], path, f"{col}.depot"))
+        at = _int(d["depot"], path, f"{col}.depot")
+        if not 0 <= at < len(depots):  # checked here: an id past 2**63 fits no array
+            raise InputError(
+                f"drone {u} is at depot {at}, but the depots have ids 0..{len(depots) - 1}",
+                file=path,
+                column=f"{col}.depot",
+            )
+        depot.append(at)
         name = d.get("type")
         if name is None and len(types) > 1:
             raise InputError(
@@ -245,16 +252,7 @@ def _from_drones(
                 column=f"{col}.type",
             )
         kind.append(0 if name is None else _type_index(name, types, path, f"{col}.type"))
-    dep = np.array(depot, dtype=np.int64)
-    bad = np.flatnonzero((dep < 0) | (dep >= len(depots)))
-    if bad.size:
-        u = int(bad[0])
-        raise InputError(
-            f"drone {u} is at depot {int(dep[u])}, but the depots have ids 0..{len(depots) - 1}",
-            file=path,
-            column=f"drones[{u}].depot",
-        )
-    return dep, np.array(kind, dtype=np.int64)
+    return np.array(depot, dtype=np.int64), np.array(kind, dtype=np.int64)
 
 
 def as_fleet(fleet: Fleet | Sequence[int] | np.ndarray, energy: EnergyConfig) -> Fleet:

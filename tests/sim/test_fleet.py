@@ -97,6 +97,8 @@ def test_json_drones_with_types_and_plain_depot_lists(tmp_path, depots):
             "several types",
         ),
         ('{"drones": [{"depot": 7}]}', "drones[0].depot", "ids 0..2"),
+        ("[1, 99999999999999999999]", "drones[1].depot", "ids 0..2"),  # past int64
+        ('{"drones": [{"depot": 1e300}]}', "drones[0].depot", "ids 0..2"),
         ('{"drones": [0], "counts": {"default": 1}}', None, "either"),
         ('{"counts": {"default": 2.5}}', "counts.default", "whole number"),
         ('{"counts": {"default": 0}}', None, "no drones"),
