@@ -149,11 +149,18 @@ class Depots:
             dtype=np.int64,
         )
         method = doc.get("method", "kmeans")
-        if not isinstance(method, str):
+        if method not in ("kmeans", "squares"):
+            got = repr(method) if isinstance(method, str) else _json_kind(method)
             raise InputError(
-                f"expected the segmentation method's name, got {_json_kind(method)}",
+                f"expected the segmentation method's name, kmeans or squares, got {got}",
                 file=source,
                 column="method",
+            )
+        if not isinstance(doc.get("meta", {}), dict):
+            raise InputError(
+                f"expected the provenance object, got {_json_kind(doc['meta'])}",
+                file=source,
+                column="meta",
             )
         bad = np.flatnonzero(~np.isfinite(xy).all(axis=1))
         if bad.size:

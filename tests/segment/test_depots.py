@@ -209,10 +209,13 @@ def test_candidates_of_the_wrong_shape_name_the_key_and_the_shape(
         (lambda d: d["depots"][2].__setitem__("n_history", -5), "depots[2].n_history", "-5"),
         (lambda d: d["depots"][2].__setitem__("n_history", 10**30), "depots[2].n_history", "2^53"),
         (lambda d: d.__setitem__("method", ["kmeans"]), "method", "got a list"),
+        (lambda d: d.__setitem__("method", "voronoi"), "method", "kmeans or squares, got 'vor"),
+        (lambda d: d.__setitem__("meta", 5), "meta", "provenance object, got 5"),
     ],
     ids=["no-x", "no-id", "null-id", "list-id", "id-twice", "id-beyond", "depot-list"]
     + ["depots-object", "no-depots"]
-    + ["no-frame", "frame-no-size", "frame-extra", "negative-count", "huge-count", "method-list"],
+    + ["no-frame", "frame-no-size", "frame-extra", "negative-count", "huge-count", "method-list"]
+    + ["method-unknown", "meta-number"],
 )
 def test_a_depots_file_of_another_shape_names_the_key(tmp_path, edit, key, says) -> None:
     """A depot without x_m, an id of null, a frame without its size, a count too large
