@@ -178,4 +178,7 @@ def _leave(code: int | str | None) -> NoReturn:
 
 def main() -> None:
     """The console script: every error is one plain line on stderr (docs/outputs.md)."""
+    from ..workers.threads import portable_blas
+
+    portable_blas()  # before any library computes
     _leave(_run())

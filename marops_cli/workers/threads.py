@@ -10,6 +10,15 @@ from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 
 
+def portable_blas() -> None:
+    """Pin the code path of torch's BLAS (Intel MKL) to the one every x86 processor runs
+    alike (``MKL_CBWR=COMPATIBLE``), so a trained actor's weights are the same bytes on
+    any machine: by default MKL picks its kernels by processor (AVX2, AVX-512), and each
+    rounds sums in its own order (docs/decisions.md, "Same results"). MKL reads it at its
+    first call, so this is done before any arithmetic; a value the user set is kept."""
+    os.environ.setdefault("MKL_CBWR", "COMPATIBLE")
+
+
 def one_thread(deterministic: bool = False) -> Callable[[], None]:
     """Limit this process to one OpenMP/BLAS/torch thread, torch's deterministic
     algorithms too with ``deterministic``; returns what puts the previous settings back.
@@ -18,6 +27,7 @@ def one_thread(deterministic: bool = False) -> Callable[[], None]:
     """
     from threadpoolctl import threadpool_limits
 
+    portable_blas()
     torch = sys.modules.get("torch")
     threads = strict = None
     if torch is not None:  # read before the limits below, which torch's OpenMP shares

@@ -121,3 +121,28 @@ def test_a_script_read_from_stdin_stops_before_its_workers_start(
         LocalPool(SquareWork(), 2)
     with LocalPool(SquareWork(), 1) as pool:  # one worker: this process, as before
         assert [square for square, _, _ in pool.results([Square(0, 3)])] == [9]
+
+
+def test_torch_blas_runs_the_code_path_of_every_processor(monkeypatch: pytest.MonkeyPatch) -> None:
+    """MKL's kernels are pinned to the path every x86 processor runs alike (a trained
+    actor's weights the same bytes on any machine), unless the user chose one; the
+    command line does it before anything computes."""
+    import subprocess
+    import sys
+
+    from marops_cli.workers.threads import portable_blas
+
+    monkeypatch.delenv("MKL_CBWR", raising=False)
+    portable_blas()
+    assert os.environ["MKL_CBWR"] == "COMPATIBLE"
+    monkeypatch.setenv("MKL_CBWR", "AVX2")
+    portable_blas()
+    assert os.environ["MKL_CBWR"] == "AVX2"
+    monkeypatch.delenv("MKL_CBWR")
+    probe = (
+        "import os, sys; from marops_cli.cli import app; sys.argv = ['marops', '-V'];"
+        "import atexit; atexit.register(lambda: print(os.environ.get('MKL_CBWR')));"
+        "app.main()"
+    )
+    out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True)
+    assert out.stdout.strip().splitlines()[-1] == "COMPATIBLE", out
