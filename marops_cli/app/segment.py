@@ -77,8 +77,8 @@ def history_days(days: str | list[dt.date] | None, year: int) -> list[dt.date] |
     """``days`` as dates (``"0801..0810"``, ``"801,802"`` or dates); None for all."""
     from ..data.dates import parse_days
 
-    if isinstance(days, str):
-        return parse_days(days, year, option("dates")) if days else None
+    if isinstance(days, str):  # "" (an unset shell variable) is refused, never "all"
+        return parse_days(days, year, option("dates"))
     return list(days) if days else None
 
 

@@ -124,7 +124,7 @@ def replay_day_command(
     )
     days = (
         [parse_day(date, cfg.data.year, "--date")]
-        if date
+        if date is not None
         else parse_days(dates or "", cfg.data.year, "--dates")
     )
     res = replay_days(

@@ -84,6 +84,25 @@ def test_date_not_in_file(example_csv: Path, tmp_path: Path, fails_cleanly) -> N
     )
 
 
+@pytest.mark.parametrize(
+    ("args", "flag"),
+    [
+        (["segment", "--dates", ""], "--dates"),  # was every day, the replay days too
+        (["segment", "--hubs", "auto", "--dates", ""], "--dates"),
+        (["replay-day", "--date", ""], "--date"),  # was blamed on --dates
+    ],
+    ids=["segment", "segment-hubs", "replay-day"],
+)
+def test_an_empty_list_of_days_is_refused_naming_its_option(
+    example_csv: Path, tmp_path: Path, fails_cleanly, args: list[str], flag: str
+) -> None:
+    """An unset shell variable (``--dates "$HIST"``) is bad usage naming the option given,
+    never a default."""
+    out = tmp_path / ("out" if args[0] == "replay-day" else "d.json")
+    line = fails_cleanly([args[0], str(example_csv), *args[1:], "--out", str(out)], tmp_path)
+    assert f"invalid option {flag}:" in line and "got ''" in line
+
+
 def test_empty_study_area(example_csv: Path, tmp_path: Path, fails_cleanly) -> None:
     fails_cleanly(
         ["segment", str(example_csv), "--center", "100.0,10.0", "--out", str(tmp_path / "d.json")],
