@@ -235,9 +235,17 @@ def delivered_file(path: str | Path) -> Path:
     return p / "stops.parquet" if p.is_dir() else p
 
 
-def delivered_orders(path: str | Path) -> set[str]:
-    """Order ids already delivered according to an earlier stops Parquet file (or the
-    ``stops.parquet`` of an output folder)."""
+Delivered = Mapping[str, frozenset[tuple[float, float]] | None]
+"""Order ids delivered, each with the places (lng, lat) of its stops; None where the file
+gives no places (every request of the id counts as delivered)."""
+
+
+def delivered_orders(path: str | Path) -> Delivered:
+    """The orders already delivered according to an earlier stops Parquet file (or the
+    ``stops.parquet`` of an output folder): each id with the places its stops reached, so
+    that of several requests sharing an order id (docs/decisions.md, "Reading LaDe")
+    only those delivered leave the window; by id alone for a file without ``lng`` and
+    ``lat``."""
     p = delivered_file(path)
     if p.suffix.lower() == ".json" or (not p.exists() and (p.parent / "stops.json").is_file()):
         raise InputError(
@@ -254,7 +262,8 @@ def delivered_orders(path: str | Path) -> set[str]:
         for name in ("kind", "order_id"):
             if name not in names:
                 raise InputError(f"not a marops stops file (no column {name!r})", file=p)
-        table = read_parquet(p, columns=["kind", "order_id"])
+        placed = {"lng", "lat"} <= names
+        table = read_parquet(p, columns=["kind", "order_id", *(["lng", "lat"] if placed else [])])
     except FileNotFoundError as exc:  # removed meanwhile
         raise not_found(p, "delivered file") from exc
     except (OSError, ValueError, KeyError) as exc:
@@ -272,7 +281,38 @@ def delivered_orders(path: str | Path) -> set[str]:
             )
     kind = table.column("kind").to_pylist()
     ids = table.column("order_id").to_pylist()
-    return {str(i) for k, i in zip(kind, ids, strict=True) if k == "customer" and i is not None}
+    if placed:
+        for name in ("lng", "lat"):
+            if not pa.types.is_floating(table.schema.field(name).type):
+                raise InputError(
+                    "not a marops stops file (expected a column of numbers, got "
+                    f"{table.schema.field(name).type})",
+                    file=p,
+                    column=name,
+                )
+        lng, lat = table.column("lng").to_pylist(), table.column("lat").to_pylist()
+    places: dict[str, set[tuple[float, float]] | None] = {}
+    for row, (k, i) in enumerate(zip(kind, ids, strict=True)):
+        if k != "customer" or i is None:
+            continue
+        seen = places.setdefault(str(i), set() if placed else None)
+        if seen is not None and lng[row] is not None and lat[row] is not None:
+            seen.add((float(lng[row]), float(lat[row])))
+    return {i: None if v is None else frozenset(v) for i, v in places.items()}
+
+
+def delivered_mask(reqs: DayRequests, delivered: Delivered | set[str]) -> np.ndarray:
+    """True for each request of ``reqs`` that ``delivered`` (:func:`delivered_orders`, or
+    a set of order ids) says was delivered: its id with its place, or its id alone where
+    no place is given."""
+    ids = reqs.order_id.astype(str)
+    done = np.isin(ids, np.array(sorted(delivered), dtype=str))
+    if isinstance(delivered, Mapping):
+        for i in np.flatnonzero(done):
+            places = delivered[ids[i]]
+            if places is not None:
+                done[i] = (float(reqs.lng[i]), float(reqs.lat[i])) in places
+    return done
 
 
 def plan_one_window(
@@ -281,7 +321,7 @@ def plan_one_window(
     window: int,
     fleet: Fleet | np.ndarray,
     policy: Policy,
-    delivered: set[str] | None = None,
+    delivered: Delivered | set[str] | None = None,
 ) -> tuple[WindowPlan, DayRequests]:
     """Plan window ``window`` of ``day`` with the ``fleet`` (or drones at these depots, of
     the default type) (docs/method.md §4)."""
@@ -294,8 +334,7 @@ def plan_one_window(
         reqs, scn.depots, fl.depot, cfg.plan.coverage, cfg.plan.ties, drone_models=fl.models()
     )
     if delivered:
-        done = np.isin(reqs.order_id.astype(str), np.array(sorted(delivered), dtype=str))
-        state.delivered_w[done] = max(0, window - 1)
+        state.delivered_w[delivered_mask(reqs, delivered)] = max(0, window - 1)
     start_day(policy, cfg, cfg.sim.seed)
     view = state.view(window)
     return plan_step(view, policy.act(view), WindowStep.of(policy, cfg)), reqs

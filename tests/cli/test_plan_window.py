@@ -352,3 +352,33 @@ def test_a_folder_whose_name_is_not_utf8_takes_the_outputs(
     for name in ("stops.parquet", "routes.parquet"):
         assert (out / name).read_bytes() == (parquet_out / name).read_bytes()
     plan(example_csv, depots_file, out.parent / "w6", "--delivered", str(out))
+
+
+def test_delivered_leaves_out_only_the_requests_of_a_shared_id_it_delivered(tmp_path):
+    """Rows that share an order id but not times or places are separate requests
+    (docs/decisions.md, "Reading LaDe"): a stops file marks delivered only the one its
+    stop reached (its id and place); a file without places, every request of the id."""
+    from marops_cli.errors import InputError
+    from marops_cli.sim.scenario import delivered_mask, delivered_orders
+
+    class Reqs:  # the fields delivered_mask reads of a day's requests
+        order_id = np.array(["7", "7", "8", "9"], dtype=object)
+        lng = np.array([121.40, 121.50, 121.45, 121.46])
+        lat = np.array([31.20, 31.25, 31.22, 31.23])
+
+    placed = tmp_path / "stops.parquet"
+    table = {
+        "kind": ["start", "customer", "customer", "end"],
+        "order_id": [None, "7", "8", None],
+        "lng": [121.0, 121.50, 121.45, 121.0],
+        "lat": [31.0, 31.25, 31.22, 31.0],
+    }
+    pq.write_table(pa.table(table), placed)
+    assert delivered_mask(Reqs, delivered_orders(placed)).tolist() == [False, True, True, False]
+    by_id = tmp_path / "by_id.parquet"
+    pq.write_table(pa.table({k: table[k] for k in ("kind", "order_id")}), by_id)
+    assert delivered_mask(Reqs, delivered_orders(by_id)).tolist() == [True, True, True, False]
+    assert delivered_mask(Reqs, {"9"}).tolist() == [False, False, False, True]
+    pq.write_table(pa.table({**table, "lng": ["x"] * 4}), placed)
+    with pytest.raises(InputError, match="column of numbers"):
+        delivered_orders(placed)
