@@ -142,19 +142,34 @@ def _square_frame(
     return Frame(float(clng[0]), float(clat[0]), size_km)
 
 
+def _densest_pick(window: np.ndarray, k: int) -> tuple[int, int]:
+    """The densest of the squares ``window`` scores (their counts on the grid padded by
+    ``k - 1`` cells, so a square may hang over the points' edge). Where several tie (a
+    town smaller than the square: every square around it holds it all), the one in the
+    middle of the tied squares that overlap the south-west-most, so the town sits in
+    the square's middle, not in its corner; ties of that to the first in row-major
+    order."""
+    ty, tx = np.nonzero(window == window.max())  # row-major: south-west first
+    near = (np.abs(ty - ty[0]) < k) & (np.abs(tx - tx[0]) < k)
+    ty, tx = ty[near], tx[near]
+    far = (ty - ty.mean()) ** 2 + (tx - tx.mean()) ** 2
+    i = int(np.argmin(far))
+    return int(ty[i]), int(tx[i])
+
+
 def densest_square(
     lng: np.ndarray, lat: np.ndarray, size_km: float, grid_m: float = 250.0
 ) -> Frame:
     """The ``size_km`` square holding the most points, on a ``grid_m`` grid (reproducible).
 
     Points are binned on a grid around their median; every square of whole grid
-    cells is scored with a 2-D prefix sum; ties go to the first square in
-    row-major order (south-west first).
+    cells is scored with a 2-D prefix sum; of squares that tie, the middle one of
+    those overlapping the south-west-most (:func:`_densest_pick`).
     """
     ref, x0, y0, counts, k = _square_grid(lng, lat, size_km, grid_m)
-    window = _window_sums(counts, k)
-    jy, jx = np.unravel_index(int(np.argmax(window)), window.shape)
-    return _square_frame(ref, x0, y0, int(jy), int(jx), k, grid_m, size_km)
+    pad = k - 1
+    jy, jx = _densest_pick(_window_sums(np.pad(counts, pad), k), k)
+    return _square_frame(ref, x0, y0, jy - pad, jx - pad, k, grid_m, size_km)
 
 
 def hub_squares(
@@ -179,9 +194,7 @@ def hub_squares(
     padded = np.pad(counts, pad)
     taken = np.zeros(padded.shape, dtype=np.int64)  # cells inside a chosen square
     window = _window_sums(padded, k)
-    first = _window_sums(counts, k)
-    jy0, jx0 = np.unravel_index(int(np.argmax(first)), first.shape)
-    pick = (int(jy0) + pad, int(jx0) + pad)
+    pick = _densest_pick(window, k)
     out: list[tuple[Frame, int]] = []
     while n_hubs is None or len(out) < n_hubs:
         if out:

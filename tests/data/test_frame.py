@@ -68,6 +68,31 @@ def test_densest_square_finds_the_cluster() -> None:
     assert densest_square(lng, lat, 5.0, 250.0) == frame  # reproducible
 
 
+@pytest.mark.parametrize(
+    ("span_x", "span_y"), [(4_000, 4_000), (0.0, 0.0), (12_000, 300.0), (300.0, 9_000)]
+)
+def test_a_town_smaller_than_the_square_sits_in_its_middle(span_x: float, span_y: float) -> None:
+    """Every square around a town narrower than the study square holds it all: the
+    square is the middle one of those, so the town's edges are as far from the square's
+    as the grid allows (before, the south-west-most: the town in its corner, and a
+    replay day's request a few metres south or west of the history left out). Along an
+    axis the town fills (12 km), the square is the densest as before."""
+    rng = np.random.default_rng(3)
+    ref = Frame(121.47, 31.23, 10.0)
+    x = 2_000 + rng.uniform(0, span_x, 500)
+    y = -1_000 + rng.uniform(0, span_y, 500)
+    lng, lat = ref.to_lnglat(x, y)
+    frame = densest_square(lng, lat, 10.0, 250.0)
+    fx, fy = ref.to_xy(np.array([frame.center_lng]), np.array([frame.center_lat]))
+    tx, ty = ref.to_xy(lng, lat)
+    for axis, (f, t) in enumerate(((fx[0], tx), (fy[0], ty))):
+        if (span_x, span_y)[axis] > 10_000:
+            continue  # wider than the square: no square holds it all
+        low, high = t.min() - (f - 5_000), (f + 5_000) - t.max()  # margins, m
+        assert min(low, high) >= 0, (axis, low, high)
+        assert abs(low - high) <= 2 * 250.0 + 1e-6, (axis, low, high)  # within a cell
+
+
 def test_densest_square_empty() -> None:
     with pytest.raises(ValueError):
         densest_square(np.array([]), np.array([]), 10.0)
