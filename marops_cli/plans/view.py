@@ -52,6 +52,9 @@ class WindowView:
     """(P,) the depot each pending parcel is stocked at: a drone carries only its departure
     depot's (docs/method.md, "Operating model"); None: every parcel at every depot (the
     paper)."""
+    pending_servable: np.ndarray | None = None
+    """(P,) False where no drone of the fleet can ever serve the request (too heavy for
+    every type, or out of every type's reach from the nearest depot); None: not known."""
     drone_ready: np.ndarray | None = None
     """(U,) False where a drone cannot fly this window (still on a long flight, or no
     charged battery at its depot): it gets only its empty plan and stays; None: all can."""

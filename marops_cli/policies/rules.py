@@ -25,9 +25,14 @@ __all__ = ["BacklogPolicy", "EnergyAware", "RebalancePolicy", "reachable", "wait
 
 def waiting_per_depot(view: WindowView, weights: np.ndarray | None = None) -> np.ndarray:
     """``(N,)`` the pending parcels (or their ``weights``) per depot: where each is
-    stocked, or its service area's depot when every parcel is at every depot."""
+    stocked, or its service area's depot when every parcel is at every depot. Parcels no
+    drone can ever serve are left out: nothing waits there for a drone to fetch."""
     where = view.pending_area if view.pending_stock is None else view.pending_stock
     n = len(view.depots)
+    if view.pending_servable is not None:
+        keep = view.pending_servable
+        where = where[keep]
+        weights = None if weights is None else np.asarray(weights)[keep]
     return np.bincount(where, weights=weights, minlength=n).astype(np.float64)[:n]
 
 

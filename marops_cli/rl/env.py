@@ -172,7 +172,9 @@ class DeliveryEnv:
         if len(depot) != self.n_drones:
             raise ValueError(f"a fleet of {len(depot)} drones for {self.n_drones} agents")
         plan = self.cfg.plan
-        self.state = DayState(day, self.depots, depot, plan.coverage, plan.ties, models)
+        self.state = DayState(
+            day, self.depots, depot, plan.coverage, plan.ties, models, model=self.how.model
+        )
         self.t = 0
         self.view = self.state.view(0)
         self.last_plan = None

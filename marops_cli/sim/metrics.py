@@ -12,6 +12,7 @@ import numpy as np
 from ..energy import EnergyModel
 from ..plans.view import FREE
 from .fleet import DEFAULT_TYPE, Fleet
+from .reach import unservable_masks
 from .replay import FlownDay
 
 CO2_G_PER_KWH = 125.0  # UK 2024 grid average, as the paper
@@ -190,22 +191,9 @@ def _share(values: np.ndarray, top: float) -> np.ndarray:
 def unservable(
     day: Any, depots_xy: np.ndarray, model: EnergyModel | Sequence[EnergyModel]
 ) -> tuple[int, int]:
-    """Requests no drone can ever serve: (heavier than every type's payload limit, too
-    far: even alone, from the nearest depot and back to the nearest depot, over the
-    usable battery of every type that can lift it)."""
-    from ..segment.depots import nearest_depot
-
-    models = [model] if isinstance(model, EnergyModel) else list(model)
-    d = nearest_depot(np.column_stack([day.x_m, day.y_m]), depots_xy)[1]
-    heavy = np.ones(len(day.weight_kg), dtype=bool)
-    reach = np.zeros(len(day.weight_kg), dtype=bool)
-    for m in models:
-        lifts = m.fits(day.weight_kg)
-        w = np.minimum(day.weight_kg, m.max_payload_kg)
-        alone = d * np.interp(w, m.grid_kg, m.table_j_per_m) + d * m.energy_per_m(0.0)
-        heavy &= ~lifts
-        reach |= lifts & (alone <= m.usable_j)
-    far = ~heavy & ~reach
+    """How many requests no drone can ever serve: (too heavy, too far)
+    (:func:`~marops_cli.sim.reach.unservable_masks`)."""
+    heavy, far = unservable_masks(day, depots_xy, model)
     return int(heavy.sum()), int(far.sum())
 
 

@@ -53,6 +53,7 @@ def fly_day(
         cfg.plan.ties,
         drone_models=drone_models,
         ops=how.ops,
+        model=how.model,
     )
     start_day(policy, cfg, cfg.sim.seed)
     plans: list[WindowPlan] = []

@@ -17,6 +17,7 @@ from ..policies.base import WindowView
 from ..segment.depots import Depots
 from .fleet import default_fleet
 from .ops import Operations
+from .reach import unservable_masks
 
 __all__ = ["DayState", "default_fleet"]
 
@@ -36,6 +37,7 @@ class DayState:
         ties: Ties = "nearest",
         drone_models: Sequence[EnergyModel] | None = None,
         ops: OpsConfig | None = None,
+        model: EnergyModel | None = None,
     ) -> None:
         self.day = day
         self.depots = depots
@@ -46,6 +48,13 @@ class DayState:
         self.drone_models = None if drone_models is None else tuple(drone_models)
         if self.drone_models is not None and len(self.drone_models) != self.drone_depot.size:
             raise ValueError("one energy model per drone expected")
+        # Requests no drone of the fleet can ever serve (each drone's type, else
+        # ``model``'s; None: not known, every request counts as servable).
+        models = self.drone_models or ((model,) if model is not None else None)
+        self.servable: np.ndarray | None = None
+        if models:
+            heavy, far = unservable_masks(day, depots.xy, list(dict.fromkeys(models)))
+            self.servable = ~(heavy | far)
         self.ranges = range_table(depots, coverage)
         self.ties: Ties = ties
         self.delivered_w = np.full(len(day), -1, dtype=np.int64)
@@ -93,6 +102,7 @@ class DayState:
             pending_visible_w=self.day.visible_w[idx],
             drone_models=self.drone_models,
             pending_stock=self.stock_depot(idx),
+            pending_servable=None if self.servable is None else self.servable[idx],
             drone_ready=None if self.ops is None else self.ops.ready(t, self.drone_depot)[0],
             depot_spares=None if ops is None else ops.charged.copy(),
             depot_charging=None if ops is None else ops.charging(),

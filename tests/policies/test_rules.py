@@ -82,6 +82,17 @@ def test_backlog_picks_the_depot_with_more_waiting_value() -> None:
     assert _landings(view, BacklogPolicy().act(view)) == [2, 1]
 
 
+def test_parcels_no_drone_can_serve_wait_nowhere() -> None:
+    """A parcel out of every drone's reach (or too heavy) is no value waiting at its
+    depot: backlog does not fly a drone there to fetch what it cannot carry."""
+    view = _view([0.0, 2000.0], stock=[1, 1], drones=[0])
+    assert _landings(view, BacklogPolicy().act(view)) == [1]
+    view.pending_servable = np.array([False, False])
+    assert _landings(view, BacklogPolicy().act(view)) == [0]
+    view.pending_servable = np.array([False, True])
+    assert _landings(view, BacklogPolicy().act(view)) == [1]
+
+
 def test_backlog_uses_the_service_area_when_every_parcel_is_everywhere() -> None:
     view = _view([0.0, 2000.0], stock=[1, 1], drones=[0])
     view.pending_stock = None  # stock = "any": the parcels count in their area (depot 1)

@@ -267,3 +267,18 @@ def test_replay_day_records_what_the_model_held_back(tmp_path: Path, example_csv
     assert sum(ops["stock_left"].values()) == ops["stock_left_total"] == ops["undelivered"]
     assert ops["stock_left_total"] > days["paper"]["undelivered"]
     assert ops["charged_min"] is not None and ops["battery_waits"] >= 0
+
+
+def test_the_view_marks_the_requests_no_drone_can_ever_serve():
+    """A request 40 km from every depot is out of reach even alone (about 10 km of
+    empty flight at the default battery): the view says so, where the state knows the
+    fleet's model; without one nothing is marked."""
+    from marops_cli.energy import EnergyModel
+
+    reqs = day([(200.0, 0.0), (40_000.0, 0.0)], [0, 0])
+    model = EnergyModel.of(PlannerConfig().energy)
+    state = DayState(reqs, TWO, np.array([0]), 0.25, model=model)
+    assert state.view(0).pending_servable.tolist() == [True, False]
+    assert DayState(reqs, TWO, np.array([0]), 0.25).view(0).pending_servable is None
+    typed = DayState(reqs, TWO, np.array([0]), 0.25, drone_models=[model])
+    assert typed.view(0).pending_servable.tolist() == [True, False]
