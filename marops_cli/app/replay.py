@@ -114,6 +114,7 @@ def replay_days(
     already there with the same settings is kept; ``protect`` names more input files
     (flag -> path) the outputs must never replace."""
     check_options(options)
+    from ..io.ownership import refuse_links_below
     from ..sim.scenario import loads_actor, method_policy, policy_files, replay_modules
 
     several = len(days) > 1 if several is None else several
@@ -132,6 +133,7 @@ def replay_days(
         inputs = {"data": None if in_memory(data) else Path(data), "depots": depots}
         inputs.update({**(protect or {}), "fleet": fleet, "hubs": hubs})
         outputs = _outputs(folder, days, several, hubs is not None, options)
+        refuse_links_below(folder, outputs)
         actor = policy_files(options.method, cfg.sim.policy, ops=cfg.ops)
         protect_inputs(outputs, [*(_path(v) for v in inputs.values()), *actor])
     # A bad actor stops here.

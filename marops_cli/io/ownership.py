@@ -179,6 +179,23 @@ def _check_journal(folder: Path) -> None:
         )
 
 
+def refuse_links_below(root: Path, paths: Iterable[Path]) -> None:
+    """Refuse an output whose folder below ``root`` (a day's or a hub's) is a link: a
+    run writes those folders' files itself, never through a link into another folder
+    (another run's days), ``--force`` or not."""
+    root = Path(root).absolute()
+    for p in paths:
+        folder = Path(p).absolute().parent
+        while folder != root and root in folder.parents:
+            if folder.is_symlink():
+                raise InputError(
+                    f"is a link; the folders of days and hubs below {option('out')} are "
+                    f"marops's own: remove it or choose another {option('out')}",
+                    file=folder,
+                )
+            folder = folder.parent
+
+
 def check_outputs(paths: Iterable[Path], journal: bool = False) -> None:
     """Before any work: each output may be replaced (above; ``journal`` as there) and
     its folder written, found out by creating and removing a temporary there (or, for a
