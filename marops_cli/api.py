@@ -113,7 +113,10 @@ def _item(v: Any) -> str | None:
     if isinstance(v, str):
         return v
     if isinstance(v, dt.date):
-        return v.strftime("%Y-%m-%d")
+        try:
+            return v.strftime("%Y-%m-%d")
+        except ValueError:  # pandas' NaT is a datetime of no day
+            return None
     if _is_real(v):
         return str(v)
     return None

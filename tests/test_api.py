@@ -170,6 +170,9 @@ def test_api_takes_lists_and_dates_where_the_flag_takes_them(
     ) as e:
         marops.segment(example_csv, dates=pd.Series([{}, {}]))
     assert "\n" not in str(e.value)  # a Series' repr on one line
+    for no_day in ([pd.NaT], pd.Series(pd.to_datetime(["2022-08-01", None]))):  # pandas' NaT
+        with pytest.raises(InputError, match=r"dates expects a string like 'a,b'"):
+            marops.segment(example_csv, dates=no_day)
     with pytest.raises(InputError, match=r"^invalid option date: expected a date"):
         marops.plan_window(example_csv, tmp_path / "depots.json", "0931", 5)
     with pytest.raises(InputError, match="^drones expects whole numbers"):
