@@ -392,7 +392,7 @@ def plan_window(
     drones: int | None = None,
     fleet: str | Path | None = None,
     delivered: str | Path | None = None,
-    policy: str | None = None,
+    policy: str | Path | None = None,
     alpha: float | None = None,
     ordering: str | None = None,
     strict_cover: bool = False,
@@ -426,7 +426,7 @@ def plan_window(
         strict_cover=strict_cover,
         drones=drones,
         seed=seed,
-        policy=policy,
+        policy=None if policy is None else os.fspath(policy),
         trust_actor=trust_actor,
     )
     with replacing_foreign_files(force):
@@ -460,7 +460,7 @@ def replay_day(
     segment: str | None = None,
     drones: int | None = None,
     fleet: str | Path | None = None,
-    policy: str | None = None,
+    policy: str | Path | None = None,
     alpha: float | None = None,
     ordering: str | None = None,
     seed: int | None = None,
@@ -496,7 +496,7 @@ def replay_day(
         ordering=ordering,
         drones=drones,
         seed=seed,
-        policy=policy,
+        policy=None if policy is None else os.fspath(policy),
         trust_actor=trust_actor,
     )
     day = parse_day(str(date), cfg.data.year, option("date"))

@@ -153,6 +153,12 @@ def test_api_takes_lists_and_dates_where_the_flag_takes_them(
     a = marops.plan_window(example_csv, tmp_path / "depots.json", dt.date(2022, 8, 11), 5)
     b = marops.plan_window(example_csv, str(tmp_path / "depots.json"), 811, 5)
     assert a.routes.equals(b.routes)
+    # An actor's file as a Path, as every other file keyword takes one.
+    actor = Path(__file__).resolve().parents[1] / "policies" / "marops-ops.safetensors"
+    by_path = marops.plan_window(example_csv, tmp_path / "depots.json", 811, 5, policy=actor)
+    assert by_path.routes.equals(
+        marops.plan_window(example_csv, tmp_path / "depots.json", 811, 5, policy=str(actor)).routes
+    )
     # A datetime (a pandas Timestamp is one) is its day.
     c = marops.plan_window(example_csv, tmp_path / "depots.json", dt.datetime(2022, 8, 11, 9), 5)
     assert a.routes.equals(c.routes)
