@@ -260,8 +260,17 @@ def default_methods(
 
 
 def method_list(text: str | None) -> list[str] | None:
-    """``"marops, greedy"`` -> ``["marops", "greedy"]``; None: :func:`default_methods`."""
-    return [m.strip() for m in text.split(",") if m.strip()] if text is not None else None
+    """``"marops, greedy"`` -> ``["marops", "greedy"]``; None: :func:`default_methods`. An
+    empty item (``stay,,greedy``, a trailing comma) is refused, as the sweeps' are: a
+    typo never changes what is evaluated without a word."""
+    if text is None:
+        return None
+    names = [m.strip() for m in text.split(",")]
+    if text.strip() and not all(names):
+        raise InputError(
+            f"{option('methods')} expects method names separated by commas, got {text!r}"
+        )
+    return [m for m in names if m]
 
 
 def sweep_fields(

@@ -69,6 +69,15 @@ def test_empty_dates_or_split_is_refused_not_read_as_the_test_split(
     fails_cleanly(args, tmp_path, *needles)
 
 
+@pytest.mark.parametrize("methods", ["stay,,greedy", "stay,", ",stay"])
+def test_an_empty_method_in_the_list_is_refused(
+    example_csv: Path, tmp_path: Path, fails_cleanly, methods: str
+) -> None:
+    """As an empty sweep value is: before, the empty item was dropped without a word."""
+    args = ["evaluate", str(example_csv), "--dates", "0811", "--methods", methods]
+    fails_cleanly([*args, "--out", str(tmp_path / "out")], tmp_path, "--methods", repr(methods))
+
+
 def test_api_empty_dates_is_refused(example_csv: Path, tmp_path: Path) -> None:
     from marops_cli import api
     from marops_cli.errors import InputError
