@@ -59,8 +59,17 @@ class Setting:
     def config(self, base: PlannerConfig, method: str, seed: int) -> PlannerConfig:
         """``base`` with this setting, the method's segmentation and ``seed`` applied."""
         fields = {cfg_field: getattr(self, flag) for flag, (cfg_field, _) in SWEEP_FLAGS.items()}
+        # A bad value is named by the option that swept it (--alpha), not by its field.
+        names = {
+            cfg_field: option("n_depots" if flag == "depots_n" else flag)
+            for flag, (cfg_field, _) in SWEEP_FLAGS.items()
+        }
         return override(
-            base, segment__method=method_spec(method).segmentation, sim__seed=seed, **fields
+            base,
+            names,
+            segment__method=method_spec(method).segmentation,
+            sim__seed=seed,
+            **fields,
         )
 
 
@@ -129,7 +138,10 @@ def check_settings(cfg: PlannerConfig, settings: Sequence[Setting], methods: Seq
             try:
                 s.config(cfg, m, cfg.sim.seed)
             except InputError as exc:
-                raise InputError(f"method {m} with {_describe(s)}: {exc}") from None
+                # The template, whose options each caller spells (--alpha, alpha=).
+                plain = exc.file is None and exc.row is None and exc.column is None
+                said = exc.template if plain else str(exc)
+                raise InputError(f"method {m} with {_describe(s)}: {said}") from None
 
 
 def _describe(s: Setting) -> str:

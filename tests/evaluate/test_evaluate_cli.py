@@ -78,6 +78,33 @@ def test_an_empty_method_in_the_list_is_refused(
     fails_cleanly([*args, "--out", str(tmp_path / "out")], tmp_path, "--methods", repr(methods))
 
 
+@pytest.mark.parametrize(
+    ("flags", "named"),
+    [
+        (["--alpha", "0"], "--alpha"),
+        (["--drones", "0"], "--drones"),
+        (["--coverage", "5"], "--coverage"),
+        (["--n-depots", "1,0"], "--n-depots"),
+    ],
+)
+def test_a_bad_sweep_value_names_its_option(
+    example_csv: Path, tmp_path: Path, fails_cleanly, flags: list[str], named: str
+) -> None:
+    """Named by the option that swept it, as replay-day names it (was plan.alpha,
+    sim.drones, plan.coverage, segment.n_depots); the API names the keyword."""
+    args = ["evaluate", str(example_csv), "--dates", "0811", "--methods", "stay", *flags]
+    fails_cleanly([*args, "--out", str(tmp_path / "out")], tmp_path, f"invalid option {named}:")
+
+
+def test_api_a_bad_sweep_value_names_its_keyword(example_csv: Path) -> None:
+    from marops_cli import api
+    from marops_cli.errors import InputError
+
+    with pytest.raises(InputError, match="invalid option alpha: ") as err:
+        api.evaluate(example_csv, dates="0811", methods="stay", alpha=[1e-20], workers=1)
+    assert "plan.alpha" not in str(err.value)
+
+
 def test_api_empty_dates_is_refused(example_csv: Path, tmp_path: Path) -> None:
     from marops_cli import api
     from marops_cli.errors import InputError
