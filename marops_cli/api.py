@@ -355,13 +355,16 @@ def segment(
     hubs file) as a dictionary, written to ``out`` when given."""
     from .app.options import planner_config
     from .app.segment import segment as run
-    from .app.segment import segment_hubs
+    from .app.segment import refuse_with_hubs, segment_hubs
     from .io.atomic import dumps_json
     from .io.ownership import replacing_foreign_files
 
     _files_asked("segment", out, geojson=geojson, plot=plot)
     with replacing_foreign_files(force):
         if hubs is not None:
+            given = {"center": center, "n_depots": n_depots, "method": method}
+            given |= {"actions": actions, "seed": seed, "geojson": geojson, "plot": plot}
+            refuse_with_hubs(hubs, given)
             cfg = planner_config(config, year=year, size_km=size_km, strict=strict)
             tiling = segment_hubs(data, cfg, hubs, days=_text(dates), out=out)
             return dict(json.loads(dumps_json(tiling.doc())))

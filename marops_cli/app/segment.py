@@ -186,6 +186,20 @@ def hub_count(text: str | int) -> int | None:
     return n
 
 
+def refuse_with_hubs(hubs: str | int, given: dict[str, object]) -> None:
+    """``hubs`` writes only the hubs file: an option of one study area's depots, which it
+    would ignore, is refused naming it (after a bad ``hubs``, the first error).
+    ``given``: option name (``n_depots``) -> its value, None or False when not given."""
+    hub_count(hubs)
+    moot = [option(k) for k, v in given.items() if v is not None and v is not False]
+    if moot:
+        raise InputError(
+            f"{option('hubs')} places the study areas itself and writes only the hubs file: "
+            f"drop {', '.join(moot)} (each hub's depots are segmented when replay-day "
+            "--hubs runs it)"
+        )
+
+
 def segment_hubs(
     data: Data,
     cfg: PlannerConfig,

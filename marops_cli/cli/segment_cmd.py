@@ -93,19 +93,20 @@ def segment_command(
     a city into hubs (--hubs)."""
     data = begin(data, quiet=quiet, as_json=as_json, force=force)
     from ..app.segment import check_json_out
+    from ..app.segment import refuse_with_hubs
     from ..app.segment import segment as segment_data
 
     if hubs is not None:
-        _refuse_with_hubs(
+        refuse_with_hubs(
             hubs,
             {
-                "--center": center,
-                "--n-depots": n_depots,
-                "--method": method,
-                "--actions": actions,
-                "--seed": seed,
-                "--geojson": geojson or None,
-                "--plot": plot or None,
+                "center": center,
+                "n_depots": n_depots,
+                "method": method,
+                "actions": actions,
+                "seed": seed,
+                "geojson": geojson,
+                "plot": plot,
             },
         )
         _segment_hubs(data, out, hubs, size_km, dates, year, strict, config)
@@ -144,22 +145,6 @@ def segment_command(
                 "history_days": [d.isoformat() for d in res.days],
                 "depots": len(res.depots),
             }
-        )
-
-
-def _refuse_with_hubs(hubs: str, given: dict[str, object]) -> None:
-    """``--hubs`` writes only the hubs file: an option of one study area's depots, which
-    it would ignore, is refused naming it (after a bad ``--hubs``, the first error)."""
-    from ..app.segment import hub_count
-    from ..errors import InputError
-
-    hub_count(hubs)
-    moot = [k for k, v in given.items() if v is not None]
-    if moot:
-        raise InputError(
-            f"--hubs places the study areas itself and writes only the hubs file: drop "
-            f"{', '.join(moot)} (each hub's depots are segmented when replay-day --hubs "
-            "runs it)"
         )
 
 

@@ -363,3 +363,18 @@ def test_options_of_one_study_area_are_refused_with_hubs(
     assert res.exit_code == 2, res.output
     assert f"drop {named} " in " ".join(res.output.split())
     assert not out.exists()
+
+
+@pytest.mark.parametrize(
+    ("extra", "named"),
+    [({"center": (121.47, 31.23)}, "center"), ({"n_depots": 3, "method": "squares"}, "n_depots, method")],
+)
+def test_the_api_refuses_them_too(example_csv: Path, tmp_path: Path, extra, named) -> None:
+    """The Python API runs what the command runs: an option segment(hubs=...) would
+    ignore is an InputError naming the keyword (it was dropped unread)."""
+    from marops_cli import api
+    from marops_cli.errors import InputError
+
+    with pytest.raises(InputError, match=f"drop {named} "):
+        api.segment(example_csv, dates="0801", hubs="auto", out=tmp_path / "h.json", **extra)
+    assert not (tmp_path / "h.json").exists()
