@@ -354,8 +354,8 @@ def segment(
     """``marops segment``: the depots document (``depots.json``; with ``hubs``, the
     hubs file) as a dictionary, written to ``out`` when given."""
     from .app.options import planner_config
-    from .app.segment import segment as run
     from .app.segment import refuse_with_hubs, segment_hubs
+    from .app.segment import segment as run
     from .io.atomic import dumps_json
     from .io.ownership import replacing_foreign_files
 

@@ -4,6 +4,7 @@ docs/method.md §2), or tile a city into hubs (``segment --hubs``, §1.1)."""
 from __future__ import annotations
 
 import datetime as dt
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -186,7 +187,7 @@ def hub_count(text: str | int) -> int | None:
     return n
 
 
-def refuse_with_hubs(hubs: str | int, given: dict[str, object]) -> None:
+def refuse_with_hubs(hubs: str | int, given: Mapping[str, object]) -> None:
     """``hubs`` writes only the hubs file: an option of one study area's depots, which it
     would ignore, is refused naming it (after a bad ``hubs``, the first error).
     ``given``: option name (``n_depots``) -> its value, None or False when not given."""

@@ -92,8 +92,7 @@ def segment_command(
     """Cluster a LaDe export into depots and service areas (k-means or squares), or tile
     a city into hubs (--hubs)."""
     data = begin(data, quiet=quiet, as_json=as_json, force=force)
-    from ..app.segment import check_json_out
-    from ..app.segment import refuse_with_hubs
+    from ..app.segment import check_json_out, refuse_with_hubs
     from ..app.segment import segment as segment_data
 
     if hubs is not None:

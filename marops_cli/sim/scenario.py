@@ -279,8 +279,17 @@ def delivered_orders(path: str | Path) -> Delivered:
                 file=p,
                 column=name,
             )
+    return _delivered_places(table, p)
+
+
+def _delivered_places(table: pa.Table, p: Path) -> Delivered:
+    """:func:`delivered_orders` of a stops table whose ``kind`` and ``order_id`` were
+    checked: its customers' ids, each with its stops' places where the table has them."""
     kind = table.column("kind").to_pylist()
     ids = table.column("order_id").to_pylist()
+    placed = "lng" in table.column_names
+    lng: list[float | None] = [None] * len(kind)
+    lat: list[float | None] = [None] * len(kind)
     if placed:
         for name in ("lng", "lat"):
             if not pa.types.is_floating(table.schema.field(name).type):
@@ -296,8 +305,9 @@ def delivered_orders(path: str | Path) -> Delivered:
         if k != "customer" or i is None:
             continue
         seen = places.setdefault(str(i), set() if placed else None)
-        if seen is not None and lng[row] is not None and lat[row] is not None:
-            seen.add((float(lng[row]), float(lat[row])))
+        x, y = lng[row], lat[row]
+        if seen is not None and x is not None and y is not None:
+            seen.add((float(x), float(y)))
     return {i: None if v is None else frozenset(v) for i, v in places.items()}
 
 

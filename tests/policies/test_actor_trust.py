@@ -346,10 +346,12 @@ def test_a_relative_xdg_data_home_or_a_record_others_can_write_vouches_for_nothi
     monkeypatch.setenv("HOME", str(tmp_path / "home"))
     monkeypatch.chdir(tmp_path)
     monkeypatch.setenv("XDG_DATA_HOME", "xd")
-    assert record_path() == tmp_path / "home" / ".local" / "share" / "marops" / "trained-actors.jsonl"
+    assert (
+        record_path() == tmp_path / "home" / ".local" / "share" / "marops" / "trained-actors.jsonl"
+    )
     planted = tmp_path / "xd" / "marops" / "trained-actors.jsonl"
     planted.parent.mkdir(parents=True)
-    line = '{"sha256": "%s"}\n' % hashlib.sha256(b"evil").hexdigest()
+    line = f'{{"sha256": "{hashlib.sha256(b"evil").hexdigest()}"}}\n'
     planted.write_text(line, encoding="utf-8")
     assert not trained_here(b"evil")
     monkeypatch.setenv("XDG_DATA_HOME", str(tmp_path / "xd"))

@@ -367,7 +367,10 @@ def test_options_of_one_study_area_are_refused_with_hubs(
 
 @pytest.mark.parametrize(
     ("extra", "named"),
-    [({"center": (121.47, 31.23)}, "center"), ({"n_depots": 3, "method": "squares"}, "n_depots, method")],
+    [
+        ({"center": (121.47, 31.23)}, "center"),
+        ({"n_depots": 3, "method": "squares"}, "n_depots, method"),
+    ],
 )
 def test_the_api_refuses_them_too(example_csv: Path, tmp_path: Path, extra, named) -> None:
     """The Python API runs what the command runs: an option segment(hubs=...) would
