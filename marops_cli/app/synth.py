@@ -7,7 +7,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Literal
 
-from ..config import count, option_error
+from ..config import DataConfig, count, option_error, value_range
 from ..errors import InputError
 
 if TYPE_CHECKING:
@@ -44,6 +44,13 @@ def synth(
     if fmt not in (None, "csv", "parquet"):
         raise InputError(f"--format expects csv or parquet, got {fmt!r}")
     first = start if isinstance(start, dt.date) else parse_day(start, 2022, "--start")
+    try:  # a file the reader could not read with its own --year
+        DataConfig(year=first.year)
+    except ValidationError:
+        raise InputError(
+            f"invalid option --start: {first.isoformat()} is in a year marops does not read "
+            f"({value_range('data', 'year').replace('x', 'year')}, --year)"
+        ) from None
     fields: dict[str, object] = {"days": days, "seed": seed, "start": first, "shape": shape}
     if orders_per_day is not None:
         fields["orders_per_day"] = orders_per_day
@@ -64,6 +71,13 @@ def synth(
     from ..io.ownership import check_outputs
 
     out = Path(out)
+    last_suffix = out.suffix.lower()
+    if last_suffix in _OTHER_COMPRESSION:  # would hold plain CSV under a name that lies
+        raise InputError(
+            f"invalid option --out: marops writes CSV, gzipped CSV (.csv.gz) or Parquet, "
+            f"not {last_suffix[1:]}; name the file .csv, .csv.gz or .parquet",
+            file=out,
+        )
     suffix_fmt, gzipped = file_format(out)
     kind: Literal["csv", "parquet"] = "parquet" if (fmt or suffix_fmt) == "parquet" else "csv"
     if kind == "parquet" and gzipped:  # the reader would take gzip for CSV
@@ -80,6 +94,9 @@ def synth(
         files.write_with(out, lambda tmp: write(table, tmp, kind, gzipped=gzipped), journal=True)
     return Synthesized(table, first, out)
 
+
+_OTHER_COMPRESSION = frozenset({".bz2", ".xz", ".zip", ".zst", ".lz4", ".7z", ".lzma", ".tgz"})
+"""Suffixes of compressions other than gzip: synth writes none of them."""
 
 SYNTH_ROW_BYTES = 700
 """Memory the generator holds per row at its peak, with the writer's copy (measured: 0.87

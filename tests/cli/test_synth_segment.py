@@ -59,8 +59,11 @@ def test_synth_refuses_orders_per_day_out_of_range(
         (["--start", "2022-12-30", "--days", "3"], "run past the end of its year"),
         # Beyond any calendar: the range is checked before the last day is computed.
         (["--days", "100000000"], "(expected 1 ≤ days ≤ 366)"),
+        # A year the reader's --year refuses: the file could not be read back.
+        (["--start", "1969-12-31"], "invalid option --start: 1969-12-31 is in a year"),
+        (["--start", "9999-12-31"], "(1970 ≤ year ≤ 2100, --year)"),
     ],
-    ids=["seed-big", "seed-negative", "new-year", "days-beyond-calendar"],
+    ids=["seed-big", "seed-negative", "new-year", "days-beyond-calendar", "1969", "9999"],
 )
 def test_synth_refuses_seeds_and_spans_it_cannot_make(
     tmp_path: Path, fails_cleanly, args: list[str], says: str
@@ -186,6 +189,17 @@ def test_synth_csv_gz_is_gzip_and_reads_back(tmp_path: Path) -> None:
     assert a.report.to_dict() == b.report.to_dict()
     np.testing.assert_array_equal(a.order_id, b.order_id)
     np.testing.assert_array_equal(a.delivery_s, b.delivery_s)
+
+
+@pytest.mark.parametrize("name", ["s.csv.bz2", "s.xz", "s.zip"])
+def test_synth_refuses_a_compression_it_does_not_write(
+    tmp_path: Path, fails_cleanly, name: str
+) -> None:
+    """Plain CSV under a .bz2 name (what it wrote before) reads back as a broken file."""
+    out = str(tmp_path / name)
+    fails_cleanly(
+        ["synth", "--days", "1", "--out", out], tmp_path, "invalid option --out", ".csv.gz"
+    )
 
 
 @pytest.mark.parametrize(
