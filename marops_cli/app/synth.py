@@ -49,7 +49,7 @@ def synth(
     except ValidationError:
         raise InputError(
             f"invalid option --start: {first.isoformat()} is in a year marops does not read "
-            f"({value_range('data', 'year').replace('x', 'year')}, --year)"
+            f"({str(value_range('data', 'year')).replace('x', 'year')}, --year)"
         ) from None
     fields: dict[str, object] = {"days": days, "seed": seed, "start": first, "shape": shape}
     if orders_per_day is not None:
