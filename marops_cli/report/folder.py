@@ -36,6 +36,8 @@ def route_files(folder: Path) -> RouteFiles | None:
         from ..data.arrow import read_parquet
 
         tables = [read_input(folder / f"{n}.parquet", read_parquet) for n in ("stops", "routes")]
+        for name, table in zip(("stops", "routes"), tables, strict=True):
+            _check_columns(table, name, folder / f"{name}.parquet")
         meta = table_meta(tables[1], folder / "routes.parquet")
         stops, routes = (t.to_pylist() for t in tables)
     elif (folder / "routes.json").is_file():
@@ -50,6 +52,33 @@ def route_files(folder: Path) -> RouteFiles | None:
     return RouteFiles(stops, routes, meta)
 
 
+def _check_columns(table: Any, name: str, path: Path) -> None:
+    """Each column of the route table ``name`` (docs/outputs.md) present with the type
+    marops writes (a time stamp in any zone): an edited file is one line naming the file
+    and its column, not an error of the page's making."""
+    import pyarrow as pa
+
+    from ..io.tables import routes_schema, stops_schema
+
+    expected = stops_schema() if name == "stops" else routes_schema()
+    for field in expected:
+        if field.name not in table.schema.names:
+            raise InputError(
+                f"has no column {field.name!r}: not as marops writes a {name} file "
+                "(edited since, or of an older marops: replay again)",
+                file=path,
+                column=field.name,
+            )
+        got = table.schema.field(field.name).type
+        stamp = pa.types.is_timestamp(got) and pa.types.is_timestamp(field.type)
+        if got != field.type and not stamp:
+            raise InputError(
+                f"expected a column of {field.type}, got {got}: edited since marops wrote it",
+                file=path,
+                column=field.name,
+            )
+
+
 def _local(value: Any) -> dt.datetime:
     """A time of day in the data's zone, without the zone (the files store local times)."""
     t = dt.datetime.fromisoformat(value) if isinstance(value, str) else value
@@ -57,9 +86,33 @@ def _local(value: Any) -> dt.datetime:
 
 
 def metrics(folder: Path) -> dict[str, Any] | None:
-    """``folder/metrics.json`` (None when absent)."""
+    """``folder/metrics.json`` (None when absent); a day's metric the page shows as a
+    number that is none (edited to text) is one line naming the file and key."""
+    from ..config import clipped
+    from ..sim.metrics import DAY_METRICS
+
     path = folder / "metrics.json"
-    return _json(path) if path.is_file() else None
+    if not path.is_file():
+        return None
+    doc = _json(path)
+    numbers = {m.name for m in DAY_METRICS}
+    days = doc.get("days")
+    records = [(f"days[{i}].", d) for i, d in enumerate(days)] if isinstance(days, list) else []
+    if isinstance(doc.get("total"), dict):
+        records.append(("total.", doc["total"]))
+    for at, record in records:
+        if not isinstance(record, dict):
+            raise InputError("expected a day's metrics (an object)", file=path, column=at[:-1])
+        for key, value in record.items():
+            number = isinstance(value, int | float) and not isinstance(value, bool)
+            if key in numbers and value is not None and not number:
+                raise InputError(
+                    f"expected a number, got {clipped(repr(value))}: edited since marops "
+                    "wrote it",
+                    file=path,
+                    column=at + key,
+                )
+    return doc
 
 
 def read_input(path: Path, read: Callable[[Path], T]) -> T:

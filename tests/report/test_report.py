@@ -193,22 +193,41 @@ def test_marops_report_names_a_missing_stops_file(day_run: Path, tmp_path: Path)
     assert res.stderr.startswith(line)
 
 
-def test_marops_report_on_an_edited_column_is_one_line(day_run: Path, tmp_path: Path) -> None:
-    """Route files that read but hold what no run writes (times replaced by numbers) are
-    one line naming the folder, not a traceback; the page is left as it was."""
+@pytest.mark.parametrize(
+    "edit", ["times-as-numbers", "drone-as-text", "column-dropped", "text-metric"]
+)
+def test_marops_report_on_an_edited_column_is_one_line(
+    day_run: Path, tmp_path: Path, edit: str
+) -> None:
+    """Outputs that read but hold what no run writes (times replaced by numbers, a column
+    of another type or gone, a metric turned to text) are one line naming the file and
+    the column or key, not a traceback; the page is left as it was."""
     import pyarrow as pa
 
     copy = tmp_path / "copy"
     shutil.copytree(day_run, copy)
     routes = pq.read_table(copy / "routes.parquet")
-    i = routes.schema.get_field_index("window_start")
-    edited = routes.set_column(i, "window_start", pa.array([0.5] * routes.num_rows))
-    pq.write_table(edited.replace_schema_metadata(routes.schema.metadata), copy / "routes.parquet")
+    if edit == "text-metric":
+        doc = json.loads((copy / "metrics.json").read_text())
+        doc["days"][0]["avg_delay_h"] = "lots"
+        (copy / "metrics.json").write_text(json.dumps(doc))
+        file, column = "metrics.json", "key 'days[0].avg_delay_h'"
+    else:
+        name = {"times-as-numbers": "window_start"}.get(edit, "drone")
+        i = routes.schema.get_field_index(name)
+        if edit == "column-dropped":
+            edited = routes.remove_column(i)
+        else:
+            value = 0.5 if name == "window_start" else "0"
+            edited = routes.set_column(i, name, pa.array([value] * routes.num_rows))
+        meta = routes.schema.metadata
+        pq.write_table(edited.replace_schema_metadata(meta), copy / "routes.parquet")
+        file, column = "routes.parquet", f"column '{name}'"
     page = (copy / "report.html").read_bytes()
     res = runner.invoke(app, ["report", str(copy), "--force"])
     lines = res.output.strip().splitlines()
     assert res.exit_code == 2 and len(lines) == 1, res.output
-    assert f"{copy}: holds outputs marops cannot report on" in lines[0]
+    assert f"{copy / file}, {column}: " in lines[0]
     assert (copy / "report.html").read_bytes() == page
 
 
