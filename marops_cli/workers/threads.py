@@ -15,7 +15,10 @@ def portable_blas() -> None:
     alike (``MKL_CBWR=COMPATIBLE``), so a trained actor's weights are the same bytes on
     any machine: by default MKL picks its kernels by processor (AVX2, AVX-512), and each
     rounds sums in its own order (docs/decisions.md, "Same results"). MKL reads it at its
-    first call, so this is done before any arithmetic; a value the user set is kept."""
+    first call, so the command line does it as it starts, before any arithmetic, and its
+    workers inherit it; a value the user set is kept. (Set later, in a process whose MKL
+    has computed already, it would reach only the workers: a run on one worker and one
+    on two would differ.)"""
     os.environ.setdefault("MKL_CBWR", "COMPATIBLE")
 
 
@@ -27,7 +30,6 @@ def one_thread(deterministic: bool = False) -> Callable[[], None]:
     """
     from threadpoolctl import threadpool_limits
 
-    portable_blas()
     torch = sys.modules.get("torch")
     threads = strict = None
     if torch is not None:  # read before the limits below, which torch's OpenMP shares

@@ -21,10 +21,12 @@ def _write(path: Path, kind: pa.Array, order_id: pa.Array) -> Path:
 def test_the_customers_ids_are_read(tmp_path: Path) -> None:
     kinds = pa.array(["depot", "customer", "customer", "depot"])
     p = _write(tmp_path / "stops.parquet", kinds, pa.array([None, "7", "9", None]))
-    assert delivered_orders(p) == {"7", "9"}
-    assert delivered_orders(tmp_path) == {"7", "9"}  # a folder: its stops.parquet
+    # Each id with its stops' places; none in a file of ids alone (by hand): every
+    # request of the id counts as delivered.
+    assert delivered_orders(p) == {"7": None, "9": None}
+    assert delivered_orders(tmp_path) == {"7": None, "9": None}  # a folder: its stops.parquet
     q = _write(tmp_path / "ints.parquet", kinds, pa.array([None, 7, 9, None]))
-    assert delivered_orders(q) == {"7", "9"}  # ids written as numbers by hand
+    assert delivered_orders(q) == {"7": None, "9": None}  # ids written as numbers by hand
 
 
 @pytest.mark.parametrize(
