@@ -285,7 +285,7 @@ def train_command(
     setup = TrainSetup(
         cfg,
         tcfg,
-        train_days=parse_days(days, cfg.data.year, "--dates") if days else None,
+        train_days=parse_days(days, cfg.data.year, "--dates") if days is not None else None,
         n_depots=depot_counts,
         drones=fleets,
         resume=resume,

@@ -90,15 +90,16 @@ def test_date_not_in_file(example_csv: Path, tmp_path: Path, fails_cleanly) -> N
         (["segment", "--dates", ""], "--dates"),  # was every day, the replay days too
         (["segment", "--hubs", "auto", "--dates", ""], "--dates"),
         (["replay-day", "--date", ""], "--date"),  # was blamed on --dates
+        (["train", "--dates", ""], "--dates"),  # was every day
     ],
-    ids=["segment", "segment-hubs", "replay-day"],
+    ids=["segment", "segment-hubs", "replay-day", "train"],
 )
 def test_an_empty_list_of_days_is_refused_naming_its_option(
     example_csv: Path, tmp_path: Path, fails_cleanly, args: list[str], flag: str
 ) -> None:
     """An unset shell variable (``--dates "$HIST"``) is bad usage naming the option given,
     never a default."""
-    out = tmp_path / ("out" if args[0] == "replay-day" else "d.json")
+    out = tmp_path / {"replay-day": "out", "train": "a.pt"}.get(args[0], "d.json")
     line = fails_cleanly([args[0], str(example_csv), *args[1:], "--out", str(out)], tmp_path)
     assert f"invalid option {flag}:" in line and "got ''" in line
 
