@@ -84,6 +84,12 @@ class JobStore:
         error naming the folder (``force``: they are cleared when the first job of this
         run is written). Writes nothing: a run that fails before its first job leaves the
         folder as it was."""
+        if self.root.is_symlink():  # another evaluation's jobs, cleared through it
+            raise InputError(
+                f"is a link; the jobs folder below {option('out')} is marops's own: remove it "
+                f"or choose another {option('out')}",
+                file=self.root,
+            )
         held = self._held_identity()
         self._done = set()
         # A link (to a file or a folder) is never a job: writing there would write elsewhere.

@@ -124,6 +124,14 @@ def test_a_link_among_the_jobs_is_refused_and_its_target_kept(prep, tmp_path: Pa
             JobStore(jobs, prep, run_identity(prep)).open(force=force)
         assert err.value.file == str(link)
     assert other.path(prep.jobs[0]).read_bytes() == kept
+    # The jobs folder itself a link to the other evaluation's: refused, nothing cleared.
+    linked = tmp_path / "linked"
+    linked.symlink_to(tmp_path / "other")
+    for force in (False, True):
+        with pytest.raises(InputError, match="is a link; the jobs folder") as err:
+            JobStore(linked, prep, "a third run").open(force=force)
+        assert err.value.file == str(linked)
+    assert other.path(prep.jobs[0]).read_bytes() == kept
 
 
 def test_rows_read_back_are_the_rows_in_memory_and_a_damaged_file_runs_again(
