@@ -226,5 +226,8 @@ def _outputs(
     if not hubs:
         return area(out) + shared
     # out/hub-<id>/ below the city's metrics.json
-    hub_folders = [p for p in out.glob("hub-*") if p.is_dir()] if out.is_dir() else []
+    # (a link named so is listed too, for refuse_links_below to refuse)
+    hub_folders = (
+        [p for p in out.glob("hub-*") if p.is_dir() or p.is_symlink()] if out.is_dir() else []
+    )
     return [out / n for n in above] + shared + [p for a in hub_folders for p in area(a)]

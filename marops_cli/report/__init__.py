@@ -79,7 +79,14 @@ def report_folders(folder: Path, *, below: bool = True) -> list[Path]:
     several = not is_evaluation(folder) and not route_files_exist(folder)
     if below and several:
         for sub in sub_reports(folder):
-            found += report_folders(sub)
+            below_sub = report_folders(sub)
+            if below_sub and sub.is_symlink():  # its pages would go through it, elsewhere
+                raise InputError(
+                    "is a link to a day's or hub's outputs; the report writes pages only "
+                    "into the run's own folders: remove the link, or report on its target",
+                    file=sub,
+                )
+            found += below_sub
     found.append(folder)
     return found
 

@@ -107,8 +107,7 @@ def metrics(folder: Path) -> dict[str, Any] | None:
             number = isinstance(value, int | float) and not isinstance(value, bool)
             if key in numbers and value is not None and not number:
                 raise InputError(
-                    f"expected a number, got {clipped(repr(value))}: edited since marops "
-                    "wrote it",
+                    f"expected a number, got {clipped(repr(value))}: edited since marops wrote it",
                     file=path,
                     column=at + key,
                 )

@@ -141,6 +141,33 @@ def test_a_folder_of_ones_own_among_the_days_is_left_alone(day_run: Path, tmp_pa
     assert "notes" not in res.output
 
 
+def test_a_day_folder_that_is_a_link_gets_no_page_through_it(day_run: Path, tmp_path: Path) -> None:
+    """A day among the days that is a link to another run's day: refused naming it, so
+    no page is written into the other run's folder; a link to a folder of one's own (no
+    marops outputs) is left alone."""
+    other = tmp_path / "other" / "2022-08-11"
+    shutil.copytree(day_run, other)
+    (other / "report.html").unlink(missing_ok=True)
+    out = tmp_path / "days"
+    out.mkdir()
+    (out / "2022-08-11").symlink_to(other)
+    doc = json.loads((day_run / "metrics.json").read_text())
+    (out / "metrics.json").write_text(json.dumps({**doc, "total": {"delivered": 1}}))
+    res = runner.invoke(app, ["report", str(out)])
+    assert res.exit_code == 2, res.output
+    assert "is a link to a day's or hub's outputs" in res.output
+    assert not (other / "report.html").exists() and not (out / "report.html").exists()
+    (out / "2022-08-11").unlink()
+    shutil.copytree(day_run, out / "2022-08-11")
+    mine = tmp_path / "notes"
+    mine.mkdir()
+    (mine / "metrics.json").write_text('{"accuracy": 0.9}')
+    (out / "notes").symlink_to(mine)
+    res = runner.invoke(app, ["report", str(out), "--force"])
+    assert res.exit_code == 0, res.output
+    assert sorted(p.name for p in mine.iterdir()) == ["metrics.json"]
+
+
 def test_hundreds_of_pages_are_put_in_place_within_few_open_files(tmp_path: Path) -> None:
     """A city's month is hundreds of folders: their pages are put in place a folder at
     a time, not with every folder held open at once (the usual limit is 1024 files)."""
