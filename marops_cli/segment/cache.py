@@ -125,6 +125,7 @@ def _store(path: Path, key: str, depots: Depots) -> None:
         path.parent.mkdir(parents=True, exist_ok=True)
         fd, name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
         tmp = Path(name)
+        os.fchmod(fd, 0o644)  # readable by the others sharing the cache, as before (0600)
         with os.fdopen(fd, "wb") as fh:
             np.savez(
                 fh,

@@ -196,6 +196,7 @@ def test_a_link_planted_at_a_temporary_name_is_never_written_through(
     cached_depots(table, DAYS, FRAME, cfg.data, cfg.segment, _depots)
     assert victim.read_text() == "PRECIOUS"
     assert path.is_file() and not path.is_symlink()
+    assert path.stat().st_mode & 0o777 == 0o644  # others sharing the cache read it
     again = cached_depots(table, DAYS, FRAME, cfg.data, cfg.segment, lambda: 1 / 0)
     assert again.xy.tobytes() == _depots().xy.tobytes()  # the depots were cached
 
