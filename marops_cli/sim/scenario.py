@@ -292,7 +292,8 @@ def _delivered_places(table: pa.Table, p: Path) -> Delivered:
     lat: list[float | None] = [None] * len(kind)
     if placed:
         for name in ("lng", "lat"):
-            if not pa.types.is_floating(table.schema.field(name).type):
+            t = table.schema.field(name).type
+            if not (pa.types.is_floating(t) or pa.types.is_integer(t)):
                 raise InputError(
                     "not a marops stops file (expected a column of numbers, got "
                     f"{table.schema.field(name).type})",
@@ -306,7 +307,9 @@ def _delivered_places(table: pa.Table, p: Path) -> Delivered:
             continue
         seen = places.setdefault(str(i), set() if placed else None)
         x, y = lng[row], lat[row]
-        if seen is not None and x is not None and y is not None:
+        if x is None or y is None:
+            places[str(i)] = None  # a stop of no place: every request of its id
+        elif seen is not None:
             seen.add((float(x), float(y)))
     return {i: None if v is None else frozenset(v) for i, v in places.items()}
 

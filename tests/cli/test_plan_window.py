@@ -382,3 +382,6 @@ def test_delivered_leaves_out_only_the_requests_of_a_shared_id_it_delivered(tmp_
     pq.write_table(pa.table({**table, "lng": ["x"] * 4}), placed)
     with pytest.raises(InputError, match="column of numbers"):
         delivered_orders(placed)
+    # A stop of no place (written by hand) stands for every request of its id.
+    pq.write_table(pa.table({**table, "lng": [121.0, None, 121.45, 121.0]}), placed)
+    assert delivered_mask(Reqs, delivered_orders(placed)).tolist() == [True, True, True, False]
