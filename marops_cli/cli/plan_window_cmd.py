@@ -44,7 +44,8 @@ def plan_window_command(
         Path | None,
         typer.Option(
             "--delivered",
-            help="Earlier stops.parquet (or its folder): its orders are not planned again.",
+            help="Earlier stops.parquet (or its folder): the requests its stops delivered "
+            "(order id and place) are not planned again.",
         ),
     ] = None,
     policy: o.Policy = None,
