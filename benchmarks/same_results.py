@@ -189,6 +189,7 @@ class Runner:
         # Nothing from the caller's MAROPS_* settings reaches the runs; the depots
         # cache lives (and dies) with the work folder.
         env = {k: v for k, v in os.environ.items() if not k.startswith("MAROPS_")}
+        work = work.resolve()  # a relative XDG_DATA_HOME is ignored (the XDG rule)
         env["MAROPS_CACHE_DIR"] = str(work / "cache")
         env["XDG_DATA_HOME"] = str(work / "data")  # the record of trained actors stays here
         return cls(work=work, marops=exe, env=env)
