@@ -42,6 +42,8 @@ def route_files(folder: Path) -> RouteFiles | None:
         stops, routes = (t.to_pylist() for t in tables)
     elif (folder / "routes.json").is_file():
         docs = [_json(folder / f"{n}.json") for n in ("stops", "routes")]
+        for name, doc in zip(("stops", "routes"), docs, strict=True):
+            _check_rows(doc, name, folder / f"{name}.json")
         stops, routes, meta = docs[0]["stops"], docs[1]["routes"], docs[1].get("meta", {})
     else:
         return None
@@ -77,6 +79,40 @@ def _check_columns(table: Any, name: str, path: Path) -> None:
                 file=path,
                 column=field.name,
             )
+
+
+def _check_rows(doc: dict[str, Any], name: str, path: Path) -> None:
+    """The rows of a ``--format json`` route file as marops writes them: each an object
+    with every column of the table ``name``, a number where the column is one."""
+    import pyarrow as pa
+
+    from ..io.tables import routes_schema, stops_schema
+
+    rows = doc.get(name)
+    if not isinstance(rows, list):
+        raise InputError(f"expected a list of {name}, edited since marops wrote it", file=path)
+    expected = stops_schema() if name == "stops" else routes_schema()
+    numeric = {
+        f.name for f in expected if pa.types.is_integer(f.type) or pa.types.is_floating(f.type)
+    }
+    for i, row in enumerate(rows):
+        if not isinstance(row, dict):
+            raise InputError("expected an object", file=path, column=f"{name}[{i}]")
+        for field in expected:
+            if field.name not in row:
+                raise InputError(
+                    f"has no {field.name!r}: not as marops writes a {name} file",
+                    file=path,
+                    column=f"{name}[{i}].{field.name}",
+                )
+            value = row[field.name]
+            number = isinstance(value, int | float) and not isinstance(value, bool)
+            if field.name in numeric and value is not None and not number:
+                raise InputError(
+                    f"expected a number, got {value!r}: edited since marops wrote it",
+                    file=path,
+                    column=f"{name}[{i}].{field.name}",
+                )
 
 
 def _local(value: Any) -> dt.datetime:

@@ -604,3 +604,28 @@ def test_a_city_run_reports_each_hub_and_the_city(
         data, _ = figure(page, "map")
         assert sum(t.get("name") == "service areas" for t in data) > 0  # the hub's own depots
     assert f'<script src="{name}"></script>' in city
+
+
+def test_marops_report_on_an_edited_json_route_file_names_the_key(
+    example_csv: Path, small_config: Path, depots_json: Path, tmp_path: Path
+) -> None:
+    """A --format json day whose routes were edited (a drone's number turned to text, a
+    key gone): one line naming the file and the row's key, as for Parquet."""
+    from .conftest import invoke
+
+    out = tmp_path / "json"
+    invoke(
+        "replay-day", example_csv, "--date", "0811", "--depots", depots_json, "--drones", 2,
+        "--config", small_config, "--format", "json", "--out", out, "--quiet",
+    )  # fmt: skip
+    doc = json.loads((out / "routes.json").read_text())
+    doc["routes"][1]["drone"] = "x"
+    (out / "routes.json").write_text(json.dumps(doc))
+    res = runner.invoke(app, ["report", str(out)])
+    assert res.exit_code == 2, res.output
+    assert f"{out / 'routes.json'}, key 'routes[1].drone': expected a number" in res.output
+    del doc["routes"][1]["drone"]
+    (out / "routes.json").write_text(json.dumps(doc))
+    res = runner.invoke(app, ["report", str(out)])
+    assert res.exit_code == 2 and "key 'routes[1].drone': has no 'drone'" in res.output
+    assert not (out / "report.html").exists()
