@@ -107,10 +107,6 @@ DATA: dict[str, Callable[[Path], None]] = {
     "all_out_of_day.csv": _csv([HEADER, *(row(i, dlv="08-12 03:00:00") for i in range(20))]),
     "comma_decimals.csv": _csv([HEADER, *_rows(lng="121,47")]),
     "only_bad_rows_strict.csv": _csv([HEADER, *(row(i, lng="0", lat="0") for i in range(10))]),
-    "world.csv": _csv(
-        [HEADER]
-        + [row(i, lng=f"{-170 + 8.5 * i:.3f}", lat=f"{-60 + 3 * i:.3f}") for i in range(40)]
-    ),
     # An even count with no point at the median position: none within 150 km of it.
     "world_scattered.csv": _csv(
         [HEADER]

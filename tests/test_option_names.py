@@ -109,8 +109,13 @@ API_CASES: list[tuple[str, Call, str]] = [
     ),
     (
         "evaluate",
-        lambda d, t, k: marops.evaluate(d, workers=1, methods=","),
+        lambda d, t, k: marops.evaluate(d, workers=1, methods=" "),
         r"^methods lists no method$",
+    ),
+    (
+        "evaluate",
+        lambda d, t, k: marops.evaluate(d, workers=1, methods=","),
+        r"^methods expects method names separated by commas, got ','$",
     ),
     (
         "evaluate",

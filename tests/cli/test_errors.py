@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import contextlib
+import json
 from pathlib import Path
 
 import pytest
@@ -324,3 +325,25 @@ def test_sigterm_inside_a_library_import_ends_as_terminated_not_a_traceback(
         TERM_RECEIVED.clear()
     assert stop.value.exit_code == 143
     assert capsys.readouterr().err == "marops: terminated\n"
+
+
+def test_requests_scattered_over_the_world_place_the_area_on_the_median_one(
+    tmp_path: Path,
+) -> None:
+    """Requests thousands of km apart, one at the median position: the study area is the
+    square around that one (the only square holding any), so segment places a depot on it.
+    Before, the square had the request on its corner and held none: the run failed."""
+    from typer.testing import CliRunner
+
+    from marops_cli.cli.app import app
+
+    # Row 20 falls on (0, 0), a bad fix that is dropped.
+    rows = [_row(i, lng=f"{-170 + 8.5 * i:.3f}", lat=f"{-60 + 3 * i:.3f}") for i in range(40)]
+    data = _write(tmp_path, [HEADER, *rows])
+    out = tmp_path / "d.json"
+    res = CliRunner().invoke(app, ["segment", str(data), "--n-depots", "1", "--out", str(out)])
+    assert res.exit_code == 0, res.output
+    doc = json.loads(out.read_text())
+    assert doc["frame"]["center_lng"] == pytest.approx(-8.5, abs=0.01)
+    assert doc["frame"]["center_lat"] == pytest.approx(-3.0, abs=0.01)
+    assert doc["depots"][0]["n_history"] == 1
