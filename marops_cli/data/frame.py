@@ -201,7 +201,9 @@ def hub_squares(
             free = _window_sums(taken, k) == 0
             if not free.any():
                 break
-            pick = _densest_pick(np.where(free, window, -1), k)  # a free one: the rest -1
+            score = np.where(free, window, -1)
+            jy, jx = np.unravel_index(int(np.argmax(score)), score.shape)
+            pick = (int(jy), int(jx))
         held = int(window[pick])
         if held <= 0 or (n_hubs is None and out and held < min_share * total):
             break
