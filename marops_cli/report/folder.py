@@ -54,15 +54,20 @@ def route_files(folder: Path) -> RouteFiles | None:
     return RouteFiles(stops, routes, meta)
 
 
+def _schema(name: str) -> Any:
+    """The schema marops writes the route table ``name`` (``stops``, ``routes``) with."""
+    from ..io.tables import routes_schema, stops_schema
+
+    return stops_schema() if name == "stops" else routes_schema()
+
+
 def _check_columns(table: Any, name: str, path: Path) -> None:
     """Each column of the route table ``name`` (docs/outputs.md) present with the type
     marops writes (a time stamp in any zone): an edited file is one line naming the file
     and its column, not an error of the page's making."""
     import pyarrow as pa
 
-    from ..io.tables import routes_schema, stops_schema
-
-    expected = stops_schema() if name == "stops" else routes_schema()
+    expected = _schema(name)
     for field in expected:
         if field.name not in table.schema.names:
             raise InputError(
@@ -86,12 +91,10 @@ def _check_rows(doc: dict[str, Any], name: str, path: Path) -> None:
     with every column of the table ``name``, a number where the column is one."""
     import pyarrow as pa
 
-    from ..io.tables import routes_schema, stops_schema
-
     rows = doc.get(name)
     if not isinstance(rows, list):
         raise InputError(f"expected a list of {name}, edited since marops wrote it", file=path)
-    expected = stops_schema() if name == "stops" else routes_schema()
+    expected = _schema(name)
     numeric = {
         f.name for f in expected if pa.types.is_integer(f.type) or pa.types.is_floating(f.type)
     }

@@ -295,8 +295,7 @@ def _delivered_places(table: pa.Table, p: Path) -> Delivered:
             t = table.schema.field(name).type
             if not (pa.types.is_floating(t) or pa.types.is_integer(t)):
                 raise InputError(
-                    "not a marops stops file (expected a column of numbers, got "
-                    f"{table.schema.field(name).type})",
+                    f"not a marops stops file (expected a column of numbers, got {t})",
                     file=p,
                     column=name,
                 )
