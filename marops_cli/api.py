@@ -559,6 +559,7 @@ def evaluate(
     repeats: int = 1,
     drones: str | list[int] | None = None,
     alpha: str | list[float] | None = None,
+    frontier: bool = False,
     coverage: str | list[float] | None = None,
     n_depots: str | list[int] | None = None,
     workers: int = 2,
@@ -601,7 +602,7 @@ def evaluate(
     spec = EvaluateConfig(
         cfg,
         method_list(_text(methods)),
-        **sweep_fields(*(_text(v) for v in (alpha, drones, coverage, n_depots))),
+        **sweep_fields(*(_text(v) for v in (alpha, drones, coverage, n_depots)), frontier),
         days=days,
         split=split if split is not None else "test",
         repeats=repeats,

@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING, Any
 
 from ..config import OpsConfig, PlannerConfig, count
 from ..data.table import LadeTable
-from ..errors import InputError, option
+from ..errors import InputError, option, switch
 from .messages import drop_report
 from .progress import SILENT, Progress
 
@@ -61,11 +61,13 @@ def output_files(
     :func:`sweep_fields`) and the others with ``plots`` (evaluate/report.py names them),
     ``report.html`` with ``report``. A file of one's own by another of these names
     stays where it is."""
+    from ..evaluate.frontier import FRONTIER_FILE
     from ..evaluate.report import ACTIONS, TABLES, UNFAIRNESS
 
     swept = [f"{flag}.png" for flag, values in sweep.items() if values and len(set(values)) > 1]
     figures = [*swept, UNFAIRNESS, ACTIONS] if plots else []
     names = [*TABLES, *figures, *[PAIRED] * (against is not None)]
+    names += [FRONTIER_FILE] * (len(set(sweep.get("alpha") or ())) > 1)
     return [out / n for n in names] + [out / "report.html"] * report
 
 
@@ -120,6 +122,14 @@ class EvaluationResult:
     files: list[Path]
     """The files written (none without an output folder)."""
     folder: Path | None
+
+    @property
+    def frontier(self) -> pa.Table | None:
+        """Each method's operating point per α, dominated ones marked (``frontier.csv``,
+        docs/outputs.md "Frontier"); None without two values of α."""
+        from ..evaluate.frontier import frontier_table
+
+        return frontier_table(self.results)
 
 
 def evaluate(
@@ -274,12 +284,22 @@ def method_list(text: str | None) -> list[str] | None:
 
 
 def sweep_fields(
-    alpha: str | None, drones: str | None, coverage: str | None, n_depots: str | None
+    alpha: str | None,
+    drones: str | None,
+    coverage: str | None,
+    n_depots: str | None,
+    frontier: bool = False,
 ) -> dict[str, Any]:
     """The sweep options' values (``"0.2,0.5"``; None: the config's) as
-    :class:`EvaluateConfig` fields; a bad value names its option."""
+    :class:`EvaluateConfig` fields; a bad value names its option. ``frontier`` sweeps α
+    over :data:`~marops_cli.evaluate.frontier.FRONTIER_ALPHAS` (not with ``alpha``)."""
     from ..evaluate import parse_values
+    from ..evaluate.frontier import FRONTIER_ALPHAS
 
+    if frontier and alpha is not None:
+        raise InputError(f"give at most one of {option('alpha')} or {switch('frontier')}")
+    if frontier:
+        alpha = ",".join(f"{a:g}" for a in FRONTIER_ALPHAS)
     return {
         "alpha": parse_values(alpha, float, option("alpha")),
         "drones": parse_values(drones, int, option("drones")),

@@ -65,6 +65,14 @@ def evaluate_command(
     alpha: Annotated[
         str | None, typer.Option("--alpha", help="Trade-off weights: 0.2,0.5,0.8 [default: 0.5].")
     ] = None,
+    frontier: Annotated[
+        bool,
+        typer.Option(
+            "--frontier",
+            help="Sweep α over 0.2,0.3,0.5,0.7,0.8,0.9 and write each method's "
+            "delay-energy-delivered frontier (frontier.csv; the report's chart).",
+        ),
+    ] = False,
     coverage: Annotated[
         str | None,
         typer.Option("--coverage", help="Flying coverage densities: 0.25,0.5 [default: 0.25]."),
@@ -138,7 +146,7 @@ def evaluate_command(
         from ..workers.cluster import require_distributed
 
         require_distributed()
-    sweep = sweep_fields(alpha, drones, coverage, n_depots)
+    sweep = sweep_fields(alpha, drones, coverage, n_depots, frontier)
     protect_inputs(
         output_files(out, sweep=sweep, against=against, plots=plots, report=report),
         [data, config, policy, mappo_policy, hubs],
@@ -170,6 +178,9 @@ def evaluate_command(
     except KeyboardInterrupt as exc:  # Ctrl-C or SIGTERM, with what the folder keeps
         stopped(exc, "; ".join(getattr(exc, "__notes__", ())), "evaluate")
     _print_tables(res.summary)
+    front = res.frontier
+    if front is not None:
+        _print_frontier(front)
     if res.paired is not None:
         _print_paired(res.paired, res.summary)
     info(f"wrote {', '.join(str(p) for p in res.files)}")
@@ -229,6 +240,28 @@ def _print_paired(paired: pa.Table, summary: pa.Table) -> None:
             verdict(r),
         )
     show_table(t, keys=3)
+
+
+def _print_frontier(front: pa.Table) -> None:
+    """Each method's operating point per α, and which point dominates it."""
+    t = table(
+        'Frontier over α (docs/outputs.md, "Frontier"): a dominated point is never the one to pick'
+    )
+    for name in ("drones", "method", "α", "delivered", "delay h", "energy MJ", "kJ/parcel"):
+        t.add_column(name, justify="left" if name == "method" else "right")
+    t.add_column("dominated by")
+    for r in front.to_pylist():
+        t.add_row(
+            str(r["drones"]),
+            r["method"],
+            f"{r['alpha']:g}",
+            f"{r['delivered']:.1f}",
+            f"{r['avg_delay_h']:.3f}",
+            f"{r['energy_kj'] / 1e3:.2f}",
+            f"{r['energy_per_parcel_kj']:.1f}",
+            r["dominated_by"] or "-",
+        )
+    show_table(t)
 
 
 def _print_tables(summary: pa.Table) -> None:

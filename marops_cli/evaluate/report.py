@@ -12,6 +12,7 @@ import pyarrow as pa
 from ..io import file_sha256, output_set, run_meta
 from ..io.tables import with_meta, write_csv, write_parquet
 from ..sim.metrics import metric_specs
+from .frontier import FRONTIER_FILE, frontier_table
 from .plots import actions_figure, base_values, save_png, sweep_figure, unfairness_figure
 from .runner import Prepared
 from .settings import Setting, swept_flags
@@ -87,8 +88,9 @@ def sweep_table(summary: pa.Table, flag: str) -> str:
     return "\n".join(lines)
 
 
-def summary_markdown(summary: pa.Table, prep: Prepared) -> str:
-    """``summary.md``: one Table III per setting, with what was run."""
+def summary_markdown(summary: pa.Table, prep: Prepared, front: pa.Table | None = None) -> str:
+    """``summary.md``: one Table III per setting, with what was run, and the frontier
+    over α (``front``) when there is one."""
     days = f"{prep.days[0].isoformat()}..{prep.days[-1].isoformat()}"
     parts = [
         "# marops evaluate",
@@ -98,7 +100,30 @@ def summary_markdown(summary: pa.Table, prep: Prepared) -> str:
     ]
     for s in sorted(set(summary.column("setting").to_pylist())):
         parts += ["", f"## {setting_title(summary, s)}", "", markdown_table(summary, s)]
+    if front is not None:
+        parts += ["", "## Frontier over α", "", frontier_markdown(front)]
     return "\n".join(parts) + "\n"
+
+
+def frontier_markdown(front: pa.Table) -> str:
+    """The frontier as a Markdown table: one row per method and α (docs/outputs.md)."""
+    lines = [
+        "Each method's operating point at each α, pooled over the days: a point is "
+        "dominated when another (any method, any α, the same fleet and areas) delivers "
+        "at least as many parcels at no more delay and energy.",
+        "",
+        "| drones | areas | method | α | delivered | delivered share | delay h "
+        "| energy MJ | kJ per parcel | dominated by |",
+        "|---" * 10 + "|",
+    ]
+    for r in front.to_pylist():
+        lines.append(
+            f"| {r['drones']} | {r['depots_n']} | {r['method']} | {r['alpha']:g} "
+            f"| {r['delivered']:.1f} | {r['delivered_share']:.3f} | {r['avg_delay_h']:.3f} "
+            f"| {r['energy_kj'] / 1e3:.2f} | {r['energy_per_parcel_kj']:.1f} "
+            f"| {r['dominated_by'] or '—'} |"
+        )
+    return "\n".join(lines)
 
 
 TABLES = ("results.parquet", "summary.csv", "summary.md")
@@ -154,10 +179,14 @@ def write_outputs(
     meta = evaluation_meta(prep)
     paths = [out / name for name in TABLES]
     figs = figures(summary, results, prep) if plots else {}
+    front = frontier_table(results)
     with output_set() as files:
         files.write_with(paths[0], lambda p: write_parquet(with_meta(results, meta), p))
         files.write_with(paths[1], lambda p: write_csv(_csv_summary(summary), p))
-        files.write_bytes(paths[2], summary_markdown(summary, prep).encode("utf-8"))
+        files.write_bytes(paths[2], summary_markdown(summary, prep, front).encode("utf-8"))
+        if front is not None:
+            files.write_with(out / FRONTIER_FILE, lambda p: write_csv(front, p))
+            paths.append(out / FRONTIER_FILE)
         for name, fig in figs.items():
             files.write_with(out / name, partial(_save_to, fig))
             paths.append(out / name)

@@ -43,6 +43,11 @@ def evaluation_page(folder: Path) -> Page:
         page.table(("metric", *methods), [(label, *cells) for label, cells in body])
     if paired is not None and paired.num_rows:
         _paired(page, paired, titles)
+    front = folder / "frontier.csv"
+    if front.is_file():
+        from ..data.arrow import read_csv_file
+
+        _frontier(page, read_input(front, read_csv_file).to_pylist())
     for flag in meta.get("swept", []):
         _sweep(page, summary, flag, meta)
     _per_day(page, results, titles)
@@ -110,6 +115,105 @@ def _paired(page: Page, paired: Any, titles: dict[int, str]) -> None:
         fig.add_vline(x=0.0, line={"color": "#888", "dash": "dot"}, row=i, col=1)
     fig.update_layout(height=230 * len(metrics) + 60, margin={"l": 320, "r": 20, "t": 40})
     page.figure(fig, "paired")
+
+
+def _frontier(page: Page, rows: list[dict[str, Any]]) -> None:
+    """Each method's operating points over α: delay against energy per day, and
+    delivered against energy, one line per method (and fleet), a point per α; a
+    dominated point is drawn open and says by which point (docs/outputs.md, "Frontier")."""
+    import plotly.graph_objects as go
+    from plotly.colors import qualitative
+    from plotly.subplots import make_subplots
+
+    need = {"method", "alpha", "delivered", "avg_delay_h", "energy_kj", "dominated"}
+    if not rows or not need <= set(rows[0]):
+        return
+    groups = list(dict.fromkeys((r.get("drones"), r.get("depots_n")) for r in rows))
+    fig = make_subplots(
+        rows=1,
+        cols=2,
+        subplot_titles=[
+            "average delay (h) against energy: lower left is better",
+            "delivered per day against energy: upper left is better",
+        ],
+    )
+    lines = list(dict.fromkeys((r["method"], r.get("drones"), r.get("depots_n")) for r in rows))
+    for k, (method, drones, areas) in enumerate(lines):
+        mine = sorted(
+            (
+                r
+                for r in rows
+                if (r["method"], r.get("drones"), r.get("depots_n")) == (method, drones, areas)
+            ),
+            key=lambda r: r["alpha"],
+        )
+        colour = qualitative.Plotly[k % len(qualitative.Plotly)]
+        name = (
+            short(method)
+            if len(groups) == 1
+            else f"{short(method)} · {drones} drones, {areas} areas"
+        )
+        hover = ["<br>".join(plain(line) for line in _frontier_hover(r)) for r in mine]
+        symbols = ["circle-open" if r["dominated"] else "circle" for r in mine]
+        for col, y in ((1, "avg_delay_h"), (2, "delivered")):
+            fig.add_trace(
+                go.Scatter(
+                    x=[r["energy_kj"] / 1e3 for r in mine],
+                    y=[r[y] for r in mine],
+                    mode="lines+markers+text",
+                    text=[f"{r['alpha']:g}" for r in mine],
+                    textposition="top center",
+                    hovertext=hover,
+                    hoverinfo="text",
+                    line={"color": colour},
+                    marker={"color": colour, "size": 11, "symbol": symbols},
+                    name=plain(name),
+                    legendgroup=plain(name),
+                    showlegend=col == 1,
+                ),
+                row=1,
+                col=col,
+            )
+    fig.update_xaxes(title_text="energy per day (MJ)")
+    fig.update_yaxes(title_text="average delay (h)", row=1, col=1)
+    fig.update_yaxes(title_text="delivered per day", row=1, col=2)
+    fig.update_layout(height=440, margin={"l": 60, "r": 20, "t": 50, "b": 50})
+    page.heading("Frontier over α: each method's operating points")
+    page.note(
+        "A point per α (its label), pooled over the days. An open point is dominated: "
+        "another point (any method, any α) delivers at least as many parcels with no more "
+        "delay and no more energy. Pick an operating point among the filled ones."
+    )
+    page.table(
+        ("method", "α", "delivered", "delay h", "energy MJ", "kJ per parcel", "dominated by"),
+        [
+            (
+                r["method"] if len(groups) == 1 else f"{r['method']} · {r.get('drones')} drones",
+                f"{r['alpha']:g}",
+                f"{r['delivered']:.1f}",
+                f"{r['avg_delay_h']:.3f}",
+                f"{r['energy_kj'] / 1e3:.2f}",
+                f"{r.get('energy_per_parcel_kj', float('nan')):.1f}",
+                r.get("dominated_by") or "—",
+            )
+            for r in rows
+        ],
+    )
+    page.figure(fig, "frontier")
+
+
+def _frontier_hover(r: dict[str, Any]) -> list[str]:
+    """A frontier point's hover lines (each escaped by the caller)."""
+    lines = [
+        f"{short(r['method'])} α={r['alpha']:g}",
+        f"delivered {r['delivered']:.1f} per day ({r.get('delivered_share', float('nan')):.3f})",
+        f"delay {r['avg_delay_h']:.3f} h",
+        f"energy {r['energy_kj'] / 1e3:.2f} MJ per day "
+        f"({r.get('energy_per_parcel_kj', float('nan')):.1f} kJ per parcel)",
+    ]
+    if r["dominated"]:
+        lines.append(f"dominated by {short(r.get('dominated_by') or '')}")
+    return lines
 
 
 def _sweep(page: Page, summary: Any, flag: str, meta: dict[str, Any]) -> None:

@@ -146,3 +146,24 @@ def test_odd_names_show_as_text_and_leave_the_map_its_width(day_run: Path, tmp_p
     assert blocked and all(e["source"] == "security" for e in blocked), run.errors
     assert "Content Security Policy" in blocked[0]["text"]
     assert [e for e in _offline_errors(run.errors) if e not in blocked] == []
+
+
+def test_the_frontier_chart_draws_a_line_per_method_in_chromium(evaluation_run: Path) -> None:
+    """An evaluation over two values of α: the frontier chart draws in the browser, one
+    line per method in each of its two panels, a marker per α, and the page logs no
+    error."""
+    ready = "typeof Plotly !== 'undefined' && !!document.querySelector('#frontier svg.main-svg')"
+    run = open_page(
+        (evaluation_run / "report.html").as_uri(),
+        ready=ready,
+        expressions={
+            "traces": "document.getElementById('frontier').data.length",
+            "points": "document.querySelectorAll('#frontier g.trace.scatter path.point').length",
+            "legend": "[...document.querySelectorAll('#frontier .legendtext')]"
+            ".map(e => e.textContent)",
+        },
+    )
+    assert run.values["traces"] == 4  # stay and greedy, in each panel
+    assert run.values["points"] == 8  # two values of α each
+    assert sorted(run.values["legend"]) == ["greedy", "stay"]
+    assert _offline_errors(run.errors) == []
