@@ -120,6 +120,16 @@ DATA: dict[str, Callable[[Path], None]] = {
     "order_id_lists.parquet": _parquet({**GOOD_PQ, "order_id": [[i] for i in range(40)]}),
     "lng_beyond_2_53.parquet": _parquet({**GOOD_PQ, "lng": [2**62] * 40}),
     "pipe.csv": _pipe,
+    # Categorical (dictionary-encoded) columns: a text cell in a column of numbers.
+    "dict_weight_text.parquet": lambda p: pq.write_table(
+        pa.table(
+            {
+                **GOOD_PQ,
+                "weight_kg": pa.array(["0.5"] * 7 + ["--"] + ["0.5"] * 32).dictionary_encode(),
+            }
+        ),
+        p,
+    ),
     "latin1_city.csv": _bytes(
         (
             "\n".join([HEADER, *_rows()[:3], row(3).replace("Shanghai", "Sh\xe0ngh\xe0i")]) + "\n"
@@ -329,6 +339,7 @@ NEEDLES: dict[str, str | tuple[str, ...]] = {
     "lng_twice.csv": "row 1, column 'lng'",
     "all_nan_lng.csv": "none of its 20 rows can be used (20 bad coordinates)",
     "latin1_city.csv": "row 5, column 'city'",
+    "dict_weight_text.parquet": "row 9, column 'weight_kg': expected a positive weight in kg",
     "header_no_line_end.csv": "row 2: the file has a header but no data rows",
     "header_field_200k.csv": "row 1: expected column names on the first line",
     "order_id_lists.parquet": "column 'order_id': expected a column of text",

@@ -322,14 +322,20 @@ def _check_column_types(table: pa.Table, path: Path) -> pa.Table:
     otherwise read as 0/1 or fail late), and text, a number or a time in the others (a
     list or a struct is no id or time). Binary columns (Parquet strings some writers
     leave unannotated) become text, which must be UTF-8; Arrow's view layouts of text and
-    binary (polars' ``to_arrow()`` gives them) are read as the plain ones."""
+    binary (polars' ``to_arrow()`` gives them) and dictionary-encoded (categorical)
+    columns are read as the plain ones."""
     for k, name in enumerate(table.column_names):
         t = table.schema.field(name).type
+        if pa.types.is_dictionary(t):
+            # A categorical column (pandas' category, a writer's dictionary encoding) is
+            # read as its values, a plain column's cells: its text cells in a column of
+            # numbers are then bad rows as theirs are, not an Arrow error.
+            t = t.value_type
+            cells = [chunk.dictionary_decode() for chunk in table[name].chunks]
+            table = table.set_column(k, name, pa.chunked_array(cells, type=t))
         if pa.types.is_string_view(t) or pa.types.is_binary_view(t):
             t = pa.string() if pa.types.is_string_view(t) else pa.binary()
             table = table.set_column(k, name, table[name].cast(t))
-        if pa.types.is_dictionary(t):  # a categorical column: judged by its values
-            t = t.value_type
         binary = pa.types.is_binary(t) or pa.types.is_large_binary(t)
         if binary:  # text, numbers in lng and lat included, once it is UTF-8
             table = table.set_column(k, name, _utf8(table[name], path, name))
@@ -358,7 +364,7 @@ def _check_column_types(table: pa.Table, path: Path) -> pa.Table:
                 file=path,
                 column=name,
             )
-        if not binary and is_text(t) and not pa.types.is_dictionary(table.schema.field(name).type):
+        if not binary and is_text(t):
             _check_utf8(table[name], path, name)
     return table
 

@@ -371,6 +371,41 @@ def test_a_parquet_column_of_numbers_holds_numbers_or_text(tmp_path: Path) -> No
 
 
 @pytest.mark.parametrize(
+    ("column", "cell"), [("lng", "null"), ("lat", "n/a"), ("weight_kg", "--"), ("order_id", "")]
+)
+def test_a_categorical_parquet_column_reads_as_its_plain_column(
+    tmp_path: Path, column: str, cell: str
+) -> None:
+    """A dictionary-encoded (categorical) column whose text cell holds no number reads as
+    the same cells in a plain text column: a bad row dropped, or the same one-line error
+    naming row and column, never an Arrow error."""
+    path = _as_parquet(tmp_path, "d.parquet")
+    t = pq.read_table(path)
+    n = t.num_rows
+    if column == "weight_kg":
+        t = t.append_column("weight_kg", pa.array(["0.5"] * n))
+    i = t.schema.get_field_index(column)
+    cells = [str(v) for v in t[column].to_pylist()]
+    cells[1] = cell
+    plain, cat = tmp_path / "plain.parquet", tmp_path / "cat.parquet"
+    pq.write_table(t.set_column(i, column, pa.array(cells)), plain)
+    pq.write_table(t.set_column(i, column, pa.array(cells).dictionary_encode()), cat)
+    assert pa.types.is_dictionary(pq.read_schema(cat).field(column).type)
+    try:
+        want = read_lade(plain, DataConfig())
+    except InputError as exc:
+        with pytest.raises(InputError) as got:
+            read_lade(cat, DataConfig())
+        assert got.value.message == exc.message
+        assert (got.value.row, got.value.column) == (exc.row, exc.column) == (3, column)
+        return
+    got = read_lade(cat, DataConfig())
+    assert got.report == want.report and got.report.kept == n - 1
+    np.testing.assert_array_equal(got.lng, want.lng)
+    np.testing.assert_array_equal(got.row, want.row)
+
+
+@pytest.mark.parametrize(
     ("column", "values", "expect"),
     [
         ("order_id", lambda n: [[i] for i in range(n)], r"column 'order_id': .* type list"),
