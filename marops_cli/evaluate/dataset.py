@@ -15,6 +15,7 @@ these files in job order, whichever worker, machine or session wrote them.
 
 from __future__ import annotations
 
+import os
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -100,6 +101,16 @@ class JobStore:
                 f"choose another {option('out')}",
                 file=foreign,
             )
+        # A folder (or a pipe) where a job's file goes: the job could never be written.
+        for job in self.prep.jobs:
+            path = self.path(job)
+            if os.path.lexists(path) and not path.is_file():
+                what = "a folder" if path.is_dir() else "no regular file"
+                raise InputError(
+                    f"is {what} where marops evaluate writes a job's file; move it or "
+                    f"choose another {option('out')}",
+                    file=path,
+                )
         if held is not None and held != self.identity:
             if not force:
                 held_doc = self._held_doc()  # none in a dataset of an older marops

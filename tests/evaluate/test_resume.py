@@ -271,3 +271,19 @@ def test_force_clears_the_outputs_built_from_the_other_runs_jobs(prep, tmp_path:
 def store_meta_table() -> pa.Table:
     """A one-row table with marops metadata, as results.parquet carries."""
     return pa.table({"x": [1]}).replace_schema_metadata({b"marops": b'{"package": "marops"}'})
+
+
+def test_a_folder_where_a_job_file_goes_is_refused_naming_it(prep, tmp_path: Path) -> None:
+    """A folder at a job file's path (made by hand, or by another tool) is one line naming
+    it before any job runs, not a system error when that job's file is written."""
+    jobs = tmp_path / "jobs"
+    first = JobStore(jobs, prep, run_identity(prep))
+    first.open()
+    first.add(prep.jobs[0], {"mean_energy_kj": 1.0, "delivered": 1, "avg_delay_h": 0.1})
+    blocked = first.path(prep.jobs[1])
+    (blocked / "inside").mkdir(parents=True)
+    again = JobStore(jobs, prep, run_identity(prep))
+    with pytest.raises(InputError) as err:
+        again.open()
+    assert err.value.file == str(blocked) and "is a folder where" in err.value.message
+    assert (blocked / "inside").is_dir()  # left as it was
