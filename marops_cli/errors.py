@@ -56,13 +56,47 @@ def keyword(name: str, on: bool = False) -> str:
 
 def spelled(text: str, spell: Callable[[str, bool], str] = flag) -> str:
     """``text`` with the options it names spelled by ``spell`` (:func:`flag`, :func:`keyword`)."""
-    return _MARKED.sub(lambda m: spell(m[1], m[2] == "="), text)
+    # (a mark left alone where a bounded message was cut goes too)
+    return _MARKED.sub(lambda m: spell(m[1], m[2] == "="), text).replace(_MARK, "")
+
+
+# --- values quoted in messages ----------------------------------------------------------
+# A message may quote what a file holds (a sidecar's operating model, a header's column
+# name), and a file may hold megabytes there: every message stays a line a person reads.
+
+MAX_QUOTED = 80
+"""Characters of a file's value a message quotes (:func:`quoted`)."""
+MAX_MESSAGE = 1_000
+"""Characters of an :class:`InputError`'s message (its file, row and column aside); a
+longer one keeps its start and end (:func:`bounded`)."""
+MAX_LINE = 10_000
+"""Characters of any error's whole line: the message and a path of the system's longest."""
+
+
+def quoted(value: object, most: int = MAX_QUOTED) -> str:
+    """``value`` as a message quotes it (its ``repr``), cut to ``most`` characters with an
+    ellipsis when longer."""
+    text = repr(value)
+    return text if len(text) <= most else f"{text[: most - 1]}…"
+
+
+def bounded(text: str, most: int = MAX_MESSAGE) -> str:
+    """``text`` when at most ``most`` characters; else its start and end around an
+    ellipsis that says how much was left out (what failed opens a message, what to do
+    closes it)."""
+    if len(text) <= most:
+        return text
+    head, tail = most * 2 // 3, most // 4
+    return f"{text[:head]} …({len(text) - head - tail:,} characters)… {text[-tail:]}"
 
 
 class MaropsError(Exception):
-    """Base class: a failure the CLI reports as one line."""
+    """Base class: a failure the CLI reports as one line (bounded: :data:`MAX_LINE`)."""
 
     exit_code = 1
+
+    def __init__(self, *args: object) -> None:
+        super().__init__(*(bounded(a, MAX_LINE) if isinstance(a, str) else a for a in args))
 
 
 class InputError(MaropsError):
@@ -81,19 +115,20 @@ class InputError(MaropsError):
         row: int | None = None,
         column: str | None = None,
     ) -> None:
+        message = bounded(message)
         self.template = message
         """The message naming options by their identity (:func:`option`)."""
         self.message = spelled(message)
         self.file = str(file) if file is not None else None
         self.row = row
-        self.column = column
+        self.column = bounded(column, MAX_QUOTED * 2) if isinstance(column, str) else column
         super().__init__(self.format())
 
     def respell(self, spell: Callable[[str, bool], str]) -> None:
         """Name the options in this error as ``spell`` spells them (:func:`keyword`: the
         Python API's), in place, so that ``raise`` keeps its traceback."""
         self.message = spelled(self.template, spell)
-        self.args = (self.format(),)
+        self.args = (bounded(self.format(), MAX_LINE),)
 
     def format(self) -> str:
         where = []

@@ -282,7 +282,20 @@ class _System:
         return (os.system, (f"touch '{self.target}'",))
 
 
+def _landing_weights(value: float) -> Callable[[Path], None]:
+    """A landing actor's 16 weights, each ``value``."""
+
+    def write(p: Path) -> None:
+        import numpy as np
+        from safetensors.numpy import save_file
+
+        save_file({"weight": np.full(16, value, np.float32)}, str(p))
+
+    return write
+
+
 SIDE = {"obs_version": 3, "n_actions": 4, "hidden_size": 64}
+LANDING = {"format": "marops-landing-actor/2", "operating_model": "paper"}
 POLICY: dict[str, Callable[[Path], None]] = {
     "no_sidecar.pt": _bytes(b"PK\x03\x04not torchscript"),
     "not_torchscript.pt": _bytes(b"PK\x03\x04not torchscript"),
@@ -298,6 +311,10 @@ POLICY: dict[str, Callable[[Path], None]] = {
     "sidecar_model_list.pt": _bytes(b"x"),
     "folder.pt": lambda p: p.mkdir(),
     "folder.safetensors": lambda p: p.mkdir(),
+    # Landing actors: finite float32 weights whose scores overflow; a sidecar whose
+    # operating model is 10 MB of text (quoted in the refusal, it must stay short).
+    "huge_weights.safetensors": _landing_weights(3.4e38),
+    "model_10mb.safetensors": _landing_weights(0.5),
 }
 SIDECARS: dict[str, Callable[[Path], None]] = {
     "not_torchscript.json": _json(SIDE),
@@ -309,6 +326,8 @@ SIDECARS: dict[str, Callable[[Path], None]] = {
     "evil_pickle.json": _json(SIDE),
     "sidecar_model_list.json": _json({**SIDE, "operating_model": ["paper"]}),
     "deep_sidecar.json": _text("{" + '"a":{' * 50_000 + "}" * 50_001),
+    "huge_weights.json": _json(LANDING),
+    "model_10mb.json": _json({**LANDING, "operating_model": "x" * 10_000_000}),
 }
 FLEET: dict[str, Callable[[Path], None]] = {
     "fleet_not_json.json": _text("[1, 2"),
@@ -378,6 +397,8 @@ NEEDLES: dict[str, str | tuple[str, ...]] = {
     "sidecar_model_list.pt": "key 'operating_model'",
     "folder.pt": "is a folder, expected a",
     "folder.safetensors": "is a folder, expected a",
+    "huge_weights.safetensors": "column 'weight': holds a weight of magnitude 3.4e+38",
+    "model_10mb.safetensors": "trained for the operating model 'xxx",
     "evil_on_load_alone.pt": "not found",
     "deep.toml": "nested too deeply",
     "huge_int.toml": "digits",

@@ -64,3 +64,20 @@ def test_a_number_too_long_to_read_is_said_as_such() -> None:
             parse(text)
     with pytest.raises(ValueError, match="Expecting"):  # other malformed documents as before
         parse_json("[1,")
+
+
+def test_a_huge_value_in_a_message_keeps_the_line_short() -> None:
+    """A file's value of megabytes quoted in an error: the line keeps its start and its
+    end (what failed, what to do) and stays short; ``quoted`` clips a value to 80."""
+    from marops_cli.errors import MAX_MESSAGE, RunError, quoted
+
+    value = "x" * 10_000_000
+    err = InputError(f"got {value!r}; use another file", file="a.json", column="k" * 5000)
+    line = str(err)
+    assert line.startswith("a.json, key 'kkk") and line.endswith("; use another file")
+    assert len(err.message) <= MAX_MESSAGE + 40 and len(line) < 2 * MAX_MESSAGE
+    assert "characters)…" in line
+    assert len(str(RunError(value))) < 20_000
+    assert quoted(value) == "'" + "x" * 78 + "…" and quoted("short") == "'short'"
+    # A message within the bound is as written.
+    assert str(InputError("got 'y'", file="a.json")) == "a.json: got 'y'"

@@ -8,11 +8,30 @@ from typing import TYPE_CHECKING, Literal, Protocol, runtime_checkable
 
 import numpy as np
 
+from ..errors import InputError
 from ..plans.select import Selector
 from ..plans.view import WindowView
 
 if TYPE_CHECKING:
     from ..config import PlannerConfig
+
+MAX_WEIGHT = 1e6
+"""The largest magnitude of a weight in an actor's weights file (docs/method.md §6,
+"Trust model of actor files"): trained weights are of order 1 (the shipped actors' under
+2), and far beyond, a logit or a landing score overflows to infinity."""
+
+
+def check_weight_range(largest: float, file: Path, tensor: str) -> None:
+    """Refuse a weights file whose tensor ``tensor`` holds a weight of magnitude
+    ``largest`` beyond :data:`MAX_WEIGHT`, naming the file and the tensor."""
+    if largest > MAX_WEIGHT:
+        raise InputError(
+            f"holds a weight of magnitude {largest:.3g}, beyond the {MAX_WEIGHT:.0e} an "
+            "actor's weights may reach (trained weights are of order 1)",
+            file=file,
+            column=tensor,
+        )
+
 
 SLOT_PLANNER = "subsets"
 """The planner whose plans a policy that picks plans by slot ranks (the MAPPO baseline:

@@ -56,9 +56,9 @@ from typing import TYPE_CHECKING, Any, Literal
 import numpy as np
 
 from ..data.jsonfile import first_line, refuse_misspelt_keys
-from ..errors import InputError
+from ..errors import InputError, quoted
 from ..plans.view import FREE
-from .base import WindowView
+from .base import WindowView, check_weight_range
 from .rules import EnergyAware, reachable, waiting_per_depot
 
 if TYPE_CHECKING:
@@ -130,7 +130,7 @@ def check_trained_for(trained_for: str | None, model: str, actor: str | Path | N
     ``trained_for`` (None: a sidecar that names none), in a run under ``model``."""
     if trained_for is not None and model != trained_for:
         raise InputError(
-            f"this actor was trained for the operating model {trained_for!r}, the run's "
+            f"this actor was trained for the operating model {quoted(trained_for)}, the run's "
             f"[ops] is {model!r}: use a config whose [ops] matches, or another --policy",
             file=actor,
         )
@@ -306,7 +306,7 @@ def load_landing_actor(path: Path, side: Any, sidecar: Path) -> LandingActor:
     size = _FORMATS.get(fmt) if isinstance(fmt, str) else None
     if size is None:
         raise InputError(
-            f"expected format {LANDING_FORMAT!r}, got {side.get('format')!r}",
+            f"expected format {LANDING_FORMAT!r}, got {quoted(side.get('format'))}",
             file=sidecar,
             column="format",
         )
@@ -332,6 +332,7 @@ def load_landing_actor(path: Path, side: Any, sidecar: Path) -> LandingActor:
         raise InputError(f"not a safetensors weights file ({first})", file=path) from None
     if not np.isfinite(weight).all():
         raise InputError("NaN or infinite weights", file=path, column="weight")
+    check_weight_range(float(np.abs(weight).max()), path, "weight")
     model = side.get("operating_model")
     if not isinstance(model, str) or not model:
         raise InputError(

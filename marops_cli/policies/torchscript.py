@@ -17,7 +17,7 @@ from typing import Any, Literal
 
 from ..config import clipped
 from ..data.jsonfile import first_line, read_json, refuse_misspelt_keys
-from ..errors import InputError, not_a_file
+from ..errors import InputError, not_a_file, quoted
 from .base import WindowView
 from .observation import OBS_VERSION, OBS_VERSIONS, n_choices, obs_dim
 from .recurrent import RecurrentPolicy
@@ -70,7 +70,7 @@ def read_sidecar(model_path: str | Path) -> dict[str, Any]:
     model = doc.get("operating_model")  # none: a sidecar from before marops recorded it
     if model is not None and (not isinstance(model, str) or not model):
         raise InputError(
-            f"expected the operating model the actor was trained for, got {model!r}",
+            f"expected the operating model the actor was trained for, got {quoted(model)}",
             file=side,
             column="operating_model",
         )

@@ -3,8 +3,9 @@ known network (:class:`~.network.Actor`) from the sizes its sidecar gives.
 
 Nothing of the file runs: a safetensors file is a JSON header and raw numbers. Every
 tensor's name, shape and dtype is checked against the network the sidecar describes, and
-the sizes against the bounds below, before anything is allocated (docs/method.md §6,
-"Trust model of actor files").
+the sizes against the bounds below, before anything is allocated; its values must be
+finite and within :data:`~.base.MAX_WEIGHT` (docs/method.md §6, "Trust model of actor
+files").
 """
 
 from __future__ import annotations
@@ -14,7 +15,8 @@ from pathlib import Path
 from typing import Any
 
 from ..data.jsonfile import first_line
-from ..errors import InputError
+from ..errors import InputError, quoted
+from .base import check_weight_range
 from .network import Actor, actor_shapes
 
 ACTOR_FORMAT = "marops-actor/1"
@@ -37,7 +39,7 @@ def network_sizes(side: dict[str, Any], sidecar: Path) -> tuple[int, int, int]:
     if side.get("format") != ACTOR_FORMAT:
         raise InputError(
             f"expected format {ACTOR_FORMAT!r} to rebuild the network from its weights, "
-            f"got {side.get('format')!r}",
+            f"got {quoted(side.get('format'))}",
             file=sidecar,
             column="format",
         )
@@ -46,7 +48,7 @@ def network_sizes(side: dict[str, Any], sidecar: Path) -> tuple[int, int, int]:
         value = side.get(key)
         if isinstance(value, bool) or not isinstance(value, int) or not 1 <= value <= bound:
             raise InputError(
-                f"expected a whole number from 1 to {bound}, got {value!r}",
+                f"expected a whole number from 1 to {bound}, got {quoted(value)}",
                 file=sidecar,
                 column=key,
             )
@@ -89,6 +91,7 @@ def load_weights(model_path: str | Path, side: dict[str, Any], sidecar: Path) ->
     for name, tensor in state.items():
         if not bool(torch.isfinite(tensor).all()):
             raise InputError("NaN or infinite weights", file=path, column=name)
+        check_weight_range(float(tensor.abs().max()) if tensor.numel() else 0.0, path, name)
     with torch.device("meta"):  # no allocation, no initialisation: the weights replace them
         actor = Actor(*sizes)
     actor.load_state_dict(state, assign=True)

@@ -260,6 +260,23 @@ def test_weights_with_other_tensors_or_dtypes_are_refused(tmp_path: Path) -> Non
     assert "not a safetensors weights file" in _load_error(path)
 
 
+def test_finite_weights_beyond_the_documented_range_are_refused_on_load(tmp_path: Path) -> None:
+    """A weights file whose float32 values are huge yet finite (±3.4e38) is refused as it
+    loads, naming the file and the tensor, rather than flying NaN logits."""
+    import hashlib
+
+    path, actor = _valid(tmp_path)
+    state = {k: v.contiguous() for k, v in actor.state_dict().items()}
+    state["head.weight"] = state["head.weight"].clone()
+    state["head.weight"][0, 0] = 3.4e38
+    save_file(state, str(weights_path(path)))
+    side = json.loads(path.with_suffix(".json").read_text())
+    side["weights_sha256"] = hashlib.sha256(weights_path(path).read_bytes()).hexdigest()
+    path.with_suffix(".json").write_text(json.dumps(side))
+    line = _load_error(path)
+    assert str(weights_path(path)) in line and "'head.weight'" in line and "3.4e+38" in line
+
+
 def test_trust_actor_loads_a_benign_torchscript_only_file(
     example_csv: Path, tmp_path: Path, fails_cleanly, monkeypatch: pytest.MonkeyPatch
 ) -> None:

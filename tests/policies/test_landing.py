@@ -211,6 +211,38 @@ def test_bad_files(tmp_path: Path, tensors: dict, side: object, match: str) -> N
         make_policy(str(tmp_path / "a.safetensors"), model=REALISTIC)
 
 
+@pytest.mark.parametrize("value", [3.4e38, -3.4e38, 1.5e6])
+def test_finite_weights_beyond_the_documented_range_are_refused_on_load(
+    tmp_path: Path, value: float
+) -> None:
+    """Weights of magnitude up to float32's largest are finite, yet their scores overflow:
+    refused as the actor loads, naming the file and the tensor (docs/method.md §6), not
+    a failed run at its first window."""
+    from safetensors.numpy import save_file
+
+    w = np.linspace(-1.0, 1.0, 12).astype(np.float32)
+    w[3] = value
+    save_file({"weight": w}, str(tmp_path / "a.safetensors"))
+    (tmp_path / "a.json").write_text(json.dumps(_side()))
+    with pytest.raises(InputError) as err:
+        make_policy(str(tmp_path / "a.safetensors"), model=REALISTIC)
+    assert err.value.file == str(tmp_path / "a.safetensors") and err.value.column == "weight"
+    assert "beyond the 1e+06" in err.value.message
+    w[3] = 1e6  # the bound itself is a weight
+    save_file({"weight": w}, str(tmp_path / "a.safetensors"))
+    assert isinstance(make_policy(str(tmp_path / "a.safetensors"), model=REALISTIC), LandingActor)
+
+
+def test_a_huge_operating_model_in_a_sidecar_is_quoted_in_a_short_line(tmp_path: Path) -> None:
+    """A sidecar's operating model of 10 MB: the refusal quotes its start, not all of it."""
+    write_landing_actor(BACKLOG_WEIGHTS, tmp_path / "a.safetensors", _side("x" * 10_000_000))
+    with pytest.raises(InputError) as err:
+        make_policy(str(tmp_path / "a.safetensors"), model=REALISTIC)
+    line = str(err.value)
+    assert "trained for the operating model 'xxxx" in line and "…" in line
+    assert REALISTIC in line and len(line) < 300 + len(str(tmp_path))
+
+
 def test_cli_refuses_another_model(example_csv: Path, tmp_path: Path) -> None:
     write_landing_actor(BACKLOG_WEIGHTS, tmp_path / "a.safetensors", _side())
     paper = tmp_path / "paper.toml"
