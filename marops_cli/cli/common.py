@@ -104,11 +104,18 @@ MAX_STDIN = 2 << 30
 that never ends is refused at this size instead of filling the temporary disk."""
 
 
+_STDIN_FOLDER = "marops-stdin-"
+"""Start of the name of the temporary folder of standard input's copy: the folder is
+``marops-stdin-PID-XXXXXXXX``, PID the run's process id (:func:`_sweep_stdin_copies`)."""
+
+
 def stdin_file() -> Path:
     """Standard input copied into a file of its own (``stdin``, in a temporary folder
     removed when marops exits), so it is read as a file is: CSV, CSV.gz or Parquet told
     by its first bytes, hashed for the depots cache, read again by worker processes.
-    More than :data:`MAX_STDIN` bytes is an error, and the copy is removed at once."""
+    More than :data:`MAX_STDIN` bytes is an error, and the copy is removed at once. The
+    copies that killed runs left behind (kill -9 leaves no time to remove one) are
+    removed first (:func:`_sweep_stdin_copies`)."""
     import atexit
     import shutil
     import tempfile
@@ -119,7 +126,8 @@ def stdin_file() -> Path:
             "pipe it in (marops CMD - … < lade.csv)"
         )
     global _stdin_copy
-    folder = Path(tempfile.mkdtemp(prefix="marops-stdin-"))
+    _sweep_stdin_copies(Path(tempfile.gettempdir()))
+    folder = Path(tempfile.mkdtemp(prefix=f"{_STDIN_FOLDER}{os.getpid()}-"))
     atexit.register(shutil.rmtree, folder, True)
     path = folder / "stdin"
     _stdin_copy = path  # errors name "standard input", not this file
@@ -131,6 +139,51 @@ def stdin_file() -> Path:
     if size == 0:
         raise InputError("DATA - reads standard input, and it is empty")
     return path
+
+
+def _sweep_stdin_copies(temp: Path) -> None:
+    """Remove from ``temp`` the copies of standard input that runs of marops left when
+    killed: a folder ``marops-stdin-PID-XXXXXXXX`` of this user whose process PID has
+    ended, holding nothing but the file ``stdin`` (or nothing). Anything else is left
+    as it is: another user's folder, a running process's, one holding other files,
+    a link. Where a process id cannot be asked after (not POSIX), nothing is removed."""
+    import re
+    import stat
+
+    if os.name != "posix":
+        return
+    pattern = re.compile(re.escape(_STDIN_FOLDER) + r"([0-9]+)-[A-Za-z0-9_]+")
+    try:
+        entries = list(os.scandir(temp))
+    except OSError:
+        return
+    for entry in entries:
+        found = pattern.fullmatch(entry.name)
+        if found is None or int(found[1]) == os.getpid() or _running(int(found[1])):
+            continue
+        try:
+            st = entry.stat(follow_symlinks=False)
+            if not stat.S_ISDIR(st.st_mode) or st.st_uid != os.getuid():
+                continue
+            inside = list(os.scandir(entry.path))
+            if any(e.name != "stdin" or not e.is_file(follow_symlinks=False) for e in inside):
+                continue
+            for e in inside:
+                os.unlink(e.path)
+            os.rmdir(entry.path)
+        except OSError:
+            continue  # removed meanwhile by another run, or not ours to remove
+
+
+def _running(pid: int) -> bool:
+    """Whether a process of id ``pid`` runs (one of another user's counts as running)."""
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (PermissionError, OverflowError):
+        return True
+    return True
 
 
 def _copy_stdin(path: Path) -> int:

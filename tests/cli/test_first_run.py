@@ -121,6 +121,61 @@ def test_standard_input_beyond_the_cap_is_one_line_and_no_copy_stays(
     assert not (tmp_path / "d.json").exists()
 
 
+def test_a_killed_runs_copy_of_standard_input_goes_with_the_next_run(
+    example_csv: Path, tmp_path: Path
+) -> None:
+    """kill -9 leaves standard input's copy in the temporary folder (nothing can remove
+    it then): the next run that reads standard input removes it, and a finished run
+    leaves none of its own. What is not a killed run's copy stays: a running process's,
+    one holding another file, a folder of another name."""
+    import os
+    import subprocess
+    import sys
+    import time
+
+    temp = tmp_path / "temp"
+    temp.mkdir()
+    env = {**os.environ, "TMPDIR": str(temp)}
+    main = ["-c", "from marops_cli.cli.app import main; main()", "segment", "-", "-q"]
+    data = example_csv.read_bytes()
+    killed = subprocess.Popen(
+        [sys.executable, *main, "--out", str(tmp_path / "a.json")],
+        stdin=subprocess.PIPE,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+        env=env,
+    )
+    assert killed.stdin is not None
+    killed.stdin.write(data[: 3 << 19])  # the pipe stays open: it copies, then waits
+    killed.stdin.flush()
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and not any(
+        p.stat().st_size for p in temp.glob("marops-stdin-*/stdin")
+    ):
+        time.sleep(0.05)
+    killed.kill()
+    killed.wait()
+    killed.stdin.close()
+    (copy,) = temp.glob("marops-stdin-*")
+    assert copy.name.startswith(f"marops-stdin-{killed.pid}-")
+    running = temp / f"marops-stdin-{os.getppid()}-abcd1234"  # a running process's
+    theirs = temp / f"marops-stdin-{killed.pid}-efgh5678"  # holds more than a copy
+    plain = temp / "marops-stdin-ijkl9012"  # no process id in its name
+    for folder in (running, theirs, plain):
+        folder.mkdir()
+        (folder / "stdin").write_text("x")
+    (theirs / "notes.txt").write_text("mine")
+    again = subprocess.run(
+        [sys.executable, *main, "--out", str(tmp_path / "b.json")],
+        input=data,
+        capture_output=True,
+        env=env,
+    )
+    assert again.returncode == 0, again.stderr
+    assert sorted(p.name for p in temp.iterdir()) == sorted([running.name, theirs.name, plain.name])
+    assert (theirs / "notes.txt").read_text() == "mine"
+
+
 # Every command that writes, with --out under a file: one line naming the path, exit 2,
 # before any work (docs/outputs.md, "What marops replaces").
 OUT_UNDER_A_FILE = {
