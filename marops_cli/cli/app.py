@@ -14,7 +14,7 @@ import typer
 import typer.core
 
 from .. import __version__
-from .common import PLAIN, STATE, error_json
+from .common import INTERRUPTED, PLAIN, STATE, error_json, stop_signal
 from .evaluate_cmd import evaluate_command
 from .plan_window_cmd import plan_window_command
 from .replay_cmd import replay_day_command
@@ -85,6 +85,13 @@ def _terminate(signum: int, frame: object) -> None:
     raise Terminated()
 
 
+def _interrupt(signum: int, frame: object) -> None:
+    """Ctrl-C as Python's own handler takes it (KeyboardInterrupt), noted so that an
+    interruption a library swallows still ends the run as one (cli/common.py)."""
+    INTERRUPTED.set()
+    raise KeyboardInterrupt
+
+
 def _one_line_warning(
     message: Warning | str,
     category: type[Warning],
@@ -103,6 +110,8 @@ def _run() -> int | str | None:
     if PLAIN:  # help and messages as plain text for logs and pipes
         typer.core.HAS_RICH = False
     signal.signal(signal.SIGTERM, _terminate)
+    if signal.getsignal(signal.SIGINT) is signal.default_int_handler:  # not when ignored
+        signal.signal(signal.SIGINT, _interrupt)
     warnings.showwarning = _one_line_warning
     try:
         code = app(standalone_mode=False)
@@ -181,4 +190,17 @@ def main() -> None:
     from ..workers.threads import portable_blas
 
     portable_blas()  # before any library computes
-    _leave(_run())
+    try:
+        code = _run()
+    except (KeyboardInterrupt, Exception) as exc:
+        # Ctrl-C or SIGTERM before a command handles it (as marops starts), or an error
+        # it caused in a half-imported library: one line, no traceback.
+        signalled = exc if isinstance(exc, KeyboardInterrupt) else stop_signal()
+        if signalled is None or STATE["debug"]:
+            raise
+        from ..io.atomic import Terminated
+
+        term = isinstance(signalled, Terminated)
+        typer.echo(f"marops: {'terminated' if term else 'interrupted'}", err=True)
+        code = 143 if term else 130
+    _leave(code)

@@ -9,6 +9,7 @@ import functools
 import json
 import os
 import sys
+import threading
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any, NoReturn, TypeVar
@@ -301,13 +302,13 @@ def guarded(fn: F) -> F:
             # keeps in the exception's notes (marops_cli/app/replay_areas.py).
             stopped(exc, "; ".join(getattr(exc, "__notes__", ())), command)
         except Exception:
-            from ..io.atomic import TERM_RECEIVED, Terminated
-
-            # SIGTERM inside a library's import (pandas's, loaded lazily) leaves that
-            # module half made, and the next use fails with some other error: the run
-            # was terminated all the same, and says so in one line.
-            if TERM_RECEIVED.is_set() and not STATE["debug"]:
-                stopped(Terminated(), "", command)
+            # SIGTERM or Ctrl-C inside a library's import (pandas's, loaded lazily by
+            # pyarrow, which swallows the interruption) leaves that module half made,
+            # and the next use fails with some other error: the run was stopped all
+            # the same, and says so in one line.
+            signalled = stop_signal()
+            if signalled is not None and not STATE["debug"]:
+                stopped(signalled, "", command)
             raise
 
     return wrapper  # type: ignore[return-value]
@@ -341,6 +342,20 @@ def _blame_setting(exc: MaropsError, options: dict[str, Any]) -> MaropsError:
     if options.get(exc.key.split(".")[-1]) is None and config and sets_key(config, exc.key):
         return SettingError(exc.message, key=exc.key, file=config)
     return exc
+
+
+INTERRUPTED = threading.Event()
+"""Set when Ctrl-C (SIGINT) arrived (marops_cli/cli/app.py)."""
+
+
+def stop_signal() -> KeyboardInterrupt | None:
+    """What stopped the run when SIGTERM or Ctrl-C has arrived (even if a library
+    swallowed the exception it raised), else None."""
+    from ..io.atomic import TERM_RECEIVED, Terminated
+
+    if TERM_RECEIVED.is_set():
+        return Terminated()
+    return KeyboardInterrupt() if INTERRUPTED.is_set() else None
 
 
 def stopped(exc: KeyboardInterrupt, kept: str = "", command: str | None = None) -> NoReturn:

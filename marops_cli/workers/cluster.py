@@ -13,7 +13,6 @@ not depend on where a job ran.
 from __future__ import annotations
 
 import logging
-import signal
 import threading
 import uuid
 from collections.abc import Iterator, Sequence
@@ -22,6 +21,7 @@ from types import ModuleType
 from typing import Any
 
 from ..errors import InputError, option
+from .pool import sigint_ignored
 from .threads import one_thread
 from .work import Job, Outcome, Work, run_safe
 
@@ -42,20 +42,6 @@ def require_distributed() -> ModuleType:
 
 
 @contextmanager
-def _sigint_ignored() -> Iterator[None]:
-    """SIGINT ignored within (in the main thread; elsewhere nothing changes)."""
-    try:
-        old = signal.signal(signal.SIGINT, signal.SIG_IGN)
-    except ValueError:  # not the main thread
-        yield
-        return
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGINT, old)
-
-
-@contextmanager
 def connect(scheduler: str, workers: int) -> Iterator[Any]:
     """A ``distributed.Client`` of the scheduler at ``scheduler``, or of a LocalCluster
     of ``workers`` single-threaded processes for ``local``; closed on the way out."""
@@ -64,7 +50,7 @@ def connect(scheduler: str, workers: int) -> Iterator[Any]:
         # Ctrl-C reaches the whole process group: this process stops the cluster and
         # keeps what finished; its workers start with SIGINT ignored (inherited), so
         # none prints a traceback.
-        with _sigint_ignored():
+        with sigint_ignored():
             cluster = distributed.LocalCluster(
                 n_workers=workers,
                 threads_per_worker=1,

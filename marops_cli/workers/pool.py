@@ -15,6 +15,7 @@ import os
 import signal
 import sys
 from collections.abc import Iterable, Iterator, Sequence
+from contextlib import contextmanager
 from typing import Any
 
 from ..errors import InputError, RunError, option
@@ -76,20 +77,70 @@ def _main_importable() -> None:
         )
 
 
+@contextmanager
+def sigint_ignored() -> Iterator[None]:
+    """SIGINT ignored within (in the main thread; elsewhere nothing changes). A process
+    started meanwhile starts with SIGINT ignored, and Python keeps it so."""
+    try:
+        old = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    except ValueError:  # not the main thread
+        yield
+        return
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, old if old is not None else signal.SIG_DFL)
+
+
+_HELD = (signal.SIGINT, signal.SIGTERM)
+
+
+@contextmanager
+def _signals_held() -> Iterator[None]:
+    """Ctrl-C and SIGTERM held within and delivered on the way out, as the run handles
+    them (KeyboardInterrupt, :class:`~marops_cli.io.atomic.Terminated`): so this process
+    never stops half-way through handing a worker its start-up data, which the worker
+    would report with a traceback (``pickle data was truncated``). In the main thread
+    only; elsewhere nothing changes."""
+    got: list[int] = []
+
+    def hold(signum: int, frame: object) -> None:
+        got.append(signum)
+
+    try:
+        old = {sig: signal.signal(sig, hold) for sig in _HELD}
+    except ValueError:  # not the main thread
+        yield
+        return
+    try:
+        yield
+    finally:
+        for sig, handler in old.items():
+            signal.signal(sig, handler if handler is not None else signal.SIG_DFL)
+        for signum in dict.fromkeys(got):
+            signal.raise_signal(signum)
+
+
 def warm_up(modules: Sequence[str]) -> None:
     """Start the fork server now, importing ``modules`` (a work's :attr:`~.work.Work.preload`),
     so its imports overlap with the parent's own work; later pools fork from it. Harmless
-    where there is none, or when it runs already."""
+    where there is none, or when it runs already.
+
+    The server starts with SIGINT ignored, so Ctrl-C (which reaches the whole process
+    group) neither stops its imports with a traceback nor reaches a worker it forks
+    before the worker is set up: the parent alone handles it, and stops the workers."""
     global _server_started
     _not_in_a_starting_worker()
     ctx = _context()
-    if ctx.get_start_method() != "forkserver" or _server_started:
+    if ctx.get_start_method() != "forkserver":
         return
-    ctx.set_forkserver_preload(list(modules))
+    if not _server_started:
+        ctx.set_forkserver_preload(list(modules))
+        _server_started = True
     from multiprocessing import forkserver
 
-    forkserver.ensure_running()
-    _server_started = True
+    with sigint_ignored():  # for the few milliseconds of its start, if it must (re)start
+        forkserver.ensure_running()
 
 
 # Per-process state of a pool's worker (set once by the initializer).
@@ -138,11 +189,16 @@ class LocalPool:
         _main_importable()
         warm_up(work.preload)
         try:
-            self._pool = _context().Pool(workers, initializer=_init, initargs=(work,))
+            with _signals_held():  # a Ctrl-C meanwhile stops the started pool below
+                self._pool = _context().Pool(workers, initializer=_init, initargs=(work,))
         except (BrokenPipeError, EOFError, ConnectionResetError) as exc:
+            self.close()
             raise RunError(
                 f"the worker processes stopped as they started ({exc}): {_MAIN_GUARD}"
             ) from exc
+        except BaseException:
+            self.close()
+            raise
 
     def outcomes(self, jobs: Iterable[Job]) -> Iterator[Outcome]:
         """The outcomes of ``jobs`` as they finish."""

@@ -300,3 +300,30 @@ def test_segmenting_again_keeps_the_days_replayed_with_its_depots(
         res = runner.invoke(app, replay)
         assert res.exit_code == 0, res.output
     assert res.stderr.strip().splitlines()[-1].startswith("nothing written:"), res.stderr
+
+
+@pytest.mark.parametrize("how", ["while starting", "swallowed by a library"])
+def test_ctrl_c_outside_a_command_is_one_line_and_130(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str], how: str
+) -> None:
+    """Ctrl-C before a command handles it (as marops starts), or one a library swallowed
+    half-way through its import (pyarrow importing pandas) so that a later use fails with
+    another error: "marops: interrupted", exit 130, no traceback."""
+    from marops_cli.cli import app as app_module
+    from marops_cli.cli import common
+
+    def run() -> int:
+        if how == "while starting":
+            raise KeyboardInterrupt
+        common.INTERRUPTED.set()  # as the handler marops installs notes it
+        raise AttributeError("partially initialized module 'pandas' has no attribute 'x'")
+
+    left: list[object] = []
+    monkeypatch.setattr(app_module, "_run", run)
+    monkeypatch.setattr(app_module, "_leave", left.append)
+    try:
+        app_module.main()
+    finally:
+        common.INTERRUPTED.clear()
+    assert left == [130]
+    assert capsys.readouterr().err == "marops: interrupted\n"

@@ -80,6 +80,101 @@ def test_outcomes_hold_every_job_once() -> None:
         assert list(done) == []
 
 
+class _FakeContext:
+    """A multiprocessing context whose pool start is pressed Ctrl-C half-way."""
+
+    def __init__(self) -> None:
+        self.started = self.stopped = False
+
+    def get_start_method(self) -> str:
+        return "fake"
+
+    def Pool(self, *args: object, **kwargs: object) -> _FakeContext:  # noqa: N802
+        import signal
+
+        signal.raise_signal(signal.SIGINT)  # Ctrl-C while the workers start
+        self.started = True  # the start went on to its end
+        return self
+
+    def terminate(self) -> None:
+        self.stopped = True
+
+    def join(self) -> None:
+        pass
+
+
+def test_ctrl_c_while_workers_start_waits_for_the_start_then_stops_them(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Ctrl-C that arrives while the workers are handed their start-up data is held
+    until they have it (a half-sent one made a worker print ``pickle data was
+    truncated``); then it interrupts as ever, and the workers are stopped."""
+    import signal
+
+    from marops_cli.workers import pool
+
+    fake = _FakeContext()
+    monkeypatch.setattr(pool, "_context", lambda: fake)
+    before = signal.getsignal(signal.SIGINT)
+    with pytest.raises(KeyboardInterrupt):
+        LocalPool(SquareWork(), 2)
+    assert fake.started and fake.stopped
+    assert signal.getsignal(signal.SIGINT) is before
+
+
+def test_ctrl_c_while_the_fork_server_imports_is_one_interruption(tmp_path: Path) -> None:
+    """Ctrl-C reaches the whole process group, the fork server too, which imports a
+    work's modules as it starts: it ignores it (its traceback followed "marops:
+    interrupted"), and so do the workers it forks; the parent is interrupted once and
+    stops them."""
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    ready, go = tmp_path / "ready", tmp_path / "go"
+    script = (
+        "import signal, sys\n"
+        "signal.signal(signal.SIGINT, signal.default_int_handler)\n"
+        "from marops_cli.workers import LocalPool\n"
+        "from tests.workers.test_pool import GatedWork, Square\n"
+        "try:\n"
+        "    with LocalPool(GatedWork(), 2) as pool:\n"
+        "        pool.results([Square(i, i) for i in range(4)])\n"
+        "except KeyboardInterrupt:\n"
+        "    sys.stderr.write('interrupted\\n')\n"
+        "    sys.exit(130)\n"
+        "sys.exit(0)\n"
+    )
+    env = {**os.environ, "MAROPS_TEST_GATE_READY": str(ready), "MAROPS_TEST_GATE_GO": str(go)}
+    proc = subprocess.Popen(
+        [sys.executable, "-c", script],
+        cwd=ROOT,
+        env=env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,  # its own process group, like a terminal's
+    )
+    deadline = time.monotonic() + 120
+    while not ready.exists() and proc.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.01)
+    assert ready.exists(), proc.communicate(timeout=60)
+    os.killpg(proc.pid, signal.SIGINT)  # while the fork server imports the gate
+    time.sleep(0.2)  # (delivered before the gate opens; no assertion rests on it)
+    go.write_text("go")
+    _, err = proc.communicate(timeout=120)
+    assert ready.read_text() == "ignored"  # the server started with SIGINT ignored
+    assert (proc.returncode, err) == (130, "interrupted\n"), err
+
+
+@dataclass
+class GatedWork(SquareWork):
+    """Squares, with the gate among the fork server's imports."""
+
+    preload = ("tests.workers._sigint_gate",)
+
+
 def test_one_thread_is_taken_back() -> None:
     torch = pytest.importorskip("torch")
     torch.set_num_threads(2)
