@@ -31,6 +31,13 @@ paper's subsets planner; the rest of the config is shared.
   against PyVRP at 0.1 s: delivered ≥, average delay ≤, energy ≤ 1.03×. Every day of
   ``--shapes`` × ``--seeds`` × ``--days`` flies the closed loop; the open loop only
   those of ``--open-seeds``.
+* **Frontier** (``--frontier 0.2,0.3,0.5,0.7,0.8,0.9``): the closed loop of marops (and
+  ``--variants``) and of PyVRP at each ``--closed-pyvrp-s`` limit at every α of the grid,
+  on every day; each method's point per α pooled over the days (delivered, average delay,
+  energy, J, CPU per window), how many PyVRP points some marops point of the grid
+  dominates (delivered ≥, delay ≤, energy ≤), marops − PyVRP paired per day at each α
+  (J and energy in %, delay, delivered; mean and 95 % t interval) and the energy per
+  delivered parcel from the lowest α to the highest.
 * **Large window** (``--large``): 64 depots, 100 drones, 10,000 pending requests, every
   parcel at every depot; marops on the whole window and on the 1,500 most delayed
   requests PyVRP is given, PyVRP at the limits of 1 s and more (else its longest), all
@@ -46,7 +53,7 @@ Needs the ``bench`` extra (``pip install -e '.[bench]'``, which brings PyVRP).
         [--days 11,12 | --data export.csv --days 0820,0821] [--open-seeds SEEDS]
         [--pyvrp-s 0.01,0.1,1,5] [--closed-pyvrp-s 0.01,0.1,1] [--repeats N]
         [--variants SETTINGS] [--bound] [--bound-labels N] [--large | --only-large]
-        [--closed] [--quiet] [--json PATH] [--smoke]
+        [--closed] [--frontier ALPHAS] [--quiet] [--json PATH] [--smoke]
 
 ``--closed``: the closed loop only; ``--json``: every figure (per window, per day and
 the totals) to a file. ``--smoke``: one day, PyVRP at 0.01 s only, and the large window
@@ -64,7 +71,7 @@ import tempfile
 import time
 import warnings
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Literal
 
@@ -393,17 +400,22 @@ def closed_loop(day: Day, plan: Planner, setup: Setup) -> dict[str, float]:
     policy = method_policy("marops", None, cfg.sim.seed, ops=cfg.ops)
     start_day(policy, cfg, cfg.sim.seed)
     state = day.state(cfg)
-    energy = 0.0
+    energy = objective = cpu = 0.0
     for t in range(day.reqs.n_windows):
         view = state.view(t)
+        c0 = time.process_time()
         routes = plan(view, policy.act(view))
+        cpu += time.process_time() - c0
         energy += sum(r.energy_j for r in routes)
+        objective += score_plan(view, routes, setup.lam).J
         state.apply(WindowPlan(t, routes, None, 0), model.speed_ms)  # type: ignore[arg-type]
     return {
         "delivered": int((state.delivered_w >= 0).sum()),
         "requests": int(state.delivered_w.size),
         "avg_delay_h": float(state.delivery_delay_h().mean()),
         "energy_kj": energy / 1e3,
+        "objective_j_mj": objective / 1e6,
+        "cpu_per_window_s": cpu / max(day.reqs.n_windows, 1),
     }
 
 
@@ -417,6 +429,162 @@ def closed_day(day: Day, setup: Setup) -> dict:
         "energy": m["energy_kj"] <= ENERGY_TOL * ref["energy_kj"],
     }
     return {**day.key(), "methods": runs, "check": ok}
+
+
+# --- the frontier over α ----------------------------------------------------------------
+
+
+def frontier_day(day: Day, setup: Setup, alphas: list[float]) -> list[dict]:
+    """marops (and ``--variants``) and PyVRP at each closed-loop limit fly ``day`` whole at
+    every α: one row per (α, method)."""
+    rows = []
+    for a in alphas:
+        at = replace(setup, cfg=override(setup.cfg, plan__alpha=a))
+        model, lam, cfg = at.model, at.lam, at.cfg
+        methods: dict[str, Planner] = {"marops": marops_planner(cfg)}
+        methods.update({n: marops_planner(cfg, **kv) for n, kv in at.variants.items()})
+        for sec in at.closed_s:
+            methods[pyvrp_name(sec)] = lambda v, _, sec=sec, m=model, lam=lam: pyvrp_routes(
+                v, m, lam, sec, seed=v.t
+            )
+        for name, plan in methods.items():
+            rows.append({**day.key(), "alpha": a, "method": name, **closed_loop(day, plan, at)})
+    return rows
+
+
+def _mean_ci(x: np.ndarray) -> tuple[float, float, float]:
+    """Mean and its 95 % t interval over days."""
+    from scipy import stats
+
+    x = np.asarray(x, dtype=np.float64)
+    if x.size < 2:
+        return float(x.mean()), float("nan"), float("nan")
+    half = float(stats.t.ppf(0.975, x.size - 1) * x.std(ddof=1) / np.sqrt(x.size))
+    return float(x.mean()), float(x.mean() - half), float(x.mean() + half)
+
+
+def frontier_summary(rows: list[dict]) -> dict:
+    """Points per (method, α) pooled over the days; every PyVRP point dominated by some
+    marops point (of any α) or not; marops − PyVRP paired per day at each α; energy per
+    parcel delivered from the lowest α to the highest."""
+    alphas = sorted({r["alpha"] for r in rows})
+    methods = list(dict.fromkeys(r["method"] for r in rows))
+    points: dict[tuple[str, float], dict] = {}
+    for m in methods:
+        for a in alphas:
+            mine = [r for r in rows if r["method"] == m and r["alpha"] == a]
+            n_req = sum(r["requests"] for r in mine)
+            points[(m, a)] = {
+                "delivered": sum(r["delivered"] for r in mine),
+                "requests": n_req,
+                "avg_delay_h": sum(r["avg_delay_h"] * r["requests"] for r in mine) / max(n_req, 1),
+                "energy_kj": sum(r["energy_kj"] for r in mine),
+                "objective_j_mj": sum(r["objective_j_mj"] for r in mine),
+                "cpu_per_window_s": statistics.mean(r["cpu_per_window_s"] for r in mine),
+            }
+    ours = [m for m in methods if not m.startswith("pyvrp")]
+    peers = [m for m in methods if m.startswith("pyvrp")]
+
+    def dominator(p: dict, of: str) -> float | None:
+        for a in alphas:
+            q = points[(of, a)]
+            if (
+                q["delivered"] >= p["delivered"]
+                and q["avg_delay_h"] <= p["avg_delay_h"]
+                and q["energy_kj"] <= p["energy_kj"]
+            ):
+                return a
+        return None
+
+    dominance = {
+        m: {peer: {str(a): dominator(points[(peer, a)], m) for a in alphas} for peer in peers}
+        for m in ours
+    }
+    paired: dict = {}
+    key = ("shape", "seed", "day")
+    for m in ours:
+        for peer in peers:
+            for a in alphas:
+                mine = {
+                    tuple(r[k] for k in key): r
+                    for r in rows
+                    if r["method"] == m and r["alpha"] == a
+                }
+                ref = {
+                    tuple(r[k] for k in key): r
+                    for r in rows
+                    if r["method"] == peer and r["alpha"] == a
+                }
+                days = [d for d in mine if d in ref]
+                dj = np.array(
+                    [100 * (mine[d]["objective_j_mj"] / ref[d]["objective_j_mj"] - 1) for d in days]
+                )
+                de = np.array(
+                    [100 * (mine[d]["energy_kj"] / ref[d]["energy_kj"] - 1) for d in days]
+                )
+                dd = np.array([mine[d]["avg_delay_h"] - ref[d]["avg_delay_h"] for d in days])
+                dv = np.array(
+                    [mine[d]["delivered"] - ref[d]["delivered"] for d in days], dtype=float
+                )
+                paired[f"{m} - {peer} @ {a:g}"] = {
+                    "days": len(days),
+                    "d_objective_pct": _mean_ci(dj),
+                    "d_energy_pct": _mean_ci(de),
+                    "d_delay_h": _mean_ci(dd),
+                    "d_delivered_per_day": _mean_ci(dv),
+                    "d_delivered_total": int(dv.sum()),
+                    "days_j_better": int((dj <= 0).sum()),
+                }
+    per_parcel = {
+        m: {a: points[(m, a)]["energy_kj"] / max(points[(m, a)]["delivered"], 1) for a in alphas}
+        for m in methods
+    }
+    return {
+        "alphas": alphas,
+        "points": {f"{m} @ {a:g}": p for (m, a), p in points.items()},
+        "dominance": dominance,
+        "paired": paired,
+        "energy_per_parcel_kj": {
+            m: {f"{a:g}": v for a, v in d.items()} for m, d in per_parcel.items()
+        },
+        "per_parcel_drop_pct": {
+            m: 100 * (1 - d[alphas[-1]] / d[alphas[0]]) for m, d in per_parcel.items()
+        },
+    }
+
+
+def print_frontier(summary: dict) -> None:
+    alphas = summary["alphas"]
+    print(
+        "\nfrontier over α (closed loop, pooled over the days): delivered/requests, "
+        "average delay h, energy MJ, kJ per parcel, J MJ, CPU ms per window"
+    )
+    for name, p in summary["points"].items():
+        print(
+            f"  {name:>18}  {p['delivered']:5d}/{p['requests']:5d}  {p['avg_delay_h']:.3f} h"
+            f"  {p['energy_kj'] / 1e3:7.1f} MJ  {p['energy_kj'] / max(p['delivered'], 1):5.1f}"
+            f"  J {p['objective_j_mj']:8.1f}  {1e3 * p['cpu_per_window_s']:6.0f} ms"
+        )
+    for m, by_peer in summary["dominance"].items():
+        for peer, at in by_peer.items():
+            n = sum(v is not None for v in at.values())
+            where = ", ".join(
+                f"{a}: {'by ' + format(v, 'g') if v is not None else 'no'}" for a, v in at.items()
+            )
+            print(f"{peer} points dominated by a {m} point: {n} of {len(at)} ({where})")
+    print("paired per day (mean [95 % CI]):")
+    for name, d in summary["paired"].items():
+        j, e, t, v = (
+            d[k] for k in ("d_objective_pct", "d_energy_pct", "d_delay_h", "d_delivered_per_day")
+        )
+        print(
+            f"  {name:>28} ({d['days']} days)  J {j[0]:+.1f} % [{j[1]:+.1f}, {j[2]:+.1f}]"
+            f" ({d['days_j_better']}/{d['days']} days no worse)  energy {e[0]:+.1f} %"
+            f" [{e[1]:+.1f}, {e[2]:+.1f}]  delay {t[0]:+.3f} h  delivered {v[0]:+.1f}/day"
+            f" (total {d['d_delivered_total']:+d})"
+        )
+    for m, drop in summary["per_parcel_drop_pct"].items():
+        print(f"{m}: energy per parcel from α {alphas[0]:g} to {alphas[-1]:g}: {-drop:+.1f} %")
 
 
 # --- summaries ------------------------------------------------------------------------
@@ -710,6 +878,12 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     ap.add_argument("--large", action="store_true", help="also the large window")
     ap.add_argument("--only-large", action="store_true", help="the large window only")
     ap.add_argument("--closed", action="store_true", help="the closed loop only")
+    ap.add_argument(
+        "--frontier",
+        metavar="ALPHAS",
+        help="the closed loop at each α of ALPHAS (e.g. 0.2,0.3,0.5,0.7,0.8,0.9): the points, "
+        "PyVRP's points dominated by marops', and the paired per-day differences at each α",
+    )
     ap.add_argument("--quiet", action="store_true", help="totals only")
     ap.add_argument("--json", type=Path, metavar="PATH", help="write every figure as JSON")
     ap.add_argument(
@@ -727,7 +901,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     if args.smoke:
         args.shapes, args.seeds, args.days = "hubs", "101", "11"
         args.pyvrp_s = args.closed_pyvrp_s = "0.01"
-        args.quiet, args.large = True, True
+        args.quiet, args.large, args.frontier = True, True, "0.5,0.9"
     return args
 
 
@@ -770,7 +944,7 @@ def main(argv: list[str] | None = None) -> None:
     result: dict = {"args": {k: str(v) for k, v in vars(args).items()}}
     open_seeds = {0} if args.data else set(ints(args.open_seeds or args.seeds))
     if not args.only_large:
-        opened, closed = [], []
+        opened, closed, frontier_rows = [], [], []
         with tempfile.TemporaryDirectory() as tmp:
             if args.data:
                 files = [Path(f) for f in args.data.split(",") if f]
@@ -780,14 +954,30 @@ def main(argv: list[str] | None = None) -> None:
                 days = replay_days(setup.cfg, shapes, seeds, ints(args.days), Path(tmp))
             for day in days:
                 print(f"{day.label}:", flush=True)
+                if args.frontier:
+                    fr = frontier_day(day, setup, [float(a) for a in args.frontier.split(",") if a])
+                    frontier_rows += fr
+                    for r in fr if not args.quiet else []:
+                        print(
+                            f"  α {r['alpha']:g} {r['method']:>12} {r['delivered']}/{r['requests']}"
+                            f" {r['avg_delay_h']:.3f} h {r['energy_kj'] / 1e3:.2f} MJ"
+                            f" J {r['objective_j_mj']:.2f}",
+                            flush=True,
+                        )
+                    if not args.smoke:
+                        continue
                 if not args.closed and day.seed in open_seeds:
                     opened += open_loop(day, setup, args.quiet)
                 closed.append(closed_day(day, setup))
         if opened:
             result["open"] = {"windows": opened, "summary": open_summary(opened, setup)}
             print_open(result["open"]["summary"])
-        result["closed"] = {"days": closed, "summary": closed_summary(closed, setup.ref)}
-        print_closed(closed, result["closed"]["summary"])
+        if frontier_rows:
+            result["frontier"] = {"days": frontier_rows, "summary": frontier_summary(frontier_rows)}
+            print_frontier(result["frontier"]["summary"])
+        if closed:
+            result["closed"] = {"days": closed, "summary": closed_summary(closed, setup.ref)}
+            print_closed(closed, result["closed"]["summary"])
     if args.large or args.only_large:
         result["large"] = large(setup)
         print_large(result["large"])

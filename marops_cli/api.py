@@ -602,7 +602,9 @@ def evaluate(
     spec = EvaluateConfig(
         cfg,
         method_list(_text(methods)),
-        **sweep_fields(*(_text(v) for v in (alpha, drones, coverage, n_depots)), frontier),
+        **sweep_fields(
+            _text(alpha), _text(drones), _text(coverage), _text(n_depots), frontier=frontier
+        ),
         days=days,
         split=split if split is not None else "test",
         repeats=repeats,

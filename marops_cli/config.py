@@ -234,6 +234,24 @@ class PlanConfig(_Stage):
         "more when routes are built (postponing it one window adds one; 0 = off); the "
         "selection judges routes by the window objective alone",
     )
+    wait_credit: float = Field(
+        1.0,
+        ge=0,
+        le=10,
+        description="pool planner: each request's prize counts this share of its cheapest "
+        "detour (there and back from its nearest request or depot), which waiting would not "
+        "save, when routes are built and chosen (0 = off); J and G stay the window "
+        "objective's",
+    )
+    night_h: float | None = Field(
+        None,
+        ge=0,
+        le=24,
+        description="pool planner: in the day's last window a request left unserved waits "
+        "the night for the next day's first window: its prize counts these hours more when "
+        "routes are built and chosen (None: 24 h less the service hours; 0 = off); J and G "
+        "stay the window objective's",
+    )
     pyvrp_iterations: int = Field(
         0,
         ge=0,

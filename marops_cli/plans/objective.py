@@ -18,7 +18,14 @@ from dataclasses import dataclass, replace
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["WindowScore", "lam_j", "relative_gap", "score_routes"]
+__all__ = [
+    "WindowScore",
+    "lam_j",
+    "priced_delay_h",
+    "relative_gap",
+    "score_routes",
+    "wait_credit_j",
+]
 
 
 def lam_j(alpha: float, energy_ref_j: float) -> float:
@@ -26,6 +33,35 @@ def lam_j(alpha: float, energy_ref_j: float) -> float:
     if not 0 < alpha <= 1:
         raise ValueError(f"expected alpha in (0, 1], got {alpha}")
     return (1.0 - alpha) / alpha * float(energy_ref_j)
+
+
+def priced_delay_h(
+    delay_h: NDArray[np.float64], last_window: bool, night_h: float
+) -> NDArray[np.float64]:
+    """The delay (hours) the route pool prices each pending request at (docs/method.md
+    §4.4, "The day's end"): its delay, and in the day's last window the night too
+    (``night_h``), which a parcel left then waits before the next day's first window."""
+    d = np.asarray(delay_h, dtype=np.float64)
+    return d + night_h if last_window and night_h > 0 else d
+
+
+def wait_credit_j(
+    xy: NDArray[np.float64], depots_xy: NDArray[np.float64], e0_j_per_m: float
+) -> NDArray[np.float64]:
+    """What waiting does not save of each pending request's flight (docs/method.md §4.4,
+    "What waiting saves"): a request left now is flown later all the same, and even in
+    the best route then it costs at least a detour there and back from its nearest
+    neighbour — another pending request or a depot, whichever is nearer — which this
+    prices empty: 2 · that distance · the empty drone's energy per metre (J)."""
+    from scipy.spatial import cKDTree
+
+    pts = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
+    dep = np.asarray(depots_xy, dtype=np.float64).reshape(-1, 2)
+    near = cKDTree(dep).query(pts, k=1)[0] if dep.size else np.full(len(pts), np.inf)
+    if len(pts) > 1:
+        near = np.minimum(near, cKDTree(pts).query(pts, k=2)[0][:, 1])
+    near = np.where(np.isfinite(near), near, 0.0)
+    return 2.0 * near * float(e0_j_per_m)
 
 
 def relative_gap(bound: float, g: float) -> float:

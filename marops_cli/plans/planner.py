@@ -25,7 +25,7 @@ from ..config import PlanConfig
 from ..energy import EnergyModel
 from ..segment.depots import nearest_depot
 from .candidates import by_delay, draft, range_candidates
-from .objective import lam_j
+from .objective import lam_j, priced_delay_h, wait_credit_j
 from .plans import PlanSet, build_plans
 from .pool import DroneTask, build_pool
 from .view import FREE, WindowView
@@ -345,6 +345,26 @@ def _global_plans(
     return plan_sets, plan_ends, t_cand
 
 
+def pricing_delay_h(view: WindowView, cfg: PlanConfig, model: EnergyModel) -> np.ndarray:
+    """The delay (hours) each pending request is priced at when the route pool builds and
+    chooses plans (docs/method.md §4.4, "What waiting saves" and "The day's end"): its
+    delay; plus, in hours of λ, the energy waiting would not save (``[plan]
+    wait_credit`` times its cheapest detour, :func:`wait_credit_j`); plus, in the day's
+    last window, the night a parcel left then waits (``[plan] night_h``; None: 24 h less
+    the service hours). The paper's planner prices the delay alone."""
+    delay = np.asarray(view.pending_delay_h, dtype=np.float64)
+    if cfg.planner != "pool":
+        return delay
+    night = cfg.night_h
+    if night is None:
+        night = max(0.0, 24.0 - view.n_windows * view.window_h)
+    priced = priced_delay_h(delay, view.t == view.n_windows - 1, night)
+    if cfg.wait_credit > 0 and delay.size:
+        credit = wait_credit_j(view.pending_xy, view.depots.xy, float(model.energy_per_m(0.0)))
+        priced = priced + cfg.wait_credit * credit / lam_j(cfg.alpha, model.usable_j)
+    return priced
+
+
 def _pool_tasks(
     view: WindowView,
     acts: np.ndarray,
@@ -397,7 +417,7 @@ def _pool_plans(
     t0 = time.perf_counter()
     tasks = _pool_tasks(view, acts, cfg, scope, models)
     lam = lam_j(cfg.alpha, model.usable_j)
-    prize = lam * (1.0 + view.pending_delay_h)
+    prize = lam * (1.0 + pricing_delay_h(view, cfg, model))
     # Routes are built for the prize plus the urgency bonus; the selection judges them by
     # the window objective alone (docs/method.md §4.4).
     due = view.pending_due_w <= view.t

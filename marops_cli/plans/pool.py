@@ -51,6 +51,8 @@ _RUIN_MAX = 8  # the nearest-stops and worst-detour ruins free 2 to this many st
 _BLINK = 0.5  # ruin and recreate refills by each insertion's score times U(1 - _BLINK, 1)
 _NOISE = 0.5  # the worst-detour ruin ranks each stop's saving times U(_NOISE, 1)
 _EXACT_MAX = 10  # exact re-ordering up to this many stops (2**10 subsets)
+_SEED_TRIES = 3  # an empty route tries this many seeds (:meth:`RoutePool._seed`)
+_SEED_NEAR = 8  # a seed is rated with this many of its best neighbours
 # np.interp's compiled core: the same values without the wrapper's checks, which cost as
 # much as the interpolation itself on the search's small arrays.
 _interp = getattr(np, "_core", np).multiarray.interp
@@ -124,6 +126,7 @@ class _Drone:
     dmat: NDArray[np.float64]  # (m, m + 1) distances candidate -> candidate, or -> start
     cand_end: NDArray[np.float64]  # energy of the empty last leg from each candidate
     start_end: float  # ... and from the start (the empty route)
+    seedable: bool = False  # some candidate does not pay alone: an empty route is seeded
     stops: list[int] = field(default_factory=list)  # indices into cand
     energy: float = 0.0
     weight: float = 0.0
@@ -215,8 +218,12 @@ class RoutePool:
         alone = np.hypot(*(xy - s_xy).T) * k.e(np.minimum(w, k.cap)) + end_e
         gain = self.prize[pos] - (alone - start_end)
         use = w / k.cap + np.maximum(alone - start_end, 0.0) / k.usable
-        density = gain / np.maximum(use, 1e-9)
-        keep = np.flatnonzero(k.model.fits(w) & (alone <= k.usable) & (gain > 0))
+        # A request that does not pay for a flight of its own may still pay in a route
+        # with its neighbours (a high α prices delay low): it is a candidate too, ranked
+        # after every one that pays alone (by its gain), and only a seed starts a route
+        # with it (:meth:`_seed`).
+        density = np.where(gain > 0, gain / np.maximum(use, 1e-9), gain)
+        keep = np.flatnonzero(k.model.fits(w) & (alone <= k.usable))
         return pos[keep], density[keep], end_e[keep]
 
     def _drone(
@@ -251,6 +258,7 @@ class RoutePool:
             dmat,
             end_e[keep],
             start_end,
+            seedable=bool((density[keep] <= 0).any()),
             energy=start_end,
             score=np.full(keep.size, -np.inf),
             slot=np.zeros(keep.size, dtype=np.int64),
@@ -352,9 +360,12 @@ class RoutePool:
         score_kind: str,
         free: NDArray[np.bool_],
         rng: np.random.Generator | None = None,
+        seed: bool = True,
     ) -> None:
         """Greedy insertion into the routes of ``users`` until nothing profitable fits
-        (scores blurred with ``rng``, :meth:`_refresh`)."""
+        (scores blurred with ``rng``, :meth:`_refresh`); then each drone left empty whose
+        candidates do not all pay alone gets a seeded route when one pays
+        (:meth:`_seed`; not with ``seed`` False)."""
         best, at = [], []  # each drone's best score and its candidate
         for u in users:
             b, j = self._refresh(u, score_kind, free, rng)
@@ -376,6 +387,57 @@ class RoutePool:
                         d2.score[hit] = -np.inf
                         if hit == at[i2]:  # it was that drone's best
                             best[i2], at[i2] = _best(d2.score)
+        if seed:
+            for u in users:
+                if self.drones[u].seedable and not self.drones[u].stops:
+                    self._seed(u, score_kind, free, rng)
+
+    def _seed(
+        self,
+        u: int,
+        score_kind: str,
+        free: NDArray[np.bool_],
+        rng: np.random.Generator | None,
+    ) -> None:
+        """Start drone ``u``'s empty route at a request that does not pay alone.
+
+        Greedy insertion never opens a route with a request whose prize is below its
+        flight (insertions must gain), so where delay is priced low no route would start
+        although a cluster of such requests pays together. Each free candidate is rated
+        by its gain alone plus what its ``_SEED_NEAR`` best neighbours would add (prize
+        less a there-and-back detour); the ``_SEED_TRIES`` best with a positive rating
+        each start a route that is then filled greedily, and the route of highest G is
+        kept if its G is positive (else the route stays empty)."""
+        dr = self.drones[u]
+        sub = (free[dr.cand] & (dr.cand_w <= dr.k.fit_kg)).nonzero()[0]
+        if not sub.size:
+            return
+        d_e, _ = self._insertion(dr, sub)
+        gain = dr.cand_prize[sub] - d_e
+        pair_w = np.minimum(dr.cand_w[sub][:, None] + dr.cand_w[sub][None, :], dr.k.cap)
+        add = dr.cand_prize[sub][None, :] - 2.0 * dr.dmat[np.ix_(sub, sub)] * dr.k.e(pair_w)
+        np.fill_diagonal(add, 0.0)
+        add = np.maximum(add, 0.0)
+        if add.shape[1] > _SEED_NEAR:
+            add = np.partition(add, add.shape[1] - _SEED_NEAR, axis=1)[:, -_SEED_NEAR:]
+        rating = gain + add.sum(axis=1)
+        order = np.lexsort((sub, -rating))[:_SEED_TRIES]
+        best: tuple[float, list[int], float, float] | None = None
+        for i in order[rating[order] > 0].tolist():
+            j = int(sub[i])
+            dr.slot[j], dr.d_e[j] = 0, d_e[i]
+            self._insert(u, j)
+            free[dr.cand[j]] = False
+            self._fill([u], score_kind, free, rng, seed=False)
+            g = self._psum(dr) - (dr.energy - dr.start_end)
+            if g > 1e-9 and (best is None or g > best[0] + 1e-9):
+                best = (g, list(dr.stops), dr.energy, dr.weight)
+            free[dr.cand[dr.stops]] = True
+            dr.stops, dr.energy, dr.weight, dr.psum = [], dr.start_end, 0.0, None
+        if best is not None:
+            _, dr.stops, dr.energy, dr.weight = best
+            dr.psum = None
+            free[dr.cand[dr.stops]] = False
 
     # -- solutions -----------------------------------------------------------------------
 

@@ -9,7 +9,7 @@ program then picks one plan per drone, and the chosen routes are checked.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -18,7 +18,8 @@ from ..energy import EnergyModel
 from ..errors import RunError
 from .bound import BoundResult, window_bound
 from .objective import WindowScore, lam_j, score_routes
-from .planner import Planner, Scope, make_planner
+from .planner import Planner, Scope, make_planner, pricing_delay_h
+from .plans import PlanSet
 from .pool import finish_route
 from .select import SelectionProblem, SelectionResult, Selector
 from .view import WindowView
@@ -141,13 +142,16 @@ def plan_routes(
     plan_sets, plan_ends, acts, t_cand = made.plan_sets, made.ends, made.actions, made.candidates_s
     t_plans = time.perf_counter() - t_start - t_cand
     t0 = time.perf_counter()
-    # The selection judges by the window objective itself (docs/method.md §4.4).
-    delay = {int(i): float(view.pending_delay_h[i]) for ps in plan_sets for i in ps.request_ids}
+    # The selection judges by the window objective itself, with the night priced in the
+    # day's last window (docs/method.md §4.4).
+    priced = pricing_delay_h(view, cfg, model)
+    delay = {int(i): float(priced[i]) for ps in plan_sets for i in ps.request_ids}
     problem = SelectionProblem.from_plan_sets(
         plan_sets, delay, alpha=cfg.alpha, energy_ref_j=model.usable_j
     )
     t_problem = time.perf_counter() - t0  # the plan table is part of building the model
     sel = selector.select(problem)
+    sel = replace(sel, chosen=_canonical(view, plan_sets, plan_ends, sel.chosen, acts, models))
     routes = [
         _drone_route(
             view,
@@ -185,6 +189,42 @@ def plan_routes(
         plan.score = plan.score.with_bound(plan.bound.bound)
         plan.timings["bound"] = time.perf_counter() - t0
     return plan
+
+
+def _canonical(
+    view: WindowView,
+    plan_sets: list[PlanSet],
+    plan_ends: list[np.ndarray],
+    chosen: np.ndarray,
+    acts: np.ndarray,
+    models: list[EnergyModel],
+) -> np.ndarray:
+    """The selection with its routes handed out in one order among interchangeable drones.
+
+    Drones at the same depot with the same action and type may fly each other's routes
+    at the same energy, so a program often has several optima that differ only in which
+    of them flies which route; which one a solver returns depends on its path (HiGHS
+    directly or through cvxpy, a relaxation's vertex). Where each of the group's routes
+    is in every member's plans, the routes go to the drones in order of their stops, so
+    the same routes give the same route files whichever optimum was found."""
+    out = np.asarray(chosen, dtype=np.int64).copy()
+    groups: dict[tuple[int, int, int], list[int]] = {}
+    for u in range(len(plan_sets)):
+        groups.setdefault((int(view.drone_depot[u]), int(acts[u]), id(models[u])), []).append(u)
+    for members in groups.values():
+        if len(members) < 2:
+            continue
+        picked = [
+            (plan_sets[u].route(int(out[u])), int(plan_ends[u][int(out[u])])) for u in members
+        ]
+        index = [
+            {(ps.route(k), int(plan_ends[u][k])): k for k in range(ps.n_plans)}
+            for u, ps in ((u, plan_sets[u]) for u in members)
+        ]
+        if all(r in idx for r in picked for idx in index):
+            for u, idx, r in zip(members, index, sorted(picked), strict=True):
+                out[u] = idx[r]
+    return out
 
 
 def _take_bound_plan(

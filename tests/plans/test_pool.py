@@ -158,3 +158,43 @@ def test_ruin_worst_frees_the_costliest_detours(model, seed):
         assert_allclose(dr.energy, pool._route_energy(dr), rtol=1e-12)
         assert dr.weight == pytest.approx(pool.w[now].sum(), abs=1e-12)
     assert {u for u in range(3) if len(pool.drones[u].stops) < 4} <= set(touched)
+
+
+def test_a_cluster_that_pays_only_together_gets_a_route(model):
+    """Delay priced low (a high α): three parcels of 0.5 kg about 2 km north of the depot,
+    each with a prize of 60 % of its own flight there and back, so none pays alone and
+    greedy insertion, which inserts only at a gain, would open no route. Together they
+    pay: the route there with all three and back costs the flight once (plus the few
+    metres between them and the heavier first leg), under 1.8 flights' worth of prizes.
+    The seeded route serves all three (a 4th, 2 km south, alone and unpaid, stays out)."""
+    depots = np.array([[0.0, 0.0]])
+    xy = np.array([[0.0, 2000.0], [20.0, 2010.0], [-20.0, 2010.0], [0.0, -2000.0]])
+    w = np.full(4, 0.5)
+    alone = 2000.0 * (float(model.energy_per_m(0.5)) + float(model.energy_per_m(0.0)))
+    prize = np.full(4, 0.6 * alone)
+    task = DroneTask(0, 0, np.arange(4, dtype=np.int64))
+    res = RoutePool(depots, xy, w, prize, [task], model).build(iterations=20, seed=0)
+    assert res.routes[0], "no route: the cluster was never opened"
+    best = max(
+        zip(res.routes[0], res.energy_j[0], strict=True),
+        key=lambda r: prize[list(r[0])].sum() - r[1],
+    )
+    assert sorted(best[0]) == [0, 1, 2]
+    # Its energy is the exact route energy, and it pays: prizes above it.
+    pts = np.vstack([depots[0], xy[list(best[0])], depots[0]])
+    assert best[1] == pytest.approx(
+        float(model.route_energy(pts, w[list(best[0])])[1].sum()), rel=1e-9
+    )
+    assert prize[list(best[0])].sum() > best[1]
+    # No route serves the lone request 3, which never pays.
+    assert all(3 not in r for r in res.routes[0])
+
+
+def test_where_every_request_pays_alone_no_seed_is_tried(model):
+    """Delay priced high (α ≤ 0.5: the prize is at least a usable battery): every
+    candidate pays alone, so the drone is not seedable and the pool is as before."""
+    depots = np.array([[0.0, 0.0]])
+    xy = np.array([[0.0, 2000.0], [0.0, -2000.0]])
+    task = DroneTask(0, 0, np.arange(2, dtype=np.int64))
+    pool = RoutePool(depots, xy, np.full(2, 0.5), np.full(2, model.usable_j), [task], model)
+    assert not pool.drones[0].seedable

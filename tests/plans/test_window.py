@@ -16,7 +16,7 @@ from marops_cli.energy import EnergyModel, reference_power_w
 from marops_cli.errors import RunError
 from marops_cli.plans import GreedySelector, MilpSelector, Selector
 from marops_cli.plans.objective import lam_j, score_routes
-from marops_cli.plans.planner import _pool_tasks
+from marops_cli.plans.planner import _pool_tasks, pricing_delay_h
 from marops_cli.plans.pool import build_pool
 from marops_cli.plans.ranges import pick_candidates, range_table
 from marops_cli.plans.view import FREE
@@ -642,9 +642,12 @@ def test_pool_routes_never_break_payload_battery_or_one_visit(inst):
     assert len(served) == len(set(served)), "an order is served twice"
     # The selection over the pool is never worse than the best single conflict-free
     # solution the pool was built from (re-ordering for energy only adds to G).
+    # Both are judged by the delay the planner prices (the credit, the night: the same
+    # for both), which the selection maximises.
     lam = lam_j(cfg.alpha, model.usable_j)
+    priced = pricing_delay_h(view, cfg, model)
     score = score_routes(
-        view.pending_idx, view.pending_delay_h, [(r.stops, r.energy_j) for r in plan.routes], lam
+        view.pending_idx, priced, [(r.stops, r.energy_j) for r in plan.routes], lam
     )
     # (the pool's best is scored with the urgency bonus when there is one, G without)
     if sel_name != "greedy" and cfg.pool_urgency == 0 and cfg.planner == "pool":
@@ -653,7 +656,7 @@ def test_pool_routes_never_break_payload_battery_or_one_visit(inst):
             dep.xy,
             view.pending_xy,
             view.pending_weight,
-            lam * (1.0 + view.pending_delay_h),
+            lam * (1.0 + priced),
             _pool_tasks(view, acts, cfg, scope, drone_models(view, model)),
             model,
             n_candidates=cfg.pool_candidates,
