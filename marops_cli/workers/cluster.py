@@ -41,20 +41,59 @@ def require_distributed() -> ModuleType:
     return distributed
 
 
+def owner_only() -> Any:
+    """The security of a local cluster that only this process can use: TLS with a
+    certificate authority and a key made for this run, kept in memory and handed to the
+    cluster's processes as they start (never written to a file), and required of every
+    peer, so a process without them (another user's) is refused before any message."""
+    from distributed.security import Security
+
+    try:
+        return Security.temporary()
+    except ImportError:  # Dask makes the certificate with the cryptography package
+        raise InputError(
+            f"{option('scheduler')} local secures its cluster with TLS, which needs the "
+            f"cryptography package: {INSTALL}"
+        ) from None
+
+
+# What each process of a cluster serves over plain HTTP besides its comm (metrics, health,
+# a JSON view of the scheduler): nothing. A local cluster has no dashboard either.
+_NO_HTTP: dict[str, list[str]] = {
+    "distributed.scheduler.http.routes": [],
+    "distributed.worker.http.routes": [],
+}
+
+
+def _stop_http(dask_scheduler: Any = None, dask_worker: Any = None) -> None:
+    """Close the HTTP server Dask opens in each of its processes even without a
+    dashboard (the scheduler's on port 8787): run on the scheduler and each worker."""
+    server = getattr(dask_scheduler or dask_worker, "http_server", None)
+    if server is not None:
+        server.stop()
+
+
 @contextmanager
 def connect(scheduler: str, workers: int) -> Iterator[Any]:
     """A ``distributed.Client`` of the scheduler at ``scheduler``, or of a LocalCluster
-    of ``workers`` single-threaded processes for ``local``; closed on the way out."""
+    of ``workers`` single-threaded processes for ``local``, usable by this process alone
+    (:func:`owner_only`, no HTTP server); closed on the way out."""
     distributed = require_distributed()
     if scheduler == LOCAL:
+        import dask
+
+        security = owner_only()
         # Ctrl-C reaches the whole process group: this process stops the cluster and
         # keeps what finished; its workers start with SIGINT ignored (inherited), so
         # none prints a traceback.
-        with sigint_ignored():
+        with sigint_ignored(), dask.config.set(_NO_HTTP):
             cluster = distributed.LocalCluster(
                 n_workers=workers,
                 threads_per_worker=1,
                 processes=True,
+                host="127.0.0.1",
+                security=security,
+                protocol="tls://",
                 dashboard_address=None,
                 # A worker's errors reach this process with its job's result; what the
                 # workers log besides (a heartbeat lost while the cluster closes) is
@@ -62,7 +101,9 @@ def connect(scheduler: str, workers: int) -> Iterator[Any]:
                 silence_logs=logging.CRITICAL,
             )
         try:
-            with distributed.Client(cluster) as client:
+            with distributed.Client(cluster, security=security) as client:
+                client.run_on_scheduler(_stop_http)
+                client.run(_stop_http)
                 yield client
         finally:
             cluster.close()
