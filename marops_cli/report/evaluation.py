@@ -35,6 +35,11 @@ def evaluation_page(folder: Path) -> Page:
         f"{count(meta.get('repeats', 1), 'repeat')}; "
         f"mean ± std over days and repeats. Combined cost: {COMBINED_COST_RULE}."
     )
+    front = folder / "frontier.csv"
+    if front.is_file():  # first: an analyst picks an operating point by looking
+        from ..data.arrow import read_csv_file
+
+        _frontier(page, read_input(front, read_csv_file).to_pylist())
     settings = sorted(set(summary.column("setting").to_pylist()))
     titles = {s: setting_title(summary, s) for s in settings}
     for s in settings:
@@ -43,11 +48,6 @@ def evaluation_page(folder: Path) -> Page:
         page.table(("metric", *methods), [(label, *cells) for label, cells in body])
     if paired is not None and paired.num_rows:
         _paired(page, paired, titles)
-    front = folder / "frontier.csv"
-    if front.is_file():
-        from ..data.arrow import read_csv_file
-
-        _frontier(page, read_input(front, read_csv_file).to_pylist())
     for flag in meta.get("swept", []):
         _sweep(page, summary, flag, meta)
     _per_day(page, results, titles)
@@ -184,6 +184,7 @@ def _frontier(page: Page, rows: list[dict[str, Any]]) -> None:
         "another point (any method, any α) delivers at least as many parcels with no more "
         "delay and no more energy. Pick an operating point among the filled ones."
     )
+    page.figure(fig, "frontier")
     page.table(
         ("method", "α", "delivered", "delay h", "energy MJ", "kJ per parcel", "dominated by"),
         [
@@ -199,7 +200,6 @@ def _frontier(page: Page, rows: list[dict[str, Any]]) -> None:
             for r in rows
         ],
     )
-    page.figure(fig, "frontier")
 
 
 def _frontier_hover(r: dict[str, Any]) -> list[str]:
