@@ -24,8 +24,8 @@ class Method:
     policy: str
     """A policy spec (``PolicySpec.parse`` of marops_cli/policies/registry.py reads it):
     ``learned`` (the shipped actor), ``direct`` (the shipped MAPPO actor), ``global``,
-    ``random``, ``greedy``, ``backlog``, ``rebalance``, ``stay``, ``myopic``, or an actor
-    file. Text, so that this registry stays light."""
+    ``random``, ``greedy``, ``backlog``, ``rebalance``, ``flow``, ``battery``, ``stay``,
+    ``myopic``, or an actor file. Text, so that this registry stays light."""
     summary: str
     in_default_evaluation: bool = True
     """In ``evaluate``'s list when ``--methods`` is not given (references are not)."""
@@ -49,6 +49,8 @@ for _m in (
     # learned actor's strongest non-learned rivals there.
     Method("backlog", "kmeans", "backlog", "land where most waiting value per drone is"),
     Method("rebalance", "kmeans", "rebalance", "land to match the coming demand per depot"),
+    Method("flow", "kmeans", "flow", "min-cost flow of drones to the coming work, batteries kept"),
+    Method("battery", "kmeans", "battery", "backlog, never landing where no spare battery is"),
     Method("squares", "squares", "learned", "learned flight range on a square grid"),
     Method("mappo", "kmeans", "direct", "the MAPPO actor picks plans, no optimiser"),
     Method("stay", "kmeans", "stay", "always back to the start depot", False),

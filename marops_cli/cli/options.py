@@ -63,7 +63,7 @@ Policy = Annotated[
     typer.Option(
         "--policy",
         help="Flight-range policy: stay, random, greedy, global, myopic, backlog, rebalance, "
-        "or a trained actor (PATH.pt, an actor's weights PATH.safetensors, or "
+        "flow, battery, or a trained actor (PATH.pt, an actor's weights PATH.safetensors, or "
         "torchscript:PATH) [default: the method's own].",
     ),
 ]

@@ -5,11 +5,13 @@ from .base import Policy, WindowView
 from .baselines import GlobalPolicy, GreedyPolicy, MyopicPolicy, RandomPolicy, StayPolicy
 from .observation import OBS_VERSION, ObsVersion, obs_dim, observe
 from .registry import PolicySpec, make_policy
-from .rules import BacklogPolicy, RebalancePolicy
+from .rules import BacklogPolicy, BatteryPolicy, FlowPolicy, RebalancePolicy
 
 __all__ = [
     "OBS_VERSION",
     "BacklogPolicy",
+    "BatteryPolicy",
+    "FlowPolicy",
     "GlobalPolicy",
     "GreedyPolicy",
     "MyopicPolicy",

@@ -13,9 +13,26 @@ from ..errors import InputError, not_a_file
 from .base import Policy
 from .baselines import GlobalPolicy, GreedyPolicy, MyopicPolicy, RandomPolicy, StayPolicy
 from .landing import check_trained_for
-from .rules import BacklogPolicy, RebalancePolicy
+from .rules import BacklogPolicy, BatteryPolicy, FlowPolicy, RebalancePolicy
 
-SIMPLE = ("stay", "random", "greedy", "global", "myopic", "backlog", "rebalance")
+SIMPLE = (
+    "stay",
+    "random",
+    "greedy",
+    "global",
+    "myopic",
+    "backlog",
+    "rebalance",
+    "flow",
+    "battery",
+)
+LANDING_RULES: dict[str, type[Policy]] = {
+    "backlog": BacklogPolicy,
+    "rebalance": RebalancePolicy,
+    "flow": FlowPolicy,
+    "battery": BatteryPolicy,
+}
+"""The operating model's landing rules (docs/method.md §7), by policy kind."""
 DEFAULT_POLICY_NAME = "marops-basic.pt"
 DEFAULT_MAPPO_NAME = "mappo-basic.pt"
 DEFAULT_LANDING_NAME = "marops-ops.safetensors"
@@ -33,6 +50,8 @@ Kind = Literal[
     "myopic",
     "backlog",
     "rebalance",
+    "flow",
+    "battery",
     "learned",
     "direct",
     "torchscript",
@@ -51,7 +70,7 @@ class PolicySpec:
     @classmethod
     def parse(cls, spec: str) -> PolicySpec:
         """``stay``, ``random``, ``greedy``, ``global``, ``myopic``, ``backlog``,
-        ``rebalance``, ``learned``,
+        ``rebalance``, ``flow``, ``battery``, ``learned``,
         ``direct``, ``torchscript:PATH`` or a ``.pt`` path."""
         if spec in SIMPLE or spec in SHIPPED:
             return cls(spec)  # type: ignore[arg-type]
@@ -138,10 +157,8 @@ def make_policy(
         return GlobalPolicy()
     if spec.kind == "myopic":
         return MyopicPolicy()
-    if spec.kind == "backlog":
-        return BacklogPolicy()
-    if spec.kind == "rebalance":
-        return RebalancePolicy()
+    if spec.kind in LANDING_RULES:
+        return LANDING_RULES[spec.kind]()
     assert spec.path is not None
     path = spec.path
     if path.endswith(".safetensors"):  # data only: a landing actor, or a recurrent one's

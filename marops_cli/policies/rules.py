@@ -1,10 +1,11 @@
-"""Landing rules an operator would try before a learned actor: backlog and rebalance
-(docs/method.md §7). They matter under the operating model, where a drone carries only
-the parcels stocked where it departs (docs/method.md, "Operating model").
+"""Landing rules an operator would try before a learned actor: backlog, rebalance, flow
+and battery (docs/method.md §7). They matter under the operating model, where a drone
+carries only the parcels stocked where it departs and needs a charged battery where it
+lands (docs/method.md, "Operating model").
 
-Both choose among a drone's action candidates whose destination the empty drone can
+All choose among a drone's action candidates whose destination the empty drone can
 reach (the planner's test, :func:`~marops_cli.plans.planner.can_reach`); a drone that
-cannot fly this window stays (action 0). Both are deterministic.
+cannot fly this window stays (action 0). All are deterministic.
 """
 
 from __future__ import annotations
@@ -20,7 +21,16 @@ if TYPE_CHECKING:
     from ..config import PlannerConfig
     from ..energy import EnergyModel
 
-__all__ = ["BacklogPolicy", "EnergyAware", "RebalancePolicy", "reachable", "waiting_per_depot"]
+__all__ = [
+    "BacklogPolicy",
+    "BatteryPolicy",
+    "EnergyAware",
+    "FlowPolicy",
+    "RebalancePolicy",
+    "free_spares",
+    "reachable",
+    "waiting_per_depot",
+]
 
 
 def waiting_per_depot(view: WindowView, weights: np.ndarray | None = None) -> np.ndarray:
@@ -93,9 +103,40 @@ class BacklogPolicy(EnergyAware):
             dests = dep.candidates[int(s)]
             score = value[dests] / (1.0 + there[dests])
             score[~reachable(view, u, self._drone_model(view, u))] = -np.inf
+            score[~self._lands(view, int(s), dests, there)] = -np.inf
             out[u] = int(np.argmax(score))  # first maximum: lower action index on ties
             there[int(dests[out[u]])] += 1.0
         return out
+
+    def _lands(self, view: WindowView, s: int, dests: np.ndarray, there: np.ndarray) -> np.ndarray:
+        """``(A,)`` True where a drone at ``s`` may land (``there``: the drones counted at
+        each depot, the choosing one left out): anywhere for ``backlog``."""
+        return np.ones(dests.size, dtype=bool)
+
+
+def free_spares(view: WindowView, there: np.ndarray) -> np.ndarray | None:
+    """``(N,)`` charged spare batteries at each depot beyond one for each of the ``there``
+    drones counted there (never below 0); None where swaps are unlimited. A drone that
+    flies to a depot lands without a charged battery (its own goes on charge there), so it
+    flies on next window only where a spare is left for it."""
+    if view.depot_spares is None:
+        return None
+    return np.maximum(0.0, view.depot_spares.astype(np.float64) - there)
+
+
+class BatteryPolicy(BacklogPolicy):
+    """``backlog`` that never strands a drone: it lands at another depot only where a
+    charged spare is left for it (:func:`free_spares`, with the drones counted as
+    ``backlog`` counts them); staying is always allowed. Where swaps are unlimited it is
+    ``backlog``."""
+
+    name = "battery"
+
+    def _lands(self, view: WindowView, s: int, dests: np.ndarray, there: np.ndarray) -> np.ndarray:
+        free = free_spares(view, there)
+        if free is None:
+            return np.ones(dests.size, dtype=bool)
+        return (dests == s) | (free[dests] >= 1.0)
 
 
 _STAY_COST = 1e9
@@ -172,4 +213,159 @@ class RebalancePolicy(EnergyAware):
             if j < n_u:  # a slot it can take is one of its candidates
                 dests = dep.candidates[int(view.drone_depot[u])]
                 out[u] = int(np.flatnonzero(dests == slots[j])[0])
+        return out
+
+
+_TIE_KJ = 1e-3
+"""Kilojoules added per depot id to a move: among equally good destinations, the lower
+depot id (a perturbation far below any flight)."""
+
+
+class FlowPolicy(EnergyAware):
+    """A min-cost flow of the drones that can fly to the depots of the coming work, each
+    window (the operations research standard for fleet repositioning).
+
+    Work at depot d over the next ``horizon`` windows: the parcels waiting there
+    (:func:`waiting_per_depot`) and the requests expected in its area (the arrival
+    profile, ``depots.arrivals``), n(d) of them worth W(d) = Σ (1 + delay h) over the
+    waiting ones + 1 per expected one. A drone carries ``c`` = ⌊payload / mean weight of
+    the waiting parcels⌋ (at least 1) a window, so the k-th drone at d (k = 1, 2, …; the
+    drones there that cannot fly hold the first) takes min(c·horizon, n(d) − (k − 1)·
+    c·horizon) of them, at W(d) / n(d) each, worth λ (the window objective's price of
+    delay, docs/method.md §4.2) per unit: shares that fall as drones are added. A depot
+    keeps only as many drones flying as its chargers recharge batteries (:meth:`kept`):
+    a share beyond them is worth nothing, its drone would soon wait for a battery.
+
+    Each drone that can fly is one unit of supply at its depot; it may stay (cost 0) or
+    fly to a reachable candidate d for the empty flight's energy (+ 1 J per depot id),
+    and at most :func:`free_spares` of them land at d from elsewhere (the battery flow:
+    a drone never lands where it would wait for a charged battery). The flow of least
+    energy less the value of the shares filled, solved as a linear program by HiGHS
+    (``scipy.optimize.linprog``; a network's program, so its optimum is integral), is the
+    decision. A drone left with no share stays.
+    """
+
+    name = "flow"
+    scope: Literal["range", "global"] = "range"
+
+    def __init__(self, horizon: int = 2) -> None:
+        from ..config import PlannerConfig
+
+        self.horizon = horizon
+        self.configure(PlannerConfig())
+
+    def configure(self, cfg: PlannerConfig) -> None:
+        """The run's energy model, α (λ) and the data's parcel weight."""
+        from ..plans.objective import lam_j
+
+        super().configure(cfg)
+        self._lam_kj = lam_j(cfg.plan.alpha, self._model.usable_j) / 1000.0
+        self._weight_kg = cfg.data.weight_median_kg
+        self._chargers = float(cfg.ops.chargers_per_depot)
+        self._charge_w = cfg.ops.charge_power_w
+
+    def work(self, view: WindowView) -> tuple[np.ndarray, np.ndarray]:
+        """``(N,)`` parcels to carry per depot over the next ``horizon`` windows, and
+        ``(N,)`` their value (Σ 1 + delay h; 1 for each expected request)."""
+        n = len(view.depots)
+        count = waiting_per_depot(view)
+        value = waiting_per_depot(view, 1.0 + view.pending_delay_h)
+        prof = view.depots.arrivals
+        if prof is not None and prof.shape == (n, view.n_windows):
+            expected = prof[:, view.t + 1 : view.t + 1 + self.horizon].sum(axis=1)
+            count, value = count + expected, value + expected
+        return count, value
+
+    def carry(self, view: WindowView) -> int:
+        """Parcels a drone carries a window: the reference drone's payload over the mean
+        weight of the waiting parcels (the data's median weight when none waits)."""
+        keep = view.pending_servable
+        w = view.pending_weight if keep is None else view.pending_weight[keep]
+        mean = float(w.mean()) if w.size else self._weight_kg
+        return max(1, int(self._model.max_payload_kg // max(mean, 1e-9)))
+
+    def kept(self, view: WindowView) -> float:
+        """Drones a depot keeps flying window after window (infinite where swaps are
+        unlimited): each charger recharges a used battery a window at most, and the
+        share of a usable battery its power restores in a window when that is less."""
+        if view.depot_spares is None:
+            return np.inf
+        restored = self._charge_w * view.window_h * 3600.0 / self._model.usable_j
+        return self._chargers * min(1.0, restored)
+
+    def act(self, view: WindowView) -> np.ndarray:
+        from scipy.optimize import linprog
+        from scipy.sparse import coo_array
+
+        dep, n = view.depots, len(view.depots)
+        out = np.zeros(view.n_drones, dtype=np.int64)
+        ready = [u for u in range(view.n_drones) if view.ready(u)]
+        count, value = self.work(view)
+        if not ready or count.sum() <= 0:
+            return out
+        at = np.bincount(view.drone_depot, minlength=n).astype(np.float64)[:n]
+        held = at - np.bincount(view.drone_depot[ready], minlength=n)[:n]
+        spares = free_spares(view, at)
+        cap = np.full(n, float(len(ready))) if spares is None else np.minimum(spares, len(ready))
+        # Variables: each ready drone's allowed actions, then per depot the movers landing
+        # (≤ cap), the shares (≤ 1 each) and the drones left over.
+        cost: list[float] = []
+        rows: list[int] = []
+        cols: list[int] = []
+        vals: list[float] = []
+        upper: list[float] = []
+        arcs: list[tuple[int, int]] = []  # (drone, action) of each drone variable
+
+        def var(c: float, hi: float, *entries: tuple[int, float]) -> None:
+            for r, v in entries:
+                rows.append(r)
+                cols.append(len(cost))
+                vals.append(v)
+            cost.append(c)
+            upper.append(hi)
+
+        # Rows: one per ready drone, then depot d's movers (len(ready) + d) and its
+        # balance (len(ready) + n + d).
+        mover, balance = len(ready), len(ready) + n
+        for i, u in enumerate(ready):
+            s = int(view.drone_depot[u])
+            model = self._drone_model(view, u)
+            dests = dep.candidates[s]
+            for a in np.flatnonzero(reachable(view, u, model)):
+                d = int(dests[a])
+                if d == s:
+                    var(0.0, 1.0, (i, 1.0), (balance + d, 1.0))
+                elif cap[d] >= 1.0:
+                    flight = float(np.hypot(*(dep.xy[d] - dep.xy[s])))
+                    kj = float(model.leg_energy_j(flight, 0.0)) / 1000.0 + _TIE_KJ * d
+                    var(kj, 1.0, (i, 1.0), (mover + d, 1.0))
+                else:
+                    continue
+                arcs.append((u, int(a)))
+        n_arcs = len(cost)
+        share = self.carry(view) * self.horizon
+        kept = self.kept(view)
+        for d in range(n):
+            var(0.0, cap[d], (mover + d, -1.0), (balance + d, 1.0))
+            per = value[d] / count[d] if count[d] > 0 else 0.0
+            for k in range(int(held[d]), int(held[d]) + len(ready)):
+                if count[d] <= k * share or kept <= k:
+                    break  # no work left for it, or no battery
+                take = min(share, count[d] - k * share) * min(1.0, kept - k)
+                var(-self._lam_kj * per * take, 1.0, (balance + d, -1.0))
+            var(0.0, np.inf, (balance + d, -1.0))
+        n_rows = len(ready) + 2 * n
+        a_eq = coo_array((vals, (rows, cols)), shape=(n_rows, len(cost))).tocsr()
+        b_eq = np.zeros(n_rows)
+        b_eq[: len(ready)] = 1.0
+        res = linprog(
+            cost, A_eq=a_eq, b_eq=b_eq, bounds=list(zip([0.0] * len(cost), upper, strict=True)),
+            method="highs-ds",
+        )  # fmt: skip
+        if res.status != 0:  # staying is always feasible: not expected
+            return out
+        # The program's optimum is integral: each drone's one arc at 1.
+        for (u, action), flow in zip(arcs, res.x[:n_arcs], strict=True):
+            if flow > 0.5:
+                out[u] = action
         return out
