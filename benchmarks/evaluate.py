@@ -79,7 +79,16 @@ PAPER_METHODS = [
     "stay",
     "myopic",
 ]
-OPS_METHODS = ["marops", "ops-global", "backlog", "rebalance", "ops-random", "greedy"]
+OPS_METHODS = [
+    "marops",
+    "ops-global",
+    "backlog",
+    "rebalance",
+    "flow",
+    "battery",
+    "ops-random",
+    "greedy",
+]
 """The "operations" run's methods: the landing actor, the rules it must beat, two baselines."""
 
 
@@ -461,7 +470,7 @@ def operations_section(res: Any, summary: Any) -> list[str]:
         "",
         markdown_table(summary, 0),
     ]
-    rules = [m for m in ("ops-global", "backlog", "rebalance") if m in methods]
+    rules = [m for m in ("ops-global", "backlog", "rebalance", "flow", "battery") if m in methods]
     if "marops" not in methods or not rules:
         return lines
     keys = ("objective_j_mj", "avg_delay_h", "mean_energy_kj", "delivered_share")

@@ -314,7 +314,10 @@ def main() -> None:
         "--config", default=None, help="config TOML, e.g. an operating model [the defaults]"
     )
     ap.add_argument(
-        "--against", default="myopic", help="reference methods, comma-separated (myopic,ops-global)"
+        "--against",
+        default="myopic",
+        help="reference methods, comma-separated (myopic,ops-global; under the realistic "
+        "model the landing rules ops-global,backlog,rebalance,flow,battery)",
     )
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--quick", action="store_true", help="2 shapes x 6 days, 16 areas, 8 drones")
