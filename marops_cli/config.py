@@ -32,6 +32,14 @@ MAX_DRONES = 1000
 """The most drones one study area plans for (``--drones``, a fleet file, a hub's
 ``drones``): a window of 1000 drones plans in seconds; a larger fleet is refused up
 front rather than planned for hours (docs/config.md)."""
+MAX_DEPOTS = 4096
+"""The most depots one study area has (``segment.n_depots``, a depots file, the depots
+cache): every window sets up a flight range per depot and action candidate over every
+depot (docs/config.md)."""
+MAX_RANGE_CELLS = 1 << 28
+"""The most entries (depots × action candidates × depots) of the flight-range table a
+study area plans with, one byte each: 4,096 depots with 16 candidates each, a window
+set up in seconds; a larger table would take gigabytes and minutes (docs/config.md)."""
 BOUND_LABELS = 500_000
 """Labels the window bound's search makes at most by default (``[plan] bound_labels``):
 seconds of CPU on a 150-request window."""
@@ -39,6 +47,25 @@ seconds of CPU on a 150-request window."""
 MAX_SEED = 2**32 - 1  # the seeds numpy and scikit-learn accept
 MAX_EPISODES = 10_000_000
 """The most training episodes (days) one run takes: a year of them a day for decades."""
+
+
+def check_range_table(
+    n_depots: int, n_actions: int, names: tuple[str, str] = ("n_depots", "n_actions")
+) -> None:
+    """Refuse (``ValueError``) depots and action candidates whose flight-range table
+    (:func:`marops_cli.plans.ranges.range_table`) would exceed :data:`MAX_RANGE_CELLS`;
+    ``names``: the settings that gave the two counts, as the message names them ("":
+    none, a depots file's count)."""
+    cells = n_depots * min(n_actions, n_depots) * n_depots
+    if cells > MAX_RANGE_CELLS:
+        most = max(1, MAX_RANGE_CELLS // (n_depots * n_depots))
+        said = [f" ({name})" if name else "" for name in names]
+        raise ValueError(
+            f"{n_depots} depots{said[0]} with {n_actions} action candidates each"
+            f"{said[1]} make a flight-range table of {cells:,} entries, more than the "
+            f"{MAX_RANGE_CELLS:,} one study area plans with: at most {most} candidates for "
+            f"{n_depots} depots (docs/config.md)"
+        )
 
 
 class _Stage(BaseModel):
@@ -156,7 +183,7 @@ class SegmentConfig(_Stage):
     """Depots and service areas (docs/method.md §2)."""
 
     method: Literal["kmeans", "squares"] = Field("kmeans", description="segmentation method")
-    n_depots: int = Field(16, ge=1, le=4096, description="number of depots / service areas")
+    n_depots: int = Field(16, ge=1, le=MAX_DEPOTS, description="number of depots / service areas")
     n_actions: int = Field(
         4, ge=1, le=4096, description="action candidates per depot (itself first)"
     )
@@ -165,6 +192,7 @@ class SegmentConfig(_Stage):
 
     @model_validator(mode="after")
     def _check(self) -> SegmentConfig:
+        check_range_table(self.n_depots, self.n_actions)
         if self.method == "squares":
             side = round(self.n_depots**0.5)
             if side * side != self.n_depots:

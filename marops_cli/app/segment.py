@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..config import PlannerConfig
+from ..config import PlannerConfig, clipped
 from ..errors import InputError, option
 from ..io import output_set, run_meta
 from ..io.ownership import register_inputs
@@ -173,16 +173,19 @@ def _far_depots(progress: Progress, depots: Depots, history_xy: np.ndarray) -> N
 
 
 def hub_count(text: str | int) -> int | None:
-    """``--hubs``: a number of hubs, or None for ``auto``."""
+    """``--hubs``: a number of hubs (1 to ``MAX_HUBS``), or None for ``auto``."""
+    from ..segment.hubs import MAX_HUBS
+
     if isinstance(text, str) and text.strip().lower() == "auto":
         return None
     try:
         n = int(text)
     except ValueError:
         n = 0
-    if n < 1:
+    if not 1 <= n <= MAX_HUBS:
         raise InputError(
-            f"{option('hubs')} expects a number of hubs (1 or more) or auto, got {text!r}"
+            f"{option('hubs')} expects a number of hubs (1 to {MAX_HUBS}) or auto, "
+            f"got {clipped(repr(text))}"
         )
     return n
 

@@ -20,11 +20,13 @@ records) may have: far above any real one, and a device or a huge file is refuse
 it fills the memory."""
 
 
-def read_small_text(path: str | Path, what: str) -> str:
+def read_small_text(path: str | Path, what: str, limit: int | None = None) -> str:
     """The UTF-8 text of the small input ``path`` (a leading byte-order mark dropped, as
     some editors write one): an :class:`InputError` naming it when it is larger than
-    :data:`MAX_SMALL_FILE`; OS and decoding errors propagate."""
+    :data:`MAX_SMALL_FILE` (or ``limit`` bytes, when smaller: a depots or hubs file's
+    own cap); OS and decoding errors propagate."""
     p = Path(path)
+    cap = MAX_SMALL_FILE if limit is None else min(limit, MAX_SMALL_FILE)
     # A named pipe nobody writes to would block a plain open for ever; opened without
     # blocking, it reads as empty, while a pipe with a writer (``<(...)``) reads whole.
     fd = os.open(p, os.O_RDONLY | os.O_NONBLOCK)
@@ -36,9 +38,9 @@ def read_small_text(path: str | Path, what: str) -> str:
         os.close(fd)
         raise
     with f:
-        data = f.read(MAX_SMALL_FILE + 1)
-    if len(data) > MAX_SMALL_FILE:
-        raise InputError(f"{what} is larger than {MAX_SMALL_FILE >> 20} MiB", file=p)
+        data = f.read(cap + 1)
+    if len(data) > cap:
+        raise InputError(f"{what} is larger than {cap >> 20} MiB", file=p)
     if not data and not regular:
         raise InputError(f"{what} is a pipe or a device that gave nothing to read", file=p)
     return data.decode("utf-8-sig")
@@ -80,15 +82,21 @@ def _long_number(exc: ValueError) -> ValueError:
     return ValueError(f"a number of {found.group(1)} digits, more than the {limit} read")
 
 
-def read_document(path: str | Path, what: str, kind: Literal["json", "toml"] | None = None) -> Any:
+def read_document(
+    path: str | Path,
+    what: str,
+    kind: Literal["json", "toml"] | None = None,
+    limit: int | None = None,
+) -> Any:
     """The parsed JSON or TOML document ``path`` (``kind`` None: TOML for a ``.toml``
-    name, else JSON); a missing, unreadable or malformed file is an :class:`InputError`
-    naming it as ``what`` ("fleet file")."""
+    name, else JSON); a missing, unreadable or malformed file, or one larger than
+    ``limit`` bytes (:func:`read_small_text`), is an :class:`InputError` naming it as
+    ``what`` ("fleet file")."""
     p = Path(path)
     kind = kind or ("toml" if p.suffix.lower() == ".toml" else "json")
     name = kind.upper()
     try:
-        text = read_small_text(p, what)
+        text = read_small_text(p, what, limit)
         return parse_toml(text) if kind == "toml" else parse_json(text)
     except IsADirectoryError as exc:
         raise InputError(f"{what} is a folder, expected a {name} file", file=p) from exc
@@ -100,9 +108,9 @@ def read_document(path: str | Path, what: str, kind: Literal["json", "toml"] | N
         raise InputError(f"{what} is not valid {name} ({first_line(exc)})", file=p) from exc
 
 
-def read_json(path: str | Path, what: str) -> Any:
+def read_json(path: str | Path, what: str, limit: int | None = None) -> Any:
     """The parsed JSON document (:func:`read_document`)."""
-    return read_document(path, what, "json")
+    return read_document(path, what, "json", limit)
 
 
 def first_line(exc: BaseException) -> str:

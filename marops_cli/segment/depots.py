@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from ..config import clipped
+from ..config import MAX_DEPOTS, check_range_table, clipped
 from ..data.frame import Frame
 from ..data.jsonfile import json_number, refuse_unknown_keys
 from ..errors import InputError
@@ -119,6 +119,14 @@ class Depots:
 
     @classmethod
     def from_dict(cls, doc: dict[str, Any], source: str = "depots.json") -> Depots:
+        listed = doc.get("depots") if isinstance(doc, dict) else None
+        if isinstance(listed, list) and len(listed) > MAX_DEPOTS:  # before any depot's work
+            raise InputError(
+                f"lists {len(listed):,} depots, more than the {MAX_DEPOTS} one study area "
+                "has (segment.n_depots, docs/config.md)",
+                file=source,
+                column="depots",
+            )
         _known_keys(doc, source)
         frame, listed = _shape(doc, source)
         if not listed:
@@ -192,10 +200,26 @@ class Depots:
         return cls(method, frame, xy, n_hist, cand)
 
     @classmethod
-    def load(cls, path: str | Path) -> Depots:
+    def load(cls, path: str | Path, n_actions: int | None = None) -> Depots:
+        """The depots of a depots file of at most :data:`MAX_DEPOTS_FILE` bytes;
+        ``n_actions``: the action candidates the run gives each depot, refused (naming
+        the file) when the flight-range table of these depots would be too large."""
         from ..data.jsonfile import read_json
 
-        return cls.from_dict(read_json(path, "depots file"), source=str(path))
+        depots = cls.from_dict(
+            read_json(path, "depots file", limit=MAX_DEPOTS_FILE), source=str(path)
+        )
+        if n_actions is not None:
+            try:
+                check_range_table(len(depots), n_actions, ("", "segment.n_actions"))
+            except ValueError as exc:
+                raise InputError(f"{exc}", file=path, column="depots") from None
+        return depots
+
+
+MAX_DEPOTS_FILE = 16 << 20
+"""Bytes a depots file may have (docs/config.md): one of :data:`MAX_DEPOTS` depots as
+marops writes it takes under 2 MiB; a larger file is refused before it is parsed."""
 
 
 _FRAME_KEYS = ("center_lng", "center_lat", "size_km")

@@ -25,7 +25,26 @@ from ..data.prepare import check_days_in_file, prepare_day
 from ..data.table import LadeTable
 from ..errors import InputError, naming
 
-__all__ = ["Hub", "HubArea", "find_hubs", "hub_areas", "hub_owner", "hubs_doc", "load_hubs"]
+__all__ = [
+    "MAX_HUBS",
+    "Hub",
+    "HubArea",
+    "find_hubs",
+    "hub_areas",
+    "hub_owner",
+    "hubs_doc",
+    "load_hubs",
+]
+
+MAX_HUBS = 256
+"""The most hubs a city is tiled into (a hubs file, ``--hubs N``; docs/config.md). 256
+squares of the default 10 km cover 25,600 km², more than any city (Beijing's whole
+municipality is 16,410 km²; ``--hubs auto`` places at most 100, each holding 1 % of the
+orders), while every hub is a study area of its own, holding its own copy of the file's
+rows it may plan: memory grows with hubs × rows (about 60 bytes a row each)."""
+MAX_HUBS_FILE = 1 << 20
+"""Bytes a hubs file may have: :data:`MAX_HUBS` hubs as marops writes them take under
+100 KiB; a larger file is refused before it is parsed."""
 
 
 @dataclass(frozen=True)
@@ -97,12 +116,19 @@ def load_hubs(path: str | Path, cfg: DataConfig) -> list[Hub]:
     """The hubs of a hubs file: ``{"hubs": [{center_lng, center_lat, size_km?, drones?}]}``
     (or the list itself); ``size_km`` defaults to ``cfg.size_km``; ids are list order."""
     p = Path(path)
-    doc = read_json(p, "hubs file")
+    doc = read_json(p, "hubs file", limit=MAX_HUBS_FILE)
     if isinstance(doc, dict):
         refuse_unknown_keys(doc, _FILE_KEYS, "in a hubs file", p, listed=True)
     items = doc.get("hubs") if isinstance(doc, dict) else doc
     if not isinstance(items, list) or not items:
         raise InputError("expected a list of hubs under 'hubs'", file=p, column="hubs")
+    if len(items) > MAX_HUBS:
+        raise InputError(
+            f"lists {len(items):,} hubs, more than the {MAX_HUBS} a city is tiled into "
+            "(docs/config.md)",
+            file=p,
+            column="hubs",
+        )
     hubs = []
     for i, h in enumerate(items):
         col = f"hubs[{i}]"

@@ -175,7 +175,7 @@ def load_scenario(
     unseen = [d for d in all_days if d not in set(replay_days)]
     history = unseen or all_days
     if depots_path is not None:
-        depots = Depots.load(depots_path)
+        depots = Depots.load(depots_path, cfg.segment.n_actions)
         _check_depots_area(table, depots, depots_path)
         if depots.n_actions != cfg.segment.n_actions:
             depots = depots.with_actions(cfg.segment.n_actions)
