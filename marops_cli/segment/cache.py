@@ -8,23 +8,33 @@ the cache plans the same bytes as the run that filled it), in ``$MAROPS_CACHE_DI
 (default ``$XDG_CACHE_HOME/marops`` or ``~/.cache/marops``); ``MAROPS_CACHE_DIR=off``
 turns the cache off. A cache that cannot be written is skipped silently: it only
 ever saves time.
+
+An entry is used only when it is one this user's runs could have written and no one
+else could have changed: a regular file (no link) owned by this user that others may
+not write, checked on the very file read (as the installation's record of trained
+actors is, docs/method.md §6). Any other entry under a key's name (another user's, one
+others may write, in a cache folder shared with them) is not used, nor replaced: the
+run segments again and says so in a warning.
 """
 
 from __future__ import annotations
 
 import contextlib
 import datetime as dt
+import errno
 import hashlib
 import json
 import os
+import stat
 import tempfile
+import warnings
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
 import numpy as np
 
 from .. import __version__
-from ..config import DataConfig, SegmentConfig
+from ..config import MAX_DEPOTS, DataConfig, SegmentConfig
 from ..data.frame import Frame
 from ..data.table import LadeTable
 from .depots import Depots
@@ -32,6 +42,9 @@ from .depots import Depots
 __all__ = ["cache_dir", "cached_depots", "depots_key"]
 
 _FORMAT = 1  # bump when the stored arrays change meaning
+MAX_ENTRY = 16 << 20
+"""Bytes of a cache entry read at most: :data:`MAX_DEPOTS` depots with the action
+candidates a run may have (docs/config.md) take under 4 MiB; a larger entry is a miss."""
 
 
 def cache_dir() -> Path | None:
@@ -72,32 +85,69 @@ def depots_key(
     return hashlib.sha256(json.dumps(doc, sort_keys=True).encode()).hexdigest()
 
 
-def _load(path: Path, key: str, frame: Frame, segment: SegmentConfig) -> Depots | None:
-    """The cached depots, or None (segment again, and cache anew) when the file is
-    unreadable, from another format, made for another key (a file copied or renamed
-    into the cache), or holds what no segmentation makes: a damaged or edited cache
-    must not stop a run, nor move its depots."""
+def _open_own(path: Path) -> tuple[int | None, str | None]:
+    """A descriptor of the cache entry ``path`` when it is this user's alone, else why it
+    is not trusted (None: there is none, or none that can be opened: a miss). Checked on
+    the open descriptor, so the file read is the file checked; a link is never
+    followed."""
     try:
-        with np.load(path, allow_pickle=False) as z:
+        fd = os.open(path, os.O_RDONLY | os.O_NOFOLLOW | os.O_NONBLOCK)
+    except OSError as exc:  # none, or a cache folder that cannot be read: a miss
+        return None, "is a symbolic link" if exc.errno == errno.ELOOP else None
+    try:
+        info = os.fstat(fd)
+    except OSError:
+        info = None
+    reason = None
+    if info is None:
+        reason = ""  # a miss, said by no warning
+    elif not stat.S_ISREG(info.st_mode):
+        reason = "is not a regular file"
+    elif info.st_uid != os.getuid():
+        reason = f"belongs to another user (uid {info.st_uid})"
+    elif info.st_mode & (stat.S_IWGRP | stat.S_IWOTH):
+        reason = "may be written by other users"
+    elif info.st_size > MAX_ENTRY:
+        reason = ""  # larger than any: damaged, a miss
+    if reason is not None:
+        os.close(fd)
+        return None, reason or None
+    return fd, None
+
+
+def _load(
+    path: Path, key: str, frame: Frame, segment: SegmentConfig
+) -> tuple[Depots | None, str | None]:
+    """The cached depots, or None (segment again) when there is no entry, or it is not
+    this user's alone (then why: :func:`_open_own`), unreadable, from another format,
+    made for another key (a file copied or renamed into the cache), or holds what no
+    segmentation makes: a damaged or edited cache must not stop a run, nor move its
+    depots."""
+    fd, distrust = _open_own(path)
+    if fd is None:
+        return None, distrust
+    try:
+        with os.fdopen(fd, "rb") as fh, np.load(fh, allow_pickle=False) as z:
             stored = str(z["key"])
             method = str(z["method"])
             xy, n_hist, cand = z["xy"], z["n_history"], z["candidates"]
     except Exception:  # noqa: BLE001 - zip, format and dtype errors alike mean a miss
-        return None
+        return None, None
     if stored != key or method != segment.method:
-        return None
+        return None, None
     if not _plausible(xy, n_hist, cand, frame):
-        return None
-    return Depots(
+        return None, None
+    depots = Depots(
         method, frame, xy.astype(np.float64), n_hist.astype(np.int64), cand.astype(np.int64)
     )
+    return depots, None
 
 
 def _plausible(xy: np.ndarray, n_hist: np.ndarray, cand: np.ndarray, frame: Frame) -> bool:
     """Depots inside the study square, a history count each, and action candidates that
     are depot ids with each depot its own first."""
     n = xy.shape[0] if xy.ndim == 2 else 0
-    if n == 0 or xy.shape != (n, 2) or n_hist.shape != (n,) or cand.ndim != 2:
+    if not 0 < n <= MAX_DEPOTS or xy.shape != (n, 2) or n_hist.shape != (n,) or cand.ndim != 2:
         return False
     if cand.shape[0] != n or cand.shape[1] < 1:
         return False
@@ -119,7 +169,8 @@ def _store(path: Path, key: str, depots: Depots) -> None:
     """Cache ``depots`` at ``path`` under a temporary name then renamed; where that
     fails (a full disk, a folder in the way) nothing is left behind. The temporary is
     made new (``O_EXCL``): a link planted under a name it could take is never written
-    through."""
+    through. What lies at ``path`` by then is replaced only when it is a file of this
+    user's: another user's entry, a link or a folder stays as it is."""
     tmp: Path | None = None
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
@@ -135,6 +186,10 @@ def _store(path: Path, key: str, depots: Depots) -> None:
                 n_history=depots.n_history,
                 candidates=depots.candidates,
             )
+        with contextlib.suppress(FileNotFoundError):
+            there = os.lstat(path)
+            if not stat.S_ISREG(there.st_mode) or there.st_uid != os.getuid():
+                raise OSError(errno.EEXIST, "another user's entry")  # left as it is
         os.replace(tmp, path)
     except OSError:
         if tmp is not None:
@@ -159,10 +214,15 @@ def cached_depots(
     rows = hashlib.sha256(np.ascontiguousarray(table.row).tobytes()).hexdigest()
     key = depots_key(f"{table.source.sha256}:{rows}", days, frame, data, segment)
     path = root / "depots" / f"{key}.npz"
-    if path.is_file():
-        hit = _load(path, key, frame, segment)
-        if hit is not None:
-            return hit
+    hit, distrust = _load(path, key, frame, segment)
+    if hit is not None:
+        return hit
+    if distrust is not None:
+        warnings.warn(
+            f"depots cache entry {path} {distrust}: not used, the depots are segmented "
+            'again (docs/outputs.md, "Depots cache")',
+            stacklevel=2,
+        )
     depots = make()
-    _store(path, key, depots)
+    _store(path, key, depots)  # never over another user's entry, a link or a folder
     return depots

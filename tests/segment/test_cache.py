@@ -7,6 +7,7 @@ import datetime as dt
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from marops_cli.config import PlannerConfig, override
 from marops_cli.data.frame import Frame
@@ -173,7 +174,9 @@ def test_a_cache_that_cannot_be_stored_leaves_no_temporary_behind(
     table = points_table([121.47] * 3, [31.23] * 3, "abc")
     path = _key_path(tmp_path, table, cfg)
     path.mkdir(parents=True)  # a folder where the cache file goes
-    assert cached_depots(table, DAYS, FRAME, cfg.data, cfg.segment, _depots).xy.shape == (2, 2)
+    with pytest.warns(UserWarning, match="is not a regular file"):
+        got = cached_depots(table, DAYS, FRAME, cfg.data, cfg.segment, _depots)
+    assert got.xy.shape == (2, 2)
     assert sorted(p.name for p in path.parent.iterdir()) == [path.name]
 
 
@@ -210,3 +213,90 @@ def test_a_relative_xdg_cache_home_is_ignored(tmp_path, monkeypatch):
     assert cache_dir() == tmp_path / "home" / ".cache" / "marops"
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
     assert cache_dir() == tmp_path / "xdg" / "marops"
+
+
+def _tampered(path: Path) -> None:
+    """Rewrite the cache entry ``path`` as someone sharing the cache could: the same key
+    and shape, every depot moved to one corner of the study square (well-formed, and
+    plausible: inside the square)."""
+    arrays = dict(np.load(path, allow_pickle=False))
+    corner = np.full_like(arrays["xy"], FRAME.half_m * 0.99)
+    corner[:, 0] -= np.arange(corner.shape[0])
+    arrays["xy"] = corner
+    path.unlink()
+    with path.open("wb") as fh:
+        np.savez(fh, **arrays)
+
+
+def _as_another_user(path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """``path`` owned by another user: given away where this process may (root), else
+    this process takes another uid for the cache's checks."""
+    import os
+
+    if os.geteuid() == 0:
+        os.chown(path, 65534, 65534)
+    else:
+        mine = os.getuid()
+        monkeypatch.setattr(os, "getuid", lambda: mine + 1)
+
+
+def test_another_users_entry_is_neither_used_nor_replaced(tmp_path, monkeypatch, points_table):
+    """A shared cache folder (``MAROPS_CACHE_DIR`` on a folder others write): an entry
+    another user wrote or edited (depots moved to a corner) would move this run's
+    depots. It is not used, nor replaced: the run segments again and says so."""
+    monkeypatch.setenv("MAROPS_CACHE_DIR", str(tmp_path))
+    cfg = PlannerConfig()
+    table = points_table([121.47] * 3, [31.23] * 3, "abc")
+    path = _key_path(tmp_path, table, cfg)
+    cached_depots(table, DAYS, FRAME, cfg.data, cfg.segment, _depots)
+    _tampered(path)
+    _as_another_user(path, monkeypatch)
+    theirs = path.read_bytes()
+    made: list[int] = []
+
+    def make() -> Depots:
+        made.append(1)
+        return _depots()
+
+    with pytest.warns(UserWarning, match="belongs to another user"):
+        got = cached_depots(table, DAYS, FRAME, cfg.data, cfg.segment, make)
+    assert made == [1] and got.xy.tobytes() == _depots().xy.tobytes()
+    assert path.read_bytes() == theirs  # their file, left as it was
+
+
+def test_an_entry_others_may_write_is_not_used_and_is_cached_anew(
+    tmp_path, monkeypatch, points_table
+):
+    """This user's entry that others may write (mode 0666) may hold anything: not used;
+    being this user's, it is replaced by the depots segmented anew (0644), a hit next."""
+    monkeypatch.setenv("MAROPS_CACHE_DIR", str(tmp_path))
+    cfg = PlannerConfig()
+    table = points_table([121.47] * 3, [31.23] * 3, "abc")
+    path = _key_path(tmp_path, table, cfg)
+    cached_depots(table, DAYS, FRAME, cfg.data, cfg.segment, _depots)
+    _tampered(path)
+    path.chmod(0o666)
+    with pytest.warns(UserWarning, match="may be written by other users"):
+        got = cached_depots(table, DAYS, FRAME, cfg.data, cfg.segment, _depots)
+    assert got.xy.tobytes() == _depots().xy.tobytes()
+    assert path.stat().st_mode & 0o777 == 0o644
+    again = cached_depots(table, DAYS, FRAME, cfg.data, cfg.segment, lambda: 1 / 0)
+    assert again.xy.tobytes() == _depots().xy.tobytes()
+
+
+def test_a_link_at_an_entry_is_not_followed(tmp_path, monkeypatch, points_table):
+    """A link under a key's name (to a file of this user's, of the right form) is no
+    entry a run wrote: not used, not replaced."""
+    monkeypatch.setenv("MAROPS_CACHE_DIR", str(tmp_path))
+    cfg = PlannerConfig()
+    table = points_table([121.47] * 3, [31.23] * 3, "abc")
+    path = _key_path(tmp_path, table, cfg)
+    cached_depots(table, DAYS, FRAME, cfg.data, cfg.segment, _depots)
+    _tampered(path)
+    target = tmp_path / "elsewhere.npz"
+    path.rename(target)
+    path.symlink_to(target)
+    with pytest.warns(UserWarning, match="is a symbolic link"):
+        got = cached_depots(table, DAYS, FRAME, cfg.data, cfg.segment, _depots)
+    assert got.xy.tobytes() == _depots().xy.tobytes()
+    assert path.is_symlink() and path.resolve() == target
