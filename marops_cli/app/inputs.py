@@ -7,10 +7,10 @@ from collections.abc import Iterable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TypeAlias
 
-from ..config import DataConfig
 from ..errors import InputError, not_found, option
 
 if TYPE_CHECKING:
+    from ..config import DataConfig
     from ..data.table import LadeTable
 
 Data: TypeAlias = "str | Path | Any"

@@ -7,8 +7,6 @@ from typing import TYPE_CHECKING, Annotated
 
 import typer
 
-from ..app.options import planner_config
-from ..data.dates import parse_days
 from ..errors import InputError
 from ..methods import reference_names
 from . import options as o
@@ -140,6 +138,8 @@ def evaluate_command(
         sweep_fields,
     )
     from ..app.evaluate import evaluate as run_evaluation
+    from ..app.options import planner_config
+    from ..data.dates import parse_days
 
     check_out(out)  # before any computing
     if scheduler is not None:

@@ -7,7 +7,6 @@ from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 
-from ..app.options import planner_config
 from . import options as o
 from .common import (
     STATE,
@@ -69,6 +68,7 @@ def plan_window_command(
     """Plan one time window: flight ranges, candidate plans, optimal plan selection."""
     data = begin(data, quiet=quiet, as_json=as_json, force=force)
     from ..app.inputs import check_format
+    from ..app.options import planner_config
     from ..app.plan_window import check_out
     from ..app.plan_window import plan_window as plan
     from ..data.dates import parse_day

@@ -7,8 +7,6 @@ from typing import TYPE_CHECKING, Annotated
 
 import typer
 
-from ..app.options import planner_config
-from ..config import count
 from . import options as o
 from .common import (
     STATE,
@@ -92,6 +90,7 @@ def segment_command(
     """Cluster a LaDe export into depots and service areas (k-means or squares), or tile
     a city into hubs (--hubs)."""
     data = begin(data, quiet=quiet, as_json=as_json, force=force)
+    from ..app.options import planner_config
     from ..app.segment import check_json_out, refuse_with_hubs
     from ..app.segment import segment as segment_data
 
@@ -148,6 +147,8 @@ def segment_command(
 
 
 def _print_summary(depots: Depots) -> None:
+    from ..config import count
+
     f = depots.frame
     t = table(
         f"{count(len(depots), 'depot')} around ({f.center_lng:.5f}, "
@@ -167,7 +168,9 @@ def _segment_hubs(  # type: ignore[no-untyped-def]
     data: Path, out: Path, hubs: str, size_km, dates, year, strict, config
 ) -> None:
     """``segment --hubs``: hub squares over the city, densest first, into a hubs file."""
+    from ..app.options import planner_config
     from ..app.segment import check_json_out, hub_count, segment_hubs
+    from ..config import count
 
     hub_count(hubs)  # a bad --hubs is the first error
     check_json_out(out, "hubs")

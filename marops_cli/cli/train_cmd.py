@@ -9,7 +9,6 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
-from pydantic import ValidationError
 from rich.progress import (
     BarColumn,
     MofNCompleteColumn,
@@ -19,9 +18,6 @@ from rich.progress import (
     TimeRemainingColumn,
 )
 
-from ..app.options import planner_config
-from ..config import option_error
-from ..data.dates import parse_days
 from ..errors import InputError
 from ..io.ownership import allow_replacing_foreign
 from . import options as o
@@ -246,8 +242,10 @@ def train_command(
 ) -> None:
     """Train the flight-range actor (MAPPO), or the landing actor (--algorithm es), on
     training days; write the actor and its sidecar."""
+    from ..app.options import planner_config
     from ..app.train import TrainSetup, actor_files
     from ..app.train import train as run_training
+    from ..data.dates import parse_days
 
     for path in data:
         if str(path) == "-":  # training reads each city's file several times
@@ -309,6 +307,9 @@ _FLAGS = {
 
 def _train_config(**fields: Any) -> TrainConfig:
     """The training hyperparameters of the flags; a bad value names its flag."""
+    from pydantic import ValidationError
+
+    from ..config import option_error
     from ..rl.config import TrainConfig  # deferred: torch loads only for this command
 
     try:

@@ -46,6 +46,7 @@ from ..config import DataConfig
 from ..errors import InputError, not_found
 from .arrow import is_text, native_file
 from .dates import TIME_BAD, TIME_EMPTY, parse_ds, parse_times
+from .digest import sha256_file
 from .table import DROP_REASONS, REQUIRED_COLUMNS, DropReport, LadeTable, SourceInfo
 
 _OPTIONAL_COLUMNS = ("ds", "aoi_id", "weight_kg")
@@ -56,15 +57,6 @@ _REASON_COLUMN = {
     "delivery_before_accept": "delivery_time",
 }
 _BLOCK_BYTES = 16 << 20  # pyarrow CSV block: large blocks parse faster on few cores
-
-
-def sha256_file(path: str | Path, chunk: int = 4 << 20) -> str:
-    """SHA-256 of a file, read in chunks so a large export never sits in memory whole."""
-    h = hashlib.sha256()
-    with open(path, "rb") as f:
-        while block := f.read(chunk):
-            h.update(block)
-    return h.hexdigest()
 
 
 def _sniff(path: Path) -> tuple[str, str | None]:

@@ -15,7 +15,7 @@ from contextlib import ExitStack, contextmanager
 from pathlib import Path
 from typing import Any
 
-from ..data.reader import sha256_file
+from ..data.digest import sha256_file
 from ..errors import InputError, RunError, option
 from .ownership import (
     JOURNAL,

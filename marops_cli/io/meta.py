@@ -4,12 +4,14 @@ from __future__ import annotations
 
 import datetime as dt
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from .. import __version__
-from ..config import PlannerConfig
-from ..data.reader import sha256_file
-from ..data.table import SourceInfo
+from ..data.digest import sha256_file
+
+if TYPE_CHECKING:
+    from ..config import PlannerConfig
+    from ..data.table import SourceInfo
 
 # One file hash for every file marops identifies (inputs, depots, actors).
 file_sha256 = sha256_file
@@ -56,7 +58,7 @@ def policy_identity(policy: str | Path) -> dict[str, Any]:
     p = Path(str(policy))
     if not p.is_file():
         return {"name": str(policy)}
-    from ..policies.weights import weights_path  # deferred: it imports torch
+    from ..policies.weights import weights_path  # deferred: policies imports the planner
 
     out = {"name": p.name, "sha256": file_sha256(p)}
     if weights_path(p) != p and weights_path(p).is_file():  # not a weights-only actor

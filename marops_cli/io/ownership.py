@@ -22,8 +22,8 @@ from contextvars import ContextVar
 from pathlib import Path
 from typing import Any
 
+from ..data.digest import sha256_file
 from ..data.jsonfile import parse_json, read_small_text
-from ..data.reader import sha256_file
 from ..errors import InputError, RunError, option, switch
 
 JOURNAL = ".marops-files.json"

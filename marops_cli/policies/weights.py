@@ -1,6 +1,11 @@
 """An actor's weights as data: ``NAME.safetensors`` beside ``NAME.pt``, rebuilt into the
 known network (:class:`~.network.Actor`) from the sizes its sidecar gives.
 
+Importing this module does not import torch (the network does, when an actor is
+rebuilt): naming a weights file (:func:`weights_path`) is part of every output's
+metadata, also for runs that fly no recurrent actor (docs/decisions.md, "Start-up and
+exit").
+
 Nothing of the file runs: a safetensors file is a JSON header and raw numbers. Every
 tensor's name, shape and dtype is checked against the network the sidecar describes, and
 the sizes against the bounds below, before anything is allocated; its values must be
@@ -12,12 +17,14 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from ..data.jsonfile import first_line
 from ..errors import InputError, quoted
 from .base import check_weight_range
-from .network import Actor, actor_shapes
+
+if TYPE_CHECKING:
+    from .network import Actor
 
 ACTOR_FORMAT = "marops-actor/1"
 """The sidecar's ``format`` of an actor whose weights rebuild :class:`~.network.Actor`."""
@@ -36,6 +43,8 @@ def weights_path(model_path: str | Path) -> Path:
 def network_sizes(side: dict[str, Any], sidecar: Path) -> tuple[int, int, int]:
     """``(obs_dim, n_logits, hidden_size)`` of the sidecar ``side`` (read from the file
     ``sidecar``), each a whole number within :data:`MAX_SIZES`."""
+    from .network import actor_shapes  # deferred: the network imports torch
+
     if side.get("format") != ACTOR_FORMAT:
         raise InputError(
             f"expected format {ACTOR_FORMAT!r} to rebuild the network from its weights, "
@@ -69,6 +78,8 @@ def load_weights(model_path: str | Path, side: dict[str, Any], sidecar: Path) ->
     tensor against the network of the sidecar ``side``."""
     import torch
     from safetensors import SafetensorError, safe_open
+
+    from .network import Actor, actor_shapes
 
     path = weights_path(model_path)
     sizes = network_sizes(side, sidecar)

@@ -8,6 +8,8 @@ import sys
 import tomllib
 from pathlib import Path
 
+import pytest
+
 ROOT = Path(__file__).resolve().parents[2]
 # Loaded only by the commands that use them; dask and distributed only with --scheduler
 # (an optional extra, README.md "Sweeps on a cluster").
@@ -26,6 +28,31 @@ def test_cli_start_loads_no_heavy_module() -> None:
     assert json.loads(res.stdout) == []
 
 
+# What the command line itself needs is typer and rich: the data reader's libraries
+# (numpy, pyarrow), the settings' models (pydantic) and torch load in the commands.
+NOT_AT_START = ("torch", "numpy", "pyarrow", "pandas", "pydantic", "numba")
+
+
+@pytest.mark.parametrize("flag", ["--help", "-V"])
+def test_help_and_version_load_no_library_of_the_commands(flag: str) -> None:
+    """``marops --help`` and ``marops -V`` run as the console script does (its exit
+    handlers report what was loaded; docs/decisions.md, "Start-up and exit")."""
+    watched = (*NOT_AT_START, *HEAVY)
+    code = (
+        "import atexit, json, sys\n"
+        "atexit.register(lambda: print(json.dumps(sorted(m for m in "
+        f"{watched!r} if m in sys.modules)), file=sys.stderr))\n"
+        f"sys.argv = ['marops', {flag!r}]\n"
+        "from marops_cli.cli.app import main; main()"
+    )
+    res = subprocess.run(
+        [sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, timeout=120
+    )
+    assert res.returncode == 0, res.stderr
+    assert "marops" in res.stdout
+    assert json.loads(res.stderr.strip().splitlines()[-1]) == []
+
+
 def test_distributed_is_optional_but_tested() -> None:
     """The base install leaves distributed out; the cluster, test and dev extras bring it."""
     project = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
@@ -39,7 +66,9 @@ def test_replay_with_depots_loads_only_what_it_plans_with(
 ) -> None:
     """A replay with a depots file segments nothing (no scikit-learn), selects without
     cvxpy (the default solver hands HiGHS the program), draws nothing (no matplotlib);
-    torch only for an actor (docs/decisions.md, "Start-up and exit")."""
+    torch only for a recurrent actor: the realistic model's landing actor (marops, the
+    default operating model) is 16 numbers read with NumPy, and naming it in the
+    outputs' metadata loads no torch either (docs/decisions.md, "Start-up and exit")."""
     from typer.testing import CliRunner
 
     from marops_cli.cli.app import app
@@ -65,7 +94,11 @@ def test_replay_with_depots_loads_only_what_it_plans_with(
         assert res.returncode == 0, res.stderr
         loaded[method] = json.loads(res.stdout.strip().splitlines()[-1])
     assert loaded["myopic"] == ["highspy", "scipy"]
-    assert loaded["marops"] == ["highspy", "scipy", "torch"]
+    assert "torch" not in loaded["marops"], "the landing actor's day imported torch"
+    assert loaded["marops"] == ["highspy", "scipy"]
+    # The day flew the shipped landing actor (not a rule that needs no actor file).
+    meta = json.loads((tmp_path / "marops" / "metrics.json").read_text())["meta"]
+    assert meta["policy"]["name"] == "marops-ops.safetensors"
 
 
 def test_the_methods_that_load_torch_are_named() -> None:
