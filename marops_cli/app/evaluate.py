@@ -195,7 +195,7 @@ def evaluate(
 
         # The workers' fork server imports the planner (and torch for an actor) while
         # this process reads the file and segments it.
-        warm_up(worker_modules(actor=any(loads_actor(m) for m in methods)))
+        warm_up(worker_modules(actor=any(loads_actor(m, paper=cfg.ops.paper) for m in methods)))
     prep = prepare(
         data,
         cfg,

@@ -123,7 +123,8 @@ def replay_days(
 
         # Several days or hubs may go to worker processes: their fork server imports
         # the planner (and torch for an actor) while this process reads the file.
-        warm_up(replay_modules(actor=loads_actor(options.method, cfg.sim.policy)))
+        flies_torch = loads_actor(options.method, cfg.sim.policy, paper=cfg.ops.paper)
+        warm_up(replay_modules(actor=flies_torch))
     folder = Path(out) if out is not None else None
     if folder is not None and folder.exists() and not folder.is_dir():
         raise InputError(f"{option('out')} must be a folder; this is a file", file=folder)

@@ -189,6 +189,22 @@ def make_policy(
     return TorchScriptPolicy(Path(path), trust=trust)
 
 
+def landing_actor_file(path: str | Path) -> bool:
+    """Whether ``path`` is a landing actor's weights file (``.safetensors`` whose sidecar
+    is the landing actor's), which loads without torch; a file that cannot be read says
+    no (it fails when it loads, naming itself)."""
+    from ..data.jsonfile import read_json
+
+    weights = Path(path)
+    if weights.suffix != ".safetensors" or not weights.is_file():
+        return False
+    try:
+        doc = read_json(weights.with_suffix(".json"), "actor sidecar")
+    except InputError:
+        return False
+    return not _recurrent(doc)
+
+
 def _recurrent(doc: object) -> bool:
     """A sidecar of the recurrent actor (``marops-actor/N``), not the landing actor's."""
     return isinstance(doc, dict) and str(doc.get("format", "")).startswith("marops-actor/")

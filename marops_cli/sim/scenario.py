@@ -30,7 +30,13 @@ from ..methods import method as method_spec
 from ..plans.window import WindowPlan
 from ..policies.base import Policy, start_day
 from ..policies.landing import operating_model
-from ..policies.registry import SHIPPED, PolicySpec, actor_files, make_policy
+from ..policies.registry import (
+    SHIPPED,
+    PolicySpec,
+    actor_files,
+    landing_actor_file,
+    make_policy,
+)
 from ..segment.cache import cached_depots
 from ..segment.depots import Depots
 from ..segment.methods import segment_points
@@ -57,15 +63,21 @@ _NOT_SHIPPED = {
 }
 
 
-def loads_actor(method: str, policy: str | None = None) -> bool:
-    """Whether ``method`` (with ``policy``, a ``--policy`` spec) flies a trained actor,
-    which needs torch; an unknown method or policy says no (it fails later, naming
-    itself)."""
+def loads_actor(method: str, policy: str | None = None, *, paper: bool = True) -> bool:
+    """Whether ``method`` (with ``policy``, a ``--policy`` spec) flies a trained actor
+    that needs torch, under the paper's operating model (``paper``) or the realistic
+    one: the recurrent actors do, the landing actor (16 numbers NumPy reads: the
+    realistic model's ``marops``) does not; an unknown method or policy says no (it
+    fails later, naming itself)."""
     spec = policy or (method_spec(method).policy if method in METHODS else "")
     try:
-        return PolicySpec.parse(spec).loads_actor
+        parsed = PolicySpec.parse(spec)
     except InputError:
         return False
+    if not parsed.loads_actor:
+        return False
+    resolved = parsed.shipped(paper)  # None: not shipped with this install (fails later)
+    return resolved is None or not landing_actor_file(str(resolved.path))
 
 
 def replay_modules(actor: bool) -> tuple[str, ...]:

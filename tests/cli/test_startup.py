@@ -102,10 +102,17 @@ def test_replay_with_depots_loads_only_what_it_plans_with(
 
 
 def test_the_methods_that_load_torch_are_named() -> None:
-    """Workers' fork server preloads torch only for a run that flies an actor."""
+    """Workers' fork server preloads torch only for a run that flies an actor that
+    needs it (a recurrent one)."""
     from marops_cli.sim.scenario import loads_actor
 
     assert loads_actor("marops") and loads_actor("squares") and loads_actor("mappo")
     assert not any(loads_actor(m) for m in ("stay", "myopic", "ops-global", "no-such"))
     assert loads_actor("stay", "torchscript:a.pt") and loads_actor("stay", "policies/a.pt")
     assert not loads_actor("marops", "greedy")
+    # Under the realistic operating model marops flies the landing actor: no torch.
+    assert not loads_actor("marops", paper=False)
+    assert loads_actor("mappo", paper=False)  # no landing actor: the recurrent one
+    shipped = ROOT / "policies"
+    assert not loads_actor("stay", str(shipped / "marops-ops.safetensors"), paper=False)
+    assert loads_actor("stay", str(shipped / "marops-basic.safetensors"), paper=False)
