@@ -16,7 +16,7 @@ actor) with a depots file, and ``plan-window`` of its window 8. For each:
 An import-time budget is not a test (tests hold no timings; docs/decisions.md,
 "Start-up and exit"): read the figures here, on a quiet machine.
 
-    python benchmarks/startup.py [--repeats 5] [--top 8] [--only NAME ...] [--smoke]
+    python benchmarks/startup.py [--repeats 5] [--top 8] [--only help V replay plan] [--smoke]
 
 ``--smoke``: every command once with ``-X importtime``, no timed repeats (CI runs it so
 the script keeps up with the command line; its figures mean nothing).
@@ -151,7 +151,9 @@ def main() -> None:
     )
     ap.add_argument("--repeats", type=int, default=5, help="timed runs per command [5]")
     ap.add_argument("--top", type=int, default=8, help="modules listed per command [8]")
-    ap.add_argument("--only", nargs="+", help="commands whose name starts so (--help -V ...)")
+    ap.add_argument(
+        "--only", nargs="+", help="commands whose name starts so, without dashes (help V replay)"
+    )
     ap.add_argument("--smoke", action="store_true", help="every command once (CI)")
     args = ap.parse_args()
     with tempfile.TemporaryDirectory(prefix="marops-startup-") as tmp_name:
@@ -161,7 +163,7 @@ def main() -> None:
         chosen = {
             k: v
             for k, v in commands(tmp).items()
-            if not args.only or any(k.startswith(o) for o in args.only)
+            if not args.only or any(k.lstrip("-").startswith(o.lstrip("-")) for o in args.only)
         }
         walls: dict[str, list[float]] = {}
         for name, cmd in chosen.items():
