@@ -18,7 +18,7 @@ in memory they are not (docs/decisions.md, "Application layer").
     from marops_cli import api as marops
 
     depots = marops.segment("lade.csv", out="out/depots.json", dates="0801..0810")
-    day = marops.replay_day(frame, date="0811", depots="out/depots.json")
+    day = marops.replay_day(frame, date="0811", depots=depots)  # or "out/depots.json"
     day.metrics["avg_delay_h"], day.routes.to_pandas()
 """
 
@@ -37,6 +37,8 @@ from typing import TYPE_CHECKING, Any, TypeVar
 
 if TYPE_CHECKING:  # pyarrow loads with the first call, so `import marops_cli` stays light
     import pyarrow as pa
+
+    from .segment.depots import Depots
 
 
 __all__ = [
@@ -142,10 +144,12 @@ def _accept_date(v: Any) -> tuple[bool, Any]:
 def _accept(name: str, hint: str, v: Any) -> tuple[bool, Any]:
     """Whether ``v`` is a value of the annotation ``hint`` (a string, as this module's
     annotations are), and the value to pass on (a list joined, digits read)."""
-    if "Any" in hint:  # the data: its reader says what it takes
-        return True, v
     if v is None:
         return "None" in hint, v
+    if name == "depots":  # a depots file, or depots in memory: segment()'s dictionary
+        return _accept_depots(v), v
+    if "Any" in hint:  # the data: its reader says what it takes
+        return True, v
     if "Path" in hint and isinstance(v, str | os.PathLike):
         return os.fspath(v) != "", v  # "" would be the current folder, as for the flags
     if name == "date":
@@ -170,6 +174,18 @@ def _accept(name: str, hint: str, v: Any) -> tuple[bool, Any]:
     return False, v
 
 
+def _accept_depots(v: Any) -> bool:
+    """``depots``: a depots file's path, the depots document ``segment()`` returns (any
+    mapping) or a ``Depots``; the use case checks the depots as a file's."""
+    from collections.abc import Mapping
+
+    from .segment.depots import Depots
+
+    if isinstance(v, str | os.PathLike):
+        return os.fspath(v) != ""
+    return isinstance(v, Mapping | Depots)
+
+
 def _text(v: Any) -> str | None:
     """A list keyword's value as its flag spells it ("a,b"): a string, a date, a number
     or a list or tuple of them; None for anything else."""
@@ -192,6 +208,8 @@ def _listed(hint: str) -> bool:
 def _expects(name: str, hint: str) -> str:
     if name == "date":
         return "a date like '0820', 820 or a datetime.date"
+    if name == "depots":
+        return "a path or the depots segment() returns"
     if _listed(hint):
         return "a string like 'a,b' or a non-empty list"
     words = []
@@ -352,7 +370,8 @@ def segment(
     config: str | Path | None = None,
 ) -> dict[str, Any]:
     """``marops segment``: the depots document (``depots.json``; with ``hubs``, the
-    hubs file) as a dictionary, written to ``out`` when given."""
+    hubs file) as a dictionary, written to ``out`` when given. The depots document is
+    taken wherever a depots file is (``plan_window``, ``replay_day``, ``report``)."""
     from .app.options import planner_config
     from .app.segment import refuse_with_hubs, segment_hubs
     from .app.segment import segment as run
@@ -386,7 +405,7 @@ def segment(
 @_checked
 def plan_window(
     data: Any,
-    depots: str | Path,
+    depots: str | Path | dict[str, Any] | Depots,
     date: str | int | dt.date,
     window: int,
     *,
@@ -411,7 +430,8 @@ def plan_window(
     config: str | Path | None = None,
 ) -> DayResult:
     """``marops plan-window``: one window's stops and routes, and its solver and window
-    objective (``metrics``)."""
+    objective (``metrics``). ``depots``: a depots file, or the depots ``segment()``
+    returns."""
     from .app.options import planner_config
     from .app.plan_window import plan_window as run
     from .data.dates import parse_day
@@ -438,7 +458,7 @@ def plan_window(
             cfg,
             parse_day(str(date), cfg.data.year, option("date")),
             int(window),
-            depots=Path(depots),
+            depots=depots,  # a path, or depots in memory (app.inputs.given_depots)
             method=method,
             fleet=_path(fleet),
             delivered=_path(delivered),
@@ -458,7 +478,7 @@ def replay_day(
     *,
     out: str | Path | None = None,
     method: str = "marops",
-    depots: str | Path | None = None,
+    depots: str | Path | dict[str, Any] | Depots | None = None,
     n_depots: int | None = None,
     segment: str | None = None,
     drones: int | None = None,
@@ -478,7 +498,9 @@ def replay_day(
     trust_actor: bool = False,
     config: str | Path | None = None,
 ) -> DayResult:
-    """``marops replay-day --date``: the day's stops, routes and metrics."""
+    """``marops replay-day --date``: the day's stops, routes and metrics. ``depots``: a
+    depots file, or the depots ``segment()`` returns (None: segmented from the other
+    days)."""
     from .app.replay import ReplayOptions, check_options, replay_config, replay_days
     from .data.dates import parse_day
     from .errors import option
@@ -511,7 +533,7 @@ def replay_day(
             options=opts,
             out=_path(out),
             several=False,
-            depots=_path(depots),
+            depots=depots,
             fleet=_path(fleet),
             protect={"config": _path(config)},
         )
@@ -627,7 +649,10 @@ def evaluate(
 
 @_checked
 def report(
-    folder: str | Path, *, depots: str | Path | None = None, force: bool = False
+    folder: str | Path,
+    *,
+    depots: str | Path | dict[str, Any] | Depots | None = None,
+    force: bool = False,
 ) -> list[Path]:
     """``marops report``: write ``report.html`` into an earlier run's output folder (and
     its day and hub folders; docs/report.md); the files written."""

@@ -123,7 +123,10 @@ def test_api_raises_input_errors(example_csv: Path, tmp_path: Path) -> None:
         (lambda d: marops.segment(d, out=5), r"segment\(\): out expects a path, got int 5"),
         (lambda d: marops.segment(d, center=(1,)), r"center expects a \(lng, lat\) pair"),
         (lambda d: marops.segment(d, dates={"0801"}), r"dates expects a string like 'a,b'"),
-        (lambda d: marops.plan_window(d, {}, "0811", 5), r"depots expects a path, got dict"),
+        (
+            lambda d: marops.plan_window(d, 5, "0811", 5),
+            r"depots expects a path or the depots segment\(\) returns, got int 5",
+        ),
         (lambda d: marops.plan_window(d, "x.json", "0811", "x"), r"window expects an integer"),
         (lambda d: marops.replay_day(d, 8.11), r"date expects a date like '0820'"),
         (lambda d: marops.replay_day(d, "0811", drones=2.5), r"drones expects an integer"),

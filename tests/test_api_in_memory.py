@@ -88,6 +88,49 @@ def test_a_pandas_frame_plans_and_writes_nothing(
         marops.read_lade(frame.drop(columns=["lat"]))
 
 
+def test_the_depots_segment_returns_plan_as_their_file_does(
+    example_csv: Path, depots: Path, quiet_folders: list[Path]
+) -> None:
+    """``plan_window(df, depots=segment(df))``: the depots document (or a ``Depots``)
+    is taken wherever a depots file is, plans as the file does and is recorded by its
+    hash; a document that is no depots document is one line naming ``depots``."""
+    import json
+
+    from marops_cli.segment.depots import Depots
+
+    rows = _rows(example_csv)
+    doc = marops.segment(rows, dates="0801..0810")
+    window = marops.plan_window(rows, depots=doc, date="0811", window=5, method="stay")
+    from_file = marops.plan_window(rows, depots, "0811", 5, method="stay")
+    assert window.routes.equals(from_file.routes) and window.stops.equals(from_file.stops)
+    meta = json.loads(window.routes.schema.metadata[b"marops"])
+    assert meta["depots_file"]["name"] == "depots" and len(meta["depots_file"]["sha256"]) == 64
+    day = marops.replay_day(rows, "0811", depots=Depots.from_dict(doc), method="stay")
+    assert day.metrics["delivered"] > 0
+    assert _files(*quiet_folders) == set()
+    with pytest.raises(InputError, match=r"^depots, column 'hubs': unknown key 'hubs'"):
+        marops.plan_window(rows, {"hubs": []}, "0811", 5)
+
+
+def test_evaluate_on_a_table_in_memory_writes_no_depots_cache(
+    example_csv: Path, tmp_path: Path, quiet_folders: list[Path], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """As its docstring says: depots segmented from data in memory are not cached, the
+    user's cache (HOME, XDG_CACHE_HOME) included."""
+    home = tmp_path / "home"
+    home.mkdir()
+    monkeypatch.setenv("HOME", str(home))
+    monkeypatch.setenv("XDG_CACHE_HOME", str(home / ".cache"))
+    config = tmp_path / "small.toml"
+    config.write_text('[data]\nservice_start = "09:00"\nservice_end = "10:00"\n')
+    res = marops.evaluate(
+        _rows(example_csv), dates="0811", methods="stay", drones="2", workers=1, plots=False,
+        config=config,
+    )  # fmt: skip
+    assert res.results.num_rows == 1
+    assert _files(*quiet_folders, home) == set()
+
+
 def test_a_table_in_memory_is_checked_as_a_file_is(depots: Path, example_csv: Path) -> None:
     rows = _rows(example_csv)
     with pytest.raises(InputError, match="^Table, row 1, column 'lng': missing required column"):

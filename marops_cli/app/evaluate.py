@@ -20,6 +20,7 @@ from typing import TYPE_CHECKING, Any
 from ..config import OpsConfig, PlannerConfig, count
 from ..data.table import LadeTable
 from ..errors import InputError, option, switch
+from .inputs import in_memory
 from .messages import drop_report
 from .progress import SILENT, Progress
 
@@ -206,6 +207,7 @@ def evaluate(
         repeats=config.repeats,
         actors=actors,
         hubs=config.hubs,
+        cache=not in_memory(data),  # a table in memory: no depots cache written
     )
     drop_report(progress, prep.source.report, prep.source.source.name)
     if prep.skipped:

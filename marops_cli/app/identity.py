@@ -13,9 +13,10 @@ from ..config import clipped
 from ..data.jsonfile import parse_json, read_small_text
 from ..errors import InputError, option, switch
 from ..io import run_meta
-from ..io.meta import file_sha256
+from .inputs import depots_record
 
 if TYPE_CHECKING:
+    from ..segment.depots import Depots
     from ..sim.scenario import Scenario
 
 
@@ -23,7 +24,7 @@ def identity(
     scn: Scenario,
     method: str,
     policy_id: Any,
-    depots: Path | None,
+    depots: Path | Depots | None,
     fmt: str,
     fleet: dict[str, Any] | None = None,
 ) -> dict[str, Any]:
@@ -44,8 +45,8 @@ def identity(
         "center_lat": scn.frame.center_lat,
         "size_km": scn.frame.size_km,
     }
-    if depots is not None:
-        meta["depots_file"] = {"name": depots.name, "sha256": file_sha256(depots)}
+    if depots is not None:  # a depots file's name and hash, or those of depots in memory
+        meta["depots_file"] = depots_record(depots)
     if fleet is not None:  # the resolved fleet: where each drone starts, its type
         meta["fleet"] = fleet
     meta["format"] = fmt

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import os
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TypeAlias
 
@@ -12,6 +12,7 @@ from ..errors import InputError, not_found, option
 if TYPE_CHECKING:
     from ..config import DataConfig
     from ..data.table import LadeTable
+    from ..segment.depots import Depots
 
 Data: TypeAlias = "str | Path | Any"
 """A LaDe export: a path (CSV, CSV.gz, Parquet), a pandas DataFrame or a pyarrow Table
@@ -22,6 +23,13 @@ def in_memory(data: Any) -> bool:
     """Whether ``data`` is a table in memory rather than a file's path (a ``str`` or
     any ``os.PathLike``)."""
     return not isinstance(data, str | os.PathLike)
+
+
+DepotsInput: TypeAlias = "str | Path | Mapping[str, Any] | Depots"
+"""Depots: a depots file's path, or depots in memory: a depots file's document (the
+Python API's ``segment()`` returns one) or a :class:`~marops_cli.segment.depots.Depots`."""
+DEPOTS_IN_MEMORY = "depots"
+"""What messages call depots given in memory (as the API's keyword names them)."""
 
 
 def data_name(data: Any) -> str:
@@ -71,6 +79,52 @@ def read_data(data: Any, cfg: DataConfig) -> LadeTable:
     if in_memory(data):
         return read_lade_table(data, cfg)
     return read_lade(Path(data), cfg)
+
+
+def given_depots(depots: Any, n_actions: int | None = None) -> Path | Depots:
+    """The depots a use case is given (:data:`DepotsInput`): a file's path as it is (the
+    scenario reads and checks it), depots in memory checked as a depots file is (errors
+    name :data:`DEPOTS_IN_MEMORY`), as a copy the run may annotate. ``n_actions``: the
+    action candidates the run gives each depot, refused as for a file when the
+    flight-range table would be too large."""
+    import dataclasses
+
+    from ..config import check_range_table
+    from ..segment.depots import Depots
+
+    if not in_memory(depots):
+        return Path(depots)
+    if isinstance(depots, Depots):
+        given = dataclasses.replace(depots)
+    elif isinstance(depots, Mapping):
+        given = Depots.from_dict(dict(depots), source=DEPOTS_IN_MEMORY)
+    else:
+        raise InputError(
+            f"{option('depots')} expects a depots file, a depots document or Depots, "
+            f"got {type(depots).__name__}"
+        )
+    if n_actions is not None:
+        try:
+            check_range_table(len(given), n_actions, ("", "segment.n_actions"))
+        except ValueError as exc:
+            raise InputError(f"{exc}", file=DEPOTS_IN_MEMORY, column="depots") from None
+    return given
+
+
+def depots_record(depots: Path | Depots) -> dict[str, str]:
+    """What the outputs' metadata record of the depots (``depots_file``): a file's name
+    and SHA-256; for depots in memory, ``name`` :data:`DEPOTS_IN_MEMORY` and the SHA-256
+    of their depots document without its provenance (``meta``), so the same depots give
+    the same record whichever object holds them."""
+    import hashlib
+
+    from ..io.atomic import dumps_json
+    from ..io.meta import file_sha256
+
+    if isinstance(depots, Path):
+        return {"name": depots.name, "sha256": file_sha256(depots)}
+    doc = dumps_json(depots.to_dict({})).encode("utf-8")
+    return {"name": DEPOTS_IN_MEMORY, "sha256": hashlib.sha256(doc).hexdigest()}
 
 
 def protect_inputs(outputs: Iterable[Path], inputs: Iterable[Any]) -> None:

@@ -10,7 +10,16 @@ from typing import TYPE_CHECKING, Any
 
 from ..config import PlannerConfig
 from ..errors import InputError, option
-from .inputs import Data, check_format, data_name, in_memory, read_data
+from .inputs import (
+    Data,
+    DepotsInput,
+    check_format,
+    data_name,
+    depots_record,
+    given_depots,
+    in_memory,
+    read_data,
+)
 from .messages import day_scope, drop_report, unservable_requests
 from .progress import SILENT, Progress
 
@@ -19,6 +28,7 @@ if TYPE_CHECKING:
 
     from ..data.table import DayRequests, DropReport
     from ..plans.window import WindowPlan
+    from ..segment.depots import Depots
     from ..sim.days import DayScope
     from ..sim.fleet import Fleet
 
@@ -76,7 +86,7 @@ def plan_window(
     day: dt.date,
     window: int,
     *,
-    depots: str | Path,
+    depots: DepotsInput,
     method: str = "marops",
     fleet: Any = None,
     delivered: str | Path | None = None,
@@ -86,10 +96,10 @@ def plan_window(
     report: bool = False,
     progress: Progress = SILENT,
 ) -> PlannedWindow:
-    """Plan window ``window`` of ``day`` with the depots of ``depots`` and the fleet of a
-    fleet file (else ``cfg.sim.drones`` drones), leaving out the orders an earlier stops
-    file (``delivered``) delivered; with ``out`` write its route files there (and with
-    ``report`` its report.html, docs/report.md)."""
+    """Plan window ``window`` of ``day`` with the depots of ``depots`` (a depots file or
+    depots in memory) and the fleet of a fleet file (else ``cfg.sim.drones`` drones),
+    leaving out the orders an earlier stops file (``delivered``) delivered; with ``out``
+    write its route files there (and with ``report`` its report.html, docs/report.md)."""
     from ..io import folder_lock, output_set
     from ..io.ownership import check_outputs, register_inputs
     from ..io.tables import route_file_paths, with_meta, write_route_files
@@ -122,10 +132,11 @@ def plan_window(
     # comes after the plan): an error is the only line a failed run prints.
     done = delivered_orders(stops) if stops is not None else None
     table = read_data(data, cfg.data)
+    given = given_depots(depots, cfg.segment.n_actions)
     scn = load_scenario(
         table.source.path,
         cfg,
-        depots_path=depots,
+        depots_path=given,
         replay_days=[day],
         table=table,
         cache=not in_memory(data),
@@ -140,7 +151,7 @@ def plan_window(
     day_scope(progress, scope, cfg)
     unservable_requests(progress, day, reqs, scn.depots.xy, list(dict.fromkeys(drones.models())))
     stops, routes = route_tables(scn, reqs, [plan], drones, method)
-    meta = _meta(scn, cfg, pol, method, day, window, plan, Path(depots), drones)
+    meta = _meta(scn, cfg, pol, method, day, window, plan, given, drones)
     written: list[Path] = []
     if out is not None:
         with folder_lock(out):
@@ -162,12 +173,11 @@ def _meta(
     day: dt.date,
     window: int,
     plan: WindowPlan,
-    depots: Path,
+    depots: Path | Depots,
     fleet: Fleet,
 ) -> dict[str, Any]:
     """The route files' metadata: the run's identity, the window and its solution."""
     from ..io import run_meta
-    from ..io.meta import file_sha256
 
     return run_meta(
         command="plan-window",
@@ -190,7 +200,7 @@ def _meta(
                 "center_lat": scn.frame.center_lat,
                 "size_km": scn.frame.size_km,
             },
-            "depots_file": {"name": depots.name, "sha256": file_sha256(depots)},
+            "depots_file": depots_record(depots),
             "fleet": fleet.describe(cfg.energy),
         },
         stamp=False,

@@ -14,8 +14,10 @@ from ..config import PlannerConfig, SegmentConfig
 from ..errors import InputError, option
 from .inputs import (
     Data,
+    DepotsInput,
     check_format,
     data_name,
+    given_depots,
     in_memory,
     protect_inputs,
     read_data,
@@ -101,18 +103,18 @@ def replay_days(
     options: ReplayOptions = ReplayOptions(),
     out: str | Path | None = None,
     several: bool | None = None,
-    depots: str | Path | None = None,
+    depots: DepotsInput | None = None,
     fleet: Any = None,
     hubs: str | Path | None = None,
     protect: Mapping[str, Path | None] | None = None,
     progress: Progress = SILENT,
 ) -> ReplayResult:
-    """Replay ``days`` of ``data`` with ``cfg``: depots from ``depots`` (else segmented
-    from the other days), the fleet of a fleet file or ``cfg.sim.drones`` drones, every
-    hub of a ``hubs`` file instead of one study area. With ``out`` each day's files go
-    into ``out`` (``out/<day>/`` when ``several``, default: more than one day) and a day
-    already there with the same settings is kept; ``protect`` names more input files
-    (flag -> path) the outputs must never replace."""
+    """Replay ``days`` of ``data`` with ``cfg``: depots from ``depots`` (a depots file or
+    depots in memory; else segmented from the other days), the fleet of a fleet file or
+    ``cfg.sim.drones`` drones, every hub of a ``hubs`` file instead of one study area.
+    With ``out`` each day's files go into ``out`` (``out/<day>/`` when ``several``,
+    default: more than one day) and a day already there with the same settings is kept;
+    ``protect`` names more input files (flag -> path) the outputs must never replace."""
     check_options(options)
     from ..io.ownership import refuse_links_below
     from ..sim.scenario import loads_actor, method_policy, policy_files, replay_modules
@@ -167,7 +169,7 @@ def _one_area(
     days: list[dt.date],
     out: Path | None,
     several: bool,
-    depots: str | Path | None,
+    depots: DepotsInput | None,
     fleet: Any,
     run: Run,
     progress: Progress,
@@ -176,11 +178,11 @@ def _one_area(
     from ..sim.scenario import load_scenario
 
     table = read_data(data, cfg.data)
-    depots_path = Path(depots) if depots is not None else None
+    given = given_depots(depots, cfg.segment.n_actions) if depots is not None else None
     scn = load_scenario(
         table.source.path,
         cfg,
-        depots_path=depots_path,
+        depots_path=given,
         replay_days=days,
         table=table,
         cache=not in_memory(data),
@@ -189,7 +191,7 @@ def _one_area(
         prepare_day(scn.table, scn.frame, day, cfg.data)
     # The fleet file and the days already in ``out`` are checked before the drop report:
     # an error is the only line a failed run prints.
-    area = make_area(scn, out, days, several, fleet, run, depots_path)
+    area = make_area(scn, out, days, several, fleet, run, given)
     drop_report(progress, scn.table.report, data_name(data))
     rows, tables = _replay_areas([area], run, progress)
     return ReplayResult(rows[0], aggregate_days(rows[0]), tables, None, out, area.written)

@@ -18,6 +18,7 @@ from .progress import Progress
 if TYPE_CHECKING:
     import pyarrow as pa
 
+    from ..segment.depots import Depots
     from ..sim.days import DayJob, DayOutput, ReplayWork
     from ..sim.scenario import Scenario
 
@@ -120,7 +121,7 @@ def make_area(
     several: bool,
     fleet: Any,
     run: Run,
-    depots: Path | None = None,
+    depots: Path | Depots | None = None,
     label: str = "",
 ) -> Area:
     """A study area to replay ``days`` of into ``out`` (a folder per day when

@@ -7,6 +7,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from ..errors import InputError, naming, not_found, option
+from .inputs import DEPOTS_IN_MEMORY, DepotsInput, given_depots
 from .progress import SILENT, Progress
 
 if TYPE_CHECKING:
@@ -61,11 +62,11 @@ def write_pages(
 
 
 def make_report(
-    folder: str | Path, *, depots: str | Path | None = None, progress: Progress = SILENT
+    folder: str | Path, *, depots: DepotsInput | None = None, progress: Progress = SILENT
 ) -> list[Path]:
     """Write ``report.html`` into an output folder of an earlier run (and into each of its
-    day and hub folders); ``depots``: the run's depots file, for the service areas and the
-    depots no route used. The files written."""
+    day and hub folders); ``depots``: the run's depots (its file, or in memory), for the
+    service areas and the depots no route used. The files written."""
     from ..io import folder_lock
     from ..io.ownership import check_outputs, register_inputs
     from ..report import report_folders, require_plotly
@@ -89,8 +90,9 @@ def make_report(
         try:
             written = write_pages(folder, loaded, progress, targets)
         except InputError as exc:
-            if depots is not None and exc.column == "frame":
-                raise naming(exc, depots) from None  # the depots of another study square
+            if depots is not None and exc.column == "frame":  # depots of another square
+                named = Path(depots) if isinstance(depots, str | Path) else DEPOTS_IN_MEMORY
+                raise naming(exc, named) from None
             raise
     if not written:  # a metrics.json of no day, no several days and no city
         raise _nothing_to_report(folder)
@@ -105,9 +107,10 @@ def _nothing_to_report(folder: Path) -> InputError:
     )
 
 
-def _depots(path: str | Path | None) -> Depots | None:
-    if path is None:
+def _depots(depots: DepotsInput | None) -> Depots | None:
+    if depots is None:
         return None
     from ..segment.depots import Depots
 
-    return Depots.load(path)
+    given = given_depots(depots)
+    return given if isinstance(given, Depots) else Depots.load(given)

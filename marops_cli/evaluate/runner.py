@@ -127,9 +127,11 @@ def prepare(
     repeats: int = 1,
     actors: dict[str, Path] | None = None,
     hubs: Sequence[Hub] | None = None,
+    cache: bool = True,
 ) -> Prepared:
     """Read ``data`` once (or take the table read already), choose the days, segment the
-    other days once per segmentation.
+    other days once per segmentation (``cache``: through the depots cache, as for a
+    file; False for data held in memory, which leaves no file).
 
     ``days`` replays those dates; otherwise ``split`` picks the held-out (last 20 %)
     or training dates. Depots come from every day not replayed (``load_scenario``).
@@ -166,7 +168,9 @@ def prepare(
         ):
             seg_cfg = override(cfg_h, segment__method=key[0], segment__n_depots=key[1])
             try:
-                scn = load_scenario(path, seg_cfg, replay_days=chosen, table=table_h, hub=hub)
+                scn = load_scenario(
+                    path, seg_cfg, replay_days=chosen, table=table_h, hub=hub, cache=cache
+                )
             except InputError as exc:  # a hub too sparse for its depots: which one
                 raise in_hub(exc, hub) if hubs else exc from None
             scenarios[(hub, *key)] = Scenario(

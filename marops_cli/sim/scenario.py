@@ -7,6 +7,7 @@ A *method* (docs/method.md §7) is a segmentation, a flight-range policy and a p
 
 from __future__ import annotations
 
+import dataclasses
 import datetime as dt
 import socket
 from collections.abc import Callable, Mapping, Sequence
@@ -168,13 +169,15 @@ def load_scenario(
     data: str | Path,
     cfg: PlannerConfig,
     *,
-    depots_path: str | Path | None = None,
+    depots_path: str | Path | Depots | None = None,
     replay_days: Sequence[dt.date] = (),
     table: LadeTable | None = None,
     hub: int = 0,
     cache: bool = True,
 ) -> Scenario:
-    """Read the file and take depots from ``depots_path`` or segment the history days.
+    """Read the file and take depots from ``depots_path`` (a depots file, or depots in
+    memory checked already, not changed: the scenario holds a copy) or segment the
+    history days.
 
     History days are the file's days other than the replayed ones (all days when
     that leaves none), so the depots never see the demand they are judged on.
@@ -187,8 +190,11 @@ def load_scenario(
     unseen = [d for d in all_days if d not in set(replay_days)]
     history = unseen or all_days
     if depots_path is not None:
-        depots = Depots.load(depots_path, cfg.segment.n_actions)
-        _check_depots_area(table, depots, depots_path)
+        if isinstance(depots_path, Depots):
+            depots, source = dataclasses.replace(depots_path), "depots"
+        else:
+            depots, source = Depots.load(depots_path, cfg.segment.n_actions), str(depots_path)
+        _check_depots_area(table, depots, source)
         if depots.n_actions != cfg.segment.n_actions:
             depots = depots.with_actions(cfg.segment.n_actions)
         depots.arrivals = arrival_profile(table, depots, unseen, cfg) if unseen else None
