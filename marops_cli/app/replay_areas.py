@@ -251,21 +251,18 @@ def _collect(
 def _replay_here(
     area: Area, job: DayJob, run: Run, work: ReplayWork, progress: Progress
 ) -> tuple[dict[str, Any], DayTables | None]:
-    """Replay one day of ``work`` in this process, a progress step per window."""
+    """Replay one day of ``work`` in this process, a progress step per window: a bar's
+    step, with no line of its own (a log gets the day's line, :func:`_finish_day`, not
+    one per window)."""
     day = job.day
     n_windows = area.scn.cfg.data.n_windows
 
-    def log(p: Any) -> None:
-        served = sum(len(r.stops) for r in p.routes)
-        progress.advance(
-            f"{area.label}{day.isoformat()} {run.method} window {p.t} of "
-            f"0..{n_windows - 1}: {served} delivered, {p.n_candidates} candidates, "
-            f"solver {p.selection.status_text}"
-        )
+    def step(_: Any) -> None:
+        progress.advance()
 
-    progress.start(f"{day.isoformat()} {run.method}", n_windows, "windows")
+    progress.start(f"{area.label}{day.isoformat()} {run.method}", n_windows, "windows")
     try:
-        out = work.run(job, on_window=log)
+        out = work.run(job, on_window=step)
     finally:
         progress.finish()
     return _finish_day(area, day, out, run, progress)

@@ -249,10 +249,11 @@ def table(title: str, **kwargs: Any) -> Table:
 
 
 def show_table(t: Table, keys: int = 1) -> None:
-    """Print a result table on stdout unless ``--json`` replaces it. On a terminal it
-    fits the width with every cell whole: the columns that do not fit beside the first
-    ``keys`` (which name a row) go on to further tables (marops_cli/cli/fit.py)."""
-    if STATE["json"]:
+    """Print a result table on stdout unless ``--json`` replaces it or ``--quiet`` asks
+    for warnings and errors only (the results are in the files written). On a terminal
+    it fits the width with every cell whole: the columns that do not fit beside the
+    first ``keys`` (which name a row) go on to further tables (marops_cli/cli/fit.py)."""
+    if STATE["json"] or STATE["quiet"]:
         return
     if PLAIN:  # a log keeps lines whole however long
         out.print(t)

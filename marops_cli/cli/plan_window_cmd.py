@@ -169,7 +169,7 @@ def _summary(res: PlannedWindow) -> None:
             f"{100 * r.energy_j / models[r.drone].cfg.battery_j:.1f}",
         )
     show_table(t)
-    if plan.score is not None and not STATE["json"]:  # docs/method.md §4.2
+    if plan.score is not None and not (STATE["json"] or STATE["quiet"]):  # docs/method.md §4.2
         sc = plan.score
         bound = ""
         if sc.bound_G is not None:  # [plan] bound = true (docs/method.md, "The bound")

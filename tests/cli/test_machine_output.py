@@ -55,6 +55,16 @@ def test_plain_tables_and_whole_lines_without_a_terminal(cron_run) -> None:
     assert "\x1b[" not in res.stdout + res.stderr  # no colour codes
 
 
+def test_a_day_without_a_terminal_logs_one_line_not_one_per_window(cron_run) -> None:
+    """A cron job's log: the day's line (its orders due, planned and left out), not a
+    progress line per window (sixteen a day)."""
+    _, res, _ = cron_run
+    assert res.returncode == 0, res.stderr
+    said = [ln for ln in res.stderr.splitlines() if ln.startswith("2022-08-11")]
+    assert len(said) == 1 and "orders due" in said[0], res.stderr
+    assert not [ln for ln in res.stderr.splitlines() if " window " in ln], res.stderr
+
+
 def test_json_prints_the_summary_on_stdout_only(cron_run) -> None:
     cwd, table, res = cron_run
     assert res.returncode == 0, res.stderr
@@ -151,6 +161,7 @@ def test_quiet_keeps_warnings_only(example_csv: Path, tmp_path: Path) -> None:
     args = ["replay-day", str(example_csv), "--date", "0811", "--method", "stay"]
     res = run([*args, "--drones", "1", "--out", "o", "--quiet"], tmp_path)
     assert res.returncode == 0, res.stderr
+    assert res.stdout == ""  # no metrics table: the day's metrics are in metrics.json
     assert res.stderr.strip().splitlines() == [
         ln for ln in res.stderr.strip().splitlines() if ln.startswith("warning: ")
     ]

@@ -210,6 +210,15 @@ def test_json_holds_meta_stops_routes_equal_to_the_parquet(
         assert feat["properties"]["energy_j"] == row["energy_j"]
 
 
+def test_quiet_prints_neither_the_routes_nor_the_objective(example_csv, depots_file, tmp_path):
+    """--quiet keeps warnings and errors only: no routes table, no objective line."""
+    args = ["plan-window", str(example_csv), "--depots", str(depots_file), "--method", "stay"]
+    args += ["--date", "0811", "--window", "0", "--drones", "2", "--out", str(tmp_path), "-q"]
+    res = runner.invoke(app, args)
+    assert res.exit_code == 0, res.output
+    assert res.stdout == "" and (tmp_path / "routes.parquet").is_file()
+
+
 def test_same_call_same_bytes(example_csv, depots_file, parquet_out, tmp_path):
     again = plan(example_csv, depots_file, tmp_path / "w5")
     assert stops_path(again).read_bytes() == stops_path(parquet_out).read_bytes()
