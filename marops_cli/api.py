@@ -545,7 +545,8 @@ def replay_day(
 
 def _read_back(folder: Path, metrics: dict[str, Any]) -> DayResult:
     """A day kept from an earlier run into ``folder``: its tables read from its files,
-    in the unit of a replayed day's (Parquet keeps seconds as milliseconds)."""
+    as a replayed day's are: in seconds (Parquet keeps milliseconds), without the files'
+    GeoParquet ``geometry`` column and ``geo`` metadata."""
     import pyarrow as pa
 
     from .data.arrow import read_parquet
@@ -554,12 +555,15 @@ def _read_back(folder: Path, metrics: dict[str, Any]) -> DayResult:
 
     def read(name: str) -> pa.Table:
         table = read_parquet(folder / name)
+        if "geometry" in table.column_names:
+            table = table.drop_columns(["geometry"])
         fields = [
             f.with_type(pa.timestamp("s", f.type.tz)) if pa.types.is_timestamp(f.type) else f
             for f in table.schema
         ]
+        meta = {k: v for k, v in (table.schema.metadata or {}).items() if k != b"geo"}
         try:
-            return table.cast(pa.schema(fields, metadata=table.schema.metadata))
+            return table.cast(pa.schema(fields, metadata=meta))
         except pa.ArrowInvalid as exc:  # times marops writes in whole seconds: edited since
             raise InputError(
                 f"a day's file edited since marops wrote it ({first_line(exc)}); pass "

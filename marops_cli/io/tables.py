@@ -19,6 +19,7 @@ from ..energy import EnergyModel
 from ..plans.window import WindowPlan
 from ..segment.areas import line_geometry
 from ..segment.depots import Depots
+from .geoparquet import geo_route_tables
 
 DEFAULT_TZ = "Asia/Shanghai"  # LaDe's times are Shanghai local time
 
@@ -272,11 +273,14 @@ def write_route_files(
 ) -> list[Path]:
     """``folder/stops.parquet`` and ``folder/routes.parquet`` (``fmt = "json"``:
     ``stops.json`` and ``routes.json`` with the metadata under ``meta``), and with
-    ``geojson`` ``folder/routes.geojson``. Returns the paths written."""
+    ``geojson`` ``folder/routes.geojson``. The Parquet files are GeoParquet: a
+    ``geometry`` column and the ``geo`` metadata (:mod:`marops_cli.io.geoparquet`).
+    Returns the paths written."""
     paths = route_file_paths(folder, fmt, geojson)
     if fmt == "parquet":
-        files.write_with(paths[0], lambda p: write_parquet(with_meta(stops, meta), p))
-        files.write_with(paths[1], lambda p: write_parquet(with_meta(routes, meta), p))
+        geo = geo_route_tables(with_meta(stops, meta), with_meta(routes, meta))
+        files.write_with(paths[0], lambda p: write_parquet(geo[0], p))
+        files.write_with(paths[1], lambda p: write_parquet(geo[1], p))
     else:
         files.write_json(paths[0], {"meta": meta, "stops": table_records(stops)})
         files.write_json(paths[1], {"meta": meta, "routes": table_records(routes)})

@@ -56,6 +56,7 @@ STOPS_COLUMNS = [
     ("due_window", pa.int32()),
     ("delay_h", pa.float64()),
     ("method", pa.string()),
+    ("geometry", pa.binary()),  # GeoParquet: WKB, Parquet files only
 ]
 ROUTES_COLUMNS = [
     ("hub", pa.int32()),
@@ -73,6 +74,7 @@ ROUTES_COLUMNS = [
     ("battery_frac", pa.float64()),
     ("action", pa.int32()),
     ("method", pa.string()),
+    ("geometry", pa.binary()),
 ]
 
 
@@ -103,7 +105,10 @@ def stops_path(out: Path) -> Path:
 
 
 def records(table: pa.Table) -> list[dict[str, Any]]:
-    """Rows as the JSON output writes them (times as ISO text in the data's zone)."""
+    """Rows as the JSON output writes them (times as ISO text in the data's zone; no
+    GeoParquet geometry, which only the Parquet files hold)."""
+    if "geometry" in table.column_names:
+        table = table.drop_columns(["geometry"])
     rows = table.to_pylist()
     for row in rows:
         for k, v in row.items():
