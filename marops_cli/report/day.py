@@ -9,7 +9,7 @@ from ..config import count
 from ..data.frame import Frame
 from ..errors import InputError
 from .basemap import tiles_on
-from .daymap import flown, map_figure
+from .daymap import TILE_CREDIT_SCRIPT, flown, map_figure
 from .folder import RouteFiles
 from .page import Page
 from .timeline import timeline_figure
@@ -115,7 +115,8 @@ def day_page(files: RouteFiles, metrics_doc: dict[str, Any] | None, depots: Depo
         + ("" if depots is not None else " Depots: those the routes use (no depots file given).")
     )
     points = depot_points(files, depots)
-    page.figure(map_figure(files, points, area_rings(depots), _frame(meta, depots)), "map")
+    fig = map_figure(files, points, area_rings(depots), _frame(meta, depots))
+    page.figure(fig, "map", TILE_CREDIT_SCRIPT if fig.layout.images else None)
     page.heading("Drones over the day")
     page.note(
         "Each bar a flight from take-off to landing (→ the depot it lands at); grey: "
@@ -162,13 +163,45 @@ def _metrics(page: Page, day: dict[str, Any]) -> None:
     )
 
 
+# The window's objective (the route files' ``objective``, in joules, docs/outputs.md) as
+# plan-window prints it: energies in MJ (kJ for the routes' energy), the gap in %.
+_OBJECTIVE = {
+    "J": ("window objective J", "mj"),
+    "G": ("its controllable part G", "mj"),
+    "energy_j": ("energy of the routes", "kj"),
+    "served": ("requests served", ""),
+    "pending": ("requests pending", ""),
+    "bound_G": ("bound on G", "mj"),
+    "gap": ("gap to the bound", "%"),
+}
+
+
 def _window(page: Page, meta: dict[str, Any]) -> None:
     page.heading("The window's plan (docs/method.md §4.2)")
     rows: list[tuple[str, Any]] = []
     solver = meta.get("solver") or {}
-    rows += [(f"solver {k}", _fmt(v)) for k, v in solver.items() if v is not None]
-    rows += [(k, _fmt(v)) for k, v in (meta.get("objective") or {}).items()]
+    for k, v in solver.items():
+        if v is not None:  # the selection's objective: joules, as J
+            rows.append((f"solver {k}", _unit(v, "mj") if k == "objective" else _fmt(v)))
+    for k, v in (meta.get("objective") or {}).items():
+        label, unit = _OBJECTIVE.get(k, (k, ""))
+        rows.append((label, _unit(v, unit)))
     page.table(("quantity", "value"), rows)
+
+
+def _unit(v: Any, unit: str) -> Any:
+    """A value of the window's plan in the unit plan-window prints it in: joules as MJ
+    (``mj``) or kJ (``kj``), a share as a percentage (``%``); other values as
+    :func:`_fmt` gives them."""
+    if isinstance(v, bool) or not isinstance(v, int | float):
+        return _fmt(v)
+    if unit == "mj":
+        return f"{v / 1e6:,.3f} MJ"
+    if unit == "kj":
+        return f"{v / 1e3:,.1f} kJ"
+    if unit == "%":
+        return f"{100 * v:.2f} %"
+    return _fmt(v)
 
 
 def _fmt(v: Any) -> Any:

@@ -16,7 +16,31 @@ from .page import plain, short
 
 ROUTE_UID = "route-w{window}-d{drone}"
 """The uid of a route's trace: one trace (one line) per route flown."""
+LEGEND_UID = "drone-d{drone}"
+"""The uid of a drone's legend entry: a trace without points, shown in every window."""
 DEPOT_COLOUR = "#222222"  # black squares: apart from every drone colour
+TILE_CREDIT = "tile-credit"
+"""The name of the map's annotation that credits the tiles."""
+TILE_CREDIT_SCRIPT = """
+var gd = document.getElementById('{plot_id}');
+var credit = (gd.layout.annotations || []).findIndex(function (a) {
+  return a.name === '{credit}';
+});
+var shown = false;
+(gd.layout.images || []).forEach(function (im) {
+  var tile = new Image();
+  tile.onload = function () {
+    if (shown || credit < 0) return;
+    shown = true;
+    var show = {};
+    show['annotations[' + credit + '].visible'] = true;
+    Plotly.relayout(gd, show);
+  };
+  tile.src = im.source;
+});
+""".replace("{credit}", TILE_CREDIT)
+"""Run after the map is drawn (plotly's ``post_script``): the tiles' credit shows once a
+tile has loaded, never on a map without tiles (offline)."""
 
 
 def drone_colour(drone: int) -> str:
@@ -95,11 +119,30 @@ def map_figure(
     )
     stops = route_stops(files)
     windows = sorted({r["window"] for r in files.routes})
+    drawn = sorted((r for r in files.routes if flown(r)), key=lambda r: (r["drone"], r["window"]))
+    # The legend: an entry per drone that flies, drawn by a trace of its own that no
+    # window of the slider hides (a route's trace carries none: the slider hides the
+    # routes of the other windows, and their entries with them). Clicking an entry
+    # hides or shows the drone's routes (its legend group).
+    first: dict[int, dict[str, Any]] = {}
+    for r in drawn:
+        first.setdefault(r["drone"], r)
+    for d, r in first.items():
+        fig.add_trace(
+            go.Scatter(
+                x=[None],
+                y=[None],
+                mode="lines+markers",
+                line={"color": drone_colour(d), "width": 2},
+                marker={"size": 7, "color": drone_colour(d)},
+                hoverinfo="skip",
+                name=f"drone {plain(d)} ({plain(short(r['drone_type']))})",
+                legendgroup=f"drone {d}",
+                uid=LEGEND_UID.format(drone=d),
+            )
+        )
     route_windows: list[int] = []
-    seen: set[int] = set()
-    for r in sorted(files.routes, key=lambda r: (r["drone"], r["window"])):
-        if not flown(r):
-            continue
+    for r in drawn:
         d, w = r["drone"], r["window"]
         pts = stops[(w, d)]
         fig.add_trace(
@@ -116,11 +159,10 @@ def map_figure(
                 hovertemplate=f"%{{text}}<extra>drone {plain(d)}, window {plain(w)}</extra>",
                 name=f"drone {plain(d)} ({plain(short(r['drone_type']))})",
                 legendgroup=f"drone {d}",
-                showlegend=d not in seen,
+                showlegend=False,
                 uid=ROUTE_UID.format(window=w, drone=d),
             )
         )
-        seen.add(d)
         route_windows.append(w)
     fixed = len(fig.data) - len(route_windows)
     _window_slider(fig, fixed, route_windows, windows, files)
@@ -181,6 +223,10 @@ def _axes(fig: Any, frame: Frame | None, depots: dict[int, tuple[float, float]])
         images=tile_images(frame),
         annotations=[
             {
+                # Hidden until a tile has loaded (TILE_CREDIT_SCRIPT): offline the map
+                # has no tiles, and credits none.
+                "name": TILE_CREDIT,
+                "visible": False,
                 "text": ATTRIBUTION,
                 "xref": "paper",
                 "yref": "paper",

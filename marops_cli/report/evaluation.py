@@ -86,18 +86,26 @@ def _paired(page: Page, paired: Any, titles: dict[int, str]) -> None:
         ],
     )
     metrics = list(dict.fromkeys(r["metric"] for r in rows))
+    per = {m: [r for r in rows if r["metric"] == m] for m in metrics}
+    # Every interval's row labelled (plotly thins a category axis's labels to about one
+    # in three where rows are many): a height per row, a tick per row.
+    heights = [_ROW_PX * len(per[m]) + _PANEL_PX for m in metrics]
     fig = make_subplots(
-        rows=len(metrics), cols=1, subplot_titles=[plain(m) for m in metrics], vertical_spacing=0.08
+        rows=len(metrics),
+        cols=1,
+        subplot_titles=[_paired_title(m, per[m][0]) for m in metrics],
+        row_heights=heights,
+        vertical_spacing=_PANEL_GAP_PX / sum(heights),
     )
     for i, metric in enumerate(metrics, start=1):
-        sel = [r for r in rows if r["metric"] == metric]
+        sel = per[metric]
+        labels = [
+            plain(f"{short(r['method'])} · {titles.get(r['setting'], r['setting'])}") for r in sel
+        ]
         fig.add_trace(
             go.Scatter(
                 x=[r["mean_diff"] for r in sel],
-                y=[
-                    plain(f"{short(r['method'])} · {titles.get(r['setting'], r['setting'])}")
-                    for r in sel
-                ],
+                y=labels,
                 mode="markers",
                 marker={"size": 9},
                 error_x={
@@ -113,8 +121,43 @@ def _paired(page: Page, paired: Any, titles: dict[int, str]) -> None:
             col=1,
         )
         fig.add_vline(x=0.0, line={"color": "#888", "dash": "dot"}, row=i, col=1)
-    fig.update_layout(height=230 * len(metrics) + 60, margin={"l": 320, "r": 20, "t": 40})
+        fig.update_yaxes(
+            type="category",
+            tickmode="array",
+            tickvals=labels,
+            ticktext=labels,
+            autorange="reversed",  # the table's order, top down
+            row=i,
+            col=1,
+        )
+    fig.update_layout(
+        height=sum(heights) + _PANEL_GAP_PX * (len(metrics) - 1) + 60,
+        margin={"l": 320, "r": 20, "t": 40},
+    )
     page.figure(fig, "paired")
+
+
+_ROW_PX = 24
+"""Height of a paired interval's row (its label's line)."""
+_PANEL_PX = 70
+"""Height of a paired panel besides its rows: its axis and title."""
+_PANEL_GAP_PX = 50
+
+
+def _paired_title(metric: str, row: dict[str, Any]) -> str:
+    """A paired panel's title: the metric's label (the summary tables' wording) and
+    which way is better, as paired.csv's ``lower_is_better`` says."""
+    from ..sim.metrics import METRICS
+
+    spec = METRICS.get(metric)
+    label = spec.label if spec is not None else metric
+    lower = row.get("lower_is_better")
+    if isinstance(lower, str):  # a CSV's text
+        lower = lower.strip().lower() == "true"
+    if lower is None and spec is not None:
+        lower = spec.lower_is_better
+    better = "" if lower is None else f": {'lower' if lower else 'higher'} is better"
+    return plain(f"{label}, method − {row.get('against', 'reference')}{better}")
 
 
 def _frontier(page: Page, rows: list[dict[str, Any]]) -> None:

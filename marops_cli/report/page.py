@@ -145,8 +145,9 @@ class Page:
             body.append("<tr>" + "".join(cells) + "</tr>")
         self._parts.append(f"<table><tr>{head}</tr>{''.join(body)}</table>")
 
-    def figure(self, fig: Any, div_id: str) -> None:
-        """A plotly figure under a fixed element id (the same page for the same data)."""
+    def figure(self, fig: Any, div_id: str, post_script: str | None = None) -> None:
+        """A plotly figure under a fixed element id (the same page for the same data);
+        ``post_script``: JavaScript run once it is drawn (``{plot_id}``: its id)."""
         import plotly.io as pio
 
         self._figures += 1
@@ -157,6 +158,7 @@ class Page:
                 full_html=False,
                 div_id=div_id,
                 config=CONFIG,
+                post_script=post_script,
             )
         )
 

@@ -13,7 +13,7 @@ from pathlib import Path
 import pyarrow.parquet as pq
 import pytest
 
-from marops_cli.report.basemap import TILE_HOST
+from marops_cli.report.basemap import ATTRIBUTION, TILE_HOST
 
 from .cdp import chromium, open_page
 from .conftest import invoke, rewrite_parquet
@@ -65,6 +65,77 @@ def test_report_in_chromium(day_run: Path, tmp_path: Path) -> None:
     assert errors == []
     width, height = _png_size(shot.read_bytes())
     assert (width, height) == (1300, 1000)
+
+
+# The slider dragged to its last window as a user does (a press on the rail at the last
+# tick); resolves to the step the slider then shows, once the map is redrawn.
+SLIDE_TO_LAST = """new Promise(done => {
+  const ticks = document.querySelectorAll('#map .slider-tick-rect');
+  const tick = ticks[ticks.length - 1].getBoundingClientRect();
+  const at = {bubbles: true, view: window, clientX: tick.x + tick.width / 2,
+              clientY: tick.y + tick.height / 2};
+  document.querySelector('#map .slider-rail-touch-rect')
+    .dispatchEvent(new MouseEvent('mousedown', at));
+  document.getElementById('map').dispatchEvent(new MouseEvent('mouseup', at));
+  document.getElementById('map').once('plotly_restyle',
+    () => setTimeout(() => done(document.getElementById('map')._fullLayout.sliders[0].active)));
+})"""
+LEGEND = "[...document.querySelectorAll('#map .legendtext')].map(e => e.textContent)"
+# The map's annotations as drawn, once the tile credit shows or after a while without.
+CREDIT = """new Promise(done => {
+  let waited = 0;
+  const look = () => {
+    const drawn = [...document.querySelectorAll('#map .annotation')].map(e => e.textContent);
+    if (drawn.length || waited >= 5000) return done(drawn);
+    waited += 100;
+    setTimeout(look, 100);
+  };
+  look();
+})"""
+PIXEL = (
+    "data:image/png;base64,iVBORw0KGgoAAAANSUhEUgAAAAEAAAABCAYAAAAfFcSJAAAADUlEQVR42mNk"
+    "+M9QDwADhgGAWjR9awAAAABJRU5ErkJggg=="
+)
+
+
+def test_the_drone_legend_stays_on_every_window_of_the_slider(
+    day_run: Path, tmp_path: Path
+) -> None:
+    """Moved to a later window, the map's legend still names every drone that flies
+    (only the routes of that window are drawn); offline no tile loads and no tile credit
+    shows, and once a tile loads (a data: tile in a copy of the page) the credit does."""
+    import re
+
+    routes = pq.read_table(day_run / "routes.parquet").to_pylist()
+    flown = [r for r in routes if r["n_parcels"] > 0 or r["start_depot"] != r["end_depot"]]
+    last = max(r["window"] for r in flown)
+    names = {f"drone {r['drone']} ({r['drone_type']})" for r in flown}
+    run = open_page(
+        (day_run / "report.html").as_uri(),
+        ready=READY,
+        expressions={
+            "before": LEGEND,
+            "step": SLIDE_TO_LAST,
+            "after": LEGEND,
+            "drawn": f"{_MAP}.data.filter(t => t.visible !== false && "
+            "(t.uid || '').startsWith('route-')).map(t => t.uid)",
+            "credit": CREDIT,
+        },
+    )
+    assert run.values["step"] == len({r["window"] for r in routes})  # "all" is step 0
+    assert {d.split("-")[1] for d in run.values["drawn"]} == {f"w{last}"}
+    for when in ("before", "after"):
+        assert {t for t in run.values[when] if t.startswith("drone ")} == names, when
+    assert run.values["credit"] == []
+    assert _offline_errors(run.errors) == []
+
+    page = (day_run / "report.html").read_text(encoding="utf-8")
+    tiles = re.sub(r'https:\\u002f\\u002fserver\.arcgisonline\.com[^"]*', PIXEL, page)
+    assert tiles != page
+    (tmp_path / "tiles.html").write_text(tiles, encoding="utf-8")
+    run = open_page((tmp_path / "tiles.html").as_uri(), ready=READY, expressions={"credit": CREDIT})
+    assert run.values["credit"] == [ATTRIBUTION]
+    assert run.errors == []
 
 
 def test_pages_sharing_plotly_js_draw_their_figures_from_files(

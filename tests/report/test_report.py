@@ -52,7 +52,7 @@ def test_day_report_draws_one_line_per_route_the_depots_and_the_metrics(day_run:
     assert [s["label"].split()[0] for s in steps] == ["all", "0", "1", "2", "3"]
     for s, w in zip(steps[1:], range(4), strict=True):
         vis = s["args"][0]["visible"]
-        shown = [t["uid"] for t, v in zip(data, vis, strict=True) if v and "uid" in t]
+        shown = [t["uid"] for t, v in zip(data, vis, strict=True) if v and t in lines]
         assert shown == [t["uid"] for t in lines if t["uid"].startswith(f"route-w{w}-")]
     bars, _ = figure(html, "timeline")
     assert sum(len(b["x"]) for b in bars if b["name"].endswith("flies")) == len(flown)
@@ -63,6 +63,37 @@ def test_day_report_draws_one_line_per_route_the_depots_and_the_metrics(day_run:
     body = html.split("</head>")[1].replace("\\u002f", "/")
     urls = re.findall(r"https?://[^\"'\s]+", body)
     assert urls and all(u.startswith(TILE_HOST) for u in urls)  # nothing fetched but tiles
+
+
+def test_every_window_of_the_slider_keeps_each_drone_in_the_legend(day_run: Path) -> None:
+    """The legend names every drone that flies, whichever window the slider shows (a
+    drone whose first route is in another window kept its entry only under "all")."""
+    html = (day_run / "report.html").read_text(encoding="utf-8")
+    data, layout = figure(html, "map")
+    flown = _flown(pq.read_table(day_run / "routes.parquet").to_pylist())
+    drones = sorted({r["drone"] for r in flown})
+    assert len({r["window"] for r in flown if r["drone"] == drones[-1]}) > 1
+    steps = layout["sliders"][0]["steps"]
+    for step in steps:
+        shown = [
+            t["name"]
+            for t, v in zip(data, step["args"][0]["visible"], strict=True)
+            if v and t.get("showlegend", True) and t.get("name", "").startswith("drone ")
+        ]
+        assert [int(n.split()[1]) for n in shown] == drones, step["label"]
+    # Each entry stands for its drone's routes: clicking it hides them all.
+    groups = {t["legendgroup"] for t in data if t.get("uid", "").startswith("route-")}
+    assert groups == {f"drone {d}" for d in drones}
+
+
+def test_the_tile_credit_waits_for_a_tile(day_run: Path) -> None:
+    """The map's tile credit is hidden until a tile has loaded (the page's script shows
+    it then): offline, a map without tiles credits none."""
+    html = (day_run / "report.html").read_text(encoding="utf-8")
+    _, layout = figure(html, "map")
+    (credit,) = layout["annotations"]
+    assert credit["name"] == "tile-credit" and credit["visible"] is False
+    assert "Tiles ©" in credit["text"] and "tile.onload" in html
 
 
 def test_the_page_is_self_contained_and_journaled(day_run: Path) -> None:
@@ -264,6 +295,12 @@ def test_plan_window_report(
     assert "solver status" in html
     long_numbers = re.findall(r'<td class="num">[-+]?\d*\.\d{7,}</td>', html)
     assert long_numbers == []  # six significant digits, the solver's objective's too
+    # Energies as plan-window prints them: MJ (kJ for the routes'), not raw joules.
+    score = json.loads((out / "routes.json").read_text())["meta"]["objective"]
+    j_mj, energy_kj = score["J"] / 1e6, score["energy_j"] / 1e3
+    assert f'<td>window objective J</td><td class="num">{j_mj:,.3f} MJ</td>' in html
+    assert f'<td>energy of the routes</td><td class="num">{energy_kj:,.1f} kJ</td>' in html
+    assert "<td>J</td>" not in html and "<td>energy_j</td>" not in html and "e+07" not in html
     # A window's flights last minutes: ticks half a minute apart show their seconds (at
     # %H:%M two of them read the same), ticks a minute or more apart do not.
     _, timeline = figure(html, "timeline")
@@ -488,6 +525,38 @@ def test_evaluate_report_tables_paired_and_sweep(evaluation_run: Path, tmp_path:
     lines = res.output.strip().splitlines()
     assert res.exit_code == 2 and len(lines) == 1 and "results.parquet" in lines[0], res.output
     assert (out / "report.html").read_text(encoding="utf-8") == html
+
+
+def test_every_paired_interval_is_labelled_under_its_metrics_name(
+    evaluation_run: Path, tmp_path: Path
+) -> None:
+    """A sweep's paired comparison of 21 settings: each panel a tick label per interval
+    (plotly would thin them to about one in three) and a height per row; panel titles
+    the metric's name as the summary tables give it, and which way is better."""
+    import csv
+
+    copy = tmp_path / "ev"
+    shutil.copytree(evaluation_run, copy)
+    rows = _csv_rows(copy / "paired.csv")
+    many = [dict(r, setting=str(k)) for r in rows if r["setting"] == "0" for k in range(21)]
+    with (copy / "paired.csv").open("w", newline="") as fh:
+        writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
+        writer.writeheader()
+        writer.writerows(many)
+    invoke("report", copy, "--quiet", "--force")  # the table edited is no more marops's
+    data, layout = figure((copy / "report.html").read_text(encoding="utf-8"), "paired")
+    metrics = list(dict.fromkeys(r["metric"] for r in many))
+    assert len(data) == len(metrics) and all(len(t["y"]) == 21 for t in data)
+    for trace in data:
+        axis = layout["yaxis" + trace.get("yaxis", "y")[1:]]
+        assert axis["tickmode"] == "array" and axis["tickvals"] == trace["y"]
+        assert len(set(trace["y"])) == 21
+    assert layout["height"] >= 20 * 21 * len(metrics)
+    titles = [a["text"] for a in layout["annotations"] if "is better" in a["text"]]
+    assert len(titles) == len(metrics)
+    assert "Day objective J (MJ), method − stay: lower is better" in titles
+    assert "Delivered share, method − stay: higher is better" in titles
+    assert not [t for t in titles if "_" in t]  # no column names
 
 
 def test_a_sweep_draws_each_method_in_its_legend_colour_in_every_panel(
