@@ -156,6 +156,9 @@ def evaluate(
     register_inputs([data, *(f for a in config.actors.values() for f in actor_files(a))])
     if out is not None:  # before any work: a folder, no file marops did not write
         check_out(out)
+        from ..io.atomic import check_free
+
+        check_free(out)  # no other run writes there, nor above it or inside it
         sweep = {
             "alpha": config.alpha,
             "drones": config.drones,

@@ -139,6 +139,9 @@ def replay_days(
         refuse_links_below(folder, outputs)
         actor = policy_files(options.method, cfg.sim.policy, ops=cfg.ops)
         protect_inputs(outputs, [*(_path(v) for v in inputs.values()), *actor])
+        from ..io.atomic import check_free
+
+        check_free(folder)  # no other run writes there, nor above it or inside it
     # A bad actor stops here.
     pol = method_policy(
         options.method, cfg.sim.policy, cfg.sim.seed, trust=cfg.sim.trust_actor, ops=cfg.ops

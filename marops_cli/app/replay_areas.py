@@ -5,12 +5,15 @@ worker processes, each day's files written the moment it is done (docs/decisions
 from __future__ import annotations
 
 import datetime as dt
+import os
 from contextlib import ExitStack
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from ..errors import InputError, option
 from ..io import folder_lock, output_set, run_meta
+from ..io.ownership import JOURNAL
 from .identity import identity, matching_days
 from .messages import day_scope, undelivered
 from .progress import Progress
@@ -103,6 +106,8 @@ class Area:
     report_top: Path | None = None
     """The folder above ``out`` whose plotly.js the area's pages load (a city's, for a
     hub); None: the report's own (docs/report.md)."""
+    placed: dict[dt.date, dict[Path, tuple[int, ...]]] = field(default_factory=dict)
+    """Each day's files in its folder as this run kept or wrote them (:func:`_own_days`)."""
 
     def folder(self, day: dt.date) -> Path | None:
         if self.out is None:
@@ -148,8 +153,42 @@ def make_area(
         folder = area.folder(day)
         # A day is done when all its files are there: one lost since is replayed.
         if folder is not None and all((folder / f).is_file() for f in asked) and not run.force:
+            # The files as they are before their metrics are read: the summary claims
+            # the day only if they are these still (a run that wrote the day meanwhile).
+            area.placed[day] = {folder / f: _signature(folder / f) for f in asked}
             area.keep[day] = matching_days(folder / "metrics.json", ident, day, TOTALLED)
     return area
+
+
+def _signature(path: Path) -> tuple[int, ...]:
+    """Which file is at ``path``: device, inode, size and time of its last change; a
+    file renamed into its place, or written over, has another. Empty when none is."""
+    try:
+        st = os.lstat(path)
+    except OSError:
+        return ()
+    return _stat_signature(st)
+
+
+def _stat_signature(st: os.stat_result) -> tuple[int, ...]:
+    return (st.st_dev, st.st_ino, st.st_size, st.st_mtime_ns)
+
+
+def _own_days(area: Area) -> None:
+    """Before a summary claims an area's days (its ``metrics.json`` over several days, a
+    city's): each day's folder still holds the files this run kept or wrote there, not
+    another run's written meanwhile; else one line naming the folder (exit 2) and no
+    summary is written."""
+    for day in area.days:
+        for path, sig in area.placed.get(day, {}).items():
+            if _signature(path) != sig:
+                did = "kept" if day in area.keep else "wrote"
+                raise InputError(
+                    f"was written by another run while this one ran ({path.name} is not the "
+                    f"file this run {did}); no summary claims it: run the command again "
+                    f"when no other run writes into {option('out')}",
+                    file=path.parent,
+                )
 
 
 _Done = dict[tuple[int, dt.date], tuple[dict[str, Any], "DayTables | None"]]
@@ -230,6 +269,8 @@ def _collect(
             rows.append(metrics)
             if kept is not None:
                 tables.append(kept)
+        if a.out is not None and (a.several or a.label):  # a summary claims the days
+            _own_days(a)
         if a.several and a.out is not None:
             meta = run_meta(
                 command="replay-day", config=a.scn.cfg, source=a.scn.table.source, method=run.method
@@ -353,6 +394,9 @@ def _finish_day(
             stamped = dict(meta, **run_meta(command="replay-day"), settings=area.identity)
             files.write_json(folder / "metrics.json", {"meta": stamped, "days": [out.metrics]})
         area.written += [*paths, folder / "metrics.json"]
+        area.placed[day] = {
+            p: _stat_signature(st) for p, st in files.placed.items() if p.name != JOURNAL
+        }
     if not run.keep_tables:
         return out.metrics, None
     tables = DayTables(

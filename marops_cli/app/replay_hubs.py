@@ -3,11 +3,12 @@
 from __future__ import annotations
 
 import datetime as dt
+from contextlib import ExitStack
 from pathlib import Path
 from typing import Any
 
 from ..errors import InputError, in_hub
-from ..io import output_set, run_meta
+from ..io import folder_lock, output_set, run_meta
 from ..io.meta import file_sha256
 from .inputs import data_name, in_memory, read_data
 from .messages import drop_report
@@ -63,24 +64,29 @@ def replay_hubs(
     drop_report(progress, table.report, data_name(data))
     for line in skipped:
         progress.message(line)
-    per_area, tables = replay_areas(areas, run, progress)
-    written = [f for a in areas for f in a.written]
-    all_metrics = [m for rows in per_area for m in rows]
-    city = city_coverage(table, days, all_metrics)
-    total = aggregate_days(all_metrics)
-    if out is not None:
-        meta = run_meta(command="replay-day", config=cfg, source=table.source, method=run.method)
-        meta["hubs_file"] = {"name": hubs_path.name, "sha256": file_sha256(hubs_path)}
-        with output_set() as files:
-            files.write_json(
-                out / "metrics.json",
-                {"meta": meta, "city": city, "days": all_metrics, "total": total},
+    with ExitStack() as held:
+        if out is not None:  # the city's folder is the run's, with every hub's below it
+            held.enter_context(folder_lock(out))
+        per_area, tables = replay_areas(areas, run, progress)
+        written = [f for a in areas for f in a.written]
+        all_metrics = [m for rows in per_area for m in rows]
+        city = city_coverage(table, days, all_metrics)
+        total = aggregate_days(all_metrics)
+        if out is not None:
+            meta = run_meta(
+                command="replay-day", config=cfg, source=table.source, method=run.method
             )
-        written.append(out / "metrics.json")
-        if run.report:  # the city's page; each hub's was written with its days
-            from ..report import write_reports
+            meta["hubs_file"] = {"name": hubs_path.name, "sha256": file_sha256(hubs_path)}
+            with output_set() as files:
+                files.write_json(
+                    out / "metrics.json",
+                    {"meta": meta, "city": city, "days": all_metrics, "total": total},
+                )
+            written.append(out / "metrics.json")
+            if run.report:  # the city's page; each hub's was written with its days
+                from ..report import write_reports
 
-            written += write_reports(out, below=False, shared=out)
+                written += write_reports(out, below=False, shared=out)
     progress.message(
         f"city: {city['planned']:,} of {city['orders_due']:,} orders due planned in "
         f"{len(hub_list)} hubs ({100 * city['covered_share']:.1f} %), "

@@ -3,15 +3,17 @@
 from __future__ import annotations
 
 import contextlib
+import errno
 import json
 import os
 import re
+import secrets
 import signal
 import stat
-import tempfile
 import threading
 from collections.abc import Callable, Iterator
 from contextlib import ExitStack, contextmanager
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -39,6 +41,9 @@ class OutputSet:
         self._pending: list[tuple[Path, Path]] = []
         self._journal: set[Path] = set()
         """Files journaled whatever their suffix (:meth:`path_for`)."""
+        self.placed: dict[Path, os.stat_result] = {}
+        """Each file committed, with what it was as it was renamed into place (a run
+        checks later that a day's files are still the ones it wrote)."""
 
     def path_for(self, final: str | Path, journal: bool = False) -> Path:
         """A temporary for ``final``; ``journal``: ``final`` goes into its folder's
@@ -48,17 +53,13 @@ class OutputSet:
         check_replaceable([final], journal)
         try:
             final.parent.mkdir(parents=True, exist_ok=True)
-            _clean_once(final.parent)
-            fd, tmp = tempfile.mkstemp(
-                prefix=f".{final.name}.{TMP_MARK}", suffix=".tmp", dir=final.parent
-            )
+            tmp = temporary(final.parent, final.name)
         except OSError as exc:
             raise cannot_write(final, exc) from None
-        os.close(fd)
-        self._pending.append((Path(tmp), final))
+        self._pending.append((tmp, final))
         if journal:
             self._journal.add(final)
-        return Path(tmp)
+        return tmp
 
     def write_bytes(self, final: str | Path, data: bytes) -> None:
         self.write_with(final, lambda tmp: tmp.write_bytes(data))
@@ -88,10 +89,12 @@ class OutputSet:
         with ExitStack() as held:
             for folder in journaled:
                 held.enter_context(folder_held(folder))
-            journals = []
+            journals: list[tuple[Path, Path]] = []
             for folder, names in journaled.items():
                 try:
-                    journals.append((journal_update(folder, names), folder / JOURNAL))
+                    tmp = temporary(folder, JOURNAL)
+                    journals.append((tmp, folder / JOURNAL))
+                    journal_update(folder, names, tmp)
                 except OSError as exc:
                     self._pending.extend(journals)  # removed by discard()
                     raise cannot_write(folder / JOURNAL, exc) from None
@@ -111,9 +114,12 @@ class OutputSet:
             for tmp, final in order:
                 try:
                     os.chmod(tmp, mode)
+                    placed = os.lstat(tmp)
                     os.replace(tmp, final)
                 except OSError as exc:
                     raise cannot_write(final, exc) from None
+                self.placed[final] = placed
+                settled(tmp)
             self._pending.clear()
         finally:
             if blocked:
@@ -122,6 +128,7 @@ class OutputSet:
     def discard(self) -> None:
         for tmp, _ in self._pending:
             tmp.unlink(missing_ok=True)
+            settled(tmp)
         self._pending.clear()
 
 
@@ -167,12 +174,16 @@ LOCK = ".marops.lock"
 
 @contextmanager
 def folder_lock(folder: str | Path) -> Iterator[None]:
-    """Hold ``folder`` for this run: a second run into it stops with a clear message
-    instead of redoing the work; temporaries a killed run left there are removed.
+    """Hold ``folder`` for this run: a second run into it, or into a folder inside it or
+    above it, stops with a clear message instead of redoing or mixing the work; the
+    temporaries a killed run recorded in the lock are removed.
 
     The lock is an OS lock (``flock``) on ``.marops.lock``, held while the file is
     open: only its holder ever removes that file, and only while holding it, so a
-    refused run cannot break the lock of the run that holds it.
+    refused run cannot break the lock of the run that holds it. The file holds the
+    holder's pid and, on the lines after it, the temporaries the run is making below
+    the folder (``tmp NAME`` before one is made, ``done NAME`` once it is renamed or
+    removed; the lines go when none is left): the only files the next run removes.
     """
     folder = Path(folder)
     created = not folder.exists()
@@ -182,13 +193,12 @@ def folder_lock(folder: str | Path) -> Iterator[None]:
     root = folder.resolve()
     try:
         with _GUARD:
-            _HELD[root] = os.getpid()
-        _clean_once(folder)
+            _HELD[root] = _Hold(os.getpid(), fh, len(f"pid {os.getpid()}"))
+        _refuse_nested(folder, root)
         yield
     finally:
         with _GUARD:
             _HELD.pop(root, None)
-            _CLEANED.difference_update({f for f in _CLEANED if f == root or root in f.parents})
         empty = created and not any(p.name != LOCK for p in folder.iterdir())
         lock.unlink(missing_ok=True)  # still holding it: the next run takes a fresh one
         fh.close()
@@ -198,7 +208,8 @@ def folder_lock(folder: str | Path) -> Iterator[None]:
 
 
 def _take(folder: Path, lock: Path) -> Any:
-    """The open, locked lock file, or a :class:`RunError` naming the holder."""
+    """The open, locked lock file, or a :class:`RunError` naming the holder; the
+    temporaries a killed holder recorded in it are removed."""
     import fcntl
 
     while True:
@@ -206,16 +217,17 @@ def _take(folder: Path, lock: Path) -> Any:
         try:
             fcntl.flock(fh.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
         except OSError:
-            holder = _held(fh)
+            content = _content(fh)
             fh.close()
-            if holder and not _OURS.fullmatch(holder):
+            if _recorded(content) is None:
                 raise _foreign(lock) from None
             raise RunError(
-                f"{folder}: another marops run ({holder or 'another process'}) is writing "
+                f"{folder}: another marops run ({_holder_of(content)}) is writing "
                 "here; wait for it to finish or choose another --out"
             ) from None
         # Empty, it is a run's that has not written its pid yet, or a killed one's.
-        if (held := _held(fh)) and not _OURS.fullmatch(held):
+        left = _recorded(_content(fh))
+        if left is None:
             fh.close()  # a file of the same name marops did not write: left as it is
             raise _foreign(lock)
         # The holder removes the file as it ends: a lock taken on a file already
@@ -227,6 +239,7 @@ def _take(folder: Path, lock: Path) -> Any:
         if same:
             break
         fh.close()
+    _remove_recorded(folder, left)
     fh.seek(0)
     fh.truncate()
     fh.write(f"pid {os.getpid()}".encode())
@@ -234,15 +247,73 @@ def _take(folder: Path, lock: Path) -> Any:
     return fh
 
 
-# What a marops lock holds: the holder's process id.
+# What a marops lock holds: the holder's process id, then the temporaries it recorded.
 _OURS = re.compile(r"pid \d+")
+_CHARS = "abcdefghijklmnopqrstuvwxyz0123456789_"
+_TMP_NAME = r"\.[^/\n]+\." + TMP_MARK + r"[a-z0-9_]{8}\.tmp"
+_RECORD = re.compile(r"(?P<what>tmp|done) (?P<rel>(?:[^/\n]+/)*" + _TMP_NAME + ")")
+_LOCK_MAX = 1 << 20
+"""A lock lists the temporaries of one output set at most (a few lines): a larger file
+is none of marops's."""
 
 
-def _held(fh: Any) -> str:
-    """What a lock file holds, as text (bytes that are no UTF-8 replaced: no marops
-    lock holds them)."""
+def _content(fh: Any) -> bytes:
+    """What a lock file holds (up to :data:`_LOCK_MAX` and a byte)."""
     fh.seek(0)
-    return fh.read(256).decode("utf-8", errors="replace").strip()
+    data: bytes = fh.read(_LOCK_MAX + 1)
+    return data
+
+
+def _recorded(content: bytes) -> list[str] | None:
+    """The temporaries a marops lock lists as being made (relative to its folder), in
+    order; None for a file marops did not write (anything but ``pid N`` and records of
+    temporaries, or nothing)."""
+    if len(content) > _LOCK_MAX:
+        return None
+    text = content.decode("utf-8", errors="surrogateescape").strip()
+    if not text:
+        return []
+    first, *records = text.split("\n")
+    if not _OURS.fullmatch(first):
+        return None
+    made: dict[str, None] = {}
+    for line in records:
+        m = _RECORD.fullmatch(line)
+        if m is None or any(part in (".", "..") for part in m["rel"].split("/")):
+            return None
+        if m["what"] == "tmp":
+            made[m["rel"]] = None
+        else:
+            made.pop(m["rel"], None)
+    return list(made)
+
+
+def _holder_of(content: bytes) -> str:
+    """The holder a lock names (``pid N``), as text."""
+    first = content[:256].decode("utf-8", errors="replace").strip().split("\n")[0]
+    return first or "another process"
+
+
+def _remove_recorded(folder: Path, names: list[str]) -> int:
+    """Remove the temporaries a killed run recorded in ``folder``'s lock: each only when
+    it is still a regular file of this user's at that place, reached through no link."""
+    n = 0
+    uid = os.getuid()
+    for rel in names:
+        *parts, name = rel.split("/")
+        here = folder
+        try:
+            for part in parts:
+                here = here / part
+                if not stat.S_ISDIR(os.lstat(here).st_mode):  # a link is no folder here
+                    raise NotADirectoryError(here)
+            st = os.lstat(here / name)
+            if stat.S_ISREG(st.st_mode) and st.st_uid == uid:
+                os.unlink(here / name)
+                n += 1
+        except OSError:
+            continue
+    return n
 
 
 def _open_lock(lock: Path) -> Any:
@@ -267,37 +338,164 @@ def _foreign(lock: Path) -> InputError:
     )
 
 
-# Folders under a lock this process holds, and those already cleaned of stale
-# temporaries this run: a folder is cleaned before this run's first temporary there,
-# so only a killed run's can go.
-_GUARD = threading.Lock()
-_HELD: dict[Path, int] = {}
-_CLEANED: set[Path] = set()
+def check_free(folder: str | Path) -> None:
+    """Before any work: refuse ``folder`` while another run holds it (exit 1, as
+    :func:`folder_lock` would) or a folder above or inside it (exit 2), so that a run
+    refused prints that line alone. :func:`folder_lock` checks again as it takes it."""
+    folder = Path(folder)
+    if not folder.is_dir():
+        root = folder.absolute()
+        while not root.exists():
+            root = root.parent
+        _refuse_nested(folder, root.resolve(), made=False)
+        return
+    holder = _busy(folder / LOCK)
+    if holder is not None and folder.resolve() not in _mine():
+        raise RunError(
+            f"{folder}: another marops run ({holder}) is writing here; wait for it to "
+            "finish or choose another --out"
+        )
+    _refuse_nested(folder, folder.resolve())
 
 
-def _clean_once(folder: Path) -> None:
-    """Remove a killed run's temporaries from ``folder`` the first time this run writes
-    there, when a lock this process holds covers it (no other run writes there)."""
-    here = folder.resolve()
+def _mine() -> set[Path]:
+    """The folders this process holds."""
     with _GUARD:
-        if here in _CLEANED:
-            return
+        return {r for r, h in _HELD.items() if h.pid == os.getpid()}
+
+
+def _refuse_nested(folder: Path, root: Path, *, made: bool = True) -> None:
+    """Refuse ``folder`` while another run holds a folder above it or inside it: the two
+    would write into one tree, and a summary of one would claim the other's days
+    (docs/outputs.md, "The folder lock"). ``root`` is ``folder`` resolved or, when it is
+    not ``made`` yet, the nearest folder above it that is (nothing lies inside it yet).
+    Folders this process holds (a city's and its hubs') are no other run's."""
+    mine = _mine()
+    for above in root.parents if made else [root, *root.parents]:
+        holder = None if above in mine else _busy(above / LOCK)
+        if holder is not None:
+            raise InputError(
+                f"another marops run ({holder}) is writing into this folder, which holds "
+                f"{option('out')} {folder}; wait for it to finish or choose another "
+                f"{option('out')}",
+                file=_shown(above),
+            )
+    if not made:
+        return
+    for dirpath, _, names in os.walk(root):  # links are not followed
+        here = Path(dirpath)
+        if here == root or LOCK not in names or here in mine:
+            continue
+        holder = _busy(here / LOCK)
+        if holder is not None:
+            raise InputError(
+                f"another marops run ({holder}) is writing into this folder, inside "
+                f"{option('out')} {folder}; wait for it to finish or choose another "
+                f"{option('out')}",
+                file=folder / here.relative_to(root),
+            )
+
+
+def _busy(lock: Path) -> str | None:
+    """The holder of ``lock`` (``pid N``) while a run holds it; None when no run does (no
+    such file, a killed run's, or one that cannot be read). Tried with a shared lock,
+    dropped at once, never with the holder's exclusive one."""
+    import fcntl
+
+    try:
+        fd = os.open(lock, os.O_RDONLY | os.O_NOFOLLOW | os.O_NONBLOCK)
+    except OSError:
+        return None
+    try:
+        if not stat.S_ISREG(os.fstat(fd).st_mode):
+            return None
+        try:
+            fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
+        except OSError:
+            return _holder_of(os.read(fd, 256))
+        return None  # nobody holds it; closing drops this process's probe
+    finally:
+        os.close(fd)
+
+
+def _shown(path: Path) -> Path:
+    """``path`` as the user would write it: relative to the current folder when inside it."""
+    try:
+        return path.relative_to(Path.cwd().resolve())
+    except ValueError:
+        return path
+
+
+@dataclass
+class _Hold:
+    """A folder lock this process holds: its open file, the length of its first line
+    (``pid N``) and the temporaries it lists as being made."""
+
+    pid: int
+    fh: Any
+    header: int
+    making: set[str] = field(default_factory=set)
+
+
+# Folders under a lock this process holds, and the temporaries recorded in them.
+_GUARD = threading.Lock()
+_HELD: dict[Path, _Hold] = {}
+_RECORDS: dict[Path, tuple[_Hold, str]] = {}
+
+
+def temporary(folder: Path, name: str) -> Path:
+    """A new, empty temporary for ``name`` in ``folder`` (which exists):
+    ``.NAME.marops-XXXXXXXX.tmp``, recorded in the lock this run holds over the folder
+    before it is made, so that the next run removes it if this one is killed (and
+    nothing that is merely named so). Call :func:`settled` once it is renamed or removed."""
+    for _ in range(100):
+        suffix = "".join(secrets.choice(_CHARS) for _ in range(8))
+        tmp = folder / f".{name}.{TMP_MARK}{suffix}.tmp"
+        _record(tmp)
+        try:
+            fd = os.open(tmp, os.O_RDWR | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW, 0o600)
+        except FileExistsError:  # someone's file by that name: never ours to remove
+            settled(tmp)
+            continue
+        except BaseException:
+            settled(tmp)
+            raise
+        os.close(fd)
+        return tmp
+    raise FileExistsError(errno.EEXIST, "no free temporary name", str(folder))
+
+
+def _record(tmp: Path) -> None:
+    """List ``tmp`` in the lock of the innermost folder this process holds above it."""
+    here = tmp.parent.resolve()
+    with _GUARD:
         pid = os.getpid()
-        if not any(p == pid and (r == here or r in here.parents) for r, p in _HELD.items()):
+        roots = [r for r, h in _HELD.items() if h.pid == pid and (r == here or r in here.parents)]
+        if not roots:
+            return  # no lock of this run over it: nothing records it, nothing removes it
+        root = max(roots, key=lambda r: len(r.parts))
+        hold = _HELD[root]
+        rel = (here / tmp.name).relative_to(root).as_posix()
+        if "\n" in rel:
             return
-        _CLEANED.add(here)
-        remove_stale_temporaries(here)
+        os.write(hold.fh.fileno(), b"\ntmp " + os.fsencode(rel))
+        hold.making.add(rel)
+        _RECORDS[tmp] = (hold, rel)
 
 
-_STALE = re.compile(r"^\..+\." + TMP_MARK + r"[a-z0-9_]{8}\.tmp$")
-
-
-def remove_stale_temporaries(folder: Path) -> int:
-    """Remove the temporaries (``.NAME.marops-XXXXXXXX.tmp``) a killed run left in
-    ``folder`` itself: not below it, and nothing named otherwise."""
-    n = 0
-    for tmp in folder.iterdir():
-        if _STALE.match(tmp.name) and tmp.is_file() and not tmp.is_symlink():
-            tmp.unlink(missing_ok=True)
-            n += 1
-    return n
+def settled(tmp: Path) -> None:
+    """``tmp`` is renamed into place or removed: its record goes (the lock holds only
+    ``pid N`` again once no temporary is being made)."""
+    with _GUARD:
+        found = _RECORDS.pop(tmp, None)
+        if found is None:
+            return
+        hold, rel = found
+        hold.making.discard(rel)
+        if hold.fh.closed:
+            return
+        with contextlib.suppress(OSError):
+            if hold.making:
+                os.write(hold.fh.fileno(), b"\ndone " + os.fsencode(rel))
+            else:
+                os.ftruncate(hold.fh.fileno(), hold.header)

@@ -273,21 +273,19 @@ def _journal(folder: Path) -> dict[str, list[str]]:
     return {k: v for k, v in files.items() if isinstance(v, list)}
 
 
-def journal_update(folder: Path, written: dict[str, str]) -> Path:
-    """A temporary holding ``folder``'s journal with ``written`` (name -> SHA-256 of the
-    new content) added, for the caller to rename into place with the files. Each entry
-    keeps the previous hash too, so the file is marops's before and after its rename;
-    entries of files gone are dropped."""
+def journal_update(folder: Path, written: dict[str, str], tmp: Path) -> None:
+    """Write into the temporary ``tmp`` ``folder``'s journal with ``written`` (name ->
+    SHA-256 of the new content) added, for the caller to rename into place with the
+    files. Each entry keeps the previous hash too, so the file is marops's before and
+    after its rename; entries of files gone are dropped."""
     files = _journal(folder)
     for name, digest in written.items():
         files[name] = [digest, *[h for h in files.get(name, [])[:1] if h != digest]]
     files = {k: v for k, v in files.items() if k in written or (folder / k).is_file()}
     doc = {"format": JOURNAL_FORMAT, "files": dict(sorted(files.items()))}
-    fd, tmp = tempfile.mkstemp(prefix=f"{JOURNAL}.{TMP_MARK}", suffix=".tmp", dir=folder)
-    with os.fdopen(fd, "w", encoding="utf-8") as fh:
+    with open(tmp, "w", encoding="utf-8") as fh:
         json.dump(doc, fh, indent=2)
         fh.write("\n")
-    return Path(tmp)
 
 
 @contextmanager

@@ -287,3 +287,23 @@ def test_a_folder_where_a_job_file_goes_is_refused_naming_it(prep, tmp_path: Pat
         again.open()
     assert err.value.file == str(blocked) and "is a folder where" in err.value.message
     assert (blocked / "inside").is_dir()  # left as it was
+
+
+def test_force_leaves_a_user_file_named_like_a_temporary_below_out(prep, tmp_path: Path) -> None:
+    """Only the temporaries a run recorded in its folder's lock are ever removed: a user's
+    file below --out named as marops names one (here in a job's folder, where this run
+    writes under its lock) stays, --force or not (docs/outputs.md, "Temporaries")."""
+    from marops_cli.io.atomic import folder_lock
+
+    out = tmp_path / "ev"
+    first = JobStore(out / "jobs", prep, "another run")
+    first.open()
+    first.add(prep.jobs[0], {"mean_energy_kj": 1.0, "delivered": 1, "requests": 2})
+    mine = first.path(prep.jobs[0]).parent / ".s0-r0.parquet.marops-12345678.tmp"
+    mine.write_bytes(b"a user's file")
+    with folder_lock(out):
+        store = JobStore(out / "jobs", prep, run_identity(prep))
+        store.open(force=True)
+        store.add(prep.jobs[0], {"mean_energy_kj": 1.5, "delivered": 3, "requests": 4})
+    assert mine.read_bytes() == b"a user's file"
+    assert store.path(prep.jobs[0]).is_file()

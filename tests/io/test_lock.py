@@ -113,3 +113,48 @@ def test_a_file_of_the_lock_s_name_that_marops_did_not_write_is_left_as_it_is(
     with folder_lock(folder):
         assert mine.read_text() == f"pid {__import__('os').getpid()}"
     assert not mine.exists()
+
+
+def test_a_run_inside_or_above_a_running_run_s_folder_is_refused_naming_it(
+    tmp_path: Path,
+) -> None:
+    """Two runs never share one tree: a folder inside the held one, or one holding it, is
+    refused (exit 2) naming the folder the other run writes into; the holder's lock and
+    files stay."""
+    from marops_cli.errors import InputError
+    from marops_cli.io.atomic import folder_lock
+
+    outer, inner = tmp_path / "o", tmp_path / "o" / "2022-08-11"
+    for held, mine in ((outer, inner), (inner, outer)):
+        first = _start(held)
+        try:
+            assert first.stdout is not None and first.stdout.readline() == "holding\n"
+            try:
+                with folder_lock(mine):
+                    raise AssertionError("the folder was taken")
+            except InputError as exc:
+                assert exc.file is not None and Path(exc.file).resolve() == held.resolve()
+                assert f"another marops run (pid {first.pid})" in exc.message
+                assert "wait for it to finish or choose another --out" in exc.message
+            assert (held / LOCK).exists() and not (mine / LOCK).exists()
+        finally:
+            first.communicate("", timeout=60)
+        assert first.returncode == 0
+    with folder_lock(outer), folder_lock(inner):  # one process's own folders: taken
+        pass
+
+
+def test_replay_day_into_a_day_folder_of_a_running_replay_is_refused(
+    example_csv: Path, tmp_path: Path, fails_cleanly
+) -> None:
+    """``replay-day --dates … --out o`` running, ``replay-day --date 0811 --out
+    o/2022-08-11`` stops with one line naming o, exit 2, and writes nothing."""
+    out = tmp_path / "o"
+    first = _start(out)
+    try:
+        assert first.stdout is not None and first.stdout.readline() == "holding\n"
+        args = ["replay-day", str(example_csv), "--date", "0811", "--method", "stay"]
+        line = fails_cleanly([*args, "--out", str(out / "2022-08-11")], tmp_path, str(out))
+        assert f"another marops run (pid {first.pid}) is writing into this folder" in line
+    finally:
+        first.communicate("", timeout=60)

@@ -247,3 +247,39 @@ def test_a_rerun_names_a_few_kept_days_each_and_many_in_one_line() -> None:
         "30 days have output with the same settings (2022-08-01 … 2022-08-30), "
         "skipped (--force replays)"
     ]
+
+
+def test_a_day_another_run_wrote_meanwhile_is_not_claimed_by_the_summary(
+    example_csv: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A day's folder written by another run while this one ran (its metrics.json
+    replaced after this run wrote it) is not reported in this run's metrics.json: one
+    line naming the day's folder, exit 2, and no summary."""
+    import os
+
+    from marops_cli.app import replay_areas
+
+    finish = replay_areas._finish_day
+
+    def and_another_run_writes(area, day, out, run, progress):  # type: ignore[no-untyped-def]
+        got = finish(area, day, out, run, progress)
+        folder = area.folder(day)
+        if folder is not None and day.isoformat() == "2022-08-11":
+            doc = json.loads((folder / "metrics.json").read_text())
+            doc["meta"]["settings"]["config"]["plan"]["alpha"] = 0.3  # another run's
+            (folder / "other.json").write_text(json.dumps(doc))
+            os.replace(folder / "other.json", folder / "metrics.json")
+        return got
+
+    monkeypatch.setattr(replay_areas, "_finish_day", and_another_run_writes)
+    out = tmp_path / "week"
+    res = runner.invoke(
+        app,
+        ["replay-day", str(example_csv), "--dates", "0811..0812", "--method", "stay"]
+        + ["--out", str(out)],
+    )
+    assert res.exit_code == 2, res.output
+    line = res.stderr.strip().splitlines()[-1]
+    assert line.startswith(f"marops: error: {out / '2022-08-11'}: was written by another run")
+    assert "metrics.json is not the file this run wrote" in line
+    assert not (out / "metrics.json").exists()
