@@ -15,6 +15,7 @@ these files in job order, whichever worker, machine or session wrote them.
 
 from __future__ import annotations
 
+import math
 import os
 from collections.abc import Sequence
 from pathlib import Path
@@ -123,9 +124,40 @@ class JobStore:
                 )
             self._clear = True
         elif held is not None:
+            self._refuse_strays()
             self._started = True
             self._done = {job.index for job in self.prep.jobs if self._read(job) is not None}
         self.resumed = len(self._done)
+
+    def _refuse_strays(self) -> None:
+        """Refuse a job file of this run's dataset that lies where none of its jobs goes
+        (moved under another ``day=`` or ``method=`` folder, or copied in): a reader of
+        the dataset would take it for one more replay (docs/outputs.md, "Resume")."""
+        places = {self.path(job) for job in self.prep.jobs}
+        stray = next((p for p in self._files() if p not in places), None)
+        if stray is None:
+            return
+        raise InputError(
+            f"lies where no replay of this evaluation goes ({self._holds(stray)}); a "
+            "replay's file is read only where marops wrote it: move it back or remove it",
+            file=stray,
+        )
+
+    def _holds(self, path: Path) -> str:
+        """Which replay a job file holds, by its metadata: ``it holds the replay of
+        hub=0/method=stay/day=2022-08-11/s0-r0.parquet``."""
+        try:
+            meta = parse_json(read_parquet_schema(path).metadata[b"marops"])
+            job = meta["job"]
+            if meta.get("identity") != self.identity:
+                return "it holds a replay of another evaluation"
+            where = (
+                f"hub={int(job['hub'])}/method={quote(str(job['method']), safe='')}/"
+                f"day={job['day']}/s{int(job['setting'])}-r{int(job['repeat'])}.parquet"
+            )
+        except (OSError, ValueError, KeyError, TypeError):
+            return "it names no replay of this evaluation"
+        return f"it holds the replay of {where}"
 
     def _held_identity(self) -> str | None:
         """The run identity ``root`` holds; None for no folder or one with nothing in it."""
@@ -253,17 +285,43 @@ class JobStore:
 
 _CORE = ("mean_energy_kj", "avg_delay_h", "delivered", "requests")
 """Metrics every job's row holds."""
+_NOT_NEGATIVE = ("count", "kJ", "g", "s", "h", "0–1")
+"""Units of metrics no replay makes negative."""
+_AT_MOST_ONE = frozenset(
+    {
+        "delivered_share",
+        "delay_unfairness",
+        "actions_stay",
+        "actions_move",
+        "actions_free",
+        "actions_idle",
+    }
+)
+"""Shares of a whole (the battery used per flight is a share of a battery, kept apart)."""
+_PER_KEY = ("depot_load_kg_", "drone_types_", "stock_left_")
+"""Flattened metrics per depot or type: weights and counts."""
 
 
 def _sound(row: dict[str, Any]) -> bool:
-    """A job row as a job writes it: the core metrics there and every metric a number
-    (or empty). An edited file (a metric turned to text, a column dropped) is not, and
-    its job runs again rather than feeding the tables."""
+    """A job row as a job writes it: the core metrics there and every metric a finite
+    number in its range (or empty): no count, energy, time or share below 0, no share of
+    a whole above 1, no more delivered than requested. An edited file (a metric turned
+    to text or NaN, a column dropped) is not, and its job runs again rather than feeding
+    the tables."""
+    from ..sim.metrics import METRICS
+
     if any(k not in row for k in _CORE):
         return False
-    return all(
-        v is None or isinstance(v, (int, float)) for k, v in row.items() if k not in KEY_COLUMNS
-    )
+    for k, v in row.items():
+        if k in KEY_COLUMNS or v is None:
+            continue
+        if not isinstance(v, int | float) or not math.isfinite(v):
+            return False
+        spec = METRICS.get(k)
+        positive = k.startswith(_PER_KEY) or (spec is not None and spec.unit in _NOT_NEGATIVE)
+        if (positive and v < 0) or (k in _AT_MOST_ONE and v > 1):
+            return False
+    return bool(row["delivered"] <= row["requests"])
 
 
 def _own_output(path: Path) -> bool:

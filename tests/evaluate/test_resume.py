@@ -289,6 +289,59 @@ def test_a_folder_where_a_job_file_goes_is_refused_naming_it(prep, tmp_path: Pat
     assert (blocked / "inside").is_dir()  # left as it was
 
 
+def test_a_job_file_with_a_metric_out_of_its_range_runs_again(prep, tmp_path: Path) -> None:
+    """A job file whose metrics no replay writes (delivered_share NaN, a negative count),
+    its marops metadata kept: its job runs again, to the same row, rather than feeding
+    summary.csv and paired.csv."""
+    store = JobStore(tmp_path / "jobs", prep, run_identity(prep))
+    store.open()
+    ran = run(prep, workers=1, sink=store)
+    want = rows_table([job_row(prep, job, ran[job.index]) for job in prep.jobs])
+    for k, name, value in ((1, "delivered_share", float("nan")), (2, "undelivered", -3)):
+        path = store.path(prep.jobs[k])
+        table = pq.read_table(path)
+        i = table.schema.get_field_index(name)
+        table = table.set_column(i, name, pa.array([value], table.schema.field(i).type))
+        pq.write_table(table.replace_schema_metadata(table.schema.metadata), path)
+    again = JobStore(tmp_path / "jobs", prep, run_identity(prep))
+    again.open()
+    assert again.finished() == {0, 3}
+    assert sorted(run(prep, workers=1, sink=again)) == [1, 2]
+    got = rows_table(again.rows())
+    for name in ("delivered_share", "undelivered", "delivered", "objective_j_mj"):
+        assert got[name].equals(want[name]), name
+
+
+@pytest.mark.parametrize("moved_to", ["day=2022-08-20", "method=myopic"])
+def test_a_job_file_moved_under_another_partition_is_refused_naming_it(
+    prep, tmp_path: Path, moved_to: str
+) -> None:
+    """A replay's file moved (or copied) under a day= or method= folder where none of
+    the evaluation's jobs goes would be read from the dataset as one more row: refused,
+    naming it and the replay it holds, and left where it is."""
+    store = JobStore(tmp_path / "jobs", prep, run_identity(prep))
+    store.open()
+    metrics = {"mean_energy_kj": 1.0, "avg_delay_h": 0.1, "delivered": 1, "requests": 2}
+    store.add(prep.jobs[0], metrics)
+    src = store.path(prep.jobs[0])
+    key, _ = moved_to.split("=")
+    parts = [moved_to if p.startswith(f"{key}=") else p for p in src.relative_to(store.root).parts]
+    stray = store.root.joinpath(*parts)
+    stray.parent.mkdir(parents=True)
+    stray.write_bytes(src.read_bytes())
+    again = JobStore(tmp_path / "jobs", prep, run_identity(prep))
+    for force in (False, True):
+        with pytest.raises(InputError) as err:
+            again.open(force=force)
+        assert err.value.file == str(stray)
+        assert "where no replay of this evaluation goes" in err.value.message
+        assert "hub=0/method=stay/day=2022-08-11/s0-r0.parquet" in err.value.message
+    assert stray.read_bytes() == src.read_bytes()
+    stray.unlink()
+    again.open()
+    assert again.finished() == {0}
+
+
 def test_force_leaves_a_user_file_named_like_a_temporary_below_out(prep, tmp_path: Path) -> None:
     """Only the temporaries a run recorded in its folder's lock are ever removed: a user's
     file below --out named as marops names one (here in a job's folder, where this run
