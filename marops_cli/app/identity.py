@@ -49,6 +49,9 @@ def identity(
         meta["depots_file"] = depots_record(depots)
     if fleet is not None:  # the resolved fleet: where each drone starts, its type
         meta["fleet"] = fleet
+    # The file's days not replayed: they give the arrival profile (and the depots and
+    # study square, when segmented here), so another range of days plans other routes.
+    meta["history_days"] = [d.isoformat() for d in scn.history_days]
     meta["format"] = fmt
     meta.pop("command", None)
     return meta
@@ -89,7 +92,9 @@ def matching_days(
     old, new = _flatten(prior), _flatten(ident)
     diff = [k for k in sorted(set(old) | set(new)) if old.get(k) != new.get(k)]
     if diff:
-        shown = "; ".join(f"{k}: {old.get(k)!r} here, {new.get(k)!r} now" for k in diff[:3])
+        shown = "; ".join(
+            f"{k}: {_shown(k, old.get(k))} here, {_shown(k, new.get(k))} now" for k in diff[:3]
+        )
         more = f" (+{len(diff) - 3} more)" if len(diff) > 3 else ""
         raise InputError(
             f"holds a replay made with other settings ({shown}{more}); pass "
@@ -98,6 +103,28 @@ def matching_days(
         )
     _check_records(done, days, day, ident.get("method"), required)
     return list(days)
+
+
+def _shown(key: str, value: Any) -> str:
+    """A setting's value in a message: the history days as runs of consecutive days
+    (``'2022-08-01..2022-08-08, 2022-08-12'``), anything else as Python writes it."""
+    if key != "history_days" or not isinstance(value, list) or not value:
+        return repr(value)
+    try:
+        days = [dt.date.fromisoformat(d) for d in value]
+    except (TypeError, ValueError):
+        return repr(value)
+    runs: list[list[dt.date]] = []
+    for d in days:
+        if runs and d - runs[-1][-1] == dt.timedelta(days=1):
+            runs[-1].append(d)
+        else:
+            runs.append([d])
+    text = ", ".join(
+        r[0].isoformat() if len(r) == 1 else f"{r[0].isoformat()}..{r[-1].isoformat()}"
+        for r in runs
+    )
+    return repr(text)
 
 
 def _check_records(

@@ -375,8 +375,9 @@ def _finish_day(
 
     day_scope(progress, out.scope, area.scn.cfg, area.label)
     undelivered(progress, out.metrics, len(area.fleet), area.label)
-    # The route files' metadata: the run's identity (less the file format) and the day.
-    meta = {k: v for k, v in area.identity.items() if k != "format"}
+    # The route files' metadata: the run's identity (less the file format and the
+    # history days, which metrics.json records) and the day.
+    meta = {k: v for k, v in area.identity.items() if k not in ("format", "history_days")}
     meta.update(command="replay-day", day=day.isoformat())
     folder = area.folder(day)
     if folder is not None:

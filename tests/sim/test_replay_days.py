@@ -249,6 +249,37 @@ def test_a_rerun_names_a_few_kept_days_each_and_many_in_one_line() -> None:
     ]
 
 
+def test_a_rerun_over_another_range_is_not_taken_for_the_same_settings(
+    example_csv: Path, tmp_path: Path
+) -> None:
+    """A day's routes depend on the range replayed: the file's other days give the
+    arrival profile (and, without --depots, the depots). A day replayed within
+    0810..0811 is not kept by a rerun over 0809..0811 (the depots a file, so they are
+    the same): refused naming the history days, --force replays."""
+    out = tmp_path / "week"
+    depots = tmp_path / "depots.json"
+    res = runner.invoke(app, ["segment", str(example_csv), "--out", str(depots), "-q"])
+    assert res.exit_code == 0, res.output
+    args = ["replay-day", str(example_csv), "--method", "stay", "--depots", str(depots)]
+    res = runner.invoke(app, [*args, "--dates", "0810..0811", "--out", str(out), "-q"])
+    assert res.exit_code == 0, res.output
+    before = {p: p.read_bytes() for p in sorted(out.rglob("*")) if p.is_file()}
+    res = runner.invoke(app, [*args, "--dates", "0809..0811", "--out", str(out)])
+    assert res.exit_code == 2, res.output
+    assert "2022-08-10/metrics.json" in res.output and "history_days: '" in res.output
+    assert "2022-08-01..2022-08-09, 2022-08-12' here" in res.output.replace("\n", "")
+    assert {p: p.read_bytes() for p in sorted(out.rglob("*")) if p.is_file()} == before
+    res = runner.invoke(app, [*args, "--dates", "0809..0811", "--out", str(out), "--force"])
+    assert res.exit_code == 0, res.output
+    settings = json.loads((out / "2022-08-11" / "metrics.json").read_text())["meta"]["settings"]
+    history = settings["history_days"]  # the file's days but those replayed
+    assert "2022-08-08" in history and "2022-08-12" in history
+    assert not {"2022-08-09", "2022-08-10", "2022-08-11"} & set(history)
+    # The same range again: the same settings, kept.
+    res = runner.invoke(app, [*args, "--dates", "0809..0811", "--out", str(out)])
+    assert res.exit_code == 0 and res.output.count("skipped") == 3, res.output
+
+
 def test_a_day_another_run_wrote_meanwhile_is_not_claimed_by_the_summary(
     example_csv: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
