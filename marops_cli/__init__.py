@@ -1,6 +1,15 @@
 """marops: operations planner for drone last-mile delivery (the MAR-OPS method)."""
 
+import os
+import sys
 from importlib.metadata import PackageNotFoundError, version
+
+# Torch's BLAS on the code path every x86 processor runs alike, so trained weights are
+# the same bytes on any machine and with any number of workers: set before torch loads,
+# never after (workers/threads.py, portable_blas, says why; docs/decisions.md, "Same
+# results").
+if "torch" not in sys.modules:
+    os.environ.setdefault("MKL_CBWR", "COMPATIBLE")
 
 try:
     __version__ = version("marops")

@@ -16,10 +16,12 @@ def portable_blas() -> None:
     any machine: by default MKL picks its kernels by processor (AVX2, AVX-512), and each
     rounds sums in its own order (docs/decisions.md, "Same results"). MKL reads it at its
     first call, so the command line does it as it starts, before any arithmetic, and its
-    workers inherit it; a value the user set is kept. (Set later, in a process whose MKL
-    has computed already, it would reach only the workers: a run on one worker and one
-    on two would differ.)"""
-    os.environ.setdefault("MKL_CBWR", "COMPATIBLE")
+    workers inherit it; a value the user set is kept. Once torch is loaded it is left
+    alone: set in a process whose MKL may have computed already, it would reach only the
+    workers, and a run on one worker and one on two would differ. (``import marops_cli``
+    does the same, so the Python API pins it too when marops comes before torch.)"""
+    if "torch" not in sys.modules:
+        os.environ.setdefault("MKL_CBWR", "COMPATIBLE")
 
 
 def one_thread(deterministic: bool = False) -> Callable[[], None]:

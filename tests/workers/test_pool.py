@@ -221,18 +221,26 @@ def test_a_script_read_from_stdin_stops_before_its_workers_start(
 def test_torch_blas_runs_the_code_path_of_every_processor(monkeypatch: pytest.MonkeyPatch) -> None:
     """MKL's kernels are pinned to the path every x86 processor runs alike (a trained
     actor's weights the same bytes on any machine), unless the user chose one; the
-    command line does it before anything computes."""
+    command line and ``import marops_cli`` do it before anything computes, and never
+    once torch is loaded (set then, it would reach the workers only)."""
     import subprocess
     import sys
 
-    from marops_cli.workers.threads import portable_blas
-
     monkeypatch.delenv("MKL_CBWR", raising=False)
-    portable_blas()
-    assert os.environ["MKL_CBWR"] == "COMPATIBLE"
+
+    def mkl_cbwr(code: str) -> str:
+        probe = f"import os; {code}; print(os.environ.get('MKL_CBWR'))"
+        out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True)
+        return out.stdout.strip().splitlines()[-1]
+
+    probe = "from marops_cli.workers.threads import portable_blas; portable_blas()"
+    assert mkl_cbwr(probe) == "COMPATIBLE"
+    assert mkl_cbwr("import marops_cli") == "COMPATIBLE"
+    assert mkl_cbwr("import torch; import marops_cli") == "None"
+    assert mkl_cbwr("import torch; " + probe) == "None"
     monkeypatch.setenv("MKL_CBWR", "AVX2")
-    portable_blas()
-    assert os.environ["MKL_CBWR"] == "AVX2"
+    assert mkl_cbwr(probe) == "AVX2"
+    assert mkl_cbwr("import marops_cli") == "AVX2"
     monkeypatch.delenv("MKL_CBWR")
     probe = (
         "import os, sys; from marops_cli.cli import app; sys.argv = ['marops', '-V'];"
