@@ -107,6 +107,22 @@ class DataConfig(_Stage):
         le=24 * 60,
         description="number of windows over service hours (sets the length)",
     )
+    area: Literal["square", "hubs"] = Field(
+        "square",
+        # Left out of dumps while "square", so run identities and metadata stay as they were.
+        exclude_if=lambda a: a == "square",
+        description="what a run plans without --depots or --hubs: one study square (the "
+        "paper's experiment), or hubs placed over the whole export, each with its own "
+        "depots and share of the fleet (docs/method.md §1.1)",
+    )
+    hub_min_share: float = Field(
+        0.01,
+        ge=0.001,
+        le=0.5,
+        exclude_if=lambda v: v == 0.01,
+        description="with area = \"hubs\": hubs are placed while the next one adds at "
+        "least this share of the orders",
+    )
     strict: bool = Field(False, description="treat any dropped row as an error")
     tz: str = Field(
         "Asia/Shanghai", description="time zone of the file's local times (LaDe: Shanghai)"
@@ -333,6 +349,14 @@ class SimConfig(_Stage):
     """Day replay (docs/method.md §5)."""
 
     drones: int = Field(8, ge=1, le=MAX_DRONES, description="fleet size")
+    city_drones: int | None = Field(
+        None,
+        ge=1,
+        le=256 * MAX_DRONES,  # segment/hubs.py MAX_HUBS hubs of MAX_DRONES
+        exclude_if=lambda n: n is None,
+        description="over hubs: the city's fleet, shared out over the hubs by their demand "
+        "(docs/method.md §1.1); None = drones × the number of hubs",
+    )
     policy: str | None = Field(
         None,
         description="flight-range policy (stay, random, greedy, global, torchscript:PATH); "

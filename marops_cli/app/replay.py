@@ -120,7 +120,13 @@ def replay_days(
     from ..sim.scenario import loads_actor, method_policy, policy_files, replay_modules
 
     several = len(days) > 1 if several is None else several
-    if options.scheduler is None and options.workers > 1 and (len(days) > 1 or hubs is not None):
+    city = hubs is not None or (depots is None and cfg.data.area == "hubs")
+    if depots is not None and cfg.data.area == "hubs" and hubs is None:
+        raise InputError(
+            f"{option('depots')} names one study area's depots, and [data] area is "
+            f'"hubs": drop {option("depots")}, or plan one square with {option("area")} square'
+        )
+    if options.scheduler is None and options.workers > 1 and (len(days) > 1 or city):
         from ..workers import warm_up
 
         # Several days or hubs may go to worker processes: their fork server imports
@@ -135,7 +141,7 @@ def replay_days(
     if folder is not None:
         inputs = {"data": None if in_memory(data) else Path(data), "depots": depots}
         inputs.update({**(protect or {}), "fleet": fleet, "hubs": hubs})
-        outputs = _outputs(folder, days, several, hubs is not None, options)
+        outputs = _outputs(folder, days, several, city, options)
         refuse_links_below(folder, outputs)
         actor = policy_files(options.method, cfg.sim.policy, ops=cfg.ops)
         protect_inputs(outputs, [*(_path(v) for v in inputs.values()), *actor])
@@ -159,10 +165,11 @@ def replay_days(
         keep,
         options.report,
     )
-    if hubs is not None:
+    if city:
         from .replay_hubs import replay_hubs
 
-        return replay_hubs(data, Path(hubs), folder, days, several, cfg, fleet, run, progress)
+        path = Path(hubs) if hubs is not None else None
+        return replay_hubs(data, path, folder, days, several, cfg, fleet, run, progress)
     return _one_area(data, cfg, days, folder, several, depots, fleet, run, progress)
 
 
@@ -236,4 +243,5 @@ def _outputs(
     hub_folders = (
         [p for p in out.glob("hub-*") if p.is_dir() or p.is_symlink()] if out.is_dir() else []
     )
-    return [out / n for n in above] + shared + [p for a in hub_folders for p in area(a)]
+    city = [out / n for n in above] + [out / "left_out.csv"]
+    return city + shared + [p for a in hub_folders for p in area(a)]

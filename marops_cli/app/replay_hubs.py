@@ -18,7 +18,7 @@ from .replay_areas import ReplayResult, Run, aggregate_days, make_area, replay_a
 
 def replay_hubs(
     data: Any,
-    hubs_path: Path,
+    hubs_path: Path | None,
     out: Path | None,
     days: list[dt.date],
     several: bool,
@@ -27,15 +27,22 @@ def replay_hubs(
     run: Run,
     progress: Progress,
 ) -> ReplayResult:
-    """Replay every hub of a hubs file: each a study area with its own depots and fleet,
-    into ``out/hub-<id>/``, and the city's coverage into ``out/metrics.json``."""
+    """Replay every hub of a hubs file, or (``hubs_path`` None) of hubs placed over the
+    whole export: each a study area with its own depots and share of the fleet, into
+    ``out/hub-<id>/``, and the city's coverage into ``out/metrics.json``."""
     from ..data.prepare import check_days_in_file
     from ..segment.hubs import hub_areas, load_hubs
-    from ..sim.scenario import load_scenario
 
-    hub_list = load_hubs(hubs_path, cfg.data)
     table = read_data(data, cfg.data)
     check_days_in_file(table, days)
+    history = history_days(table, days)
+    if hubs_path is None:
+        from ..segment.hubs import find_hubs
+
+        hub_list, _ = find_hubs(table, cfg.data, history, None, cfg.data.hub_min_share, cover=True)
+    else:
+        hub_list = load_hubs(hubs_path, cfg.data)
+    hub_list = city_fleet(table, hub_list, history, cfg)
     areas = []
     skipped: list[str] = []
     for a in hub_areas(table, cfg, hub_list, days):  # every hub-day checked before writing
@@ -45,6 +52,8 @@ def replay_hubs(
         ]
         if not a.days:
             continue
+        from ..sim.scenario import load_scenario
+
         try:
             scn = load_scenario(
                 table.source.path,
@@ -70,44 +79,138 @@ def replay_hubs(
         per_area, tables = replay_areas(areas, run, progress)
         written = [f for a in areas for f in a.written]
         all_metrics = [m for rows in per_area for m in rows]
-        city = city_coverage(table, days, all_metrics)
+        city = city_coverage(table, days, all_metrics, hub_list, cfg)
         total = aggregate_days(all_metrics)
         if out is not None:
             meta = run_meta(
                 command="replay-day", config=cfg, source=table.source, method=run.method
             )
-            meta["hubs_file"] = {"name": hubs_path.name, "sha256": file_sha256(hubs_path)}
+            if hubs_path is not None:
+                meta["hubs_file"] = {"name": hubs_path.name, "sha256": file_sha256(hubs_path)}
+            else:
+                meta["hubs"] = [
+                    {
+                        "id": h.id,
+                        "center_lng": h.frame.center_lng,
+                        "center_lat": h.frame.center_lat,
+                        "size_km": h.frame.size_km,
+                        "drones": h.drones,
+                    }
+                    for h in hub_list
+                ]
+            left = out / "left_out.csv"
             with output_set() as files:
                 files.write_json(
                     out / "metrics.json",
                     {"meta": meta, "city": city, "days": all_metrics, "total": total},
                 )
+                if city["left_out_orders"]:
+                    text = left_out_csv(table, days, hub_list, cfg)
+                    files.write_bytes(left, text.encode("utf-8", "backslashreplace"))
             written.append(out / "metrics.json")
+            if city["left_out_orders"]:
+                written.append(left)
             if run.report:  # the city's page; each hub's was written with its days
                 from ..report import write_reports
 
                 written += write_reports(out, below=False, shared=out)
-    progress.message(
-        f"city: {city['planned']:,} of {city['orders_due']:,} orders due planned in "
-        f"{len(hub_list)} hubs ({100 * city['covered_share']:.1f} %), "
-        f"{city['delivered']:,} delivered"
-    )
+    progress.message(city_line(city, len(hub_list)))
     return ReplayResult(all_metrics, total, tables, city, out, written)
 
 
-def city_coverage(table: Any, days: list[dt.date], metrics: list[dict[str, Any]]) -> dict[str, Any]:
-    """What share of the city's orders the hubs plan (docs/outputs.md, "Hubs"): per day
-    and in all, orders due in the file, planned (in a hub's square and service hours)
-    and delivered."""
+def history_days(table: Any, days: list[dt.date]) -> list[dt.date]:
+    """The file's days not replayed (where hubs are placed and fleets shared out, as
+    depots are segmented), or the replayed days for a file that has no other."""
+    other = [d for d in table.days() if d not in set(days)]
+    return other or list(days)
+
+
+def city_fleet(table: Any, hubs: list[Any], history: list[dt.date], cfg: Any) -> list[Any]:
+    """The hubs with their fleets: a hub that names its own keeps it; the others share
+    the city's fleet (``[sim] city_drones``, else ``drones`` each) by their demand on
+    the history days (docs/method.md §1.1)."""
+    import dataclasses
+
+    from ..segment.hubs import hub_demand, share_fleet
+
+    rest = [h for h in hubs if h.drones is None]
+    if not rest:
+        return hubs
+    demand = hub_demand(table, hubs, history)
+    city = cfg.sim.city_drones
+    if city is None:
+        city = cfg.sim.drones * len(rest)
+    else:
+        city -= sum(h.drones for h in hubs if h.drones is not None)
+    shares = iter(share_fleet([demand[h.id] for h in rest], city))
+    return [
+        h if h.drones is not None else dataclasses.replace(h, drones=next(shares)) for h in hubs
+    ]
+
+
+def _left_out(table: Any, days: list[dt.date], hubs: list[Any], cfg: Any) -> tuple[Any, Any]:
+    """Rows due on ``days`` and not planned: (mask, reason per row) — outside every hub,
+    or in a hub and due outside service hours."""
     import numpy as np
 
+    from ..data.prepare import in_service_hours
+    from ..segment.hubs import hub_owner
+
+    owner = hub_owner(table, hubs)
+    due = np.isin(table.delivery_day, np.array(days, dtype="datetime64[D]"))
+    hours = in_service_hours(table, cfg.data)
+    outside = due & (owner < 0)
+    late = due & (owner >= 0) & ~hours
+    reason = np.where(outside, "outside every hub", "outside service hours")
+    return outside | late, reason
+
+
+def left_out_csv(table: Any, days: list[dt.date], hubs: list[Any], cfg: Any) -> str:
+    """The orders due on ``days`` that no hub planned, one a line (docs/outputs.md,
+    "Hubs"): day, order id, row of the file, place, and why."""
+    import csv
+    import io
+
+    import numpy as np
+
+    mask, reason = _left_out(table, days, hubs, cfg)
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(["day", "order_id", "row", "lng", "lat", "reason"])
+    due = table.delivery_day
+    for i in np.flatnonzero(mask):
+        w.writerow(
+            [
+                str(due[i]),
+                table.order_id[i],
+                int(table.row[i]),
+                f"{table.lng[i]:.6f}",
+                f"{table.lat[i]:.6f}",
+                reason[i],
+            ]
+        )
+    return buf.getvalue()
+
+
+def city_coverage(
+    table: Any, days: list[dt.date], metrics: list[dict[str, Any]], hubs: list[Any], cfg: Any
+) -> dict[str, Any]:
+    """What share of the city's orders the hubs plan (docs/outputs.md, "Hubs"): per day
+    and in all, orders due in the file, planned (in a hub's square and service hours)
+    and delivered, the orders left out by reason, and each hub's part. Every share is
+    of all orders due; the hubs' figures add up to the city's."""
+    import numpy as np
+
+    mask, reason = _left_out(table, days, hubs, cfg)
     due_day = table.delivery_day
     per_day: list[dict[str, Any]] = []
     for day in days:
-        due = int((due_day == np.datetime64(day.isoformat(), "D")).sum())
+        on = due_day == np.datetime64(day.isoformat(), "D")
+        due = int(on.sum())
         mine = [m for m in metrics if m["day"] == day.isoformat()]
         planned = sum(int(m["requests"]) for m in mine)
         delivered = sum(int(m["delivered"]) for m in mine)
+        outside = int((on & mask & (reason == "outside every hub")).sum())
         per_day.append(
             {
                 "day": day.isoformat(),
@@ -115,15 +218,59 @@ def city_coverage(table: Any, days: list[dt.date], metrics: list[dict[str, Any]]
                 "planned": planned,
                 "delivered": delivered,
                 "covered_share": planned / due if due else 0.0,
+                "delivered_share": delivered / due if due else 0.0,
+                "outside_hubs": outside,
+                "outside_hours": int((on & mask).sum()) - outside,
                 "hubs": len(mine),
             }
         )
     due_all = sum(d["orders_due"] for d in per_day)
     planned_all = sum(d["planned"] for d in per_day)
+    delivered_all = sum(d["delivered"] for d in per_day)
+    per_hub = []
+    for h in hubs:
+        mine = [m for m in metrics if m.get("hub") == h.id]
+        per_hub.append(
+            {
+                "hub": h.id,
+                "drones": h.drones,
+                "orders_due": sum(int(m["orders_due"]) for m in mine),
+                "planned": sum(int(m["requests"]) for m in mine),
+                "delivered": sum(int(m["delivered"]) for m in mine),
+                "outside_hours": sum(int(m["outside_hours"]) for m in mine),
+            }
+        )
     return {
         "orders_due": due_all,
         "planned": planned_all,
-        "delivered": sum(d["delivered"] for d in per_day),
+        "delivered": delivered_all,
         "covered_share": planned_all / due_all if due_all else 0.0,
+        "delivered_share": delivered_all / due_all if due_all else 0.0,
+        "outside_hubs": sum(d["outside_hubs"] for d in per_day),
+        "outside_hours": sum(d["outside_hours"] for d in per_day),
+        "left_out_orders": int(mask.sum()),
         "days": per_day,
+        "hubs": per_hub,
     }
+
+
+def city_line(city: dict[str, Any], n_hubs: int) -> str:
+    """The run's closing line over a city: shares of all orders due, the rest by reason."""
+    due = city["orders_due"]
+
+    def pct(n: int) -> str:
+        return f"{100 * n / due:.1f} %" if due else "-"
+
+    line = (
+        f"city: {city['planned']:,} of {due:,} orders due planned in {n_hubs} hubs "
+        f"({pct(city['planned'])}), {city['delivered']:,} delivered ({pct(city['delivered'])})"
+    )
+    left = [
+        f"{city[k]:,} {label}"
+        for k, label in (
+            ("outside_hubs", "outside every hub"),
+            ("outside_hours", "due outside service hours"),
+        )
+        if city.get(k)
+    ]
+    return line + (f"; left out: {', '.join(left)}" if left else "")

@@ -67,7 +67,25 @@ def replay_day_command(
         typer.Option(
             "--hubs",
             help="hubs.json from marops segment --hubs: replay every hub of the city, one "
-            "folder each, and report the city's coverage [default: one study area].",
+            "folder each, and report the city's coverage [default: as --area says].",
+        ),
+    ] = None,
+    area: Annotated[
+        str | None,
+        typer.Option(
+            "--area",
+            envvar="MAROPS_AREA",
+            help="square: one study square (the paper's experiment); hubs: hubs placed over "
+            "the whole export, each with its depots and share of the fleet, one folder each "
+            "[default: square, or [data] area].",
+        ),
+    ] = None,
+    city_drones: Annotated[
+        int | None,
+        typer.Option(
+            "--city-drones",
+            help="Over hubs: the city's fleet, shared out by the hubs' demand "
+            "[default: --drones per hub].",
         ),
     ] = None,
     method: o.Method = "marops",
@@ -121,6 +139,8 @@ def replay_day_command(
         seed=seed,
         policy=policy,
         trust_actor=trust_actor,
+        area=area,
+        city_drones=city_drones,
     )
     days = (
         [parse_day(date, cfg.data.year, "--date")]
@@ -140,11 +160,12 @@ def replay_day_command(
         protect={"config": config},
         progress=Terminal(),
     )
-    _print_metrics(res.days, hubs is not None)
+    _print_metrics(res.days, res.city is not None)
     info(_wrote(out, res.files))
     if STATE["json"]:
         doc: dict[str, Any] = {"out": str(out), "files": [str(f) for f in res.files]}
         doc.update({"metrics": str(out / "metrics.json"), "days": res.days})
+        doc.update({"city": res.city} if res.city is not None else {})
         doc.update({"report": str(out / "report.html")} if report else {})
         emit_json({"command": "replay-day", **doc})
 

@@ -179,12 +179,18 @@ def hub_squares(
     grid_m: float = 250.0,
     n_hubs: int | None = None,
     min_share: float = 0.01,
+    cover: bool = False,
 ) -> list[tuple[Frame, int]]:
     """Disjoint ``size_km`` squares over a city, densest first (docs/method.md §1.1):
     the first is :func:`densest_square`'s; each next one is the densest square that
     shares no grid cell with those before. Stops after ``n_hubs`` squares, or (None)
     when the next would hold less than ``min_share`` of the points. Returns each
-    square with the number of points it holds."""
+    square with the number of points it holds.
+
+    With ``cover`` each next square is instead the one holding the most points no square
+    before holds, and may overlap those (their points stay theirs): the gaps between
+    disjoint squares, where a city's orders thin out, are covered too (the whole-export
+    run, docs/method.md §1.1). The count returned is then the points it adds."""
     ref, x0, y0, counts, k = _square_grid(lng, lat, size_km, grid_m)
     total = int(counts.sum())
     # The first square is densest_square's; the next may hang over the points' edge
@@ -197,7 +203,11 @@ def hub_squares(
     pick = _densest_pick(window, k)
     out: list[tuple[Frame, int]] = []
     while n_hubs is None or len(out) < n_hubs:
-        if out:
+        if out and cover:
+            window = _window_sums(np.where(taken == 0, padded, 0), k)
+            jy, jx = np.unravel_index(int(np.argmax(window)), window.shape)
+            pick = (int(jy), int(jx))
+        elif out:
             free = _window_sums(taken, k) == 0
             if not free.any():
                 break

@@ -125,6 +125,13 @@ def _in_service(
     return start, due, x, y, inside, inside & (due >= 0) & (due < cfg.span_s)
 
 
+def in_service_hours(table: LadeTable, cfg: DataConfig) -> np.ndarray:
+    """Per row: whether it is due within its day's service hours (as :func:`prepare_day`
+    keeps it)."""
+    due = table.delivery_s - (table.delivery_day.astype(np.int64) * _DAY_S + cfg.service_start_s)
+    return (due >= 0) & (due < cfg.span_s)
+
+
 def prepare_day(
     table: LadeTable, frame: Frame, day: dt.date, cfg: DataConfig | None = None
 ) -> DayRequests:

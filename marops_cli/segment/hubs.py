@@ -23,7 +23,7 @@ from ..data.frame import Frame, hub_squares
 from ..data.jsonfile import json_number, read_json, refuse_unknown_keys
 from ..data.prepare import check_days_in_file, prepare_day
 from ..data.table import LadeTable
-from ..errors import InputError, naming
+from ..errors import InputError, naming, option
 
 __all__ = [
     "MAX_HUBS",
@@ -31,9 +31,11 @@ __all__ = [
     "HubArea",
     "find_hubs",
     "hub_areas",
+    "hub_demand",
     "hub_owner",
     "hubs_doc",
     "load_hubs",
+    "share_fleet",
 ]
 
 MAX_HUBS = 256
@@ -65,10 +67,13 @@ def find_hubs(
     days: Sequence[dt.date] | None,
     n_hubs: int | None,
     min_share: float = 0.01,
+    cover: bool = False,
 ) -> tuple[list[Hub], int]:
     """Hubs over the orders due on ``days`` (all when None), densest first: ``n_hubs``
-    of them, or (None) while the next holds at least ``min_share`` of the orders.
-    Returns the hubs and the number of orders they were placed from."""
+    of them, or (None) while the next holds at least ``min_share`` of the orders; with
+    ``cover`` each next hub is the square adding the most orders no hub before holds
+    (:func:`~marops_cli.data.frame.hub_squares`). Returns the hubs and the number of
+    orders they were placed from."""
     check_days_in_file(table, list(days or ()))  # every row dropped: says why
     if days:
         mask = np.isin(table.delivery_day, np.array(list(days), dtype="datetime64[D]"))
@@ -78,7 +83,7 @@ def find_hubs(
         raise InputError("no requests to place hubs on", file=table.source.path)
     try:
         squares = hub_squares(
-            table.lng[mask], table.lat[mask], cfg.size_km, cfg.grid_m, n_hubs, min_share
+            table.lng[mask], table.lat[mask], cfg.size_km, cfg.grid_m, n_hubs, min_share, cover
         )
     except InputError as exc:
         raise naming(exc, table.source.path) from None
@@ -199,8 +204,9 @@ def hub_areas(
     table: LadeTable, cfg: PlannerConfig, hubs: Sequence[Hub], days: Sequence[dt.date]
 ) -> list[HubArea]:
     """Every hub as a study area over ``days``. An order belongs to the first hub whose
-    square holds it (:func:`hub_owner`): a hub's rows are the file less those of
-    earlier hubs, so no order is planned twice."""
+    square holds it (:func:`hub_owner`): a hub's rows are those it owns, so no order is
+    planned twice, and no hub counts another's orders, or those outside every hub,
+    among its own left out."""
     owner = hub_owner(table, hubs)
     areas = []
     for h in hubs:
@@ -211,7 +217,9 @@ def hub_areas(
             data__size_km=f.size_km,
             sim__drones=h.drones,
         )
-        rows = table if h.id == 0 else table.subset((owner < 0) | (owner >= h.id))
+        # Its own orders only: those of earlier hubs, and those outside every hub, are
+        # the city's to count (app/replay_hubs.py), not left out by every hub again.
+        rows = table.subset(owner == h.id)
         kept, skipped = [], []
         for day in days:
             try:
@@ -221,3 +229,39 @@ def hub_areas(
                 skipped.append(day)
         areas.append(HubArea(h, cfg_h, rows, kept, skipped))
     return areas
+
+
+def hub_demand(table: LadeTable, hubs: Sequence[Hub], days: Sequence[dt.date]) -> list[int]:
+    """Each hub's demand: the orders it owns (:func:`hub_owner`) due on ``days``."""
+    owner = hub_owner(table, hubs)
+    on = np.isin(table.delivery_day, np.array(list(days), dtype="datetime64[D]"))
+    counts = np.bincount(owner[on & (owner >= 0)], minlength=len(hubs))
+    return [int(c) for c in counts]
+
+
+def share_fleet(demand: Sequence[int], drones: int) -> list[int]:
+    """``drones`` shared out over hubs by their ``demand`` (docs/method.md §1.1): each hub
+    one drone, the rest by largest remainder of its share of the demand (ties to the
+    hub first in order); a city without demand shares evenly. Refused when there are
+    fewer drones than hubs, or a hub would get more than :data:`MAX_DRONES`."""
+    n = len(demand)
+    if drones < n:
+        raise InputError(
+            f"{option('city_drones')} {drones} is fewer than the city's {n} hubs that share "
+            "it: each hub flies one drone at least"
+        )
+    total = sum(demand)
+    weights = np.asarray(demand, dtype=np.float64) if total > 0 else np.ones(n)
+    quota = (drones - n) * weights / weights.sum()
+    got = np.floor(quota).astype(np.int64)
+    left = drones - n - int(got.sum())
+    order = np.lexsort((np.arange(n), -(quota - got)))  # largest remainder, then hub order
+    got[order[:left]] += 1
+    fleet = [int(g) + 1 for g in got]
+    if max(fleet) > MAX_DRONES:
+        raise InputError(
+            f"a city fleet of {drones} drones gives one hub {max(fleet)}, more than the "
+            f"{MAX_DRONES} a study area plans for (docs/config.md): lower "
+            f"{option('city_drones')}, or give that hub its drones in a hubs file"
+        )
+    return fleet

@@ -140,6 +140,7 @@ def city(example_csv: Path, tmp_path_factory: pytest.TempPathFactory) -> dict[st
     hubs = d / "hubs.json"
     _ok(["segment", str(example_csv), "--hubs", "3", "--dates", "0801..0810", "--out", str(hubs)])
     doc = json.loads(hubs.read_text())
+    doc["hubs"][0]["drones"] = 8  # its own fleet: the plain run's, byte for byte
     doc["hubs"][2]["drones"] = 4
     hubs.write_text(json.dumps(doc))
     out = d / "city"
@@ -182,9 +183,22 @@ def test_city_day_covers_the_hubs_once_each(city):
     c = metrics["city"]
     assert c["planned"] == sum(d["requests"] for d in days)
     assert c["delivered"] == sum(d["delivered"] for d in days) == len(seen)
-    assert c["orders_due"] == days[0]["orders_due"]  # hub 0 sees the whole city's day
+    # Each hub counts its own orders alone: the city's add up, the rest by reason.
+    assert c["orders_due"] == sum(d["orders_due"] for d in days) + c["outside_hubs"]
+    assert c["outside_hours"] == sum(d["outside_hours"] for d in days)
+    assert all(d["outside_area"] == 0 for d in days)
+    assert c["planned"] + c["outside_hubs"] + c["outside_hours"] == c["orders_due"]
+    assert [h["orders_due"] for h in c["hubs"]] == [d["orders_due"] for d in days]
+    assert [h["drones"] for h in c["hubs"]] == [8, 8, 4]
     assert c["covered_share"] == pytest.approx(c["planned"] / c["orders_due"], rel=1e-12)
+    assert c["delivered_share"] == pytest.approx(c["delivered"] / c["orders_due"], rel=1e-12)
     assert 0 < c["covered_share"] < 1
+    left = (city["out"] / "left_out.csv").read_text().splitlines()
+    assert left[0] == "day,order_id,row,lng,lat,reason"
+    assert len(left) - 1 == c["left_out_orders"] == c["outside_hubs"] + c["outside_hours"]
+    reasons = [line.rsplit(",", 1)[1] for line in left[1:]]
+    assert reasons.count("outside every hub") == c["outside_hubs"]
+    assert not set(ids) & {line.split(",")[1] for line in left[1:]}
 
 
 def test_a_hub_days_warning_names_its_hub(example_csv, city, tmp_path):
@@ -203,7 +217,8 @@ def test_a_hub_days_warning_names_its_hub(example_csv, city, tmp_path):
 
 def test_a_single_hub_writes_the_plain_runs_bytes(city):
     """Hub 0 of the city run is the plain run with its square as the study area: the
-    route files are the same bytes, the day's metrics the same bar wall times."""
+    route files are the same bytes, the day's metrics the same bar wall times and the
+    orders it leaves to the city (those outside its square)."""
     for name in ("stops.parquet", "routes.parquet"):
         assert (city["out"] / "hub-0" / name).read_bytes() == (city["plain"] / name).read_bytes()
     a = json.loads((city["out"] / "hub-0" / "metrics.json").read_text())
@@ -213,6 +228,11 @@ def test_a_single_hub_writes_the_plain_runs_bytes(city):
         for day in doc["days"]:
             day.pop("runtime_s")
             day["solver"].pop("solve_s")
+    hub, plain = a["days"][0], b["days"][0]
+    assert hub["outside_area"] == 0 < plain["outside_area"]
+    assert hub["orders_due"] == plain["orders_due"] - plain["outside_area"]
+    for k in ("orders_due", "outside_area"):
+        a["days"][0].pop(k), b["days"][0].pop(k)
     assert a == b
 
 
@@ -381,3 +401,68 @@ def test_the_api_refuses_them_too(example_csv: Path, tmp_path: Path, extra, name
     with pytest.raises(InputError, match=f"drop {named} "):
         api.segment(example_csv, dates="0801", hubs="auto", out=tmp_path / "h.json", **extra)
     assert not (tmp_path / "h.json").exists()
+
+
+def test_cover_squares_reach_the_gap_between_disjoint_ones():
+    """Two dense towns 12 km apart and a village in the 2 km gap between their 10 km
+    squares: disjoint squares cannot hold the village, covering ones do (overlapping the
+    towns' squares, whose orders stay theirs); the count is what each square adds."""
+    rng = np.random.default_rng(1)
+    ref = Frame(LNG, LAT, 10.0)
+    a = ref.to_lnglat(rng.uniform(-5000, 5000, 3000), rng.uniform(-5000, 5000, 3000))
+    c = ref.to_lnglat(rng.uniform(7000, 17000, 2000), rng.uniform(-5000, 5000, 2000))
+    b = ref.to_lnglat(rng.normal(6000, 150, 200), rng.normal(0, 150, 200))
+    lng = np.concatenate([a[0], c[0], b[0]])
+    lat = np.concatenate([a[1], c[1], b[1]])
+
+    def held(squares):
+        hubs = [Hub(i, f, n) for i, (f, n) in enumerate(squares)]
+        table = type("T", (), {"lng": lng, "lat": lat, "__len__": lambda s: len(lng)})()
+        return hub_owner(table, hubs)  # type: ignore[arg-type]
+
+    disjoint = hub_squares(lng, lat, 10.0, 250.0, None, 0.01)
+    cover = hub_squares(lng, lat, 10.0, 250.0, None, 0.01, cover=True)
+    village = slice(5000, None)
+    assert (held(disjoint)[village] < 0).mean() > 0.5
+    assert (held(cover)[village] >= 0).all()
+    assert (held(cover) >= 0).mean() > 0.99  # the grid's cells, not the exact edges
+    assert len(cover) == 3 and sum(n for _, n in cover) == len(lng)
+
+
+def test_a_city_fleet_is_shared_by_demand():
+    """One drone each, the rest by largest remainder (hand-checked); ties to the first
+    hub; no demand: evenly; fewer drones than hubs refused."""
+    from marops_cli.segment.hubs import share_fleet
+
+    # 10 drones, demand 60/30/10: 1 each, 7 by quota 4.2/2.1/0.7 -> 4, 2, 0 + the
+    # largest remainder (0.7, hub 2) one more.
+    assert share_fleet([60, 30, 10], 10) == [5, 3, 2]
+    assert share_fleet([1, 1], 3) == [2, 1]
+    assert share_fleet([0, 0, 0], 7) == [3, 2, 2]
+    assert share_fleet([5], 1) == [1]
+    with pytest.raises(InputError, match="fewer than the city's 3 hubs"):
+        share_fleet([1, 2, 3], 2)
+
+
+def test_the_whole_export_over_hubs(example_csv, tmp_path):
+    """--area hubs plans the city: hubs placed over the other days, each with its share
+    of drones × hubs by demand; the shares read of all orders due add up, and at least
+    nine in ten of the orders due within service hours are planned."""
+    out = tmp_path / "city"
+    args = ["replay-day", str(example_csv), "--date", "0811", "--area", "hubs"]
+    res = runner.invoke(app, [*args, "--method", "stay", "--out", str(out), "--json", "-q"])
+    assert res.exit_code == 0, res.output
+    c = json.loads(res.stdout)["city"]
+    metrics = json.loads((out / "metrics.json").read_text())
+    assert metrics["city"] == c
+    hubs = metrics["meta"]["hubs"]
+    n = len(hubs)
+    assert n >= 2 and [h["id"] for h in hubs] == list(range(n))
+    drones = [h["drones"] for h in hubs]
+    assert sum(drones) == 8 * n and drones[0] == max(drones) and min(drones) >= 1
+    assert [h["drones"] for h in c["hubs"]] == drones
+    assert c["planned"] + c["outside_hubs"] + c["outside_hours"] == c["orders_due"]
+    assert c["planned"] == sum(h["planned"] for h in c["hubs"]) == metrics["total"]["requests"]
+    assert c["orders_due"] == metrics["total"]["orders_due"] + c["outside_hubs"]
+    assert c["planned"] >= 0.9 * (c["orders_due"] - c["outside_hours"])
+    assert sorted(p.name for p in out.glob("hub-*")) == sorted(f"hub-{i}" for i in range(n))
