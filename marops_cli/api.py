@@ -66,6 +66,9 @@ class DayResult:
     in joules; ``served`` and ``pending``, counts of requests)."""
     folder: Path | None
     """Where the files are (None when nothing was written)."""
+    city: dict[str, Any] | None = None
+    """A city's day (``area="hubs"``, ``hubs``): its coverage, ``metrics.json``'s
+    ``city`` (docs/outputs.md, "Hubs"); None for one study area."""
 
 
 @dataclass(frozen=True)
@@ -496,11 +499,16 @@ def replay_day(
     report: bool = False,
     force: bool = False,
     trust_actor: bool = False,
+    area: str | None = None,
+    hubs: str | Path | None = None,
+    city_drones: int | None = None,
     config: str | Path | None = None,
 ) -> DayResult:
     """``marops replay-day --date``: the day's stops, routes and metrics. ``depots``: a
     depots file, or the depots ``segment()`` returns (None: segmented from the other
-    days)."""
+    days). ``area="hubs"`` (or a ``hubs`` file) plans the whole city (docs/method.md
+    §1.1): the result's tables hold every hub's rows (their ``hub`` column says
+    which), ``metrics`` the city's ``metrics.json`` and ``city`` its coverage."""
     from .app.replay import ReplayOptions, check_options, replay_config, replay_days
     from .data.dates import parse_day
     from .errors import option
@@ -523,6 +531,8 @@ def replay_day(
         seed=seed,
         policy=None if policy is None else os.fspath(policy),
         trust_actor=trust_actor,
+        area=area,
+        city_drones=city_drones,
     )
     day = parse_day(str(date), cfg.data.year, option("date"))
     with replacing_foreign_files(force):
@@ -535,12 +545,38 @@ def replay_day(
             several=False,
             depots=depots,
             fleet=_path(fleet),
+            hubs=_path(hubs),
             protect={"config": _path(config)},
         )
+    if res.city is not None:
+        return _city_day(res, _path(out))
     if not res.tables:  # the day was in ``out`` already, made with the same settings
         return _read_back(Path(out or "."), res.days[0])
     tables = res.tables[0]
     return DayResult(tables.stops, tables.routes, res.days[0], _path(out))
+
+
+def _city_day(res: Any, out: Path | None) -> DayResult:
+    """A city's day: every hub's tables one below the other (each row names its
+    ``hub``; a hub kept from an earlier run into ``out`` read back from its folder), the
+    city's metrics and coverage."""
+    import pyarrow as pa
+
+    replayed = {t.hub: t for t in res.tables}
+    stops, routes = [], []
+    for m in res.days:
+        t = replayed.get(m["hub"])
+        day = t if t is not None else _read_back(Path(out or ".") / f"hub-{m['hub']}", m)
+        stops.append(day.stops.replace_schema_metadata(None))
+        routes.append(day.routes.replace_schema_metadata(None))
+    metrics = {"city": res.city, "days": res.days, "total": res.total}
+    return DayResult(
+        pa.concat_tables(stops, promote_options="default"),
+        pa.concat_tables(routes, promote_options="default"),
+        metrics,
+        out,
+        res.city,
+    )
 
 
 def _read_back(folder: Path, metrics: dict[str, Any]) -> DayResult:

@@ -10,7 +10,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, get_args
 
-from ..config import PlannerConfig, SegmentConfig
+from ..config import PlannerConfig, SegmentConfig, override
 from ..errors import InputError, option
 from .inputs import (
     Data,
@@ -95,6 +95,23 @@ def replay_config(
     )
 
 
+def plan_area(
+    cfg: PlannerConfig, depots: Any = None, hubs: Any = None
+) -> tuple[PlannerConfig, bool]:
+    """``(cfg, city)``: whether a run plans a city (a hubs file, or ``[data] area =
+    "hubs"``) or one study square, and its config saying so. Depots given, or a square's
+    ``[data] center``, name one square whatever ``area`` says; a single square's config
+    reads ``area = "square"`` (and its files say nothing of it, as before hubs were the
+    default: docs/method.md §1.1)."""
+    if hubs is not None:
+        return cfg, True
+    if cfg.data.area == "hubs" and depots is None and cfg.data.center is None:
+        return cfg, True
+    if cfg.data.area == "square":
+        return cfg, False
+    return override(cfg, data__area="square"), False
+
+
 def replay_days(
     data: Data,
     cfg: PlannerConfig,
@@ -120,12 +137,7 @@ def replay_days(
     from ..sim.scenario import loads_actor, method_policy, policy_files, replay_modules
 
     several = len(days) > 1 if several is None else several
-    city = hubs is not None or (depots is None and cfg.data.area == "hubs")
-    if depots is not None and cfg.data.area == "hubs" and hubs is None:
-        raise InputError(
-            f"{option('depots')} names one study area's depots, and [data] area is "
-            f'"hubs": drop {option("depots")}, or plan one square with {option("area")} square'
-        )
+    cfg, city = plan_area(cfg, depots, hubs)
     if options.scheduler is None and options.workers > 1 and (len(days) > 1 or city):
         from ..workers import warm_up
 

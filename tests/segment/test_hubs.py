@@ -466,3 +466,24 @@ def test_the_whole_export_over_hubs(example_csv, tmp_path):
     assert c["orders_due"] == metrics["total"]["orders_due"] + c["outside_hubs"]
     assert c["planned"] >= 0.9 * (c["orders_due"] - c["outside_hours"])
     assert sorted(p.name for p in out.glob("hub-*")) == sorted(f"hub-{i}" for i in range(n))
+
+
+def test_the_api_plans_the_city_as_the_command_does(example_csv, tmp_path):
+    """api.replay_day(area="hubs") returns every hub's rows, the city's coverage as
+    metrics.json has it; a second call into the same folder reads the kept hubs back."""
+    from marops_cli import api
+
+    with pytest.warns(UserWarning):
+        day = api.replay_day(example_csv, "0811", area="hubs", method="stay", out=tmp_path / "c")
+    doc = json.loads((tmp_path / "c" / "metrics.json").read_text())
+    assert day.city == doc["city"] == day.metrics["city"]
+    hubs = sorted(set(day.stops.column("hub").to_pylist()))
+    assert hubs == [h["hub"] for h in doc["city"]["hubs"]]
+    ids, kinds = day.stops.column("order_id").to_pylist(), day.stops.column("kind").to_pylist()
+    delivered = {o for o, k in zip(ids, kinds, strict=True) if k == "customer"}
+    assert len(delivered) == doc["city"]["delivered"]
+    again = api.replay_day(example_csv, "0811", area="hubs", method="stay", out=tmp_path / "c")
+    assert again.city == day.city and again.stops.num_rows == day.stops.num_rows
+    with pytest.warns(UserWarning):
+        one = api.replay_day(example_csv, "0811", area="square", method="stay")
+    assert one.city is None and one.stops.num_rows < day.stops.num_rows
