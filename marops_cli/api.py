@@ -637,6 +637,8 @@ def evaluate(
     strict: bool = False,
     force: bool = False,
     trust_actor: bool = False,
+    area: str | None = None,
+    city_drones: int | None = None,
     config: str | Path | None = None,
 ) -> EvaluationResult:
     """``marops evaluate``: per-day results and their summary. Sweeps take "a,b,c"
@@ -655,7 +657,15 @@ def evaluate(
     from .segment.hubs import load_hubs
 
     _files_asked("evaluate", out, report=report)
-    cfg = planner_config(config, year=year, strict=strict, seed=seed, trust_actor=trust_actor)
+    cfg = planner_config(
+        config,
+        year=year,
+        strict=strict,
+        seed=seed,
+        trust_actor=trust_actor,
+        area=area,
+        city_drones=city_drones,
+    )
     # An empty list of dates is an error, not the split's days.
     given = _text(dates) or ""
     days = parse_days(given, cfg.data.year, option("dates")) if dates is not None else None

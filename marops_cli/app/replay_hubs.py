@@ -126,26 +126,12 @@ def history_days(table: Any, days: list[dt.date]) -> list[dt.date]:
 
 
 def city_fleet(table: Any, hubs: list[Any], history: list[dt.date], cfg: Any) -> list[Any]:
-    """The hubs with their fleets: a hub that names its own keeps it; the others share
-    the city's fleet (``[sim] city_drones``, else ``drones`` each) by their demand on
-    the history days (docs/method.md §1.1)."""
-    import dataclasses
+    """The hubs with their fleets: their own, or a share of the city's (``[sim]
+    city_drones``, else ``drones`` each) by their demand on the history days."""
+    from ..segment.hubs import hub_demand, with_fleets
 
-    from ..segment.hubs import hub_demand, share_fleet
-
-    rest = [h for h in hubs if h.drones is None]
-    if not rest:
-        return hubs
     demand = hub_demand(table, hubs, history)
-    city = cfg.sim.city_drones
-    if city is None:
-        city = cfg.sim.drones * len(rest)
-    else:
-        city -= sum(h.drones for h in hubs if h.drones is not None)
-    shares = iter(share_fleet([demand[h.id] for h in rest], city))
-    return [
-        h if h.drones is not None else dataclasses.replace(h, drones=next(shares)) for h in hubs
-    ]
+    return with_fleets(hubs, demand, cfg.sim.drones, cfg.sim.city_drones)
 
 
 def _left_out(table: Any, days: list[dt.date], hubs: list[Any], cfg: Any) -> tuple[Any, Any]:

@@ -86,9 +86,11 @@ def evaluate_command(
         typer.Option(
             "--hubs",
             help="hubs.json from marops segment --hubs: evaluate every hub of the city "
-            "(each with its own depots and fleet; rows keyed by hub) [default: one study area].",
+            "(each with its own depots and fleet; rows keyed by hub) [default: as --area says].",
         ),
     ] = None,
+    area: o.Area = None,
+    city_drones: o.CityDrones = None,
     policy: Annotated[
         Path | None,
         typer.Option(
@@ -151,7 +153,15 @@ def evaluate_command(
         output_files(out, sweep=sweep, against=against, plots=plots, report=report),
         [data, config, policy, mappo_policy, hubs],
     )
-    cfg = planner_config(config, year=year, strict=strict, seed=seed, trust_actor=trust_actor)
+    cfg = planner_config(
+        config,
+        year=year,
+        strict=strict,
+        seed=seed,
+        trust_actor=trust_actor,
+        area=area,
+        city_drones=city_drones,
+    )
     hub_list = _hubs(hubs, cfg)
     # --dates "" (an empty list from a script) is an error, not the split's days.
     days = parse_days(dates, cfg.data.year, "--dates") if dates is not None else None

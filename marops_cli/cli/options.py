@@ -49,6 +49,24 @@ Alpha = Annotated[
 Drones = Annotated[
     int | None, typer.Option("--drones", envvar="MAROPS_DRONES", help="Fleet size [default: 8].")
 ]
+Area = Annotated[
+    str | None,
+    typer.Option(
+        "--area",
+        envvar="MAROPS_AREA",
+        help="square: one study square (the paper's experiment); hubs: hubs placed over "
+        "the whole export, each with its depots and share of the fleet, one folder each "
+        "[default: [data] area, square].",
+    ),
+]
+CityDrones = Annotated[
+    int | None,
+    typer.Option(
+        "--city-drones",
+        help="Over hubs: the city's fleet, shared out by the hubs' demand "
+        "[default: --drones per hub].",
+    ),
+]
 FleetFile = Annotated[
     Path | None,
     typer.Option(

@@ -70,24 +70,8 @@ def replay_day_command(
             "folder each, and report the city's coverage [default: as --area says].",
         ),
     ] = None,
-    area: Annotated[
-        str | None,
-        typer.Option(
-            "--area",
-            envvar="MAROPS_AREA",
-            help="square: one study square (the paper's experiment); hubs: hubs placed over "
-            "the whole export, each with its depots and share of the fleet, one folder each "
-            "[default: square, or [data] area].",
-        ),
-    ] = None,
-    city_drones: Annotated[
-        int | None,
-        typer.Option(
-            "--city-drones",
-            help="Over hubs: the city's fleet, shared out by the hubs' demand "
-            "[default: --drones per hub].",
-        ),
-    ] = None,
+    area: o.Area = None,
+    city_drones: o.CityDrones = None,
     method: o.Method = "marops",
     policy: o.Policy = None,
     trust_actor: o.TrustActor = False,

@@ -28,7 +28,7 @@ from ..data.table import LadeTable
 from ..errors import InputError, in_hub, not_a_file, option
 from ..methods import Method, register
 from ..methods import method as method_spec
-from ..segment.hubs import Hub, hub_areas
+from ..segment.hubs import Hub, find_hubs, hub_areas, hub_demand, with_fleets
 from ..sim.scenario import (
     METHODS,
     Scenario,
@@ -65,14 +65,21 @@ class Prepared:
     """The methods' registry entries, so spawned workers know methods registered at run
     time (marops_cli/methods.py)."""
     hubs: list[Hub] = field(default_factory=list)
-    """The hubs of a city run (``--hubs``); empty: one study area."""
+    """The hubs of a city run (``--hubs``, ``[data] area = "hubs"``); empty: one study
+    area."""
     skipped: list[dt.date] = field(default_factory=list)
     """Days of the split left out: nothing to plan in the study area in service hours."""
+    demand: list[int] = field(default_factory=list)
+    """Each hub's orders on the history days, by which the hubs share a fleet."""
 
     def drones(self, job: Job) -> int:
-        """The fleet size of ``job``: its hub's own, else its setting's."""
-        own = self.hubs[job.hub].drones if self.hubs else None
-        return own if own is not None else self.settings[job.setting].drones
+        """The fleet size of ``job``: its setting's, or over hubs its hub's own, else its
+        share of the city's fleet (docs/method.md §1.1)."""
+        if not self.hubs:
+            return self.settings[job.setting].drones
+        drones = self.settings[job.setting].drones
+        fleets = with_fleets(self.hubs, self.demand, drones, self.cfg.sim.city_drones)
+        return int(fleets[job.hub].drones or drones)
 
 
 # Policy kinds of METHODS that load a trained actor -> the evaluate option that overrides it.
@@ -149,6 +156,10 @@ def prepare(
     chosen = list(days) if days else split_days(table.days(), split)
     if not chosen:
         raise InputError(f"no days to evaluate (the file has {format_days(table.days())})")
+    history = [d for d in table.days() if d not in set(chosen)] or chosen
+    if hubs is None and cfg.data.area == "hubs" and cfg.data.center is None:
+        hubs, _ = find_hubs(table, cfg.data, history, None, cfg.data.hub_min_share, cover=True)
+    demand = hub_demand(table, hubs, history) if hubs else []
     path = Path(table.source.path)
     scenarios: dict[tuple[int, str, int], Scenario] = {}
     hub_days: list[tuple[int, list[dt.date]]] = []
@@ -205,6 +216,7 @@ def prepare(
         specs,
         list(hubs or ()),
         skipped,
+        demand,
     )
 
 

@@ -36,6 +36,7 @@ __all__ = [
     "hubs_doc",
     "load_hubs",
     "share_fleet",
+    "with_fleets",
 ]
 
 MAX_HUBS = 256
@@ -237,6 +238,27 @@ def hub_demand(table: LadeTable, hubs: Sequence[Hub], days: Sequence[dt.date]) -
     on = np.isin(table.delivery_day, np.array(list(days), dtype="datetime64[D]"))
     counts = np.bincount(owner[on & (owner >= 0)], minlength=len(hubs))
     return [int(c) for c in counts]
+
+
+def with_fleets(
+    hubs: Sequence[Hub], demand: Sequence[int], drones: int, city_drones: int | None = None
+) -> list[Hub]:
+    """The hubs with their fleets (docs/method.md §1.1): a hub that names its own keeps
+    it; the others share the city's fleet by their ``demand`` (:func:`share_fleet`):
+    ``city_drones`` less the hubs' own, else ``drones`` for each of them."""
+    import dataclasses
+
+    rest = [h for h in hubs if h.drones is None]
+    if not rest:
+        return list(hubs)
+    if city_drones is None:
+        city = drones * len(rest)
+    else:
+        city = city_drones - sum(h.drones for h in hubs if h.drones is not None)
+    shares = iter(share_fleet([demand[h.id] for h in rest], city))
+    return [
+        h if h.drones is not None else dataclasses.replace(h, drones=next(shares)) for h in hubs
+    ]
 
 
 def share_fleet(demand: Sequence[int], drones: int) -> list[int]:

@@ -487,3 +487,42 @@ def test_the_api_plans_the_city_as_the_command_does(example_csv, tmp_path):
     with pytest.warns(UserWarning):
         one = api.replay_day(example_csv, "0811", area="square", method="stay")
     assert one.city is None and one.stops.num_rows < day.stops.num_rows
+
+
+def test_evaluate_over_the_whole_export(example_csv, tmp_path):
+    """evaluate --area hubs compares over every hub-day of the hubs replay-day places,
+    each hub flying its share of the fleet (of each --drones setting)."""
+    out = tmp_path / "ev"
+    args = ["evaluate", str(example_csv), "--dates", "0811", "--methods", "stay"]
+    res = runner.invoke(
+        app, [*args, "--area", "hubs", "--drones", "4,8", "--no-plot", "--out", str(out), "-q"]
+    )
+    assert res.exit_code == 0, res.output
+    rows = pq.read_table(out / "results.parquet").to_pylist()
+    day = tmp_path / "day"
+    res = runner.invoke(
+        app,
+        [
+            "replay-day",
+            str(example_csv),
+            "--date",
+            "0811",
+            "--area",
+            "hubs",
+            "--method",
+            "stay",
+            "--out",
+            str(day),
+            "-q",
+        ],
+    )
+    assert res.exit_code == 0, res.output
+    placed = json.loads((day / "metrics.json").read_text())
+    n = len(placed["meta"]["hubs"])
+    for drones in (4, 8):
+        mine = sorted((r for r in rows if r["setting"] == (drones == 8)), key=lambda r: r["hub"])
+        assert [r["hub"] for r in mine] == list(range(n))
+        assert sum(r["drones"] for r in mine) == drones * n
+    eight = sorted((r for r in rows if r["drones"] and r["setting"] == 1), key=lambda r: r["hub"])
+    assert [r["drones"] for r in eight] == [h["drones"] for h in placed["meta"]["hubs"]]
+    assert [r["requests"] for r in eight] == [h["planned"] for h in placed["city"]["hubs"]]
