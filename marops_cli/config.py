@@ -108,7 +108,7 @@ class DataConfig(_Stage):
         description="number of windows over service hours (sets the length)",
     )
     area: Literal["square", "hubs"] = Field(
-        "square",
+        "hubs",
         # Left out of dumps while "square", so run identities and metadata stay as they were.
         exclude_if=lambda a: a == "square",
         description="what a run plans without --depots or --hubs: one study square (the "
