@@ -109,9 +109,10 @@ class DataConfig(_Stage):
     )
     area: Literal["square", "hubs"] = Field(
         "hubs",
-        # Left out of dumps while "square", so run identities and metadata stay as they were.
-        exclude_if=lambda a: a == "square",
-        description="what a run plans without --depots or --hubs: one study square (the "
+        # Never in dumps: a single area's run identity and metadata are the same bytes
+        # whichever the default, and a city's files name its hubs (docs/outputs.md).
+        exclude=True,
+        description="what a run plans without --depots, --fleet or --hubs: one study square (the "
         "paper's experiment), or hubs placed over the whole export, each with its own "
         "depots and share of the fleet (docs/method.md §1.1)",
     )
@@ -119,7 +120,7 @@ class DataConfig(_Stage):
         0.01,
         ge=0.001,
         le=0.5,
-        exclude_if=lambda v: v == 0.01,
+        exclude=True,  # the hubs it places are in a city's files
         description="with area = \"hubs\": hubs are placed while the next one adds at "
         "least this share of the orders",
     )
@@ -641,7 +642,8 @@ def override(
     invalid value's error calls the field by its name in ``names`` (``stage__field`` ->
     the option that set it, ``option("alpha")`` of marops_cli/errors.py), else
     ``stage.field``."""
-    data = cfg.model_dump()
+    # Every field's value, those left out of dumps (``exclude``) too, so none is lost.
+    data = {stage: dict(getattr(cfg, stage)) for stage in type(cfg).model_fields}
     for key, value in fields.items():
         if value is None:
             continue
