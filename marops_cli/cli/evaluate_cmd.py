@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated
+from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 
@@ -187,10 +187,14 @@ def evaluate_command(
         res = run_evaluation(data, run, out=out, progress=Terminal(remaining=True))
     except KeyboardInterrupt as exc:  # Ctrl-C or SIGTERM, with what the folder keeps
         stopped(exc, "; ".join(getattr(exc, "__notes__", ())), "evaluate")
+    _show(res)
+
+
+def _show(res: Any) -> None:
+    """The evaluation's tables, the files written, and with --json the summary."""
     _print_tables(res.summary)
-    front = res.frontier
-    if front is not None:
-        _print_frontier(front)
+    if res.frontier is not None:
+        _print_frontier(res.frontier)
     if res.paired is not None:
         _print_paired(res.paired, res.summary)
     info(f"wrote {', '.join(str(p) for p in res.files)}")
