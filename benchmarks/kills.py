@@ -27,13 +27,38 @@ ROOT = Path(__file__).resolve().parents[1]
 EXAMPLE = ROOT / "examples" / "shanghai_synth.csv"
 CODE = "from marops_cli.cli.app import main; main()"
 COMMANDS = {
-    "replay-day": ["replay-day", str(EXAMPLE), "--dates", "0801..0812", "--method", "greedy"],
-    "evaluate": ["evaluate", str(EXAMPLE), "--methods", "stay,greedy,ops-random"]
+    "replay-day": [
+        "replay-day",
+        str(EXAMPLE),
+        "--area",
+        "square",
+        "--dates",
+        "0801..0812",
+        "--method",
+        "greedy",
+    ],
+    "evaluate": [
+        "evaluate",
+        str(EXAMPLE),
+        "--area",
+        "square",
+        "--methods",
+        "stay,greedy,ops-random",
+    ]
     + ["--dates", "0809..0812", "--workers", "2", "--no-plot"],
 }
 SMOKE_COMMANDS = {
-    "replay-day": ["replay-day", str(EXAMPLE), "--dates", "0811..0812", "--method", "greedy"],
-    "evaluate": ["evaluate", str(EXAMPLE), "--methods", "stay,greedy"]
+    "replay-day": [
+        "replay-day",
+        str(EXAMPLE),
+        "--area",
+        "square",
+        "--dates",
+        "0811..0812",
+        "--method",
+        "greedy",
+    ],
+    "evaluate": ["evaluate", str(EXAMPLE), "--area", "square", "--methods", "stay,greedy"]
     + ["--dates", "0811..0812", "--workers", "2", "--no-plot"],
 }
 

@@ -64,7 +64,7 @@ def whole_process(args: argparse.Namespace) -> None:
     methods = args.methods.split(",")
     repeats = 1 if args.smoke else args.repeats
     with tempfile.TemporaryDirectory(prefix="marops-bench-") as tmp:
-        base = ["replay-day", str(args.data), "--date", args.date, "-q"]
+        base = ["replay-day", str(args.data), "--area", "square", "--date", args.date, "-q"]
         if not args.no_depots:
             depots = Path(tmp) / "depots.json"
             segment = ["segment", str(args.data), "--dates", args.history]

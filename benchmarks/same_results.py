@@ -235,7 +235,8 @@ ROUTE_FILES = ("**/*.parquet", "**/*.json")
 
 
 def case_example(run: Runner, out: str) -> dict[str, Any]:
-    run("replay-day", str(EXAMPLE), "--date", "0811", "--method", "marops", "--out", out)
+    run("replay-day", str(EXAMPLE), "--area", "square", "--date", "0811", "--method", "marops",
+        "--out", out)  # fmt: skip
     return tree_fingerprints(run.work / out, ROUTE_FILES)
 
 
@@ -245,6 +246,8 @@ def case_synth(shape: str, method: str) -> Callable[[Runner, str], dict[str, Any
         run(
             "replay-day",
             data,
+            "--area",
+            "square",
             "--dates",
             REPLAY_DAYS,
             "--method",
@@ -301,6 +304,8 @@ def case_evaluate(run: Runner, out: str) -> dict[str, Any]:
     run(
         "evaluate",
         data,
+        "--area",
+        "square",
         "--out",
         out,
         "--methods",

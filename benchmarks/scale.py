@@ -12,6 +12,9 @@ peak resident memory (``ru_maxrss`` of that process alone):
   depots, the actor, planning, writing) measured in one process; each extra day of
   ``--dates`` from the slope between 2 and 12 days (with 2 workers and with 1), and
   between 1 and 5 days.
+* **A city day** (always): the default ``replay-day`` of one day of a 6,000-orders-a-day
+  polycentric city over the hubs it places, 2 workers, with the depots cache empty and
+  filled, min and median of ``--repeats``.
 * **Sweeps** (``--sweep``): ``evaluate`` over 30 days × 4 methods of a synthetic file
   with ``--workers 1`` and ``--workers 2`` side by side (ratio).
 
@@ -36,6 +39,7 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+from typing import Any
 
 sys.path = [p for p in sys.path if Path(p or ".").resolve() != Path(__file__).parent.resolve()]
 
@@ -157,6 +161,45 @@ def city(rows: int, tmp: Path, per_day: float = 8300.0, extent_km: float = 40.0)
         )
 
 
+def city_day(repeats: int, tmp: Path, smoke: bool = False) -> None:
+    """The default run on a city's export: one day of a polycentric city of some 6,000
+    orders a day replayed over the hubs it places (``replay-day`` as the README's first
+    command runs it, 2 workers), first with an empty depots cache, then again with the
+    hubs' depots cached; min and median of ``repeats``."""
+    from marops_cli.data.synth import SynthConfig, generate, write
+
+    per_day, days = (800.0, 2) if smoke else (6000.0, 4)
+    path = tmp / "cityday.csv"
+    write(
+        generate(SynthConfig(days=days, seed=11, orders_per_day=per_day, shape="polycentric")), path
+    )
+    day = f"08{days:02d}"
+    walls: dict[str, list[float]] = {"fresh": [], "cached": []}
+    city: dict[str, Any] = {}
+    for k in range(repeats):
+        for label in ("fresh", "cached"):
+            env = dict(os.environ, MAROPS_CACHE_DIR=str(tmp / f"cityday-cache-{k}"))
+            out = tmp / f"cityday-{k}-{label}"
+            cmd = marops(
+                "replay-day", str(path), "--date", day, "--workers", "2", "--out", str(out), "-q"
+            )
+            wall, _ = run(cmd, env)
+            walls[label].append(wall)
+            city = json.loads((out / "metrics.json").read_text())["city"]
+    due, inh = city["orders_due"], city["orders_due"] - city["outside_hours"]
+    share = 100 * city["planned"] / max(inh, 1)
+    print(
+        f"replay-day, a city day (default: the whole export, {len(city['hubs'])} hubs, "
+        f"{due:,} orders due, {city['planned']:,} planned = {share:.1f} % "
+        f"of those in service hours), 2 workers:"
+    )
+    for label, w in walls.items():
+        print(
+            f"  {label:6s} depots: min {min(w):.1f} s, "
+            f"median {statistics.median(w):.1f} s over {len(w)} runs"
+        )
+
+
 def repeated(repeats: int, tmp: Path, smoke: bool = False) -> None:
     depots = tmp / "depots.json"
     run(marops("segment", str(EXAMPLE), "--dates", "0801..0810", "--out", str(depots), "-q"))
@@ -244,6 +287,8 @@ def sweep(tmp: Path, smoke: bool = False) -> None:
                 methods,
                 "--dates",
                 dates,
+                "--area",
+                "square",
                 "--workers",
                 str(workers),
                 "--no-plot",
@@ -294,6 +339,7 @@ def main() -> None:
         tmp = Path(d)
         os.environ.setdefault("MAROPS_CACHE_DIR", str(tmp / "cache"))
         repeated(args.repeats, tmp, args.smoke)
+        city_day(args.repeats, tmp, args.smoke)
         if args.city:
             city(args.rows, tmp, *((1000.0, 8.0) if args.smoke else (8300.0, 40.0)))
         if args.sweep:

@@ -96,16 +96,17 @@ def replay_config(
 
 
 def plan_area(
-    cfg: PlannerConfig, depots: Any = None, hubs: Any = None
+    cfg: PlannerConfig, depots: Any = None, hubs: Any = None, fleet: Any = None
 ) -> tuple[PlannerConfig, bool]:
     """``(cfg, city)``: whether a run plans a city (a hubs file, or ``[data] area =
-    "hubs"``) or one study square, and its config saying so. Depots given, or a square's
-    ``[data] center``, name one square whatever ``area`` says; a single square's config
-    reads ``area = "square"`` (and its files say nothing of it, as before hubs were the
-    default: docs/method.md §1.1)."""
+    "hubs"``, the default) or one study square, and its config saying so. Depots or a
+    fleet file given (each drone placed at one area's depots), or a square's ``[data]
+    center``, name one square whatever ``area`` says; a single square's config reads
+    ``area = "square"`` (docs/method.md §1.1)."""
     if hubs is not None:
         return cfg, True
-    if cfg.data.area == "hubs" and depots is None and cfg.data.center is None:
+    one = depots is not None or fleet is not None or cfg.data.center is not None
+    if cfg.data.area == "hubs" and not one:
         return cfg, True
     if cfg.data.area == "square":
         return cfg, False
@@ -137,7 +138,7 @@ def replay_days(
     from ..sim.scenario import loads_actor, method_policy, policy_files, replay_modules
 
     several = len(days) > 1 if several is None else several
-    cfg, city = plan_area(cfg, depots, hubs)
+    cfg, city = plan_area(cfg, depots, hubs, fleet)
     if options.scheduler is None and options.workers > 1 and (len(days) > 1 or city):
         from ..workers import warm_up
 

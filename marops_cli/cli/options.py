@@ -56,7 +56,7 @@ Area = Annotated[
         envvar="MAROPS_AREA",
         help="square: one study square (the paper's experiment); hubs: hubs placed over "
         "the whole export, each with its depots and share of the fleet, one folder each "
-        "[default: [data] area, square].",
+        "[default: [data] area, hubs; one square with --depots or --fleet].",
     ),
 ]
 CityDrones = Annotated[
