@@ -76,10 +76,10 @@ def evaluation_run(
     example_csv: Path, small_config: Path, tmp_path_factory: pytest.TempPathFactory
 ) -> Path:
     """``evaluate --report`` of stay and greedy over two values of alpha, paired against
-    stay (tests copy it before changing it)."""
+    stay, in one study square (tests copy it before changing it)."""
     out = tmp_path_factory.mktemp("ev") / "ev"
     invoke(
-        "evaluate", example_csv, "--dates", "0811", "--methods", "stay,greedy",
+        "evaluate", "--area", "square", example_csv, "--dates", "0811", "--methods", "stay,greedy",
         "--against", "stay", "--alpha", "0.2,0.8", "--drones", 2, "--config", small_config,
         "--workers", 1, "--no-plot", "--report", "--out", out, "--quiet",
     )  # fmt: skip
