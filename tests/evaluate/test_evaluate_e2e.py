@@ -30,7 +30,8 @@ WALL_TIME = {"runtime_s", "solver_solve_s"}  # the only columns that may differ 
 @pytest.fixture(scope="module")
 def run_dir(example_csv: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
     out = tmp_path_factory.mktemp("evaluate")
-    args = ["evaluate", str(example_csv), "--methods", ",".join(METHODS), "--split", "test"]
+    args = ["evaluate", "--area", "square", str(example_csv), "--methods", ",".join(METHODS)]
+    args += ["--split", "test"]
     args += ["--alpha", ",".join(map(str, ALPHAS)), "--workers", "2", "--out", str(out)]
     res = runner.invoke(app, args)
     assert res.exit_code == 0, res.output
@@ -105,6 +106,7 @@ def test_results_recompute_to_summary(run_dir: Path) -> None:
 
 def test_workers_do_not_change_results(example_csv: Path, run_dir: Path) -> None:
     cfg = PlannerConfig()
+    cfg.data.area = "square"
     prep = prepare(example_csv, cfg, METHODS, expand_settings(cfg, alpha=ALPHAS), split="test")
     one = evaluate_jobs(prep, workers=1).results
     two = pq.read_table(run_dir / "results.parquet")
@@ -128,7 +130,8 @@ def test_a_single_day_leaves_the_std_empty(example_csv: Path, tmp_path: Path) ->
     """n = 1 has no spread: summary.csv leaves every ``_std`` cell empty (it wrote
     ``nan``, which reads as a failed metric) and keeps every mean; summary.md says n/a."""
     out = tmp_path / "one"
-    args = ["evaluate", str(example_csv), "--methods", "stay", "--dates", "0811"]
+    args = ["evaluate", "--area", "square", str(example_csv), "--methods", "stay"]
+    args += ["--dates", "0811"]
     res = runner.invoke(app, [*args, "--workers", "1", "--no-plot", "--out", str(out)])
     assert res.exit_code == 0, res.output
     (row,) = _summary_csv(out / "summary.csv")
