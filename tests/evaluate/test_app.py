@@ -15,6 +15,13 @@ DAY = dt.date(2022, 8, 11)
 WALL_TIME = ["runtime_s", "solver_solve_s"]  # the only columns that may differ between runs
 
 
+def _square() -> PlannerConfig:
+    """The settings of one study square (the use case over a city: tests/segment/)."""
+    cfg = PlannerConfig()
+    cfg.data.area = "square"
+    return cfg
+
+
 class Told:
     """A progress that keeps what it is told."""
 
@@ -42,7 +49,7 @@ class Told:
 
 @pytest.fixture(scope="module")
 def in_memory(example_csv: Path):
-    cfg = PlannerConfig()
+    cfg = _square()
     table = read_lade(example_csv, cfg.data)
     told = Told()
     config = EvaluateConfig(cfg, ["stay", "greedy"], days=[DAY], workers=1, against="stay")
@@ -67,7 +74,7 @@ def test_a_folder_gets_the_same_rows_and_the_files(
     in_memory, example_csv: Path, tmp_path: Path
 ) -> None:
     res, _ = in_memory
-    config = EvaluateConfig(PlannerConfig(), ["stay", "greedy"], days=[DAY], workers=1)
+    config = EvaluateConfig(_square(), ["stay", "greedy"], days=[DAY], workers=1)
     again = evaluate(example_csv, config, out=tmp_path, progress=Told())
     assert again.folder == tmp_path and again.paired is None
     assert [p.name for p in again.files][:3] == ["results.parquet", "summary.csv", "summary.md"]
@@ -89,7 +96,7 @@ def test_a_run_stopped_before_any_replay_says_nothing_is_kept(
             raise KeyboardInterrupt
 
     out = tmp_path / "ev"
-    config = EvaluateConfig(PlannerConfig(), ["stay", "greedy"], days=[DAY], workers=1)
+    config = EvaluateConfig(_square(), ["stay", "greedy"], days=[DAY], workers=1)
     with pytest.raises(KeyboardInterrupt) as stop:
         evaluate(example_csv, config, out=out, progress=StoppedAtOnce())
     assert stop.value.__notes__ == ["no replay of 2 had finished: nothing is kept"]
