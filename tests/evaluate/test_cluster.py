@@ -31,7 +31,7 @@ MAIN = "from marops_cli.cli.app import main; main()"
 
 
 def _evaluate(example_csv: Path, out: Path, *extra: str) -> list[str]:
-    return ["evaluate", str(example_csv), *ARGS, *extra, "--out", str(out)]
+    return ["evaluate", "--area", "square", str(example_csv), *ARGS, *extra, "--out", str(out)]
 
 
 def _subprocess(args: list[str]) -> subprocess.Popen[str]:
@@ -125,8 +125,8 @@ def test_a_folder_of_another_run_is_refused_then_force_clears_it(
 ) -> None:
     out = tmp_path / "ev"
     shutil.copytree(one_worker, out)
-    other = ["evaluate", str(example_csv), "--methods", "stay", "--dates", "0811", "--no-plot"]
-    other += ["--workers", "1", "-q", "--out", str(out)]
+    other = ["evaluate", "--area", "square", str(example_csv), "--methods", "stay"]
+    other += ["--dates", "0811", "--no-plot", "--workers", "1", "-q", "--out", str(out)]
     fails_cleanly(other, tmp_path, str(out / "jobs"), "other settings", "--force")
     res = RUNNER.invoke(app, [*other, "--force"])
     assert res.exit_code == 0, res.output
@@ -235,7 +235,8 @@ def test_replay_days_on_a_local_cluster_are_the_days_planned_here(
 ) -> None:
     """``replay-day --dates --scheduler local``: each day planned on a Dask worker and
     written by the command, the same route files as one process planning them."""
-    base = ["replay-day", str(example_csv), "--dates", "0811..0812", "--method", "greedy"]
+    base = ["replay-day", "--area", "square", str(example_csv), "--dates", "0811..0812"]
+    base += ["--method", "greedy"]
     here = tmp_path / "here"
     res = RUNNER.invoke(app, [*base, "--workers", "1", "--out", str(here)])
     assert res.exit_code == 0, res.output
