@@ -178,7 +178,8 @@ def test_a_split_day_with_nothing_to_plan_is_left_out_and_a_named_one_refused(
     data = tmp_path / "straggler.csv"
     row = "999999,1,Shanghai,7,121.34,31.13,1,2,08-12 23:50:00,,,,08-13 00:20:00,,,,813"
     data.write_text(example_csv.read_text(encoding="utf-8") + row + "\n", encoding="utf-8")
-    args = ["evaluate", str(data), "--methods", "ops-global", "--workers", "1", "--no-plot"]
+    args = ["evaluate", "--area", "square", str(data), "--methods", "ops-global"]
+    args += ["--workers", "1", "--no-plot"]
     named = [*args, "--dates", "0812,0813", "--out", str(tmp_path / "named")]
     fails_cleanly(named, tmp_path, "no requests on 2022-08-13")
     main = "from marops_cli.cli.app import main; main()"
