@@ -82,7 +82,8 @@ def test_evaluate_against_writes_paired_csv_and_warns_on_few_days(
     example_csv: Path, tmp_path: Path
 ) -> None:
     out = tmp_path / "ev"
-    args = ["evaluate", str(example_csv), "--methods", "stay,greedy", "--dates", "0811..0812"]
+    args = ["evaluate", "--area", "square", str(example_csv), "--methods", "stay,greedy"]
+    args += ["--dates", "0811..0812"]
     res = CliRunner().invoke(app, [*args, "--against", "stay", "--no-plot", "--out", str(out)])
     assert res.exit_code == 0, res.output
     rows = list(csv.DictReader((out / "paired.csv").open()))

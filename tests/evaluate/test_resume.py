@@ -28,6 +28,7 @@ WALL_TIME = ["runtime_s", "solver_solve_s"]  # the only columns that may differ 
 @pytest.fixture(scope="module")
 def prep(example_csv: Path):
     cfg = PlannerConfig()
+    cfg.data.area = "square"
     return prepare(example_csv, cfg, ["stay", "greedy"], expand_settings(cfg), days=DAYS)
 
 
@@ -194,7 +195,8 @@ def test_ctrl_c_exits_130_keeps_finished_jobs_and_prints_no_traceback(
     example_csv: Path, tmp_path: Path, stop_marops
 ) -> None:
     out = tmp_path / "ev"
-    args = ["evaluate", str(example_csv), "--methods", "stay,greedy,ops-random,myopic"]
+    args = ["evaluate", "--area", "square", str(example_csv)]
+    args += ["--methods", "stay,greedy,ops-random,myopic"]
     args += ["--dates", "0811..0812", "--workers", "2", "--no-plot", "--out", str(out)]
     jobs = out / "jobs"
     # Ctrl-C: the whole group, workers included
