@@ -207,9 +207,11 @@ def test_out_under_a_file_is_one_line_up_front(
 
 def test_replay_day_ends_naming_the_files_it_wrote(example_csv: Path, tmp_path: Path) -> None:
     """The closing line names every file written; a re-run that keeps its days says
-    so, and --json lists the same files."""
+    so, and --json lists the same files (of one study square: a city's line names its
+    count and hub folders, as the test below checks)."""
     out, one = tmp_path / "o", tmp_path / "one"
-    common = ["replay-day", str(example_csv), "--method", "stay", "--workers", "1"]
+    common = ["replay-day", "--area", "square", str(example_csv), "--method", "stay"]
+    common += ["--workers", "1"]
     args = [*common, "--dates", "0811..0812", "--out", str(out)]
     res = runner.invoke(app, args)
     assert res.exit_code == 0, res.output
