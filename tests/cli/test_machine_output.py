@@ -36,7 +36,8 @@ def run(args: list[str], cwd: Path, **env: str) -> subprocess.CompletedProcess[s
 @pytest.fixture(scope="module")
 def cron_run(example_csv: Path, tmp_path_factory: pytest.TempPathFactory):
     cwd = tmp_path_factory.mktemp("cron")
-    args = ["replay-day", str(example_csv), "--date", "0811", "--method", "stay"]
+    args = ["replay-day", "--area", "square", str(example_csv), "--date", "0811"]
+    args += ["--method", "stay"]
     table = run([*args, "--out", "table"], cwd)
     as_json = run([*args, "--out", "json", "--json"], cwd)
     return cwd, table, as_json
@@ -205,7 +206,8 @@ def test_a_method_is_one_registry_entry(example_csv: Path, tmp_path: Path) -> No
         )
 
     assert "myopic, toy" in " ".join(cli("replay-day", "--help").stdout.split())
-    res = cli("replay-day", str(example_csv), "--date", "0811", "--method", "toy", "--out", "d")
+    one = ("--area", "square", str(example_csv), "--date", "0811")
+    res = cli("replay-day", *one, "--method", "toy", "--out", "d")
     assert res.returncode == 0, res.stderr
     doc = json.loads((tmp_path / "d" / "metrics.json").read_text())
     assert (
@@ -216,6 +218,8 @@ def test_a_method_is_one_registry_entry(example_csv: Path, tmp_path: Path) -> No
     assert res.returncode == 2 and "--out" in res.stderr  # (usage: --out is required)
     res = cli(
         "evaluate",
+        "--area",
+        "square",
         str(example_csv),
         "--methods",
         "toy,stay",
