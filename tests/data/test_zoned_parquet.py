@@ -52,7 +52,8 @@ def test_zone_aware_parquet_plans_what_the_csv_plans(example_csv: Path, tmp_path
     tables = []
     for name, data in (("csv", example_csv), ("pq", path)):
         out = tmp_path / name
-        args = ["replay-day", str(data), "--date", "0811", "--method", "greedy", "--out", str(out)]
+        args = ["replay-day", "--area", "square", str(data), "--date", "0811"]
+        args += ["--method", "greedy", "--out", str(out)]
         res = CliRunner().invoke(app, args)
         assert res.exit_code == 0, res.output
         tables.append(pq.read_table(out / "stops.parquet").replace_schema_metadata(None))
