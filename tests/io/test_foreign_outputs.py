@@ -9,6 +9,8 @@ from pathlib import Path
 import pytest
 
 E = "0811"
+# replay-day's files of one study square lie in --out itself (a city's, in a folder per hub).
+SQUARE = ["--area", "square"]
 
 CASES = {
     "synth data.csv": ("data.csv", ["synth", "--days", "1", "--out", "{out}/data.csv"]),
@@ -18,7 +20,8 @@ CASES = {
     ),
     "replay-day routes.png": (
         "routes.png",
-        ["replay-day", "{data}", "--date", E, "--method", "stay", "--plot", "--out", "{out}"],
+        ["replay-day", *SQUARE, "{data}", "--date", E, "--method", "stay", "--plot"]
+        + ["--out", "{out}"],
     ),
     "evaluate summary.csv": (
         "summary.csv",
@@ -69,11 +72,12 @@ def test_a_foreign_file_where_a_command_writes(
 NOT_ASKED = {
     "replay-day routes.png": (
         "routes.png",
-        ["replay-day", "{data}", "--date", E, "--method", "stay", "--out", "{out}"],
+        ["replay-day", *SQUARE, "{data}", "--date", E, "--method", "stay", "--out", "{out}"],
     ),
     "replay-day --dates stops.parquet": (
         "stops.parquet",  # the days' files go to a folder each, below it
-        ["replay-day", "{data}", "--dates", "0811..0812", "--method", "stay", "--out", "{out}"],
+        ["replay-day", *SQUARE, "{data}", "--dates", "0811..0812", "--method", "stay"]
+        + ["--out", "{out}"],
     ),
     "segment depots.png": ("depots.png", ["segment", "{data}", "--out", "{out}/depots.json"]),
     "segment depots.geojson": (
@@ -152,7 +156,7 @@ def test_a_foreign_file_by_the_journal_s_name_is_never_rewritten(
     monkeypatch.chdir(tmp_path)
     journal = tmp_path / ".marops-files.json"
     journal.write_text("a user's own file\n")
-    args = ["replay-day", str(example_csv), "--date", E, "--method", "stay", "--plot"]
+    args = ["replay-day", *SQUARE, str(example_csv), "--date", E, "--method", "stay", "--plot"]
     args += ["--out", ".", *force]
     if not force:
         fails_cleanly(args, tmp_path, ".marops-files.json: ", "not the journal", "--out")
