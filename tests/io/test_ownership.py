@@ -298,8 +298,9 @@ def test_no_output_replaces_a_file_of_the_actor_flown(
 def test_a_day_folder_that_is_a_link_is_never_written_through(
     example_csv: Path, tmp_path: Path
 ) -> None:
-    """Over several days each day's files go into ``OUT/<day>/``: a link there (to
-    another run's day) is refused before any work, even with --force, its target kept."""
+    """Over several days each day's files of one study square go into ``OUT/<day>/``: a
+    link there (to another run's day) is refused before any work, even with --force, its
+    target kept."""
     other = tmp_path / "other" / "2022-08-11"
     other.mkdir(parents=True)
     (other / "metrics.json").write_text('{"mine": 1}')
@@ -307,8 +308,8 @@ def test_a_day_folder_that_is_a_link_is_never_written_through(
     out.mkdir()
     (out / "2022-08-11").symlink_to(other)
     res = marops(
-        "replay-day", example_csv, "--dates", "0811..0812", "--out", out, "--force",
-        "--method", "stay", "--n-depots", "4",
+        "replay-day", "--area", "square", example_csv, "--dates", "0811..0812", "--out", out,
+        "--force", "--method", "stay", "--n-depots", "4",
     )  # fmt: skip
     assert res.returncode == 2
     assert "is a link" in one_line(res.stderr) and "2022-08-11" in res.stderr

@@ -22,7 +22,8 @@ def test_a_run_leaves_a_user_s_hidden_tmp_files_alone(example_csv: Path, tmp_pat
     for p in mine:
         p.parent.mkdir(parents=True, exist_ok=True)
         p.write_text("a chapter")
-    args = ["replay-day", example_csv, "--date", "0811", "--method", "stay", "--out", sweep]
+    args = ["replay-day", "--area", "square", example_csv, "--date", "0811", "--method", "stay"]
+    args += ["--out", sweep]
     res = subprocess.run(
         [sys.executable, "-c", MAIN, *map(str, args)], capture_output=True, text=True
     )
