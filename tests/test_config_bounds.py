@@ -94,7 +94,7 @@ def test_more_depots_than_points_blames_the_config_key(
     out = tmp_path / "out"
     args = [command, str(few_points), "--out", str(out / "d.json" if command == "segment" else out)]
     if command == "replay-day":
-        args += ["--date", "0811", "--method", "stay"]
+        args += ["--area", "square", "--date", "0811", "--method", "stay"]
     line = fails_cleanly([*args, "--config", str(config)], tmp_path, "key 'segment.n_depots'")
     assert line.startswith(f"marops: error: {config}, "), line
     assert "few.csv holds only 40 history requests" in line

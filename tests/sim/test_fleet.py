@@ -120,7 +120,9 @@ def test_uniform_fleet_is_one_default_type():
 
 
 def _replay(example_csv: Path, out: Path, *extra: str) -> None:
-    args = ["replay-day", str(example_csv), "--date", "0811", "--out", str(out), "-q", *extra]
+    """One study square's day (a fleet file is one square's fleet)."""
+    args = ["replay-day", "--area", "square", str(example_csv), "--date", "0811"]
+    args += ["--out", str(out), "-q", *extra]
     res = runner.invoke(app, args)
     assert res.exit_code == 0, res.output
 
