@@ -10,10 +10,14 @@ from typer.testing import CliRunner
 from marops_cli.cli.app import app
 from marops_cli.io.atomic import folder_lock
 
+# One study square: its files in --out, or in a folder per day (a city's, per hub below).
+SQUARE = ["--area", "square"]
+
 
 def test_a_second_run_into_a_busy_folder_stops_with_a_message(example_csv: Path, tmp_path: Path):
     out = tmp_path / "day"
-    args = ["replay-day", str(example_csv), "--date", "0811", "--method", "stay", "--out", str(out)]
+    args = ["replay-day", *SQUARE, str(example_csv), "--date", "0811", "--method", "stay"]
+    args += ["--out", str(out)]
     with folder_lock(out):  # another run holds the folder
         res = CliRunner().invoke(app, args)
     assert res.exit_code == 1
@@ -70,7 +74,7 @@ def test_the_next_run_removes_the_temporaries_a_killed_run_left_and_nothing_else
     killed.wait()
     stale = [p for p in out.rglob("*.tmp") if p not in kept]
     assert len(stale) == 2 and (out / ".marops.lock").exists()
-    args = ["replay-day", str(example_csv), "--dates", "0811..0812", "--method", "stay"]
+    args = ["replay-day", *SQUARE, str(example_csv), "--dates", "0811..0812", "--method", "stay"]
     res = CliRunner().invoke(app, [*args, "--out", str(out)])
     assert res.exit_code == 0, res.output
     assert not any(p.exists() for p in stale)
@@ -82,7 +86,8 @@ def test_sigterm_exits_143_with_one_line_and_leaves_outputs_complete_or_absent(
     example_csv: Path, tmp_path: Path, stop_marops
 ):
     out = tmp_path / "week"
-    args = ["replay-day", str(example_csv), "--dates", "0801..0812", "--method", "greedy"]
+    args = ["replay-day", *SQUARE, str(example_csv), "--dates", "0801..0812"]
+    args += ["--method", "greedy"]
     ready = (out / "2022-08-01" / "metrics.json").exists
     code, err = stop_marops([*args, "--out", str(out), "-q"], ready, signal.SIGTERM, group=False)
     assert code == 143, err

@@ -256,7 +256,8 @@ def test_replay_day_records_what_the_model_held_back(tmp_path: Path, example_csv
     paper, realistic = examples / "paper-ops.toml", examples / "operations.toml"
     for name, extra in (("paper", ["--config", str(paper)]), ("ops", ["--config", str(realistic)])):
         out = tmp_path / name
-        args = ["replay-day", str(example_csv), "--date", "0811", "--method", "ops-global"]
+        args = ["replay-day", "--area", "square", str(example_csv), "--date", "0811"]
+        args += ["--method", "ops-global"]
         res = CliRunner().invoke(app, [*args, *extra, "--out", str(out)])
         assert res.exit_code == 0, res.output
         record = json.loads(next(out.rglob("metrics.json")).read_text(encoding="utf-8"))
