@@ -12,6 +12,8 @@ from typer.testing import CliRunner
 from marops_cli.cli.app import app
 
 runner = CliRunner()
+# One study square: a folder per day right below --out (a city's, per hub below).
+SQUARE = ["--area", "square"]
 
 
 def _replay(example_csv: Path, out: Path, *extra: str) -> None:
@@ -19,6 +21,7 @@ def _replay(example_csv: Path, out: Path, *extra: str) -> None:
         app,
         [
             "replay-day",
+            *SQUARE,
             str(example_csv),
             "--dates",
             "0811..0812",
@@ -79,7 +82,7 @@ def test_rerun_with_other_settings_is_refused_and_changes_nothing(
     out = tmp_path / "week"
     _replay(example_csv, out)
     before = {p: p.read_bytes() for p in sorted(out.rglob("*")) if p.is_file()}
-    args = ["replay-day", str(example_csv), "--dates", "0811..0812", "--out", str(out)]
+    args = ["replay-day", *SQUARE, str(example_csv), "--dates", "0811..0812", "--out", str(out)]
     res = runner.invoke(app, [*args, "--method", "greedy", "--alpha", "0.9"])
     assert res.exit_code == 2
     assert "2022-08-11/metrics.json" in res.output
@@ -123,7 +126,8 @@ def test_an_edited_earlier_day_is_refused_naming_its_key(
     doc = json.loads(path.read_text())
     edit(doc)
     path.write_text(json.dumps(doc))
-    args = ["replay-day", str(example_csv), "--dates", "0811..0812", "--method", "greedy"]
+    args = ["replay-day", *SQUARE, str(example_csv), "--dates", "0811..0812"]
+    args += ["--method", "greedy"]
     line = fails_cleanly([*args, "--out", str(out)], tmp_path, str(path), "--force")
     assert f"key '{key}'" in line, line
 
@@ -134,6 +138,7 @@ def test_json_format_matches_parquet(example_csv: Path, tmp_path: Path) -> None:
             app,
             [
                 "replay-day",
+                *SQUARE,
                 str(example_csv),
                 "--date",
                 "0812",
@@ -159,7 +164,7 @@ def test_json_format_matches_parquet(example_csv: Path, tmp_path: Path) -> None:
 def test_says_what_was_left_out_and_warns_when_much_stays_undelivered(
     example_csv: Path, tmp_path: Path
 ) -> None:
-    args = ["replay-day", str(example_csv), "--date", "0811", "--method", "stay"]
+    args = ["replay-day", *SQUARE, str(example_csv), "--date", "0811", "--method", "stay"]
     res = runner.invoke(app, [*args, "--drones", "1", "--out", str(tmp_path / "one")])
     assert res.exit_code == 0, res.output
     day = json.loads((tmp_path / "one" / "metrics.json").read_text())["days"][0]
@@ -181,7 +186,8 @@ def test_days_on_workers_are_the_days_planned_here(example_csv: Path, tmp_path: 
     outs = {}
     for workers in ("1", "2"):
         out = tmp_path / f"w{workers}"
-        args = ["replay-day", str(example_csv), "--dates", "0810..0812", "--method", "myopic"]
+        args = ["replay-day", *SQUARE, str(example_csv), "--dates", "0810..0812"]
+        args += ["--method", "myopic"]
         res = runner.invoke(app, [*args, "--workers", workers, "--plot", "--out", str(out)])
         assert res.exit_code == 0, res.output
         outs[workers] = out
@@ -206,8 +212,8 @@ def test_ctrl_c_keeps_the_finished_days_and_a_rerun_replays_the_rest(
     import signal
 
     out = tmp_path / "days"
-    args = ["replay-day", str(example_csv), "--dates", "0801..0812", "--method", "greedy"]
-    args += ["--workers", "2", "--out", str(out)]
+    args = ["replay-day", *SQUARE, str(example_csv), "--dates", "0801..0812"]
+    args += ["--method", "greedy", "--workers", "2", "--out", str(out)]
     code, err = stop_marops(args, lambda: any(out.glob("*/metrics.json")), signal.SIGINT)
     assert code == 130, err
     assert "Traceback" not in err and "of 12 days are written" in err
@@ -306,7 +312,7 @@ def test_a_day_another_run_wrote_meanwhile_is_not_claimed_by_the_summary(
     out = tmp_path / "week"
     res = runner.invoke(
         app,
-        ["replay-day", str(example_csv), "--dates", "0811..0812", "--method", "stay"]
+        ["replay-day", *SQUARE, str(example_csv), "--dates", "0811..0812", "--method", "stay"]
         + ["--out", str(out)],
     )
     assert res.exit_code == 2, res.output
