@@ -32,7 +32,8 @@ PAPER_OPS = Path(__file__).resolve().parents[2] / "examples" / "paper-ops.toml"
 
 
 def _replay(example_csv: Path, cwd: Path, threads: int, method: str) -> dict[str, str]:
-    args = ["replay-day", str(example_csv), "--date", "0811", "--method", method, "-q"]
+    args = ["replay-day", "--area", "square", str(example_csv), "--date", "0811"]
+    args += ["--method", method, "-q"]
     if method == "mappo":  # its actor flies the paper's operating model only
         args += ["--config", str(PAPER_OPS)]
     _marops([*args, "--out", "out"], cwd, threads)
@@ -69,7 +70,8 @@ def test_every_method_and_evaluate_same_on_1_and_4_threads(example_csv: Path, tm
     rows = []
     for threads in (1, 4):
         cwd = _fresh(tmp_path / f"ev{threads}")
-        args = ["evaluate", str(example_csv), "--methods", "stay,greedy,marops", "--dates"]
+        args = ["evaluate", "--area", "square", str(example_csv), "--methods", "stay,greedy,marops"]
+        args += ["--dates"]
         _marops([*args, "0811", "--workers", "2", "--no-plot", "--out", "ev", "-q"], cwd, threads)
         table = pq.read_table(cwd / "ev" / "results.parquet")
         keep = [c for c in table.column_names if c not in ("runtime_s", "solver_solve_s")]
