@@ -56,6 +56,24 @@ def test_replay_bytes_do_not_depend_on_threads_or_folders(
     assert runs[0] == runs[1] == runs[2]
 
 
+def test_a_city_s_bytes_do_not_depend_on_threads_or_folders(example_csv: Path, tmp_path: Path):
+    """The default run over the hubs it places: every hub's route files the same bytes
+    with one thread and with four, from different folders."""
+    runs = []
+    for threads in (1, 4):
+        cwd = _fresh(tmp_path / f"city{threads}" / "nested")
+        args = ["replay-day", str(example_csv), "--date", "0811", "--method", "stay", "-q"]
+        _marops([*args, "--out", "out"], cwd, threads)
+        files = sorted((cwd / "out").glob("hub-*/*.parquet"))
+        runs.append(
+            {
+                p.relative_to(cwd).as_posix(): hashlib.sha256(p.read_bytes()).hexdigest()
+                for p in files
+            }
+        )
+    assert len(runs[0]) > 2 and runs[0] == runs[1]
+
+
 def test_every_method_and_evaluate_same_on_1_and_4_threads(example_csv: Path, tmp_path: Path):
     """Every method's route files, and evaluate's rows (less its wall times), are the
     same with one thread and with four, run from different folders."""
