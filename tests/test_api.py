@@ -246,7 +246,12 @@ def test_api_evaluate_returns_the_paired_comparison_with_against(example_csv: Pa
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         ev = marops.evaluate(
-            example_csv, methods="stay,ops-global", dates="0811", against="ops-global", workers=1
+            example_csv,
+            methods="stay,ops-global",
+            dates="0811",
+            against="ops-global",
+            workers=1,
+            area="square",
         )
     assert ev.paired is not None and ev.folder is None
     few = [w for w in caught if "backs the paired comparison" in str(w.message)]
@@ -254,7 +259,8 @@ def test_api_evaluate_returns_the_paired_comparison_with_against(example_csv: Pa
     assert str(few[0].message).startswith("only 1 day backs the paired comparison (fewer than")
     rows = ev.paired.to_pylist()
     assert {r["against"] for r in rows} == {"ops-global"} and rows[0]["days"] == 1
-    assert marops.evaluate(example_csv, methods="stay", dates="0811", workers=1).paired is None
+    alone = marops.evaluate(example_csv, methods="stay", dates="0811", workers=1, area="square")
+    assert alone.paired is None
 
 
 def test_api_data_may_be_any_path_like(example_csv: Path) -> None:
@@ -279,7 +285,7 @@ def test_api_figures_leave_the_callers_matplotlib_backend(
         "from marops_cli import api\n"
         "csv, out = sys.argv[1], sys.argv[2]\n"
         "api.segment(csv, out=out + '/depots.json', dates='0801', plot=True)\n"
-        "api.replay_day(csv, '0811', method='stay', out=out + '/day', plot=True)\n"
+        "api.replay_day(csv, '0811', method='stay', out=out + '/day', plot=True, area='square')\n"
         "print(matplotlib.get_backend())\n"
     )
     env = {**os.environ, "MAROPS_CACHE_DIR": "off"}
@@ -334,9 +340,10 @@ def test_api_a_day_kept_without_the_files_asked_for_now_is_replayed(
 ) -> None:
     # A day already in out is kept only when it holds what this call asks for: the map
     # asked for now is written, not silently missing.
-    first = marops.replay_day(example_csv, "0811", method="stay", out=tmp_path)
+    day = {"method": "stay", "out": tmp_path, "area": "square"}  # its files in out itself
+    first = marops.replay_day(example_csv, "0811", **day)
     assert not (tmp_path / "routes.geojson").exists()
-    again = marops.replay_day(example_csv, "0811", method="stay", out=tmp_path, geojson=True)
+    again = marops.replay_day(example_csv, "0811", **day, geojson=True)
     assert (tmp_path / "routes.geojson").is_file() and again.routes.equals(first.routes)
 
 
