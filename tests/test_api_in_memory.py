@@ -55,7 +55,8 @@ def test_a_table_in_memory_plans_as_its_file_and_writes_nothing(
     day = marops.replay_day(rows, date="0811", depots=depots, method="stay")
     window = marops.plan_window(rows, depots, "0811", 5)
     doc = marops.segment(rows, dates="0801..0810")
-    no_depots = marops.replay_day(rows, date="0811", method="stay")  # segments the others
+    # One study square: it segments the other days for its depots.
+    no_depots = marops.replay_day(rows, date="0811", method="stay", area="square")
     assert _files(*quiet_folders) == set()
 
     from_file = marops.replay_day(example_csv, "0811", depots=depots, method="stay")
@@ -112,22 +113,32 @@ def test_the_depots_segment_returns_plan_as_their_file_does(
         marops.plan_window(rows, {"hubs": []}, "0811", 5)
 
 
+@pytest.mark.parametrize("area", ["square", "hubs"])
 def test_evaluate_on_a_table_in_memory_writes_no_depots_cache(
-    example_csv: Path, tmp_path: Path, quiet_folders: list[Path], monkeypatch: pytest.MonkeyPatch
+    example_csv: Path,
+    tmp_path: Path,
+    quiet_folders: list[Path],
+    monkeypatch: pytest.MonkeyPatch,
+    area: str,
 ) -> None:
     """As its docstring says: depots segmented from data in memory are not cached, the
-    user's cache (HOME, XDG_CACHE_HOME) included."""
+    user's cache (HOME, XDG_CACHE_HOME) included; in one study square as over the hubs
+    the whole export gets."""
     home = tmp_path / "home"
     home.mkdir()
     monkeypatch.setenv("HOME", str(home))
     monkeypatch.setenv("XDG_CACHE_HOME", str(home / ".cache"))
     config = tmp_path / "small.toml"
-    config.write_text('[data]\nservice_start = "09:00"\nservice_end = "10:00"\n')
+    config.write_text(f'[data]\narea = "{area}"\nservice_start = "09:00"\nservice_end = "10:00"\n')
     res = marops.evaluate(
         _rows(example_csv), dates="0811", methods="stay", drones="2", workers=1, plots=False,
         config=config,
     )  # fmt: skip
-    assert res.results.num_rows == 1
+    hubs = res.results.column("hub").to_pylist()
+    if area == "square":
+        assert hubs == [0]
+    else:  # a row for each hub with requests that day
+        assert len(hubs) == len(set(hubs)) > 1
     assert _files(*quiet_folders, home) == set()
 
 
