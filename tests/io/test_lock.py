@@ -62,7 +62,8 @@ def test_the_cli_refused_twice_while_a_run_holds_the_folder(
 ) -> None:
     folder = tmp_path / "day"
     first = _start(folder)
-    args = ["replay-day", str(example_csv), "--date", "0811", "--method", "stay"]
+    args = ["replay-day", "--area", "square", str(example_csv), "--date", "0811"]
+    args += ["--method", "stay"]
     cmd = [sys.executable, "-c", "from marops_cli.cli.app import main; main()", *args]
     try:
         assert first.stdout is not None and first.stdout.readline() == "holding\n"
