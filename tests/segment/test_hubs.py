@@ -366,16 +366,16 @@ def test_fewer_hubs_than_asked_for_say_so(example_csv: Path, tmp_path: Path) -> 
     ("extra", "named"),
     [
         (["--center", "121.47,31.23"], "--center"),
-        (["--n-depots", "4", "--plot"], "--n-depots, --plot"),
+        (["--n-depots", "4", "--seed", "1"], "--n-depots, --seed"),
         (["--method", "squares"], "--method"),
     ],
 )
 def test_options_of_one_study_area_are_refused_with_hubs(
     example_csv: Path, tmp_path: Path, extra: list[str], named: str
 ) -> None:
-    """--hubs places its squares itself and writes only the hubs file: an option that
-    would be ignored (--center, --n-depots, --plot …) is one line naming it, exit 2,
-    nothing written."""
+    """--hubs places its squares itself and segments each hub's depots by [segment]: an
+    option that would be ignored (--center, --n-depots, --seed …) is one line naming
+    it, exit 2, nothing written."""
     out = tmp_path / "hubs.json"
     res = runner.invoke(
         app, ["segment", str(example_csv), "--hubs", "2", *extra, "--out", str(out)]
