@@ -3,6 +3,7 @@ hub an order belongs to, and a city day replayed hub by hub."""
 
 from __future__ import annotations
 
+import csv
 import json
 from pathlib import Path
 
@@ -494,9 +495,7 @@ def test_evaluate_over_the_whole_export(example_csv, tmp_path):
     each hub flying its share of the fleet (of each --drones setting)."""
     out = tmp_path / "ev"
     args = ["evaluate", str(example_csv), "--dates", "0811", "--methods", "stay"]
-    res = runner.invoke(
-        app, [*args, "--area", "hubs", "--drones", "4,8", "--no-plot", "--out", str(out), "-q"]
-    )
+    res = runner.invoke(app, [*args, "--area", "hubs", "--drones", "4,8", "--out", str(out), "-q"])
     assert res.exit_code == 0, res.output
     rows = pq.read_table(out / "results.parquet").to_pylist()
     day = tmp_path / "day"
@@ -526,3 +525,7 @@ def test_evaluate_over_the_whole_export(example_csv, tmp_path):
     eight = sorted((r for r in rows if r["drones"] and r["setting"] == 1), key=lambda r: r["hub"])
     assert [r["drones"] for r in eight] == [h["drones"] for h in placed["meta"]["hubs"]]
     assert [r["requests"] for r in eight] == [h["planned"] for h in placed["city"]["hubs"]]
+    # The summary (and its figures) speaks of the settings swept, not of one hub's share.
+    with (out / "summary.csv").open() as f:
+        assert sorted(int(r["drones"]) for r in csv.DictReader(f)) == [4, 8]
+    assert (out / "drones.png").stat().st_size > 0 and (out / "actions.png").stat().st_size > 0
