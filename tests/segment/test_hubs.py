@@ -529,3 +529,26 @@ def test_evaluate_over_the_whole_export(example_csv, tmp_path):
     with (out / "summary.csv").open() as f:
         assert sorted(int(r["drones"]) for r in csv.DictReader(f)) == [4, 8]
     assert (out / "drones.png").stat().st_size > 0 and (out / "actions.png").stat().st_size > 0
+
+
+def test_a_split_day_no_hub_plans_is_left_out_and_a_named_one_refused(
+    example_csv, tmp_path, fails_cleanly
+):
+    """Over hubs, as in one square: a day of the test split that no hub has anything due
+    on in service hours is left out with a warning; named by --dates, refused."""
+    data = tmp_path / "straggler.csv"
+    row = "999999,1,Shanghai,7,121.34,31.13,1,2,08-12 23:50:00,,,,08-13 00:20:00,,,,813"
+    data.write_text(example_csv.read_text(encoding="utf-8") + row + "\n", encoding="utf-8")
+    args = ["evaluate", str(data), "--area", "hubs", "--methods", "stay", "--no-plot"]
+    named = [*args, "--dates", "0812,0813", "--out", str(tmp_path / "named")]
+    fails_cleanly(named, tmp_path, "no requests on 2022-08-13 inside any hub's square")
+    res = runner.invoke(app, [*args, "--workers", "1", "--out", str(tmp_path / "split")])
+    assert res.exit_code == 0, res.output
+    assert (
+        "warning: left out 2022-08-13 of the test split: nothing due inside any hub" in res.output
+    )
+    days = {
+        str(d)
+        for d in pq.read_table(tmp_path / "split" / "results.parquet").column("day").to_pylist()
+    }
+    assert days == {"2022-08-11", "2022-08-12"}
