@@ -373,8 +373,9 @@ def segment(
     config: str | Path | None = None,
 ) -> dict[str, Any]:
     """``marops segment``: the depots document (``depots.json``; with ``hubs``, the
-    hubs file) as a dictionary, written to ``out`` when given. The depots document is
-    taken wherever a depots file is (``plan_window``, ``replay_day``, ``report``)."""
+    hubs file) as a dictionary, written to ``out`` when given (the hubs file with its
+    GeoJSON beside it, as ``segment --hubs`` writes). The depots document is taken
+    wherever a depots file is (``plan_window``, ``replay_day``, ``report``)."""
     from .app.options import planner_config
     from .app.segment import refuse_with_hubs, segment_hubs
     from .app.segment import segment as run
@@ -385,10 +386,10 @@ def segment(
     with replacing_foreign_files(force):
         if hubs is not None:
             given = {"center": center, "n_depots": n_depots, "method": method}
-            given |= {"actions": actions, "seed": seed, "geojson": geojson, "plot": plot}
+            given |= {"actions": actions, "seed": seed}
             refuse_with_hubs(hubs, given)
             cfg = planner_config(config, year=year, size_km=size_km, strict=strict)
-            tiling = segment_hubs(data, cfg, hubs, days=_text(dates), out=out)
+            tiling = segment_hubs(data, cfg, hubs, days=_text(dates), out=out, plot=plot)
             return dict(json.loads(dumps_json(tiling.doc())))
         cfg = planner_config(
             config,

@@ -215,9 +215,10 @@ def evaluate(
     drop_report(progress, prep.source.report, prep.source.source.name)
     if prep.skipped:
         left = ", ".join(d.isoformat() for d in prep.skipped)
+        where = "any hub's square" if prep.hubs else "the study area"
         progress.warning(
-            f"left out {left} of the {config.split} split: nothing due inside the study "
-            "area within service hours"
+            f"left out {left} of the {config.split} split: nothing due inside {where} "
+            "within service hours"
         )
     progress.message(_plan_line(prep, config))
     if out is None:

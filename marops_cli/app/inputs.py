@@ -89,7 +89,6 @@ def given_depots(depots: Any, n_actions: int | None = None) -> Path | Depots:
     flight-range table would be too large."""
     import dataclasses
 
-    from ..config import check_range_table
     from ..segment.depots import Depots
 
     if not in_memory(depots):
@@ -103,11 +102,7 @@ def given_depots(depots: Any, n_actions: int | None = None) -> Path | Depots:
             f"{option('depots')} expects a depots file, a depots document or Depots, "
             f"got {type(depots).__name__}"
         )
-    if n_actions is not None:
-        try:
-            check_range_table(len(given), n_actions, ("", "segment.n_actions"))
-        except ValueError as exc:
-            raise InputError(f"{exc}", file=DEPOTS_IN_MEMORY, column="depots") from None
+    given.check_actions(n_actions, DEPOTS_IN_MEMORY)
     return given
 
 

@@ -228,8 +228,9 @@ def replay_areas(
                     )
         except KeyboardInterrupt as exc:  # Ctrl-C or SIGTERM: the caller says what is kept
             if len(jobs) > 1:
+                what = "hub-days" if len(areas) > 1 else "days"
                 exc.add_note(
-                    f"{len(done)} of {len(jobs)} days are written: run the same command "
+                    f"{len(done)} of {len(jobs)} {what} are written: run the same command "
                     "again to replay the others"
                 )
             raise

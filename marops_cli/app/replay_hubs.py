@@ -58,7 +58,7 @@ def replay_hubs(
             scn = load_scenario(
                 table.source.path,
                 a.cfg,
-                replay_days=days,
+                replay_days=a.replayable(days),
                 table=a.table,
                 hub=a.hub.id,
                 cache=not in_memory(data),

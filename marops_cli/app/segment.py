@@ -191,16 +191,17 @@ def hub_count(text: str | int) -> int | None:
 
 
 def refuse_with_hubs(hubs: str | int, given: Mapping[str, object]) -> None:
-    """``hubs`` writes only the hubs file: an option of one study area's depots, which it
+    """``hubs`` places the study areas and segments each hub's depots as ``replay-day``
+    does, by the ``[segment]`` settings: an option of one study area's depots, which it
     would ignore, is refused naming it (after a bad ``hubs``, the first error).
     ``given``: option name (``n_depots``) -> its value, None or False when not given."""
     hub_count(hubs)
     moot = [option(k) for k, v in given.items() if v is not None and v is not False]
     if moot:
         raise InputError(
-            f"{option('hubs')} places the study areas itself and writes only the hubs file: "
+            f"{option('hubs')} places the study areas itself and writes the hubs file: "
             f"drop {', '.join(moot)} (each hub's depots are segmented when replay-day "
-            "--hubs runs it)"
+            "--hubs runs it, by the [segment] settings of --config)"
         )
 
 
@@ -211,11 +212,13 @@ def segment_hubs(
     *,
     days: str | list[dt.date] | None = None,
     out: str | Path | None = None,
+    plot: bool = False,
     progress: Progress = SILENT,
 ) -> HubTiling:
     """Hub squares over the city's orders due on ``days`` (all when None), densest
     first: ``hubs`` of them, or ``auto`` (while the next holds at least 1 % of the
-    orders); with ``out`` write the hubs file that ``replay-day --hubs`` runs."""
+    orders); with ``out`` write the hubs file that ``replay-day --hubs`` runs, beside it
+    the hubs GeoJSON (each hub's square and depots) and, with ``plot``, a PNG map."""
     from ..segment.hubs import find_hubs
 
     register_inputs([data])  # never an output
@@ -229,16 +232,51 @@ def segment_hubs(
     table = read_data(data, cfg.data)
     found, total = find_hubs(table, cfg.data, day_list, n_hubs)
     drop_report(progress, table.report, data_name(data))
+    used = day_list or table.days()
     meta = run_meta(  # no time stamp, as a depots file's
         command="segment",
         config=cfg,
         source=table.source,
-        extra={"days": [d.isoformat() for d in day_list or table.days()], "hubs": str(hubs)},
+        extra={"days": [d.isoformat() for d in used], "hubs": str(hubs)},
         stamp=False,
     )
     done = HubTiling(found, total, table, meta, [])
     if out is not None:
-        with output_set() as files:
-            files.write_json(Path(out), done.doc())
-        done.files.append(Path(out))
+        _write_hubs(done, Path(out), used, cfg, plot, progress)
     return done
+
+
+def _write_hubs(
+    done: HubTiling,
+    path: Path,
+    days: list[dt.date],
+    cfg: PlannerConfig,
+    plot: bool,
+    progress: Progress,
+) -> None:
+    """The hubs file, the hubs GeoJSON beside it (each hub's square, and its depots as
+    replay-day segments them over ``days``) and, with ``plot``, its PNG map."""
+    from ..segment.hubmap import hub_depots, hubs_geojson
+
+    depots, why = hub_depots(done.table, cfg, done.hubs, days)
+    for hub, reason in why.items():
+        progress.warning(f"hub {hub}: no depots drawn ({reason})")
+    gj_path, png_path = path.with_suffix(".geojson"), path.with_suffix(".png")
+    with output_set() as files:
+        files.write_json(path, done.doc())
+        files.write_json(gj_path, hubs_geojson(done.hubs, done.total, depots, done.meta))
+        if plot:  # matplotlib loads only to draw
+            from ..segment.plot import plot_hubs
+
+            t = done.table
+            on = np.isin(t.delivery_day, np.array(days, dtype="datetime64[D]"))
+            n = sum(len(d) for d in depots.values())
+            title = (
+                f"{len(done.hubs)} hubs of {cfg.data.size_km:g} km, {n} depots, "
+                f"{done.total:,} orders, {len(days)} days"
+            )
+            files.write_with(
+                png_path,
+                lambda p: plot_hubs(done.hubs, depots, t.lng[on], t.lat[on], p, title),
+            )
+    done.files.extend([path, gj_path, *[png_path] * plot])

@@ -7,7 +7,7 @@ from typing import Annotated
 
 import typer
 
-from ..methods import method_names
+from ..methods import method_names, policy_names
 
 METHOD_NAMES = method_names()  # every registered method (marops_cli/methods.py)
 Data = Annotated[
@@ -80,9 +80,8 @@ Policy = Annotated[
     str | None,
     typer.Option(
         "--policy",
-        help="Flight-range policy: stay, random, greedy, global, myopic, backlog, rebalance, "
-        "flow, battery, or a trained actor (PATH.pt, an actor's weights PATH.safetensors, or "
-        "torchscript:PATH) [default: the method's own].",
+        help=f"Flight-range policy: {policy_names()}, or a trained actor (PATH.pt, an "
+        "actor's weights PATH.safetensors, or torchscript:PATH) [default: the method's own].",
     ),
 ]
 TrustActor = Annotated[

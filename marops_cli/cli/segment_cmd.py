@@ -67,11 +67,19 @@ def segment_command(
     strict: o.Strict = False,
     geojson: Annotated[
         bool,
-        typer.Option("--geojson", help="Also write depots and areas as GeoJSON beside --out."),
+        typer.Option(
+            "--geojson",
+            help="Also write depots and areas as GeoJSON beside --out (--hubs: always, "
+            "the hubs' squares and depots).",
+        ),
     ] = False,
     plot: Annotated[
         bool,
-        typer.Option("--plot", help="Also draw a PNG map of customers and areas beside --out."),
+        typer.Option(
+            "--plot",
+            help="Also draw a PNG map of customers and areas (--hubs: the hubs' squares "
+            "and depots) beside --out.",
+        ),
     ] = False,
     hubs: Annotated[
         str | None,
@@ -79,7 +87,7 @@ def segment_command(
             "--hubs",
             help="Tile the city into hubs instead (docs/method.md §1.1): a number, or auto "
             "(while the next hub holds at least 1 % of the orders); --out names the hubs "
-            "file (hubs.json) that replay-day --hubs runs.",
+            "file (hubs.json) that replay-day --hubs runs, with hubs.geojson beside it.",
         ),
     ] = None,
     force: o.Force = False,
@@ -103,11 +111,9 @@ def segment_command(
                 "method": method,
                 "actions": actions,
                 "seed": seed,
-                "geojson": geojson,
-                "plot": plot,
             },
         )
-        _segment_hubs(data, out, hubs, size_km, dates, year, strict, config)
+        _segment_hubs(data, out, hubs, size_km, dates, year, strict, config, plot)
         return
     check_json_out(out, "depots")
     gj_path, png_path = out.with_suffix(".geojson"), out.with_suffix(".png")
@@ -165,18 +171,20 @@ def _print_summary(depots: Depots) -> None:
 
 
 def _segment_hubs(  # type: ignore[no-untyped-def]
-    data: Path, out: Path, hubs: str, size_km, dates, year, strict, config
+    data: Path, out: Path, hubs: str, size_km, dates, year, strict, config, plot: bool
 ) -> None:
-    """``segment --hubs``: hub squares over the city, densest first, into a hubs file."""
+    """``segment --hubs``: hub squares over the city, densest first, into a hubs file
+    (with its GeoJSON and, with ``plot``, its map)."""
     from ..app.options import planner_config
     from ..app.segment import check_json_out, hub_count, segment_hubs
     from ..config import count
 
     hub_count(hubs)  # a bad --hubs is the first error
     check_json_out(out, "hubs")
-    protect_inputs([out], [data, config])
+    gj_path, png_path = out.with_suffix(".geojson"), out.with_suffix(".png")
+    protect_inputs([out, gj_path, *[png_path] * plot], [data, config])
     cfg = planner_config(config, year=year, size_km=size_km, strict=strict)
-    res = segment_hubs(data, cfg, hubs, days=dates, out=out, progress=Terminal())
+    res = segment_hubs(data, cfg, hubs, days=dates, out=out, plot=plot, progress=Terminal())
     held, total = sum(h.orders for h in res.hubs), res.total
     asked = hub_count(hubs)
     if asked is not None and len(res.hubs) < asked:
@@ -199,12 +207,12 @@ def _segment_hubs(  # type: ignore[no-untyped-def]
             f"{100 * h.orders / max(total, 1):.1f}",
         )
     show_table(t)
-    info(f"wrote {out}")
+    info("wrote " + ", ".join(str(p) for p in res.files))
     if STATE["json"]:
         emit_json(
             {
                 "command": "segment",
-                "files": [str(out)],
+                "files": [str(p) for p in res.files],
                 "hubs": len(res.hubs),
                 "orders": total,
                 "covered_share": held / total if total else 0.0,

@@ -40,4 +40,4 @@ def evaluate_jobs(
     else:
         rows = store.rows()
     results = rows_table(rows)
-    return Evaluation(prep, results, summarize(results))
+    return Evaluation(prep, results, summarize(results, prep.settings))

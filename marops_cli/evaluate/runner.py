@@ -172,6 +172,8 @@ def prepare(
     for hub, cfg_h, table_h, days_h in areas:
         if not days_h:
             continue  # a hub without requests on any of the days
+        # Over hubs a hub holds its own orders alone, and may have none on a chosen day.
+        replayable = [d for d in chosen if d in set(table_h.days())] if hubs else chosen
         on_days = np.isin(table_h.delivery_day, np.array(chosen, dtype="datetime64[D]"))
         test_table = table_h.subset(on_days)  # workers need only the replayed days' rows
         for key in sorted(
@@ -180,7 +182,7 @@ def prepare(
             seg_cfg = override(cfg_h, segment__method=key[0], segment__n_depots=key[1])
             try:
                 scn = load_scenario(
-                    path, seg_cfg, replay_days=chosen, table=table_h, hub=hub, cache=cache
+                    path, seg_cfg, replay_days=replayable, table=table_h, hub=hub, cache=cache
                 )
             except InputError as exc:  # a hub too sparse for its depots: which one
                 raise in_hub(exc, hub) if hubs else exc from None
@@ -198,6 +200,17 @@ def prepare(
                     skipped.append(day)  # a split's day with nothing to plan: left out
             days_h = chosen = [d for d in days_h if d not in skipped]
         hub_days.append((hub, days_h))
+    if hubs:  # a day no hub plans anything on: refused when named, else left out
+        planned = {d for _, ds in hub_days for d in ds}
+        empty = [d for d in chosen if d not in planned]
+        if empty and days:
+            raise InputError(
+                f"no requests on {empty[0].isoformat()} inside any hub's square due within "
+                "service hours",
+                file=path,
+            )
+        skipped += empty
+        chosen = [d for d in chosen if d in planned]
     jobs = plan_jobs(len(settings), methods, chosen, repeats, cfg.sim.seed, hub_days=hub_days)
     if not jobs:
         raise InputError("no hub has requests on the days to evaluate", file=path)

@@ -22,7 +22,7 @@ import pyarrow as pa
 from ..methods import method as method_spec
 from ..sim.metrics import METRICS, combined_cost, metric_names
 from .runner import Prepared
-from .settings import Job
+from .settings import Job, Setting
 
 SETTING_COLUMNS = ("setting", "alpha", "drones", "coverage", "depots_n", "n_actions")
 KEY_COLUMNS = (*SETTING_COLUMNS, "segmentation", "hub", "method", "repeat", "seed", "day")
@@ -151,8 +151,10 @@ def mean_std(values: np.ndarray) -> tuple[float, float]:
     return float(v.mean()), float(v.std(ddof=1)) if v.size > 1 else float("nan")
 
 
-def summarize(results: pa.Table) -> pa.Table:
-    """Mean and std of each metric per setting and method (methods in first-seen order)."""
+def summarize(results: pa.Table, settings: Sequence[Setting] | None = None) -> pa.Table:
+    """Mean and std of each metric per setting and method (methods in first-seen order).
+    A setting's columns are its own (``settings``, by index): over hubs each row's
+    ``drones`` is its hub's share of the setting's fleet, the summary's the setting's."""
     cols = {c: results.column(c).to_pylist() for c in (*SETTING_COLUMNS, "segmentation", "method")}
     setting = np.asarray(cols["setting"])
     method = np.asarray(cols["method"], dtype=object)
@@ -165,8 +167,9 @@ def summarize(results: pa.Table) -> pa.Table:
     for s in sorted(set(setting.tolist())):
         for name in dict.fromkeys(method[setting == s]):
             rows = np.flatnonzero((setting == s) & (method == name))
+            own = settings[int(s)].columns() if settings is not None else {}
             for c in (*SETTING_COLUMNS, "segmentation", "method"):
-                out[c].append(cols[c][rows[0]])
+                out[c].append(own.get(c, cols[c][rows[0]]))
             out["n"].append(int(rows.size))
             for m in metrics:
                 mean, std = mean_std(values[m][rows])

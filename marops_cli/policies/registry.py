@@ -7,32 +7,12 @@ import os
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
-from typing import Literal
 
 from ..errors import InputError, not_a_file
+from ..methods import policy_kind, policy_names
 from .base import Policy
-from .baselines import GlobalPolicy, GreedyPolicy, MyopicPolicy, RandomPolicy, StayPolicy
 from .landing import check_trained_for
-from .rules import BacklogPolicy, BatteryPolicy, FlowPolicy, RebalancePolicy
 
-SIMPLE = (
-    "stay",
-    "random",
-    "greedy",
-    "global",
-    "myopic",
-    "backlog",
-    "rebalance",
-    "flow",
-    "battery",
-)
-LANDING_RULES: dict[str, type[Policy]] = {
-    "backlog": BacklogPolicy,
-    "rebalance": RebalancePolicy,
-    "flow": FlowPolicy,
-    "battery": BatteryPolicy,
-}
-"""The operating model's landing rules (docs/method.md §7), by policy kind."""
 DEFAULT_POLICY_NAME = "marops-basic.pt"
 DEFAULT_MAPPO_NAME = "mappo-basic.pt"
 DEFAULT_LANDING_NAME = "marops-ops.safetensors"
@@ -42,43 +22,31 @@ SHIPPED_OPERATING = {"learned": DEFAULT_LANDING_NAME}
 """The shipped actor of a policy kind under an operating model other than the paper's
 (docs/method.md §6.1): the landing actor."""
 
-Kind = Literal[
-    "stay",
-    "random",
-    "greedy",
-    "global",
-    "myopic",
-    "backlog",
-    "rebalance",
-    "flow",
-    "battery",
-    "learned",
-    "direct",
-    "torchscript",
-]
+Kind = str
+"""A policy kind: a registered one (:func:`~marops_cli.methods.policy_names`), a shipped
+actor (``learned``, ``direct``) or ``torchscript`` (a trained actor file)."""
 
 
 @dataclass(frozen=True)
 class PolicySpec:
-    """A parsed policy spec: a baseline by name (:data:`SIMPLE`), a shipped actor
-    (``learned``, ``direct``) or a trained actor file (``torchscript``, with its ``path``
-    as given)."""
+    """A parsed policy spec: a baseline or landing rule by name (a registered policy
+    kind, marops_cli/methods.py), a shipped actor (``learned``, ``direct``) or a trained
+    actor file (``torchscript``, with its ``path`` as given)."""
 
     kind: Kind
     path: str | None = None
 
     @classmethod
     def parse(cls, spec: str) -> PolicySpec:
-        """``stay``, ``random``, ``greedy``, ``global``, ``myopic``, ``backlog``,
-        ``rebalance``, ``flow``, ``battery``, ``learned``,
-        ``direct``, ``torchscript:PATH`` or a ``.pt`` path."""
-        if spec in SIMPLE or spec in SHIPPED:
-            return cls(spec)  # type: ignore[arg-type]
+        """A registered policy kind's name (:func:`~marops_cli.methods.policy_names`),
+        ``learned``, ``direct``, ``torchscript:PATH`` or a ``.pt`` path."""
+        if spec in SHIPPED or _registered(spec):
+            return cls(spec)
         path = spec.removeprefix("torchscript:")
         if spec.startswith("torchscript:") or path.endswith((".pt", ".safetensors")):
             return cls.actor(path)
         raise InputError(
-            f"unknown policy {spec!r}: expected one of {', '.join(SIMPLE)}, "
+            f"unknown policy {spec!r}: expected one of {policy_names()}, "
             "torchscript:PATH, a .pt file or an actor's .safetensors file"
         )
 
@@ -147,18 +115,9 @@ def make_policy(
     if resolved is None:
         raise InputError(f"no trained actor is shipped at policies/{SHIPPED[spec.kind]}")
     spec = resolved
-    if spec.kind == "stay":
-        return StayPolicy()
-    if spec.kind == "random":
-        return RandomPolicy(seed)
-    if spec.kind == "greedy":
-        return GreedyPolicy()
-    if spec.kind == "global":
-        return GlobalPolicy()
-    if spec.kind == "myopic":
-        return MyopicPolicy()
-    if spec.kind in LANDING_RULES:
-        return LANDING_RULES[spec.kind]()
+    if spec.kind != "torchscript":  # a registered kind (a shipped actor resolved above)
+        policy: Policy = policy_kind(spec.kind).build(seed)
+        return policy
     assert spec.path is not None
     path = spec.path
     if path.endswith(".safetensors"):  # data only: a landing actor, or a recurrent one's
@@ -208,3 +167,12 @@ def landing_actor_file(path: str | Path) -> bool:
 def _recurrent(doc: object) -> bool:
     """A sidecar of the recurrent actor (``marops-actor/N``), not the landing actor's."""
     return isinstance(doc, dict) and str(doc.get("format", "")).startswith("marops-actor/")
+
+
+def _registered(name: str) -> bool:
+    """Whether ``name`` is a registered policy kind (marops_cli/methods.py)."""
+    try:
+        policy_kind(name)
+    except KeyError:
+        return False
+    return True

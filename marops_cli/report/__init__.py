@@ -128,13 +128,14 @@ def _script_set(script: Path) -> OutputSet | None:
     return files
 
 
-def _link_up(page: Page, folder: Path, folders: list[Path]) -> None:
+def _link_up(page: Page, folder: Path, folders: list[Path], shared: Path | None) -> None:
     """A day's or hub's page links the page of the run above it (a hub's, a city's or a
-    several-day run's), where that page is made in the same run."""
+    several-day run's), where that page is made in the same run: among ``folders``, or
+    the city's (``shared``), whose page a city run writes once its hubs' are done."""
     from urllib.parse import quote
 
     for up, rel in ((folder.parent, "../"), (folder.parent.parent, "../../")):
-        if up in folders:
+        if up in folders or (up == shared and folder != shared):
             page.up(quote(rel + REPORT), f"the run's page ({up.name or up})")
             return
 
@@ -180,7 +181,7 @@ def write_reports(
                     file=f,
                 ) from exc
             if page is not None:
-                _link_up(page, f, folders)
+                _link_up(page, f, folders, shared)
                 files = OutputSet()
                 pages.append(files)
                 # A folder name that is not UTF-8 (Linux allows any bytes) is shown

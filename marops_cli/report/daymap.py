@@ -166,7 +166,7 @@ def map_figure(
         route_windows.append(w)
     fixed = len(fig.data) - len(route_windows)
     _window_slider(fig, fixed, route_windows, windows, files)
-    _axes(fig, frame, depots)
+    map_axes(fig, frame, depots)
     return fig
 
 
@@ -194,7 +194,7 @@ def _window_slider(
     )
 
 
-def _axes(fig: Any, frame: Frame | None, depots: dict[int, tuple[float, float]]) -> None:
+def map_axes(fig: Any, frame: Frame | None, depots: dict[int, tuple[float, float]]) -> None:
     """Longitude and latitude at the same ground scale; the tiles below when a frame
     places them."""
     lat0 = frame.center_lat if frame is not None else _mean([p[1] for p in depots.values()])

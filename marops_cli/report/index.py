@@ -43,6 +43,11 @@ def index_page(folder: Path, doc: dict[str, Any]) -> Page:
     # A city's days are hub-days, a city of one hub (hub 0) too.
     hubs = "city" in doc or any(d.get("hub", 0) for d in days)
     page = Page(f"marops: {count(len(days), 'hub-day' if hubs else 'day')} — {folder.name}")
+    city = doc.get("city")
+    if city:  # a city's page opens on its map and its hubs
+        from .citymap import city_section
+
+        city_section(page, folder, doc)
     page.heading("Days")
     header = ["hub"] * hubs + ["day", "method", *(c for c, _ in _COLUMNS), "report"]
     rows = []
@@ -53,7 +58,7 @@ def index_page(folder: Path, doc: dict[str, Any]) -> Page:
     page.table(header, rows, links=len(header) - 1)
     # A city's hubs have pages of their own (their days and totals): linked here too.
     pages = [(h, folder / f"hub-{h}") for h in sorted({d.get("hub", 0) for d in days})]
-    pages = [(h, p) for h, p in pages if hubs and (p / "metrics.json").is_file()]
+    pages = [(h, p) for h, p in pages if hubs and not city and (p / "metrics.json").is_file()]
     pages = [(h, p) for h, p in pages if not route_files_exist(p)]  # one day: linked above
     if pages:
         page.heading("Hubs")
@@ -66,10 +71,10 @@ def index_page(folder: Path, doc: dict[str, Any]) -> Page:
     if total:
         page.heading("Totals over the days")
         page.table(("quantity", "value"), [(k, _fmt(v)) for k, v in total.items()])
-    city = doc.get("city")
-    if city:
+    if city:  # its figures; those by day and by hub are the tables' and the map's
         page.heading("The city's coverage")
-        page.table(("quantity", "value"), [(k, _fmt(v)) for k, v in city.items() if k != "days"])
+        scalars = [(k, _fmt(v)) for k, v in city.items() if not isinstance(v, list | dict)]
+        page.table(("quantity", "value"), scalars)
     if days:
         labels = [plain(f"hub {d.get('hub', 0)} {d['day']}" if hubs else d["day"]) for d in days]
         fig = make_subplots(

@@ -46,6 +46,7 @@ from ..config import override
 from ..data.jsonfile import read_json
 from ..errors import InputError
 from ..io.atomic import output_set
+from ..methods import reference_rules
 from ..policies.landing import (
     FEATURES,
     FREE_FEATURES,
@@ -76,9 +77,9 @@ _STREAM_BATCH, _STREAM_NOISE = 11, 12
 _CKPT_FORMAT = "marops-landing-ckpt/1"
 Event = dict[str, Any]
 _KEYS = ("objective_j_mj", "delivered_share", "mean_energy_kj", "avg_delay_h")
-RULES = {"ops-global": "global", "backlog": "backlog", "rebalance": "rebalance"}
-"""The rules the landing actor must beat (method -> policy spec): each day's best of them
-is its reference."""
+RULES = reference_rules()
+"""The rules the landing actor must beat (method -> policy spec; the methods registered
+as references, marops_cli/methods.py): each day's best of them is its reference."""
 Day = tuple[int, int, float]
 """A replay's (scenario, day, α)."""
 

@@ -209,12 +209,18 @@ class Depots:
         depots = cls.from_dict(
             read_json(path, "depots file", limit=MAX_DEPOTS_FILE), source=str(path)
         )
-        if n_actions is not None:
-            try:
-                check_range_table(len(depots), n_actions, ("", "segment.n_actions"))
-            except ValueError as exc:
-                raise InputError(f"{exc}", file=path, column="depots") from None
+        depots.check_actions(n_actions, path)
         return depots
+
+    def check_actions(self, n_actions: int | None, file: str | Path) -> None:
+        """Refuse ``n_actions`` action candidates (None: none asked) whose flight-range
+        table over these depots would be too large, naming ``file``."""
+        if n_actions is None:
+            return
+        try:
+            check_range_table(len(self), n_actions, ("", "segment.n_actions"))
+        except ValueError as exc:
+            raise InputError(f"{exc}", file=file, column="depots") from None
 
 
 MAX_DEPOTS_FILE = 16 << 20

@@ -200,6 +200,12 @@ class HubArea:
     skipped: list[dt.date]
     """Days its square has no request on (not replayed)."""
 
+    def replayable(self, days: Sequence[dt.date]) -> list[dt.date]:
+        """Those of ``days`` its rows hold (a hub holds its own orders alone: another
+        hub's, or those outside every hub, may be all a day has)."""
+        held = set(self.table.days())
+        return [d for d in days if d in held]
+
 
 def hub_areas(
     table: LadeTable, cfg: PlannerConfig, hubs: Sequence[Hub], days: Sequence[dt.date]

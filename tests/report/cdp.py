@@ -36,6 +36,9 @@ class PageRun:
 
     errors: list[dict[str, Any]] = field(default_factory=list)
     values: dict[str, Any] = field(default_factory=dict)
+    url: str = ""
+    """The page the browser is on after the expressions (with ``follow``: the one an
+    expression navigated to)."""
 
 
 @contextmanager
@@ -134,6 +137,7 @@ async def _drive(
     screenshot: Path | None,
     size: tuple[int, int],
     run: PageRun,
+    follow: bool = False,
 ) -> None:
     from tornado.websocket import websocket_connect
 
@@ -162,8 +166,17 @@ async def _drive(
         if screenshot is not None:
             shot = await s.call("Page.captureScreenshot", format="png")
             screenshot.write_bytes(base64.b64decode(shot["data"]))
+        run.url = await _current_url(s)
+        while follow and run.url == url and time.monotonic() < deadline:
+            await asyncio.sleep(0.1)  # the navigation an expression started
+            run.url = await _current_url(s)
     finally:
         ws.close()
+
+
+async def _current_url(s: _Session) -> str:
+    history = await s.call("Page.getNavigationHistory")
+    return str(history["entries"][history["currentIndex"]]["url"])
 
 
 def open_page(
@@ -173,13 +186,16 @@ def open_page(
     expressions: dict[str, str],
     screenshot: Path | None = None,
     size: tuple[int, int] = (1300, 1000),
+    follow: bool = False,
 ) -> PageRun:
     """Open ``url`` in headless Chromium, wait until the JavaScript ``ready`` is true,
-    evaluate ``expressions`` and take a screenshot of the viewport."""
+    evaluate ``expressions`` and take a screenshot of the viewport; with ``follow``,
+    wait for the navigation to another page that an expression started (a click on a
+    link), whose address is then :attr:`PageRun.url`."""
     binary = chromium()
     if binary is None:
         raise RuntimeError("no chromium on PATH")
     run = PageRun()
     with _browser(binary, *size) as ws_url:
-        asyncio.run(_drive(ws_url, url, ready, expressions, screenshot, size, run))
+        asyncio.run(_drive(ws_url, url, ready, expressions, screenshot, size, run, follow))
     return run

@@ -110,3 +110,23 @@ def figure(html: str, div_id: str) -> tuple[list[dict[str, Any]], dict[str, Any]
     data, end = decoder.raw_decode(html, start.end())
     layout, _ = decoder.raw_decode(html, html.index("{", end))
     return data, layout
+
+
+@pytest.fixture(scope="session")
+def city_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """``replay-day --hubs --report`` of a tiny synthetic city: three hubs placed on its
+    first day, its second replayed with ``stay`` over one service hour, four depots a
+    hub: the city's page, and a page per hub below it."""
+    d = tmp_path_factory.mktemp("city")
+    data, hubs, cfg = d / "city.csv", d / "hubs.json", d / "city.toml"
+    cfg.write_text(
+        '[data]\nservice_start = "09:00"\nservice_end = "10:00"\n[segment]\nn_depots = 4\n'
+    )
+    invoke("synth", "--out", data, "--days", 2, "--orders-per-day", 300, "--seed", 3)
+    invoke("segment", data, "--hubs", 3, "--dates", "0801", "--out", hubs, "--quiet")
+    out = d / "city"
+    invoke(
+        "replay-day", data, "--hubs", hubs, "--date", "0802", "--method", "stay",
+        "--drones", 2, "--config", cfg, "--workers", 1, "--report", "--out", out, "--quiet",
+    )  # fmt: skip
+    return out

@@ -5,6 +5,7 @@ on PATH; .ci/run installs the distribution's package."""
 
 from __future__ import annotations
 
+import json
 import os
 import shutil
 import struct
@@ -237,4 +238,63 @@ def test_the_frontier_chart_draws_a_line_per_method_in_chromium(evaluation_run: 
     assert run.values["traces"] == 4  # stay and greedy, in each panel
     assert run.values["points"] == 8  # two values of α each
     assert sorted(run.values["legend"]) == ["greedy", "stay"]
+    assert _offline_errors(run.errors) == []
+
+
+CITY_READY = "typeof Plotly !== 'undefined' && !!document.querySelector('#city-map svg.main-svg')"
+# A click on hub 1's label as a user makes it (the pointer moved there, pressed and
+# released): resolves to what plotly says was clicked, the hub's link.
+CLICK_HUB_1 = """new Promise(done => {
+  const gd = document.getElementById('city-map');
+  const labels = gd.data.find(t => t.uid === 'hubs');
+  const i = labels.customdata.findIndex(h => h === 'hub-1/report.html');
+  const size = gd._fullLayout._size, box = gd.getBoundingClientRect();
+  const at = {bubbles: true, view: window,
+    clientX: box.x + size.l + gd._fullLayout.xaxis.d2p(labels.x[i]),
+    clientY: box.y + size.t + gd._fullLayout.yaxis.d2p(labels.y[i])};
+  gd.on('plotly_click', e => done(e.points[0].customdata));
+  const drag = gd.querySelector('.nsewdrag');
+  drag.dispatchEvent(new MouseEvent('mousemove', at));
+  drag.dispatchEvent(new MouseEvent('mousedown', at));
+  drag.dispatchEvent(new MouseEvent('mouseup', at));
+  document.dispatchEvent(new MouseEvent('mouseup', at));
+})"""
+
+
+def test_the_city_page_opens_on_its_hubs_map_and_a_click_opens_a_hub(city_run: Path) -> None:
+    """A city run's page draws every hub's square on the map with its label (orders due,
+    planned, delivered from the city's metrics.json); a click on a hub opens its page,
+    and that page links back up to the city's."""
+    run = open_page(
+        (city_run / "report.html").as_uri(),
+        ready=CITY_READY,
+        expressions={
+            "squares": "document.getElementById('city-map').data"
+            ".filter(t => (t.uid || '').startsWith('hub-')).map(t => t.uid)",
+            "fills": "document.querySelectorAll('#city-map g.trace.scatter path.js-fill').length",
+            "labels": "[...document.querySelectorAll('#city-map g.textpoint text')]"
+            ".map(e => e.textContent)",
+            "clicked": CLICK_HUB_1,
+        },
+        follow=True,
+    )
+    assert run.values["squares"] == ["hub-0", "hub-1", "hub-2"]
+    assert run.values["fills"] == 3
+    for h, label in enumerate(run.values["labels"]):
+        day = json.loads((city_run / f"hub-{h}" / "metrics.json").read_text())["days"][0]
+        due, planned, delivered = (day[k] for k in ("orders_due", "requests", "delivered"))
+        assert label == f"hub {h}{due} due{planned} planned{delivered} delivered"
+    assert run.values["clicked"] == "hub-1/report.html"
+    assert run.url == (city_run / "hub-1" / "report.html").as_uri()
+    assert _offline_errors(run.errors) == []
+
+    up = "document.querySelector('p.note a')"
+    run = open_page(
+        (city_run / "hub-1" / "report.html").as_uri(),
+        ready=READY,
+        expressions={"href": f"{up}.getAttribute('href')", "click": f"{up}.click()"},
+        follow=True,
+    )
+    assert run.values["href"] == "../report.html"
+    assert run.url == (city_run / "report.html").as_uri()
     assert _offline_errors(run.errors) == []

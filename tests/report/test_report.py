@@ -672,7 +672,16 @@ def test_a_city_run_reports_each_hub_and_the_city(
         assert f'<script src="../{name}"></script>' in page
         data, _ = figure(page, "map")
         assert sum(t.get("name") == "service areas" for t in data) > 0  # the hub's own depots
+        assert '↑ <a href="../report.html">' in page  # up to the city's page
     assert f'<script src="{name}"></script>' in city
+    # The page opens on the city's map: each hub's square where hubs.json places it.
+    assert city.index('id="city-map"') < city.index("<h2>Days</h2>")
+    data, _ = figure(city, "city-map")
+    squares = [t for t in data if t.get("uid", "").startswith("hub-")]
+    for h, t in zip(json.loads(hubs.read_text())["hubs"], squares, strict=True):
+        assert t["uid"] == f"hub-{h['id']}"
+        assert min(t["x"]) < h["center_lng"] < max(t["x"])
+        assert min(t["y"]) < h["center_lat"] < max(t["y"])
 
 
 def test_marops_report_on_an_edited_json_route_file_names_the_key(
@@ -698,3 +707,48 @@ def test_marops_report_on_an_edited_json_route_file_names_the_key(
     res = runner.invoke(app, ["report", str(out)])
     assert res.exit_code == 2 and "key 'routes[1].drone': has no 'drone'" in res.output
     assert not (out / "report.html").exists()
+
+
+def test_the_city_map_draws_what_the_files_hold_and_leaves_out_the_rest(tmp_path: Path) -> None:
+    """A city folder whose files hold less than a run writes today (no per-hub rows in
+    the city block, a day without its planned orders, a hub whose files name no square):
+    the map draws the squares it finds with the figures it has, and says which hub it
+    could not place; the figures missing are left out, not shown as 0."""
+    out = tmp_path / "city"
+    days = [
+        {"day": "2022-08-11", "method": "stay", "hub": 0, "orders_due": 50, "requests": 30,
+         "delivered": 20},
+        {"day": "2022-08-11", "method": "stay", "hub": 1, "orders_due": 30, "delivered": 20},
+    ]  # fmt: skip
+    placed = [
+        {"id": h, "center_lng": 121.4 + 0.1 * h, "center_lat": 31.2, "size_km": 10.0}
+        for h in (0, 1)
+    ]
+    (out / "hub-2").mkdir(parents=True)
+    (out / "hub-2" / "metrics.json").write_text(
+        json.dumps({"days": [{"day": "2022-08-11", "method": "stay", "hub": 2}], "total": {}})
+    )
+    city = {"orders_due": 100, "delivered": 40, "hubs": "not a list"}
+    doc = {"meta": {"hubs": placed}, "city": city, "days": days, "total": {"days": 2}}
+    (out / "metrics.json").write_text(json.dumps(doc))
+    (out / "left_out.csv").write_text(
+        "day,order_id,row,lng,lat,reason\n"
+        "2022-08-11,a,3,121.9,31.5,outside every hub\n"
+        "2022-08-11,b,4,121.4,31.2,outside service hours\n"
+        "2022-08-11,<c>,9,121.1,31.0,outside every hub\n"
+    )
+    invoke("report", out, "--quiet")
+    html = (out / "report.html").read_text(encoding="utf-8")
+    data, _ = figure(html, "city-map")
+    assert [t["uid"] for t in data] == ["outside-hubs", "hub-0", "hub-1", "hubs"]
+    # The orders outside every hub where they lie, each named (as text) on hover.
+    assert (data[0]["x"], data[0]["y"]) == ([121.9, 121.1], [31.5, 31.0])
+    assert data[0]["text"][1] == "order &lt;c&gt;, 2022-08-11: outside every hub"
+    assert data[-1]["text"] == [
+        "<b>hub 0</b><br>50 due<br>30 planned<br>20 delivered",
+        "<b>hub 1</b><br>30 due<br>20 delivered",
+    ]
+    assert data[-1]["customdata"] == ["", ""]  # no hub-0/ nor hub-1/: no page to open
+    assert "3 hubs: 100 orders due, 40 delivered (40.0 % of orders due)." in html
+    assert "Not drawn (no square in their files): hubs 2." in html
+    assert '<a href="hub-2/report.html">report</a>' in html

@@ -3,6 +3,7 @@ hub an order belongs to, and a city day replayed hub by hub."""
 
 from __future__ import annotations
 
+import csv
 import json
 from pathlib import Path
 
@@ -366,16 +367,16 @@ def test_fewer_hubs_than_asked_for_say_so(example_csv: Path, tmp_path: Path) -> 
     ("extra", "named"),
     [
         (["--center", "121.47,31.23"], "--center"),
-        (["--n-depots", "4", "--plot"], "--n-depots, --plot"),
+        (["--n-depots", "4", "--seed", "1"], "--n-depots, --seed"),
         (["--method", "squares"], "--method"),
     ],
 )
 def test_options_of_one_study_area_are_refused_with_hubs(
     example_csv: Path, tmp_path: Path, extra: list[str], named: str
 ) -> None:
-    """--hubs places its squares itself and writes only the hubs file: an option that
-    would be ignored (--center, --n-depots, --plot …) is one line naming it, exit 2,
-    nothing written."""
+    """--hubs places its squares itself and segments each hub's depots by [segment]: an
+    option that would be ignored (--center, --n-depots, --seed …) is one line naming
+    it, exit 2, nothing written."""
     out = tmp_path / "hubs.json"
     res = runner.invoke(
         app, ["segment", str(example_csv), "--hubs", "2", *extra, "--out", str(out)]
@@ -494,9 +495,7 @@ def test_evaluate_over_the_whole_export(example_csv, tmp_path):
     each hub flying its share of the fleet (of each --drones setting)."""
     out = tmp_path / "ev"
     args = ["evaluate", str(example_csv), "--dates", "0811", "--methods", "stay"]
-    res = runner.invoke(
-        app, [*args, "--area", "hubs", "--drones", "4,8", "--no-plot", "--out", str(out), "-q"]
-    )
+    res = runner.invoke(app, [*args, "--area", "hubs", "--drones", "4,8", "--out", str(out), "-q"])
     assert res.exit_code == 0, res.output
     rows = pq.read_table(out / "results.parquet").to_pylist()
     day = tmp_path / "day"
@@ -526,3 +525,30 @@ def test_evaluate_over_the_whole_export(example_csv, tmp_path):
     eight = sorted((r for r in rows if r["drones"] and r["setting"] == 1), key=lambda r: r["hub"])
     assert [r["drones"] for r in eight] == [h["drones"] for h in placed["meta"]["hubs"]]
     assert [r["requests"] for r in eight] == [h["planned"] for h in placed["city"]["hubs"]]
+    # The summary (and its figures) speaks of the settings swept, not of one hub's share.
+    with (out / "summary.csv").open() as f:
+        assert sorted(int(r["drones"]) for r in csv.DictReader(f)) == [4, 8]
+    assert (out / "drones.png").stat().st_size > 0 and (out / "actions.png").stat().st_size > 0
+
+
+def test_a_split_day_no_hub_plans_is_left_out_and_a_named_one_refused(
+    example_csv, tmp_path, fails_cleanly
+):
+    """Over hubs, as in one square: a day of the test split that no hub has anything due
+    on in service hours is left out with a warning; named by --dates, refused."""
+    data = tmp_path / "straggler.csv"
+    row = "999999,1,Shanghai,7,121.34,31.13,1,2,08-12 23:50:00,,,,08-13 00:20:00,,,,813"
+    data.write_text(example_csv.read_text(encoding="utf-8") + row + "\n", encoding="utf-8")
+    args = ["evaluate", str(data), "--area", "hubs", "--methods", "stay", "--no-plot"]
+    named = [*args, "--dates", "0812,0813", "--out", str(tmp_path / "named")]
+    fails_cleanly(named, tmp_path, "no requests on 2022-08-13 inside any hub's square")
+    res = runner.invoke(app, [*args, "--workers", "1", "--out", str(tmp_path / "split")])
+    assert res.exit_code == 0, res.output
+    assert (
+        "warning: left out 2022-08-13 of the test split: nothing due inside any hub" in res.output
+    )
+    days = {
+        str(d)
+        for d in pq.read_table(tmp_path / "split" / "results.parquet").column("day").to_pylist()
+    }
+    assert days == {"2022-08-11", "2022-08-12"}
