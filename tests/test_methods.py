@@ -58,11 +58,12 @@ def test_a_registered_rule_is_a_policy_and_a_method(toy_rule: methods.Method) ->
 
 @pytest.mark.filterwarnings("ignore:.*stayed undelivered")  # 8 drones on a busy day
 def test_the_api_evaluates_a_registered_rule(toy_rule: methods.Method, example_csv: Path) -> None:
-    ev = marops.evaluate(example_csv, methods="toy", dates="0811", workers=1, plots=False)
+    one = {"area": "square"}  # one study square: a city's 12 hubs would only take longer
+    ev = marops.evaluate(example_csv, methods="toy", dates="0811", workers=1, plots=False, **one)
     assert set(ev.results.column("method").to_pylist()) == {"toy"}
     assert ToyRule.windows > 0, "the rule's own class chose the landings"
     ToyRule.windows = 0
-    day = marops.replay_day(example_csv, "0811", method="greedy", policy="toy")
+    day = marops.replay_day(example_csv, "0811", method="greedy", policy="toy", **one)
     assert day.metrics["delivered"] > 0 and ToyRule.windows > 0  # policy= names it too
 
 
