@@ -254,7 +254,14 @@ def test_api_evaluate_returns_the_paired_comparison_with_against(example_csv: Pa
     assert str(few[0].message).startswith("only 1 day backs the paired comparison (fewer than")
     rows = ev.paired.to_pylist()
     assert {r["against"] for r in rows} == {"ops-global"} and rows[0]["days"] == 1
-    assert marops.evaluate(example_csv, methods="stay", dates="0811", workers=1).paired is None
+    # Without it, the summary's means over one day are no comparison either.
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        alone = marops.evaluate(example_csv, methods="stay", dates="0811", workers=1)
+    assert alone.paired is None
+    few = [w for w in caught if "backs the comparison" in str(w.message)]
+    assert len(few) == 1 and few[0].filename == __file__
+    assert alone.summary.column("few_days").to_pylist() == [True]
 
 
 def test_api_data_may_be_any_path_like(example_csv: Path) -> None:
