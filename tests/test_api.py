@@ -306,7 +306,7 @@ def test_api_workers_in_an_unguarded_script_stop_with_the_reason(
 ) -> None:
     # Python's multiprocessing has each worker import the script that started it: one
     # that calls evaluate() outside `if __name__ == "__main__":` fails, naming the
-    # remedy in the parent and in the worker, not with a Broken pipe from deep inside.
+    # remedy once: the parent's one traceback, none from a worker, no Broken pipe's.
     import subprocess
     import sys
 
@@ -323,6 +323,8 @@ def test_api_workers_in_an_unguarded_script_stop_with_the_reason(
     last = done.stderr.strip().splitlines()[-1]
     assert last.startswith("marops_cli.errors.RunError: ") and 'if __name__ == "__main__":' in last
     assert "RuntimeError" not in done.stderr
+    assert done.stderr.count("Traceback") == 1 and done.stderr.count("errors.RunError:") == 1
+    assert "direct cause" not in done.stderr
 
 
 def test_api_warnings_are_said_at_the_callers_line(example_csv: Path) -> None:
