@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import datetime as dt
 import json
 import os
 from pathlib import Path
@@ -411,5 +412,8 @@ def test_api_evaluate_results_carry_the_files_metadata(example_csv: Path, tmp_pa
     from_file = pq.read_table(tmp_path / "results.parquet")
     assert ev.results.schema.metadata[b"marops"] == from_file.schema.metadata[b"marops"]
     assert ev.results.equals(from_file)
+    # a day is a date, as the route files hold it, so the tables join on it as they are
+    assert ev.results.schema.field("day").type == pa.date32()
+    assert ev.results.column("day").to_pylist() == [dt.date(2022, 8, 11)]
     in_memory = marops.evaluate(example_csv, methods="stay", dates="0811", workers=1)
     assert in_memory.results.schema.metadata[b"marops"] == from_file.schema.metadata[b"marops"]

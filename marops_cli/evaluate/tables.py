@@ -74,9 +74,7 @@ def key_columns(prep: Prepared, job: Job) -> dict[str, Any]:
     row["drones"] = prep.drones(job)  # a hub's own fleet size, with --hubs
     row["n_actions"] = prep.cfg.segment.n_actions
     row["segmentation"] = method_spec(job.method).segmentation
-    row.update(
-        hub=job.hub, method=job.method, repeat=job.repeat, seed=job.seed, day=job.day.isoformat()
-    )
+    row.update(hub=job.hub, method=job.method, repeat=job.repeat, seed=job.seed, day=job.day)
     return row
 
 
