@@ -653,7 +653,7 @@ def evaluate(
     from .app.progress import SILENT
     from .data.dates import parse_days
     from .errors import InputError, option
-    from .evaluate.paired import few_days_warning
+    from .evaluate.paired import comparison_warning
     from .io.ownership import replacing_foreign_files
     from .segment.hubs import load_hubs
 
@@ -693,7 +693,7 @@ def evaluate(
     source = read_data(data, cfg.data) if in_memory(data) else Path(data)
     with replacing_foreign_files(force):
         res = run(source, spec, out=_path(out))
-    if res.paired is not None and (few := few_days_warning(res.paired)) is not None:
+    if (few := comparison_warning(res.summary, res.paired)) is not None:
         SILENT.warning(few)  # as the command warns, at the caller's line
     return EvaluationResult(res.results, res.summary, res.folder, res.paired)
 

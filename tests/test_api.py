@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import datetime as dt
 import json
 import os
 from pathlib import Path
@@ -259,8 +260,14 @@ def test_api_evaluate_returns_the_paired_comparison_with_against(example_csv: Pa
     assert str(few[0].message).startswith("only 1 day backs the paired comparison (fewer than")
     rows = ev.paired.to_pylist()
     assert {r["against"] for r in rows} == {"ops-global"} and rows[0]["days"] == 1
-    alone = marops.evaluate(example_csv, methods="stay", dates="0811", workers=1, area="square")
+    # Without it, the summary's means over one day are no comparison either.
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        alone = marops.evaluate(example_csv, methods="stay", dates="0811", workers=1, area="square")
     assert alone.paired is None
+    few = [w for w in caught if "backs the comparison" in str(w.message)]
+    assert len(few) == 1 and few[0].filename == __file__
+    assert alone.summary.column("few_days").to_pylist() == [True]
 
 
 def test_api_data_may_be_any_path_like(example_csv: Path) -> None:
@@ -305,7 +312,7 @@ def test_api_workers_in_an_unguarded_script_stop_with_the_reason(
 ) -> None:
     # Python's multiprocessing has each worker import the script that started it: one
     # that calls evaluate() outside `if __name__ == "__main__":` fails, naming the
-    # remedy in the parent and in the worker, not with a Broken pipe from deep inside.
+    # remedy once: the parent's one traceback, none from a worker, no Broken pipe's.
     import subprocess
     import sys
 
@@ -322,6 +329,8 @@ def test_api_workers_in_an_unguarded_script_stop_with_the_reason(
     last = done.stderr.strip().splitlines()[-1]
     assert last.startswith("marops_cli.errors.RunError: ") and 'if __name__ == "__main__":' in last
     assert "RuntimeError" not in done.stderr
+    assert done.stderr.count("Traceback") == 1 and done.stderr.count("errors.RunError:") == 1
+    assert "direct cause" not in done.stderr
 
 
 def test_api_warnings_are_said_at_the_callers_line(example_csv: Path) -> None:
@@ -409,5 +418,8 @@ def test_api_evaluate_results_carry_the_files_metadata(example_csv: Path, tmp_pa
     from_file = pq.read_table(tmp_path / "results.parquet")
     assert ev.results.schema.metadata[b"marops"] == from_file.schema.metadata[b"marops"]
     assert ev.results.equals(from_file)
+    # a day is a date, as the route files hold it, so the tables join on it as they are
+    assert ev.results.schema.field("day").type == pa.date32()
+    assert ev.results.column("day").to_pylist() == [dt.date(2022, 8, 11)]
     in_memory = marops.evaluate(example_csv, methods="stay", dates="0811", workers=1)
     assert in_memory.results.schema.metadata[b"marops"] == from_file.schema.metadata[b"marops"]

@@ -191,12 +191,17 @@ def evaluate_command(
 
 
 def _show(res: Any) -> None:
-    """The evaluation's tables, the files written, and with --json the summary."""
+    """The evaluation's tables, the files written, and with --json the summary; over
+    fewer than ten days a warning that they establish no difference."""
+    from ..evaluate.paired import comparison_warning
+
     _print_tables(res.summary)
     if res.frontier is not None:
         _print_frontier(res.frontier)
     if res.paired is not None:
         _print_paired(res.paired, res.summary)
+    if (few := comparison_warning(res.summary, res.paired)) is not None:
+        warn(few)
     info(f"wrote {', '.join(str(p) for p in res.files)}")
     if STATE["json"]:
         _emit_json(res)
@@ -226,14 +231,12 @@ def _emit_json(res: EvaluationResult) -> None:
 
 def _print_paired(paired: pa.Table, summary: pa.Table) -> None:
     """One row per setting (named by its values: ``α=0.3``), method and metric."""
-    from ..evaluate.paired import few_days_warning, verdict
+    from ..evaluate.paired import verdict
     from ..evaluate.tables import setting_label
 
     rows = paired.to_pylist()
     if not rows:
         return
-    if (few := few_days_warning(paired)) is not None:
-        warn(few)
     t = table(f"paired against {rows[0]['against']}: per-day difference, bootstrap 95 % CI")
     cols = ("setting", "method", "metric", "days", "mean diff", "95 % CI", "days better", "verdict")
     for col in cols:

@@ -4,7 +4,8 @@ For each setting and method, the per-day difference method − reference of each
 (same day, repeat and hub; a day's repeats averaged into its one difference), its mean
 and a bootstrap 95 % confidence interval (resampling days with replacement, a fixed
 seed, so the interval is reproducible), and how many days the method was better. A
-comparison backed by fewer than :data:`MIN_DAYS` days is flagged: the combined cost
+comparison backed by fewer than :data:`MIN_DAYS` days is flagged and gets no verdict
+(``too few days (n=2)``, not ``better`` or ``worse``). The combined cost
 alone can be won by delivering less, so the day objective J (which charges every
 request left waiting) and the delivered share come first (docs/method.md §8).
 """
@@ -32,21 +33,42 @@ N_BOOT = 2000
 SEED = 20221  # fixed: the same rows give the same interval everywhere
 
 
-def few_days_warning(paired: pa.Table) -> str | None:
-    """The warning a paired comparison over fewer than :data:`MIN_DAYS` days gets (the
-    days each difference is over, as its table says: a city's hub-days count each);
-    None when it has enough, or no rows."""
-    days = paired.column("days").to_pylist() if paired.num_rows else []
-    if not days:
-        return None
-    n_days = min(int(d) for d in days)
-    if n_days >= MIN_DAYS:
+def backing_days(table: pa.Table) -> int | None:
+    """The fewest days behind any row of ``table`` (its ``days`` column: paired.csv's or
+    the summary's; a city's hub-days count each); None when it has no rows."""
+    days = table.column("days").to_pylist() if table.num_rows else []
+    return min(int(d) for d in days) if days else None
+
+
+def few_days_warning(table: pa.Table) -> str | None:
+    """The warning a comparison over fewer than :data:`MIN_DAYS` days gets: ``table``
+    is the paired comparison (its verdicts read ``too few days``) or, without one, the
+    summary (its means side by side). None when it has enough days, or no rows."""
+    n_days = backing_days(table)
+    if n_days is None or n_days >= MIN_DAYS:
         return None
     backs = "day backs" if n_days == 1 else "days back"
+    if "against" in table.column_names:
+        return (
+            f"only {n_days} {backs} the paired comparison (fewer than {MIN_DAYS}): "
+            f"the intervals are wide and no verdict is established (each reads "
+            f"'{too_few(n_days)}')"
+        )
     return (
-        f"only {n_days} {backs} the paired comparison (fewer than {MIN_DAYS}): "
-        "the intervals are wide and the verdicts fragile"
+        f"only {n_days} {backs} the comparison (fewer than {MIN_DAYS}): a difference "
+        "between the methods' means is not established"
     )
+
+
+def comparison_warning(summary: pa.Table, paired: pa.Table | None) -> str | None:
+    """An evaluation's one warning of too few days: its paired comparison's where it has
+    one, else its summary's (:func:`few_days_warning`)."""
+    return few_days_warning(paired if paired is not None and paired.num_rows else summary)
+
+
+def too_few(n_days: int) -> str:
+    """What a comparison over fewer than :data:`MIN_DAYS` days says instead of a verdict."""
+    return f"too few days (n={n_days})"
 
 
 def bootstrap_ci(diff: np.ndarray, n_boot: int = N_BOOT, seed: int = SEED) -> tuple[float, float]:
@@ -107,10 +129,14 @@ def paired_table(results: pa.Table, against: str) -> pa.Table:
 
 
 def verdict(row: dict[str, Any]) -> str:
-    """``better`` / ``worse`` when the CI excludes zero, else ``no difference``."""
+    """``better`` / ``worse`` when the CI excludes zero, else ``no difference``; over
+    fewer than :data:`MIN_DAYS` days none of these but ``too few days (n=2)``, whatever
+    the interval (a verdict from a few days is not established); ``n/a`` without one."""
     lo, hi = row["ci_low"], row["ci_high"]
-    if not (np.isfinite(lo) and np.isfinite(hi)) or row["days"] < 2:
+    if not (np.isfinite(lo) and np.isfinite(hi)) or int(row["days"]) < 1:
         return "n/a"
+    if int(row["days"]) < MIN_DAYS:
+        return too_few(int(row["days"]))
     if lo > 0 or hi < 0:
         good = (hi < 0) if row["lower_is_better"] else (lo > 0)
         return "better" if good else "worse"

@@ -13,6 +13,7 @@ from ..io import file_sha256, output_set, run_meta
 from ..io.tables import with_meta, write_csv, write_parquet
 from ..sim.metrics import metric_specs
 from .frontier import FRONTIER_FILE, frontier_table
+from .paired import few_days_warning
 from .plots import actions_figure, base_values, save_png, sweep_figure, unfairness_figure
 from .runner import Prepared
 from .settings import Setting, swept_flags
@@ -98,6 +99,8 @@ def summary_markdown(summary: pa.Table, prep: Prepared, front: pa.Table | None =
         f"{len(prep.days)} days ({days}), {prep.repeats} repeat(s) each; mean ± std "
         "over days and repeats. Combined cost: " + COMBINED_COST_RULE + ".",
     ]
+    if (few := few_days_warning(summary)) is not None:  # as evaluate warns on the terminal
+        parts += ["", f"**{few[0].upper()}{few[1:]}.**"]
     for s in sorted(set(summary.column("setting").to_pylist())):
         parts += ["", f"## {setting_title(summary, s)}", "", markdown_table(summary, s)]
     if front is not None:

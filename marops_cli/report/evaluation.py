@@ -35,6 +35,11 @@ def evaluation_page(folder: Path) -> Page:
         f"{count(meta.get('repeats', 1), 'repeat')}; "
         f"mean ± std over days and repeats. Combined cost: {COMBINED_COST_RULE}."
     )
+    if "days" in summary.column_names:  # an evaluation's summary.csv before it had none
+        from ..evaluate.paired import few_days_warning
+
+        if (few := few_days_warning(summary)) is not None:  # as summary.md says
+            page.note(f"{few[0].upper()}{few[1:]}.")
     front = folder / "frontier.csv"
     if front.is_file():  # first: an analyst picks an operating point by looking
         from ..data.arrow import read_csv_file
@@ -67,7 +72,7 @@ def _paired(page: Page, paired: Any, titles: dict[int, str]) -> None:
     if any(r.get("few_days") for r in rows):  # as evaluate warns on the terminal
         page.note(
             f"Fewer than {MIN_DAYS} days back these differences: the intervals are wide "
-            "and the verdicts fragile."
+            "and no verdict is established."
         )
     page.table(
         ("setting", "method", "metric", "days", "mean diff", "95 % CI", "days better", "verdict"),

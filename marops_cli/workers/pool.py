@@ -55,9 +55,11 @@ _MAIN_GUARD = (
 
 def _not_in_a_starting_worker() -> None:
     """A worker importing the main script as it starts (as Python's multiprocessing
-    does), asked there for workers of its own, stops with the reason."""
+    does), asked there for workers of its own, stops at once and quietly (exit 1): the
+    script it imports has no main guard, which the parent says, once, as its pool finds
+    its workers stopped. An exception here would print a traceback per worker before it."""
     if getattr(mp.current_process(), "_inheriting", False):
-        raise RunError(f"a worker process was asked for workers: {_MAIN_GUARD}")
+        raise SystemExit(1)
 
 
 def _main_importable() -> None:
@@ -193,9 +195,10 @@ class LocalPool:
                 self._pool = _context().Pool(workers, initializer=_init, initargs=(work,))
         except (BrokenPipeError, EOFError, ConnectionResetError) as exc:
             self.close()
+            # from None: the broken pipe's traceback above the reason adds nothing.
             raise RunError(
                 f"the worker processes stopped as they started ({exc}): {_MAIN_GUARD}"
-            ) from exc
+            ) from None
         except BaseException:
             self.close()
             raise

@@ -15,6 +15,7 @@ import sys
 import threading
 from pathlib import Path
 
+import pyarrow as pa
 import pyarrow.dataset as ds
 import pyarrow.parquet as pq
 import pytest
@@ -80,7 +81,11 @@ def test_one_file_per_job_in_a_partitioned_dataset(one_worker: Path) -> None:
         "jobs/hub=0/method=stay/day=2022-08-12/s0-r0.parquet",
         "results.parquet",
     ]
-    jobs = ds.dataset(one_worker / "jobs", format="parquet", partitioning="hive").to_table()
+    # The partition keys typed as results.parquet types them (docs/outputs.md).
+    keys = pa.schema([("hub", pa.int64()), ("method", pa.string()), ("day", pa.date32())])
+    jobs = ds.dataset(
+        one_worker / "jobs", format="parquet", partitioning=ds.partitioning(keys, flavor="hive")
+    ).to_table()
     results = pq.read_table(one_worker / "results.parquet")
     assert jobs.num_rows == results.num_rows == N_JOBS
     got = sorted(

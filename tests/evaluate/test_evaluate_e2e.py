@@ -149,6 +149,7 @@ def _documented_key_types() -> dict[str, pa.DataType]:
     text = (Path(__file__).resolve().parents[2] / "docs" / "outputs.md").read_text("utf-8")
     section = text.split("**Column types.**")[1].split("**Jobs dataset.**")[0]
     kinds = {"int64": pa.int64(), "float64": pa.float64(), "string": pa.string()}
+    kinds["date32"] = pa.date32()
     out = {}
     for names, kind in re.findall(r"^\| (`[^|]+?) \| ([^|]+?) \|", section, flags=re.M):
         for name in re.findall(r"`(\w+)`", names):

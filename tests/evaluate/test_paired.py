@@ -48,13 +48,22 @@ def test_paired_table_by_hand() -> None:
     row = next(r for r in table.to_pylist() if r["metric"] == "objective_j_mj")
     assert (row["method"], row["days"], row["days_better"]) == ("new", 3, 2)
     assert row["mean_diff"] == pytest.approx(-9.0)
-    assert row["ci_low"] < 0 < row["ci_high"] and verdict(row) == "no difference"
-    assert row["few_days"] is True
+    assert row["ci_low"] < 0 < row["ci_high"] and row["few_days"] is True
+    assert verdict(row) == "too few days (n=3)"  # not "no difference" from three days
     same = next(r for r in table.to_pylist() if r["metric"] == "delivered_share")
     assert same["mean_diff"] == 0 and (same["ci_low"], same["ci_high"]) == (0, 0)
     # a difference on every day of one sign is a verdict
     worse = paired_table(_results([100.0] * 12, [110.0 + i for i in range(12)]), "ref")
     row = next(r for r in worse.to_pylist() if r["metric"] == "objective_j_mj")
+    assert verdict(row) == "worse" and row["few_days"] is False
+    # The same differences over nine days: the interval excludes zero, yet no verdict.
+    few = paired_table(_results([100.0] * 9, [110.0 + i for i in range(9)]), "ref")
+    row = next(r for r in few.to_pylist() if r["metric"] == "objective_j_mj")
+    assert row["ci_low"] > 0 and row["few_days"] is True
+    assert verdict(row) == "too few days (n=9)"
+    # ten days: a verdict again
+    ten = paired_table(_results([100.0] * 10, [110.0 + i for i in range(10)]), "ref")
+    row = next(r for r in ten.to_pylist() if r["metric"] == "objective_j_mj")
     assert verdict(row) == "worse" and row["few_days"] is False
 
 
@@ -75,7 +84,7 @@ def test_repeats_of_one_day_are_one_paired_day() -> None:
     assert (row["days"], row["days_better"], row["few_days"]) == (1, 1, True)
     assert row["mean_diff"] == pytest.approx(-15.0)
     assert (row["ci_low"], row["ci_high"]) == pytest.approx((-15.0, -15.0))
-    assert verdict(row) == "n/a"
+    assert verdict(row) == "too few days (n=1)"
 
 
 def test_evaluate_against_writes_paired_csv_and_warns_on_few_days(
@@ -91,7 +100,54 @@ def test_evaluate_against_writes_paired_csv_and_warns_on_few_days(
     assert {r["metric"] for r in rows} >= {"objective_j_mj", "delivered_share", "avg_delay_h"}
     assert all(r["days"] == "2" for r in rows)
     assert "warning: only 2 days back the paired comparison" in res.stderr
+    assert res.stderr.count("warning: only 2 days") == 1  # one warning, not the summary's too
     assert "paired against stay" in res.stdout
+    # no verdict word from two days: each row says why
+    assert res.stdout.count("too few days (n=2)") == len(rows)
+    ends = ("better", "worse", "no difference")
+    assert not [line for line in res.stdout.splitlines() if line.rstrip().endswith(ends)]
+    summary = list(csv.DictReader((out / "summary.csv").open()))
+    assert {(r["days"], r["few_days"]) for r in summary} == {("2", "true")}
+    assert "**Only 2 days back the comparison (fewer than 10)" in (out / "summary.md").read_text()
+
+
+def test_evaluate_without_against_warns_on_few_days(example_csv: Path, tmp_path: Path) -> None:
+    """Without --against the summary's means compare the methods: over two days the
+    command warns they establish no difference, and summary.md and summary.csv say so."""
+    out = tmp_path / "ev"
+    args = ["evaluate", str(example_csv), "--methods", "stay,greedy", "--dates", "0811..0812"]
+    res = CliRunner().invoke(app, [*args, "--no-plot", "--out", str(out)])
+    assert res.exit_code == 0, res.output
+    assert res.stderr.count("warning: only 2 days back the comparison (fewer than 10)") == 1
+    summary = list(csv.DictReader((out / "summary.csv").open()))
+    assert [(r["n"], r["days"], r["few_days"]) for r in summary] == [("2", "2", "true")] * 2
+    assert "**Only 2 days back the comparison" in (out / "summary.md").read_text()
+    assert not (out / "paired.csv").exists()
+
+
+def test_summary_counts_hub_days_and_says_few() -> None:
+    """``days`` counts a row's days (a city's hub-days each; repeats of a day are one),
+    ``few_days`` below ten; no warning from ten on."""
+    from marops_cli.evaluate.paired import few_days_warning
+    from marops_cli.evaluate.tables import summarize
+
+    def table(hubs: int, days: int, repeats: int) -> pa.Table:
+        rows = [
+            {"setting": 0, "alpha": 0.5, "drones": 8, "coverage": 0.25, "depots_n": 16}
+            | {"n_actions": 4, "segmentation": "kmeans", "method": "stay", "hub": h}
+            | {"day": f"2022-08-{1 + d:02d}", "repeat": r, "objective_j_mj": 1.0 + d}
+            for h in range(hubs)
+            for d in range(days)
+            for r in range(repeats)
+        ]
+        return summarize(pa.Table.from_pylist(rows))
+
+    row = table(hubs=2, days=3, repeats=2).to_pylist()[0]
+    assert (row["n"], row["days"], row["few_days"]) == (12, 6, True)
+    assert "only 6 days back the comparison" in (few_days_warning(table(2, 3, 2)) or "")
+    row = table(hubs=5, days=2, repeats=1).to_pylist()[0]
+    assert (row["n"], row["days"], row["few_days"]) == (10, 10, False)
+    assert few_days_warning(table(5, 2, 1)) is None
 
 
 def test_against_a_method_not_compared_fails_before_any_work(

@@ -601,8 +601,10 @@ def test_the_paired_table_says_each_verdict_and_how_few_days_back_it(
     than ten days back the intervals."""
     html = (evaluation_run / "report.html").read_text(encoding="utf-8")
     assert "<th>days better</th><th>verdict</th>" in html
-    assert "<td>n/a</td></tr>" in html  # one day: no interval to judge by
+    assert "<td>too few days (n=1)</td></tr>" in html  # one day: no verdict
+    assert "<td>better</td>" not in html and "<td>worse</td>" not in html
     assert "Fewer than 10 days back these differences" in html
+    assert "Only 1 day backs the comparison (fewer than 10)" in html  # the tables' too
     # Ten days or more: no warning; a verdict from the interval.
     copy = tmp_path / "ev"
     shutil.copytree(evaluation_run, copy)

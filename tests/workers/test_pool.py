@@ -115,11 +115,17 @@ def test_ctrl_c_while_workers_start_waits_for_the_start_then_stops_them(
 
     fake = _FakeContext()
     monkeypatch.setattr(pool, "_context", lambda: fake)
-    before = signal.getsignal(signal.SIGINT)
-    with pytest.raises(KeyboardInterrupt):
-        LocalPool(SquareWork(), 2)
-    assert fake.started and fake.stopped
-    assert signal.getsignal(signal.SIGINT) is before
+    # Python's own Ctrl-C handling, whatever an earlier test left (a shell command run
+    # by os.system, as a hostile actor file's, can leave SIGINT ignored).
+    old = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        before = signal.getsignal(signal.SIGINT)
+        with pytest.raises(KeyboardInterrupt):
+            LocalPool(SquareWork(), 2)
+        assert fake.started and fake.stopped
+        assert signal.getsignal(signal.SIGINT) is before
+    finally:
+        signal.signal(signal.SIGINT, old)
 
 
 def test_ctrl_c_while_the_fork_server_imports_is_one_interruption(tmp_path: Path) -> None:
