@@ -20,6 +20,7 @@ def terminal(monkeypatch: pytest.MonkeyPatch) -> io.StringIO:
     monkeypatch.setattr(common, "out", console)
     monkeypatch.setattr(common, "PLAIN", False)
     monkeypatch.setitem(common.STATE, "json", False)
+    monkeypatch.setitem(common.STATE, "quiet", False)  # as an earlier --quiet run left it
     return buf
 
 
