@@ -4,8 +4,9 @@ For each setting and method, the per-day difference method − reference of each
 (same day, repeat and hub; a day's repeats averaged into its one difference), its mean
 and a bootstrap 95 % confidence interval (resampling days with replacement, a fixed
 seed, so the interval is reproducible), and how many days the method was better. A
-comparison backed by fewer than :data:`MIN_DAYS` days is flagged and gets no verdict
-(``too few days (n=2)``, not ``better`` or ``worse``). The combined cost
+comparison backed by fewer than :data:`MIN_DAYS` calendar days (a city's hubs on one
+day are one day) is flagged and gets no verdict (``too few days (n=2)``, not ``better``
+or ``worse``). The combined cost
 alone can be won by delivering less, so the day objective J (which charges every
 request left waiting) and the delivered share come first (docs/method.md §8).
 """
@@ -34,20 +35,30 @@ SEED = 20221  # fixed: the same rows give the same interval everywhere
 
 
 def backing_days(table: pa.Table) -> int | None:
-    """The fewest days behind any row of ``table`` (its ``days`` column: paired.csv's or
-    the summary's; a city's hub-days count each); None when it has no rows."""
-    days = table.column("days").to_pylist() if table.num_rows else []
+    """The fewest calendar days behind any row of ``table`` (paired.csv's or the
+    summary's ``calendar_days``; a table written before it had one, its ``days``);
+    None when it has no rows. A city's hubs on one day are one day here: the day's
+    weather and demand reach them all, so twelve hubs over two days are two days."""
+    column = "calendar_days" if "calendar_days" in table.column_names else "days"
+    days = table.column(column).to_pylist() if table.num_rows else []
     return min(int(d) for d in days) if days else None
 
 
 def few_days_warning(table: pa.Table) -> str | None:
-    """The warning a comparison over fewer than :data:`MIN_DAYS` days gets: ``table``
-    is the paired comparison (its verdicts read ``too few days``) or, without one, the
-    summary (its means side by side). None when it has enough days, or no rows."""
+    """The warning a comparison over fewer than :data:`MIN_DAYS` calendar days gets:
+    ``table`` is the paired comparison (its verdicts read ``too few days``) or, without
+    one, the summary (its means side by side). None when it has enough days, or no rows."""
     n_days = backing_days(table)
     if n_days is None or n_days >= MIN_DAYS:
         return None
     backs = "day backs" if n_days == 1 else "days back"
+    hub_days = (
+        min(int(d) for d in table.column("days").to_pylist())
+        if "days" in table.column_names
+        else n_days
+    )
+    if hub_days > n_days:  # a city's: its hub-days are the paired differences
+        backs = f"{'day' if n_days == 1 else 'days'} ({hub_days} hub-days) back"
     if "against" in table.column_names:
         return (
             f"only {n_days} {backs} the paired comparison (fewer than {MIN_DAYS}): "
@@ -112,6 +123,7 @@ def paired_table(results: pa.Table, against: str) -> pa.Table:
                 if a is not None and b is not None:
                     per_day[k[:2]].append(a - b)
             diff = np.array([np.mean(v) for v in per_day.values()], dtype=np.float64)
+            calendar = len({day for _, day in per_day})
             lo, hi = bootstrap_ci(diff)
             better = int(((diff < 0) if lower else (diff > 0)).sum())
             out["setting"].append(setting)
@@ -119,24 +131,27 @@ def paired_table(results: pa.Table, against: str) -> pa.Table:
             out["against"].append(against)
             out["metric"].append(metric)
             out["days"].append(int(diff.size))
+            out["calendar_days"].append(calendar)
             out["mean_diff"].append(float(diff.mean()) if diff.size else float("nan"))
             out["ci_low"].append(lo)
             out["ci_high"].append(hi)
             out["days_better"].append(better)
             out["lower_is_better"].append(lower)
-            out["few_days"].append(bool(diff.size < MIN_DAYS))
+            out["few_days"].append(calendar < MIN_DAYS)
     return pa.table(dict(out))
 
 
 def verdict(row: dict[str, Any]) -> str:
     """``better`` / ``worse`` when the CI excludes zero, else ``no difference``; over
-    fewer than :data:`MIN_DAYS` days none of these but ``too few days (n=2)``, whatever
-    the interval (a verdict from a few days is not established); ``n/a`` without one."""
+    fewer than :data:`MIN_DAYS` calendar days none of these but ``too few days (n=2)``,
+    whatever the interval (a verdict from a few days is not established, however many
+    hubs fly them); ``n/a`` without one."""
     lo, hi = row["ci_low"], row["ci_high"]
     if not (np.isfinite(lo) and np.isfinite(hi)) or int(row["days"]) < 1:
         return "n/a"
-    if int(row["days"]) < MIN_DAYS:
-        return too_few(int(row["days"]))
+    calendar = int(row.get("calendar_days", row["days"]))  # none in an older paired.csv
+    if calendar < MIN_DAYS:
+        return too_few(calendar)
     if lo > 0 or hi < 0:
         good = (hi < 0) if row["lower_is_better"] else (lo > 0)
         return "better" if good else "worse"

@@ -153,20 +153,20 @@ def summarize(results: pa.Table, settings: Sequence[Setting] | None = None) -> p
     """Mean and std of each metric per setting and method (methods in first-seen order).
     A setting's columns are its own (``settings``, by index): over hubs each row's
     ``drones`` is its hub's share of the setting's fleet, the summary's the setting's.
-    ``n`` counts the results a row summarises (days × repeats, × hubs), ``days`` their
-    days (a city's hub-days each, as the paired comparison counts them) and ``few_days``
-    says they are fewer than :data:`~marops_cli.evaluate.paired.MIN_DAYS`: too few to
-    tell the methods apart."""
+    ``n`` counts the results a row summarises (days × repeats, × hubs),
+    ``calendar_days`` the days they span (a city's hubs on one day are one day) and
+    ``few_days`` says these are fewer than :data:`~marops_cli.evaluate.paired.MIN_DAYS`:
+    too few to tell the methods apart."""
     from .paired import MIN_DAYS
 
     cols = {c: results.column(c).to_pylist() for c in (*SETTING_COLUMNS, "segmentation", "method")}
     setting = np.asarray(cols["setting"])
     method = np.asarray(cols["method"], dtype=object)
-    day_of = _hub_days(results)
+    day_of = results.column("day").to_pylist()
     metrics = [m for m in SUMMARY_METRICS if m in results.column_names]
     values = {m: results.column(m).to_numpy().astype(np.float64) for m in metrics}
     out: dict[str, list[Any]] = {c: [] for c in (*SETTING_COLUMNS, "segmentation", "method")}
-    out["n"], out["days"], out["few_days"] = [], [], []
+    out["n"], out["calendar_days"], out["few_days"] = [], [], []
     for m in metrics:
         out[f"{m}_mean"], out[f"{m}_std"] = [], []
     for s in sorted(set(setting.tolist())):
@@ -177,20 +177,13 @@ def summarize(results: pa.Table, settings: Sequence[Setting] | None = None) -> p
                 out[c].append(own.get(c, cols[c][rows[0]]))
             out["n"].append(int(rows.size))
             n_days = len({day_of[i] for i in rows.tolist()})
-            out["days"].append(n_days)
+            out["calendar_days"].append(n_days)
             out["few_days"].append(n_days < MIN_DAYS)
             for m in metrics:
                 mean, std = mean_std(values[m][rows])
                 out[f"{m}_mean"].append(mean)
                 out[f"{m}_std"].append(std)
     return pa.table(out)
-
-
-def _hub_days(results: pa.Table) -> list[tuple[Any, Any]]:
-    """Each row's (hub, day): the day it is of, a city's hub-day (hub 0 without hubs)."""
-    days = results.column("day").to_pylist()
-    hubs = results.column("hub").to_pylist() if "hub" in results.column_names else [0] * len(days)
-    return list(zip(hubs, days, strict=True))
 
 
 def depot_loads(results: pa.Table, where: np.ndarray) -> np.ndarray:

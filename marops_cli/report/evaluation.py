@@ -35,7 +35,7 @@ def evaluation_page(folder: Path) -> Page:
         f"{count(meta.get('repeats', 1), 'repeat')}; "
         f"mean ± std over days and repeats. Combined cost: {COMBINED_COST_RULE}."
     )
-    if "days" in summary.column_names:  # an evaluation's summary.csv before it had none
+    if "calendar_days" in summary.column_names:  # none in an older summary.csv
         from ..evaluate.paired import few_days_warning
 
         if (few := few_days_warning(summary)) is not None:  # as summary.md says

@@ -20,6 +20,7 @@ def terminal(monkeypatch: pytest.MonkeyPatch) -> io.StringIO:
     monkeypatch.setattr(common, "out", console)
     monkeypatch.setattr(common, "PLAIN", False)
     monkeypatch.setitem(common.STATE, "json", False)
+    monkeypatch.setitem(common.STATE, "quiet", False)  # as an earlier --quiet run left it
     return buf
 
 
@@ -95,6 +96,7 @@ def test_plain_output_is_never_split(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(common, "out", Console(file=buf, width=1000, no_color=True))
     monkeypatch.setattr(common, "PLAIN", True)
     monkeypatch.setitem(common.STATE, "json", False)
+    monkeypatch.setitem(common.STATE, "quiet", False)
     t = common.table("wide")
     for i in range(30):
         t.add_column(f"column {i}")

@@ -107,7 +107,7 @@ def test_evaluate_against_writes_paired_csv_and_warns_on_few_days(
     ends = ("better", "worse", "no difference")
     assert not [line for line in res.stdout.splitlines() if line.rstrip().endswith(ends)]
     summary = list(csv.DictReader((out / "summary.csv").open()))
-    assert {(r["days"], r["few_days"]) for r in summary} == {("2", "true")}
+    assert {(r["calendar_days"], r["few_days"]) for r in summary} == {("2", "true")}
     assert "**Only 2 days back the comparison (fewer than 10)" in (out / "summary.md").read_text()
 
 
@@ -120,38 +120,50 @@ def test_evaluate_without_against_warns_on_few_days(example_csv: Path, tmp_path:
     assert res.exit_code == 0, res.output
     assert res.stderr.count("warning: only 2 days back the comparison (fewer than 10)") == 1
     summary = list(csv.DictReader((out / "summary.csv").open()))
-    assert [(r["n"], r["days"], r["few_days"]) for r in summary] == [("2", "2", "true")] * 2
+    assert [(r["n"], r["calendar_days"], r["few_days"]) for r in summary] == [
+        ("2", "2", "true")
+    ] * 2
     assert "**Only 2 days back the comparison" in (out / "summary.md").read_text()
     assert not (out / "paired.csv").exists()
 
 
-def test_summary_counts_hub_days_and_says_few() -> None:
-    """``days`` counts a row's days (a city's hub-days each; repeats of a day are one),
-    ``few_days`` below ten; no warning from ten on."""
-    from marops_cli.evaluate.paired import few_days_warning
-    from marops_cli.evaluate.tables import summarize
-
-    def table(hubs: int, days: int, repeats: int) -> pa.Table:
-        rows = [
+def _city(hubs: int, days: int, repeats: int) -> pa.Table:
+    """Results of stay and greedy over ``hubs`` hubs and ``days`` days; greedy's J 10 MJ
+    above stay's on every hub-day."""
+    return pa.Table.from_pylist(
+        [
             {"setting": 0, "alpha": 0.5, "drones": 8, "coverage": 0.25, "depots_n": 16}
-            | {"n_actions": 4, "segmentation": "kmeans", "method": "stay", "hub": h}
-            | {"day": f"2022-08-{1 + d:02d}", "repeat": r, "objective_j_mj": 1.0 + d}
+            | {"n_actions": 4, "segmentation": "kmeans", "method": m, "hub": h}
+            | {"day": f"2022-08-{1 + d:02d}", "repeat": r, "objective_j_mj": 1.0 + d + 10 * k}
+            | dict.fromkeys(("delivered_share", "avg_delay_h", "mean_energy_kj"), 1.0)
+            | {"combined_cost": 0.5 + 0.01 * h}
+            for k, m in enumerate(("stay", "greedy"))
             for h in range(hubs)
             for d in range(days)
             for r in range(repeats)
         ]
-        return summarize(pa.Table.from_pylist(rows))
-
-    row = table(hubs=2, days=3, repeats=2).to_pylist()[0]
-    assert (row["n"], row["days"], row["few_days"]) == (12, 6, True)
-    assert "only 6 days back the comparison" in (few_days_warning(table(2, 3, 2)) or "")
-    row = table(hubs=5, days=2, repeats=1).to_pylist()[0]
-    assert (row["n"], row["days"], row["few_days"]) == (10, 10, False)
-    assert few_days_warning(table(5, 2, 1)) is None
+    )
 
 
-def test_against_a_method_not_compared_fails_before_any_work(
-    example_csv: Path, tmp_path: Path, fails_cleanly
-) -> None:
-    args = ["evaluate", str(example_csv), "--methods", "stay,greedy", "--against", "myopic"]
-    fails_cleanly([*args, "--out", str(tmp_path / "ev")], tmp_path, "--against 'myopic'")
+def test_a_citys_hubs_on_one_day_are_one_day() -> None:
+    """Twelve hubs over two days are 24 paired hub-days but two calendar days: no
+    verdict and a warning, in the summary as in the paired comparison; ten days give
+    a verdict."""
+    from marops_cli.evaluate.paired import few_days_warning
+    from marops_cli.evaluate.tables import summarize
+
+    city = _city(hubs=12, days=2, repeats=2)
+    row = summarize(city).to_pylist()[0]
+    assert (row["n"], row["calendar_days"], row["few_days"]) == (48, 2, True)
+    assert "only 2 days back the comparison" in (few_days_warning(summarize(city)) or "")
+    j = next(r for r in paired_table(city, "stay").to_pylist() if r["metric"] == "objective_j_mj")
+    assert (j["days"], j["calendar_days"], j["few_days"]) == (24, 2, True)
+    assert j["ci_low"] > 0 and verdict(j) == "too few days (n=2)"
+    assert "only 2 days (24 hub-days) back the paired comparison" in (
+        few_days_warning(paired_table(city, "stay")) or ""
+    )
+    ten = _city(hubs=2, days=10, repeats=1)
+    assert summarize(ten).column("few_days").to_pylist() == [False, False]
+    assert few_days_warning(summarize(ten)) is None
+    j = next(r for r in paired_table(ten, "stay").to_pylist() if r["metric"] == "objective_j_mj")
+    assert (j["days"], j["calendar_days"]) == (20, 10) and verdict(j) == "worse"

@@ -610,7 +610,7 @@ def test_the_paired_table_says_each_verdict_and_how_few_days_back_it(
     shutil.copytree(evaluation_run, copy)
     rows = _csv_rows(copy / "paired.csv")
     for r in rows:
-        r.update(days="12", few_days="false", ci_low="-2.0", ci_high="-1.0")
+        r.update(days="12", calendar_days="12", few_days="false", ci_low="-2.0", ci_high="-1.0")
     with (copy / "paired.csv").open("w", newline="") as fh:
         import csv
 
