@@ -29,25 +29,20 @@ from __future__ import annotations
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import highspy
 import numpy as np
 from numpy.typing import NDArray
 
-from ..config import BOUND_LABELS
+from ..config import BOUND_LABELS, PlanConfig
 from ..energy import EnergyModel
 from ..segment.depots import nearest_depot
 from .highs import new_highs, run_highs
-from .pool import DroneTask
 from .pricing import DroneClass, price
+from .problem import WindowProblem
+from .view import WindowView
 
-if TYPE_CHECKING:
-    from ..config import PlanConfig
-    from .planner import Scope
-    from .view import WindowView
-
-__all__ = ["BoundResult", "bound_g", "window_bound"]
+__all__ = ["BoundCaps", "BoundResult", "bound_g", "window_bound"]
 
 _RC_TOL = 1e-6  # a reduced cost (J) above this is worth a column
 _REL_STOP = 1e-5  # stop once the bound is this close (relative) to the master's value
@@ -57,6 +52,32 @@ MAX_WORK = BOUND_LABELS
 MAX_LABELS = 20_000
 """Labels of one length a full pricing keeps at most by default (a 25th of ``MAX_WORK``;
 ``[plan] bound_labels`` raises both)."""
+
+
+@dataclass(frozen=True)
+class BoundCaps:
+    """What a bound's search may spend (:func:`bound_g`); a capped search still returns a
+    valid bound and says which cap it hit."""
+
+    ng: int = 8
+    """The ng-neighbourhood size (≥ the requests: elementary routes)."""
+    max_work: int = MAX_WORK
+    """Labels made in all."""
+    time_limit_s: float | None = None
+    """CPU seconds; None: no clock (the default), so that the bound is the same on any
+    machine."""
+    max_iterations: int = 200
+    """Pricing rounds."""
+    max_labels: int = MAX_LABELS
+    """Labels of one length in a full pricing."""
+
+    @classmethod
+    def of(cls, cfg: PlanConfig, **caps: float) -> BoundCaps:
+        """The caps ``cfg`` sets (``max_work`` is ``cfg.bound_labels`` and ``max_labels`` a
+        25th of it, at least ``MAX_LABELS``), with ``caps`` overriding them."""
+        caps.setdefault("max_work", cfg.bound_labels)
+        caps.setdefault("max_labels", max(MAX_LABELS, cfg.bound_labels // 25))
+        return cls(**caps)  # type: ignore[arg-type]
 
 
 @dataclass(frozen=True)
@@ -157,85 +178,43 @@ class _Master:
         return dual[: self.n_cls], dual[self.n_cls :]
 
 
-def _classes(
-    depots_xy: NDArray[np.float64],
-    req_xy: NDArray[np.float64],
-    req_weight: NDArray[np.float64],
-    tasks: list[DroneTask],
-    model: EnergyModel,
-    ng: int,
-) -> tuple[list[DroneClass], list[int]]:
+def _classes(problem: WindowProblem, ng: int) -> tuple[list[DroneClass], list[int]]:
     """Identical drones as one class; each task's class."""
+    req_xy = np.asarray(problem.xy, dtype=np.float64)
+    depots_xy = np.asarray(problem.depots_xy, dtype=np.float64)
     land_m = nearest_depot(req_xy, depots_xy)[1] if len(req_xy) else np.zeros(0)
     keys: dict[tuple[int, int, bytes, int], int] = {}
     members: list[list[int]] = []
     of: list[int] = []
-    for u, t in enumerate(tasks):
-        k = (t.start, t.end, np.asarray(t.allowed, dtype=np.int64).tobytes(), id(t.model or model))
+    for u, t in enumerate(problem.tasks):
+        k = (t.start, t.end, np.asarray(t.allowed, dtype=np.int64).tobytes(), id(t.model))
         if k not in keys:
             keys[k] = len(members)
             members.append([])
         members[keys[k]].append(u)
         of.append(keys[k])
-    classes = []
-    for us in members:
-        t = tasks[us[0]]
-        classes.append(
-            DroneClass.of(
-                depots_xy[t.start],
-                t.end,
-                np.asarray(t.allowed, dtype=np.int64),
-                depots_xy,
-                req_xy,
-                req_weight,
-                land_m,
-                t.model or model,
-                len(us),
-                ng,
-            )
-        )
+    classes = [DroneClass.of(problem.tasks[us[0]], problem, land_m, len(us), ng) for us in members]
     return classes, of
 
 
 def bound_g(
-    depots_xy: NDArray[np.float64],
-    req_xy: NDArray[np.float64],
-    req_weight: NDArray[np.float64],
-    value: NDArray[np.float64],
-    lam: float,
-    tasks: list[DroneTask],
-    model: EnergyModel,
+    problem: WindowProblem,
     *,
     columns: Sequence[Sequence[tuple[Sequence[int], float]]] | None = None,
-    ng: int = 8,
-    max_work: int = MAX_WORK,
-    time_limit_s: float | None = None,
-    max_iterations: int = 200,
-    max_labels: int = MAX_LABELS,
+    caps: BoundCaps = BoundCaps(),  # noqa: B008 (frozen)
     plan: bool = False,
 ) -> BoundResult:
-    """An upper bound on G for the drones ``tasks`` (module docstring).
+    """An upper bound on G for ``problem``'s drones (module docstring), its prizes
+    ``problem.prize`` (λ v_i per pending position).
 
-    ``value`` is v_i = 1 + delay_i (h) per pending position, ``lam`` λ (J);
     ``columns`` each task's known routes as ``(positions, energy J)`` (the planner's
-    pool: a warm start); ``ng`` the ng-neighbourhood size (≥ the requests: elementary
-    routes). ``max_work`` (labels made in all), ``max_iterations`` (pricing rounds) and
-    ``max_labels`` (labels of one length in a full pricing) cap the search, and so does
-    ``time_limit_s`` (CPU seconds; None: no clock, the default, so that the bound is
-    the same on any machine); a capped search still returns a valid bound and says which
-    cap it hit. ``plan``: also the best plan over the routes found (an integer program
-    over the master's elementary routes).
+    pool: a warm start); ``caps`` what the search may spend. ``plan``: also the best
+    plan over the routes found (an integer program over the master's elementary routes).
     """
     c0 = time.process_time()
-    prize = lam * np.asarray(value, dtype=np.float64)
-    classes, of = _classes(
-        np.asarray(depots_xy, dtype=np.float64),
-        np.asarray(req_xy, dtype=np.float64),
-        np.asarray(req_weight, dtype=np.float64),
-        tasks,
-        model,
-        ng,
-    )
+    prize = np.asarray(problem.prize, dtype=np.float64)
+    classes, of = _classes(problem, caps.ng)
+    max_work, max_labels = caps.max_work, caps.max_labels
     const = -sum(c.count * c.e_empty for c in classes)
     servable = np.zeros(prize.size, dtype=bool)
     for c in classes:
@@ -258,7 +237,7 @@ def bound_g(
     best, priced, converged, capped, it = trivial, False, False, "", 0
     heuristic, full_done = True, False
     lp, work = -np.inf, 0
-    clock = np.inf if time_limit_s is None else float(time_limit_s)
+    clock = np.inf if caps.time_limit_s is None else float(caps.time_limit_s)
     while True:
         mu, pi = master.solve()
         lp = master.value + const
@@ -268,7 +247,7 @@ def bound_g(
         if time.process_time() - c0 > clock:
             capped = "time"
             break
-        if it >= max_iterations:
+        if it >= caps.max_iterations:
             capped = "iterations"
             break
         it += 1
@@ -368,40 +347,22 @@ def window_bound(
     actions: NDArray[np.int64],
     model: EnergyModel,
     cfg: PlanConfig,
-    scope: Scope = "range",
     *,
-    columns: Sequence[Sequence[tuple[Sequence[int], float]]] | None = None,
     relaxed: bool = False,
     **caps: float,
 ) -> BoundResult:
     """The bound of one window for the drones' ``actions`` as the route pool flies them
-    (``scope`` and ``cfg`` decide each drone's landing and allowed requests; λ from
-    ``cfg.alpha`` and ``model``'s usable battery).
+    in flight ranges (``cfg`` decides each drone's landing and allowed requests; λ from
+    ``cfg.alpha`` and ``model``'s usable battery): :func:`bound_g` of
+    :meth:`WindowProblem.of`.
 
     ``relaxed``: every drone that can fly lands freely and may serve whatever its depot
-    stocks (the ``global`` scope): a bound on every planner's plan, whatever its actions
-    (a free landing never costs more than a fixed one). ``columns``: each drone's known
-    routes (a warm start); ``caps``: :func:`bound_g`'s ``ng``, ``max_work``,
-    ``time_limit_s``, ``max_iterations``, ``max_labels`` and ``plan`` (by default
-    ``max_work`` is ``cfg.bound_labels`` and ``max_labels`` a 25th of it, at least
-    ``MAX_LABELS``).
+    stocks (:meth:`WindowProblem.relaxed`): a bound on every planner's plan, whatever
+    its actions (a free landing never costs more than a fixed one). ``caps``:
+    :class:`BoundCaps`' fields (:meth:`BoundCaps.of` ``cfg``) and ``plan``.
     """
-    from .objective import lam_j
-    from .planner import drone_tasks
-    from .window import drone_models
-
-    models = drone_models(view, model)
-    tasks = drone_tasks(view, actions, cfg, "global" if relaxed else scope, models)
-    caps.setdefault("max_work", cfg.bound_labels)
-    caps.setdefault("max_labels", max(MAX_LABELS, cfg.bound_labels // 25))
+    problem = WindowProblem.of(view, actions, model, cfg)
+    plan = bool(caps.pop("plan", False))
     return bound_g(
-        view.depots.xy,
-        view.pending_xy,
-        view.pending_weight,
-        1.0 + np.asarray(view.pending_delay_h, dtype=np.float64),
-        lam_j(cfg.alpha, model.usable_j),
-        tasks,
-        model,
-        columns=columns,
-        **caps,  # type: ignore[arg-type]
+        problem.relaxed() if relaxed else problem, caps=BoundCaps.of(cfg, **caps), plan=plan
     )

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
-from typing import Literal, Protocol
+from typing import Protocol
 
 import numpy as np
 
@@ -25,9 +25,9 @@ from ..config import PlanConfig
 from ..energy import EnergyModel
 from ..segment.depots import nearest_depot
 from .candidates import by_delay, draft, range_candidates
-from .objective import lam_j, priced_delay_h, wait_credit_j
 from .plans import PlanSet, build_plans
-from .pool import DroneTask, build_pool
+from .pool import build_pool
+from .problem import DroneTask, Scope, WindowProblem, can_reach
 from .view import FREE, WindowView
 
 __all__ = [
@@ -35,13 +35,11 @@ __all__ = [
     "Planner",
     "PyvrpPoolPlanner",
     "RoutePoolPlanner",
+    "Scope",
     "SubsetsPlanner",
     "can_reach",
-    "drone_tasks",
     "make_planner",
 ]
-
-Scope = Literal["range", "global"]
 
 
 @dataclass(frozen=True)
@@ -64,17 +62,12 @@ class DronePlans:
 
 
 class Planner(Protocol):
-    """Builds each drone's plans for one window from the drones' actions."""
+    """Builds each drone's plans for one window's problem."""
 
-    def plans(
-        self,
-        view: WindowView,
-        actions: np.ndarray,
-        model: EnergyModel,
-        models: list[EnergyModel],
-    ) -> DronePlans:
-        """Plan sets and ends for ``view``; ``model`` prices delay (λ = ((1 − α)/α) ·
-        its usable battery), ``models`` are the drones' own (a mixed fleet)."""
+    def plans(self, problem: WindowProblem, view: WindowView) -> DronePlans:
+        """Plan sets and ends for ``problem`` (the drones' tasks, their models, λ and the
+        prices); ``view`` is the window it was built from (the paper's candidates rank
+        its requests by delay, due time and service area)."""
         ...
 
 
@@ -85,21 +78,15 @@ class SubsetsPlanner:
     cfg: PlanConfig
     scope: Scope = "range"
 
-    def plans(
-        self,
-        view: WindowView,
-        actions: np.ndarray,
-        model: EnergyModel,
-        models: list[EnergyModel],
-    ) -> DronePlans:
+    def plans(self, problem: WindowProblem, view: WindowView) -> DronePlans:
+        models = problem.models
         if self.scope == "global":  # no flight range: every drone starts as "stay"
             acts = np.zeros(view.n_drones, dtype=np.int64)
             plan_sets, plan_ends, t_cand = _global_plans(view, models, self.cfg)
             return DronePlans(plan_sets, plan_ends, acts, t_cand, reorder=False)
         # The paper's planner has no free landing: FREE flies as stay.
-        acts = np.asarray(actions, dtype=np.int64)
-        acts = np.where(acts == FREE, 0, acts)
-        plan_sets, ends, acts, t_cand = _range_plans(view, acts, models, self.cfg)
+        acts = np.where(problem.actions == FREE, 0, problem.actions)
+        plan_sets, ends, t_cand = _range_plans(view, acts, models, self.cfg)
         plan_ends = [np.full(ps.n_plans, ends[u]) for u, ps in enumerate(plan_sets)]
         return DronePlans(plan_sets, plan_ends, acts, t_cand, reorder=False)
 
@@ -116,22 +103,9 @@ class RoutePoolPlanner:
         """PyVRP iterations whose routes join the pool: none (:class:`PyvrpPoolPlanner`)."""
         return 0
 
-    def plans(
-        self,
-        view: WindowView,
-        actions: np.ndarray,
-        model: EnergyModel,
-        models: list[EnergyModel],
-    ) -> DronePlans:
-        if self.scope == "global":
-            acts = np.zeros(view.n_drones, dtype=np.int64)
-        else:
-            acts = _reachable_actions(view, np.asarray(actions, dtype=np.int64), models)
-            acts = _grounded(view, acts)
-        plan_sets, plan_ends, t_cand = _pool_plans(
-            view, acts, model, models, self.cfg, self.scope, self.pyvrp_iterations()
-        )
-        return DronePlans(plan_sets, plan_ends, acts, t_cand, reorder=True)
+    def plans(self, problem: WindowProblem, view: WindowView) -> DronePlans:
+        plan_sets, plan_ends, t_cand = _pool_plans(problem, self.cfg, self.pyvrp_iterations())
+        return DronePlans(plan_sets, plan_ends, problem.actions, t_cand, reorder=True)
 
 
 @dataclass(frozen=True)
@@ -153,61 +127,18 @@ def make_planner(cfg: PlanConfig, scope: Scope = "range") -> Planner:
     return SubsetsPlanner(cfg, scope)
 
 
-def drone_tasks(
-    view: WindowView,
-    actions: np.ndarray,
-    cfg: PlanConfig,
-    scope: Scope,
-    models: list[EnergyModel],
-) -> list[DroneTask]:
-    """What each drone may do in the window as the route pool flies ``actions``: its
-    start, end and allowed requests (the tasks :class:`RoutePoolPlanner` builds)."""
-    if scope == "global":
-        acts = np.zeros(view.n_drones, dtype=np.int64)
-    else:
-        acts = _grounded(view, _reachable_actions(view, np.asarray(actions, np.int64), models))
-    return _pool_tasks(view, acts, cfg, scope, models)
-
-
-def _reachable_actions(
-    view: WindowView, actions: np.ndarray, models: list[EnergyModel]
-) -> np.ndarray:
-    """Actions whose destination the empty drone cannot reach become 0 (stay); FREE stays
-    FREE (an idle free drone stays where it is)."""
-    acts = np.asarray(actions, dtype=np.int64).copy()
-    for u in range(view.n_drones):
-        if acts[u] != FREE and not can_reach(view, u, int(acts[u]), models[u]):
-            acts[u] = 0
-    return acts
-
-
-def can_reach(view: WindowView, u: int, action: int, model: EnergyModel) -> bool:
-    """Whether drone ``u`` (energy ``model``) reaches its action's destination empty."""
-    dep = view.depots
-    s = int(view.drone_depot[u])
-    d = int(dep.candidates[s, action])
-    flight = float(np.hypot(*(dep.xy[d] - dep.xy[s])))
-    # The same test build_plans applies to the empty plan, so it never raises.
-    return float(model.leg_energy_j(flight, 0.0)) <= model.usable_j
-
-
-def _grounded(view: WindowView, acts: np.ndarray) -> np.ndarray:
-    """A drone that cannot fly this window (docs/method.md, "Operating model") stays."""
-    if view.drone_ready is None:
-        return acts
-    return np.where(view.drone_ready, acts, 0)
-
-
 _NONE = np.zeros(0, dtype=np.int64)
 
 
 def _own_range_candidates(
-    view: WindowView, rank: np.ndarray, rank_area: np.ndarray, u: int, s: int, a: int, m: int
+    view: WindowView, ranked: tuple[np.ndarray, np.ndarray], u: int, s: int, a: int, m: int
 ) -> np.ndarray:
     """:func:`range_candidates` of drone ``u`` among the parcels stocked at its depot ``s``
-    (all of them under the paper's model); none when it cannot fly."""
+    (all of them under the paper's model); none when it cannot fly. ``ranked``: the
+    pending positions by :func:`by_delay` and their service areas."""
     if not view.ready(u):
         return _NONE
+    rank, rank_area = ranked
     if view.pending_stock is not None:
         keep = view.pending_stock[rank] == s
         rank, rank_area = rank[keep], rank_area[keep]
@@ -227,17 +158,18 @@ def _drafted_candidates(
     """
     head = m_hat * (view.n_drones + 1)  # the most any drone can reach in the draft
     prefs = [
-        _own_range_candidates(view, rank, rank_area, u, int(s), int(a), head)
+        _own_range_candidates(view, (rank, rank_area), u, int(s), int(a), head)
         for u, (s, a) in enumerate(zip(view.drone_depot, acts, strict=True))
     ]
     return draft(prefs, view.pending_idx.size, m_hat)
 
 
 def _range_plans(
-    view: WindowView, actions: np.ndarray, models: list[EnergyModel], cfg: PlanConfig
-) -> tuple[list[PlanSet], np.ndarray, np.ndarray, float]:
+    view: WindowView, acts: np.ndarray, models: list[EnergyModel], cfg: PlanConfig
+) -> tuple[list[PlanSet], np.ndarray, float]:
+    """The paper's plan sets of the drones flying ``acts`` (each reachable, and 0 for a
+    drone that cannot fly) and each drone's destination."""
     dep = view.depots
-    acts = _grounded(view, _reachable_actions(view, actions, models))
     t0 = time.perf_counter()
     rank = by_delay(view)
     rank_area = view.pending_area[rank]
@@ -253,7 +185,8 @@ def _range_plans(
                 cands.append(_NONE)
                 continue
             if sa not in by_key:
-                by_key[sa] = _own_range_candidates(view, rank, rank_area, u, *sa, cfg.max_parcels)
+                ranked = (rank, rank_area)
+                by_key[sa] = _own_range_candidates(view, ranked, u, *sa, cfg.max_parcels)
             cands.append(by_key[sa])
     t_cand = time.perf_counter() - t0
     plan_sets: list[PlanSet] = []
@@ -275,7 +208,7 @@ def _range_plans(
             )
         plan_sets.append(done[key])
         ends[u] = dest
-    return plan_sets, ends, acts, t_cand
+    return plan_sets, ends, t_cand
 
 
 def _global_plans(
@@ -345,115 +278,40 @@ def _global_plans(
     return plan_sets, plan_ends, t_cand
 
 
-def pricing_delay_h(view: WindowView, cfg: PlanConfig, model: EnergyModel) -> np.ndarray:
-    """The delay (hours) each pending request is priced at when the route pool builds and
-    chooses plans (docs/method.md §4.4, "What waiting saves" and "The day's end"): its
-    delay; plus, in hours of λ, the energy waiting would not save (``[plan]
-    wait_credit`` times its cheapest detour, :func:`wait_credit_j`); plus, in the day's
-    last window, the night a parcel left then waits (``[plan] night_h``; None: 24 h less
-    the service hours). The paper's planner prices the delay alone."""
-    delay = np.asarray(view.pending_delay_h, dtype=np.float64)
-    if cfg.planner != "pool":
-        return delay
-    night = cfg.night_h
-    if night is None:
-        night = max(0.0, 24.0 - view.n_windows * view.window_h)
-    priced = priced_delay_h(delay, view.t == view.n_windows - 1, night)
-    if cfg.wait_credit > 0 and delay.size:
-        credit = wait_credit_j(view.pending_xy, view.depots.xy, float(model.energy_per_m(0.0)))
-        priced = priced + cfg.wait_credit * credit / lam_j(cfg.alpha, model.usable_j)
-    return priced
-
-
-def _pool_tasks(
-    view: WindowView,
-    acts: np.ndarray,
-    cfg: PlanConfig,
-    scope: Scope,
-    models: list[EnergyModel] | None = None,
-) -> list[DroneTask]:
-    """Each drone's start, end (-1: nearest depot to its last customer) and allowed requests."""
-    dep = view.depots
-    everything = np.arange(view.pending_idx.size, dtype=np.int64)
-    tasks = []
-    for u, s0 in enumerate(view.drone_depot):
-        s = int(s0)
-        m = None if models is None else models[u]
-        if not view.ready(u):  # it stays: no request, its own depot
-            tasks.append(DroneTask(s, s, _NONE, m))
-            continue
-        stocked = view.stocked_at(s)
-        if scope == "global":
-            tasks.append(DroneTask(s, -1, everything if stocked is None else stocked, m))
-            continue
-        a = int(acts[u])
-        free = a == FREE
-        a = 0 if free else a
-        dest = int(dep.candidates[s, a])
-        if cfg.range == "areas":
-            allowed = np.flatnonzero(view.ranges[s, a][view.pending_area]).astype(np.int64)
-        else:  # the battery alone bounds what the drone can serve on its way
-            allowed = everything
-        if stocked is not None:
-            allowed = np.intersect1d(allowed, stocked)
-        fixed = cfg.landing == "destination" and not free
-        tasks.append(DroneTask(s, dest if fixed else -1, allowed, m))
-    return tasks
-
-
 def _pool_plans(
-    view: WindowView,
-    acts: np.ndarray,
-    model: EnergyModel,
-    models: list[EnergyModel],
-    cfg: PlanConfig,
-    scope: Scope,
-    pyvrp_iterations: int = 0,
+    problem: WindowProblem, cfg: PlanConfig, pyvrp_iterations: int = 0
 ) -> tuple[list[PlanSet], list[np.ndarray], float]:
     """Route-pool plan sets (docs/method.md, "Route pool") and each plan's end depot;
-    ``model`` prices delay (λ), ``models`` are the drones' own; with ``pyvrp_iterations``
-    PyVRP's routes join the pool as extra columns."""
-    dep = view.depots
+    with ``pyvrp_iterations`` PyVRP's routes join the pool as extra columns."""
+    depots_xy = problem.depots_xy
     t0 = time.perf_counter()
-    tasks = _pool_tasks(view, acts, cfg, scope, models)
-    lam = lam_j(cfg.alpha, model.usable_j)
-    prize = lam * (1.0 + pricing_delay_h(view, cfg, model))
-    # Routes are built for the prize plus the urgency bonus; the selection judges them by
-    # the window objective alone (docs/method.md §4.4).
-    due = view.pending_due_w <= view.t
-    search = prize + lam * cfg.pool_urgency * view.window_h * due if cfg.pool_urgency else prize
     res = build_pool(
-        dep.xy,
-        view.pending_xy,
-        view.pending_weight,
-        search,
-        tasks,
-        model,
+        problem,
         n_candidates=cfg.pool_candidates,
         iterations=cfg.pool_iterations,
-        seed=view.t,
+        seed=problem.t,
     )
     routes = [dict(zip(r, e, strict=True)) for r, e in zip(res.routes, res.energy_j, strict=True)]
     if pyvrp_iterations > 0:
-        _add_pyvrp_routes(view, tasks, lam, model, pyvrp_iterations, routes)
+        _add_pyvrp_routes(problem, pyvrp_iterations, routes)
     t_cand = time.perf_counter() - t0
     plan_sets, plan_ends = [], []
-    for u, task in enumerate(tasks):
+    for u, task in enumerate(problem.tasks):
         empty_end = task.start if task.end < 0 else task.end
-        flight = float(np.hypot(*(dep.xy[empty_end] - dep.xy[task.start])))
+        flight = float(np.hypot(*(depots_xy[empty_end] - depots_xy[task.start])))
         keys = list(routes[u])
         ids = np.unique(np.array([i for k in keys for i in k], dtype=np.int64))
         n_k = len(keys) + 1
         members = np.zeros((n_k, ids.size), dtype=bool)
         order = np.full((n_k, max(ids.size, 1)), -1, dtype=np.int16)
         energy = np.empty(n_k)
-        energy[0] = float(models[u].leg_energy_j(flight, 0.0))
+        energy[0] = float(task.model.leg_energy_j(flight, 0.0))
         for k, key in enumerate(keys, start=1):
             col = np.searchsorted(ids, np.array(key, dtype=np.int64))
             members[k, col] = True
             order[k, : col.size] = col
             energy[k] = routes[u][key]
-        weight = members @ view.pending_weight[ids] if ids.size else np.zeros(n_k)
+        weight = members @ problem.weight[ids] if ids.size else np.zeros(n_k)
         # Distances are recomputed for the chosen routes; the table needs energies only.
         plan_sets.append(PlanSet(ids, members, order, energy, np.zeros(n_k), weight))
         plan_ends.append(np.full(n_k, task.end, dtype=np.int64))
@@ -461,50 +319,44 @@ def _pool_plans(
 
 
 def _add_pyvrp_routes(
-    view: WindowView,
-    tasks: list[DroneTask],
-    lam: float,
-    model: EnergyModel,
-    iterations: int,
-    routes: list[dict[tuple[int, ...], float]],
+    problem: WindowProblem, iterations: int, routes: list[dict[tuple[int, ...], float]]
 ) -> None:
     """PyVRP's routes for the window as extra columns (each re-costed exactly)."""
-    from .pyvrp_routes import solve_window
+    from .pyvrp_routes import solve_window  # the optional pyvrp extra, loaded when asked for
 
-    n = view.pending_idx.size
-    allowed = np.zeros((len(tasks), n), dtype=bool)
+    tasks = problem.tasks
+    allowed = np.zeros((len(tasks), problem.n_requests), dtype=bool)
     for u, t in enumerate(tasks):
         allowed[u, t.allowed] = True
+    starts = np.array([t.start for t in tasks], dtype=np.int64)
     ends = np.array([t.end for t in tasks], dtype=np.int64)
     peer = solve_window(
-        view.depots.xy,
-        np.array([t.start for t in tasks], dtype=np.int64),
-        view.pending_xy,
-        view.pending_weight,
-        1.0 + view.pending_delay_h,
-        lam,
-        model,
-        drone_end=None if np.all(ends < 0) else np.where(ends < 0, view.drone_depot, ends),
+        problem.depots_xy,
+        starts,
+        problem.xy,
+        problem.weight,
+        problem.value,
+        problem.lam,
+        problem.model,
+        drone_end=None if np.all(ends < 0) else np.where(ends < 0, starts, ends),
         allowed=None if allowed.all() else allowed,
         iterations=iterations,
-        seed=view.t,
+        seed=problem.t,
     )
     for s, stops in zip(peer.start, peer.stops, strict=True):
         for u, t in enumerate(tasks):
             if t.start != int(s) or not allowed[u, stops].all():
                 continue
-            own = t.model or model  # the drone's own limits (a mixed fleet)
-            e = _route_energy_j(view, t, stops, own)
-            w = float(view.pending_weight[stops].sum())
+            own = t.model  # the drone's own limits (a mixed fleet)
+            e = _route_energy_j(problem, t, stops)
+            w = float(problem.weight[stops].sum())
             if e <= own.usable_j and own.fits(w):
                 routes[u].setdefault(tuple(int(i) for i in stops), e)
 
 
-def _route_energy_j(
-    view: WindowView, task: DroneTask, stops: np.ndarray, model: EnergyModel
-) -> float:
-    dep = view.depots
-    xy = view.pending_xy[stops]
-    end = task.end if task.end >= 0 else int(nearest_depot(xy[-1], dep.xy)[0][0])
-    pts = np.vstack([dep.xy[task.start], xy, dep.xy[end]])
-    return float(model.route_energy(pts, view.pending_weight[stops])[1].sum())
+def _route_energy_j(problem: WindowProblem, task: DroneTask, stops: np.ndarray) -> float:
+    depots_xy = problem.depots_xy
+    xy = problem.xy[stops]
+    end = task.end if task.end >= 0 else int(nearest_depot(xy[-1], depots_xy)[0][0])
+    pts = np.vstack([depots_xy[task.start], xy, depots_xy[end]])
+    return float(task.model.route_energy(pts, problem.weight[stops])[1].sum())

@@ -152,6 +152,16 @@ class SelectionProblem:
     """λ = ((1 − α)/α) · E_ref, joules per unit of v_c left unserved."""
 
     @classmethod
+    def of(
+        cls, plan_sets: Sequence[PlanSet], value: NDArray[np.float64], lam: float
+    ) -> SelectionProblem:
+        """Assemble drones' plan sets whose request ids are window positions; ``value``
+        holds v_c of every position (a window problem's ``priced``), ``lam`` λ."""
+        _check_empty_plans(plan_sets)
+        ids = _request_ids(plan_sets)
+        return cls._table(plan_sets, ids, np.asarray(value, dtype=np.float64)[ids], lam)
+
+    @classmethod
     def from_plan_sets(
         cls,
         plan_sets: Sequence[PlanSet],
@@ -160,17 +170,26 @@ class SelectionProblem:
         alpha: float,
         energy_ref_j: float,
     ) -> SelectionProblem:
-        """Assemble drones' plan sets; ``delay_h`` maps every candidate id to its delay."""
-        if not plan_sets:
-            raise ValueError("expected at least one drone")
-        for u, ps in enumerate(plan_sets):
-            if ps.n_plans == 0 or ps.members[0].any():
-                raise ValueError(f"expected plan 0 of drone {u} to be the empty plan")
+        """Assemble drones' plan sets; ``delay_h`` maps every candidate id to its delay,
+        λ from ``alpha`` and ``energy_ref_j`` (:func:`.objective.lam_j`)."""
+        _check_empty_plans(plan_sets)
         lam = lam_j(alpha, energy_ref_j)
-        ids = np.unique(np.concatenate([ps.request_ids for ps in plan_sets]).astype(np.int64))
+        ids = _request_ids(plan_sets)
         missing = [int(i) for i in ids if int(i) not in delay_h]
         if missing:
             raise ValueError(f"expected a delay for every candidate, missing {missing[:5]}")
+        value = 1.0 + np.array([float(delay_h[int(i)]) for i in ids])
+        return cls._table(plan_sets, ids, value, lam)
+
+    @classmethod
+    def _table(
+        cls,
+        plan_sets: Sequence[PlanSet],
+        ids: NDArray[np.int64],
+        value: NDArray[np.float64],
+        lam: float,
+    ) -> SelectionProblem:
+        """The table of ``plan_sets`` over the requests ``ids`` (sorted) of value ``value``."""
         sizes = np.array([ps.n_plans for ps in plan_sets], dtype=np.int64)
         offsets = np.concatenate([[0], np.cumsum(sizes)])
         rows, cols = [], []
@@ -185,7 +204,7 @@ class SelectionProblem:
             offsets=offsets,
             cover=cover,
             request_ids=ids,
-            value=1.0 + np.array([float(delay_h[int(i)]) for i in ids]),
+            value=value,
             lam=lam,
         )
 
@@ -240,3 +259,17 @@ class SelectionProblem:
     def uncoverable(self) -> NDArray[np.int64]:
         """Requests that no plan serves (they make the strict cover infeasible)."""
         return self.request_ids[np.diff(self.cover.indptr) == 0]
+
+
+def _check_empty_plans(plan_sets: Sequence[PlanSet]) -> None:
+    """Raise ``ValueError`` unless there is a drone and each drone's plan 0 is empty."""
+    if not plan_sets:
+        raise ValueError("expected at least one drone")
+    for u, ps in enumerate(plan_sets):
+        if ps.n_plans == 0 or ps.members[0].any():
+            raise ValueError(f"expected plan 0 of drone {u} to be the empty plan")
+
+
+def _request_ids(plan_sets: Sequence[PlanSet]) -> NDArray[np.int64]:
+    """Every candidate of every drone, sorted."""
+    return np.unique(np.concatenate([ps.request_ids for ps in plan_sets]).astype(np.int64))

@@ -42,6 +42,7 @@ from ..energy import ENERGY_TOL_J, PAYLOAD_TOL_KG, EnergyModel
 from ..segment.depots import nearest_depot
 from .kernels import kernels
 from .order import MAX_STOPS, evaluate_orders, exact_orders, node_distances, subset_masks
+from .problem import DroneTask, WindowProblem
 
 __all__ = ["DroneTask", "PoolResult", "RoutePool", "build_pool", "finish_route"]
 SCORES = ("weight", "density", "gain")
@@ -65,20 +66,6 @@ def _best(score: NDArray[np.float64]) -> tuple[float, int]:
         return -np.inf, 0
     j = int(score.argmax())
     return float(score[j]), j
-
-
-@dataclass(frozen=True)
-class DroneTask:
-    """What one drone may do in the window."""
-
-    start: int
-    """Start depot id."""
-    end: int
-    """Fixed end depot id, or -1: land at the depot nearest the last customer."""
-    allowed: NDArray[np.int64]
-    """Positions (in the window's pending arrays) of the requests it may serve."""
-    model: EnergyModel | None = None
-    """The drone's own energy model (its type: payload, battery, speed); None: the pool's."""
 
 
 @dataclass(frozen=True)
@@ -150,24 +137,16 @@ class PoolResult:
 class RoutePool:
     """Builds the route pool of one window (module docstring)."""
 
-    def __init__(
-        self,
-        depots_xy: NDArray[np.float64],
-        req_xy: NDArray[np.float64],
-        req_weight: NDArray[np.float64],
-        prize: NDArray[np.float64],
-        tasks: list[DroneTask],
-        model: EnergyModel,
-        n_candidates: int = 80,
-    ) -> None:
+    def __init__(self, problem: WindowProblem, n_candidates: int = 80) -> None:
+        """The pool of ``problem``'s drones, built for the prizes ``problem.search``;
+        each drone keeps its ``n_candidates`` best requests (and those it is home to)."""
+        tasks = list(problem.tasks)
         kinds: dict[int, _Kind] = {}  # one per energy model (drone type)
-        self.kinds = [
-            kinds.setdefault(id(m), _Kind.of(m)) for m in (t.model or model for t in tasks)
-        ]
-        self.w = np.asarray(req_weight, dtype=np.float64)
-        self.prize = np.asarray(prize, dtype=np.float64)
-        self.xy = np.asarray(req_xy, dtype=np.float64)
-        self.depots_xy = np.asarray(depots_xy, dtype=np.float64)
+        self.kinds = [kinds.setdefault(id(t.model), _Kind.of(t.model)) for t in tasks]
+        self.w = np.asarray(problem.weight, dtype=np.float64)
+        self.prize = np.asarray(problem.search, dtype=np.float64)
+        self.xy = np.asarray(problem.xy, dtype=np.float64)
+        self.depots_xy = np.asarray(problem.depots_xy, dtype=np.float64)
         self.tasks = tasks
         self._jit = kernels()  # the compiled insertion (the same results), or None
         self._near_m: NDArray[np.float64] | None = None
@@ -551,13 +530,13 @@ class RoutePool:
         """Remove 2 to ``_RUIN_MAX`` served stops nearest a random served one, from at most
         three routes, so that neighbouring routes can trade stops; a drone that could
         serve what was freed is refilled too. Returns the drones to refill."""
-        reqs, who, pos = self._served(busy)
-        by_req = np.argsort(reqs)  # served requests by position (each served once)
-        served = reqs[by_req]
+        stops = self._served(busy)
+        by_req = np.argsort(stops[0])  # served requests by position (each served once)
+        served = stops[0][by_req]
         centre = self.xy[served[int(rng.integers(served.size))]]
         n_drop = int(rng.integers(2, _RUIN_MAX + 1))
         near = by_req[np.argsort(np.hypot(*(self.xy[served] - centre).T), kind="stable")]
-        return self._drop_first(near, reqs, who, pos, n_drop, free, users, rng)
+        return self._drop_first(near, stops, n_drop, free, users, rng)
 
     def _served(
         self, busy: list[int]
@@ -573,16 +552,16 @@ class RoutePool:
     def _drop_first(
         self,
         ranked: NDArray[np.int64],
-        reqs: NDArray[np.int64],
-        who: NDArray[np.int64],
-        pos: NDArray[np.int64],
+        served: tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int64]],
         n_drop: int,
         free: NDArray[np.bool_],
         users: list[int],
         rng: np.random.Generator,
     ) -> list[int]:
         """Remove the first ``n_drop`` served stops in ``ranked`` order (indices into
-        :meth:`_served`'s arrays) from at most three routes (:meth:`_drop`)."""
+        the arrays of :meth:`_served`, given as ``served``) from at most three routes
+        (:meth:`_drop`)."""
+        reqs, who, pos = served
         drops: dict[int, list[int]] = {}
         freed: list[int] = []
         for r in ranked.tolist():
@@ -653,12 +632,12 @@ class RoutePool:
             if without is None:  # most routes are met again: keep what they cost
                 without = self._without_j[key] = self._without(dr)
             saving.append(dr.energy - without)
-        reqs, who, pos = self._served(busy)
+        served = self._served(busy)
         cost = np.concatenate(saving)
         noisy = cost * rng.uniform(_NOISE, 1.0, cost.size)
         n_drop = int(rng.integers(2, _RUIN_MAX + 1))
         ranked = np.argsort(-noisy, kind="stable")
-        return self._drop_first(ranked, reqs, who, pos, n_drop, free, users, rng)
+        return self._drop_first(ranked, served, n_drop, free, users, rng)
 
     def _exchange(self, users: list[int], free: NDArray[np.bool_], kind: str) -> None:
         """Swap a served stop for an unserved candidate while a route's G grows
@@ -764,20 +743,10 @@ class RoutePool:
 
 
 def build_pool(
-    depots_xy: NDArray[np.float64],
-    req_xy: NDArray[np.float64],
-    req_weight: NDArray[np.float64],
-    prize: NDArray[np.float64],
-    tasks: list[DroneTask],
-    model: EnergyModel,
-    *,
-    n_candidates: int = 80,
-    iterations: int = 80,
-    seed: int = 0,
+    problem: WindowProblem, *, n_candidates: int = 80, iterations: int = 80, seed: int = 0
 ) -> PoolResult:
-    """The route pool of one window (module docstring)."""
-    pool = RoutePool(depots_xy, req_xy, req_weight, prize, tasks, model, n_candidates)
-    return pool.build(iterations, seed)
+    """The route pool of one window (module docstring), built for ``problem.search``."""
+    return RoutePool(problem, n_candidates).build(iterations, seed)
 
 
 def finish_route(

@@ -32,6 +32,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..energy import ENERGY_TOL_J, PAYLOAD_TOL_KG, EnergyModel
+from .problem import DroneTask, WindowProblem
 
 __all__ = ["DroneClass", "Priced", "price"]
 
@@ -78,19 +79,20 @@ class DroneClass:
     @classmethod
     def of(
         cls,
-        start_xy: NDArray[np.float64],
-        end: int,
-        allowed: NDArray[np.int64],
-        depots_xy: NDArray[np.float64],
-        req_xy: NDArray[np.float64],
-        req_w: NDArray[np.float64],
+        task: DroneTask,
+        problem: WindowProblem,
         land_m: NDArray[np.float64],
-        model: EnergyModel,
         count: int,
         ng: int,
     ) -> DroneClass:
-        """The class of drones starting at ``start_xy`` and landing at depot ``end`` (-1:
-        the depot nearest the last stop, ``land_m`` away from each request)."""
+        """The class of ``count`` drones flying ``task`` in ``problem`` (landing at depot
+        ``task.end``; -1: the depot nearest the last stop, ``land_m`` away from each
+        request), with ng-neighbourhoods of ``ng`` requests."""
+        model = task.model
+        depots_xy = np.asarray(problem.depots_xy, dtype=np.float64)
+        req_xy = np.asarray(problem.xy, dtype=np.float64)
+        req_w = np.asarray(problem.weight, dtype=np.float64)
+        start_xy, end, allowed = depots_xy[task.start], task.end, task.allowed
         e0 = float(model.energy_per_m(0.0))
         end_xy = start_xy if end < 0 else depots_xy[end]
         e_empty = float(np.hypot(*(end_xy - start_xy))) * e0
@@ -329,9 +331,9 @@ def price(
     w, pps = cls.w[sub], pp[sub]
     dist = cls.dist[np.ix_(sub, sub)]
     d_start, e_land = cls.d_start[sub], cls.e_land[sub]
-    ng = cls.ng[sub]
     local = sub  # bit index of each request: its index in the class (memory is per class)
     bounds = _Bounds(cls, w, pps, dist, d_start, reach=sub.size >= _REACH_MIN)
+    within = _Within(cls, w, pps, dist, d_start, cls.ng[sub], local, bounds)
     # Labels of one stop: the request, then the landing.
     n = sub.size
     lab = _Labels(
@@ -372,7 +374,7 @@ def price(
         idx = np.flatnonzero(lab.ub > bar + 1e-6)
         if not idx.size:
             break
-        nxt = _extend(lab.take(idx), idx, w, pps, dist, d_start, ng, local, cls, bounds, bar)
+        nxt = _extend(lab.take(idx), idx, within, bar)
         if keep is None:
             # A full pricing keeps the labels of highest upper bound when there are too
             # many (or it is late): what it leaves out then bounds the rest least.
@@ -400,21 +402,27 @@ def price(
     return res
 
 
-def _extend(
-    lab: _Labels,
-    idx: NDArray[np.int64],
-    w: NDArray[np.float64],
-    pps: NDArray[np.float64],
-    dist: NDArray[np.float64],
-    d_start: NDArray[np.float64],
-    ng: NDArray[np.uint64],
-    local: NDArray[np.int64],
-    cls: DroneClass,
-    bounds: _Bounds,
-    bar: float,
-) -> _Labels:
+@dataclass(frozen=True)
+class _Within:
+    """A pricing's requests of positive profit: what extending a label reads."""
+
+    cls: DroneClass
+    w: NDArray[np.float64]
+    pps: NDArray[np.float64]
+    """Their profits."""
+    dist: NDArray[np.float64]
+    d_start: NDArray[np.float64]
+    ng: NDArray[np.uint64]
+    local: NDArray[np.int64]
+    """Each one's bit in a label's memory (its index in the class)."""
+    bounds: _Bounds
+
+
+def _extend(lab: _Labels, idx: NDArray[np.int64], within: _Within, bar: float) -> _Labels:
     """Every label extended by every request before its node that fits and whose routes
     can be worth more than ``bar``."""
+    cls, w, pps, dist = within.cls, within.w, within.pps, within.dist
+    d_start, ng, local, bounds = within.d_start, within.ng, within.local, within.bounds
     m = pps.size
     e_lab = cls.e(lab.load)
     out: list[_Labels] = []

@@ -413,7 +413,7 @@ class MilpSelector:
                 build_s, solve_s = build_s + att.build_s, solve_s + att.solve_s
                 solves.append(verdict)
                 if chosen is not None:
-                    return self._result(problem, chosen, att, milp, solves, (), solve_s, build_s)
+                    return self._result(problem, chosen, (att, milp), solves, (solve_s, build_s))
         limit = max(self.time_limit_s - build_s - solve_s, 0.1 * self.time_limit_s)
         chosen, att, verdict = self._attempt(problem, milp, False, limit)
         build_s, solve_s = build_s + att.build_s, solve_s + att.solve_s
@@ -424,22 +424,25 @@ class MilpSelector:
             chosen = greedy_select(problem)
             solve_s += time.perf_counter() - t1
         return self._result(
-            problem, chosen, att, milp, solves, uncovered, solve_s, build_s, fallback
+            problem, chosen, (att, milp), solves, (solve_s, build_s), (uncovered, fallback)
         )
 
     def _result(
         self,
         problem: SelectionProblem,
         chosen: NDArray[np.int64],
-        att: _Attempt,
-        milp: _Milp,
+        last: tuple[_Attempt, _Milp],
         solves: list[SolveVerdict],
-        uncovered: tuple[int, ...],
-        solve_s: float,
-        build_s: float,
-        fallback: bool = False,
+        seconds: tuple[float, float],
+        left: tuple[tuple[int, ...], bool] = ((), False),
     ) -> SelectionResult:
-        """The result of the last solve ``att``, its bound back in joules."""
+        """The result of the last solve ``att`` of the program ``milp`` (``last``), its
+        bound back in joules; ``seconds`` the solve and build times, ``left`` the
+        requests no plan covers (a strict cover given up) and whether the greedy
+        fallback chose."""
+        att, milp = last
+        solve_s, build_s = seconds
+        uncovered, fallback = left
         bound = None if att.bound is None else milp.offset + milp.scale * att.bound
         return SelectionResult(
             chosen,

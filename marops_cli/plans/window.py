@@ -16,11 +16,12 @@ import numpy as np
 from ..config import PlanConfig
 from ..energy import EnergyModel
 from ..errors import RunError
-from .bound import BoundResult, window_bound
-from .objective import WindowScore, lam_j, score_routes
-from .planner import Planner, Scope, make_planner, pricing_delay_h
+from .bound import BoundCaps, BoundResult, bound_g
+from .objective import WindowScore, score_routes
+from .planner import DronePlans, Planner, make_planner
 from .plans import PlanSet
 from .pool import finish_route
+from .problem import Scope, WindowProblem
 from .select import SelectionProblem, SelectionResult, Selector
 from .view import WindowView
 
@@ -62,26 +63,17 @@ class WindowPlan:
     """The proven upper bound on G (``PlanConfig.bound``; docs/method.md, "The bound")."""
 
 
-def drone_models(view: WindowView, model: EnergyModel) -> list[EnergyModel]:
-    """Each drone's energy model: its type's (a mixed fleet), else ``model`` for all."""
-    if view.drone_models is None:
-        return [model] * view.n_drones
-    if len(view.drone_models) != view.n_drones:
-        raise RunError(f"{len(view.drone_models)} drone models for {view.n_drones} drones")
-    return list(view.drone_models)
-
-
 def _drone_route(
     view: WindowView,
     u: int,
-    end: int,
-    stops_pos: tuple[int, ...],
+    route: tuple[tuple[int, ...], int],
     action: int,
     model: EnergyModel,
     reorder: bool,
 ) -> DroneRoute:
-    """Drone ``u``'s route through ``stops_pos`` (window positions) landing at ``end``
+    """Drone ``u``'s route through ``route``'s stops (window positions) landing at its end
     (-1: the depot nearest its last stop); ``reorder``: in its energy-minimal order."""
+    stops_pos, end = route
     start = int(view.drone_depot[u])
     if reorder and stops_pos:  # the energy-minimal order (and landing) of the route
         xy = view.pending_xy[list(stops_pos)]
@@ -137,27 +129,36 @@ def plan_routes(
     """
     t_start = time.perf_counter()
     planner = planner or make_planner(cfg, scope)
-    models = drone_models(view, model)
-    made = planner.plans(view, np.asarray(actions, dtype=np.int64), model, models)
+    problem = WindowProblem.of(view, np.asarray(actions, dtype=np.int64), model, cfg, scope)
+    return plan_problem(problem, view, selector, planner, cfg, t_start)
+
+
+def plan_problem(
+    problem: WindowProblem,
+    view: WindowView,
+    selector: Selector,
+    planner: Planner,
+    cfg: PlanConfig,
+    t_start: float,
+) -> WindowPlan:
+    """:func:`plan_routes` of ``problem``, built from ``view`` (``t_start``: when the
+    window's planning began, ``time.perf_counter``)."""
+    models = problem.models
+    made = planner.plans(problem, view)
     plan_sets, plan_ends, acts, t_cand = made.plan_sets, made.ends, made.actions, made.candidates_s
     t_plans = time.perf_counter() - t_start - t_cand
     t0 = time.perf_counter()
     # The selection judges by the window objective itself, with the night priced in the
     # day's last window (docs/method.md §4.4).
-    priced = pricing_delay_h(view, cfg, model)
-    delay = {int(i): float(priced[i]) for ps in plan_sets for i in ps.request_ids}
-    problem = SelectionProblem.from_plan_sets(
-        plan_sets, delay, alpha=cfg.alpha, energy_ref_j=model.usable_j
-    )
+    sel_problem = SelectionProblem.of(plan_sets, problem.priced, problem.lam)
     t_problem = time.perf_counter() - t0  # the plan table is part of building the model
-    sel = selector.select(problem)
+    sel = selector.select(sel_problem)
     sel = replace(sel, chosen=_canonical(view, plan_sets, plan_ends, sel.chosen, acts, models))
     routes = [
         _drone_route(
             view,
             u,
-            int(plan_ends[u][int(sel.chosen[u])]),
-            ps.route(int(sel.chosen[u])),
+            (ps.route(int(sel.chosen[u])), int(plan_ends[u][int(sel.chosen[u])])),
             int(acts[u]),
             models[u],
             made.reorder,
@@ -168,7 +169,7 @@ def plan_routes(
         t=view.t,
         routes=routes,
         selection=sel,
-        n_candidates=int(problem.request_ids.size),
+        n_candidates=int(sel_problem.request_ids.size),
         timings={
             "candidates": t_cand,
             "plans": t_plans,
@@ -178,14 +179,14 @@ def plan_routes(
         },
     )
     check_routes(plan.routes, models)
-    plan.score = score_plan(view, plan.routes, lam_j(cfg.alpha, model.usable_j))
+    plan.score = score_plan(view, plan.routes, problem.lam)
     if cfg.bound:  # warm-started with every plan the selection saw
         t0 = time.perf_counter()
         columns = [
             [(ps.route(k), float(ps.energy_j[k])) for k in range(1, ps.n_plans)] for ps in plan_sets
         ]
-        plan.bound = window_bound(view, actions, model, cfg, scope, columns=columns, plan=True)
-        _take_bound_plan(plan, view, plan_ends, acts, models, cfg, model)
+        plan.bound = bound_g(problem, columns=columns, caps=BoundCaps.of(cfg), plan=True)
+        _take_bound_plan(plan, problem, view, made)
         plan.score = plan.score.with_bound(plan.bound.bound)
         plan.timings["bound"] = time.perf_counter() - t0
     return plan
@@ -228,13 +229,7 @@ def _canonical(
 
 
 def _take_bound_plan(
-    plan: WindowPlan,
-    view: WindowView,
-    plan_ends: list[np.ndarray],
-    acts: np.ndarray,
-    models: list[EnergyModel],
-    cfg: PlanConfig,
-    model: EnergyModel,
+    plan: WindowPlan, problem: WindowProblem, view: WindowView, made: DronePlans
 ) -> None:
     """Fly the best plan over the bound's routes instead of the pool's when its G is
     higher (docs/method.md, "The bound"): the search priced far more routes than the
@@ -243,10 +238,16 @@ def _take_bound_plan(
     assert bound is not None and plan.score is not None
     if bound.plan is None or bound.plan_g <= plan.score.G + _BETTER_J:
         return
+    models = problem.models
     # A drone without a route flies its pool's empty plan (the bound's empty route).
     routes = [
         _drone_route(
-            view, u, int(end if stops else plan_ends[u][0]), stops, int(acts[u]), models[u], True
+            view,
+            u,
+            (stops, int(end if stops else made.ends[u][0])),
+            int(made.actions[u]),
+            models[u],
+            True,
         )
         for u, (stops, end) in enumerate(bound.plan)
     ]
@@ -254,7 +255,7 @@ def _take_bound_plan(
         check_routes(routes, models)
     except RunError:
         return  # never fly a route that breaks a rule; the pool's plan stands
-    score = score_plan(view, routes, lam_j(cfg.alpha, model.usable_j))
+    score = score_plan(view, routes, problem.lam)
     if score.G > plan.score.G + _BETTER_J:
         plan.routes, plan.score = routes, score
 

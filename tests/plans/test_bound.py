@@ -11,17 +11,31 @@ from scipy.optimize import linprog
 from marops_cli.config import PlanConfig
 from marops_cli.energy import EnergyModel
 from marops_cli.plans import pricing
-from marops_cli.plans.bound import bound_g, window_bound
+from marops_cli.plans.bound import BoundCaps, bound_g, window_bound
 from marops_cli.plans.objective import lam_j
 from marops_cli.plans.pool import DroneTask, build_pool
 from marops_cli.plans.pricing import DroneClass, price
+from marops_cli.plans.problem import WindowProblem
 from marops_cli.plans.select import MilpSelector
 from marops_cli.plans.window import plan_routes
 from marops_cli.segment.depots import nearest_depot
 
+from .test_pool import Task, pool_problem
 from .test_window import hand_view
 
 ALPHA = 0.5
+
+
+def _problem(depots, xy, w, value, lam, tasks, model) -> WindowProblem:
+    """The window problem of these requests (value v each) for drones of ``model``."""
+    own = [DroneTask(t.start, t.end, np.asarray(t.allowed, dtype=np.int64), model) for t in tasks]
+    return WindowProblem.of_requests(depots, xy, w, np.asarray(value) - 1.0, lam, own)
+
+
+def _bound(depots, xy, w, value, lam, tasks, model, *, columns=None, plan=False, **caps):
+    """:func:`bound_g` of :func:`_problem`, capped by ``caps`` (:class:`BoundCaps`)."""
+    problem = _problem(depots, xy, w, value, lam, tasks, model)
+    return bound_g(problem, columns=columns, caps=BoundCaps(**caps), plan=plan)
 
 
 @pytest.fixture(scope="module")
@@ -65,7 +79,7 @@ def _window(seed: int, n_drones: int, n_req: int):
         s = int(rng.integers(3))
         end = int(rng.integers(-1, 3))
         allowed = np.flatnonzero(rng.random(n_req) < 0.8).astype(np.int64)
-        tasks.append(DroneTask(s, end, allowed))
+        tasks.append(Task(s, end, allowed))
     return depots, xy, w, value, tasks
 
 
@@ -116,17 +130,17 @@ def test_bound_is_above_the_optimum_and_equals_the_relaxation_when_elementary(
     depots, xy, w, value, tasks = _window(seed, n_drones, n_req)
     lam = lam_j(ALPHA, model.usable_j)
     ip, lp = _brute(depots, xy, w, value, tasks, model, lam)
-    res = bound_g(depots, xy, w, value, lam, tasks, model, ng=n_req)
+    res = _bound(depots, xy, w, value, lam, tasks, model, ng=n_req)
     assert res.converged and res.priced and res.capped == ""
     assert res.bound >= ip - 1e-6
     assert res.bound == pytest.approx(lp, rel=1e-6, abs=1e-3)
     # ng-routes (neighbourhoods of two) only loosen the bound.
-    loose = bound_g(depots, xy, w, value, lam, tasks, model, ng=2)
+    loose = _bound(depots, xy, w, value, lam, tasks, model, ng=2)
     assert loose.bound >= res.bound - 1e-3
     # The route pool's best plan, warm-starting the master, stays under the bound.
-    pool = build_pool(depots, xy, w, lam * value, tasks, model, iterations=20)
+    pool = build_pool(pool_problem(depots, xy, w, lam * value, tasks, model), iterations=20)
     assert res.bound >= pool.best_g - 1e-6
-    warm = bound_g(depots, xy, w, value, lam, tasks, model, ng=n_req, columns=_columns(pool))
+    warm = _bound(depots, xy, w, value, lam, tasks, model, ng=n_req, columns=_columns(pool))
     assert warm.bound == pytest.approx(lp, rel=1e-6, abs=1e-3)
 
 
@@ -138,9 +152,9 @@ def test_best_plan_over_the_bounds_routes_is_feasible_and_at_most_the_optimum(se
     depots, xy, w, value, tasks = _window(10 + seed, 2 + seed % 2, 6)
     lam = lam_j(ALPHA, model.usable_j)
     ip, _ = _brute(depots, xy, w, value, tasks, model, lam)
-    pool = build_pool(depots, xy, w, lam * value, tasks, model, iterations=20)
+    pool = build_pool(pool_problem(depots, xy, w, lam * value, tasks, model), iterations=20)
     cols = _columns(pool)
-    res = bound_g(depots, xy, w, value, lam, tasks, model, ng=6, plan=True, columns=cols)
+    res = _bound(depots, xy, w, value, lam, tasks, model, ng=6, plan=True, columns=cols)
     assert res.plan is not None and len(res.plan) == len(tasks)
     seen: list[int] = []
     g = 0.0
@@ -160,15 +174,15 @@ def test_capped_search_still_returns_a_valid_bound(model):
     depots, xy, w, value, tasks = _window(3, 3, 7)
     lam = lam_j(ALPHA, model.usable_j)
     ip, _ = _brute(depots, xy, w, value, tasks, model, lam)
-    res = bound_g(depots, xy, w, value, lam, tasks, model, max_iterations=0)
+    res = _bound(depots, xy, w, value, lam, tasks, model, max_iterations=0)
     assert not res.priced and res.capped == "iterations"
     assert res.bound >= ip - 1e-6
     # A round or two, and a full pricing cut short by its label cap: still above.
     for cap in ({"max_iterations": 1}, {"max_iterations": 2}, {"max_labels": 1}):
-        res = bound_g(depots, xy, w, value, lam, tasks, model, **cap)
+        res = _bound(depots, xy, w, value, lam, tasks, model, **cap)
         assert res.priced and res.bound >= ip - 1e-6
     # The work cap counts labels, not seconds: the same bound on every run.
-    runs = [bound_g(depots, xy, w, value, lam, tasks, model, max_work=5) for _ in range(2)]
+    runs = [_bound(depots, xy, w, value, lam, tasks, model, max_work=5) for _ in range(2)]
     assert runs[0].capped == "work" and runs[0].priced and runs[0].bound >= ip - 1e-6
     assert (runs[0].bound, runs[0].labels) == (runs[1].bound, runs[1].labels)
 
@@ -181,14 +195,14 @@ def test_one_drone_one_request_by_hand(model):
     depots = np.array([[0.0, 0.0], [3000.0, 0.0]])
     xy = np.array([[1000.0, 0.0]])
     w = np.array([1.0])
-    task = DroneTask(0, -1, np.array([0], dtype=np.int64))
+    task = Task(0, -1, np.array([0], dtype=np.int64))
     lam = lam_j(ALPHA, model.usable_j)  # α = 0.5: λ = E_ref = 168,750 J
     assert lam == pytest.approx(168_750.0)
     e = 1000.0 * float(model.energy_per_m(1.0)) + 1000.0 * float(model.energy_per_m(0.0))
-    res = bound_g(depots, xy, w, np.array([3.0]), lam, [task], model)
+    res = _bound(depots, xy, w, np.array([3.0]), lam, [task], model)
     assert res.bound == pytest.approx(3 * 168_750.0 - e, abs=1e-3)
     # A second drone, identical, adds nothing: the request is served once.
-    res2 = bound_g(depots, xy, w, np.array([3.0]), lam, [task, task], model)
+    res2 = _bound(depots, xy, w, np.array([3.0]), lam, [task, task], model)
     assert res2.bound == pytest.approx(res.bound, abs=1e-3)
 
 
@@ -199,10 +213,10 @@ def test_two_requests_over_payload_by_hand(model):
     depots = np.array([[0.0, 0.0]])
     xy = np.array([[0.0, 1000.0], [0.0, -1000.0]])
     w = np.array([1.5, 1.5])
-    task = DroneTask(0, 0, np.array([0, 1], dtype=np.int64))
+    task = Task(0, 0, np.array([0, 1], dtype=np.int64))
     lam = lam_j(ALPHA, model.usable_j)
     e = 1000.0 * float(model.energy_per_m(1.5)) + 1000.0 * float(model.energy_per_m(0.0))
-    res = bound_g(depots, xy, w, np.array([1.0, 2.0]), lam, [task], model)
+    res = _bound(depots, xy, w, np.array([1.0, 2.0]), lam, [task], model)
     assert res.bound == pytest.approx(2 * lam - e, abs=1e-3)
 
 
@@ -215,7 +229,8 @@ def test_pricing_finds_the_best_route_of_a_drone(model):
     empty = _energy(depots, xy, w, t, (), model)
     best = max(lam * value[list(s)].sum() - e + empty for s, e in routes.items())
     land = nearest_depot(xy, depots)[1]
-    cls = DroneClass.of(depots[t.start], t.end, t.allowed, depots, xy, w, land, model, 1, 6)
+    problem = _problem(depots, xy, w, value, lam, tasks, model)
+    cls = DroneClass.of(problem.tasks[0], problem, land, 1, 6)
     pr = price(cls, lam * value, 0.0)
     assert pr.exact
     assert pr.best == pytest.approx(best, rel=1e-9)
@@ -244,14 +259,14 @@ def test_bound_labels_sets_the_search_caps(monkeypatch, model):
     view, acts = hand_view(), np.array([0, 1])
     for labels in (1_000, 500_000, 2_000_000):
         window_bound(view, acts, model, PlanConfig(bound=True, bound_labels=labels))
-    assert [(kw["max_work"], kw["max_labels"]) for kw in seen] == [
+    assert [(kw["caps"].max_work, kw["caps"].max_labels) for kw in seen] == [
         (1_000, 20_000),
         (500_000, 20_000),
         (2_000_000, 80_000),
     ]
     # A cap given by the caller wins.
     window_bound(view, acts, model, PlanConfig(bound_labels=2_000_000), max_work=7)
-    assert seen[-1]["max_work"] == 7 and seen[-1]["max_labels"] == 80_000
+    assert seen[-1]["caps"].max_work == 7 and seen[-1]["caps"].max_labels == 80_000
 
 
 @pytest.mark.parametrize(("planner", "scope"), [("pool", "range"), ("subsets", "global")])

@@ -12,6 +12,8 @@ from marops_cli.plans import _jit
 from marops_cli.plans import kernels as kernels_mod
 from marops_cli.plans.pool import DroneTask, RoutePool, build_pool
 
+from .test_pool import pool_problem
+
 
 @pytest.fixture(scope="module")
 def model() -> EnergyModel:
@@ -38,7 +40,7 @@ def _window(model: EnergyModel, seed: int, n_req: int = 40, n_drones: int = 4):
     starts = rng.integers(0, 6, n_drones)
     ends = [-1 if u % 2 == 0 else int(rng.integers(6)) for u in range(n_drones)]
     tasks = [
-        DroneTask(int(s), e, np.arange(n_req, dtype=np.int64))
+        DroneTask(int(s), e, np.arange(n_req, dtype=np.int64), model)
         for s, e in zip(starts, ends, strict=True)
     ]
     return depots, xy, w, prize, tasks
@@ -47,9 +49,9 @@ def _window(model: EnergyModel, seed: int, n_req: int = 40, n_drones: int = 4):
 def _pool_pair(model, seed):
     """The same pool twice: one on the kernels, one on numpy."""
     args = _window(model, seed)
-    jit = RoutePool(*args, model)
+    jit = RoutePool(pool_problem(*args, model))
     jit._jit = kernels_mod.load_kernels()
-    plain = RoutePool(*args, model)
+    plain = RoutePool(pool_problem(*args, model))
     plain._jit = None
     assert jit._jit is _jit
     return jit, plain
@@ -112,9 +114,9 @@ def test_a_whole_pool_is_the_same_with_or_without_the_kernels(model, seed, monke
     energies to the bit."""
     args = _window(model, seed, n_req=60, n_drones=5)
     monkeypatch.setenv(kernels_mod.JIT_ENV, "0")
-    plain = build_pool(*args, model, iterations=40, seed=seed)
+    plain = build_pool(pool_problem(*args, model), iterations=40, seed=seed)
     monkeypatch.setenv(kernels_mod.JIT_ENV, "1")
-    pool = RoutePool(*args, model)
+    pool = RoutePool(pool_problem(*args, model))
     assert pool._jit is _jit
     jit = pool.build(40, seed)
     assert jit.routes == plain.routes and jit.energy_j == plain.energy_j
@@ -144,7 +146,7 @@ def test_a_kernel_that_fails_to_compile_leaves_numpy(model, monkeypatch):
     monkeypatch.setattr(_jit, "warm_up", broken)
     monkeypatch.setenv(kernels_mod.JIT_ENV, "1")
     args = _window(model, 5)
-    pool = RoutePool(*args, model)
+    pool = RoutePool(pool_problem(*args, model))
     assert pool._jit is None and kernels_mod.load_kernels() is None
     res = pool.build(20, 5)
     assert sum(map(len, res.routes)) > 0

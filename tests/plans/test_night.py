@@ -12,10 +12,15 @@ import pytest
 from marops_cli.config import PlanConfig
 from marops_cli.energy import EnergyModel
 from marops_cli.plans.objective import lam_j, wait_credit_j
-from marops_cli.plans.planner import pricing_delay_h
+from marops_cli.plans.problem import pricing_delay_h
 
 MODEL = EnergyModel()
 E0 = float(MODEL.energy_per_m(0.0))
+
+
+def _priced(view: SimpleNamespace, cfg: PlanConfig) -> np.ndarray:
+    """The delay the pool prices each of ``view``'s requests at, λ from ``cfg``."""
+    return pricing_delay_h(view, cfg, MODEL, lam_j(cfg.alpha, MODEL.usable_j))  # type: ignore[arg-type]
 
 
 def _view(t: int, n_windows: int = 16, window_h: float = 0.5) -> SimpleNamespace:
@@ -32,10 +37,10 @@ def _view(t: int, n_windows: int = 16, window_h: float = 0.5) -> SimpleNamespace
 def test_the_last_window_prices_the_night_the_others_do_not() -> None:
     cfg = PlanConfig(wait_credit=0.0)
     # 16 windows of half an hour: 8 service hours, a night of 24 - 8 = 16 h.
-    np.testing.assert_allclose(pricing_delay_h(_view(15), cfg, MODEL), [16.0, 17.5])
-    np.testing.assert_allclose(pricing_delay_h(_view(14), cfg, MODEL), [0.0, 1.5])
+    np.testing.assert_allclose(_priced(_view(15), cfg), [16.0, 17.5])
+    np.testing.assert_allclose(_priced(_view(14), cfg), [0.0, 1.5])
     # 4 windows of an hour: 20 h of night.
-    np.testing.assert_allclose(pricing_delay_h(_view(3, 4, 1.0), cfg, MODEL), [20.0, 21.5])
+    np.testing.assert_allclose(_priced(_view(3, 4, 1.0), cfg), [20.0, 21.5])
 
 
 @pytest.mark.parametrize(
@@ -47,7 +52,7 @@ def test_the_last_window_prices_the_night_the_others_do_not() -> None:
     ],
 )
 def test_night_h_sets_the_hours_and_the_papers_planner_prices_delay_alone(settings, expected):
-    np.testing.assert_allclose(pricing_delay_h(_view(15), PlanConfig(**settings), MODEL), expected)
+    np.testing.assert_allclose(_priced(_view(15), PlanConfig(**settings)), expected)
 
 
 def test_the_wait_credit_is_the_detour_from_the_nearest_request_or_depot() -> None:
@@ -66,6 +71,4 @@ def test_the_credit_is_priced_in_hours_of_lambda_in_every_window() -> None:
     cfg = PlanConfig(alpha=0.8, night_h=0.0)  # wait_credit 1 by default
     lam = lam_j(0.8, MODEL.usable_j)
     credit = 600.0 * E0 / lam  # A and B: 300 m from each other
-    np.testing.assert_allclose(
-        pricing_delay_h(_view(3), cfg, MODEL), [credit, 1.5 + credit], rtol=1e-12
-    )
+    np.testing.assert_allclose(_priced(_view(3), cfg), [credit, 1.5 + credit], rtol=1e-12)

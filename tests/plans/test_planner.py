@@ -14,8 +14,9 @@ from marops_cli.plans.planner import (
     SubsetsPlanner,
     make_planner,
 )
+from marops_cli.plans.problem import WindowProblem
 from marops_cli.plans.view import FREE
-from marops_cli.plans.window import drone_models, plan_routes
+from marops_cli.plans.window import plan_routes
 
 from .test_window import hand_view
 
@@ -39,12 +40,15 @@ def test_make_planner_rejects_an_unknown_scope():
 def test_subsets_fly_free_as_stay_and_only_the_pool_reorders():
     model = EnergyModel()
     view = hand_view()
-    models = drone_models(view, model)
     acts = np.array([0, FREE])
-    paper = SubsetsPlanner(PlanConfig(planner="subsets")).plans(view, acts, model, models)
+    paper_cfg = PlanConfig(planner="subsets")
+    problem = WindowProblem.of(view, acts, model, paper_cfg)
+    paper = SubsetsPlanner(paper_cfg).plans(problem, view)
     assert paper.actions.tolist() == [0, 0] and not paper.reorder
     assert all((e >= 0).all() for e in paper.ends)  # every plan lands where its action says
-    pool = RoutePoolPlanner(PlanConfig()).plans(view, acts, model, models)
+    pool = RoutePoolPlanner(PlanConfig()).plans(
+        WindowProblem.of(view, acts, model, PlanConfig()), view
+    )
     assert pool.actions.tolist() == [0, FREE] and pool.reorder
     assert (pool.ends[1] == -1).all()  # the free landing: nearest the last customer
 

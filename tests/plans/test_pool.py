@@ -2,12 +2,16 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+from typing import NamedTuple
+
 import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
 from marops_cli.energy import EnergyModel
 from marops_cli.plans.pool import DroneTask, RoutePool
+from marops_cli.plans.problem import WindowProblem
 
 LAM = 200_000.0  # J per unit of v: prizes dwarf the few kJ these short routes cost
 
@@ -15,6 +19,22 @@ LAM = 200_000.0  # J per unit of v: prizes dwarf the few kJ these short routes c
 @pytest.fixture(scope="module")
 def model() -> EnergyModel:
     return EnergyModel()
+
+
+class Task(NamedTuple):
+    """A drone's task before it is given its model (:func:`pool_problem`)."""
+
+    start: int
+    end: int
+    allowed: np.ndarray
+
+
+def pool_problem(depots, xy, w, prize, tasks, model: EnergyModel) -> WindowProblem:
+    """A window problem over these requests whose drones fly ``tasks`` (each of energy
+    ``model``), the pool building its routes for ``prize``."""
+    own = [DroneTask(t.start, t.end, np.asarray(t.allowed, dtype=np.int64), model) for t in tasks]
+    problem = WindowProblem.of_requests(depots, xy, w, np.zeros(len(w)), 1.0, own)
+    return replace(problem, search=np.asarray(prize, dtype=np.float64))
 
 
 def _set_route(pool: RoutePool, u: int, requests: list[int], free: np.ndarray) -> None:
@@ -36,8 +56,8 @@ def test_exchange_swaps_a_stop_for_a_better_request_that_only_fits_without_it(mo
     xy = np.array([[0.0, 500.0], [0.0, -500.0], [500.0, 0.0]])
     w = np.array([1.0, 1.4, 1.1])
     prize = LAM * np.array([1.0, 1.5, 2.0])
-    task = DroneTask(0, 0, np.arange(3, dtype=np.int64))
-    pool = RoutePool(depots, xy, w, prize, [task], model)
+    task = Task(0, 0, np.arange(3, dtype=np.int64))
+    pool = RoutePool(pool_problem(depots, xy, w, prize, [task], model))
     free = np.ones(3, dtype=bool)
     _set_route(pool, 0, [0, 1], free)
     g_before = pool._g()
@@ -62,7 +82,9 @@ def test_exchange_keeps_a_route_no_swap_improves(model):
     depots = np.array([[0.0, 0.0]])
     xy = np.array([[0.0, 500.0], [0.0, -500.0], [1500.0, 0.0]])
     w = np.array([1.0, 1.4, 1.1])
-    pool = RoutePool(depots, xy, w, np.full(3, LAM), [DroneTask(0, 0, np.arange(3))], model)
+    pool = RoutePool(
+        pool_problem(depots, xy, w, np.full(3, LAM), [Task(0, 0, np.arange(3))], model)
+    )
     free = np.ones(3, dtype=bool)
     _set_route(pool, 0, [0, 1], free)
     before = (list(pool.drones[0].stops), pool.drones[0].energy)
@@ -81,8 +103,8 @@ def _three_routes(model, seed: int, span: float, far: int | None = None):
     if far is not None:
         xy[far] = [3000.0, 3000.0]
     w = rng.uniform(0.1, 0.5, 14)
-    tasks = [DroneTask(s, -1, np.arange(14, dtype=np.int64)) for s in range(3)]
-    pool = RoutePool(depots, xy, w, np.full(14, LAM), tasks, model)
+    tasks = [Task(s, -1, np.arange(14, dtype=np.int64)) for s in range(3)]
+    pool = RoutePool(pool_problem(depots, xy, w, np.full(14, LAM), tasks, model))
     free = np.ones(14, dtype=bool)
     routes = [[0, 1, 2, 3], [4, 5, 6, 7], [8, 9, 10, 11]]
     for u, r in enumerate(routes):
@@ -124,7 +146,9 @@ def test_without_is_each_routes_exact_energy_less_one_stop(model, seed):
     xy = rng.uniform(0, 3000, (8, 2))
     w = rng.uniform(0.05, 0.4, 8)
     end = -1 if seed % 2 else 2
-    pool = RoutePool(depots, xy, w, np.full(8, LAM), [DroneTask(0, end, np.arange(8))], model)
+    pool = RoutePool(
+        pool_problem(depots, xy, w, np.full(8, LAM), [Task(0, end, np.arange(8))], model)
+    )
     dr = pool.drones[0]
     for k in range(1, 7):
         stops = [int(x) for x in rng.permutation(8)[:k]]
@@ -172,8 +196,8 @@ def test_a_cluster_that_pays_only_together_gets_a_route(model):
     w = np.full(4, 0.5)
     alone = 2000.0 * (float(model.energy_per_m(0.5)) + float(model.energy_per_m(0.0)))
     prize = np.full(4, 0.6 * alone)
-    task = DroneTask(0, 0, np.arange(4, dtype=np.int64))
-    res = RoutePool(depots, xy, w, prize, [task], model).build(iterations=20, seed=0)
+    task = Task(0, 0, np.arange(4, dtype=np.int64))
+    res = RoutePool(pool_problem(depots, xy, w, prize, [task], model)).build(iterations=20, seed=0)
     assert res.routes[0], "no route: the cluster was never opened"
     best = max(
         zip(res.routes[0], res.energy_j[0], strict=True),
@@ -195,6 +219,8 @@ def test_where_every_request_pays_alone_no_seed_is_tried(model):
     candidate pays alone, so the drone is not seedable and the pool is as before."""
     depots = np.array([[0.0, 0.0]])
     xy = np.array([[0.0, 2000.0], [0.0, -2000.0]])
-    task = DroneTask(0, 0, np.arange(2, dtype=np.int64))
-    pool = RoutePool(depots, xy, np.full(2, 0.5), np.full(2, model.usable_j), [task], model)
+    task = Task(0, 0, np.arange(2, dtype=np.int64))
+    pool = RoutePool(
+        pool_problem(depots, xy, np.full(2, 0.5), np.full(2, model.usable_j), [task], model)
+    )
     assert not pool.drones[0].seedable

@@ -16,11 +16,11 @@ from marops_cli.energy import EnergyModel, reference_power_w
 from marops_cli.errors import RunError
 from marops_cli.plans import GreedySelector, MilpSelector, Selector
 from marops_cli.plans.objective import lam_j, score_routes
-from marops_cli.plans.planner import _pool_tasks, pricing_delay_h
 from marops_cli.plans.pool import build_pool
+from marops_cli.plans.problem import WindowProblem
 from marops_cli.plans.ranges import pick_candidates, range_table
 from marops_cli.plans.view import FREE
-from marops_cli.plans.window import DroneRoute, check_routes, drone_models, plan_routes
+from marops_cli.plans.window import DroneRoute, check_routes, plan_routes
 from marops_cli.policies.base import WindowView
 from marops_cli.segment.depots import Depots, nearest_candidates
 
@@ -645,20 +645,15 @@ def test_pool_routes_never_break_payload_battery_or_one_visit(inst):
     # Both are judged by the delay the planner prices (the credit, the night: the same
     # for both), which the selection maximises.
     lam = lam_j(cfg.alpha, model.usable_j)
-    priced = pricing_delay_h(view, cfg, model)
+    problem = WindowProblem.of(view, np.array([r.action for r in plan.routes]), model, cfg, scope)
+    assert problem.lam == lam
     score = score_routes(
-        view.pending_idx, priced, [(r.stops, r.energy_j) for r in plan.routes], lam
+        view.pending_idx, problem.priced_h, [(r.stops, r.energy_j) for r in plan.routes], lam
     )
     # (the pool's best is scored with the urgency bonus when there is one, G without)
     if sel_name != "greedy" and cfg.pool_urgency == 0 and cfg.planner == "pool":
-        acts = np.array([r.action for r in plan.routes])
         best = build_pool(
-            dep.xy,
-            view.pending_xy,
-            view.pending_weight,
-            lam * (1.0 + priced),
-            _pool_tasks(view, acts, cfg, scope, drone_models(view, model)),
-            model,
+            problem,
             n_candidates=cfg.pool_candidates,
             iterations=cfg.pool_iterations,
             seed=view.t,

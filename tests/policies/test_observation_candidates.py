@@ -10,6 +10,7 @@ from marops_cli.data.frame import Frame
 from marops_cli.energy import EnergyModel
 from marops_cli.plans.candidates import by_delay, range_candidates
 from marops_cli.plans.planner import SubsetsPlanner
+from marops_cli.plans.problem import WindowProblem
 from marops_cli.plans.ranges import pick_candidates, range_table
 from marops_cli.policies import WindowView, observe
 from marops_cli.policies.observation import M_HAT, PER_ACTION
@@ -73,10 +74,11 @@ def test_observed_candidates_are_the_planners(seed, ties):
     view = _view(seed, ties)
     obs = observe(view, M_HAT)
     model = EnergyModel()
-    planner = SubsetsPlanner(PlanConfig(planner="subsets", candidates="top", max_parcels=M_HAT))
+    cfg = PlanConfig(planner="subsets", candidates="top", max_parcels=M_HAT)
+    planner = SubsetsPlanner(cfg)
     for a in range(view.depots.n_actions):
         acts = np.full(view.n_drones, a)
-        made = planner.plans(view, acts, model, [model] * view.n_drones)
+        made = planner.plans(WindowProblem.of(view, acts, model, cfg), view)
         for u, ps in enumerate(made.plan_sets):
             f = obs[u, a * PER_ACTION : (a + 1) * PER_ACTION]
             cand = ps.request_ids

@@ -295,7 +295,7 @@ def test_evaluate_over_hubs_keys_rows_and_pairs_by_hub(example_csv, city, tmp_pa
     paired = list(csv.DictReader((out / "paired.csv").open()))
     assert paired and {(p["method"], p["days"]) for p in paired} == {("marops", "3")}
     # the warning counts the hub-days the differences are over, as the table does
-    assert "warning: only 3 days back the paired comparison" in res.stderr
+    assert "warning: only 1 day (3 hub-days) back the paired comparison" in res.stderr
     summary = list(csv.DictReader((out / "summary.csv").open()))
     assert [(s["method"], s["n"]) for s in summary] == [("marops", "3"), ("stay", "3")]
 
