@@ -412,8 +412,9 @@ def test_api_a_file_asked_for_without_out_is_an_input_error(
 def test_api_evaluate_results_carry_the_files_metadata(example_csv: Path, tmp_path: Path) -> None:
     # As every table the API returns: results carries results.parquet's marops metadata
     # (package, config, input, settings), with out and without.
+    one = {"area": "square"}  # one row: one study square's day
     ev = marops.evaluate(
-        example_csv, methods="stay", dates="0811", out=tmp_path, workers=1, plots=False
+        example_csv, methods="stay", dates="0811", out=tmp_path, workers=1, plots=False, **one
     )
     from_file = pq.read_table(tmp_path / "results.parquet")
     assert ev.results.schema.metadata[b"marops"] == from_file.schema.metadata[b"marops"]
@@ -421,5 +422,5 @@ def test_api_evaluate_results_carry_the_files_metadata(example_csv: Path, tmp_pa
     # a day is a date, as the route files hold it, so the tables join on it as they are
     assert ev.results.schema.field("day").type == pa.date32()
     assert ev.results.column("day").to_pylist() == [dt.date(2022, 8, 11)]
-    in_memory = marops.evaluate(example_csv, methods="stay", dates="0811", workers=1)
+    in_memory = marops.evaluate(example_csv, methods="stay", dates="0811", workers=1, **one)
     assert in_memory.results.schema.metadata[b"marops"] == from_file.schema.metadata[b"marops"]

@@ -115,7 +115,8 @@ def test_evaluate_without_against_warns_on_few_days(example_csv: Path, tmp_path:
     """Without --against the summary's means compare the methods: over two days the
     command warns they establish no difference, and summary.md and summary.csv say so."""
     out = tmp_path / "ev"
-    args = ["evaluate", str(example_csv), "--methods", "stay,greedy", "--dates", "0811..0812"]
+    args = ["evaluate", str(example_csv), "--area", "square", "--methods", "stay,greedy"]
+    args += ["--dates", "0811..0812"]
     res = CliRunner().invoke(app, [*args, "--no-plot", "--out", str(out)])
     assert res.exit_code == 0, res.output
     assert res.stderr.count("warning: only 2 days back the comparison (fewer than 10)") == 1
