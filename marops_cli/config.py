@@ -121,7 +121,7 @@ class DataConfig(_Stage):
         ge=0.001,
         le=0.5,
         exclude=True,  # the hubs it places are in a city's files
-        description="with area = \"hubs\": hubs are placed while the next one adds at "
+        description='with area = "hubs": hubs are placed while the next one adds at '
         "least this share of the orders",
     )
     strict: bool = Field(False, description="treat any dropped row as an error")
