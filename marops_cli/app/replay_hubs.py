@@ -32,6 +32,7 @@ def replay_hubs(
     ``out/hub-<id>/``, and the city's coverage into ``out/metrics.json``."""
     from ..data.prepare import check_days_in_file
     from ..segment.hubs import hub_areas, load_hubs
+    from ..sim.scenario import load_scenario
 
     table = read_data(data, cfg.data)
     check_days_in_file(table, days)
@@ -52,8 +53,6 @@ def replay_hubs(
         ]
         if not a.days:
             continue
-        from ..sim.scenario import load_scenario
-
         try:
             scn = load_scenario(
                 table.source.path,
@@ -104,12 +103,11 @@ def replay_hubs(
                     out / "metrics.json",
                     {"meta": meta, "city": city, "days": all_metrics, "total": total},
                 )
-                if city["left_out_orders"]:
-                    text = left_out_csv(table, days, hub_list, cfg)
-                    files.write_bytes(left, text.encode("utf-8", "backslashreplace"))
-            written.append(out / "metrics.json")
-            if city["left_out_orders"]:
-                written.append(left)
+                # Always, its header alone when nothing was left out: never an earlier
+                # run's list beside this run's metrics.
+                text = left_out_csv(table, days, hub_list, cfg)
+                files.write_bytes(left, text.encode("utf-8", "backslashreplace"))
+            written += [out / "metrics.json", left]
             if run.report:  # the city's page; each hub's was written with its days
                 from ..report import write_reports
 
