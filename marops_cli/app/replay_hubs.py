@@ -38,9 +38,9 @@ def replay_hubs(
     check_days_in_file(table, days)
     history = history_days(table, days)
     if hubs_path is None:
-        from ..segment.hubs import find_hubs
+        from ..segment.hubs import place_hubs
 
-        hub_list, _ = find_hubs(table, cfg.data, history, None, cfg.data.hub_min_share, cover=True)
+        hub_list = place_hubs(table, cfg, history, cfg.segment.n_depots)
     else:
         hub_list = load_hubs(hubs_path, cfg.data)
     hub_list = city_fleet(table, hub_list, history, cfg)

@@ -28,7 +28,7 @@ from ..data.table import LadeTable
 from ..errors import InputError, in_hub, not_a_file, option
 from ..methods import Method, register
 from ..methods import method as method_spec
-from ..segment.hubs import Hub, find_hubs, hub_areas, hub_demand, with_fleets
+from ..segment.hubs import Hub, hub_areas, hub_demand, place_hubs, with_fleets
 from ..sim.scenario import (
     METHODS,
     Scenario,
@@ -158,7 +158,7 @@ def prepare(
         raise InputError(f"no days to evaluate (the file has {format_days(table.days())})")
     history = [d for d in table.days() if d not in set(chosen)] or chosen
     if hubs is None and cfg.data.area == "hubs" and cfg.data.center is None:
-        hubs, _ = find_hubs(table, cfg.data, history, None, cfg.data.hub_min_share, cover=True)
+        hubs = place_hubs(table, cfg, history, max(s.depots_n for s in settings))
     demand = hub_demand(table, hubs, history) if hubs else []
     path = Path(table.source.path)
     scenarios: dict[tuple[int, str, int], Scenario] = {}

@@ -35,6 +35,7 @@ __all__ = [
     "hub_owner",
     "hubs_doc",
     "load_hubs",
+    "place_hubs",
     "share_fleet",
     "with_fleets",
 ]
@@ -244,6 +245,31 @@ def hub_demand(table: LadeTable, hubs: Sequence[Hub], days: Sequence[dt.date]) -
     on = np.isin(table.delivery_day, np.array(list(days), dtype="datetime64[D]"))
     counts = np.bincount(owner[on & (owner >= 0)], minlength=len(hubs))
     return [int(c) for c in counts]
+
+
+def place_hubs(
+    table: LadeTable, cfg: PlannerConfig, history: Sequence[dt.date], n_depots: int
+) -> list[Hub]:
+    """The hubs the whole-export run places (docs/method.md §1.1): covering squares over
+    the ``history`` days (:func:`find_hubs`), less any that would own fewer history
+    orders than its ``n_depots`` depots need; those orders fall to the hubs left, or
+    outside every hub. Refused when no hub is left."""
+    import dataclasses
+
+    hubs, _ = find_hubs(table, cfg.data, history, None, cfg.data.hub_min_share, cover=True)
+    while True:
+        demand = hub_demand(table, hubs, history)
+        keep = [h for h, d in zip(hubs, demand, strict=True) if d >= n_depots]
+        if len(keep) == len(hubs):
+            return hubs
+        if not keep:
+            raise InputError(
+                f"no hub placed over the history days holds the {n_depots} orders its "
+                f"{n_depots} depots need: lower {option('n_depots')}, or plan one square "
+                f"with {option('area')} square",
+                file=table.source.path,
+            )
+        hubs = [dataclasses.replace(h, id=i) for i, h in enumerate(keep)]
 
 
 def with_fleets(

@@ -552,3 +552,22 @@ def test_a_split_day_no_hub_plans_is_left_out_and_a_named_one_refused(
         for d in pq.read_table(tmp_path / "split" / "results.parquet").column("day").to_pylist()
     }
     assert days == {"2022-08-11", "2022-08-12"}
+
+
+def test_the_whole_export_places_no_hub_too_sparse_for_its_depots(example_csv):
+    """A hub that would own fewer history orders than its depots need is not placed
+    (its orders fall to the hubs left or outside every hub); none left is refused."""
+    from marops_cli.app.inputs import read_data
+    from marops_cli.config import PlannerConfig
+    from marops_cli.segment.hubs import hub_demand, place_hubs
+
+    cfg = PlannerConfig()
+    table = read_data(example_csv, cfg.data)
+    history = [d for d in table.days() if d.isoformat() != "2022-08-11"]
+    every = place_hubs(table, cfg, history, 16)
+    few = place_hubs(table, cfg, history, 400)
+    assert 1 <= len(few) < len(every)
+    assert [h.id for h in few] == list(range(len(few)))
+    assert min(hub_demand(table, few, history)) >= 400
+    with pytest.raises(InputError, match="no hub placed over the history days holds"):
+        place_hubs(table, cfg, history, 10**6)
