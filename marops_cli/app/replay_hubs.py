@@ -31,12 +31,12 @@ def replay_hubs(
     whole export: each a study area with its own depots and share of the fleet, into
     ``out/hub-<id>/``, and the city's coverage into ``out/metrics.json``."""
     from ..data.prepare import check_days_in_file
-    from ..segment.hubs import hub_areas, load_hubs
+    from ..segment.hubs import hub_areas, hubs_history, load_hubs
     from ..sim.scenario import load_scenario
 
     table = read_data(data, cfg.data)
     check_days_in_file(table, days)
-    history = history_days(table, days)
+    history = hubs_history(table, days)
     if hubs_path is None:
         from ..segment.hubs import place_hubs
 
@@ -78,7 +78,8 @@ def replay_hubs(
         per_area, tables = replay_areas(areas, run, progress)
         written = [f for a in areas for f in a.written]
         all_metrics = [m for rows in per_area for m in rows]
-        city = city_coverage(table, days, all_metrics, hub_list, cfg)
+        left = left_out(table, days, hub_list, cfg)  # once: the city's figures and its list
+        city = city_coverage(table, days, all_metrics, hub_list, left)
         total = aggregate_days(all_metrics)
         if out is not None:
             meta = run_meta(
@@ -97,7 +98,7 @@ def replay_hubs(
                     }
                     for h in hub_list
                 ]
-            left = out / "left_out.csv"
+            left_path = out / "left_out.csv"
             with output_set() as files:
                 files.write_json(
                     out / "metrics.json",
@@ -105,22 +106,15 @@ def replay_hubs(
                 )
                 # Always, its header alone when nothing was left out: never an earlier
                 # run's list beside this run's metrics.
-                text = left_out_csv(table, days, hub_list, cfg)
-                files.write_bytes(left, text.encode("utf-8", "backslashreplace"))
-            written += [out / "metrics.json", left]
+                text = left_out_csv(table, left)
+                files.write_bytes(left_path, text.encode("utf-8", "backslashreplace"))
+            written += [out / "metrics.json", left_path]
             if run.report:  # the city's page; each hub's was written with its days
                 from ..report import write_reports
 
                 written += write_reports(out, below=False, shared=out)
     progress.message(city_line(city, len(hub_list)))
     return ReplayResult(all_metrics, total, tables, city, out, written)
-
-
-def history_days(table: Any, days: list[dt.date]) -> list[dt.date]:
-    """The file's days not replayed (where hubs are placed and fleets shared out, as
-    depots are segmented), or the replayed days for a file that has no other."""
-    other = [d for d in table.days() if d not in set(days)]
-    return other or list(days)
 
 
 def city_fleet(table: Any, hubs: list[Any], history: list[dt.date], cfg: Any) -> list[Any]:
@@ -132,7 +126,7 @@ def city_fleet(table: Any, hubs: list[Any], history: list[dt.date], cfg: Any) ->
     return with_fleets(hubs, demand, cfg.sim.drones, cfg.sim.city_drones)
 
 
-def _left_out(table: Any, days: list[dt.date], hubs: list[Any], cfg: Any) -> tuple[Any, Any]:
+def left_out(table: Any, days: list[dt.date], hubs: list[Any], cfg: Any) -> tuple[Any, Any]:
     """Rows due on ``days`` and not planned: (mask, reason per row) — outside every hub,
     or in a hub and due outside service hours."""
     import numpy as np
@@ -149,15 +143,15 @@ def _left_out(table: Any, days: list[dt.date], hubs: list[Any], cfg: Any) -> tup
     return outside | late, reason
 
 
-def left_out_csv(table: Any, days: list[dt.date], hubs: list[Any], cfg: Any) -> str:
-    """The orders due on ``days`` that no hub planned, one a line (docs/outputs.md,
-    "Hubs"): day, order id, row of the file, place, and why."""
+def left_out_csv(table: Any, left: tuple[Any, Any]) -> str:
+    """The orders no hub planned (``left``, :func:`left_out`), one a line
+    (docs/outputs.md, "Hubs"): day, order id, row of the file, place, and why."""
     import csv
     import io
 
     import numpy as np
 
-    mask, reason = _left_out(table, days, hubs, cfg)
+    mask, reason = left
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
     w.writerow(["day", "order_id", "row", "lng", "lat", "reason"])
@@ -177,15 +171,20 @@ def left_out_csv(table: Any, days: list[dt.date], hubs: list[Any], cfg: Any) -> 
 
 
 def city_coverage(
-    table: Any, days: list[dt.date], metrics: list[dict[str, Any]], hubs: list[Any], cfg: Any
+    table: Any,
+    days: list[dt.date],
+    metrics: list[dict[str, Any]],
+    hubs: list[Any],
+    left: tuple[Any, Any],
 ) -> dict[str, Any]:
     """What share of the city's orders the hubs plan (docs/outputs.md, "Hubs"): per day
     and in all, orders due in the file, planned (in a hub's square and service hours)
     and delivered, the orders left out by reason, and each hub's part. Every share is
-    of all orders due; the hubs' figures add up to the city's."""
+    of all orders due; the hubs' figures add up to the city's. ``left``: the orders
+    left out and why (:func:`left_out`)."""
     import numpy as np
 
-    mask, reason = _left_out(table, days, hubs, cfg)
+    mask, reason = left
     due_day = table.delivery_day
     per_day: list[dict[str, Any]] = []
     for day in days:

@@ -28,7 +28,7 @@ from ..data.table import LadeTable
 from ..errors import InputError, in_hub, not_a_file, option
 from ..methods import Method, register
 from ..methods import method as method_spec
-from ..segment.hubs import Hub, hub_areas, hub_demand, place_hubs, with_fleets
+from ..segment.hubs import Hub, hub_areas, hub_demand, hubs_history, place_hubs, with_fleets
 from ..sim.scenario import (
     METHODS,
     Scenario,
@@ -156,7 +156,7 @@ def prepare(
     chosen = list(days) if days else split_days(table.days(), split)
     if not chosen:
         raise InputError(f"no days to evaluate (the file has {format_days(table.days())})")
-    history = [d for d in table.days() if d not in set(chosen)] or chosen
+    history = hubs_history(table, chosen)
     if hubs is None and cfg.data.area == "hubs" and cfg.data.center is None:
         hubs = place_hubs(table, cfg, history, max(s.depots_n for s in settings))
     demand = hub_demand(table, hubs, history) if hubs else []

@@ -33,6 +33,7 @@ __all__ = [
     "hub_areas",
     "hub_demand",
     "hub_owner",
+    "hubs_history",
     "hubs_doc",
     "load_hubs",
     "place_hubs",
@@ -237,6 +238,14 @@ def hub_areas(
                 skipped.append(day)
         areas.append(HubArea(h, cfg_h, rows, kept, skipped))
     return areas
+
+
+def hubs_history(table: LadeTable, days: Sequence[dt.date]) -> list[dt.date]:
+    """The days hubs are placed and fleets shared out from: the file's days other than
+    ``days`` (those replayed or evaluated, as depots are segmented), or ``days`` for a
+    file that has no other."""
+    other = [d for d in table.days() if d not in set(days)]
+    return other or list(days)
 
 
 def hub_demand(table: LadeTable, hubs: Sequence[Hub], days: Sequence[dt.date]) -> list[int]:
