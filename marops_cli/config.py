@@ -26,6 +26,7 @@ from pydantic import (
 from pydantic.fields import FieldInfo
 
 from .data.jsonfile import parse_toml, read_document, read_small_text
+from .data.settings import MAX_SEED
 from .errors import InputError, SettingError
 
 MAX_DRONES = 1000
@@ -44,7 +45,6 @@ BOUND_LABELS = 500_000
 """Labels the window bound's search makes at most by default (``[plan] bound_labels``):
 seconds of CPU on a 150-request window."""
 
-MAX_SEED = 2**32 - 1  # the seeds numpy and scikit-learn accept
 MAX_EPISODES = 10_000_000
 """The most training episodes (days) one run takes: a year of them a day for decades."""
 
