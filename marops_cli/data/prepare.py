@@ -17,16 +17,16 @@ from collections.abc import Iterable
 import numpy as np
 from scipy.special import ndtri
 
-from ..config import DataConfig
 from ..errors import InputError, naming
 from .dates import format_days
 from .frame import Frame, densest_square
+from .settings import DataSettings
 from .table import DayRequests, LadeTable
 
 _DAY_S = 86_400
 
 
-def parcel_weights(order_ids: Iterable[object], cfg: DataConfig | None = None) -> np.ndarray:
+def parcel_weights(order_ids: Iterable[object], cfg: DataSettings) -> np.ndarray:
     """One weight in kg per order id, the same for that id in every run and process.
 
     The id's UTF-8 text is hashed with BLAKE2b (Python's ``hash()`` is salted per
@@ -35,7 +35,6 @@ def parcel_weights(order_ids: Iterable[object], cfg: DataConfig | None = None) -
     ``median * exp(sigma * z)`` -- lognormal with that median and sigma -- clipped
     to ``[weight_min_kg, weight_max_kg]``.
     """
-    cfg = cfg if cfg is not None else DataConfig()
     ids = [str(o) for o in np.asarray(order_ids, dtype=object).ravel()]
     if not ids:
         return np.zeros(0, dtype=np.float64)
@@ -79,11 +78,10 @@ def _on_days(table: LadeTable, days: Iterable[dt.date]) -> np.ndarray:
 
 
 def study_frame(
-    table: LadeTable, cfg: DataConfig | None = None, days: Iterable[dt.date] | None = None
+    table: LadeTable, cfg: DataSettings, days: Iterable[dt.date] | None = None
 ) -> Frame:
     """The study area: ``cfg.center`` if given, else the densest square of the customers
     due on ``days`` (every day in the file when None), on a ``cfg.grid_m`` grid."""
-    cfg = cfg if cfg is not None else DataConfig()
     if cfg.center is not None:
         return Frame(float(cfg.center[0]), float(cfg.center[1]), cfg.size_km)
     if days is None:
@@ -106,14 +104,14 @@ def _windows(offset_s: np.ndarray, window_s: float, n_windows: int) -> np.ndarra
     return np.clip(np.floor(offset_s / window_s), 0, n_windows - 1).astype(np.int32)
 
 
-def _visible_windows(accept_s: np.ndarray, due_w: np.ndarray, cfg: DataConfig) -> np.ndarray:
+def _visible_windows(accept_s: np.ndarray, due_w: np.ndarray, cfg: DataSettings) -> np.ndarray:
     """The window each request becomes visible in: its accept time's, never after its due
     window (accept <= delivery after reading, so the min only guards the clamping)."""
     return np.minimum(_windows(accept_s, cfg.window_s, cfg.n_windows), due_w)
 
 
 def _in_service(
-    table: LadeTable, frame: Frame, on: np.ndarray, cfg: DataConfig
+    table: LadeTable, frame: Frame, on: np.ndarray, cfg: DataSettings
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """``(start, due, x, y, inside, keep)`` per row: the service start (s) of its delivery
     day, its delivery time from that start, its position in ``frame``, whether it is on
@@ -125,16 +123,14 @@ def _in_service(
     return start, due, x, y, inside, inside & (due >= 0) & (due < cfg.span_s)
 
 
-def in_service_hours(table: LadeTable, cfg: DataConfig) -> np.ndarray:
+def in_service_hours(table: LadeTable, cfg: DataSettings) -> np.ndarray:
     """Per row: whether it is due within its day's service hours (as :func:`prepare_day`
     keeps it)."""
     due = table.delivery_s - (table.delivery_day.astype(np.int64) * _DAY_S + cfg.service_start_s)
     return (due >= 0) & (due < cfg.span_s)
 
 
-def prepare_day(
-    table: LadeTable, frame: Frame, day: dt.date, cfg: DataConfig | None = None
-) -> DayRequests:
+def prepare_day(table: LadeTable, frame: Frame, day: dt.date, cfg: DataSettings) -> DayRequests:
     """The requests due on ``day`` inside ``frame`` and within service hours.
 
     ``visible_w`` is the window holding the accept time (0 when accepted before
@@ -144,7 +140,6 @@ def prepare_day(
     file row. Raises :class:`InputError` when the day is not in the file or
     nothing is left.
     """
-    cfg = cfg if cfg is not None else DataConfig()
     on_day = _on_days(table, [day])
     if not on_day.any():
         check_days_in_file(table, [day])  # raises, naming the days the file has
@@ -188,12 +183,11 @@ def prepare_day(
 
 
 def arrival_windows(
-    table: LadeTable, frame: Frame, days: Iterable[dt.date], cfg: DataConfig | None = None
+    table: LadeTable, frame: Frame, days: Iterable[dt.date], cfg: DataSettings
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``(x, y, visible_w)`` of every request :func:`prepare_day` would keep on ``days``,
     all days at once: where and in which window each became visible (the window of its
     accept time, 0 when accepted before service start)."""
-    cfg = cfg if cfg is not None else DataConfig()
     start, due, x, y, _, keep = _in_service(table, frame, _on_days(table, list(days)), cfg)
     due_w = _windows(due[keep], cfg.window_s, cfg.n_windows)
     accept = (table.accept_s[keep] - start[keep]).astype(np.float64)
@@ -201,7 +195,7 @@ def arrival_windows(
 
 
 def prepare_days(
-    table: LadeTable, days: Iterable[dt.date], cfg: DataConfig | None = None
+    table: LadeTable, days: Iterable[dt.date], cfg: DataSettings
 ) -> tuple[Frame, list[DayRequests]]:
     """The study area over ``days`` and each day prepared in it, in the order given."""
     days = list(days)

@@ -42,11 +42,11 @@ import pyarrow.compute as pc
 import pyarrow.csv as pacsv
 import pyarrow.parquet as pq
 
-from ..config import DataConfig
 from ..errors import InputError, not_found
 from .arrow import is_text, native_file
 from .dates import TIME_BAD, TIME_EMPTY, parse_ds, parse_times
 from .digest import sha256_file
+from .settings import DataSettings
 from .table import DROP_REASONS, REQUIRED_COLUMNS, DropReport, LadeTable, SourceInfo
 
 _OPTIONAL_COLUMNS = ("ds", "aoi_id", "weight_kg")
@@ -405,7 +405,7 @@ def _shown(column: pa.ChunkedArray, i: int) -> str:
         return f"{getattr(cell, 'value', cell)} ({cell.type}), outside the years 1-9999"
 
 
-def _check_errors(table: pa.Table, path: Path, cfg: DataConfig) -> dict[str, np.ndarray]:
+def _check_errors(table: pa.Table, path: Path, cfg: DataSettings) -> dict[str, np.ndarray]:
     """Parse times, ds and weights; raise at the first cell that is an error, not a drop."""
     out: dict[str, np.ndarray] = {}
     bad: list[tuple[int, str, str]] = []  # (index, column, message)
@@ -518,14 +518,13 @@ def _strict_error(
     )
 
 
-def read_lade(path: str | Path, cfg: DataConfig | None = None) -> LadeTable:
+def read_lade(path: str | Path, cfg: DataSettings) -> LadeTable:
     """Read a LaDe-D delivery export (CSV, CSV.gz or Parquet) into a :class:`LadeTable`.
 
     The format is told by the file's magic bytes (Parquet ``PAR1``, gzip), else
     it is read as CSV. See the module docstring for what is dropped and what is
     an error. Raises :class:`InputError` for bad input.
     """
-    cfg = cfg if cfg is not None else DataConfig()
     path = Path(path)
     kind, compression = _sniff(path)
     # Hashing the file overlaps the parse: both release the GIL on large buffers.
@@ -547,14 +546,13 @@ IN_MEMORY = ("DataFrame", "Table")
 """The names an in-memory table goes by in messages and metadata (pandas, pyarrow)."""
 
 
-def read_lade_table(data: object, cfg: DataConfig | None = None) -> LadeTable:
+def read_lade_table(data: object, cfg: DataSettings) -> LadeTable:
     """Read LaDe-D rows held in memory, a pandas ``DataFrame`` or a ``pyarrow.Table``
     with the export's columns, exactly as :func:`read_lade` reads a file: the same
     checks, drops and errors, which name ``DataFrame`` (or ``Table``) where they would
     name the file. Its identity (``input`` in the metadata) is the SHA-256 of its
     columns in Arrow's stream format. Rows are numbered as in a file: the first row
     is row 2; an error in a DataFrame's row names its index label too."""
-    cfg = cfg if cfg is not None else DataConfig()
     if isinstance(data, pa.Table):
         where, table = IN_MEMORY[1], data
     elif type(data).__name__ == "DataFrame" and hasattr(data, "iloc"):  # pandas
@@ -629,7 +627,7 @@ def _frame_table(frame: Any, where: str) -> pa.Table:
 
 
 def _lade_table(
-    table: pa.Table, where: str, cfg: DataConfig, source: Callable[[], SourceInfo]
+    table: pa.Table, where: str, cfg: DataSettings, source: Callable[[], SourceInfo]
 ) -> LadeTable:
     """The kept rows of ``table`` (all columns read) and its drop report; ``where``
     names it in errors, ``source()`` is its identity."""

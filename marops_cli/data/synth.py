@@ -42,8 +42,8 @@ import pyarrow.csv as pacsv
 import pyarrow.parquet as pq
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-from ..config import MAX_SEED
 from .frame import Frame
+from .settings import MAX_SEED
 from .table import LADE_COLUMNS
 
 # AOI type codes seen in LaDe (their meanings are unpublished) and how common each is.

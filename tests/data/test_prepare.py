@@ -153,8 +153,9 @@ def test_parcel_weights_deterministic_and_bounded() -> None:
 
 def test_parcel_weights_same_in_another_process() -> None:
     code = (
+        "from marops_cli.config import DataConfig;"
         "from marops_cli.data.prepare import parcel_weights;"
-        "print(repr(parcel_weights(['1001', '1002', 'A'])[:].tolist()))"
+        "print(repr(parcel_weights(['1001', '1002', 'A'], DataConfig())[:].tolist()))"
     )
     env = dict(os.environ, PYTHONHASHSEED="12345")
     out = subprocess.run(
@@ -165,12 +166,15 @@ def test_parcel_weights_same_in_another_process() -> None:
         env=env,
         cwd=Path(__file__).resolve().parents[2],
     )
-    here = parcel_weights(np.array(["1001", "1002", "A"], dtype=object))
+    here = parcel_weights(np.array(["1001", "1002", "A"], dtype=object), DataConfig())
     assert eval(out.stdout) == here.tolist()  # noqa: S307 - our own repr of floats
 
 
 def test_parcel_weights_accepts_ints_as_text() -> None:
-    np.testing.assert_array_equal(parcel_weights([1001, 1002]), parcel_weights(["1001", "1002"]))
+    cfg = DataConfig()
+    np.testing.assert_array_equal(
+        parcel_weights([1001, 1002], cfg), parcel_weights(["1001", "1002"], cfg)
+    )
 
 
 def test_left_out_orders_add_up_to_the_files_rows(example_csv):

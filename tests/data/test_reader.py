@@ -506,7 +506,10 @@ def test_text_in_arrow_view_layouts_reads_as_text(tmp_path: Path) -> None:
     for name, column in views.items():
         t = t.set_column(t.schema.get_field_index(name), name, column)
     pq.write_table(t, tmp_path / "views.parquet")
-    for got in (read_lade(tmp_path / "views.parquet", DataConfig()), read_lade_table(t)):
+    for got in (
+        read_lade(tmp_path / "views.parquet", DataConfig()),
+        read_lade_table(t, DataConfig()),
+    ):
         np.testing.assert_array_equal(got.order_id, plain.order_id)
         np.testing.assert_array_equal(got.accept_s, plain.accept_s)
         np.testing.assert_array_equal(got.delivery_s, plain.delivery_s)
