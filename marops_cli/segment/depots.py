@@ -2,16 +2,17 @@
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar, Literal
 
 import numpy as np
+from pydantic import Field
 
-from ..config import MAX_DEPOTS, check_range_table, clipped
+from ..config import MAX_DEPOTS, check_range_table
+from ..data.filemodel import FileModel, Whole, json_kind, validated
 from ..data.frame import Frame
-from ..data.jsonfile import json_number, refuse_unknown_keys
+from ..data.jsonfile import json_number
 from ..errors import InputError
 
 MAX_DEPOT_OFFSET_M = 1_000_000.0
@@ -127,77 +128,26 @@ class Depots:
                 file=source,
                 column="depots",
             )
-        _known_keys(doc, source)
-        frame, listed = _shape(doc, source)
-        if not listed:
+        file = validated(DepotsFile, doc, source)
+        if not file.depots:
             raise InputError("the depots file lists no depots", file=source)
-        ids = [d["id"] for d in listed]
-        whole = all(isinstance(v, int) and not isinstance(v, bool) for v in ids)
-        if not whole or sorted(ids) != list(range(len(ids))):
+        ids = [d.id for d in file.depots]
+        if sorted(ids) != list(range(len(ids))):
             raise InputError(
                 f"expected the depot ids 0..{len(ids) - 1} (whole numbers), each once: "
                 + _id_fault(ids),
                 file=source,
                 column="depots[].id",
             )
-        order = sorted(range(len(listed)), key=lambda i: ids[i])
-        rows = [listed[i] for i in order]
-        xy = np.array(
-            [
-                [json_number(d[k], source, f"depots[{i}].{k}") for k in ("x_m", "y_m")]
-                for i, d in zip(order, rows, strict=True)
-            ],
-            dtype=np.float64,
-        )
-        n_hist = np.array(
-            [
-                _count(d.get("n_history", 0), source, f"depots[{i}].n_history")
-                for i, d in zip(order, rows, strict=True)
-            ],
-            dtype=np.int64,
-        )
-        method = doc.get("method", "kmeans")
-        if method not in ("kmeans", "squares"):
-            got = repr(method) if isinstance(method, str) else _json_kind(method)
-            raise InputError(
-                f"expected the segmentation method's name, kmeans or squares, got {got}",
-                file=source,
-                column="method",
-            )
-        if not isinstance(doc.get("meta", {}), dict):
-            raise InputError(
-                f"expected the provenance object, got {_json_kind(doc['meta'])}",
-                file=source,
-                column="meta",
-            )
-        bad = np.flatnonzero(~np.isfinite(xy).all(axis=1))
-        if bad.size:
-            raise InputError(
-                f"depot {int(bad[0])} has no finite position (x_m, y_m)",
-                file=source,
-                column="depots",
-            )
-        far = np.argwhere(np.abs(xy) > MAX_DEPOT_OFFSET_M)
-        if far.size:
-            i, axis = (int(v) for v in far[0])
-            raise InputError(
-                f"depot {i} lies {abs(xy[i, axis]) / 1000:,.1f} km from the study frame's "
-                "centre, "
-                f"more than {MAX_DEPOT_OFFSET_M / 1000:.0f} km (docs/config.md)",
-                file=source,
-                column=f"depots[{order[i]}].{'xy'[axis]}_m",
-            )
-        if not all(np.isfinite([frame.center_lng, frame.center_lat, frame.size_km])) or not (
-            -180 <= frame.center_lng <= 180
-            and -90 <= frame.center_lat <= 90
-            and 0 < frame.size_km <= 200
-        ):
-            raise InputError(
-                "the study frame is not a valid centre and size", file=source, column="frame"
-            )
-        cand = _candidates(doc.get("candidates"), len(rows), source)
+        order = sorted(range(len(ids)), key=lambda i: ids[i])
+        rows = [file.depots[i] for i in order]
+        xy = np.array([[d.x_m, d.y_m] for d in rows], dtype=np.float64)
+        n_hist = np.array([d.n_history for d in rows], dtype=np.int64)
+        f = file.frame
+        frame = Frame(f.center_lng, f.center_lat, f.size_km)
+        cand = _candidates(file.candidates, len(rows), source)
         _same_places(rows, order, frame, xy, source)
-        return cls(method, frame, xy, n_hist, cand)
+        return cls(file.method, frame, xy, n_hist, cand)
 
     @classmethod
     def load(cls, path: str | Path, n_actions: int | None = None) -> Depots:
@@ -228,80 +178,65 @@ MAX_DEPOTS_FILE = 16 << 20
 marops writes it takes under 2 MiB; a larger file is refused before it is parsed."""
 
 
-_FRAME_KEYS = ("center_lng", "center_lat", "size_km")
-
-
-def _shape(doc: Any, source: str) -> tuple[Frame, list[dict[str, Any]]]:
-    """The study frame and the listed depots of a depots file ``doc``, each depot an
-    object with an ``id``, ``x_m`` and ``y_m``; a part of another shape is refused
-    naming its key."""
-    if not isinstance(doc, dict):
-        raise InputError(
-            f"not a marops depots file: expected an object with frame, depots and candidates, "
-            f"got {_json_kind(doc)}",
-            file=source,
-        )
-    value = doc.get("frame")
-    if not isinstance(value, dict):
-        got = "nothing" if value is None else _json_kind(value)
-        raise InputError(
-            f"not a marops depots file: expected the frame {{center_lng, center_lat, size_km}}, "
-            f"got {got}",
-            file=source,
-            column="frame",
-        )
-    refuse_unknown_keys(value, set(_FRAME_KEYS), "in the frame", source, "frame.")
-    for k in _FRAME_KEYS:
-        if k not in value:
-            raise InputError(
-                f"not a marops depots file: the frame has no {k}", file=source, column=f"frame.{k}"
-            )
-    frame = Frame(*(json_number(value[k], source, f"frame.{k}") for k in _FRAME_KEYS))
-    listed = doc.get("depots")
-    if not isinstance(listed, list):
-        got = "nothing" if listed is None else _json_kind(listed)
-        raise InputError(
-            f"not a marops depots file: expected a list of depots, got {got}",
-            file=source,
-            column="depots",
-        )
-    for i, d in enumerate(listed):
-        if not isinstance(d, dict):
-            raise InputError(
-                f"expected a depot {{id, x_m, y_m, …}}, got {_json_kind(d)}",
-                file=source,
-                column=f"depots[{i}]",
-            )
-        for k in ("id", "x_m", "y_m"):
-            if k not in d:
-                raise InputError(f"a depot needs {k}", file=source, column=f"depots[{i}].{k}")
-    return frame, listed
-
-
 MAX_HISTORY = 2**53
 """The largest count of history requests a depots file's ``n_history`` may give."""
-
-
-def _count(value: Any, source: str, key: str) -> int:
-    """A depot's ``n_history``: a whole number from 0 to :data:`MAX_HISTORY`."""
-    n = json_number(value, source, key, whole=True)
-    if not 0 <= n <= MAX_HISTORY:
-        raise InputError(f"expected a count from 0 to 2^53, got {value!r}", file=source, column=key)
-    return int(n)
+_NOT_DEPOTS = "not a marops depots file: "
+_OFFSET = (
+    f"metres from the study frame's centre, within {MAX_DEPOT_OFFSET_M / 1000:,.0f} km "
+    "(docs/config.md)"
+)
 
 
 _CANDIDATES_SHAPE = '{"0": [0, 4, 1], "1": [1, 0, 2], …}, each depot\'s id to its candidates'
 """What ``candidates`` holds, as its errors say it (:meth:`Depots.to_dict` writes it)."""
 
 
-def _candidates(value: Any, n: int, source: str) -> np.ndarray:
+class _Frame(FileModel):
+    """The study frame of a depots file (:meth:`Frame.to_dict`)."""
+
+    noun: ClassVar[str] = "the frame"
+    prefix: ClassVar[str] = _NOT_DEPOTS
+    center_lng: float = Field(ge=-180, le=180)
+    center_lat: float = Field(ge=-90, le=90)
+    size_km: float = Field(gt=0, le=200)
+
+
+class _Depot(FileModel):
+    """One depot of a depots file: where it is (``x_m``, ``y_m`` place it; ``lng`` and
+    ``lat``, when given, must agree) and its history requests."""
+
+    noun: ClassVar[str] = "depot"
+    id: Whole
+    x_m: float = Field(ge=-MAX_DEPOT_OFFSET_M, le=MAX_DEPOT_OFFSET_M, description=_OFFSET)
+    y_m: float = Field(ge=-MAX_DEPOT_OFFSET_M, le=MAX_DEPOT_OFFSET_M, description=_OFFSET)
+    lng: float | None = None
+    lat: float | None = None
+    n_history: Whole = Field(0, ge=0, le=MAX_HISTORY, description="a count from 0 to 2^53")
+
+
+class DepotsFile(FileModel):
+    """A depots file (docs/outputs.md, :meth:`Depots.to_dict`): its parts' own shapes;
+    :meth:`Depots.from_dict` checks what they say of each other."""
+
+    noun: ClassVar[str] = "depots file"
+    shape: ClassVar[str] = "an object with frame, depots and candidates"
+    prefix: ClassVar[str] = _NOT_DEPOTS
+    meta: dict[str, Any] = Field(default_factory=dict, description="the provenance object")
+    method: Literal["kmeans", "squares"] = Field(
+        "kmeans", description="the segmentation method's name, kmeans or squares"
+    )
+    frame: _Frame = Field(description="the frame {center_lng, center_lat, size_km}")
+    depots: list[_Depot] = Field(description="a list of depots")
+    candidates: dict[str, Any] = Field(
+        description=f"{_CANDIDATES_SHAPE}, itself first, all lists as long"
+    )
+
+
+def _candidates(value: dict[str, Any], n: int, source: str) -> np.ndarray:
     """The ``candidates`` of a depots file of ``n`` depots as an (n, A) array of depot
     ids: each depot lists itself first, every list as long. A value of another shape is
     refused naming its key and the expected shape."""
     shape = f"expected {_CANDIDATES_SHAPE}, itself first, all lists as long"
-    if not isinstance(value, dict):
-        got = "nothing" if value is None else _json_kind(value)
-        raise InputError(f"{shape}; got {got}", file=source, column="candidates")
     extra = sorted(set(value) - {str(i) for i in range(n)})
     if extra:
         raise InputError(
@@ -314,7 +249,7 @@ def _candidates(value: Any, n: int, source: str) -> np.ndarray:
         key = f"candidates.{i}"
         listed = value.get(str(i))
         if not isinstance(listed, list) or not listed:
-            got = "nothing" if str(i) not in value else _json_kind(listed)
+            got = "nothing" if str(i) not in value else json_kind(listed)
             raise InputError(f"{shape}; got {got} for depot {i}", file=source, column=key)
         if rows and len(listed) != len(rows[0]):
             raise InputError(
@@ -338,66 +273,41 @@ def _candidates(value: Any, n: int, source: str) -> np.ndarray:
     return np.array(rows, dtype=np.int64)
 
 
-def _json_kind(value: Any) -> str:
-    """What a JSON value is: ``an object``, ``a list``, ``an empty list``, ``a string``,
-    ``true``, ``3``, ``null``."""
-    if isinstance(value, dict):
-        return "an object"
-    if isinstance(value, list):
-        return "a list" if value else "an empty list"
-    if isinstance(value, str):
-        return "a string"
-    return json.dumps(value)
-
-
 _PLACE_TOLERANCE_M = 1.0
 """How far a depot's lng/lat may lie from its x_m/y_m (both are rounded when written)."""
 
 
 def _same_places(
-    rows: list[dict[str, Any]], order: list[int], frame: Frame, xy: np.ndarray, source: str
+    rows: list[_Depot], order: list[int], frame: Frame, xy: np.ndarray, source: str
 ) -> None:
     """Refuse a depot whose ``lng``/``lat`` disagree with its ``x_m``/``y_m``: marops
     places depots by ``x_m``/``y_m``, so a position edited in degrees alone would be
     silently ignored."""
     for k, (i, d) in enumerate(zip(order, rows, strict=True)):
-        if "lng" not in d and "lat" not in d:
+        if d.lng is None and d.lat is None:
             continue
-        lng, lat = (json_number(d.get(c), source, f"depots[{i}].{c}") for c in ("lng", "lat"))
-        x, y = frame.to_xy(np.array([lng]), np.array([lat]))
+        if d.lng is None or d.lat is None:
+            half = "lng" if d.lng is None else "lat"
+            raise InputError(
+                "a depot gives both lng and lat, or neither",
+                file=source,
+                column=f"depots[{i}].{half}",
+            )
+        x, y = frame.to_xy(np.array([d.lng]), np.array([d.lat]))
         off = float(np.hypot(x[0] - xy[k, 0], y[0] - xy[k, 1]))
         if off > _PLACE_TOLERANCE_M:
             raise InputError(
-                f"depot {d['id']}'s lng/lat lie {off:,.0f} m from its x_m/y_m, which place it: "
+                f"depot {d.id}'s lng/lat lie {off:,.0f} m from its x_m/y_m, which place it: "
                 "edit both (or leave lng and lat out)",
                 file=source,
                 column=f"depots[{i}].lng",
             )
 
 
-_KEYS = frozenset({"meta", "method", "frame", "depots", "candidates"})
-_DEPOT_KEYS = frozenset({"id", "x_m", "y_m", "lng", "lat", "n_history"})
-"""The keys of a depots file and of each of its depots (:meth:`Depots.to_dict`)."""
-
-
-def _known_keys(doc: Any, source: str) -> None:
-    """Refuse a key no depots file has (docs/config.md: an unknown key stops the run), at
-    the top or in a depot: a typo such as ``x-m`` must not read as a missing value."""
-    if not isinstance(doc, dict):
-        return  # from_dict's own checks name what is wrong
-    refuse_unknown_keys(doc, _KEYS, "in a depots file", source)
-    listed = doc.get("depots")
-    for i, d in enumerate(listed if isinstance(listed, list) else []):
-        if isinstance(d, dict):
-            refuse_unknown_keys(d, _DEPOT_KEYS, "in a depot", source, f"depots[{i}].")
-
-
-def _id_fault(ids: list[Any]) -> str:
-    """What is wrong with a depots file's ids, at the first depot at fault."""
+def _id_fault(ids: list[int]) -> str:
+    """What is wrong with a depots file's ids (whole numbers), at the first depot at fault."""
     seen: set[int] = set()
     for k, v in enumerate(ids):
-        if isinstance(v, bool) or not isinstance(v, int):
-            return f"depots[{k}] has id {clipped(repr(v))}"
         if not 0 <= v < len(ids):
             return f"depots[{k}] has id {v}, outside 0..{len(ids) - 1}"
         if v in seen:

@@ -14,13 +14,15 @@ import datetime as dt
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
+from pydantic import Field
 
 from ..config import MAX_DRONES, DataConfig, PlannerConfig, override
+from ..data.filemodel import FileModel, Whole, validated
 from ..data.frame import Frame, hub_squares
-from ..data.jsonfile import json_number, read_json, refuse_unknown_keys
+from ..data.jsonfile import read_json
 from ..data.prepare import check_days_in_file, prepare_day
 from ..data.table import LadeTable
 from ..errors import InputError, naming, option
@@ -114,10 +116,32 @@ def hubs_doc(hubs: Sequence[Hub], total: int, meta: dict[str, Any]) -> dict[str,
     }
 
 
-_HUB_KEYS = frozenset({"id", "center_lng", "center_lat", "size_km", "orders", "share", "drones"})
-"""The keys of a hub in a hubs file (what ``marops segment --hubs`` writes, docs/outputs.md)."""
-_FILE_KEYS = frozenset({"meta", "orders", "hubs"})
-"""The keys of a hubs file itself."""
+class _Hub(FileModel):
+    """A hub of a hubs file (what ``marops segment --hubs`` writes, docs/outputs.md): its
+    centre, optionally its size and fleet; ``id``, ``orders`` and ``share`` as written."""
+
+    noun: ClassVar[str] = "hub"
+    id: Whole | None = None
+    center_lng: float = Field(ge=-180, le=180, description="a longitude, a number from -180 to 180")
+    center_lat: float = Field(ge=-90, le=90, description="a latitude, a number from -90 to 90")
+    size_km: float | None = Field(None, gt=0, le=200, description="a size in km in (0, 200]")
+    orders: Whole = Field(0, ge=0, description="a count of orders, a whole number from 0")
+    share: float | None = None
+    drones: Whole | None = Field(
+        None,
+        ge=1,
+        le=MAX_DRONES,
+        description=f"a hub's fleet, a whole number of 1..{MAX_DRONES} drones (docs/config.md)",
+    )
+
+
+class _HubsFile(FileModel):
+    """A hubs file: ``{"hubs": [...]}`` (or the list itself, read as this)."""
+
+    noun: ClassVar[str] = "hubs file"
+    meta: dict[str, Any] = Field(default_factory=dict, description="the provenance object")
+    orders: Whole | None = Field(None, ge=0, description="a count of orders, a whole number from 0")
+    hubs: list[_Hub] = Field(min_length=1, description="a list of hubs under 'hubs'")
 
 
 def load_hubs(path: str | Path, cfg: DataConfig) -> list[Hub]:
@@ -125,12 +149,10 @@ def load_hubs(path: str | Path, cfg: DataConfig) -> list[Hub]:
     (or the list itself); ``size_km`` defaults to ``cfg.size_km``; ids are list order."""
     p = Path(path)
     doc = read_json(p, "hubs file", limit=MAX_HUBS_FILE)
-    if isinstance(doc, dict):
-        refuse_unknown_keys(doc, _FILE_KEYS, "in a hubs file", p, listed=True)
-    items = doc.get("hubs") if isinstance(doc, dict) else doc
-    if not isinstance(items, list) or not items:
-        raise InputError("expected a list of hubs under 'hubs'", file=p, column="hubs")
-    if len(items) > MAX_HUBS:
+    if isinstance(doc, list):
+        doc = {"hubs": doc}
+    items = doc.get("hubs") if isinstance(doc, dict) else None
+    if isinstance(items, list) and len(items) > MAX_HUBS:  # before any hub's work
         raise InputError(
             f"lists {len(items):,} hubs, more than the {MAX_HUBS} a city is tiled into "
             "(docs/config.md)",
@@ -138,45 +160,16 @@ def load_hubs(path: str | Path, cfg: DataConfig) -> list[Hub]:
             column="hubs",
         )
     hubs = []
-    for i, h in enumerate(items):
-        col = f"hubs[{i}]"
-        if not isinstance(h, dict):
-            raise InputError("a hub is a table with center_lng and center_lat", file=p, column=col)
-        for key in ("center_lng", "center_lat"):
-            if key not in h:
-                raise InputError(f"a hub needs {key}", file=p, column=f"{col}.{key}")
-        refuse_unknown_keys(h, _HUB_KEYS, "in a hub", p, f"{col}.", listed=True)
+    for i, h in enumerate(validated(_HubsFile, doc, p).hubs):
         # Ids are list order: an id written by hand that says otherwise would be ignored.
-        if "id" in h and (isinstance(h["id"], bool) or h["id"] != i):
+        if h.id is not None and h.id != i:
             raise InputError(
-                f"expected {i}, the hub's place in the list (ids are list order), got {h['id']!r}",
+                f"expected {i}, the hub's place in the list (ids are list order), got {h.id!r}",
                 file=p,
-                column=f"{col}.id",
+                column=f"hubs[{i}].id",
             )
-        if "share" in h:
-            json_number(h["share"], p, f"{col}.share")
-        lng = json_number(h["center_lng"], p, f"{col}.center_lng")
-        lat = json_number(h["center_lat"], p, f"{col}.center_lat")
-        size = json_number(h["size_km"], p, f"{col}.size_km") if "size_km" in h else None
-        if not (-180 <= lng <= 180 and -90 <= lat <= 90):
-            raise InputError("the centre is not a longitude, latitude", file=p, column=col)
-        if size is not None and not 0 < size <= 200:
-            raise InputError("size_km must be in (0, 200]", file=p, column=f"{col}.size_km")
-        drones = (
-            int(json_number(h["drones"], p, f"{col}.drones", whole=True)) if "drones" in h else None
-        )
-        if drones is not None and not 1 <= drones <= MAX_DRONES:
-            raise InputError(
-                f"a hub's fleet is 1..{MAX_DRONES} drones (docs/config.md)",
-                file=p,
-                column=f"{col}.drones",
-            )
-        orders = (
-            int(json_number(h["orders"], p, f"{col}.orders", whole=True)) if "orders" in h else 0
-        )
-        if orders < 0:
-            raise InputError("a count of orders cannot be negative", file=p, column=f"{col}.orders")
-        hubs.append(Hub(i, Frame(lng, lat, cfg.size_km if size is None else size), orders, drones))
+        size = cfg.size_km if h.size_km is None else h.size_km
+        hubs.append(Hub(i, Frame(h.center_lng, h.center_lat, size), h.orders, h.drones))
     return hubs
 
 

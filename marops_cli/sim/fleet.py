@@ -19,13 +19,14 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Annotated, Any, ClassVar
 
 import numpy as np
-from pydantic import ValidationError
+from pydantic import Field
 
-from ..config import MAX_DRONES, EnergyConfig, check_file_types, value_range
-from ..data.jsonfile import json_number, read_document
+from ..config import MAX_DRONES, EnergyConfig, check_file_types
+from ..data.filemodel import FileModel, Whole, validated
+from ..data.jsonfile import read_document
 from ..energy import EnergyModel
 from ..errors import InputError
 from ..segment.depots import Depots
@@ -107,44 +108,46 @@ def _read(path: Path) -> Any:
     return read_document(path, "fleet file")  # TOML for a .toml name, else JSON
 
 
-def _types(doc: dict[str, Any], base: EnergyConfig, path: Path) -> tuple[DroneType, ...]:
-    raw = doc.get("types")
-    if raw is None:
+class _Drone(FileModel):
+    """A drone of a fleet file's ``drones``: its start depot and its type's name."""
+
+    noun: ClassVar[str] = "drone"
+    depot: Whole
+    type: str | None = None
+
+
+class _FleetFile(FileModel):
+    """A fleet file (module docstring): ``types`` and either ``drones`` or ``counts``; a
+    type's parameters are :class:`EnergyConfig`'s (:func:`_types`)."""
+
+    noun: ClassVar[str] = "fleet file"
+    shape: ClassVar[str] = "a list of depot ids or a table of types and drones"
+    types: dict[str, dict[str, Any]] | None = Field(
+        None, min_length=1, description="type names mapped to tables of drone parameters"
+    )
+    drones: list[_Drone] | None = None
+    counts: dict[str, Annotated[Whole, Field(ge=0)]] | None = Field(
+        None, description="type names mapped to numbers of drones"
+    )
+
+
+class _DroneType(EnergyConfig):
+    """A drone type's parameters: :class:`EnergyConfig` as a file gives it (unknown keys
+    named as a drone type's)."""
+
+    noun: ClassVar[str] = "drone type"
+
+
+def _types(doc: _FleetFile, base: EnergyConfig, path: Path) -> tuple[DroneType, ...]:
+    if doc.types is None:
         return (DroneType(DEFAULT_TYPE, base),)
-    if not isinstance(raw, dict) or not raw:
-        raise InputError("'types' must map type names to parameters", file=path, column="types")
     out = []
-    for name, params in raw.items():
-        key = f"types.{name}"
-        if not isinstance(params, dict):
-            raise InputError("a drone type must be a table of parameters", file=path, column=key)
-        unknown = sorted(set(params) - set(EnergyConfig.model_fields))
-        if unknown:
-            raise InputError(
-                f"unknown drone parameter {unknown[0]!r} (expected some of: "
-                f"{', '.join(EnergyConfig.model_fields)})",
-                file=path,
-                column=f"{key}.{unknown[0]}",
-            )
-        check_file_types(EnergyConfig, params, path, f"{key}.")
-        try:
-            energy = EnergyConfig.model_validate({**base.model_dump(), **params})
-        except ValidationError as exc:
-            err = exc.errors()[0]
-            field = ".".join(str(p) for p in err["loc"])
-            msg = str(err["msg"]).removeprefix("Value error, ")
-            rng = value_range("energy", field) if field in EnergyConfig.model_fields else None
-            if rng is not None:
-                msg += f" (expected {rng.replace('x', field)}, docs/config.md)"
-            raise InputError(
-                f"invalid drone parameter: {msg}", file=path, column=f"{key}.{field}"
-            ) from exc
-        out.append(DroneType(str(name), energy))
+    for name, params in doc.types.items():
+        key = f"types.{name}."
+        check_file_types(EnergyConfig, params, path, key)  # what validation would convert
+        given = validated(_DroneType, {**base.model_dump(), **params}, path, key)
+        out.append(DroneType(str(name), EnergyConfig.model_validate(given.model_dump())))
     return tuple(out)
-
-
-def _int(value: Any, path: Path, column: str) -> int:
-    return int(json_number(value, path, column, whole=True))
 
 
 def load_fleet(
@@ -158,23 +161,19 @@ def load_fleet(
     doc = _read(p)
     if isinstance(doc, list):
         doc = {"drones": doc}
-    if not isinstance(doc, dict):
-        raise InputError("expected a list of depot ids or a table of types and drones", file=p)
-    unknown = sorted(set(doc) - {"types", "drones", "counts"})
-    if unknown:
-        raise InputError(
-            f"unknown key {unknown[0]!r} (expected types, drones or counts)",
-            file=p,
-            column=unknown[0],
-        )
-    types = _types(doc, energy, p)
-    if ("drones" in doc) == ("counts" in doc):
+    if isinstance(doc, dict) and isinstance(doc.get("drones"), list):
+        _check_size(len(doc["drones"]), p, "drones")  # before any drone's work
+        # A drone is its depot id alone, or a table of its depot and type.
+        doc = {**doc, "drones": [d if isinstance(d, dict) else {"depot": d} for d in doc["drones"]]}
+    file = validated(_FleetFile, doc, p)
+    types = _types(file, energy, p)
+    if (file.drones is None) == (file.counts is None):
         raise InputError("give either 'drones' (depot and type each) or 'counts'", file=p)
-    if "counts" in doc:
-        kind = _from_counts(doc["counts"], types, p)
+    if file.counts is not None:
+        kind = _from_counts(file.counts, types, p)
         depot = default_fleet(depots, len(kind))
     else:
-        depot, kind = _from_drones(doc["drones"], types, depots, p)
+        depot, kind = _from_drones(file.drones or [], types, depots, p)
     if kind.size == 0:
         raise InputError("the fleet file lists no drones", file=p)
     return Fleet(depot, kind, types)
@@ -199,59 +198,38 @@ def _type_index(name: Any, types: tuple[DroneType, ...], path: Path, column: str
     return names.index(name)
 
 
-def _from_counts(counts: Any, types: tuple[DroneType, ...], path: Path) -> np.ndarray:
+def _from_counts(counts: dict[str, int], types: tuple[DroneType, ...], path: Path) -> np.ndarray:
     """Each drone's type index, from ``counts`` (type -> number, in file order)."""
-    if not isinstance(counts, dict):
-        raise InputError("'counts' must map type names to numbers", file=path, column="counts")
     kind: list[int] = []
-    for name, c in counts.items():
+    for name, n in counts.items():
         col = f"counts.{name}"
         k = _type_index(name, types, path, col)
-        n = _int(c, path, col)
-        if n < 0:
-            raise InputError("a count cannot be negative", file=path, column=col)
         _check_size(len(kind) + n, path, col)  # before the list is made
         kind += [k] * n
     return np.array(kind, dtype=np.int64)
 
 
 def _from_drones(
-    items: Any, types: tuple[DroneType, ...], depots: Depots, path: Path
+    items: list[_Drone], types: tuple[DroneType, ...], depots: Depots, path: Path
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Each drone's depot and type index, from ``drones`` (depot ids or {depot, type})."""
-    if not isinstance(items, list):
-        raise InputError("'drones' must be a list", file=path, column="drones")
-    _check_size(len(items), path, "drones")
+    """Each drone's depot and type index, from ``drones``."""
     depot, kind = [], []
     for u, d in enumerate(items):
         col = f"drones[{u}]"
-        if not isinstance(d, dict):
-            d = {"depot": d}
-        unknown = sorted(set(d) - {"depot", "type"})
-        if unknown:
+        if not 0 <= d.depot < len(depots):  # checked here: an id past 2**63 fits no array
             raise InputError(
-                f"unknown drone key {unknown[0]!r} (expected depot and type)",
-                file=path,
-                column=f"{col}.{unknown[0]}",
-            )
-        if "depot" not in d:
-            raise InputError("a drone needs a depot", file=path, column=f"{col}.depot")
-        at = _int(d["depot"], path, f"{col}.depot")
-        if not 0 <= at < len(depots):  # checked here: an id past 2**63 fits no array
-            raise InputError(
-                f"drone {u} is at depot {at}, but the depots have ids 0..{len(depots) - 1}",
+                f"drone {u} is at depot {d.depot}, but the depots have ids 0..{len(depots) - 1}",
                 file=path,
                 column=f"{col}.depot",
             )
-        depot.append(at)
-        name = d.get("type")
-        if name is None and len(types) > 1:
+        depot.append(d.depot)
+        if d.type is None and len(types) > 1:
             raise InputError(
                 "the fleet has several types: name this drone's type",
                 file=path,
                 column=f"{col}.type",
             )
-        kind.append(0 if name is None else _type_index(name, types, path, f"{col}.type"))
+        kind.append(0 if d.type is None else _type_index(d.type, types, path, f"{col}.type"))
     return np.array(depot, dtype=np.int64), np.array(kind, dtype=np.int64)
 
 

@@ -75,7 +75,11 @@ def test_an_order_belongs_to_the_first_hub_that_holds_it(points_table):
     [
         ({"hubs": []}, "hubs", "list of hubs"),
         ({"hubs": [{"center_lng": 121.4}]}, "hubs[0].center_lat", "needs center_lat"),
-        ({"hubs": [{"center_lng": 190.0, "center_lat": 31.0}]}, "hubs[0]", "longitude"),
+        (
+            {"hubs": [{"center_lng": 190.0, "center_lat": 31.0}]},
+            "hubs[0].center_lng",
+            "longitude, a number from -180 to 180, got 190.0",
+        ),
         (
             {"hubs": [{"center_lng": 121.4, "center_lat": 31.0, "size_km": 0}]},
             "hubs[0].size_km",

@@ -88,9 +88,13 @@ def test_json_drones_with_types_and_plain_depot_lists(tmp_path, depots):
         (
             '{"types": {"h": {"max_payload_kg": -1}}, "counts": {"h": 1}}',
             "types.h.max_payload_kg",
-            "invalid",
+            "expected 0 < max_payload_kg ≤ 500, got -1",
         ),
-        ('{"types": {"h": {"payload": 3}}, "counts": {"h": 1}}', "types.h.payload", "unknown"),
+        (
+            '{"types": {"h": {"payload": 3}}, "counts": {"h": 1}}',
+            "types.h.payload",
+            "unknown key 'payload' in a drone type (expected some of: ",
+        ),
         (
             '{"types": {"a": {}, "b": {}}, "drones": [{"depot": 0}]}',
             "drones[0].type",
@@ -134,9 +138,10 @@ def test_mixed_fleet_day_keeps_every_drone_within_its_own_type(example_csv, tmp_
     _replay(example_csv, tmp_path / "mixed", "--fleet", str(fleet_path))
     routes = pq.read_table(tmp_path / "mixed" / "routes.parquet").to_pydict()
     stops = pq.read_table(tmp_path / "mixed" / "stops.parquet").to_pydict()
-    from marops_cli.sim.fleet import _read, _types
+    from marops_cli.sim.fleet import _FleetFile, _read, _types
 
-    types = {t.name: t.energy for t in _types(_read(fleet_path), BASE, fleet_path)}
+    doc = _FleetFile.model_validate(_read(fleet_path))
+    types = {t.name: t.energy for t in _types(doc, BASE, fleet_path)}
     assert set(routes["drone_type"]) == {"light", "heavy"}
     carried = {"light": 0.0, "heavy": 0.0}
     for kind, kg, e, frac in zip(
