@@ -210,6 +210,10 @@ def _range(field: FieldInfo | None, name: str, ctx: dict[str, Any]) -> str:
     high = next(
         (f" {s} {_num(bounds[a])}" for a, s in (("lt", "<"), ("le", "≤")) if a in bounds), ""
     )
+    if not high:  # one bound: "episode ≥ 0"
+        return next(
+            f"{name} {s} {_num(bounds[a])}" for a, s in (("gt", ">"), ("ge", "≥")) if a in bounds
+        )
     return f"{low}{name}{high}"
 
 

@@ -50,8 +50,9 @@ operating model it was trained for (docs/method.md §6, "Trust model of actor fi
 
 from __future__ import annotations
 
+import functools
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Literal
+from typing import TYPE_CHECKING, Any, ClassVar, Literal
 
 import numpy as np
 
@@ -148,10 +149,9 @@ class DepotState:
         prof = dep.arrivals
         if prof is not None and prof.shape == (n, view.n_windows):
             self.expected = prof[:, view.t + 1 : view.t + 3].sum(axis=1)
-        spares = view.depot_spares
-        self.spares = np.full(n, _UNLIMITED_SPARES) if spares is None else spares.astype(float)
-        charging = view.depot_charging
-        self.charging = np.zeros(n) if charging is None else charging.astype(float)
+        spares = view.depot_spares.astype(float)
+        self.spares = np.where(np.isinf(spares), _UNLIMITED_SPARES, spares)
+        self.charging = view.depot_charging.astype(float)
         self.time = view.t / max(1, view.n_windows)
         self.density = view.n_drones / max(1, n)
 
@@ -299,17 +299,12 @@ def load_landing_actor(path: Path, side: Any, sidecar: Path) -> LandingActor:
     JSON header and raw numbers)."""
     from safetensors import SafetensorError, safe_open
 
-    if not isinstance(side, dict):
-        raise InputError(f"expected a JSON object, got {type(side).__name__}", file=sidecar)
-    refuse_misspelt_keys(side, ("format", "operating_model"), sidecar)
-    fmt = side.get("format")
-    size = _FORMATS.get(fmt) if isinstance(fmt, str) else None
-    if size is None:
-        raise InputError(
-            f"expected format {LANDING_FORMAT!r}, got {quoted(side.get('format'))}",
-            file=sidecar,
-            column="format",
-        )
+    from ..data.filemodel import validated
+
+    if isinstance(side, dict):
+        refuse_misspelt_keys(side, ("format", "operating_model"), sidecar)
+    read = validated(_sidecar_model(), side, sidecar)
+    size = _FORMATS[read.format]
     if path.stat().st_size > (1 << 16):
         raise InputError("larger than a landing actor's weights", file=path)
     try:
@@ -333,11 +328,26 @@ def load_landing_actor(path: Path, side: Any, sidecar: Path) -> LandingActor:
     if not np.isfinite(weight).all():
         raise InputError("NaN or infinite weights", file=path, column="weight")
     check_weight_range(float(np.abs(weight).max()), path, "weight")
-    model = side.get("operating_model")
-    if not isinstance(model, str) or not model:
-        raise InputError(
-            "expected the operating model the actor was trained for",
-            file=sidecar,
-            column="operating_model",
+    return LandingActor(weight, trained_for=read.operating_model, path=path)
+
+
+@functools.cache
+def _sidecar_model() -> type[Any]:
+    """What a landing actor's sidecar must say: its format (:data:`_FORMATS`) and the
+    operating model it was trained for; its other keys are kept as written."""
+    from pydantic import ConfigDict, Field
+
+    from ..data.filemodel import FileModel
+
+    class LandingSidecar(FileModel):
+        model_config = ConfigDict(extra="ignore")
+        noun: ClassVar[str] = "landing actor's sidecar"
+        shape: ClassVar[str] = "a JSON object"
+        format: Literal["marops-landing-actor/2", "marops-landing-actor/1"] = Field(
+            description=f"format {LANDING_FORMAT!r}"
         )
-    return LandingActor(weight, trained_for=model, path=path)
+        operating_model: str = Field(
+            min_length=1, description="the operating model the actor was trained for"
+        )
+
+    return LandingSidecar

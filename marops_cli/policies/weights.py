@@ -15,12 +15,13 @@ files").
 
 from __future__ import annotations
 
+import functools
 import math
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, ClassVar, Literal
 
 from ..data.jsonfile import first_line
-from ..errors import InputError, quoted
+from ..errors import InputError
 from .base import check_weight_range
 
 if TYPE_CHECKING:
@@ -40,29 +41,40 @@ def weights_path(model_path: str | Path) -> Path:
     return Path(model_path).with_suffix(".safetensors")
 
 
+@functools.cache
+def _sizes_model() -> type[Any]:
+    """The part of a sidecar that rebuilds the network: its format and sizes, each a
+    whole number within :data:`MAX_SIZES`; its other keys are kept as written (built on
+    first use: pydantic is imported for a recurrent actor only)."""
+    from pydantic import ConfigDict, Field
+
+    from ..data.filemodel import FileModel, Whole
+
+    def size(key: str) -> Any:
+        bound = MAX_SIZES[key]
+        return Field(ge=1, le=bound, description=f"a whole number from 1 to {bound}")
+
+    class ActorSizes(FileModel):
+        model_config = ConfigDict(extra="ignore")
+        noun: ClassVar[str] = "actor's sidecar"
+        format: Literal["marops-actor/1"] = Field(
+            description=f"format {ACTOR_FORMAT!r} to rebuild the network from its weights"
+        )
+        obs_dim: Whole = size("obs_dim")
+        n_logits: Whole = size("n_logits")
+        hidden_size: Whole = size("hidden_size")
+
+    return ActorSizes
+
+
 def network_sizes(side: dict[str, Any], sidecar: Path) -> tuple[int, int, int]:
     """``(obs_dim, n_logits, hidden_size)`` of the sidecar ``side`` (read from the file
     ``sidecar``), each a whole number within :data:`MAX_SIZES`."""
+    from ..data.filemodel import validated  # deferred: pydantic, for a recurrent actor only
     from .network import actor_shapes  # deferred: the network imports torch
 
-    if side.get("format") != ACTOR_FORMAT:
-        raise InputError(
-            f"expected format {ACTOR_FORMAT!r} to rebuild the network from its weights, "
-            f"got {quoted(side.get('format'))}",
-            file=sidecar,
-            column="format",
-        )
-    sizes = []
-    for key, bound in MAX_SIZES.items():
-        value = side.get(key)
-        if isinstance(value, bool) or not isinstance(value, int) or not 1 <= value <= bound:
-            raise InputError(
-                f"expected a whole number from 1 to {bound}, got {quoted(value)}",
-                file=sidecar,
-                column=key,
-            )
-        sizes.append(value)
-    obs, logits, hidden = sizes
+    sizes = validated(_sizes_model(), side, sidecar)
+    obs, logits, hidden = (getattr(sizes, key) for key in MAX_SIZES)
     n = sum(math.prod(s) for s in actor_shapes(obs, logits, hidden).values())
     if n > MAX_PARAMETERS:
         raise InputError(

@@ -229,8 +229,9 @@ def finite_number(v: Any) -> bool:
     return isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
 
 
-def edited_checkpoint(ckpt: Path, kind: str, exc: Exception) -> InputError:
+def edited_checkpoint(ckpt: Path, kind: str, exc: Exception | str) -> InputError:
     """The refusal of a checkpoint ``ckpt`` with this run's fingerprint whose contents
-    do not restore (``exc``): an edited file, not this run's; ``kind`` says whose."""
+    do not restore (``exc``, or what is wrong with them): an edited file, not this run's;
+    ``kind`` says whose."""
     what = f"no key {exc}" if isinstance(exc, KeyError) else " ".join(str(exc).split())
     return InputError(f"not {kind} of this run ({what}); pass --no-resume", file=ckpt)

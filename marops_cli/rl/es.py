@@ -37,12 +37,14 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar, Literal
 
 import numpy as np
+from pydantic import Field, ValidationError
 
 from .. import __version__
 from ..config import override
+from ..data.filemodel import FileModel, Whole, error_text
 from ..data.jsonfile import read_json
 from ..errors import InputError
 from ..io.atomic import output_set
@@ -65,7 +67,6 @@ from .data import (
     TrainData,
     edited_checkpoint,
     fingerprint,
-    finite_number,
     other_algorithm,
     other_run,
 )
@@ -82,6 +83,61 @@ RULES = reference_rules()
 as references, marops_cli/methods.py): each day's best of them is its reference."""
 Day = tuple[int, int, float]
 """A replay's (scenario, day, α)."""
+
+
+class _Reference(FileModel):
+    noun: ClassVar[str] = "reference"
+    j: float
+    energy: float
+
+
+class _HeldOutRule(FileModel):
+    noun: ClassVar[str] = "held-out rule"
+    rule: str
+    objective_j_mj: float
+    delivered_share: float
+    mean_energy_kj: float
+    avg_delay_h: float
+
+
+class _Step(FileModel):
+    noun: ClassVar[str] = "history entry"
+    episode: float
+    generation: float
+    cost: float
+
+
+class _Evaluation(FileModel):
+    noun: ClassVar[str] = "evaluation"
+    episode: Whole
+    cost: float
+    methods: dict[str, dict[str, Any]]
+
+
+class _Best(FileModel):
+    noun: ClassVar[str] = "best"
+    shape: ClassVar[str] = "the best evaluation {episode, cost, weight}"
+    episode: Whole
+    cost: float
+    weight: list[float]
+
+
+class _Checkpoint(FileModel):
+    """A landing actor's training checkpoint (``NAME.ckpt``, JSON) as
+    :meth:`LandingTrainer.save_checkpoint` writes it."""
+
+    noun: ClassVar[str] = "landing actor's checkpoint"
+    format: Literal["marops-landing-ckpt/1"]
+    fingerprint: Any
+    weight: list[float]
+    generation: Whole = Field(ge=0)
+    episode: Whole = Field(ge=0)
+    elapsed_s: float = Field(ge=0)
+    reference: dict[str, _Reference]
+    held_out_rules: list[_HeldOutRule]
+    history: list[_Step]
+    evals: list[_Evaluation]
+    best: _Best | None
 
 
 @dataclass(frozen=True)
@@ -189,48 +245,41 @@ class LandingTrainer:
         mismatch = other_run(self.ckpt, state.get("fingerprint"), now)
         if mismatch is not None:
             raise mismatch
-        try:
-            self._restore(state)
-        except (KeyError, TypeError, ValueError, OverflowError) as exc:  # int(inf): Overflow
-            raise edited_checkpoint(self.ckpt, "a landing actor's checkpoint", exc) from None
+        self._restore(state)
         return True
 
     def _restore(self, state: dict[str, Any]) -> None:
-        """The weights and progress of a checkpoint's ``state``; raises KeyError,
-        TypeError or ValueError on one of another shape, before changing anything."""
-        weight = np.array(state["weight"], dtype=np.float64)
-        if weight.shape != self.weight.shape or not np.isfinite(weight).all():
-            raise ValueError(f"weight must be {self.weight.size} finite numbers")
-        counts = int(state["generation"]), int(state["episode"]), float(state["elapsed_s"])
-        if min(counts[:2]) < 0 or not 0.0 <= counts[2] < float("inf"):
-            raise ValueError("generation, episode and elapsed_s must be counts from 0")
-        lists = [state[k] for k in ("held_out_rules", "history", "evals")]
-        reference, best = state["reference"], state["best"]
-        if not all(isinstance(v, list) for v in lists) or not isinstance(reference, dict):
-            raise TypeError("held_out_rules, history and evals must be lists, reference an object")
-        if not all(_numbers(ref, "j", "energy") for ref in reference.values()):
-            raise TypeError("each reference must hold the numbers j and energy")
-        rules, history, evals = lists
-        if not all(_numbers(r, *_KEYS) for r in rules):
-            raise TypeError(f"each held-out rule must hold the numbers {', '.join(_KEYS)}")
-        if not all(_numbers(h, "episode", "generation", "cost") for h in history):
-            raise TypeError("each history entry must hold the numbers episode, generation, cost")
-        if not all(
-            _numbers(e, "episode", "cost") and isinstance(e.get("methods"), dict) for e in evals
-        ):
-            raise TypeError("each evaluation must hold the numbers episode, cost and its methods")
+        """The weights and progress of a checkpoint's ``state`` (:class:`_Checkpoint`);
+        refused, naming the key, on one of another shape, before changing anything."""
+        kind = "a landing actor's checkpoint"
+        try:
+            ckpt = _Checkpoint.model_validate(state)
+        except ValidationError as exc:
+            key, msg = error_text(exc, _Checkpoint)
+            raise edited_checkpoint(self.ckpt, kind, f"{key}: {msg}" if key else msg) from None
+        weight = np.array(ckpt.weight, dtype=np.float64)
+        if weight.shape != self.weight.shape:
+            raise edited_checkpoint(self.ckpt, kind, f"weight must be {self.weight.size} numbers")
+        best = ckpt.best
         if best is not None:
-            ok = _numbers(best, "cost", "episode") and "weight" in best
-            best_weight = np.array(best["weight"] if ok else [], dtype=np.float64)
-            if not (ok and best_weight.shape == weight.shape and np.isfinite(best_weight).all()):
-                raise TypeError(f"best must hold cost, episode and {weight.size} finite weights")
-            if best["episode"] not in [e["episode"] for e in evals]:
-                raise ValueError("best must be one of the evaluations")
+            if len(best.weight) != weight.size:
+                raise edited_checkpoint(
+                    self.ckpt, kind, f"best.weight must be {weight.size} numbers"
+                )
+            if best.episode not in [e.episode for e in ckpt.evals]:
+                raise edited_checkpoint(self.ckpt, kind, "best must be one of the evaluations")
         self.weight = weight
-        self.generation, self.episode, self.elapsed_s = counts
-        self.reference = reference
-        self.held_out_rules, self.history, self.evals = lists
-        self.best = best
+        self.generation, self.episode, self.elapsed_s = (
+            ckpt.generation,
+            ckpt.episode,
+            ckpt.elapsed_s,
+        )
+        # As written (the model checked them): the run appends to them and writes them back.
+        self.reference = state["reference"]
+        self.held_out_rules, self.history, self.evals = (
+            state[k] for k in ("held_out_rules", "history", "evals")
+        )
+        self.best = state["best"]
 
     # -- the rules and the cost --------------------------------------------------------
     def _best_rules(
@@ -414,12 +463,6 @@ class LandingTrainer:
             "learning_curve": self.history,
         }
         return write_landing_actor(weight, self.out, side)
-
-
-def _numbers(d: Any, *keys: str) -> bool:
-    """Whether ``d`` is an object holding a finite number (not a boolean) under each of
-    ``keys``."""
-    return isinstance(d, dict) and all(finite_number(d.get(k)) for k in keys)
 
 
 def day_cost(

@@ -176,11 +176,19 @@ def test_file_round_trip(tmp_path: Path, fmt: str, size: int) -> None:
             {"format": "marops-basic", "operating_model": REALISTIC},
             "expected format 'marops-landing-actor/2', got 'marops-basic'",
         ),
-        ({"weight": np.zeros(12, np.float32)}, {"operating_model": REALISTIC}, "got None"),
-        ({"weight": np.zeros(12, np.float32)}, [REALISTIC], "expected a JSON object, got list"),
+        (
+            {"weight": np.zeros(12, np.float32)},
+            {"operating_model": REALISTIC},
+            "key 'format': a landing actor's sidecar needs format",
+        ),
+        ({"weight": np.zeros(12, np.float32)}, [REALISTIC], "expected a JSON object, got a list"),
         ({"weight": np.zeros(12, np.float32)}, _side(fmt="/2"), r"expected float32 \[16\]"),
         ({"weight": np.zeros(16, np.float32)}, _side(), r"expected float32 \[12\]"),
-        ({"weight": np.zeros(12, np.float32)}, {**_side(), "format": ["x"]}, "got \\['x'\\]"),
+        (
+            {"weight": np.zeros(12, np.float32)},
+            {**_side(), "format": ["x"]},
+            "key 'format': expected format 'marops-landing-actor/2', got a list",
+        ),
         (
             {"weight": np.zeros(12, np.float32)},
             {"format": "marops-landing-actor/1", "operating-model": "paper"},

@@ -65,16 +65,16 @@ def test_workers_and_resume_give_the_same_weights(
 
 
 EDITS = {
-    "no key 'evals'": lambda s: {k: v for k, v in s.items() if k != "evals"},
-    "reference an object": lambda s: {**s, "reference": None},
-    "each reference must hold": lambda s: {**s, "reference": {"d": {"j": "x"}}},
-    "could not convert": lambda s: {**s, "weight": "heavy"},
-    f"weight must be {JOINT_START.size} finite": lambda s: {**s, "weight": [1.0]},
-    "best must hold": lambda s: {**s, "best": 3},
-    "int()": lambda s: {**s, "generation": None},
-    "must be lists": lambda s: {**s, "history": {}},
-    "counts from 0": lambda s: {**s, "episode": -5},
-    "infinity": lambda s: {**s, "generation": float("inf")},  # was an OverflowError
+    "needs evals": lambda s: {k: v for k, v in s.items() if k != "evals"},
+    "reference: expected a table, got null": lambda s: {**s, "reference": None},
+    "reference.d.j: expected a number, got 'x'": lambda s: {**s, "reference": {"d": {"j": "x"}}},
+    "weight: expected a list, got 'heavy'": lambda s: {**s, "weight": "heavy"},
+    f"weight must be {JOINT_START.size} numbers": lambda s: {**s, "weight": [1.0]},
+    "best: expected the best evaluation": lambda s: {**s, "best": 3},
+    "generation: expected a whole number, got null": lambda s: {**s, "generation": None},
+    "history: expected a list, got an object": lambda s: {**s, "history": {}},
+    "episode: expected episode ≥ 0, got -5": lambda s: {**s, "episode": -5},
+    "generation: expected a whole number, got inf": lambda s: {**s, "generation": math.inf},
 }
 
 
@@ -88,11 +88,18 @@ def _in_best(**change: object):  # noqa: ANN202
 
 READ_LATER = {
     "best must be one of the evaluations": _in_best(episode=12345),
-    "finite weights": _in_best(weight=[float("nan")] * JOINT_START.size),
-    "each history entry": _set("history", [{"episode": 1}]),
-    "each evaluation": _set("evals", [{"episode": 4, "cost": "low", "methods": {}}]),
-    "each held-out rule": _set("held_out_rules", [{"rule": "backlog"}]),
-    "each reference must hold": lambda s: {**s, "reference": {"d": {"j": 1, "energy": math.inf}}},
+    "best.weight[0]: expected a number, got nan": _in_best(
+        weight=[float("nan")] * JOINT_START.size
+    ),
+    "history[0].generation: a history entry needs": _set("history", [{"episode": 1}]),
+    "evals[0].cost: expected a number": _set(
+        "evals", [{"episode": 4, "cost": "low", "methods": {}}]
+    ),
+    "held_out_rules[0].objective_j_mj: a held-out rule": _set("held_out_rules", [{"rule": "b"}]),
+    "reference.d.energy: expected a number, got inf": lambda s: {
+        **s,
+        "reference": {"d": {"j": 1, "energy": math.inf}},
+    },
 }
 
 

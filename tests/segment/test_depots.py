@@ -197,7 +197,7 @@ def test_candidates_of_the_wrong_shape_name_the_key_and_the_shape(
         (lambda d: d["depots"][1].pop("x_m"), "depots[1].x_m", "a depot needs x_m"),
         (lambda d: d["depots"][1].pop("id"), "depots[1].id", "a depot needs id"),
         (lambda d: d["depots"][1].__setitem__("id", None), "depots[1].id", "got null"),
-        (lambda d: d["depots"][1].__setitem__("id", [1]), "depots[1].id", "whole number, got a list"),
+        (lambda d: d["depots"][1].__setitem__("id", [1]), "depots[1].id", "number, got a list"),
         (lambda d: d["depots"][2].__setitem__("id", 1), "depots[].id", "as an earlier depot does"),
         (lambda d: d["depots"][2].__setitem__("id", 99), "depots[].id", "id 99, outside 0..2"),
         (lambda d: d["depots"].__setitem__(1, [0.0, 0.0]), "depots[1]", "got a list"),
@@ -215,7 +215,8 @@ def test_candidates_of_the_wrong_shape_name_the_key_and_the_shape(
     ],
     ids=["no-x", "no-id", "null-id", "list-id", "id-twice", "id-beyond", "depot-list"]
     + ["depots-object", "no-depots"]
-    + ["null-frame", "no-frame", "frame-no-size", "frame-extra", "negative-count", "huge-count", "method-list"]
+    + ["null-frame", "no-frame", "frame-no-size", "frame-extra", "negative-count", "huge-count"]
+    + ["method-list"]
     + ["method-unknown", "meta-number"],
 )
 def test_a_depots_file_of_another_shape_names_the_key(tmp_path, edit, key, says) -> None:
