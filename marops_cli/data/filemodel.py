@@ -229,7 +229,10 @@ def _message(err: Any, owner: type[BaseModel] | None, field: FieldInfo | None, k
     loc = err["loc"]
     name = str(loc[-1]) if loc else ""
     noun = getattr(owner, "noun", "table")  # a settings model read from a file may name its own
-    what = field.description if field is not None else None
+    # A file model's description says what a value must be; a settings model's (a drone
+    # type's parameters) describes the setting, and its range says what it must be.
+    own = owner is not None and issubclass(owner, FileModel)
+    what = field.description if field is not None and own else None
     got = _got(err.get("input"))
     if typ == "extra_forbidden":
         known = ", ".join(sorted(_fields(owner))) if owner is not None else ""
