@@ -7,7 +7,6 @@ from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 
-from ..errors import InputError
 from ..methods import reference_names
 from . import options as o
 from .common import (
@@ -27,12 +26,11 @@ from .progress import Terminal
 if TYPE_CHECKING:
     import pyarrow as pa
 
-    from ..app.evaluate import EvaluationResult
-    from ..config import PlannerConfig
-    from ..segment.hubs import Hub
+    from ..app.evaluate import EvaluateConfig, EvaluationResult
 
 
 @guarded
+@o.takes_options("evaluate")
 def evaluate_command(
     data: o.Data,
     out: o.OutFolder,
@@ -127,67 +125,67 @@ def evaluate_command(
     config: o.Config = None,
     quiet: o.Quiet = False,
     as_json: o.Json = False,
+    *,
+    options: dict[str, Any],
 ) -> None:
     """Compare methods on held-out days (paper Table III); sweep flags given several values."""
     data = begin(data, quiet=quiet, as_json=as_json, force=force)
     # The library (pyarrow, matplotlib, the planner) loads here, so `marops --help` stays fast.
-    from ..app.evaluate import (
-        EvaluateConfig,
-        actor_paths,
-        check_out,
-        method_list,
-        output_files,
-        sweep_fields,
-    )
-    from ..app.evaluate import evaluate as run_evaluation
-    from ..app.options import planner_config
-    from ..data.dates import parse_days
+    from ..app.options import evaluate_config
 
-    check_out(out)  # before any computing
-    if scheduler is not None:
-        from ..workers.cluster import require_distributed
-
-        require_distributed()
-    sweep = sweep_fields(alpha, drones, coverage, n_depots, frontier)
-    protect_inputs(
-        output_files(out, sweep=sweep, against=against, plots=plots, report=report),
-        [data, config, policy, mappo_policy, hubs],
+    sweep, outputs = _sweep_and_outputs(
+        out, scheduler, (alpha, drones, coverage, n_depots, frontier), (against, plots, report)
     )
-    cfg = planner_config(
+    protect_inputs(outputs, [data, config, policy, mappo_policy, hubs])
+    run = evaluate_config(
         config,
-        year=year,
-        strict=strict,
-        seed=seed,
-        trust_actor=trust_actor,
-        area=area,
-        city_drones=city_drones,
-    )
-    hub_list = _hubs(hubs, cfg)
-    # --dates "" (an empty list from a script) is an error, not the split's days.
-    days = parse_days(dates, cfg.data.year, "--dates") if dates is not None else None
-    if dates is not None and split is not None:
-        raise InputError("give at most one of --dates or --split")
-    run = EvaluateConfig(
-        cfg,
-        method_list(methods),
+        options,
+        dates=dates,
+        split=split,
+        hubs=hubs,
+        methods=methods,
         **sweep,
-        days=days,
-        split=split if split is not None else "test",
         repeats=repeats,
         workers=workers,
         scheduler=scheduler,
-        hubs=hub_list,
-        actors=actor_paths(policy, mappo_policy),
+        policy=policy,
+        mappo_policy=mappo_policy,
         against=against,
         plots=plots,
         force=force,
         report=report,
     )
+    _show(_run(data, run, out))
+
+
+def _run(data: Path, run: EvaluateConfig, out: Path) -> EvaluationResult:
+    """The evaluation, with its progress on the terminal; stopped (Ctrl-C, SIGTERM), one
+    line saying what the folder keeps."""
+    from ..app.evaluate import evaluate
+
     try:
-        res = run_evaluation(data, run, out=out, progress=Terminal(remaining=True))
-    except KeyboardInterrupt as exc:  # Ctrl-C or SIGTERM, with what the folder keeps
+        return evaluate(data, run, out=out, progress=Terminal(remaining=True))
+    except KeyboardInterrupt as exc:
         stopped(exc, "; ".join(getattr(exc, "__notes__", ())), "evaluate")
-    _show(res)
+
+
+def _sweep_and_outputs(
+    out: Path, scheduler: str | None, sweeps: tuple[Any, ...], files: tuple[Any, ...]
+) -> tuple[dict[str, Any], list[Path]]:
+    """Before any computing: refuse an output folder or a scheduler that cannot serve;
+    the sweeps (``--alpha``, ``--drones``, ``--coverage``, ``--n-depots``, ``--frontier``)
+    as :class:`~marops_cli.app.evaluate.EvaluateConfig` fields, and the files the run
+    writes (with ``--against``, ``--plot``, ``--report``)."""
+    from ..app.evaluate import check_out, output_files, sweep_fields
+
+    check_out(out)
+    if scheduler is not None:
+        from ..workers.cluster import require_distributed
+
+        require_distributed()
+    sweep = sweep_fields(*sweeps)
+    against, plots, report = files
+    return sweep, output_files(out, sweep=sweep, against=against, plots=plots, report=report)
 
 
 def _show(res: Any) -> None:
@@ -205,15 +203,6 @@ def _show(res: Any) -> None:
     info(f"wrote {', '.join(str(p) for p in res.files)}")
     if STATE["json"]:
         _emit_json(res)
-
-
-def _hubs(path: Path | None, cfg: PlannerConfig) -> list[Hub] | None:
-    """The hubs of ``--hubs`` (None without it)."""
-    if path is None:
-        return None
-    from ..segment.hubs import load_hubs
-
-    return load_hubs(path, cfg.data)
 
 
 def _emit_json(res: EvaluationResult) -> None:

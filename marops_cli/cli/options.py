@@ -1,13 +1,20 @@
-"""Options shared by several commands (one definition, one help text)."""
+"""Options shared by several commands (one definition, one help text). The options that
+set a planner config field come from the table of marops_cli/app/options.py: their types
+here (``Alpha``) are its entries, and :func:`takes_options` gives a command every option
+of its use case."""
 
 from __future__ import annotations
 
+import functools
+import inspect
+from collections.abc import Callable
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any, TypeVar
 
 import typer
 
-from ..methods import method_names, policy_names
+from ..app.options import OPTIONS, OptionSpec, split_options, with_options
+from ..methods import method_names
 
 METHOD_NAMES = method_names()  # every registered method (marops_cli/methods.py)
 Data = Annotated[
@@ -31,42 +38,6 @@ Method = Annotated[
         show_default=False,
     ),
 ]
-Year = Annotated[
-    int | None,
-    typer.Option("--year", envvar="MAROPS_YEAR", help="Year of the MM-DD times [default: 2022]."),
-]
-Strict = Annotated[
-    bool, typer.Option("--strict", help="Make any bad row an error instead of dropping it.")
-]
-Alpha = Annotated[
-    float | None,
-    typer.Option(
-        "--alpha",
-        envvar="MAROPS_ALPHA",
-        help="Trade-off weight in [0.001, 1]: higher saves energy, lower delay [default: 0.5].",
-    ),
-]
-Drones = Annotated[
-    int | None, typer.Option("--drones", envvar="MAROPS_DRONES", help="Fleet size [default: 8].")
-]
-Area = Annotated[
-    str | None,
-    typer.Option(
-        "--area",
-        envvar="MAROPS_AREA",
-        help="square: one study square (the paper's experiment); hubs: hubs placed over "
-        "the whole export, each with its depots and share of the fleet, one folder each "
-        "[default: [data] area, hubs; one square with --depots or --fleet].",
-    ),
-]
-CityDrones = Annotated[
-    int | None,
-    typer.Option(
-        "--city-drones",
-        help="Over hubs: the city's fleet, shared out by the hubs' demand "
-        "[default: --drones per hub].",
-    ),
-]
 FleetFile = Annotated[
     Path | None,
     typer.Option(
@@ -75,38 +46,6 @@ FleetFile = Annotated[
         "(docs/outputs.md) [default: --drones drones of the [energy] type over the busiest "
         "depots].",
     ),
-]
-Policy = Annotated[
-    str | None,
-    typer.Option(
-        "--policy",
-        help=f"Flight-range policy: {policy_names()}, or a trained actor (PATH.pt, an "
-        "actor's weights PATH.safetensors, or torchscript:PATH) [default: the method's own].",
-    ),
-]
-TrustActor = Annotated[
-    bool,
-    typer.Option(
-        "--trust-actor",
-        help="Load a TorchScript actor (.pt) that has no weights file (.safetensors) beside "
-        "it: this runs code of the file, so only for a file whose author you trust "
-        "(docs/method.md §6).",
-    ),
-]
-Seed = Annotated[
-    int | None,
-    typer.Option("--seed", envvar="MAROPS_SEED", help="Seed for random policies [default: 0]."),
-]
-Ordering = Annotated[
-    str | None,
-    typer.Option(
-        "--ordering",
-        help="Visiting order: exact (energy-optimal) or greedy (paper) [default: exact].",
-    ),
-]
-StrictCover = Annotated[
-    bool,
-    typer.Option("--strict-cover", help="The paper's exact cover of all candidates when feasible."),
 ]
 Quiet = Annotated[
     bool,
@@ -120,14 +59,6 @@ Json = Annotated[
         "--json",
         envvar="MAROPS_JSON",
         help="Print the run's summary as one JSON document on stdout (no tables, no progress).",
-    ),
-]
-Tz = Annotated[
-    str | None,
-    typer.Option(
-        "--tz",
-        envvar="MAROPS_TZ",
-        help="Time zone of the data's local times [default: Asia/Shanghai].",
     ),
 ]
 Geojson = Annotated[
@@ -174,3 +105,85 @@ Report = Annotated[
         "(docs/report.md; needs pip install 'marops[report]').",
     ),
 ]
+
+
+# --- the table's options (marops_cli/app/options.py) -----------------------------------
+
+
+def table_option(name: str, use: str | None = None) -> Any:
+    """The flag of the table's option ``name`` (its help as use case ``use`` words it)."""
+    spec = OPTIONS[name]
+    return typer.Option(spec.flag_text, envvar=spec.envvar, help=spec.help_text(use))
+
+
+def _parameter(use: str) -> Callable[[OptionSpec], inspect.Parameter]:
+    def parameter(spec: OptionSpec) -> inspect.Parameter:
+        kind: Any = bool if spec.switch else spec.type | None
+        return inspect.Parameter(
+            spec.param,
+            inspect.Parameter.POSITIONAL_OR_KEYWORD,
+            default=False if spec.switch else None,
+            annotation=Annotated[kind, table_option(spec.name, use)],
+        )
+
+    return parameter
+
+
+# A command names the options it places in its help with these (their static types for
+# the type checker); what Typer reads is the table's entry, as the use case words it.
+Year = Annotated[int | None, table_option("year")]
+Strict = Annotated[bool, table_option("strict")]
+Tz = Annotated[str | None, table_option("tz")]
+SizeKm = Annotated[float | None, table_option("size_km")]
+Center = Annotated[str | None, table_option("center")]
+Area = Annotated[str | None, table_option("area")]
+NDepots = Annotated[int | None, table_option("n_depots")]
+Segmentation = Annotated[str | None, table_option("segmentation")]
+Segment = Annotated[str | None, table_option("segment")]
+Actions = Annotated[int | None, table_option("actions")]
+SegmentSeed = Annotated[int | None, table_option("segment_seed")]
+Alpha = Annotated[float | None, table_option("alpha")]
+Ordering = Annotated[str | None, table_option("ordering")]
+StrictCover = Annotated[bool, table_option("strict_cover")]
+Drones = Annotated[int | None, table_option("drones")]
+CityDrones = Annotated[int | None, table_option("city_drones")]
+Seed = Annotated[int | None, table_option("seed")]
+Policy = Annotated[str | None, table_option("policy")]
+TrustActor = Annotated[bool, table_option("trust_actor")]
+
+F = TypeVar("F", bound=Callable[..., Any])
+
+
+def takes_options(use: str) -> Callable[[F], F]:
+    """A command of use case ``use`` (``plan_window``) with every option the table gives
+    it: the function's parameters named after one place it in the help, the others come
+    before ``--quiet``; all of them reach the function gathered in its keyword-only
+    ``options`` (name -> value, for ``planner_config``), those it names by name too. The
+    command's signature is made from the table when Typer asks for it, so an option
+    registered before the command line is built is the command's."""
+
+    def decorate(fn: F) -> F:
+        return _TableOptions(fn, use)  # type: ignore[return-value]
+
+    return decorate
+
+
+class _TableOptions:
+    """A command's function with its use case's options (:func:`takes_options`)."""
+
+    def __init__(self, fn: Callable[..., Any], use: str) -> None:
+        functools.update_wrapper(self, fn)
+        self._fn, self._use = fn, use
+
+    @functools.cached_property
+    def _own(self) -> inspect.Signature:
+        return inspect.signature(self._fn, eval_str=True)
+
+    @property
+    def __signature__(self) -> inspect.Signature:
+        before = ("quiet", "as_json")
+        return with_options(self._own, self._use, _parameter(self._use), before)
+
+    def __call__(self, **kwargs: Any) -> Any:
+        own, options = split_options(self._use, kwargs, self._own)
+        return self._fn(**own, options=options)

@@ -26,6 +26,7 @@ if TYPE_CHECKING:
 
 
 @guarded
+@o.takes_options("plan_window")
 def plan_window_command(
     data: o.Data,
     depots: Annotated[Path, typer.Option("--depots", help="depots.json from marops segment.")],
@@ -64,35 +65,17 @@ def plan_window_command(
     tz: o.Tz = None,
     quiet: o.Quiet = False,
     as_json: o.Json = False,
+    *,
+    options: dict[str, Any],
 ) -> None:
     """Plan one time window: flight ranges, candidate plans, optimal plan selection."""
     data = begin(data, quiet=quiet, as_json=as_json, force=force)
-    from ..app.inputs import check_format
     from ..app.options import planner_config
-    from ..app.plan_window import check_out
     from ..app.plan_window import plan_window as plan
     from ..data.dates import parse_day
-    from ..io.tables import route_file_paths
 
-    check_out(out, fmt)
-    check_format(fmt)
-    protect_inputs(
-        route_file_paths(out, fmt, geojson) + [out / "report.html"] * report,
-        [data, depots, fleet, delivered, config],
-    )
-    cfg = planner_config(
-        config,
-        year=year,
-        strict=strict,
-        tz=tz,
-        alpha=alpha,
-        ordering=ordering,
-        strict_cover=strict_cover,
-        drones=drones,
-        seed=seed,
-        policy=policy,
-        trust_actor=trust_actor,
-    )
+    _check_outputs(out, fmt, geojson, report, [data, depots, fleet, delivered, config])
+    cfg = planner_config(config, **options)
     day = parse_day(date, cfg.data.year, "--date")
     res = plan(
         data,
@@ -113,6 +96,20 @@ def plan_window_command(
     info("wrote " + ", ".join(str(p) for p in res.files))
     if STATE["json"]:
         emit_json(_json_doc(res, day.isoformat(), window))
+
+
+def _check_outputs(
+    out: Path, fmt: str, geojson: bool, report: bool, inputs: list[Path | None]
+) -> None:
+    """Refuse, before any work, an output folder or format that cannot be written, and
+    outputs that would replace one of the ``inputs``."""
+    from ..app.inputs import check_format
+    from ..app.plan_window import check_out
+    from ..io.tables import route_file_paths
+
+    check_out(out, fmt)
+    check_format(fmt)
+    protect_inputs(route_file_paths(out, fmt, geojson) + [out / "report.html"] * report, inputs)
 
 
 def _json_doc(res: PlannedWindow, day: str, window: int) -> dict[str, Any]:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import datetime as dt
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -38,6 +39,7 @@ METRIC_COLUMNS = (
 
 
 @guarded
+@o.takes_options("replay_day")
 def replay_day_command(
     data: o.Data,
     out: o.OutFolder,
@@ -51,15 +53,8 @@ def replay_day_command(
     depots: Annotated[
         Path | None, typer.Option("--depots", help="depots.json [default: segment the other days].")
     ] = None,
-    n_depots: Annotated[
-        int | None, typer.Option("--n-depots", help="Depots when segmenting here [default: 16].")
-    ] = None,
-    segment: Annotated[
-        str | None,
-        typer.Option(
-            "--segment", help="kmeans or squares when segmenting here [default: the method's]."
-        ),
-    ] = None,
+    n_depots: o.NDepots = None,
+    segment: o.Segment = None,
     drones: o.Drones = None,
     fleet: o.FleetFile = None,
     hubs: Annotated[
@@ -99,42 +94,22 @@ def replay_day_command(
     config: o.Config = None,
     quiet: o.Quiet = False,
     as_json: o.Json = False,
+    *,
+    options: dict[str, Any],
 ) -> None:
     """Replay whole days window by window; write stops, routes and the paper's metrics."""
     data = begin(data, quiet=quiet, as_json=as_json, force=force)
     from ..app.replay import ReplayOptions, check_options, replay_config, replay_days
-    from ..data.dates import parse_day, parse_days
 
     if (date is None) == (dates is None):
         raise InputError("give exactly one of --date or --dates")
     opts = ReplayOptions(method, fmt, plot, geojson, force, workers, scheduler, report=report)
     check_options(opts)
-    cfg = replay_config(
-        config,
-        method=method,
-        segment=segment,
-        year=year,
-        strict=strict,
-        tz=tz,
-        n_depots=n_depots,
-        alpha=alpha,
-        ordering=ordering,
-        drones=drones,
-        seed=seed,
-        policy=policy,
-        trust_actor=trust_actor,
-        area=area,
-        city_drones=city_drones,
-    )
-    days = (
-        [parse_day(date, cfg.data.year, "--date")]
-        if date is not None
-        else parse_days(dates or "", cfg.data.year, "--dates")
-    )
+    cfg = replay_config(config, method=method, **options)
     res = replay_days(
         data,
         cfg,
-        days,
+        _days(date, dates, cfg.data.year),
         options=opts,
         out=out,
         several=bool(dates),
@@ -147,11 +122,25 @@ def replay_day_command(
     _print_metrics(res.days, res.city is not None)
     info(_wrote(out, res.files))
     if STATE["json"]:
-        doc: dict[str, Any] = {"out": str(out), "files": [str(f) for f in res.files]}
-        doc.update({"metrics": str(out / "metrics.json"), "days": res.days})
-        doc.update({"city": res.city} if res.city is not None else {})
-        doc.update({"report": str(out / "report.html")} if report else {})
-        emit_json({"command": "replay-day", **doc})
+        emit_json(_json_doc(res, out, report))
+
+
+def _json_doc(res: Any, out: Path, report: bool) -> dict[str, Any]:
+    """``--json``: the files written, the metrics file, each day's metrics, the city's."""
+    doc: dict[str, Any] = {"out": str(out), "files": [str(f) for f in res.files]}
+    doc.update({"metrics": str(out / "metrics.json"), "days": res.days})
+    doc.update({"city": res.city} if res.city is not None else {})
+    doc.update({"report": str(out / "report.html")} if report else {})
+    return {"command": "replay-day", **doc}
+
+
+def _days(date: str | None, dates: str | None, year: int) -> list[dt.date]:
+    """The day of ``--date``, or the days of ``--dates``."""
+    from ..data.dates import parse_day, parse_days
+
+    if date is not None:
+        return [parse_day(date, year, "--date")]
+    return parse_days(dates or "", year, "--dates")
 
 
 def _wrote(out: Path, files: list[Path]) -> str:

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated
+from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 
@@ -26,43 +26,22 @@ if TYPE_CHECKING:
 
 
 @guarded
+@o.takes_options("segment")
 def segment_command(
     data: o.Data,
     out: Annotated[Path, typer.Option("--out", help="Where to write depots.json.")],
-    n_depots: Annotated[
-        int | None,
-        typer.Option("--n-depots", help="Number of depots / service areas [default: 16]."),
-    ] = None,
-    method: Annotated[
-        str | None,
-        typer.Option(
-            "--method",
-            help="kmeans (k-means areas, docs/method.md §2) or squares [default: kmeans].",
-        ),
-    ] = None,
-    size_km: Annotated[
-        float | None,
-        typer.Option("--size-km", help="Side of the study-area square in km [default: 10]."),
-    ] = None,
-    center: Annotated[
-        str | None,
-        typer.Option("--center", help="Study-area centre LNG,LAT [default: the densest square]."),
-    ] = None,
+    n_depots: o.NDepots = None,
+    method: o.Segmentation = None,
+    size_km: o.SizeKm = None,
+    center: o.Center = None,
     dates: Annotated[
         str | None,
         typer.Option(
             "--dates", help="History days, e.g. 0801..0824 or 801,802 [default: all days]."
         ),
     ] = None,
-    actions: Annotated[
-        int | None,
-        typer.Option(
-            "--actions", help="Action candidates per depot, itself included [default: 4]."
-        ),
-    ] = None,
-    seed: Annotated[
-        int | None, typer.Option("--seed", help="k-means random seed [default: 0].")
-    ] = None,
+    actions: o.Actions = None,
+    seed: o.SegmentSeed = None,
     year: o.Year = None,
     strict: o.Strict = False,
     geojson: Annotated[
@@ -94,62 +73,49 @@ def segment_command(
     config: o.Config = None,
     quiet: o.Quiet = False,
     as_json: o.Json = False,
+    *,
+    options: dict[str, Any],
 ) -> None:
     """Cluster a LaDe export into depots and service areas (k-means or squares), or tile
     a city into hubs (--hubs)."""
     data = begin(data, quiet=quiet, as_json=as_json, force=force)
-    from ..app.options import planner_config
+    from ..app.options import hubs_options, planner_config
     from ..app.segment import check_json_out, refuse_with_hubs
     from ..app.segment import segment as segment_data
 
     if hubs is not None:
-        refuse_with_hubs(
-            hubs,
-            {
-                "center": center,
-                "n_depots": n_depots,
-                "method": method,
-                "actions": actions,
-                "seed": seed,
-            },
-        )
-        _segment_hubs(data, out, hubs, size_km, dates, year, strict, config, plot)
+        read, refused = hubs_options(options)
+        refuse_with_hubs(hubs, refused)
+        _segment_hubs(data, out, hubs, dates, config, plot, read)
         return
     check_json_out(out, "depots")
     gj_path, png_path = out.with_suffix(".geojson"), out.with_suffix(".png")
     protect_inputs([out, *[gj_path] * geojson, *[png_path] * plot], [data, config])
-    cfg = planner_config(
-        config,
-        year=year,
-        size_km=size_km,
-        center=center,
-        strict=strict,
-        n_depots=n_depots,
-        segmentation=method,
-        actions=actions,
-        segment_seed=seed,
-    )
+    cfg = planner_config(config, **options)
     res = segment_data(
         data, cfg, days=dates, out=out, geojson=geojson, plot=plot, progress=Terminal()
     )
     _print_summary(res.depots)
     info("wrote " + ", ".join(str(p) for p in res.files))
     if STATE["json"]:
-        frame = res.depots.frame
-        emit_json(
-            {
-                "command": "segment",
-                "files": [str(p) for p in res.files],
-                "method": cfg.segment.method,
-                "frame": {
-                    "center_lng": frame.center_lng,
-                    "center_lat": frame.center_lat,
-                    "size_km": frame.size_km,
-                },
-                "history_days": [d.isoformat() for d in res.days],
-                "depots": len(res.depots),
-            }
-        )
+        emit_json(_json_doc(res, cfg))
+
+
+def _json_doc(res: Any, cfg: Any) -> dict[str, Any]:
+    """``--json``: the files written, the segmentation, the frame, the days and depots."""
+    frame = res.depots.frame
+    return {
+        "command": "segment",
+        "files": [str(p) for p in res.files],
+        "method": cfg.segment.method,
+        "frame": {
+            "center_lng": frame.center_lng,
+            "center_lat": frame.center_lat,
+            "size_km": frame.size_km,
+        },
+        "history_days": [d.isoformat() for d in res.days],
+        "depots": len(res.depots),
+    }
 
 
 def _print_summary(depots: Depots) -> None:
@@ -170,8 +136,14 @@ def _print_summary(depots: Depots) -> None:
     show_table(t)
 
 
-def _segment_hubs(  # type: ignore[no-untyped-def]
-    data: Path, out: Path, hubs: str, size_km, dates, year, strict, config, plot: bool
+def _segment_hubs(
+    data: Path,
+    out: Path,
+    hubs: str,
+    dates: str | None,
+    config: Path | None,
+    plot: bool,
+    options: dict[str, Any],
 ) -> None:
     """``segment --hubs``: hub squares over the city, densest first, into a hubs file
     (with its GeoJSON and, with ``plot``, its map)."""
@@ -183,7 +155,7 @@ def _segment_hubs(  # type: ignore[no-untyped-def]
     check_json_out(out, "hubs")
     gj_path, png_path = out.with_suffix(".geojson"), out.with_suffix(".png")
     protect_inputs([out, gj_path, *[png_path] * plot], [data, config])
-    cfg = planner_config(config, year=year, size_km=size_km, strict=strict)
+    cfg = planner_config(config, **options)
     res = segment_hubs(data, cfg, hubs, days=dates, out=out, plot=plot, progress=Terminal())
     held, total = sum(h.orders for h in res.hubs), res.total
     asked = hub_count(hubs)

@@ -33,6 +33,7 @@ from .common import (
 )
 
 if TYPE_CHECKING:
+    from ..config import PlannerConfig
     from ..rl.config import TrainConfig
 
 
@@ -128,6 +129,7 @@ def _alpha_range(text: str | None) -> dict[str, Any]:
 
 
 @guarded
+@o.takes_options("train")
 def train_command(
     data: Annotated[
         list[Path],
@@ -239,34 +241,18 @@ def train_command(
     year: o.Year = None,
     config: o.Config = None,
     force: o.Force = False,
+    *,
+    options: dict[str, Any],
 ) -> None:
     """Train the flight-range actor (MAPPO), or the landing actor (--algorithm es), on
     training days; write the actor and its sidecar."""
-    from ..app.options import planner_config
     from ..app.train import TrainSetup, actor_files
     from ..app.train import train as run_training
-    from ..data.dates import parse_days
 
-    for path in data:
-        if str(path) == "-":  # training reads each city's file several times
-            raise InputError("train reads files (one per city), not standard input (-)")
-        require_input(path)
-    if out.suffix != (".safetensors" if algorithm == "es" else ".pt"):
-        want = "a .safetensors file (--algorithm es)" if algorithm == "es" else "a .pt file"
-        raise InputError(f"--out must name {want} (the sidecar goes beside it)", file=out)
-    if obs_version != 4 and (method == "mappo" or algorithm == "es"):  # it was ignored
-        who = "--algorithm es (the landing actor)" if algorithm == "es" else "--method mappo"
-        raise InputError(f"--obs-version is the recurrent marops actor's; {who} has its own")
+    _check_args(data, out, algorithm, method, obs_version)
     allow_replacing_foreign(force)
     protect_inputs(actor_files(out, algorithm), [*data, config])  # before the long work
-    fleets, depot_counts = _sizes(drones, "--drones"), _sizes(n_depots, "--n-depots")
-    cfg = planner_config(
-        config,
-        year=year,
-        alpha=alpha,
-        drones=fleets[0] if fleets else None,
-        n_depots=depot_counts[0] if depot_counts else None,
-    )
+    cfg, scenarios = _planner(config, options, drones, n_depots, days)
     tcfg = _train_config(
         algorithm=algorithm,
         es_energy_weight=energy_weight,
@@ -280,20 +266,52 @@ def train_command(
         obs_version=obs_version,
         **_alpha_range(alpha_range),
     )
+    command = "marops " + shlex.join(sys.argv[1:]) if sys.argv else None
     setup = TrainSetup(
-        cfg,
-        tcfg,
-        train_days=parse_days(days, cfg.data.year, "--dates") if days is not None else None,
-        n_depots=depot_counts,
-        drones=fleets,
-        resume=resume,
-        command="marops " + shlex.join(sys.argv[1:]) if sys.argv else None,
-        data_origin=data_origin,
+        cfg, tcfg, **scenarios, resume=resume, command=command, data_origin=data_origin
     )
     res = run_training(data, setup, out, progress=_Reporter(tcfg.checkpoint_every))
     console.print(f"wrote {', '.join(map(str, res.files))} ({res.training_time_s:.0f} s)")
     if res.heldout:
         _print_heldout(res.heldout)
+
+
+def _planner(
+    config: Path | None,
+    options: dict[str, Any],
+    drones: str | None,
+    n_depots: str | None,
+    days: str | None,
+) -> tuple[PlannerConfig, dict[str, Any]]:
+    """The planner config of the options (the first of several fleet sizes or depot
+    counts), and the scenarios trained on: the sizes, the counts and the days."""
+    from ..app.options import planner_config
+    from ..data.dates import parse_days
+
+    fleets, depot_counts = _sizes(drones, "--drones"), _sizes(n_depots, "--n-depots")
+    cfg = planner_config(
+        config,
+        **options,
+        drones=fleets[0] if fleets else None,
+        n_depots=depot_counts[0] if depot_counts else None,
+    )
+    train_days = parse_days(days, cfg.data.year, "--dates") if days is not None else None
+    return cfg, {"drones": fleets, "n_depots": depot_counts, "train_days": train_days}
+
+
+def _check_args(data: list[Path], out: Path, algorithm: str, method: str, obs_version: int) -> None:
+    """Refuse, before any work, standard input or a missing file for DATA, an ``--out``
+    of the wrong kind and an ``--obs-version`` the actor would ignore."""
+    for path in data:
+        if str(path) == "-":  # training reads each city's file several times
+            raise InputError("train reads files (one per city), not standard input (-)")
+        require_input(path)
+    if out.suffix != (".safetensors" if algorithm == "es" else ".pt"):
+        want = "a .safetensors file (--algorithm es)" if algorithm == "es" else "a .pt file"
+        raise InputError(f"--out must name {want} (the sidecar goes beside it)", file=out)
+    if obs_version != 4 and (method == "mappo" or algorithm == "es"):  # it was ignored
+        who = "--algorithm es (the landing actor)" if algorithm == "es" else "--method mappo"
+        raise InputError(f"--obs-version is the recurrent marops actor's; {who} has its own")
 
 
 _FLAGS = {
