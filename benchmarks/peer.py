@@ -91,6 +91,7 @@ from marops_cli.plans.kernels import kernels_now  # noqa: E402
 from marops_cli.plans.objective import lam_j, relative_gap  # noqa: E402
 from marops_cli.plans.pool import finish_route  # noqa: E402
 from marops_cli.plans.pyvrp_routes import solve_window  # noqa: E402
+from marops_cli.plans.view import EVERY_DEPOT  # noqa: E402
 from marops_cli.plans.window import DroneRoute, WindowPlan, score_plan  # noqa: E402
 from marops_cli.policies.base import WindowView, start_day  # noqa: E402
 from marops_cli.segment.depots import Depots  # noqa: E402
@@ -125,7 +126,7 @@ def pyvrp_routes(
     only with a drone from its depot), and a drone whose depot holds none stays."""
     fly = np.array([u for u in range(view.n_drones) if view.ready(u)], dtype=np.int64)
     allowed = None
-    if view.pending_stock is not None and fly.size:
+    if not (view.pending_stock == EVERY_DEPOT).all() and fly.size:
         allowed = view.pending_stock[None, :] == view.drone_depot[fly, None]
         keep = allowed.any(axis=1)
         fly, allowed = fly[keep], allowed[keep]
@@ -246,7 +247,7 @@ def load_bound(cfg: PlannerConfig) -> Bound:
 def check(view: WindowView, routes: list[DroneRoute], model: EnergyModel) -> int:
     """Routes breaking payload, battery or the stock rule (none expected from either side)."""
     stock = None
-    if view.pending_stock is not None:
+    if not (view.pending_stock == EVERY_DEPOT).all():
         stock = dict(zip(view.pending_idx.tolist(), view.pending_stock.tolist(), strict=True))
     return sum(
         r.payload_kg > model.max_payload_kg + 1e-9
@@ -299,7 +300,10 @@ class Day:
 
     def state(self, cfg: PlannerConfig) -> DayState:
         p = cfg.plan
-        return DayState(self.reqs, self.depots, self.fleet, p.coverage, p.ties, ops=cfg.ops)
+        model = EnergyModel.of(cfg.energy)
+        return DayState(
+            self.reqs, self.depots, self.fleet, p.coverage, p.ties, ops=cfg.ops, model=model
+        )
 
 
 def replay_days(
@@ -766,13 +770,8 @@ def print_closed(days: list[dict], summary: dict) -> None:
 def prefiltered(view: WindowView, n: int) -> WindowView:
     """``view`` with only its ``n`` most delayed requests (earliest due first among ties)."""
     keep = np.lexsort((view.pending_due_s, -view.pending_delay_h))[:n]
-    return WindowView(
-        t=view.t,
-        n_windows=view.n_windows,
-        window_h=view.window_h,
-        depots=view.depots,
-        ranges=view.ranges,
-        drone_depot=view.drone_depot,
+    return replace(
+        view,
         pending_idx=view.pending_idx[keep],
         pending_xy=view.pending_xy[keep],
         pending_area=view.pending_area[keep],
@@ -780,6 +779,9 @@ def prefiltered(view: WindowView, n: int) -> WindowView:
         pending_due_w=view.pending_due_w[keep],
         pending_due_s=view.pending_due_s[keep],
         pending_weight=view.pending_weight[keep],
+        pending_stock=view.pending_stock[keep],
+        pending_visible_w=None if view.pending_visible_w is None else view.pending_visible_w[keep],
+        pending_servable=None if view.pending_servable is None else view.pending_servable[keep],
     )
 
 

@@ -73,7 +73,9 @@ def basic_view(data: str, cfg: PlannerConfig) -> WindowView:
     reqs = prepare_day(scn.table, scn.frame, day, cfg.data)
     reqs.visible_w[:] = 0  # all of the day's requests are known and undelivered
     fleet = default_fleet(scn.depots, cfg.sim.drones)
-    return DayState(reqs, scn.depots, fleet, cfg.plan.coverage, cfg.plan.ties).view(MID_WINDOW)
+    model = EnergyModel.of(cfg.energy)
+    state = DayState(reqs, scn.depots, fleet, cfg.plan.coverage, cfg.plan.ties, model=model)
+    return state.view(MID_WINDOW)
 
 
 def large_view(cfg: PlannerConfig, seed: int = 0) -> WindowView:
@@ -92,7 +94,8 @@ def large_view(cfg: PlannerConfig, seed: int = 0) -> WindowView:
     depots = segment_points(hist[:, 0], hist[:, 1], frame, seg)
     due_w = rng.integers(0, 16, n_req)
     weight = np.clip(rng.lognormal(np.log(0.5), 0.6, n_req), 0.1, 2.5)
-    return WindowView(
+    return WindowView.paper(
+        EnergyModel.of(cfg.energy),
         t=MID_WINDOW,
         n_windows=16,
         window_h=0.5,

@@ -28,7 +28,7 @@ from .candidates import by_delay, draft, range_candidates
 from .plans import PlanSet, build_plans
 from .pool import build_pool
 from .problem import DroneTask, Scope, WindowProblem, can_reach
-from .view import FREE, WindowView
+from .view import EVERY_DEPOT, FREE, WindowView
 
 __all__ = [
     "DronePlans",
@@ -139,9 +139,9 @@ def _own_range_candidates(
     if not view.ready(u):
         return _NONE
     rank, rank_area = ranked
-    if view.pending_stock is not None:
-        keep = view.pending_stock[rank] == s
-        rank, rank_area = rank[keep], rank_area[keep]
+    stock = view.pending_stock[rank]
+    keep = (stock == s) | (stock == EVERY_DEPOT)
+    rank, rank_area = rank[keep], rank_area[keep]
     return range_candidates(view, rank, rank_area, s, a, m)
 
 
@@ -229,8 +229,10 @@ def _global_plans(
     near, d_near = nearest_depot(pxy, dep.xy)
     # Each drone's pool positions, nearest its depot first (ties to the lower index).
     nearest = {int(s): np.lexsort((pool, d_pool[:, int(s)])) for s in set(view.drone_depot)}
-    if view.pending_stock is not None:  # only the parcels stocked at the drone's depot
-        nearest = {s: p[view.pending_stock[pool[p]] == s] for s, p in nearest.items()}
+    stock = view.pending_stock  # only the parcels stocked at the drone's depot
+    nearest = {
+        s: p[(stock[pool[p]] == s) | (stock[pool[p]] == EVERY_DEPOT)] for s, p in nearest.items()
+    }
     prefs = [nearest[int(s)] if view.ready(u) else _NONE for u, s in enumerate(view.drone_depot)]
     drafted = None
     if cfg.candidates == "draft":

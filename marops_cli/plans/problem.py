@@ -25,7 +25,7 @@ from ..config import PlanConfig
 from ..energy import EnergyModel
 from ..errors import RunError
 from .objective import lam_j, priced_delay_h, wait_credit_j
-from .view import FREE, WindowView
+from .view import EVERY_DEPOT, FREE, WindowView
 
 __all__ = [
     "EVERY_DEPOT",
@@ -40,8 +40,6 @@ __all__ = [
 
 Scope = Literal["range", "global"]
 
-EVERY_DEPOT = -1
-"""``WindowProblem.stock`` of a parcel held at every depot (the paper)."""
 
 _NONE = np.zeros(0, dtype=np.int64)
 
@@ -107,12 +105,14 @@ class WindowProblem:
         """The problem of window ``view.t`` with the drones flying ``actions`` as the
         route pool flies them (``scope`` and ``cfg`` decide each drone's landing and
         allowed requests); λ from ``cfg.alpha`` and ``model``'s usable battery."""
-        models = drone_models(view, model)
-        n_req = view.pending_idx.size
-        stock = view.pending_stock
-        stock = np.full(n_req, EVERY_DEPOT, np.int64) if stock is None else stock.astype(np.int64)
-        ready = np.ones(view.n_drones, bool) if view.drone_ready is None else view.drone_ready
-        ready = np.asarray(ready, dtype=bool)
+        models = drone_models(view)
+        stock = np.asarray(view.pending_stock, dtype=np.int64)
+        ready = np.asarray(view.drone_ready, dtype=bool)
+        if stock.shape != view.pending_idx.shape or ready.shape != view.drone_depot.shape:
+            raise RunError(
+                f"a view of {view.pending_idx.size} requests and {view.n_drones} drones "
+                f"with {stock.size} stock depots and {ready.size} ready flags"
+            )
         acts = flown_actions(view, actions, models, scope)
         lam = lam_j(cfg.alpha, model.usable_j)
         delay = np.asarray(view.pending_delay_h, dtype=np.float64)
@@ -224,10 +224,8 @@ class WindowProblem:
         return replace(self, tasks=tuple(tasks), actions=np.zeros(self.n_drones, np.int64))
 
 
-def drone_models(view: WindowView, model: EnergyModel) -> list[EnergyModel]:
-    """Each drone's energy model: its type's (a mixed fleet), else ``model`` for all."""
-    if view.drone_models is None:
-        return [model] * view.n_drones
+def drone_models(view: WindowView) -> list[EnergyModel]:
+    """Each drone's energy model, its type's (one per drone, checked)."""
     if len(view.drone_models) != view.n_drones:
         raise RunError(f"{len(view.drone_models)} drone models for {view.n_drones} drones")
     return list(view.drone_models)
@@ -256,8 +254,6 @@ def flown_actions(
     for u in range(view.n_drones):
         if acts[u] != FREE and not can_reach(view, u, int(acts[u]), models[u]):
             acts[u] = 0
-    if view.drone_ready is None:
-        return acts
     return np.where(view.drone_ready, acts, 0)
 
 

@@ -6,7 +6,9 @@ it (imports run one way: data, segment, plans, policies, sim).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -14,12 +16,15 @@ from ..energy import EnergyModel
 from ..segment.depots import Depots
 from .ranges import Ties
 
-__all__ = ["FREE", "WindowView"]
+__all__ = ["EVERY_DEPOT", "FREE", "WindowView"]
 
 FREE = -1
 """The action "no destination" (docs/method.md §4.1): with the route pool the drone lands
 at the depot nearest its last customer (an idle drone stays); the paper's planner flies
 it as action 0."""
+
+EVERY_DEPOT = -1
+"""``WindowView.pending_stock`` of a parcel held at every depot (the paper)."""
 
 
 @dataclass
@@ -43,40 +48,75 @@ class WindowView:
     pending_due_w: np.ndarray  # (P,)
     pending_due_s: np.ndarray  # (P,) due time, seconds from service start
     pending_weight: np.ndarray  # (P,)
+    drone_models: tuple[EnergyModel, ...]
+    """(U,) each drone's energy model, its type's (docs/method.md §5.1); with one type
+    every entry is that type's."""
+    pending_stock: np.ndarray
+    """(P,) the depot each pending parcel is stocked at: a drone carries only its departure
+    depot's (docs/method.md, "Operating model"); :data:`EVERY_DEPOT` where a parcel is at
+    every depot (the paper)."""
+    drone_ready: np.ndarray
+    """(U,) False where a drone cannot fly this window (still on a long flight, or no
+    charged battery at its depot): it gets only its empty plan and stays."""
+    depot_spares: np.ndarray
+    """(N,) charged spare batteries at each depot at the start of the window, before its
+    swaps; ``inf`` where a charged battery waits whenever one is needed (the paper)."""
+    depot_charging: np.ndarray
+    """(N,) batteries on charge or waiting for a charger at each depot (0 under the paper's
+    unlimited swaps)."""
     ties: Ties = "nearest"  # candidate order among equally delayed requests (PlanConfig.ties)
     pending_visible_w: np.ndarray | None = None  # (P,) window each became visible; None: unknown
-    drone_models: tuple[EnergyModel, ...] | None = None
-    """(U,) each drone's energy model, its type's (docs/method.md §5.1); None: one type,
-    the planner's model."""
-    pending_stock: np.ndarray | None = None
-    """(P,) the depot each pending parcel is stocked at: a drone carries only its departure
-    depot's (docs/method.md, "Operating model"); None: every parcel at every depot (the
-    paper)."""
     pending_servable: np.ndarray | None = None
     """(P,) False where no drone of the fleet can ever serve the request (too heavy for
     every type, or out of every type's reach from the nearest depot); None: not known."""
-    drone_ready: np.ndarray | None = None
-    """(U,) False where a drone cannot fly this window (still on a long flight, or no
-    charged battery at its depot): it gets only its empty plan and stays; None: all can."""
-    depot_spares: np.ndarray | None = None
-    """(N,) charged spare batteries at each depot at the start of the window, before its
-    swaps; None: a charged battery at every depot whenever one is needed (the paper)."""
-    depot_charging: np.ndarray | None = None
-    """(N,) batteries on charge or waiting for a charger at each depot; None: unlimited."""
+
+    @classmethod
+    def paper(
+        cls,
+        model: EnergyModel | None = None,
+        *,
+        drone_models: Sequence[EnergyModel] | None = None,
+        pending_stock: np.ndarray | None = None,
+        drone_ready: np.ndarray | None = None,
+        depot_spares: np.ndarray | None = None,
+        depot_charging: np.ndarray | None = None,
+        **fields: Any,
+    ) -> WindowView:
+        """A view whose operating state is the paper's wherever it is not given: every
+        drone of ``model``'s type (default: the default drone), every parcel at every
+        depot, every drone able to fly, swaps unlimited. ``fields``: the view's others."""
+        n_drones = len(fields["drone_depot"])
+        n_req, n_depots = len(fields["pending_idx"]), len(fields["depots"])
+        if drone_models is None:
+            drone_models = (model or EnergyModel(),) * n_drones
+        return cls(
+            drone_models=tuple(drone_models),
+            pending_stock=np.full(n_req, EVERY_DEPOT, np.int64)
+            if pending_stock is None
+            else np.asarray(pending_stock, dtype=np.int64),
+            drone_ready=np.ones(n_drones, bool) if drone_ready is None else drone_ready,
+            depot_spares=np.full(n_depots, np.inf) if depot_spares is None else depot_spares,
+            depot_charging=np.zeros(n_depots) if depot_charging is None else depot_charging,
+            **fields,
+        )
+
+    @property
+    def swaps_unlimited(self) -> bool:
+        """A charged battery waits at every depot whenever one is needed (the paper)."""
+        return bool(np.isinf(self.depot_spares).all())
 
     @property
     def n_drones(self) -> int:
         return int(self.drone_depot.shape[0])
 
-    def stocked_at(self, s: int) -> np.ndarray | None:
-        """Pending positions a drone departing from depot ``s`` may carry; None: all."""
-        if self.pending_stock is None:
-            return None
-        return np.flatnonzero(self.pending_stock == s).astype(np.int64)
+    def waiting_at(self) -> np.ndarray:
+        """(P,) the depot each pending parcel waits at: where it is stocked, its service
+        area's depot when it is at every depot."""
+        return np.where(self.pending_stock == EVERY_DEPOT, self.pending_area, self.pending_stock)
 
     def ready(self, u: int) -> bool:
         """Whether drone ``u`` can fly this window."""
-        return self.drone_ready is None or bool(self.drone_ready[u])
+        return bool(self.drone_ready[u])
 
     def action_mask(self) -> np.ndarray:
         """``(U, A)`` True where the action exists (a depot has fewer candidates when N < A)."""

@@ -335,7 +335,7 @@ class SequentialObserver:
         v, dep, m_hat = self.view, self.view.depots, self.plan.max_parcels
         s, n, a = int(v.drone_depot[u]), self.n_depots, self.n_actions
         self._own = self.model
-        if self.version >= ObsVersion.CAPABILITIES and v.drone_models is not None:
+        if self.version >= ObsVersion.CAPABILITIES:
             self._own = v.drone_models[u]  # its own type prices its plans
         free = ~self.claimed
         area = v.pending_area

@@ -37,7 +37,7 @@ def waiting_per_depot(view: WindowView, weights: np.ndarray | None = None) -> np
     """``(N,)`` the pending parcels (or their ``weights``) per depot: where each is
     stocked, or its service area's depot when every parcel is at every depot. Parcels no
     drone can ever serve are left out: nothing waits there for a drone to fetch."""
-    where = view.pending_area if view.pending_stock is None else view.pending_stock
+    where = view.waiting_at()
     n = len(view.depots)
     if view.pending_servable is not None:
         keep = view.pending_servable
@@ -75,7 +75,7 @@ class EnergyAware(PolicyBase):
         pass
 
     def _drone_model(self, view: WindowView, u: int) -> EnergyModel:
-        return self._model if view.drone_models is None else view.drone_models[u]
+        return view.drone_models[u]
 
 
 class BacklogPolicy(EnergyAware):
@@ -114,13 +114,11 @@ class BacklogPolicy(EnergyAware):
         return np.ones(dests.size, dtype=bool)
 
 
-def free_spares(view: WindowView, there: np.ndarray) -> np.ndarray | None:
+def free_spares(view: WindowView, there: np.ndarray) -> np.ndarray:
     """``(N,)`` charged spare batteries at each depot beyond one for each of the ``there``
-    drones counted there (never below 0); None where swaps are unlimited. A drone that
+    drones counted there (never below 0; ``inf`` where swaps are unlimited). A drone that
     flies to a depot lands without a charged battery (its own goes on charge there), so it
     flies on next window only where a spare is left for it."""
-    if view.depot_spares is None:
-        return None
     return np.maximum(0.0, view.depot_spares.astype(np.float64) - there)
 
 
@@ -134,8 +132,6 @@ class BatteryPolicy(BacklogPolicy):
 
     def _lands(self, view: WindowView, s: int, dests: np.ndarray, there: np.ndarray) -> np.ndarray:
         free = free_spares(view, there)
-        if free is None:
-            return np.ones(dests.size, dtype=bool)
         return (dests == s) | (free[dests] >= 1.0)
 
 
@@ -288,7 +284,7 @@ class FlowPolicy(EnergyAware):
         """Drones a depot keeps flying window after window (infinite where swaps are
         unlimited): each charger recharges a used battery a window at most, and the
         share of a usable battery its power restores in a window when that is less."""
-        if view.depot_spares is None:
+        if view.swaps_unlimited:
             return np.inf
         restored = self._charge_w * view.window_h * 3600.0 / self._model.usable_j
         return self._chargers * min(1.0, restored)
@@ -306,7 +302,7 @@ class FlowPolicy(EnergyAware):
         at = np.bincount(view.drone_depot, minlength=n).astype(np.float64)[:n]
         held = at - np.bincount(view.drone_depot[ready], minlength=n)[:n]
         spares = free_spares(view, at)
-        cap = np.full(n, float(len(ready))) if spares is None else np.minimum(spares, len(ready))
+        cap = np.minimum(spares, len(ready))
         # Variables: each ready drone's allowed actions, then per depot the movers landing
         # (≤ cap), the shares (≤ 1 each) and the drones left over.
         cost: list[float] = []

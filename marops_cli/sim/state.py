@@ -12,6 +12,7 @@ from ..config import OpsConfig
 from ..data.table import DayRequests
 from ..energy import EnergyModel
 from ..plans.ranges import Ties, delays_h, range_table
+from ..plans.view import EVERY_DEPOT
 from ..plans.window import WindowPlan
 from ..policies.base import WindowView
 from ..segment.depots import Depots
@@ -50,6 +51,7 @@ class DayState:
             raise ValueError("one energy model per drone expected")
         # Requests no drone of the fleet can ever serve (each drone's type, else
         # ``model``'s; None: not known, every request counts as servable).
+        self.model = model
         models = self.drone_models or ((model,) if model is not None else None)
         self.servable: np.ndarray | None = None
         if models:
@@ -84,6 +86,7 @@ class DayState:
     def view(self, t: int) -> WindowView:
         idx = self.pending(t)
         ops = self.ops if self.ops is not None and self.ops.limited else None
+        n_drones, n_depots = self.drone_depot.size, len(self.depots)
         return WindowView(
             t=t,
             n_windows=self.day.n_windows,
@@ -100,19 +103,21 @@ class DayState:
             pending_weight=self.day.weight_kg[idx],
             ties=self.ties,
             pending_visible_w=self.day.visible_w[idx],
-            drone_models=self.drone_models,
+            drone_models=self.drone_models or (self.model or EnergyModel(),) * n_drones,
             pending_stock=self.stock_depot(idx),
             pending_servable=None if self.servable is None else self.servable[idx],
-            drone_ready=None if self.ops is None else self.ops.ready(t, self.drone_depot)[0],
-            depot_spares=None if ops is None else ops.charged.copy(),
-            depot_charging=None if ops is None else ops.charging(),
+            drone_ready=np.ones(n_drones, bool)
+            if self.ops is None
+            else self.ops.ready(t, self.drone_depot)[0],
+            depot_spares=np.full(n_depots, np.inf) if ops is None else ops.charged.copy(),
+            depot_charging=np.zeros(n_depots) if ops is None else ops.charging(),
         )
 
-    def stock_depot(self, idx: np.ndarray) -> np.ndarray | None:
+    def stock_depot(self, idx: np.ndarray) -> np.ndarray:
         """The depot each of requests ``idx`` is stocked at: its service area's under
-        ``stock = "home"``; None: every depot (the paper)."""
+        ``stock = "home"``; :data:`EVERY_DEPOT` under the paper's model."""
         if self.ops is None or self.ops.cfg.stock != "home":
-            return None
+            return np.full(idx.size, EVERY_DEPOT, np.int64)
         return self.area[idx]
 
     def apply(self, plan: WindowPlan, speed_ms: float) -> None:

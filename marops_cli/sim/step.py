@@ -19,7 +19,7 @@ from ..energy import EnergyModel
 from ..errors import RunError
 from ..plans.planner import Planner, make_planner
 from ..plans.select import Selector, make_selector
-from ..plans.view import WindowView
+from ..plans.view import EVERY_DEPOT, WindowView
 from ..plans.window import WindowPlan, plan_routes
 from ..policies.base import Policy, SlotActions
 from ..policies.direct import SlotSelector
@@ -111,10 +111,10 @@ def plan_step(view: WindowView, actions: np.ndarray | SlotActions, how: WindowSt
             raise RunError("plan slots need the slot selector of the policy that picked them")
         selector = selector.picking(actions.slots)
         actions = actions.actions
-    if how.ops.stock == "home" and view.pending_stock is None:
+    if how.ops.stock == "home" and (view.pending_stock == EVERY_DEPOT).any():
         # A view built without the model (one window planned alone): parcels wait at the
         # depot of their service area.
-        view = replace(view, pending_stock=view.pending_area)
+        view = replace(view, pending_stock=view.waiting_at())
     return plan_routes(
         view, actions, how.model, how.plan, selector, scope=how.scope, planner=how.planner
     )

@@ -35,7 +35,7 @@ def test_the_papers_model_is_filled_in_as_values(model):
     view = hand_view()
     cfg = PlanConfig(alpha=0.2)
     problem = WindowProblem.of(view, np.array([0, 1]), model, cfg)
-    assert [t.model for t in problem.tasks] == [model, model]
+    assert [t.model for t in problem.tasks] == list(view.drone_models)
     assert (problem.stock == EVERY_DEPOT).all() and problem.ready.all()
     assert problem.lam == lam_j(0.2, model.usable_j) == pytest.approx(4 * model.usable_j)
     assert_array_equal(problem.value, 1.0 + view.pending_delay_h)

@@ -49,7 +49,7 @@ def _view(seed: int = 3, n: int = 30) -> WindowView:
     )
     xy = rng.uniform(-500, 3500, (n, 2))
     due = rng.integers(0, 6, n)
-    return WindowView(
+    return WindowView.paper(
         t=5,
         n_windows=16,
         window_h=0.5,

@@ -19,7 +19,7 @@ from marops_cli.plans.objective import lam_j, score_routes
 from marops_cli.plans.pool import build_pool
 from marops_cli.plans.problem import WindowProblem
 from marops_cli.plans.ranges import pick_candidates, range_table
-from marops_cli.plans.view import FREE
+from marops_cli.plans.view import EVERY_DEPOT, FREE
 from marops_cli.plans.window import DroneRoute, check_routes, plan_routes
 from marops_cli.policies.base import WindowView
 from marops_cli.segment.depots import Depots, nearest_candidates
@@ -79,7 +79,7 @@ def kj(*legs: tuple[float, float]) -> float:
 def hand_view() -> WindowView:
     depots = Depots("kmeans", FRAME, DEPOT_XY, np.array([3, 2]), nearest_candidates(DEPOT_XY, 2))
     t = 4
-    return WindowView(
+    return WindowView.paper(
         t=t,
         n_windows=16,
         window_h=WINDOW_H,
@@ -188,7 +188,7 @@ def test_hand_instance_selection_is_the_brute_force_optimum(model):
 
 
 def _without_requests(view: WindowView) -> WindowView:
-    for name in ("idx", "xy", "area", "delay_h", "due_w", "due_s", "weight"):
+    for name in ("idx", "xy", "area", "delay_h", "due_w", "due_s", "weight", "stock"):
         arr = getattr(view, f"pending_{name}")
         setattr(view, f"pending_{name}", arr[:0])
     return view
@@ -219,7 +219,7 @@ def test_destination_out_of_reach_stays_and_plans_in_the_stay_range(model):
     ranges[:, 0] = np.eye(2, dtype=bool)  # staying: the own area only
     ranges[:, 1] = True  # crossing: both areas
     req_xy = np.array([[11_000.0, 0.0], [0.0, 1000.0]])  # area 1 (late), area 0 (on time)
-    view = WindowView(
+    view = WindowView.paper(
         t=3,
         n_windows=16,
         window_h=WINDOW_H,
@@ -303,7 +303,7 @@ def instances(draw):
     t = int(rng.integers(0, 16))
     req_xy = rng.uniform(0, side_m, (n_req, 2))
     due_w = rng.integers(0, 2 if coarse_due else 16, n_req)
-    view = WindowView(
+    view = WindowView.paper(
         t=t,
         n_windows=16,
         window_h=WINDOW_H,
@@ -547,7 +547,7 @@ def pool_instances(draw):
     )
     low, high = {"uniform": (0.1, 2.5), "heavy": (2.2, 2.5), "light": (0.05, 0.3)}[weights]
     due_w = rng.integers(0, 16, n_req)
-    view = WindowView(
+    view = WindowView.paper(
         t=t,
         n_windows=16,
         window_h=WINDOW_H,
@@ -598,6 +598,8 @@ def test_pool_urgency_prefers_the_request_already_due(model, urgency):
     view.pending_due_w = np.array([view.t + 2, view.t])
     view.pending_due_s = view.pending_due_w * 1800.0
     view.pending_weight = np.array([2.0, 2.0])
+    view.pending_stock = np.full(2, EVERY_DEPOT)
+    view.drone_models, view.drone_ready = (model,), np.ones(1, bool)
     cfg = PlanConfig(alpha=0.5, pool_urgency=urgency, pool_iterations=0)
     (r,) = plan_routes(view, np.array([0]), model, cfg, MilpSelector()).routes
     assert r.stops == ((7,) if urgency == 0 else (8,))
@@ -675,6 +677,7 @@ def _busy_view(
     view.pending_due_w = np.zeros(n, dtype=np.int64)
     view.pending_due_s = np.zeros(n)
     view.pending_weight = rng.uniform(*kg, n)
+    view.pending_stock = np.full(n, EVERY_DEPOT)
     return view
 
 
@@ -697,7 +700,7 @@ def test_mixed_fleet_routes_keep_each_drones_own_limits(scope, planner):
     of 1-2.4 kg parcels: it carries at most 1 kg and stays within its own battery, while
     the heavy drones carry what it cannot; both planners, both scopes."""
     view = _busy_view(3, 30, (-1500, 3500), (0.3, 2.4))
-    view.drone_depot = np.array([0, 1, 0, 1])
+    view.drone_depot, view.drone_ready = np.array([0, 1, 0, 1]), np.ones(4, bool)
     heavy = EnergyModel()
     light = EnergyModel(EnergyConfig(max_payload_kg=1.0, battery_j=56_250.0, speed_ms=14.0))
     view.drone_models = (light, heavy, light, heavy)
@@ -715,6 +718,6 @@ def test_mixed_fleet_routes_keep_each_drones_own_limits(scope, planner):
     heavy_kg = [r.payload_kg for r in plan.routes[1::2]]
     assert max(light_kg) <= 1.0 + 1e-9 < max(heavy_kg)
     # The same window with every drone heavy plans differently: the types matter.
-    view.drone_models = None
+    view.drone_models = (heavy,) * 4
     same = plan_routes(view, np.array([0, 1, FREE, 0]), heavy, cfg, MilpSelector(), scope)
     assert [r.stops for r in same.routes] != [r.stops for r in plan.routes]

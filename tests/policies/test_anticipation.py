@@ -33,7 +33,7 @@ def _view(arrivals: np.ndarray | None, visible_w: list[int] | None) -> WindowVie
     at depot 0; pending requests near depots 2, 2 and 0."""
     dep = Depots("kmeans", FRAME, XY, np.zeros(3, np.int64), nearest_candidates(XY, 2), arrivals)
     pxy = np.array([[4000.0, 50.0], [3900.0, 0.0], [100.0, 0.0]])
-    return WindowView(
+    return WindowView.paper(
         t=4,
         n_windows=8,
         window_h=0.5,

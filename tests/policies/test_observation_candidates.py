@@ -26,7 +26,7 @@ def _view(seed: int, ties: str) -> WindowView:
     )
     n = 60
     pxy = rng.uniform(0, 6000, (n, 2))
-    return WindowView(
+    return WindowView.paper(
         t=4,
         n_windows=16,
         window_h=0.5,

@@ -39,7 +39,7 @@ def _view(
     dep = Depots("kmeans", FRAME, xy, np.zeros(3, np.int64), nearest_candidates(xy, 3))
     pxy = np.array(areas_xy, dtype=float).reshape(-1, 2)
     n = len(delays)
-    return WindowView(
+    return WindowView.paper(
         t=4,
         n_windows=16,
         window_h=0.5,

@@ -13,6 +13,7 @@ from marops_cli.config import PlannerConfig, override
 from marops_cli.data.frame import Frame
 from marops_cli.methods import METHODS
 from marops_cli.plans.ranges import range_table
+from marops_cli.plans.view import EVERY_DEPOT
 from marops_cli.policies import (
     BacklogPolicy,
     BatteryPolicy,
@@ -49,7 +50,7 @@ def _view(
     dep = Depots("kmeans", FRAME, xy, np.zeros(n, np.int64), nearest_candidates(xy, n), prof)
     p = len(stock)
     where = np.array(stock, dtype=np.int64)
-    return WindowView(
+    return WindowView.paper(
         t=t,
         n_windows=n_w,
         window_h=0.5,
@@ -107,7 +108,8 @@ def test_parcels_no_drone_can_serve_wait_nowhere() -> None:
 
 def test_backlog_uses_the_service_area_when_every_parcel_is_everywhere() -> None:
     view = _view([0.0, 2000.0], stock=[1, 1], drones=[0])
-    view.pending_stock = None  # stock = "any": the parcels count in their area (depot 1)
+    # stock = "any": the parcels count in their area (depot 1)
+    view.pending_stock = np.full(2, EVERY_DEPOT)
     assert _landings(view, BacklogPolicy().act(view)) == [1]
 
 
@@ -220,7 +222,7 @@ def test_flow_counts_the_drones_that_cannot_fly_where_they_are() -> None:
     # One parcel at depot 1, where a drone waits for a battery: it holds the one share.
     view = _view([0.0, 2000.0], stock=[1], drones=[0, 1], ready=[True, False])
     assert _landings(view, FlowPolicy().act(view)) == [0, 1]
-    view.drone_ready = None
+    view.drone_ready = np.ones(2, bool)
     assert _landings(view, FlowPolicy().act(view)) == [0, 1]  # drone 1 is there already
     view.drone_depot = np.array([0, 0])
     assert sorted(_landings(view, FlowPolicy().act(view))) == [0, 1]

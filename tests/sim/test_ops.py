@@ -13,6 +13,7 @@ from marops_cli.config import OpsConfig, PlannerConfig, load_config
 from marops_cli.data.frame import Frame
 from marops_cli.data.table import DayRequests
 from marops_cli.errors import InputError
+from marops_cli.plans.view import EVERY_DEPOT
 from marops_cli.policies.base import PolicyBase
 from marops_cli.segment.depots import Depots, nearest_candidates
 from marops_cli.sim.metrics import ops_metrics
@@ -108,7 +109,7 @@ def test_one_window_planned_alone_keeps_parcels_at_home():
     """plan-window's path: a view built without the model still gets the stock rule."""
     state = DayState(A_AND_B, TWO, np.array([0]), 0.25)
     view = state.view(0)
-    assert view.pending_stock is None and view.drone_ready is None
+    assert (view.pending_stock == EVERY_DEPOT).all() and view.drone_ready.all()
     how = WindowStep.make(config(ops_(stock="home")), scope="global")
     plan = plan_step(view, np.zeros(1, dtype=np.int64), how)
     assert [i for r in plan.routes for i in r.stops] == [0]
@@ -188,7 +189,8 @@ def test_the_paper_model_tracks_nothing():
     state = DayState(A_AND_B, TWO, np.array([0]), 0.25, ops=ops_(chargers_per_depot=3))
     assert state.ops is None and ops_metrics(state) == {}
     view = state.view(0)
-    assert view.pending_stock is None and view.drone_ready is None
+    assert (view.pending_stock == EVERY_DEPOT).all() and view.drone_ready.all()
+    assert view.swaps_unlimited and not view.depot_charging.any()
 
 
 def test_a_day_keeps_its_model():
