@@ -4,6 +4,19 @@ Each mirrors a numpy expression of :class:`.pool.RoutePool` operation by operati
 that both give the same floats: no fast-math, no reordered sums. The energy per metre
 is ``np.interp`` on the energy model's uniform load grid, done as numpy does it (the
 interval found, then slope × offset + value).
+
+What travels together is one tuple (numba takes tuples of arrays as they are):
+
+* ``drone`` (:data:`Drone`): a drone's candidates as :class:`.pool._Drone` holds
+  them: the distances ``dmat`` (candidate -> candidate, the start the last column), the
+  parcel weights ``cand_w``, the empty last leg's energy from each ``cand_end``, the
+  empty route's ``start_end``, the candidates' positions ``cand`` and prizes
+  ``cand_prize``;
+* ``limits`` (:data:`Limits`): its type's payload ``cap``, heaviest load ``fit_kg``,
+  battery ``usable`` and energy per metre (``grid`` kg -> ``table`` J/m);
+* ``route`` (:data:`Route`): the route's ``stops``, its ``weight`` and ``energy``;
+* ``best`` (:data:`Best`): each candidate's best insertion, as the pool caches it (its
+  ``score``, ``slot`` and extra energy ``d_e``).
 """
 
 from __future__ import annotations
@@ -12,10 +25,32 @@ import numba as nb
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["KIND", "insertion", "refresh", "route_energy", "warm_up", "without"]
+__all__ = [
+    "KIND",
+    "Best",
+    "Drone",
+    "Limits",
+    "Route",
+    "insertion",
+    "refresh",
+    "route_energy",
+    "warm_up",
+    "without",
+]
 
 KIND = {"density": 0, "weight": 1, "gain": 2}
 """The construction scores (:data:`.pool.SCORES`) as the kernels number them."""
+
+_F = NDArray[np.float64]
+_I = NDArray[np.int64]
+Drone = tuple[_F, _F, _F, float, _I, _F]
+"""dmat, cand_w, cand_end, start_end, cand, cand_prize (module docstring)."""
+Limits = tuple[float, float, float, _F, _F]
+"""cap, fit_kg, usable, grid, table (module docstring)."""
+Route = tuple[_I, float, float]
+"""stops, weight, energy (module docstring)."""
+Best = tuple[_F, _I, _F]
+"""score, slot, d_e (module docstring)."""
 
 
 @nb.njit(cache=True, nogil=True)
@@ -47,21 +82,18 @@ def _loads(cand_w: NDArray[np.float64], stops: NDArray[np.int64], out: NDArray[n
 
 @nb.njit(cache=True, nogil=True)
 def insertion(
-    dmat: NDArray[np.float64],
-    cand_w: NDArray[np.float64],
-    cand_end: NDArray[np.float64],
+    drone: Drone,
     stops: NDArray[np.int64],
     sub: NDArray[np.int64],
-    start_end: float,
-    cap: float,
-    grid: NDArray[np.float64],
-    table: NDArray[np.float64],
-    d_out: NDArray[np.float64],
-    slot_out: NDArray[np.int64],
+    limits: Limits,
+    out: tuple[NDArray[np.float64], NDArray[np.int64]],
 ) -> None:
     """:meth:`.pool.RoutePool._insertion`: the least extra energy of inserting each
-    candidate of ``sub`` into the route ``stops`` (into ``d_out``) and where (the slot,
-    into ``slot_out``), both indexed like ``sub``."""
+    candidate of ``sub`` into the route ``stops`` (into ``out[0]``) and where (the slot,
+    into ``out[1]``), both indexed like ``sub``."""
+    dmat, cand_w, cand_end, start_end = drone[0], drone[1], drone[2], drone[3]
+    cap, grid, table = limits[0], limits[3], limits[4]
+    d_out, slot_out = out
     k = stops.size
     start = dmat.shape[0]  # the start is the last column
     load = np.zeros(k + 1)  # leaving node i (the start is node 0)
@@ -107,18 +139,12 @@ def insertion(
 
 
 @nb.njit(cache=True, nogil=True)
-def route_energy(
-    dmat: NDArray[np.float64],
-    cand_w: NDArray[np.float64],
-    cand_end: NDArray[np.float64],
-    stops: NDArray[np.int64],
-    cap: float,
-    grid: NDArray[np.float64],
-    table: NDArray[np.float64],
-) -> float:
-    """:meth:`.pool.RoutePool._route_energy` of a route of at least one stop: each leg's
-    length times the energy per metre of its load, summed in route order, plus the
+def route_energy(drone: Drone, stops: NDArray[np.int64], limits: Limits) -> float:
+    """:meth:`.pool.RoutePool._route_energy` of a route of at least one stop: each
+    leg's length times the energy per metre of its load, summed in route order, plus the
     empty last leg."""
+    dmat, cand_w, cand_end = drone[0], drone[1], drone[2]
+    cap, grid, table = limits[0], limits[3], limits[4]
     k = stops.size
     load = np.empty(k)
     _loads(cand_w, stops, load)
@@ -133,18 +159,12 @@ def route_energy(
 
 @nb.njit(cache=True, nogil=True)
 def without(
-    dmat: NDArray[np.float64],
-    cand_w: NDArray[np.float64],
-    cand_end: NDArray[np.float64],
-    stops: NDArray[np.int64],
-    start_end: float,
-    cap: float,
-    grid: NDArray[np.float64],
-    table: NDArray[np.float64],
-    out: NDArray[np.float64],
+    drone: Drone, stops: NDArray[np.int64], limits: Limits, out: NDArray[np.float64]
 ) -> None:
     """:meth:`.pool.RoutePool._without`: the route's energy without each of its stops
     (into ``out``, in route order)."""
+    dmat, cand_w, cand_end, start_end = drone[0], drone[1], drone[2], drone[3]
+    cap, grid, table = limits[0], limits[3], limits[4]
     k = stops.size
     start = dmat.shape[0]
     load = np.empty(k)  # on the leg into each stop
@@ -178,32 +198,24 @@ def without(
 
 @nb.njit(cache=True, nogil=True)
 def refresh(
-    dmat: NDArray[np.float64],
-    cand_w: NDArray[np.float64],
-    cand_end: NDArray[np.float64],
-    cand_prize: NDArray[np.float64],
-    cand: NDArray[np.int64],
-    start_end: float,
-    fit_kg: float,
-    usable: float,
-    cap: float,
-    grid: NDArray[np.float64],
-    table: NDArray[np.float64],
-    score: NDArray[np.float64],
-    slot: NDArray[np.int64],
-    d_e: NDArray[np.float64],
-    stops: NDArray[np.int64],
+    drone: Drone,
+    limits: Limits,
+    route: Route,
     free: NDArray[np.bool_],
-    weight: float,
-    energy: float,
-    kind: int,
-    blur: NDArray[np.float64],
+    best: Best,
+    scoring: tuple[int, NDArray[np.float64]],
 ) -> tuple[float, int]:
-    """:meth:`.pool.RoutePool._refresh`: every score to −inf, then each candidate that
-    is ``free`` and still fits the payload (``weight`` + its own ≤ ``fit_kg``): its best
-    insertion, extra energy and score (``kind`` in :data:`KIND`; times its ``blur``
-    factor when ``blur`` is not empty). Returns the best score and its candidate (the
-    first of equals; (−inf, 0) when none)."""
+    """:meth:`.pool.RoutePool._refresh`: every score to −inf, then each candidate
+    that is ``free`` and still fits the payload (the route's weight + its own ≤
+    ``fit_kg``): its best insertion, extra energy and score (``scoring``: the score's
+    number in :data:`KIND`, and a blur factor per candidate, the score times it when it
+    is not empty), into ``best``. Returns the best score and its candidate (the first of
+    equals; (−inf, 0) when none)."""
+    cand_w, cand, cand_prize = drone[1], drone[4], drone[5]
+    cap, fit_kg, usable = limits[0], limits[1], limits[2]
+    stops, weight, energy = route
+    score, slot, d_e = best
+    kind, blur = scoring
     score[:] = -np.inf
     sub = np.empty(cand.size, dtype=np.int64)  # the free candidates that still fit
     m = 0
@@ -214,7 +226,7 @@ def refresh(
     sub = sub[:m]
     d_sub = np.empty(m)
     slot_sub = np.empty(m, dtype=np.int64)
-    insertion(dmat, cand_w, cand_end, stops, sub, start_end, cap, grid, table, d_sub, slot_sub)
+    insertion(drone, stops, sub, limits, (d_sub, slot_sub))
     for n in range(m):
         q = sub[n]
         de = d_sub[n]
@@ -230,11 +242,11 @@ def refresh(
         score[q] = s if energy + de <= usable and gain > 0 else -np.inf
         slot[q] = slot_sub[n]
         d_e[q] = de
-    best, at = -np.inf, 0
+    top, at = -np.inf, 0
     for q in range(score.size):
-        if score[q] > best:
-            best, at = score[q], q
-    return best, at
+        if score[q] > top:
+            top, at = score[q], q
+    return top, at
 
 
 def warm_up() -> None:
@@ -245,10 +257,9 @@ def warm_up() -> None:
     dmat = np.array([[0.0, 3.0, 1.0], [3.0, 0.0, 2.0]])
     w, end = np.array([0.5, 0.7]), np.array([1.0, 2.0])
     stops = np.array([0], dtype=np.int64)
-    score, d_e, slot = np.zeros(2), np.zeros(2), np.zeros(2, dtype=np.int64)
-    refresh(
-        dmat, w, end, np.full(2, 50.0), np.arange(2), 1.0, 2.0, 100.0, 2.0, grid, table,
-        score, slot, d_e, stops, np.ones(2, dtype=np.bool_), 0.5, 5.0, 0, np.zeros(0),
-    )  # fmt: skip
-    route_energy(dmat, w, end, stops, 2.0, grid, table)
-    without(dmat, w, end, stops, 1.0, 2.0, grid, table, np.zeros(1))
+    drone = (dmat, w, end, 1.0, np.arange(2), np.full(2, 50.0))
+    limits = (2.0, 2.0, 100.0, grid, table)
+    best = (np.zeros(2), np.zeros(2, dtype=np.int64), np.zeros(2))
+    refresh(drone, limits, (stops, 0.5, 5.0), np.ones(2, dtype=np.bool_), best, (0, np.zeros(0)))
+    route_energy(drone, stops, limits)
+    without(drone, stops, limits, np.zeros(1))

@@ -34,6 +34,8 @@ re-ordered for energy by the exact subset dynamic program afterwards
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -99,6 +101,11 @@ class _Kind:
         """Energy per metre with ``load`` kg on board (the model's own table, unchecked)."""
         return _interp(load, self.grid, self.table)
 
+    @cached_property
+    def limits(self) -> tuple[float, float, float, NDArray[np.float64], NDArray[np.float64]]:
+        """What the compiled kernels read of the type (:data:`._jit.Limits`)."""
+        return (self.cap, self.fit_kg, self.usable, self.grid, self.table)
+
 
 @dataclass
 class _Drone:
@@ -122,6 +129,16 @@ class _Drone:
     score: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
     slot: NDArray[np.int64] = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
     d_e: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
+
+    @cached_property
+    def arrays(self) -> tuple[Any, ...]:
+        """What the compiled kernels read of the drone (:data:`._jit.Drone`)."""
+        return (self.dmat, self.cand_w, self.cand_end, self.start_end, self.cand, self.cand_prize)
+
+    @cached_property
+    def best(self) -> tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.float64]]:
+        """The cached best insertions, filled in place (:data:`._jit.Best`)."""
+        return (self.score, self.slot, self.d_e)
 
 
 @dataclass(frozen=True)
@@ -256,12 +273,10 @@ class RoutePool:
         if m == 0:
             return np.zeros(0), np.zeros(0, dtype=np.int64)
         if self._jit is not None:
-            d_out, slot_out = np.empty(m), np.empty(m, dtype=np.int64)
-            self._jit.insertion(
-                dr.dmat, dr.cand_w, dr.cand_end, np.array(dr.stops, dtype=np.int64), sub,
-                dr.start_end, dr.k.cap, dr.k.grid, dr.k.table, d_out, slot_out,
-            )  # fmt: skip
-            return d_out, slot_out
+            out = np.empty(m), np.empty(m, dtype=np.int64)
+            stops_a = np.array(dr.stops, dtype=np.int64)
+            self._jit.insertion(dr.arrays, stops_a, sub, dr.k.limits, out)
+            return out
         wq = dr.cand_w[sub]
         if k == 0:  # start -> q with its parcel -> end empty
             d_e = dr.dmat[sub, -1] * dr.k.e(np.minimum(wq, dr.k.cap))
@@ -300,13 +315,9 @@ class RoutePool:
         # compiled loop can pick the free ones itself).
         blur = _NO_BLUR if rng is None else rng.uniform(1.0 - _BLINK, 1.0, dr.cand.size)
         if self._jit is not None:  # the same as below, in one compiled loop
-            k = dr.k
-            return self._jit.refresh(
-                dr.dmat, dr.cand_w, dr.cand_end, dr.cand_prize, dr.cand, dr.start_end, k.fit_kg,
-                k.usable, k.cap, k.grid, k.table, dr.score, dr.slot, dr.d_e,
-                np.array(dr.stops, dtype=np.int64), free, dr.weight, dr.energy,
-                self._jit.KIND[score_kind], blur,
-            )  # fmt: skip
+            route = (np.array(dr.stops, dtype=np.int64), dr.weight, dr.energy)
+            scoring = (self._jit.KIND[score_kind], blur)
+            return self._jit.refresh(dr.arrays, dr.k.limits, route, free, dr.best, scoring)
         sub = (free[dr.cand] & (dr.weight + dr.cand_w <= dr.k.fit_kg)).nonzero()[0]
         d_e, slot = self._insertion(dr, sub)
         gain = dr.cand_prize[sub] - d_e
@@ -475,9 +486,7 @@ class RoutePool:
             return dr.start_end
         stops = np.array(dr.stops, dtype=np.int64)
         if self._jit is not None:
-            kd = dr.k
-            args = (dr.dmat, dr.cand_w, dr.cand_end, stops, kd.cap, kd.grid, kd.table)
-            return float(self._jit.route_energy(*args))
+            return float(self._jit.route_energy(dr.arrays, stops, dr.k.limits))
         load = dr.cand_w[stops][::-1].cumsum()[::-1]
         prev = np.empty_like(stops)
         prev[0], prev[1:] = dr.cand.size, stops[:-1]  # the start is the last column
@@ -581,10 +590,7 @@ class RoutePool:
         k = stops.size
         if self._jit is not None:
             out = np.empty(k)
-            kd = dr.k
-            self._jit.without(
-                dr.dmat, dr.cand_w, dr.cand_end, stops, dr.start_end, kd.cap, kd.grid, kd.table, out
-            )
+            self._jit.without(dr.arrays, stops, dr.k.limits, out)
             return out
         w = dr.cand_w[stops]
         load = np.minimum(w[::-1].cumsum()[::-1], dr.k.cap)  # on the leg into each stop
