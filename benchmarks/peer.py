@@ -90,6 +90,7 @@ from marops_cli.plans.bound import window_bound  # noqa: E402
 from marops_cli.plans.kernels import kernels_now  # noqa: E402
 from marops_cli.plans.objective import lam_j, relative_gap  # noqa: E402
 from marops_cli.plans.pool import finish_route  # noqa: E402
+from marops_cli.plans.problem import DroneTask, WindowProblem  # noqa: E402
 from marops_cli.plans.pyvrp_routes import solve_window  # noqa: E402
 from marops_cli.plans.view import EVERY_DEPOT  # noqa: E402
 from marops_cli.plans.window import DroneRoute, WindowPlan, score_plan  # noqa: E402
@@ -122,7 +123,7 @@ def pyvrp_routes(
     """PyVRP's plan of the window as drone routes (exact energy, order improved).
 
     Only the drones that can fly are vehicles; under home stock each carries only its
-    departure depot's parcels (``solve_window``'s ``allowed``: exact, as a parcel can go
+    departure depot's parcels (its task's allowed requests: exact, as a parcel can go
     only with a drone from its depot), and a drone whose depot holds none stays."""
     fly = np.array([u for u in range(view.n_drones) if view.ready(u)], dtype=np.int64)
     allowed = None
@@ -132,18 +133,16 @@ def pyvrp_routes(
         fly, allowed = fly[keep], allowed[keep]
     routes = []
     if fly.size and view.pending_idx.size:
-        peer = solve_window(
-            view.depots.xy,
-            view.drone_depot[fly],
-            view.pending_xy,
-            view.pending_weight,
-            1.0 + view.pending_delay_h,
-            lam,
-            model,
-            allowed=allowed,
-            time_limit_s=seconds,
-            seed=seed,
+        every = np.arange(view.pending_idx.size, dtype=np.int64)
+        serves = [every] * fly.size if allowed is None else [every[ok] for ok in allowed]
+        tasks = [  # each lands at the depot nearest its last stop
+            DroneTask(int(view.drone_depot[u]), -1, own, model)
+            for u, own in zip(fly, serves, strict=True)
+        ]
+        problem = WindowProblem.of_requests(
+            view.depots.xy, view.pending_xy, view.pending_weight, view.pending_delay_h, lam, tasks
         )
+        peer = solve_window(problem, time_limit_s=seconds, seed=seed)
         free = {int(u): int(view.drone_depot[u]) for u in fly}
         for s, stops in zip(peer.start, peer.stops, strict=True):
             u = next(u for u, d in free.items() if d == int(s))  # a drone of that start depot

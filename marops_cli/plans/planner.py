@@ -330,21 +330,7 @@ def _add_pyvrp_routes(
     allowed = np.zeros((len(tasks), problem.n_requests), dtype=bool)
     for u, t in enumerate(tasks):
         allowed[u, t.allowed] = True
-    starts = np.array([t.start for t in tasks], dtype=np.int64)
-    ends = np.array([t.end for t in tasks], dtype=np.int64)
-    peer = solve_window(
-        problem.depots_xy,
-        starts,
-        problem.xy,
-        problem.weight,
-        problem.value,
-        problem.lam,
-        problem.model,
-        drone_end=None if np.all(ends < 0) else np.where(ends < 0, starts, ends),
-        allowed=None if allowed.all() else allowed,
-        iterations=iterations,
-        seed=problem.t,
-    )
+    peer = solve_window(problem, iterations=iterations, seed=problem.t)
     for s, stops in zip(peer.start, peer.stops, strict=True):
         for u, t in enumerate(tasks):
             if t.start != int(s) or not allowed[u, stops].all():

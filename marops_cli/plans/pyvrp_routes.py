@@ -4,11 +4,13 @@ PyVRP (the optional ``pyvrp`` extra) is the state-of-the-art open VRP solver. It
 serves two roles (docs/method.md, "Route pool"): the peer that ``benchmarks/peer.py``
 measures the planner against, and an optional route generator of the pool.
 
-The model (one window):
+The model of one window's problem (:class:`.problem.WindowProblem`; the problem's
+``model`` prices every drone):
 
 * locations: the depots, one dummy end depot, the pending requests;
-* one vehicle type per start depot (or per start and fixed end depot), as many
-  vehicles as drones there, capacity = the payload limit in grams;
+* one vehicle type per start depot (or per start and fixed end depot, and per set of
+  requests the drones may serve), as many vehicles as drones there, capacity = the
+  payload limit in grams;
 * every request an optional client with prize λ · v_r (v_r = 1 + delay, hours);
 * a route ends at the dummy depot, whose distance from a customer is the energy to
   the depot nearest that customer (landing there), unless the end is fixed;
@@ -29,7 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from ..energy import EnergyModel
+from .problem import WindowProblem
 
 __all__ = ["PeerRoutes", "available", "solve_window"]
 
@@ -53,7 +55,7 @@ class PeerRoutes:
     end: NDArray[np.int64]
     """End depot per route, -1 where the route lands at the depot nearest its last stop."""
     stops: list[NDArray[np.int64]]
-    """Positions in the request arrays given to :func:`solve_window`, in PyVRP's order."""
+    """Positions in the problem's requests, in PyVRP's order."""
     cost: float
     """PyVRP's own objective (conservative energy minus prizes); infinite when its search
     ended without a feasible solution (its feasible routes are kept all the same)."""
@@ -73,35 +75,44 @@ class _CpuLimit:
         return now > self.end
 
 
+def _vehicles(
+    problem: WindowProblem,
+) -> tuple[NDArray[np.int64], NDArray[np.int64] | None, NDArray[np.bool_] | None]:
+    """Each drone's start depot, its end depot (None: every drone lands at the depot
+    nearest its last stop; where some end is fixed, a free-landing drone returns to its
+    start) and the ``(U, R)`` requests it may serve (None: every drone any request)."""
+    tasks = problem.tasks
+    allowed = np.zeros((len(tasks), problem.n_requests), dtype=bool)
+    for u, t in enumerate(tasks):
+        allowed[u, t.allowed] = True
+    starts = np.array([t.start for t in tasks], dtype=np.int64)
+    ends = np.array([t.end for t in tasks], dtype=np.int64)
+    drone_end = None if np.all(ends < 0) else np.where(ends < 0, starts, ends)
+    return starts, drone_end, None if allowed.all() else allowed
+
+
 def solve_window(
-    depots_xy: NDArray[np.float64],
-    drone_start: NDArray[np.int64],
-    req_xy: NDArray[np.float64],
-    req_weight: NDArray[np.float64],
-    req_value: NDArray[np.float64],
-    lam: float,
-    model: EnergyModel,
+    problem: WindowProblem,
     *,
-    drone_end: NDArray[np.int64] | None = None,
-    allowed: NDArray[np.bool_] | None = None,
     time_limit_s: float = 1.0,
     iterations: int | None = None,
     seed: int = 0,
 ) -> PeerRoutes:
-    """Solve one window with PyVRP (see the module docstring for the model).
-
-    ``drone_end`` fixes each drone's end depot (else it lands nearest its last stop);
-    ``allowed`` ``(U, R)`` restricts which requests each drone may serve. PyVRP stops
-    after ``iterations`` when given (the same routes on any machine), else after
+    """Solve one window's ``problem`` with PyVRP (see the module docstring for the model):
+    each drone a vehicle from its task's start, landing at its task's end and serving
+    only its task's requests, each request's prize λ · v. PyVRP stops after
+    ``iterations`` when given (the same routes on any machine), else after
     ``time_limit_s`` seconds of this process's CPU time (what a benchmark compares: on
     a shared machine the wall clock also counts other work).
     """
     import pyvrp
     from pyvrp.stop import MaxIterations
 
+    drone_start, drone_end, allowed = _vehicles(problem)
+    depots_xy, req_xy, model = problem.depots_xy, problem.xy, problem.model
     n_dep, n_req = depots_xy.shape[0], req_xy.shape[0]
     cap = model.max_payload_kg
-    w = np.minimum(np.asarray(req_weight, dtype=np.float64), cap)
+    w = np.minimum(np.asarray(problem.weight, dtype=np.float64), cap)
     pts = np.vstack([depots_xy, depots_xy.mean(axis=0, keepdims=True), req_xy])
     n_loc = pts.shape[0]
     dummy = n_dep
@@ -165,7 +176,7 @@ def solve_window(
     locations = [pyvrp.Location(float(x), float(y)) for x, y in pts]
     depots = [pyvrp.Depot(i) for i in range(n_dep + 1)]
     grams = np.ceil(w * 1000 - 1e-9).astype(np.int64)  # never under the real weight
-    prizes = np.round(lam * np.asarray(req_value, dtype=np.float64)).astype(np.int64)
+    prizes = np.round(problem.lam * np.asarray(problem.value, dtype=np.float64)).astype(np.int64)
     clients = [
         pyvrp.Client(n_dep + 1 + i, delivery=[int(grams[i])], prize=int(prizes[i]), required=False)
         for i in range(n_req)

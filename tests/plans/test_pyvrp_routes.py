@@ -13,6 +13,7 @@ from marops_cli.energy import EnergyModel
 from marops_cli.plans import MilpSelector
 from marops_cli.plans.objective import lam_j, score_routes
 from marops_cli.plans.pool import finish_route
+from marops_cli.plans.problem import DroneTask, WindowProblem
 from marops_cli.plans.ranges import range_table
 from marops_cli.plans.window import plan_routes
 from marops_cli.policies.base import WindowView
@@ -23,18 +24,24 @@ pytest.importorskip("pyvrp")  # the pyvrp extra, installed with the test extra
 from marops_cli.plans.pyvrp_routes import solve_window  # noqa: E402
 
 
-def _solve(view: WindowView, lam: float, model: EnergyModel, **kw: Any) -> Any:
-    """PyVRP's plan of ``view``'s window (``kw``: limits, seed, ``allowed``)."""
-    return solve_window(
-        view.depots.xy,
-        view.drone_depot,
-        view.pending_xy,
-        view.pending_weight,
-        1.0 + view.pending_delay_h,
-        lam,
-        model,
-        **kw,
+def _solve(
+    view: WindowView,
+    lam: float,
+    model: EnergyModel,
+    allowed: np.ndarray | None = None,
+    **kw: Any,
+) -> Any:
+    """PyVRP's plan of ``view``'s window, every drone landing nearest its last stop
+    (``allowed``: the ``(U, R)`` requests each drone may serve; ``kw``: limits, seed)."""
+    every = np.arange(view.pending_idx.size, dtype=np.int64)
+    tasks = [
+        DroneTask(int(s), -1, every if allowed is None else every[allowed[u]], model)
+        for u, s in enumerate(view.drone_depot)
+    ]
+    problem = WindowProblem.of_requests(
+        view.depots.xy, view.pending_xy, view.pending_weight, view.pending_delay_h, lam, tasks
     )
+    return solve_window(problem, **kw)
 
 
 def _view(seed: int = 3, n: int = 30) -> WindowView:
