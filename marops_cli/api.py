@@ -33,7 +33,7 @@ import os
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, TypeVar
+from typing import TYPE_CHECKING, Annotated, Any, TypeVar, Union
 
 if TYPE_CHECKING:  # pyarrow loads with the first call, so `import marops_cli` stays light
     import pyarrow as pa
@@ -89,9 +89,12 @@ def _path(value: str | Path | None) -> Path | None:
     return Path(value) if value is not None else None
 
 
-# --- argument checks ------------------------------------------------------------------
+# --- argument checks ---------------------------------------------------------------
 # A wrong argument type is bad input like a bad flag: one InputError naming the keyword,
-# not a TypeError from deep inside. Lists are welcome where the command takes "a,b,c".
+# not a TypeError from deep inside. Each parameter's annotation (an option of the table
+# in marops_cli/app/options.py: its type there) is checked as a pydantic type made at the
+# first call: numbers as numbers or their text (never True or False), a path as a
+# non-empty str or PathLike, lists where the command takes "a,b,c".
 
 
 def _is_int(v: Any) -> bool:
@@ -127,68 +130,6 @@ def _item(v: Any) -> str | None:
     return None
 
 
-def _number(v: str, kind: type) -> Any:
-    try:
-        return kind(v)
-    except ValueError:
-        return None
-
-
-def _accept_date(v: Any) -> tuple[bool, Any]:
-    """``date``, read as str(date): "0820", 820, or a date's ISO form; a datetime (a
-    pandas Timestamp, a numpy datetime64) is its day."""
-    if (day := _numpy_day(v)) is not None:
-        return True, day
-    if isinstance(v, dt.datetime):
-        return True, v.date()
-    return _is_int(v) or isinstance(v, str | dt.date), v
-
-
-def _accept(name: str, hint: str, v: Any) -> tuple[bool, Any]:
-    """Whether ``v`` is a value of the annotation ``hint`` (a string, as this module's
-    annotations are), and the value to pass on (a list joined, digits read)."""
-    if v is None:
-        return "None" in hint, v
-    if name == "depots":  # a depots file, or depots in memory: segment()'s dictionary
-        return _accept_depots(v), v
-    if "Any" in hint:  # the data: its reader says what it takes
-        return True, v
-    if "Path" in hint and isinstance(v, str | os.PathLike):
-        return os.fspath(v) != "", v  # "" would be the current folder, as for the flags
-    if name == "date":
-        return _accept_date(v)
-    if _listed(hint):
-        return _text(v) is not None, v
-    if "tuple[" in hint and isinstance(v, list | tuple):
-        return len(v) == 2 and all(_is_real(x) for x in v), tuple(v)
-    scalar = hint.replace("tuple[float, float]", "")
-    if "bool" in scalar and isinstance(v, bool):
-        return True, v
-    if "int" in scalar and _is_int(v):
-        return True, int(v)
-    if "float" in scalar and _is_real(v):
-        return True, float(v)
-    if isinstance(v, str):
-        if "str" in scalar:
-            return True, v
-        for kind, word in ((int, "int"), (float, "float")):
-            if word in scalar and (got := _number(v.strip(), kind)) is not None:
-                return True, got
-    return False, v
-
-
-def _accept_depots(v: Any) -> bool:
-    """``depots``: a depots file's path, the depots document ``segment()`` returns (any
-    mapping) or a ``Depots``; the use case checks the depots as a file's."""
-    from collections.abc import Mapping
-
-    from .segment.depots import Depots
-
-    if isinstance(v, str | os.PathLike):
-        return os.fspath(v) != ""
-    return isinstance(v, Mapping | Depots)
-
-
 def _text(v: Any) -> str | None:
     """A list keyword's value as its flag spells it ("a,b"): a string, a date, a number
     or a list or tuple of them; None for anything else."""
@@ -203,73 +144,230 @@ def _text(v: Any) -> str | None:
     return None if None in parts else ",".join(p for p in parts if p is not None)
 
 
-def _listed(hint: str) -> bool:
-    """Whether a keyword takes a list (its flag a comma-separated one)."""
-    return "list[" in hint
+def _as_number(kind: type) -> Callable[[Any], Any]:
+    """A number of ``kind`` from any number but True or False, or from its text; else the
+    value as it is (for the strict type to refuse)."""
+
+    def convert(v: Any) -> Any:
+        if (_is_int if kind is int else _is_real)(v):
+            return kind(v)
+        if isinstance(v, str):
+            try:
+                return kind(v.strip())
+            except ValueError:
+                return v
+        return v
+
+    return convert
 
 
-def _expects(name: str, hint: str) -> str:
-    if name == "date":
-        return "a date like '0820', 820 or a datetime.date"
-    if name == "depots":
-        return "a path or the depots segment() returns"
-    if _listed(hint):
-        return "a string like 'a,b' or a non-empty list"
-    words = []
-    for word, say in (
-        ("Path", "a path"),
-        ("tuple", "a (lng, lat) pair"),
-        ("bool", "True or False"),
-        ("int", "an integer"),
-        ("float", "a number"),
-        ("str", "a string"),
-    ):
-        if word in hint.replace("tuple[float, float]", "tuple") and not (
-            word == "str" and "Path" in hint
-        ):
-            words.append(say)
-    return " or ".join(words)
+def _refused(v: Any) -> Any:
+    raise ValueError("refused")
+
+
+def _only(accept: Callable[[Any], bool]) -> Callable[[Any], Any]:
+    return lambda v: v if accept(v) else _refused(v)
+
+
+def _a_path(v: Any) -> bool:
+    return isinstance(v, str | os.PathLike) and os.fspath(v) != ""  # "": the current folder
+
+
+def _a_day(v: Any) -> dt.date:
+    """``date``'s day of a date, a datetime (a pandas Timestamp) or a numpy datetime64."""
+    if (day := _numpy_day(v)) is not None:
+        return day
+    if isinstance(v, dt.datetime):
+        return v.date()
+    return v if isinstance(v, dt.date) else _refused(v)
+
+
+def _simple_kinds() -> dict[Any, tuple[Any, str]]:
+    """The pydantic type of each plain annotation and how an error says it, in the order
+    an error lists them."""
+    from pydantic import (
+        BeforeValidator,
+        PlainValidator,
+        Strict,
+        StrictBool,
+        StrictFloat,
+        StrictInt,
+        StrictStr,
+    )
+
+    real = Annotated[StrictFloat, BeforeValidator(lambda v: float(v) if _is_real(v) else v)]
+    pair = Annotated[
+        tuple[real, real],
+        Strict(),  # a tuple or a list, not any iterable
+        BeforeValidator(lambda v: tuple(v) if isinstance(v, list) else v),
+    ]
+    return {
+        Path: (Annotated[Any, PlainValidator(_only(_a_path))], "a path"),
+        tuple[float, float]: (pair, "a (lng, lat) pair"),
+        bool: (StrictBool, "True or False"),
+        int: (Annotated[StrictInt, BeforeValidator(_as_number(int))], "an integer"),
+        float: (Annotated[StrictFloat, BeforeValidator(_as_number(float))], "a number"),
+        dt.date: (Annotated[dt.date, PlainValidator(_a_day)], "a datetime.date"),
+        str: (StrictStr, "a string"),
+    }
+
+
+@functools.cache
+def _kind(hint: Any) -> tuple[Any, str]:
+    """The pydantic check of an annotation (``int | None``), as a TypeAdapter, and what an
+    error says it expects. Text stays text where the annotation takes a str (``hubs``:
+    ``"3"`` or ``3``); a str or a PathLike is a path where it takes a ``Path``."""
+    import typing
+    from collections.abc import Mapping
+
+    from pydantic import Field, PlainValidator, TypeAdapter
+
+    from .segment.depots import Depots
+
+    def only(accept: Callable[[Any], bool]) -> Any:
+        return Annotated[Any, PlainValidator(_only(accept))]
+
+    members = list(typing.get_args(hint)) if _is_union(hint) else [hint]
+    optional = type(None) in members
+    members = [m for m in members if m is not type(None)]
+    simple = _simple_kinds()
+    if Any in members:
+        return TypeAdapter(Any), "anything"
+    if any(typing.get_origin(m) is list for m in members):  # the flag's "a,b"
+        kinds = [only(lambda v: _text(v) is not None)]
+        said = "a string like 'a,b' or a non-empty list"
+    elif Depots in members:  # a depots file, or the depots in memory
+        kinds = [only(_a_path), only(lambda v: isinstance(v, Mapping | Depots))]
+        said = "a path or the depots segment() returns"
+    else:
+        if Path in members:
+            members = [m for m in members if m is not str]
+        kinds = [simple[m][0] for m in sorted(members, key=lambda m: m is not str)]
+        said = " or ".join(text for m, (_, text) in simple.items() if m in members)
+        if dt.date in members:
+            said = "a date like '0820', 820 or a datetime.date"
+    one: Any = kinds[0]
+    if len(kinds) > 1:  # the first that takes the value, in order: text as it is, numbers
+        one = Annotated[Union[tuple(kinds)], Field(union_mode="left_to_right")]  # noqa: UP007
+    return TypeAdapter(one | None if optional else one), said
+
+
+def _is_union(hint: Any) -> bool:
+    import types
+    import typing
+
+    return typing.get_origin(hint) in (typing.Union, types.UnionType)
+
+
+class _Checks:
+    """An API function's parameters as its callers see them (the table's options of its
+    use case in), and each one's pydantic check, made at its first call."""
+
+    def __init__(self, fn: Callable[..., Any], use: str | None) -> None:
+        self.fn, self.use = fn, use
+        self.own = inspect.signature(fn)
+
+    def signature(self) -> inspect.Signature:
+        if self.use is None:
+            return self.own
+        from .app.options import with_options
+
+        return with_options(self.own, self.use, _keyword, ("config",))
+
+    @functools.cached_property
+    def hints(self) -> dict[str, Any]:
+        import typing
+
+        import pyarrow as pa
+
+        from .segment.depots import Depots
+
+        return typing.get_type_hints(self.fn, localns={"pa": pa, "Depots": Depots})
+
+    def check(self, name: str, value: Any) -> Any:
+        """``value`` as ``name`` takes it (a number from its text, a pair a tuple), or
+        the InputError naming the keyword."""
+        from pydantic import ValidationError
+
+        from .errors import InputError
+
+        param = self.signature().parameters[name]
+        adapter, expects = _kind(self.hints.get(name, param.annotation))
+        try:
+            return adapter.validate_python(value)
+        except ValidationError:
+            raise InputError(
+                f"{self.fn.__name__}(): {name} expects {expects}, "
+                f"got {type(value).__name__} {_shown(value)}"
+            ) from None
+
+
+def _keyword(spec: Any) -> inspect.Parameter:
+    """The API's keyword of a table option: its type (or the wider one the API takes),
+    None (the config's value) unless given; a switch off unless given."""
+    kind = spec.api_type or spec.type
+    return inspect.Parameter(
+        spec.param,
+        inspect.Parameter.KEYWORD_ONLY,
+        default=False if spec.switch else None,
+        annotation=kind if spec.switch else kind | None,
+    )
 
 
 F = TypeVar("F", bound=Callable[..., Any])
 
 
-def _checked(fn: F) -> F:
-    """Check ``fn``'s arguments against its annotations before it runs (see above); a path
-    the system cannot look up (a name too long, a loop of links) is an InputError too. An
-    error naming an option names it by its keyword (``alpha``), where the command line
-    names its flag (``--alpha``; marops_cli/errors.py)."""
-    sig = inspect.signature(fn)
+def _checked(use: str | None = None) -> Callable[[F], F]:
+    """Check a function's arguments against its annotations before it runs (see above);
+    with ``use``, it takes the table's options of that use case (marops_cli/app/options.py)
+    as keywords too, gathered in its own ``options``. A path the system cannot look up (a
+    name too long, a loop of links) is an InputError too. An error naming an option names
+    it by its keyword (``alpha``), where the command line names its flag (``--alpha``;
+    marops_cli/errors.py)."""
 
-    @functools.wraps(fn)
-    def call(*args: Any, **kwargs: Any) -> Any:
-        from .errors import InputError, bad_path, keyword
+    def decorate(fn: F) -> F:
+        checks = _Checks(fn, use)
 
-        try:
-            bound = sig.bind(*args, **kwargs)
-        except TypeError as exc:
-            raise InputError(f"{fn.__name__}(): {exc}{_did_you_mean(sig, kwargs)}") from None
-        for name, value in list(bound.arguments.items()):
-            hint = str(sig.parameters[name].annotation)
-            ok, passed = _accept(name, hint, value)
-            if not ok:
-                raise InputError(
-                    f"{fn.__name__}(): {name} expects {_expects(name, hint)}, "
-                    f"got {type(value).__name__} {_shown(value)}"
-                )
-            bound.arguments[name] = passed
-        try:
-            return fn(*bound.args, **bound.kwargs)
-        except InputError as exc:
-            exc.respell(keyword)
-            raise
-        except OSError as exc:  # a path the system cannot look up is bad input, as for a flag
-            bad = bad_path(exc)
-            if bad is None:
+        @functools.wraps(fn)
+        def call(*args: Any, **kwargs: Any) -> Any:
+            from .errors import InputError, bad_path, keyword
+
+            sig = checks.signature()
+            try:
+                bound = sig.bind(*args, **kwargs)
+            except TypeError as exc:
+                raise InputError(f"{fn.__name__}(): {exc}{_did_you_mean(sig, kwargs)}") from None
+            for name, value in list(bound.arguments.items()):
+                bound.arguments[name] = checks.check(name, value)
+            try:
+                return fn(*bound.args, **_gathered(use, bound.kwargs, checks.own))
+            except InputError as exc:
+                exc.respell(keyword)
                 raise
-            raise bad from None
+            except OSError as exc:  # a path the system cannot look up is bad input, as for a flag
+                bad = bad_path(exc)
+                if bad is None:
+                    raise
+                raise bad from None
 
-    return call  # type: ignore[return-value]
+        if use is not None:
+            from .app.options import LiveSignature
+
+            call.__signature__ = LiveSignature(checks.signature)  # type: ignore[attr-defined]
+        return call  # type: ignore[return-value]
+
+    return decorate
+
+
+def _gathered(use: str | None, kwargs: dict[str, Any], own: inspect.Signature) -> dict[str, Any]:
+    """A call's keyword arguments as the function takes them: the table's options of
+    ``use`` gathered in ``options``."""
+    if use is None:
+        return kwargs
+    from .app.options import split_options
+
+    mine, options = split_options(use, kwargs, own)
+    return {**mine, "options": options}
 
 
 def _did_you_mean(sig: inspect.Signature, kwargs: dict[str, Any]) -> str:
@@ -307,7 +405,7 @@ def _shown(value: Any) -> str:
     return clipped(" ".join(repr(value).split()))  # one line, a Series' repr too
 
 
-@_checked
+@_checked()
 def read_lade(
     data: Any, *, year: int = 2022, strict: bool = False, tz: str | None = None
 ) -> pa.Table:
@@ -352,31 +450,25 @@ def read_lade(
     return out.replace_schema_metadata({"marops": report})
 
 
-@_checked
+@_checked("segment")
 def segment(
     data: Any,
     *,
     out: str | Path | None = None,
     dates: str | list[str] | None = None,
-    n_depots: int | None = None,
-    method: str | None = None,
-    size_km: float | None = None,
-    center: str | tuple[float, float] | None = None,
-    actions: int | None = None,
-    seed: int | None = None,
     geojson: bool = False,
     plot: bool = False,
     hubs: str | int | None = None,
-    year: int | None = None,
-    strict: bool = False,
     force: bool = False,
     config: str | Path | None = None,
+    options: dict[str, Any],
 ) -> dict[str, Any]:
     """``marops segment``: the depots document (``depots.json``; with ``hubs``, the
     hubs file) as a dictionary, written to ``out`` when given (the hubs file with its
     GeoJSON beside it, as ``segment --hubs`` writes). The depots document is taken
-    wherever a depots file is (``plan_window``, ``replay_day``, ``report``)."""
-    from .app.options import planner_config
+    wherever a depots file is (``plan_window``, ``replay_day``, ``report``). Its options
+    (``n_depots``, ``method``, ``seed``, …) are those of the command."""
+    from .app.options import hubs_options, planner_config
     from .app.segment import refuse_with_hubs, segment_hubs
     from .app.segment import segment as run
     from .io.atomic import dumps_json
@@ -385,28 +477,17 @@ def segment(
     _files_asked("segment", out, geojson=geojson, plot=plot)
     with replacing_foreign_files(force):
         if hubs is not None:
-            given = {"center": center, "n_depots": n_depots, "method": method}
-            given |= {"actions": actions, "seed": seed}
-            refuse_with_hubs(hubs, given)
-            cfg = planner_config(config, year=year, size_km=size_km, strict=strict)
+            read, refused = hubs_options(options)
+            refuse_with_hubs(hubs, refused)
+            cfg = planner_config(config, **read)
             tiling = segment_hubs(data, cfg, hubs, days=_text(dates), out=out, plot=plot)
             return dict(json.loads(dumps_json(tiling.doc())))
-        cfg = planner_config(
-            config,
-            year=year,
-            size_km=size_km,
-            center=center,
-            strict=strict,
-            n_depots=n_depots,
-            segmentation=method,
-            actions=actions,
-            segment_seed=seed,
-        )
+        cfg = planner_config(config, **options)
         res = run(data, cfg, days=_text(dates), out=out, geojson=geojson, plot=plot)
     return dict(json.loads(dumps_json(res.doc())))  # as the file reads back
 
 
-@_checked
+@_checked("plan_window")
 def plan_window(
     data: Any,
     depots: str | Path | dict[str, Any] | Depots,
@@ -415,27 +496,19 @@ def plan_window(
     *,
     out: str | Path | None = None,
     method: str = "marops",
-    drones: int | None = None,
     fleet: str | Path | None = None,
     delivered: str | Path | None = None,
-    policy: str | Path | None = None,
-    alpha: float | None = None,
-    ordering: str | None = None,
-    strict_cover: bool = False,
-    seed: int | None = None,
-    year: int | None = None,
-    strict: bool = False,
-    tz: str | None = None,
     fmt: str = "parquet",
     geojson: bool = False,
     report: bool = False,
     force: bool = False,
-    trust_actor: bool = False,
     config: str | Path | None = None,
+    options: dict[str, Any],
 ) -> DayResult:
     """``marops plan-window``: one window's stops and routes, and its solver and window
     objective (``metrics``). ``depots``: a depots file, or the depots ``segment()``
-    returns."""
+    returns. Its options (``drones``, ``alpha``, ``policy``, …) are those of the
+    command."""
     from .app.options import planner_config
     from .app.plan_window import plan_window as run
     from .data.dates import parse_day
@@ -443,19 +516,7 @@ def plan_window(
     from .io.ownership import replacing_foreign_files
 
     _files_asked("plan_window", out, geojson=geojson, report=report)
-    cfg = planner_config(
-        config,
-        year=year,
-        strict=strict,
-        tz=tz,
-        alpha=alpha,
-        ordering=ordering,
-        strict_cover=strict_cover,
-        drones=drones,
-        seed=seed,
-        policy=None if policy is None else os.fspath(policy),
-        trust_actor=trust_actor,
-    )
+    cfg = planner_config(config, **options)
     with replacing_foreign_files(force):
         res = run(
             data,
@@ -475,7 +536,7 @@ def plan_window(
     return DayResult(res.stops, res.routes, metrics, _path(out))
 
 
-@_checked
+@_checked("replay_day")
 def replay_day(
     data: Any,
     date: str | int | dt.date,
@@ -483,33 +544,22 @@ def replay_day(
     out: str | Path | None = None,
     method: str = "marops",
     depots: str | Path | dict[str, Any] | Depots | None = None,
-    n_depots: int | None = None,
-    segment: str | None = None,
-    drones: int | None = None,
     fleet: str | Path | None = None,
-    policy: str | Path | None = None,
-    alpha: float | None = None,
-    ordering: str | None = None,
-    seed: int | None = None,
-    year: int | None = None,
-    strict: bool = False,
-    tz: str | None = None,
     fmt: str = "parquet",
     geojson: bool = False,
     plot: bool = False,
     report: bool = False,
     force: bool = False,
-    trust_actor: bool = False,
-    area: str | None = None,
     hubs: str | Path | None = None,
-    city_drones: int | None = None,
     config: str | Path | None = None,
+    options: dict[str, Any],
 ) -> DayResult:
     """``marops replay-day --date``: the day's stops, routes and metrics. ``depots``: a
     depots file, or the depots ``segment()`` returns (None: segmented from the other
     days). ``area="hubs"`` (or a ``hubs`` file) plans the whole city (docs/method.md
     §1.1): the result's tables hold every hub's rows (their ``hub`` column says
-    which), ``metrics`` the city's ``metrics.json`` and ``city`` its coverage."""
+    which), ``metrics`` the city's ``metrics.json`` and ``city`` its coverage. Its
+    options (``drones``, ``alpha``, ``segment``, …) are those of the command."""
     from .app.replay import ReplayOptions, check_options, replay_config, replay_days
     from .data.dates import parse_day
     from .errors import option
@@ -518,23 +568,7 @@ def replay_day(
     _files_asked("replay_day", out, geojson=geojson, plot=plot, report=report)
     opts = ReplayOptions(method, fmt, plot, geojson, force, keep_tables=True, report=report)
     check_options(opts)
-    cfg = replay_config(
-        config,
-        method=method,
-        segment=segment,
-        year=year,
-        strict=strict,
-        tz=tz,
-        n_depots=n_depots,
-        alpha=alpha,
-        ordering=ordering,
-        drones=drones,
-        seed=seed,
-        policy=None if policy is None else os.fspath(policy),
-        trust_actor=trust_actor,
-        area=area,
-        city_drones=city_drones,
-    )
+    cfg = replay_config(config, method=method, **options)
     day = parse_day(str(date), cfg.data.year, option("date"))
     with replacing_foreign_files(force):
         res = replay_days(
@@ -611,7 +645,7 @@ def _read_back(folder: Path, metrics: dict[str, Any]) -> DayResult:
     return DayResult(read("stops.parquet"), read("routes.parquet"), metrics, folder)
 
 
-@_checked
+@_checked("evaluate")
 def evaluate(
     data: Any,
     *,
@@ -633,64 +667,44 @@ def evaluate(
     against: str | list[str] | None = None,
     plots: bool = True,
     report: bool = False,
-    seed: int | None = None,
-    year: int | None = None,
-    strict: bool = False,
     force: bool = False,
-    trust_actor: bool = False,
-    area: str | None = None,
-    city_drones: int | None = None,
     config: str | Path | None = None,
+    options: dict[str, Any],
 ) -> EvaluationResult:
     """``marops evaluate``: per-day results and their summary. Sweeps take "a,b,c"
     strings (``drones="4,8"``). The replays run on ``workers`` processes, which import
     the calling script as Python's multiprocessing does: in a script, call this under
-    ``if __name__ == "__main__":`` (or pass ``workers=1``)."""
-    from .app.evaluate import EvaluateConfig, actor_paths, method_list, sweep_fields
+    ``if __name__ == "__main__":`` (or pass ``workers=1``). Its options (``seed``,
+    ``area``, …) are those of the command."""
     from .app.evaluate import evaluate as run
+    from .app.evaluate import sweep_fields
     from .app.inputs import in_memory, read_data
-    from .app.options import planner_config
+    from .app.options import evaluate_config
     from .app.progress import SILENT
-    from .data.dates import parse_days
-    from .errors import InputError, option
     from .evaluate.paired import comparison_warning
     from .io.ownership import replacing_foreign_files
-    from .segment.hubs import load_hubs
 
     _files_asked("evaluate", out, report=report)
-    cfg = planner_config(
+    sweeps = (_text(alpha), _text(drones), _text(coverage), _text(n_depots))
+    spec = evaluate_config(
         config,
-        year=year,
-        strict=strict,
-        seed=seed,
-        trust_actor=trust_actor,
-        area=area,
-        city_drones=city_drones,
-    )
-    # An empty list of dates is an error, not the split's days.
-    given = _text(dates) or ""
-    days = parse_days(given, cfg.data.year, option("dates")) if dates is not None else None
-    if dates is not None and split is not None:
-        raise InputError("give at most one of dates or split")
-    spec = EvaluateConfig(
-        cfg,
-        method_list(_text(methods)),
-        **sweep_fields(
-            _text(alpha), _text(drones), _text(coverage), _text(n_depots), frontier=frontier
-        ),
-        days=days,
-        split=split if split is not None else "test",
+        options,
+        methods=_text(methods),
+        dates=(_text(dates) or "") if dates is not None else None,
+        split=split,
+        hubs=hubs,
+        policy=policy,
+        mappo_policy=mappo_policy,
+        **sweep_fields(*sweeps, frontier=frontier),
         repeats=repeats,
         workers=workers,
         scheduler=scheduler,
-        hubs=load_hubs(hubs, cfg.data) if hubs is not None else None,
-        actors=actor_paths(policy or None, mappo_policy or None),
         against=_text(against),
         plots=plots,
         force=force,
         report=report,
     )
-    source = read_data(data, cfg.data) if in_memory(data) else Path(data)
+    source = read_data(data, spec.planner.data) if in_memory(data) else Path(data)
     with replacing_foreign_files(force):
         res = run(source, spec, out=_path(out))
     if (few := comparison_warning(res.summary, res.paired)) is not None:
@@ -698,7 +712,7 @@ def evaluate(
     return EvaluationResult(res.results, res.summary, res.folder, res.paired)
 
 
-@_checked
+@_checked()
 def report(
     folder: str | Path,
     *,

@@ -265,6 +265,24 @@ def registered(spec: OptionSpec) -> Iterator[OptionSpec]:
 # options in, made anew from the table each time it is asked.
 
 
+class LiveSignature(inspect.Signature):
+    """A signature made anew (``make()``) each time it is read: a function's
+    ``__signature__`` that follows the table."""
+
+    __slots__ = ("_make",)
+
+    def __init__(self, make: Callable[[], inspect.Signature]) -> None:  # no fixed parameters
+        self._make = make
+
+    @property
+    def parameters(self) -> Mapping[str, inspect.Parameter]:  # type: ignore[override]
+        return self._make().parameters
+
+    @property
+    def return_annotation(self) -> Any:
+        return self._make().return_annotation
+
+
 def with_options(
     own: inspect.Signature,
     use: str,

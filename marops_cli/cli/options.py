@@ -13,7 +13,7 @@ from typing import Annotated, Any, TypeVar
 
 import typer
 
-from ..app.options import OPTIONS, OptionSpec, split_options, with_options
+from ..app.options import OPTIONS, LiveSignature, OptionSpec, split_options, with_options
 from ..methods import method_names
 
 METHOD_NAMES = method_names()  # every registered method (marops_cli/methods.py)
@@ -163,27 +163,15 @@ def takes_options(use: str) -> Callable[[F], F]:
     registered before the command line is built is the command's."""
 
     def decorate(fn: F) -> F:
-        return _TableOptions(fn, use)  # type: ignore[return-value]
+        own = inspect.signature(fn, eval_str=True)
+
+        @functools.wraps(fn)
+        def command(**kwargs: Any) -> Any:
+            mine, options = split_options(use, kwargs, own)
+            return fn(**mine, options=options)
+
+        made = functools.partial(with_options, own, use, _parameter(use), ("quiet", "as_json"))
+        command.__signature__ = LiveSignature(made)  # type: ignore[attr-defined]
+        return command  # type: ignore[return-value]
 
     return decorate
-
-
-class _TableOptions:
-    """A command's function with its use case's options (:func:`takes_options`)."""
-
-    def __init__(self, fn: Callable[..., Any], use: str) -> None:
-        functools.update_wrapper(self, fn)
-        self._fn, self._use = fn, use
-
-    @functools.cached_property
-    def _own(self) -> inspect.Signature:
-        return inspect.signature(self._fn, eval_str=True)
-
-    @property
-    def __signature__(self) -> inspect.Signature:
-        before = ("quiet", "as_json")
-        return with_options(self._own, self._use, _parameter(self._use), before)
-
-    def __call__(self, **kwargs: Any) -> Any:
-        own, options = split_options(self._use, kwargs, self._own)
-        return self._fn(**own, options=options)
