@@ -26,6 +26,7 @@ import numpy as np
 from marops_cli.config import PlanConfig
 from marops_cli.energy import EnergyModel
 from marops_cli.plans import (
+    Candidates,
     GreedySelector,
     MilpSelector,
     SelectionProblem,
@@ -55,7 +56,8 @@ def window(seed: int, drones: int, candidates: int, model: EnergyModel) -> Selec
     for _ in range(drones):
         ids = rng.choice(pool, candidates, replace=False)
         start, end = rng.uniform(1000, 3000, (2, 2))
-        sets.append(build_plans(start, end, xy[ids], weight[ids], model, PlanConfig(), ids))
+        own = Candidates(xy[ids], weight[ids], ids)
+        sets.append(build_plans(start, end, own, model, PlanConfig()))
     return SelectionProblem.from_plan_sets(sets, delay, alpha=0.5, energy_ref_j=model.usable_j)
 
 

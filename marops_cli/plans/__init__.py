@@ -2,7 +2,7 @@
 
 from .order import MAX_STOPS, SubsetOrders, best_order, subset_orders
 from .planner import DronePlans, Planner, make_planner
-from .plans import NoFeasiblePlanError, PlanSet, SelectionProblem, build_plans
+from .plans import Candidates, NoFeasiblePlanError, PlanSet, SelectionProblem, build_plans
 from .select import (
     GreedySelector,
     MilpSelector,
@@ -16,6 +16,7 @@ from .select import (
 
 __all__ = [
     "MAX_STOPS",
+    "Candidates",
     "DronePlans",
     "GreedySelector",
     "MilpSelector",

@@ -25,7 +25,7 @@ from ..config import PlanConfig
 from ..energy import EnergyModel
 from ..segment.depots import nearest_depot
 from .candidates import by_delay, draft, range_candidates
-from .plans import PlanSet, build_plans
+from .plans import Candidates, PlanSet, build_plans
 from .pool import build_pool
 from .problem import DroneTask, Scope, WindowProblem, can_reach
 from .view import EVERY_DEPOT, FREE, WindowView
@@ -197,15 +197,8 @@ def _range_plans(
         dest = int(dep.candidates[s, acts[u]])
         key = (s, dest, cand.tobytes(), id(models[u]))
         if key not in done:
-            done[key] = build_plans(
-                dep.xy[s],
-                dep.xy[dest],
-                view.pending_xy[cand],
-                view.pending_weight[cand],
-                models[u],
-                cfg,
-                request_ids=cand,
-            )
+            own = Candidates(view.pending_xy[cand], view.pending_weight[cand], cand)
+            done[key] = build_plans(dep.xy[s], dep.xy[dest], own, models[u], cfg)
         plan_sets.append(done[key])
         ends[u] = dest
     return plan_sets, ends, t_cand
@@ -251,15 +244,8 @@ def _global_plans(
             continue
         d = d_pool[:, s]
         cand = pool[sel]
-        ps = build_plans(
-            dep.xy[s],
-            dep.xy[s],
-            view.pending_xy[cand],
-            view.pending_weight[cand],
-            model,
-            cfg,
-            request_ids=cand,
-        )
+        own = Candidates(view.pending_xy[cand], view.pending_weight[cand], cand)
+        ps = build_plans(dep.xy[s], dep.xy[s], own, model, cfg)
         # Land at the depot nearest the last customer instead of flying back: the
         # last leg is flown empty, so only its length changes (never longer).
         sizes = (ps.order >= 0).sum(axis=1)

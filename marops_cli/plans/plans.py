@@ -31,7 +31,7 @@ from ..energy import EnergyModel
 from .objective import lam_j
 from .order import subset_orders
 
-__all__ = ["NoFeasiblePlanError", "PlanSet", "SelectionProblem", "build_plans"]
+__all__ = ["Candidates", "NoFeasiblePlanError", "PlanSet", "SelectionProblem", "build_plans"]
 
 
 class NoFeasiblePlanError(ValueError):
@@ -76,21 +76,32 @@ class PlanSet:
         return tuple(int(self.request_ids[j]) for j in self.stops(k))
 
 
+@dataclass(frozen=True)
+class Candidates:
+    """A drone's candidate requests: where each is, what it weighs and its request id."""
+
+    xy: ArrayLike
+    """``(n, 2)`` metres."""
+    weight_kg: ArrayLike
+    """``(n,)`` kilograms."""
+    ids: ArrayLike | None = None
+    """``(n,)`` the requests' ids (the plans' :attr:`PlanSet.request_ids`); None:
+    ``0..n-1``."""
+
+
 def build_plans(
     start_xy: ArrayLike,
     end_xy: ArrayLike,
-    customers_xy: ArrayLike,
-    weights_kg: ArrayLike,
+    candidates: Candidates,
     model: EnergyModel,
     cfg: PlanConfig | None = None,
-    request_ids: ArrayLike | None = None,
 ) -> PlanSet:
-    """Every feasible plan of one drone over its candidates.
+    """Every feasible plan of one drone flying start → end over its ``candidates``.
 
     Feasible: at most ``cfg.max_parcels`` stops, weight within the payload limit
     (eq. (16)), energy within the usable battery (the battery limit of eq. (15), in
-    joules). Plans are listed by bitmask, so the empty plan comes first.
-    ``request_ids`` default to ``0..n-1``; visiting order per ``cfg.ordering``.
+    joules). Plans are listed by bitmask, so the empty plan comes first; visiting order
+    per ``cfg.ordering``.
 
     Raises
     ------
@@ -98,17 +109,17 @@ def build_plans(
         If the empty flight start → end exceeds the usable battery.
     """
     cfg = cfg or PlanConfig()
-    w = np.asarray(weights_kg, dtype=np.float64).reshape(-1)
+    w = np.asarray(candidates.weight_kg, dtype=np.float64).reshape(-1)
     ids = (
         np.arange(w.size, dtype=np.int64)
-        if request_ids is None
-        else np.asarray(request_ids, dtype=np.int64).reshape(-1)
+        if candidates.ids is None
+        else np.asarray(candidates.ids, dtype=np.int64).reshape(-1)
     )
     if ids.size != w.size:
         raise ValueError(f"expected {w.size} request ids, got {ids.size}")
     if np.unique(ids).size != ids.size:
         raise ValueError("expected distinct request ids")
-    subsets = subset_orders(start_xy, end_xy, customers_xy, w, model, cfg.ordering)
+    subsets = subset_orders(start_xy, end_xy, candidates.xy, w, model, cfg.ordering)
     if subsets.energy_j[0] > model.usable_j:
         raise NoFeasiblePlanError(
             f"the flight start -> end alone ({subsets.distance_m[0]:.0f} m, "

@@ -10,13 +10,20 @@ from numpy.testing import assert_allclose
 
 from marops_cli.config import EnergyConfig, PlanConfig
 from marops_cli.energy import EnergyModel
-from marops_cli.plans import NoFeasiblePlanError, PlanSet, SelectionProblem, build_plans
+from marops_cli.plans import (
+    Candidates,
+    NoFeasiblePlanError,
+    PlanSet,
+    SelectionProblem,
+    build_plans,
+)
 
 # Two depots 1 km apart and five orders (ids 11..15), numbers checkable by hand.
 START, END = (0.0, 0.0), (1000.0, 0.0)
 XY = np.array([(0, 500), (500, 500), (1000, 500), (500, -500), (3500, 3500)], dtype=float)
 W = np.array([0.5, 1.0, 0.8, 2.0, 0.3])
 IDS = np.array([11, 12, 13, 14, 15])
+CANDS = Candidates(XY, W, IDS)
 
 
 @pytest.fixture(scope="module")
@@ -26,7 +33,7 @@ def model() -> EnergyModel:
 
 @pytest.fixture(scope="module")
 def plans(model) -> PlanSet:
-    return build_plans(START, END, XY, W, model, PlanConfig(), IDS)
+    return build_plans(START, END, CANDS, model, PlanConfig())
 
 
 def test_empty_plan_first_and_direct(plans, model):
@@ -73,16 +80,15 @@ def test_plan_rows_are_consistent(plans, model):
 
 
 def test_max_parcels_limits_plan_size(model):
-    plans = build_plans(START, END, XY, W, model, PlanConfig(max_parcels=2), IDS)
+    plans = build_plans(START, END, CANDS, model, PlanConfig(max_parcels=2))
     assert plans.members.sum(axis=1).max() == 2
 
 
 def test_greedy_ordering_option(model):
     depot = (0.0, 0.0)
-    exact = build_plans(depot, depot, [(600, 0), (0, 700)], [0.1, 2.0], model, PlanConfig())
-    greedy = build_plans(
-        depot, depot, [(600, 0), (0, 700)], [0.1, 2.0], model, PlanConfig(ordering="greedy")
-    )
+    two = Candidates([(600, 0), (0, 700)], [0.1, 2.0])
+    exact = build_plans(depot, depot, two, model, PlanConfig())
+    greedy = build_plans(depot, depot, two, model, PlanConfig(ordering="greedy"))
     assert exact.route(exact.n_plans - 1) == (1, 0)
     assert greedy.route(greedy.n_plans - 1) == (0, 1)
     assert_allclose(exact.energy_j[-1], 43_466.7, rtol=1e-3)
@@ -91,26 +97,26 @@ def test_greedy_ordering_option(model):
 
 def test_battery_drops_plans(model):
     small = EnergyModel(EnergyConfig(battery_j=60_000.0))  # usable 45 kJ: ~2.8 km empty
-    plans = build_plans(START, END, XY, W, small, PlanConfig(), IDS)
+    plans = build_plans(START, END, CANDS, small, PlanConfig())
     assert np.all(plans.energy_j <= small.usable_j)
     assert not plans.members[:, 4].any()  # the far order is out of range
 
 
 def test_unreachable_destination_raises(model):
     with pytest.raises(NoFeasiblePlanError, match="exceeds the usable battery"):
-        build_plans(START, (11_000.0, 0.0), XY, W, model)
+        build_plans(START, (11_000.0, 0.0), Candidates(XY, W), model)
 
 
 def test_bad_ids_raise(model):
     with pytest.raises(ValueError, match="request ids"):
-        build_plans(START, END, XY, W, model, request_ids=[1, 2])
+        build_plans(START, END, Candidates(XY, W, [1, 2]), model)
     with pytest.raises(ValueError, match="distinct"):
-        build_plans(START, END, XY, W, model, request_ids=[1, 1, 2, 3, 4])
+        build_plans(START, END, Candidates(XY, W, [1, 1, 2, 3, 4]), model)
 
 
 def test_selection_problem_table(model):
-    a = build_plans(START, END, XY[:3], W[:3], model, PlanConfig(), IDS[:3])
-    b = build_plans(END, END, XY[1:4], W[1:4], model, PlanConfig(), IDS[1:4])
+    a = build_plans(START, END, Candidates(XY[:3], W[:3], IDS[:3]), model, PlanConfig())
+    b = build_plans(END, END, Candidates(XY[1:4], W[1:4], IDS[1:4]), model, PlanConfig())
     delay = {11: 0.0, 12: 0.5, 13: 1.0, 14: 2.0}
     prob = SelectionProblem.from_plan_sets([a, b], delay, alpha=0.2, energy_ref_j=100.0)
     assert prob.n_drones == 2 and prob.n_plans == a.n_plans + b.n_plans

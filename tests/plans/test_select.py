@@ -12,6 +12,7 @@ from numpy.testing import assert_allclose
 from marops_cli.config import PlanConfig
 from marops_cli.energy import EnergyModel
 from marops_cli.plans import (
+    Candidates,
     GreedySelector,
     MilpSelector,
     PlanSet,
@@ -109,7 +110,8 @@ def real_window(seed: int, drones: int = 8):
     for _ in range(drones):
         ids = rng.choice(pool, 5, replace=False)
         start, end = rng.uniform(1000, 3000, (2, 2))
-        sets.append(build_plans(start, end, xy[ids], weight[ids], model, PlanConfig(), ids))
+        own = Candidates(xy[ids], weight[ids], ids)
+        sets.append(build_plans(start, end, own, model, PlanConfig()))
     return SelectionProblem.from_plan_sets(sets, delay, alpha=0.5, energy_ref_j=model.usable_j)
 
 

@@ -170,7 +170,7 @@ def test_plan_value_feature_is_the_best_plan_of_build_plans() -> None:
     """Feature VALUE of each action = max over build_plans' plans of λ Σ v − E (hand rule)."""
     from marops_cli.config import PlanConfig
     from marops_cli.energy import EnergyModel
-    from marops_cli.plans.plans import build_plans
+    from marops_cli.plans.plans import Candidates, build_plans
 
     view = _view(
         [1.5, 0.5, 3.0, 0.0], [(900.0, 200.0), (2500.0, -300.0), (3900.0, 0.0), (50.0, 0.0)], [0]
@@ -182,15 +182,8 @@ def test_plan_value_feature_is_the_best_plan_of_build_plans() -> None:
     for k in range(3):
         d = int(view.depots.candidates[0, k])
         inside = np.flatnonzero(view.ranges[0, k][view.pending_area])
-        ps = build_plans(
-            view.depots.xy[0],
-            view.depots.xy[d],
-            view.pending_xy[inside],
-            view.pending_weight[inside],
-            model,
-            plan,
-            request_ids=inside,
-        )
+        own = Candidates(view.pending_xy[inside], view.pending_weight[inside], inside)
+        ps = build_plans(view.depots.xy[0], view.depots.xy[d], own, model, plan)
         net = lam * (ps.members @ (1 + view.pending_delay_h[inside])) - ps.energy_j
         best = int(np.argmax(net))
         f = row[k * PER_ACTION_V3 : (k + 1) * PER_ACTION_V3]
