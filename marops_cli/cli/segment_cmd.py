@@ -149,7 +149,6 @@ def _segment_hubs(
     (with its GeoJSON and, with ``plot``, its map)."""
     from ..app.options import planner_config
     from ..app.segment import check_json_out, hub_count, segment_hubs
-    from ..config import count
 
     hub_count(hubs)  # a bad --hubs is the first error
     check_json_out(out, "hubs")
@@ -157,15 +156,23 @@ def _segment_hubs(
     protect_inputs([out, gj_path, *[png_path] * plot], [data, config])
     cfg = planner_config(config, **options)
     res = segment_hubs(data, cfg, hubs, days=dates, out=out, plot=plot, progress=Terminal())
-    held, total = sum(h.orders for h in res.hubs), res.total
     asked = hub_count(hubs)
     if asked is not None and len(res.hubs) < asked:
         warn(
             f"--hubs {asked}: the orders fill only {len(res.hubs)} non-overlapping "
             f"{cfg.data.size_km:g} km square{'s' * (len(res.hubs) != 1)}"
         )
+    _print_hubs(res, cfg.data.size_km)
+
+
+def _print_hubs(res: Any, size_km: float) -> None:
+    """The hubs placed (their centres, orders and share of all orders), the files
+    written, and with ``--json`` the summary."""
+    from ..config import count
+
+    held, total = sum(h.orders for h in res.hubs), res.total
     t = table(
-        f"{count(len(res.hubs), 'hub')} of {cfg.data.size_km:g} km, "
+        f"{count(len(res.hubs), 'hub')} of {size_km:g} km, "
         f"holding {held:,} of {total:,} orders ({100 * held / max(total, 1):.1f} %)"
     )
     for col in ("hub", "centre lng", "centre lat", "orders", "share %"):
