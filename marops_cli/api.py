@@ -320,7 +320,7 @@ F = TypeVar("F", bound=Callable[..., Any])
 def _checked(use: str | None = None) -> Callable[[F], F]:
     """Check a function's arguments against its annotations before it runs (see above);
     with ``use``, it takes the table's options of that use case (marops_cli/app/options.py)
-    as keywords too, gathered in its own ``options``. A path the system cannot look up (a
+    as keywords too, gathered in its ``**options``. A path the system cannot look up (a
     name too long, a loop of links) is an InputError too. An error naming an option names
     it by its keyword (``alpha``), where the command line names its flag (``--alpha``;
     marops_cli/errors.py)."""
@@ -361,13 +361,16 @@ def _checked(use: str | None = None) -> Callable[[F], F]:
 
 def _gathered(use: str | None, kwargs: dict[str, Any], own: inspect.Signature) -> dict[str, Any]:
     """A call's keyword arguments as the function takes them: the table's options of
-    ``use`` gathered in ``options``."""
+    ``use`` gathered in its ``**options``."""
     if use is None:
         return kwargs
     from .app.options import split_options
 
     mine, options = split_options(use, kwargs, own)
-    return {**mine, "options": options}
+    clash = set(mine) & set(options)
+    if clash:  # a table option named like one of the function's own parameters
+        raise TypeError(f"options named like parameters: {sorted(clash)}")
+    return {**mine, **options}
 
 
 def _did_you_mean(sig: inspect.Signature, kwargs: dict[str, Any]) -> str:
@@ -461,7 +464,7 @@ def segment(
     hubs: str | int | None = None,
     force: bool = False,
     config: str | Path | None = None,
-    options: dict[str, Any],
+    **options: Any,
 ) -> dict[str, Any]:
     """``marops segment``: the depots document (``depots.json``; with ``hubs``, the
     hubs file) as a dictionary, written to ``out`` when given (the hubs file with its
@@ -503,7 +506,7 @@ def plan_window(
     report: bool = False,
     force: bool = False,
     config: str | Path | None = None,
-    options: dict[str, Any],
+    **options: Any,
 ) -> DayResult:
     """``marops plan-window``: one window's stops and routes, and its solver and window
     objective (``metrics``). ``depots``: a depots file, or the depots ``segment()``
@@ -552,7 +555,7 @@ def replay_day(
     force: bool = False,
     hubs: str | Path | None = None,
     config: str | Path | None = None,
-    options: dict[str, Any],
+    **options: Any,
 ) -> DayResult:
     """``marops replay-day --date``: the day's stops, routes and metrics. ``depots``: a
     depots file, or the depots ``segment()`` returns (None: segmented from the other
@@ -669,7 +672,7 @@ def evaluate(
     report: bool = False,
     force: bool = False,
     config: str | Path | None = None,
-    options: dict[str, Any],
+    **options: Any,
 ) -> EvaluationResult:
     """``marops evaluate``: per-day results and their summary. Sweeps take "a,b,c"
     strings (``drones="4,8"``). The replays run on ``workers`` processes, which import
