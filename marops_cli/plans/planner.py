@@ -64,6 +64,12 @@ class DronePlans:
 class Planner(Protocol):
     """Builds each drone's plans for one window's problem."""
 
+    @property
+    def scope(self) -> Scope:
+        """The scope the planner plans in, which also builds its window's problem
+        (:func:`.window.plan_routes`)."""
+        ...
+
     def plans(self, problem: WindowProblem, view: WindowView) -> DronePlans:
         """Plan sets and ends for ``problem`` (the drones' tasks, their models, λ and the
         prices); ``view`` is the window it was built from (the paper's candidates rank

@@ -117,19 +117,20 @@ def plan_routes(
     model: EnergyModel,
     cfg: PlanConfig,
     selector: Selector,
-    scope: Scope = "range",
-    *,
-    planner: Planner | None = None,
+    planner: Planner | Scope = "range",
 ) -> WindowPlan:
     """Plan every drone's route for window ``view.t``; routes always respect payload,
     battery and the one-visit rule (checked before returning).
 
-    ``planner`` builds the plans (default: :func:`make_planner` of ``cfg`` and ``scope``);
-    ``cfg.alpha`` and ``model`` price the selection either way.
+    ``planner`` builds the plans, and the window's problem is built in its scope; a
+    scope instead (``range`` or ``global``) is :func:`make_planner` of ``cfg`` in that
+    scope. ``cfg.alpha`` and ``model`` price the selection either way.
     """
     t_start = time.perf_counter()
-    planner = planner or make_planner(cfg, scope)
-    problem = WindowProblem.of(view, np.asarray(actions, dtype=np.int64), model, cfg, scope)
+    if isinstance(planner, str):
+        planner = make_planner(cfg, planner)
+    acts = np.asarray(actions, dtype=np.int64)
+    problem = WindowProblem.of(view, acts, model, cfg, planner.scope)
     return plan_problem(problem, view, selector, planner, cfg, t_start)
 
 

@@ -115,9 +115,7 @@ def plan_step(view: WindowView, actions: np.ndarray | SlotActions, how: WindowSt
         # A view built without the model (one window planned alone): parcels wait at the
         # depot of their service area.
         view = replace(view, pending_stock=view.waiting_at())
-    return plan_routes(
-        view, actions, how.model, how.plan, selector, scope=how.scope, planner=how.planner
-    )
+    return plan_routes(view, actions, how.model, how.plan, selector, how.planner)
 
 
 def fly_window(

@@ -55,8 +55,8 @@ def test_subsets_fly_free_as_stay_and_only_the_pool_reorders():
 
 @pytest.mark.parametrize("scope", ["range", "global"])
 def test_a_given_planner_overrides_the_config(scope):
-    """``planner=`` wins over ``cfg.planner``: the subsets planner given with a pool config
-    plans exactly what the subsets config plans by itself."""
+    """A planner given wins over ``cfg.planner``: the subsets planner given with a pool
+    config plans exactly what the subsets config plans by itself."""
     model = EnergyModel()
     acts = np.array([0, FREE])  # the pool records FREE, the paper's planner flies it as stay
     paper = PlanConfig(planner="subsets")
@@ -66,8 +66,7 @@ def test_a_given_planner_overrides_the_config(scope):
         model,
         PlanConfig(),
         MilpSelector(),
-        scope,
-        planner=SubsetsPlanner(paper, scope),
+        SubsetsPlanner(paper, scope),
     )
     own = plan_routes(hand_view(), acts, model, paper, MilpSelector(), scope)
     assert [(r.stops, r.end, r.action) for r in given.routes] == [
