@@ -71,22 +71,19 @@ class WindowView:
     every type, or out of every type's reach from the nearest depot); None: not known."""
 
     @classmethod
-    def paper(
-        cls,
-        model: EnergyModel | None = None,
-        *,
-        drone_models: Sequence[EnergyModel] | None = None,
-        pending_stock: np.ndarray | None = None,
-        drone_ready: np.ndarray | None = None,
-        depot_spares: np.ndarray | None = None,
-        depot_charging: np.ndarray | None = None,
-        **fields: Any,
-    ) -> WindowView:
-        """A view whose operating state is the paper's wherever it is not given: every
-        drone of ``model``'s type (default: the default drone), every parcel at every
-        depot, every drone able to fly, swaps unlimited. ``fields``: the view's others."""
+    def paper(cls, model: EnergyModel | None = None, **fields: Any) -> WindowView:
+        """A view whose operating state is the paper's wherever it is not given (or is
+        None): every drone of ``model``'s type (default: the default drone) unless
+        ``drone_models`` are given, every parcel at every depot (``pending_stock``), every
+        drone able to fly (``drone_ready``), swaps unlimited (``depot_spares``,
+        ``depot_charging``). ``fields``: the view's others, and those it gives."""
         n_drones = len(fields["drone_depot"])
         n_req, n_depots = len(fields["pending_idx"]), len(fields["depots"])
+        drone_models: Sequence[EnergyModel] | None = fields.pop("drone_models", None)
+        pending_stock = fields.pop("pending_stock", None)
+        drone_ready = fields.pop("drone_ready", None)
+        depot_spares = fields.pop("depot_spares", None)
+        depot_charging = fields.pop("depot_charging", None)
         if drone_models is None:
             drone_models = (model or EnergyModel(),) * n_drones
         return cls(
