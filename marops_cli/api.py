@@ -464,13 +464,15 @@ def segment(
     hubs: str | int | None = None,
     force: bool = False,
     config: str | Path | None = None,
+    method: str | None = None,
     **options: Any,
 ) -> dict[str, Any]:
     """``marops segment``: the depots document (``depots.json``; with ``hubs``, the
     hubs file) as a dictionary, written to ``out`` when given (the hubs file with its
     GeoJSON beside it, as ``segment --hubs`` writes). The depots document is taken
     wherever a depots file is (``plan_window``, ``replay_day``, ``report``). Its options
-    (``n_depots``, ``method``, ``seed``, …) are those of the command."""
+    (``n_depots``, ``segmentation``, ``seed``, …) are those of the command; ``method`` is
+    the former name of ``segmentation`` (a DeprecationWarning)."""
     from .app.options import hubs_options, planner_config
     from .app.segment import refuse_with_hubs, segment_hubs
     from .app.segment import segment as run
@@ -478,6 +480,15 @@ def segment(
     from .io.ownership import replacing_foreign_files
 
     _files_asked("segment", out, geojson=geojson, plot=plot)
+    if method is not None:
+        import warnings
+
+        from .errors import InputError
+
+        if options.get("segmentation") is not None:
+            raise InputError("segment(): give segmentation alone (method is its former name)")
+        warnings.warn("segment(method=) is now segmentation=", DeprecationWarning, stacklevel=3)
+        options["segmentation"] = method
     with replacing_foreign_files(force):
         if hubs is not None:
             read, refused = hubs_options(options)

@@ -22,9 +22,9 @@ _KEYED = frozenset({".toml", ".json"})
 _MARK = "\x1f"  # never in a message's own text
 _MARKED = re.compile(f"{_MARK}([a-z_]+)(=?){_MARK}")
 
-_FLAGS = {"segmentation": "--method", "segment_seed": "--seed", "fmt": "--format"}
+_FLAGS = {"segment_seed": "--seed", "fmt": "--format"}
 """Option identity -> its flag, where the two differ beyond ``_`` and ``-``."""
-_KEYWORDS = {"segmentation": "method", "segment_seed": "seed"}
+_KEYWORDS = {"segment_seed": "seed"}
 """Option identity -> the API's keyword, where the two differ (the identity of an option
 is its keyword but where one keyword sets another field in another function)."""
 

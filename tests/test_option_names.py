@@ -22,11 +22,11 @@ def test_a_message_names_an_option_as_a_flag_until_respelled_as_a_keyword() -> N
     exc.respell(keyword)
     assert str(exc) == "a.csv: n_depots 0: pass force=True"
     assert exc.file == "a.csv"
-    # An option's flag or keyword of another name: segment's --method sets segmentation.
-    assert str(InputError(option("segmentation") + " " + option("fmt"))) == "--method --format"
+    # An option's flag or keyword of another name: segment's --seed sets segment_seed.
+    assert str(InputError(option("segment_seed") + " " + option("fmt"))) == "--seed --format"
     renamed = InputError(option("segmentation") + " " + option("segment_seed"))
     renamed.respell(keyword)
-    assert str(renamed) == "method seed"
+    assert str(renamed) == "segmentation seed"
 
 
 Call = Callable[[Path, Path, Path], Any]
@@ -43,7 +43,11 @@ def depots(example_csv: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
 API_CASES: list[tuple[str, Call, str]] = [
     ("read_lade", lambda d, t, k: marops.read_lade(d, year=1900), r"^read_lade\(\): year: "),
     ("segment", lambda d, t, k: marops.segment(d, n_depots=0), r"^invalid option n_depots: "),
-    ("segment", lambda d, t, k: marops.segment(d, method="nope"), r"^invalid option method: "),
+    (
+        "segment",
+        lambda d, t, k: marops.segment(d, segmentation="nope"),
+        r"^invalid option segmentation: ",
+    ),
     ("segment", lambda d, t, k: marops.segment(d, center="north"), r"^center expects LNG,LAT"),
     ("segment", lambda d, t, k: marops.segment(d, dates="x"), r"^invalid option dates: "),
     ("segment", lambda d, t, k: marops.segment(d, hubs=0), r"^hubs expects a number of hubs"),

@@ -51,7 +51,7 @@ class OptionSpec:
     envvar: str | None = None
     """The environment variable its flag reads when not given (the API reads none)."""
     flag: str | None = None
-    """Its flag where it is not the name's (``--method`` for ``segmentation``)."""
+    """Its flag where it is not the name's (``--seed`` for ``segment_seed``)."""
     keyword: str | None = None
     """Its API keyword (and the commands' parameter) where it is not the name."""
     api_type: Any = None
@@ -152,8 +152,6 @@ OPTIONS: dict[str, OptionSpec] = {
             str,
             "kmeans (k-means areas, docs/method.md §2) or squares [default: kmeans].",
             ("segment",),
-            flag="--method",
-            keyword="method",
         ),
         OptionSpec(
             # replay_config: the method's own segmentation unless given

@@ -31,7 +31,7 @@ def segment_command(
     data: o.Data,
     out: Annotated[Path, typer.Option("--out", help="Where to write depots.json.")],
     n_depots: o.NDepots = None,
-    method: o.Segmentation = None,
+    segmentation: o.Segmentation = None,
     size_km: o.SizeKm = None,
     center: o.Center = None,
     dates: Annotated[
@@ -73,12 +73,16 @@ def segment_command(
     config: o.Config = None,
     quiet: o.Quiet = False,
     as_json: o.Json = False,
+    method: Annotated[
+        str | None, typer.Option("--method", hidden=True, help="Former name of --segmentation.")
+    ] = None,
     *,
     options: dict[str, Any],
 ) -> None:
     """Cluster a LaDe export into depots and service areas (k-means or squares), or tile
     a city into hubs (--hubs)."""
     data = begin(data, quiet=quiet, as_json=as_json, force=force)
+    options = _former_method(method, options)
     from ..app.options import hubs_options, planner_config
     from ..app.segment import check_json_out, refuse_with_hubs
     from ..app.segment import segment as segment_data
@@ -99,6 +103,19 @@ def segment_command(
     info("wrote " + ", ".join(str(p) for p in res.files))
     if STATE["json"]:
         emit_json(_json_doc(res, cfg))
+
+
+def _former_method(method: str | None, options: dict[str, Any]) -> dict[str, Any]:
+    """``--method``, segment's former name of ``--segmentation`` (hidden; a run method is
+    what ``--method`` names everywhere else): taken, with a note, unless both are given."""
+    if method is None:
+        return options
+    if options.get("segmentation") is not None:
+        from ..errors import InputError
+
+        raise InputError("give --segmentation alone (--method is its former name)")
+    warn("--method is now --segmentation for segment; --method will go")
+    return {**options, "segmentation": method}
 
 
 def _json_doc(res: Any, cfg: Any) -> dict[str, Any]:

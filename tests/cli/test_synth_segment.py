@@ -258,3 +258,38 @@ def test_one_depot_reads_one_depot(example_csv: Path, tmp_path: Path) -> None:
     )
     assert res.exit_code == 0, res.output
     assert "1 depot around" in " ".join(res.output.split())
+
+
+def test_segmentation_has_its_own_word_and_the_former_one_still_works(
+    example_csv: Path, tmp_path: Path
+) -> None:
+    """``--method`` names a run method everywhere; segment's areas are ``--segmentation``.
+    The former ``segment --method`` (hidden) and ``segment(method=)`` still give the same
+    depots, with a note; both at once is refused."""
+    import warnings
+
+    from marops_cli import api as marops
+
+    args = ["segment", str(example_csv), "--dates", "0801..0802", "--n-depots", "4"]
+    docs = []
+    for flag in ("--segmentation", "--method"):
+        out = tmp_path / f"{flag[2:]}.json"
+        res = runner.invoke(app, [*args, flag, "squares", "--out", str(out)])
+        assert res.exit_code == 0, res.output
+        assert ("is now --segmentation" in res.output) == (flag == "--method")
+        docs.append(json.loads(out.read_text()))
+    assert docs[0]["method"] == "squares" and docs[0] == docs[1]
+    res = runner.invoke(
+        app,
+        [*args, "--segmentation", "squares", "--method", "kmeans", "--out", str(tmp_path / "x")],
+    )
+    assert res.exit_code == 2 and "--segmentation alone" in res.output
+    with pytest.warns(DeprecationWarning, match="segmentation="):
+        doc = marops.segment(example_csv, dates="0801..0802", n_depots=4, method="squares")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert (
+            marops.segment(example_csv, dates="0801..0802", n_depots=4, segmentation="squares")
+            == doc
+        )
+    assert doc["method"] == "squares"
