@@ -1,13 +1,13 @@
 """numba kernels of the route pool (loaded through :func:`.kernels.kernels`).
 
-Each mirrors a numpy expression of :class:`.pool.RoutePool` operation by operation, so
-that both give the same floats: no fast-math, no reordered sums. The energy per metre
+Each mirrors a numpy expression of :class:`.pool_pricing.PoolPricing` operation by
+operation, so that both give the same floats: no fast-math, no reordered sums. The energy per metre
 is ``np.interp`` on the energy model's uniform load grid, done as numpy does it (the
 interval found, then slope × offset + value).
 
 What travels together is one tuple (numba takes tuples of arrays as they are):
 
-* ``drone`` (:data:`Drone`): a drone's candidates as :class:`.pool._Drone` holds
+* ``drone`` (:data:`Drone`): a drone's candidates as :class:`.pool_state.Drone` holds
   them: the distances ``dmat`` (candidate -> candidate, the start the last column), the
   parcel weights ``cand_w``, the empty last leg's energy from each ``cand_end``, the
   empty route's ``start_end``, the candidates' positions ``cand`` and prizes
@@ -88,9 +88,9 @@ def insertion(
     limits: Limits,
     out: tuple[NDArray[np.float64], NDArray[np.int64]],
 ) -> None:
-    """:meth:`.pool.RoutePool._insertion`: the least extra energy of inserting each
-    candidate of ``sub`` into the route ``stops`` (into ``out[0]``) and where (the slot,
-    into ``out[1]``), both indexed like ``sub``."""
+    """:meth:`.pool_pricing.PoolPricing._insertion`: the least extra energy of inserting
+    each candidate of ``sub`` into the route ``stops`` (into ``out[0]``) and where (the
+    slot, into ``out[1]``), both indexed like ``sub``."""
     dmat, cand_w, cand_end, start_end = drone[0], drone[1], drone[2], drone[3]
     cap, grid, table = limits[0], limits[3], limits[4]
     d_out, slot_out = out
@@ -140,9 +140,9 @@ def insertion(
 
 @nb.njit(cache=True, nogil=True)
 def route_energy(drone: Drone, stops: NDArray[np.int64], limits: Limits) -> float:
-    """:meth:`.pool.RoutePool._route_energy` of a route of at least one stop: each
-    leg's length times the energy per metre of its load, summed in route order, plus the
-    empty last leg."""
+    """:meth:`.pool_pricing.PoolPricing._route_energy` of a route of at least one stop:
+    each leg's length times the energy per metre of its load, summed in route order, plus
+    the empty last leg."""
     dmat, cand_w, cand_end = drone[0], drone[1], drone[2]
     cap, grid, table = limits[0], limits[3], limits[4]
     k = stops.size
@@ -161,8 +161,8 @@ def route_energy(drone: Drone, stops: NDArray[np.int64], limits: Limits) -> floa
 def without(
     drone: Drone, stops: NDArray[np.int64], limits: Limits, out: NDArray[np.float64]
 ) -> None:
-    """:meth:`.pool.RoutePool._without`: the route's energy without each of its stops
-    (into ``out``, in route order)."""
+    """:meth:`.pool_pricing.PoolPricing._without`: the route's energy without each of its
+    stops (into ``out``, in route order)."""
     dmat, cand_w, cand_end, start_end = drone[0], drone[1], drone[2], drone[3]
     cap, grid, table = limits[0], limits[3], limits[4]
     k = stops.size
@@ -205,7 +205,7 @@ def refresh(
     best: Best,
     scoring: tuple[int, NDArray[np.float64]],
 ) -> tuple[float, int]:
-    """:meth:`.pool.RoutePool._refresh`: every score to −inf, then each candidate
+    """:meth:`.pool_pricing.PoolPricing._refresh`: every score to −inf, then each candidate
     that is ``free`` and still fits the payload (the route's weight + its own ≤
     ``fit_kg``): its best insertion, extra energy and score (``scoring``: the score's
     number in :data:`KIND`, and a blur factor per candidate, the score times it when it

@@ -6,7 +6,7 @@ elements, where numpy's per-call cost outweighs the arithmetic. The kernels
 (:mod:`._jit`) do the same operations, in the same order, in one compiled loop: every
 product, sum and comparison is the one numpy makes, so a plan is the same to the
 byte with or without them (docs/decisions.md, "The route pool"), and the pool keeps
-its numpy code for where numba is missing or cannot compile.
+its numpy code (:mod:`.pool_pricing`) for where numba is missing or cannot compile.
 
 Loading numba and the compiled code from its cache takes about 0.6 s of CPU (2 s the
 first time, when it compiles), what the kernels save over five or six windows. So a
