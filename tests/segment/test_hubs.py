@@ -372,7 +372,7 @@ def test_fewer_hubs_than_asked_for_say_so(example_csv: Path, tmp_path: Path) -> 
     [
         (["--center", "121.47,31.23"], "--center"),
         (["--n-depots", "4", "--seed", "1"], "--n-depots, --seed"),
-        (["--method", "squares"], "--method"),
+        (["--segmentation", "squares"], "--segmentation"),
     ],
 )
 def test_options_of_one_study_area_are_refused_with_hubs(
@@ -394,7 +394,7 @@ def test_options_of_one_study_area_are_refused_with_hubs(
     ("extra", "named"),
     [
         ({"center": (121.47, 31.23)}, "center"),
-        ({"n_depots": 3, "method": "squares"}, "n_depots, method"),
+        ({"n_depots": 3, "segmentation": "squares"}, "n_depots, segmentation"),
     ],
 )
 def test_the_api_refuses_them_too(example_csv: Path, tmp_path: Path, extra, named) -> None:
