@@ -865,7 +865,8 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     ap.add_argument(
         "--closed-pyvrp-s",
         default=",".join(f"{s:g}" for s in CLOSED_S),
-        help="PyVRP's limits in the closed loop (the check is against 0.1 s when given)",
+        help="PyVRP's limits in the closed loop (the check is against 0.1 s when given; "
+        '"": the open loop alone)',
     )
     ap.add_argument("--open-seeds", help="the open loop on these seeds only (default: --seeds)")
     ap.add_argument("--repeats", type=int, default=1, help="marops plans each window this often")
@@ -969,7 +970,8 @@ def main(argv: list[str] | None = None) -> None:
                         continue
                 if not args.closed and day.seed in open_seeds:
                     opened += open_loop(day, setup, args.quiet)
-                closed.append(closed_day(day, setup))
+                if setup.closed_s:  # --closed-pyvrp-s "": the open loop alone
+                    closed.append(closed_day(day, setup))
         if opened:
             result["open"] = {"windows": opened, "summary": open_summary(opened, setup)}
             print_open(result["open"]["summary"])
