@@ -8,7 +8,6 @@ training scenario (docs/method.md §6, generalisation).
 from __future__ import annotations
 
 import datetime as dt
-import math
 import zipfile
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -222,11 +221,6 @@ def oversized_checkpoint(ckpt: Path) -> InputError | None:
         "checkpoint holds; pass --no-resume or another --out",
         file=ckpt,
     )
-
-
-def finite_number(v: Any) -> bool:
-    """Whether ``v``, read back from a checkpoint, is a finite number (not a boolean)."""
-    return isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
 
 
 def edited_checkpoint(ckpt: Path, kind: str, exc: Exception | str) -> InputError:

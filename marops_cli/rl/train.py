@@ -8,11 +8,12 @@ that never stopped, whatever the number of workers.
 
 from __future__ import annotations
 
+import functools
 import pickle
 import time
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar, Literal
 
 import numpy as np
 import torch
@@ -28,7 +29,6 @@ from .data import (
     TrainData,
     edited_checkpoint,
     fingerprint,
-    finite_number,
     load_training_data,
     other_algorithm,
     other_run,
@@ -49,6 +49,7 @@ BASELINES = ("random", "greedy", "myopic", "global")  # on held-out days (ops-ra
 _STREAM_DAYS, _STREAM_EPISODE, _STREAM_UPDATE, _STREAM_SCENARIO, _STREAM_ALPHA = 1, 2, 3, 4, 5
 Event = dict[str, Any]
 CKPT_FORMAT = "marops-train-ckpt/1"
+_KIND = "a training checkpoint"  # as the refusals name it
 
 
 def _stack(eps: list[Episode], name: str) -> np.ndarray:
@@ -143,7 +144,7 @@ class Trainer:
         try:
             self._restore(state)
         except (KeyError, TypeError, ValueError, AttributeError, RuntimeError, OverflowError) as e:
-            raise edited_checkpoint(self.ckpt, "a training checkpoint", e) from None
+            raise edited_checkpoint(self.ckpt, _KIND, e) from None
         if self.episode > self.tcfg.episodes:  # it would export that actor as this run's
             raise InputError(
                 f"checkpoint is at episode {self.episode}, past --episodes "
@@ -154,50 +155,43 @@ class Trainer:
         return True
 
     def _restore(self, state: dict[str, Any]) -> None:
-        """The networks, optimiser and progress of a checkpoint's ``state``; raises
-        KeyError, TypeError, ValueError or RuntimeError on one of another shape, or with
-        weights that are not finite numbers, before any training: what the run reads
-        back later (the best actor, the evaluations, the learning curve) is checked too."""
+        """The networks, optimiser and progress of a checkpoint's ``state``, before any
+        training. Its plain data is :func:`_checkpoint_model`'s, refused naming the key
+        (``history[3].reward``); then what its parts say of each other (best among the
+        evaluations, its actor this run's network) and the tensors: raises KeyError,
+        TypeError, ValueError or RuntimeError on networks of another shape or weights that
+        are not finite numbers. What the run reads back later (the best actor, the
+        evaluations, the learning curve) is checked too."""
+        from pydantic import ValidationError
+
+        from ..data.filemodel import error_text
+
+        _name_daily_cost(state)
+        model = _checkpoint_model()
+        try:
+            ckpt = model.model_validate(state)
+        except ValidationError as exc:
+            key, msg = error_text(exc, model)
+            raise edited_checkpoint(self.ckpt, _KIND, f"{key}: {msg}" if key else msg) from None
+        best = ckpt.best
+        if best is not None:
+            if best.episode not in [e.episode for e in ckpt.evals]:
+                raise ValueError("best must be one of the evaluations")
+            if _shapes(best.actor) != _shapes(self.actor.state_dict()):
+                raise ValueError("best's actor is not this run's network")
+            _all_finite("best actor", best.actor)
         self.actor.load_state_dict(state["actor"])
         self.critic.load_state_dict(state["critic"])
         self.optimizer.load_state_dict(state["optimizer"])
         _all_finite("actor", state["actor"])
         _all_finite("critic", state["critic"])
         _all_finite("optimizer", state["optimizer"]["state"])
-        lists = [state[k] for k in ("history", "evals", "baselines")]
-        best = state.get("best")
-        if not all(isinstance(v, list) for v in lists) or not isinstance(best, dict | None):
-            raise TypeError("history, evals and baselines must be lists, best a dict")
-        episode, update, elapsed = state["episode"], state["update"], state["elapsed_s"]
-        if (
-            not all(_count(v) for v in (episode, update))
-            or not finite_number(elapsed)
-            or elapsed < 0
-        ):
-            raise ValueError("episode, update and elapsed_s must be counts from 0")
-        history, evals, baselines = lists
-        _name_daily_cost(evals, best)
-        for h in history:
-            if not (isinstance(h, dict) and all(finite_number(h.get(k)) for k in _CURVE)):
-                raise ValueError(f"each history entry must hold the numbers {', '.join(_CURVE)}")
-        for e in evals:
-            methods = e.get("methods") if isinstance(e, dict) else None
-            if not (isinstance(methods, dict) and _count(e.get("episode"))) or not all(
-                isinstance(v, dict) and finite_number(v.get("daily_combined_cost"))
-                for v in methods.values()
-            ):
-                raise ValueError("each evaluation must hold its episode and each method's costs")
-        if best is not None:
-            if best.get("episode") not in [e["episode"] for e in evals] or not finite_number(
-                best.get("daily_combined_cost")
-            ):
-                raise ValueError("best must be one of the evaluations, with its cost")
-            if _shapes(best.get("actor")) != _shapes(self.actor.state_dict()):
-                raise ValueError("best's actor is not this run's network")
-            _all_finite("best actor", best["actor"])
-        self.episode, self.update, self.elapsed_s = episode, update, float(elapsed)
-        self.history, self.evals, self.baselines = history, evals, baselines
-        self.best = best
+        self.episode, self.update, self.elapsed_s = ckpt.episode, ckpt.update, ckpt.elapsed_s
+        # As written (the model checked them): the run appends to them and writes them back.
+        self.history, self.evals, self.baselines = (
+            state[k] for k in ("history", "evals", "baselines")
+        )
+        self.best = state["best"]
 
     # -- one update --------------------------------------------------------------------
     def _scenario_of(self, update: int) -> int:
@@ -375,12 +369,74 @@ class Trainer:
         return write_actor(self.actor, self.out, side)
 
 
-_CURVE = ("episode", "reward", "delay_h", "energy_kj")
-"""The numbers of a history entry the learning curve keeps."""
+@functools.cache
+def _checkpoint_model() -> type[Any]:
+    """The plain data of a training checkpoint as :meth:`Trainer.save_checkpoint` writes
+    it (docs/decisions.md, "Files read"): its counts, learning curve, evaluations,
+    baselines and best evaluation. The tensors' parts (the networks, the optimiser, the
+    best actor) are tables here, and checked by the networks that load them."""
+    from pydantic import ConfigDict, Field
 
+    from ..data.filemodel import FileModel, Whole
 
-def _count(v: Any) -> bool:
-    return isinstance(v, int) and not isinstance(v, bool) and v >= 0
+    tensors = "a state dict of tensors"
+
+    class Numbers(FileModel):
+        """A table of numbers: the keys named, and others of any name (kept as written)."""
+
+        model_config = ConfigDict(extra="allow")
+        __pydantic_extra__: dict[str, float] = Field(init=False)
+
+    class Step(Numbers):  # the update's loss terms beside the learning curve's numbers
+        noun: ClassVar[str] = "history entry"
+        shape: ClassVar[str] = "a history entry {episode, reward, delay_h, energy_kj, …}"
+        episode: float
+        reward: float
+        delay_h: float
+        energy_kj: float
+
+    class Costs(Numbers):  # a method's held-out metrics
+        noun: ClassVar[str] = "method's costs"
+        shape: ClassVar[str] = "a method's costs {daily_combined_cost, …}"
+        daily_combined_cost: float
+
+    class Baseline(Numbers):  # a baseline's held-out day
+        noun: ClassVar[str] = "baseline day"
+        shape: ClassVar[str] = "a baseline day {day, method, mean_energy_kj, avg_delay_h, …}"
+        day: str
+        method: str
+        mean_energy_kj: float
+        avg_delay_h: float
+
+    class Evaluation(FileModel):
+        noun: ClassVar[str] = "evaluation"
+        episode: Whole = Field(ge=0)
+        days: list[str]
+        methods: dict[str, Costs]
+
+    class Best(FileModel):
+        noun: ClassVar[str] = "best evaluation"
+        shape: ClassVar[str] = "the best evaluation {episode, daily_combined_cost, actor}"
+        episode: Whole = Field(ge=0)
+        daily_combined_cost: float
+        actor: dict[str, Any] = Field(description=tensors)
+
+    class Checkpoint(FileModel):
+        noun: ClassVar[str] = "training checkpoint"
+        format: Literal["marops-train-ckpt/1"]
+        fingerprint: Any
+        episode: Whole = Field(ge=0)
+        update: Whole = Field(ge=0)
+        elapsed_s: float = Field(ge=0)
+        actor: dict[str, Any] = Field(description=tensors)
+        critic: dict[str, Any] = Field(description=tensors)
+        optimizer: dict[str, Any] = Field(description="an optimiser's state dict")
+        history: list[Step]
+        evals: list[Evaluation]
+        baselines: list[Baseline]
+        best: Best | None
+
+    return Checkpoint
 
 
 def _shapes(state: Any) -> dict[str, tuple[Any, ...]] | None:
@@ -402,16 +458,21 @@ def _all_finite(what: str, tensors: Any) -> None:
             _all_finite(what, v)
 
 
-def _name_daily_cost(evals: list[dict[str, Any]], best: dict[str, Any] | None) -> None:
+def _name_daily_cost(state: dict[str, Any]) -> None:
     """Checkpoints written before the daily combined cost had its name call it
-    ``combined_cost``: rename it in place, keeping the keys' order."""
+    ``combined_cost``: rename it in place, keeping the keys' order, where the checkpoint
+    has the shape to hold it (the model refuses any other)."""
 
-    def renamed(d: dict[str, Any]) -> dict[str, Any]:
+    def renamed(d: Any) -> Any:
+        if not isinstance(d, dict):
+            return d
         return {("daily_combined_cost" if k == "combined_cost" else k): v for k, v in d.items()}
 
-    for e in evals:
-        e["methods"] = {m: renamed(v) for m, v in e["methods"].items()}
-    if best is not None and "combined_cost" in best:
+    evals, best = state.get("evals"), state.get("best")
+    for e in evals if isinstance(evals, list) else ():
+        if isinstance(e, dict) and isinstance(e.get("methods"), dict):
+            e["methods"] = {m: renamed(v) for m, v in e["methods"].items()}
+    if isinstance(best, dict) and "combined_cost" in best:
         best["daily_combined_cost"] = best.pop("combined_cost")
 
 

@@ -97,15 +97,15 @@ def test_train_refuses_a_checkpoint_that_is_not_this_runs(
     del state["history"]
     torch.save(state, ckpt)
     line = fails_cleanly([*args, "--episodes", "2", "--out", str(out)], tmp_path, str(ckpt))
-    assert "(no key 'history'); pass --no-resume" in line
+    assert "(history: a training checkpoint needs history); pass --no-resume" in line
     state["history"], state["episode"], state["update"] = [], -5, -5
     torch.save(state, ckpt)
     line = fails_cleanly([*args, "--episodes", "2", "--out", str(out)], tmp_path, str(ckpt))
-    assert "counts from 0" in line and "pass --no-resume" in line
+    assert "(episode: expected episode ≥ 0, got -5); pass --no-resume" in line
     state["episode"] = state["update"] = float("inf")
     torch.save(state, ckpt)
     line = fails_cleanly([*args, "--episodes", "2", "--out", str(out)], tmp_path, str(ckpt))
-    assert "counts from 0" in line and "pass --no-resume" in line
+    assert "(episode: expected a whole number, got inf); pass --no-resume" in line
 
 
 def test_train_refuses_an_edited_checkpoint_before_training(
@@ -133,15 +133,19 @@ def test_train_refuses_an_edited_checkpoint_before_training(
         "critic holds NaN": lambda s: next(iter(s["critic"].values())).fill_(float("inf")),
         "best actor holds NaN": lambda s: s["best"]["actor"]["head.bias"].fill_(float("nan")),
         "best must be one of the evaluations": lambda s: s["best"].update(episode=99),
-        "best must be one of the evaluations, with its cost": lambda s: s["best"].pop(
-            "daily_combined_cost"
-        ),
+        "(best.daily_combined_cost: a best evaluation needs daily_combined_cost)": lambda s: s[
+            "best"
+        ].pop("daily_combined_cost"),
         "best's actor is not this run's network": lambda s: s["best"]["actor"].update(
             {"head.bias": torch.zeros(1)}
         ),
-        "each history entry": lambda s: s.update(history=[{"episode": 1}]),
-        "each evaluation": lambda s: s["evals"][0].update(episode="2"),
-        "counts from 0": lambda s: s.update(episode=1.5),
+        "(history[0].reward: a history entry needs reward)": lambda s: s.update(
+            history=[{"episode": 1}]
+        ),
+        "(evals[0].episode: expected a whole number, got '2')": lambda s: s["evals"][0].update(
+            episode="2"
+        ),
+        "(episode: expected a whole number, got 1.5)": lambda s: s.update(episode=1.5),
     }
     for needle, edit in edits.items():
         state = pickle.loads(pickle.dumps(good))

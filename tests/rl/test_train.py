@@ -134,6 +134,54 @@ def test_resume_matches_an_uninterrupted_run(
     assert _same(_weights(whole), _weights(cut))
 
 
+def test_a_checkpoint_edited_at_a_nested_key_names_it(
+    tiny_csv: Path, small_cfg: PlannerConfig, tmp_path: Path
+) -> None:
+    """A checkpoint of this run (its fingerprint) whose learning curve or evaluation holds
+    something other than a number is refused in one line naming the key, before any
+    weights are loaded."""
+    import copy
+
+    from marops_cli.errors import InputError
+    from marops_cli.rl.data import fingerprint, load_training_data
+    from marops_cli.rl.train import Trainer
+
+    td = load_training_data(tiny_csv, small_cfg, quick())
+    trainer = Trainer(td, tmp_path / "a.pt")
+    before = copy.deepcopy(trainer.actor.state_dict())
+    curve = {"episode": 2, "reward": -0.9, "delay_h": 1.0, "energy_kj": 3.0, "pg_loss": 0.1}
+    costs = {"daily_combined_cost": 0.7, "avg_delay_h": 0.8}
+    evaluation = {"episode": 2, "days": ["2022-08-03"], "methods": {"marops": costs}}
+    state = {
+        "format": "marops-train-ckpt/1",
+        "fingerprint": fingerprint(td),
+        **{"episode": 2, "update": 1, "elapsed_s": 1.0},
+        **{"actor": {}, "critic": {}, "optimizer": {}},
+        **{"history": [curve, dict(curve)], "evals": [evaluation], "baselines": [], "best": None},
+    }
+    edits = {
+        "history[1].reward: expected a number, got '-0.9'": lambda s: s["history"][1].update(
+            reward="-0.9"
+        ),
+        "evals[0].methods.marops.daily_combined_cost: expected a number, got nan": lambda s: s[
+            "evals"
+        ][0]["methods"]["marops"].update(daily_combined_cost=float("nan")),
+        "history[0].pg_loss: expected a number, got True": lambda s: s["history"][0].update(
+            pg_loss=True
+        ),
+    }
+    for needle, edit in edits.items():
+        edited = copy.deepcopy(state)
+        edit(edited)
+        torch.save(edited, trainer.ckpt)
+        with pytest.raises(InputError) as err:
+            trainer.load_checkpoint()
+        assert str(err.value) == (
+            f"{trainer.ckpt}: not a training checkpoint of this run ({needle}); pass --no-resume"
+        )
+        assert _same(trainer.actor.state_dict(), before) and trainer.episode == 0
+
+
 def test_workers_do_not_change_the_result(
     tiny_csv: Path, small_cfg: PlannerConfig, tmp_path: Path
 ) -> None:
