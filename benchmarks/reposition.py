@@ -98,7 +98,7 @@ def main() -> None:
     shapes, days = (["hubs"], 6) if args.smoke else (list(SEEDS), 14)
     if args.smoke:
         args.drones = "8"
-    files = held_out_cities(shapes, days, "marops-reposition-")
+    files = {s: f for (s, _), f in held_out_cities(shapes, days, "marops-reposition-").items()}
     fleets = [int(x) for x in args.drones.split(",")]
     tasks = [
         (str(files[s]), s, u, m, args.idle)
