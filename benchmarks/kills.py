@@ -26,41 +26,21 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLE = ROOT / "examples" / "shanghai_synth.csv"
 CODE = "from marops_cli.cli.app import main; main()"
-COMMANDS = {
-    "replay-day": [
-        "replay-day",
-        str(EXAMPLE),
-        "--area",
-        "square",
-        "--dates",
-        "0801..0812",
-        "--method",
-        "greedy",
-    ],
-    "evaluate": [
-        "evaluate",
-        str(EXAMPLE),
-        "--area",
-        "square",
-        "--methods",
-        "stay,greedy,ops-random",
-    ]
-    + ["--dates", "0809..0812", "--workers", "2", "--no-plot"],
-}
-SMOKE_COMMANDS = {
-    "replay-day": [
-        "replay-day",
-        str(EXAMPLE),
-        "--area",
-        "square",
-        "--dates",
-        "0811..0812",
-        "--method",
-        "greedy",
-    ],
-    "evaluate": ["evaluate", str(EXAMPLE), "--area", "square", "--methods", "stay,greedy"]
-    + ["--dates", "0811..0812", "--workers", "2", "--no-plot"],
-}
+
+
+def commands(replay_dates: str, evaluate_dates: str, methods: str) -> dict[str, list[str]]:
+    """The two runs that are stopped: a replay of ``replay_dates`` and an evaluation of
+    ``methods`` over ``evaluate_dates``, both on the example's square."""
+    area = [str(EXAMPLE), "--area", "square"]
+    return {
+        "replay-day": ["replay-day", *area, "--dates", replay_dates, "--method", "greedy"],
+        "evaluate": ["evaluate", *area, "--methods", methods, "--dates", evaluate_dates]
+        + ["--workers", "2", "--no-plot"],
+    }
+
+
+COMMANDS = commands("0801..0812", "0809..0812", "stay,greedy,ops-random")
+SMOKE_COMMANDS = commands("0811..0812", "0811..0812", "stay,greedy")
 
 
 def _children(pid: int) -> list[int]:
