@@ -86,8 +86,9 @@ class DayState:
     def view(self, t: int) -> WindowView:
         idx = self.pending(t)
         ops = self.ops if self.ops is not None and self.ops.limited else None
-        n_drones, n_depots = self.drone_depot.size, len(self.depots)
-        return WindowView(
+        # What the run does not track is the paper's (WindowView.paper fills it in).
+        return WindowView.paper(
+            self.model,
             t=t,
             n_windows=self.day.n_windows,
             window_h=self.day.window_hours,
@@ -103,14 +104,12 @@ class DayState:
             pending_weight=self.day.weight_kg[idx],
             ties=self.ties,
             pending_visible_w=self.day.visible_w[idx],
-            drone_models=self.drone_models or (self.model or EnergyModel(),) * n_drones,
+            drone_models=self.drone_models,
             pending_stock=self.stock_depot(idx),
             pending_servable=None if self.servable is None else self.servable[idx],
-            drone_ready=np.ones(n_drones, bool)
-            if self.ops is None
-            else self.ops.ready(t, self.drone_depot)[0],
-            depot_spares=np.full(n_depots, np.inf) if ops is None else ops.charged.copy(),
-            depot_charging=np.zeros(n_depots) if ops is None else ops.charging(),
+            drone_ready=None if self.ops is None else self.ops.ready(t, self.drone_depot)[0],
+            depot_spares=None if ops is None else ops.charged.copy(),
+            depot_charging=None if ops is None else ops.charging(),
         )
 
     def stock_depot(self, idx: np.ndarray) -> np.ndarray:
