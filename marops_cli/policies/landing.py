@@ -343,7 +343,7 @@ def _sidecar_model() -> type[Any]:
         model_config = ConfigDict(extra="ignore")
         noun: ClassVar[str] = "landing actor's sidecar"
         shape: ClassVar[str] = "a JSON object"
-        format: Literal["marops-landing-actor/2", "marops-landing-actor/1"] = Field(
+        format: Literal[tuple(_FORMATS)] = Field(  # type: ignore[valid-type]
             description=f"format {LANDING_FORMAT!r}"
         )
         operating_model: str = Field(
