@@ -284,14 +284,14 @@ class _Checks:
 
         return typing.get_type_hints(self.fn, localns={"pa": pa, "Depots": Depots})
 
-    def check(self, name: str, value: Any) -> Any:
-        """``value`` as ``name`` takes it (a number from its text, a pair a tuple), or
-        the InputError naming the keyword."""
+    def check(self, param: inspect.Parameter, value: Any) -> Any:
+        """``value`` as parameter ``param`` takes it (a number from its text, a pair a
+        tuple), or the InputError naming the keyword."""
         from pydantic import ValidationError
 
         from .errors import InputError
 
-        param = self.signature().parameters[name]
+        name = param.name
         adapter, expects = _kind(self.hints.get(name, param.annotation))
         try:
             return adapter.validate_python(value)
@@ -338,7 +338,7 @@ def _checked(use: str | None = None) -> Callable[[F], F]:
             except TypeError as exc:
                 raise InputError(f"{fn.__name__}(): {exc}{_did_you_mean(sig, kwargs)}") from None
             for name, value in list(bound.arguments.items()):
-                bound.arguments[name] = checks.check(name, value)
+                bound.arguments[name] = checks.check(sig.parameters[name], value)
             try:
                 return fn(*bound.args, **_gathered(use, bound.kwargs, checks.own))
             except InputError as exc:
