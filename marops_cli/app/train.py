@@ -36,6 +36,8 @@ class TrainSetup:
     """Area counts to train on; empty: the config's."""
     drones: Sequence[int] = ()
     """Fleet sizes to train on; empty: the config's."""
+    spares: Sequence[int] = ()
+    """Batteries per depot to train on (the landing actor); empty: the config's."""
     resume: bool = True
     """Continue from the checkpoint beside the actor when there is one."""
     command: str | None = None
@@ -125,6 +127,7 @@ def train(
         list(setup.train_days) if setup.train_days is not None else None,
         n_depots=setup.n_depots,
         drones=setup.drones,
+        spares=setup.spares,
     )
     report = _Report(progress)
     try:

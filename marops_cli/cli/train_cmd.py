@@ -194,6 +194,32 @@ def train_command(
             show_default=False,
         ),
     ] = 2.0,
+    energy_per: Annotated[
+        str,
+        typer.Option(
+            "--energy-per",
+            help="--algorithm es: what --energy-weight compares, energy per drone or per "
+            "delivered parcel: drone or parcel [default: drone].",
+            show_default=False,
+        ),
+    ] = "drone",
+    features: Annotated[
+        str,
+        typer.Option(
+            "--features",
+            help="--algorithm es: the landing actor's features, basic (16 weights) or context "
+            "(22: fleet density, load, stranding and α too; docs/method.md §6.1) "
+            "[default: basic].",
+            show_default=False,
+        ),
+    ] = "basic",
+    spares: Annotated[
+        str | None,
+        typer.Option(
+            "--spares",
+            help="--algorithm es: batteries per depot to train on (1,2,4) [default: the config's].",
+        ),
+    ] = None,
     workers: Annotated[int, typer.Option("--workers", help="Rollout processes, 1 to 256.")] = 2,
     resume: Annotated[
         bool, typer.Option("--resume/--no-resume", help="Continue from NAME.ckpt if present.")
@@ -234,6 +260,14 @@ def train_command(
         int,
         typer.Option("--eval-days", help="Held-out days per scenario in each evaluation (0: all)."),
     ] = 0,
+    eval_every: Annotated[
+        int,
+        typer.Option(
+            "--eval-every",
+            help="Episodes between held-out evaluations [default: 200].",
+            show_default=False,
+        ),
+    ] = 200,
     data_origin: Annotated[
         str | None,
         typer.Option("--data-origin", help="How DATA was made (e.g. the marops synth command)."),
@@ -252,17 +286,19 @@ def train_command(
     _check_args(data, out, algorithm, method, obs_version)
     allow_replacing_foreign(force)
     protect_inputs(actor_files(out, algorithm), [*data, config])  # before the long work
-    cfg, scenarios = _planner(config, options, drones, n_depots, days)
+    cfg, scenarios = _planner(config, options, (drones, n_depots, spares), days)
     tcfg = _train_config(
         algorithm=algorithm,
         es_energy_weight=energy_weight,
         es_energy_slack=energy_slack,
+        **{"es_energy_basis": energy_per, "landing_features": features},
         es_loss_weight=loss_weight,
         method=method,
         episodes=episodes,
         seed=seed,
         workers=workers,
         eval_days_per_scenario=eval_days,
+        eval_every=eval_every,
         obs_version=obs_version,
         **_alpha_range(alpha_range),
     )
@@ -279,15 +315,16 @@ def train_command(
 def _planner(
     config: Path | None,
     options: dict[str, Any],
-    drones: str | None,
-    n_depots: str | None,
+    sizes: tuple[str | None, str | None, str | None],
     days: str | None,
 ) -> tuple[PlannerConfig, dict[str, Any]]:
     """The planner config of the options (the first of several fleet sizes or depot
-    counts), and the scenarios trained on: the sizes, the counts and the days."""
+    counts), and the scenarios trained on: the ``sizes`` (``--drones``, ``--n-depots``,
+    ``--spares``) and the days."""
     from ..app.options import planner_config
     from ..data.dates import parse_days
 
+    drones, n_depots, spares = sizes
     fleets, depot_counts = _sizes(drones, "--drones"), _sizes(n_depots, "--n-depots")
     cfg = planner_config(
         config,
@@ -296,7 +333,8 @@ def _planner(
         n_depots=depot_counts[0] if depot_counts else None,
     )
     train_days = parse_days(days, cfg.data.year, "--dates") if days is not None else None
-    return cfg, {"drones": fleets, "n_depots": depot_counts, "train_days": train_days}
+    scenarios = {"drones": fleets, "n_depots": depot_counts, "spares": _sizes(spares, "--spares")}
+    return cfg, {**scenarios, "train_days": train_days}
 
 
 def _check_args(data: list[Path], out: Path, algorithm: str, method: str, obs_version: int) -> None:
@@ -317,6 +355,8 @@ def _check_args(data: list[Path], out: Path, algorithm: str, method: str, obs_ve
 _FLAGS = {
     "es_energy_weight": "energy-weight",
     "es_energy_slack": "energy-slack",
+    "es_energy_basis": "energy-per",
+    "landing_features": "features",
     "es_loss_weight": "loss-weight",
     "eval_days_per_scenario": "eval-days",
 }

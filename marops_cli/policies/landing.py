@@ -8,7 +8,7 @@ action candidates) by a weighted sum of the features below. Its weights are lear
 the day's return (``marops train --algorithm es``, :mod:`marops_cli.rl.es`), starting
 from :data:`BACKLOG_WEIGHTS`, the ``backlog`` rule's score.
 
-Two kinds of actor, told apart by their number of weights (and their file's format):
+Three kinds of actor, told apart by their number of weights (and their file's format):
 
 * **joint** (16 weights, ``marops-landing-actor/2``, the shipped one): the ready drones
   are assigned to landing slots together (``scipy.optimize.linear_sum_assignment``,
@@ -21,6 +21,10 @@ Two kinds of actor, told apart by their number of weights (and their file's form
   both leave for the same depot unless it pays for both. With weights 12–15 at 0 a
   second or later drone that would stay at a depot where parcels wait lands free
   instead (staying there scores less with each drone).
+* **joint, reading the situation** (22 weights, ``marops-landing-actor/3``): the joint
+  actor with six more destination features (12–17 below) that let one score stay where
+  drones are many or batteries short and spread where drones are few, and weigh a
+  flight's distance by the run's α; its free landing is weights 18–21.
 * **sequential** (12 weights, ``marops-landing-actor/1``): drones choose one after
   another, as :class:`~.rules.BacklogPolicy` does, each seeing where the drones before
   it chose to land; with :data:`BACKLOG_WEIGHTS` it is exactly the ``backlog`` rule.
@@ -43,8 +47,18 @@ chooses; value: Σ (1 + delay h) of the parcels waiting at d; ``lg`` = log1p):
 10. time of day (fraction of the day's windows gone) × feature 2
 11. time of day × feature 4
 
+The situation's features (format ``/3`` only; ``density``: lg (1 + drones per area),
+``load``: lg (1 + parcels waiting per drone), α: the run's trade-off):
+
+12. density × feature 9 (stay where drones are many)
+13. density × feature 4 (fly far where drones are few)
+14. 1 when d is not s and d has no charged spare (the drone would strand there)
+15. load × feature 9
+16. α × feature 4 (a flight's energy, priced by α)
+17. α × feature 9
+
 The file format is data only: ``NAME.safetensors`` holds one float32 tensor ``weight`` of
-shape ``(16,)`` (or ``(12,)``), its sidecar ``NAME.json`` says ``format`` and the
+shape ``(16,)`` (or ``(22,)``, ``(12,)``), its sidecar ``NAME.json`` says ``format`` and the
 operating model it was trained for (docs/method.md §6, "Trust model of actor files").
 """
 
@@ -67,9 +81,12 @@ if TYPE_CHECKING:
 
 __all__ = [
     "BACKLOG_WEIGHTS",
+    "CONTEXT_FEATURES",
+    "CONTEXT_FORMAT",
     "FEATURES",
     "FREE_FEATURES",
     "JOINT_START",
+    "CONTEXT_START",
     "LANDING_FORMAT",
     "LandingActor",
     "check_trained_for",
@@ -93,15 +110,34 @@ FEATURES = (
 )
 """The features of a destination, in order (the module docstring defines them)."""
 N_FEATURES = len(FEATURES)
+CONTEXT_FEATURES = (
+    "stay x drones per area",
+    "distance km x drones per area",
+    "strands",
+    "stay x parcels per drone",
+    "alpha x distance km",
+    "alpha x stay",
+)
+"""The situation's destination features of a ``/3`` actor, in order (module docstring)."""
 FREE_FEATURES = ("free", "free x time", "free x backlog score", "free x drones per area")
 """The joint actor's free landing: its weights 12–15 multiply these (module docstring)."""
 BACKLOG_WEIGHTS = np.eye(N_FEATURES)[2]
 """The weights that make the sequential landing actor the ``backlog`` rule."""
 JOINT_START = np.concatenate([BACKLOG_WEIGHTS, np.zeros(len(FREE_FEATURES))])
 """Where training starts: the backlog score, shared out jointly, the free landing at 0."""
+CONTEXT_START = np.concatenate(
+    [BACKLOG_WEIGHTS, np.zeros(len(CONTEXT_FEATURES) + len(FREE_FEATURES))]
+)
+"""Where training a ``/3`` actor starts: the backlog score, every other weight at 0."""
 LANDING_FORMAT = "marops-landing-actor/2"
-"""The format of the joint actor's sidecar, which training writes."""
-_FORMATS = {LANDING_FORMAT: JOINT_START.size, "marops-landing-actor/1": N_FEATURES}
+"""The format of the joint actor's sidecar."""
+CONTEXT_FORMAT = "marops-landing-actor/3"
+"""The format of the joint actor that reads the situation (features 12–17)."""
+_FORMATS = {
+    LANDING_FORMAT: JOINT_START.size,
+    CONTEXT_FORMAT: CONTEXT_START.size,
+    "marops-landing-actor/1": N_FEATURES,
+}
 """The sidecar formats a landing actor may have, and their numbers of weights."""
 _UNSUITED = -1e9
 """The score of a slot a drone cannot take (an assignment needs finite scores)."""
@@ -140,7 +176,7 @@ def check_trained_for(trained_for: str | None, model: str, actor: str | Path | N
 class DepotState:
     """Per-depot inputs of one window's features (the same for every drone)."""
 
-    def __init__(self, view: WindowView) -> None:
+    def __init__(self, view: WindowView, alpha: float = 0.5) -> None:
         dep = view.depots
         n = len(dep)
         self.value = waiting_per_depot(view, 1.0 + view.pending_delay_h)
@@ -154,16 +190,28 @@ class DepotState:
         self.charging = view.depot_charging.astype(float)
         self.time = view.t / max(1, view.n_windows)
         self.density = view.n_drones / max(1, n)
+        self.alpha = alpha
+        self.load = float(self.count.sum()) / max(1, view.n_drones)
 
 
-def landing_features(view: WindowView, depots: DepotState, s: int, there: np.ndarray) -> np.ndarray:
+def landing_features(
+    view: WindowView, depots: DepotState, s: int, there: np.ndarray, context: bool = False
+) -> np.ndarray:
     """``(A, 12)`` the features of a drone at depot ``s``'s destinations, with ``there``
-    the drones counted at each depot (module docstring)."""
+    the drones counted at each depot; ``(A, 18)`` with the situation's (``context``;
+    module docstring)."""
     dep = view.depots
     dests = dep.candidates[s]
     dist = np.hypot(*(dep.xy[dests] - dep.xy[s]).T) / 1000.0
     per_drone = 1.0 + there[dests]
     score = _lg(depots.value[dests] / per_drone)
+    stay = (dests == s).astype(np.float64)
+    more = []
+    if context:
+        density, load = np.log1p(depots.density), np.log1p(depots.load)
+        strands = (1.0 - stay) * (depots.spares[dests] <= 0)
+        more = [density * stay, density * dist, strands, load * stay]
+        more += [depots.alpha * dist, depots.alpha * stay]
     return np.stack(
         [
             _lg(depots.value[dests]),
@@ -175,9 +223,10 @@ def landing_features(view: WindowView, depots: DepotState, s: int, there: np.nda
             _lg(depots.expected[dests] / per_drone),
             _lg(depots.spares[dests]),
             _lg(depots.charging[dests]),
-            (dests == s).astype(np.float64),
+            stay,
             depots.time * score,
             depots.time * dist,
+            *more,
         ],
         axis=1,
     )
@@ -185,7 +234,7 @@ def landing_features(view: WindowView, depots: DepotState, s: int, there: np.nda
 
 class LandingActor(EnergyAware):
     """Scores each destination by ``weight · features`` and lands where the empty drone
-    can reach: jointly with 16 weights, one drone after another with 12 (module
+    can reach: jointly with 16 or 22 weights, one drone after another with 12 (module
     docstring); a drone that cannot fly stays. ``trained_for`` is the operating model it
     was trained for (None: any); :meth:`configure` refuses a run under another."""
 
@@ -202,15 +251,23 @@ class LandingActor(EnergyAware):
         super().__init__()
         w = np.asarray(weight, dtype=np.float64).reshape(-1)
         if w.size not in _FORMATS.values():
-            raise ValueError(f"expected {JOINT_START.size} or {N_FEATURES} weights, got {w.size}")
+            sizes = " or ".join(map(str, sorted(_FORMATS.values())))
+            raise ValueError(f"expected {sizes} weights, got {w.size}")
         self.weight = w
         self.trained_for = trained_for
         self.path = path
+        self.alpha = 0.5
+        """The run's α (features 16–17), set by :meth:`configure`."""
 
     @property
     def joint(self) -> bool:
-        """Whether the drones decide together (16 weights) or one after another (12)."""
-        return self.weight.size == JOINT_START.size
+        """Whether the drones decide together (16 or 22 weights) or one after another (12)."""
+        return self.weight.size != N_FEATURES
+
+    @property
+    def context(self) -> bool:
+        """Whether the actor reads the situation (features 12–17, 22 weights)."""
+        return self.weight.size == CONTEXT_START.size
 
     @property
     def identity(self) -> str | Path:
@@ -218,6 +275,7 @@ class LandingActor(EnergyAware):
 
     def configure(self, cfg: PlannerConfig) -> None:
         super().configure(cfg)
+        self.alpha = cfg.plan.alpha
         self.check_model(operating_model(cfg.ops))
 
     def check_model(self, model: str) -> None:
@@ -251,7 +309,7 @@ class LandingActor(EnergyAware):
         ready = [u for u in range(view.n_drones) if view.ready(u)]
         if not ready:
             return out
-        depots = DepotState(view)
+        depots = DepotState(view, self.alpha)
         held = np.ones(view.n_drones, dtype=bool)
         held[ready] = False
         n = len(dep)
@@ -266,7 +324,8 @@ class LandingActor(EnergyAware):
         first = np.concatenate([[0], np.cumsum(slots)])
         k = len(ready)
         score = np.full((k, int(first[-1]) + k), _UNSUITED)
-        w, w_free = self.weight[:N_FEATURES], self.weight[N_FEATURES:]
+        n_dest = self.weight.size - len(FREE_FEATURES)
+        w, w_free = self.weight[:n_dest], self.weight[n_dest:]
         rows: dict[tuple[int, int], np.ndarray] = {}  # (depot, slot): its destinations' scores
         free: dict[int, float] = {}
         for i, (s, ok) in enumerate(zip(homes, oks, strict=True)):
@@ -274,7 +333,7 @@ class LandingActor(EnergyAware):
             room = slots[dests[ok]]  # the slots of each reachable destination
             for j in range(int(room.max())):
                 if (s, j) not in rows:
-                    f = landing_features(view, depots, s, base + j)
+                    f = landing_features(view, depots, s, base + j, self.context)
                     rows[s, j] = f @ w
                     if j == 0:
                         extra = w_free @ (1.0, depots.time, f[0, 2], depots.density)
@@ -295,7 +354,7 @@ class LandingActor(EnergyAware):
 def load_landing_actor(path: Path, side: Any, sidecar: Path) -> LandingActor:
     """The landing actor of the weights file ``path`` (``NAME.safetensors``) described by
     ``side`` (read from ``sidecar``): one finite float32 tensor ``weight`` of 16 values
-    (format ``/2``) or 12 (``/1``). Nothing of the file runs (a safetensors file is a
+    (format ``/2``), 22 (``/3``) or 12 (``/1``). Nothing of the file runs (a safetensors file is a
     JSON header and raw numbers)."""
     from safetensors import SafetensorError, safe_open
 

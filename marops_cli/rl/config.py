@@ -118,6 +118,16 @@ class TrainConfig(BaseModel):
         description="es: share of energy per drone above the day's best rule's that costs "
         "nothing (the hinge of the energy penalty)",
     )
+    es_energy_basis: Literal["drone", "parcel"] = Field(
+        "drone",
+        description="es: the energy es_energy_weight prices: per drone, or per delivered "
+        "parcel (so delivering more for the same energy per parcel costs nothing)",
+    )
+    landing_features: Literal["basic", "context"] = Field(
+        "basic",
+        description="es: the landing actor's features: basic (16 weights, format /2), or "
+        "context (22 weights, format /3: fleet density, load, stranding and α as well)",
+    )
     es_loss_weight: float = Field(
         2.0,
         ge=0,

@@ -87,10 +87,12 @@ def load_training_data(
     *,
     n_depots: Sequence[int] = (),
     drones: Sequence[int] = (),
+    spares: Sequence[int] = (),
 ) -> TrainData:
     """Read every file of ``data``, split each by date, segment each on its training
     days (once per area count of ``n_depots``, default the config's), prepare every day,
-    and make one scenario per (file, area count, fleet size of ``drones``)."""
+    and make one scenario per (file, area count, fleet size of ``drones``, batteries per
+    depot of ``spares``, default the config's)."""
     paths = [Path(data)] if isinstance(data, (str, Path)) else [Path(p) for p in data]
     if not paths:
         raise InputError("no training data given")
@@ -118,10 +120,12 @@ def load_training_data(
                         file=str(path),
                     )
             for u in fleets:
-                name = f"{path.name}:{n}x{u}"
-                scenarios.append(
-                    TrainScenario(name, scn.depots, override(c, sim__drones=u), tr_reqs, ev_reqs)
-                )
+                for b in _each(spares):
+                    name = f"{path.name}:{n}x{u}" + ("" if b is None else f"/{b}")
+                    cu = override(c, sim__drones=u)
+                    if b is not None:
+                        cu = override(cu, ops__batteries_per_depot=b)
+                    scenarios.append(TrainScenario(name, scn.depots, cu, tr_reqs, ev_reqs))
         files.append(
             {
                 "file": path.name,
@@ -131,6 +135,11 @@ def load_training_data(
             }
         )
     return TrainData(WorkerContext(scenarios, tcfg), files)
+
+
+def _each(spares: Sequence[int]) -> list[int | None]:
+    """The batteries per depot of each scenario: ``spares``, or the config's (None)."""
+    return [*spares] if spares else [None]
 
 
 def fingerprint(td: TrainData) -> dict[str, Any]:

@@ -50,6 +50,9 @@ from ..errors import InputError
 from ..io.atomic import output_set
 from ..methods import reference_rules
 from ..policies.landing import (
+    CONTEXT_FEATURES,
+    CONTEXT_FORMAT,
+    CONTEXT_START,
     FEATURES,
     FREE_FEATURES,
     JOINT_START,
@@ -78,6 +81,8 @@ _STREAM_BATCH, _STREAM_NOISE = 11, 12
 _CKPT_FORMAT = "marops-landing-ckpt/1"
 Event = dict[str, Any]
 _KEYS = ("objective_j_mj", "delivered_share", "mean_energy_kj", "avg_delay_h")
+_START = {"basic": JOINT_START, "context": CONTEXT_START}
+"""Where training starts, per ``landing_features``."""
 RULES = reference_rules()
 """The rules the landing actor must beat (method -> policy spec; the methods registered
 as references, marops_cli/methods.py): each day's best of them is its reference."""
@@ -89,6 +94,7 @@ class _Reference(FileModel):
     noun: ClassVar[str] = "reference"
     j: float
     energy: float
+    share: float | None = None
 
 
 class _HeldOutRule(FileModel):
@@ -201,7 +207,7 @@ class LandingTrainer:
         if len(models) > 1:
             raise InputError("every training scenario needs the same operating model")
         self.model = models.pop()
-        self.weight = JOINT_START.astype(np.float64).copy()
+        self.weight = _START[self.tcfg.landing_features].astype(np.float64).copy()
         self.generation = self.episode = 0
         self.elapsed_s = 0.0
         self.reference: dict[str, dict[str, float]] = {}
@@ -307,6 +313,7 @@ class LandingTrainer:
             self.reference[_key(d)] = {
                 "j": best["objective_j_mj"],
                 "energy": best["mean_energy_kj"],
+                "share": best["delivered_share"],
             }
         return [self.reference[_key(d)] for d in days]
 
@@ -316,7 +323,14 @@ class LandingTrainer:
         return float(
             np.mean(
                 [
-                    day_cost(r, b, t.es_energy_weight, t.es_energy_slack, t.es_loss_weight)
+                    day_cost(
+                        r,
+                        b,
+                        t.es_energy_weight,
+                        t.es_energy_slack,
+                        t.es_loss_weight,
+                        per_parcel=t.es_energy_basis == "parcel",
+                    )
                     for r, b in zip(rows, refs, strict=True)
                 ]
             )
@@ -378,7 +392,10 @@ class LandingTrainer:
         best = self.held_out_rules
         w = tuple(float(x) for x in self.weight)
         mine = workers.results([LandingDay(k, w, *d, held_out=True) for k, d in enumerate(days)])
-        refs = [{"j": b["objective_j_mj"], "energy": b["mean_energy_kj"]} for b in best]
+        refs = [
+            {"j": b["objective_j_mj"], "energy": b["mean_energy_kj"], "share": b["delivered_share"]}
+            for b in best
+        ]
         cost = self._cost(mine, refs)
         ev = {
             "episode": self.episode,
@@ -434,11 +451,12 @@ class LandingTrainer:
         if t.keep_best and self.best is not None:
             weight = np.array(self.best["weight"])
             chosen = next(e for e in self.evals if e["episode"] == self.best["episode"])
+        context = t.landing_features == "context"
         side = {
-            "format": LANDING_FORMAT,
+            "format": CONTEXT_FORMAT if context else LANDING_FORMAT,
             "method": "marops",
             "operating_model": self.model,
-            "features": [*FEATURES, *FREE_FEATURES],
+            "features": [*FEATURES, *(CONTEXT_FEATURES if context else ()), *FREE_FEATURES],
             "weight": [round(float(x), 6) for x in weight],
             "seed": t.seed,
             "episodes": self.episode,
@@ -448,12 +466,18 @@ class LandingTrainer:
             "marops": __version__,
             "data": {**self.td.files[0], "origin": data_origin},
             "scenarios": [
-                {"name": s.name, "n_depots": len(s.depots), "drones": s.cfg.sim.drones}
+                {
+                    "name": s.name,
+                    "n_depots": len(s.depots),
+                    "drones": s.cfg.sim.drones,
+                    "spares": s.cfg.ops.batteries_per_depot,
+                }
                 for s in self.td.ctx.scenarios
             ],
             "files": self.td.files,
-            "reward": "cost = J / J of the day's best rule (ops-global, backlog, rebalance) + "
-            "es_energy_weight * max(0, energy / its energy - 1 - es_energy_slack) + "
+            "reward": f"cost = J / J of the day's best rule ({', '.join(RULES)}) + "
+            f"es_energy_weight * max(0, energy per {t.es_energy_basis} / its - 1 - "
+            "es_energy_slack) + "
             "es_loss_weight * max(0, J / its J - 1), mean over days (docs/method.md §6.1)",
             "train_config": t.model_dump(mode="json"),
             "planner_config": cfg.model_dump(mode="json"),
@@ -471,13 +495,19 @@ def day_cost(
     weight: float,
     slack: float = 0.0,
     loss_weight: float = 0.0,
+    *,
+    per_parcel: bool = False,
 ) -> float:
-    """A day's cost of a replay ``row`` against the day's best rule ``ref`` (its ``j`` and
-    ``energy``): J / the best rule's J, plus ``weight`` × the share of energy per drone
-    above the best rule's beyond ``slack`` (a hinge: up to ``slack`` more energy is free,
-    every share beyond costs ``weight``), plus ``loss_weight`` × the share of J above the
-    best rule's (a day lost costs more than a day won gains)."""
-    excess = row["mean_energy_kj"] / max(ref["energy"], 1e-9) - 1.0 - slack
+    """A day's cost of a replay ``row`` against the day's best rule ``ref`` (its ``j``,
+    ``energy`` and delivered ``share``): J / the best rule's J, plus ``weight`` × the share
+    of energy per drone (``per_parcel``: per delivered parcel) above the best rule's beyond
+    ``slack`` (a hinge: up to ``slack`` more energy is free, every share beyond costs
+    ``weight``), plus ``loss_weight`` × the share of J above the best rule's (a day lost
+    costs more than a day won gains)."""
+    ratio = row["mean_energy_kj"] / max(ref["energy"], 1e-9)
+    if per_parcel:  # the same day and fleet: energy per parcel ∝ energy per drone / share
+        ratio *= max(ref.get("share") or 0.0, 1e-9) / max(row["delivered_share"], 1e-9)
+    excess = ratio - 1.0 - slack
     rel = row["objective_j_mj"] / max(ref["j"], 1e-9)
     return rel + weight * max(0.0, excess) + loss_weight * max(0.0, rel - 1.0)
 

@@ -12,12 +12,14 @@ import pytest
 from typer.testing import CliRunner
 
 from marops_cli.cli.app import app
-from marops_cli.config import OpsConfig, PlannerConfig
+from marops_cli.config import OpsConfig, PlannerConfig, override
 from marops_cli.errors import InputError
 from marops_cli.plans.view import FREE
 from marops_cli.policies import BacklogPolicy, make_policy
 from marops_cli.policies.landing import (
     BACKLOG_WEIGHTS,
+    CONTEXT_FEATURES,
+    CONTEXT_START,
     FEATURES,
     FREE_FEATURES,
     JOINT_START,
@@ -59,6 +61,43 @@ def test_features_by_hand() -> None:
     t = view.t / view.n_windows
     assert f[2, 10] == pytest.approx(t * lg(1.0)) and f[2, 11] == pytest.approx(t * 3.0)
     assert f.shape == (3, len(FEATURES))
+
+
+def test_context_features_by_hand() -> None:
+    # The view of test_features_by_hand: 2 drones on 3 areas (density lg (1 + 2/3)),
+    # 3 parcels waiting (load lg (1 + 3/2)), no charged spare at depot 0, α 0.8.
+    view = _view([0.0, 1000.0, 3000.0], [1, 1, 2], [0, 1], [0.5, 1.5, 0.0], arrivals={2: 2.0})
+    view = replace(view, depot_spares=np.array([0, 1, 2]), depot_charging=np.array([3, 0, 0]))
+    depots = DepotState(view, alpha=0.8)
+    there = np.array([0.0, 1.0, 0.0])
+    basic = landing_features(view, depots, 0, there)
+    f = landing_features(view, depots, 0, there, context=True)
+    assert f.shape == (3, len(FEATURES) + len(CONTEXT_FEATURES))
+    assert np.array_equal(f[:, : len(FEATURES)], basic)  # the first twelve unchanged
+    density, load = np.log1p(2 / 3), np.log1p(3 / 2)
+    # columns: density x stay, density x km, strands, load x stay, α x km, α x stay
+    assert f[0, 12:] == pytest.approx([density, 0.0, 0.0, load, 0.0, 0.8], abs=1e-12)
+    assert f[2, 12:] == pytest.approx([0.0, density * 3.0, 0.0, 0.0, 2.4, 0.0], abs=1e-12)
+    # From depot 1, depot 0 has no charged spare: flying there strands the drone.
+    f1 = landing_features(view, depots, 1, there, context=True)
+    dest0 = int(np.flatnonzero(view.depots.candidates[1] == 0)[0])
+    assert f1[dest0, 14] == 1.0 and f1[:, 14].sum() == 1.0
+
+
+def test_context_actor_reads_alpha() -> None:
+    # Weight on α x distance only: at α 0.9 the actor flies to the farthest depot it can
+    # reach when the weight is positive, and stays when it is negative; the run's α comes
+    # from the planner config.
+    view = _view([0.0, 800.0, 1600.0, FAR], [1], [0])
+    w = CONTEXT_START.copy()
+    w[FEATURES.index("backlog score")] = 0.0
+    w[len(FEATURES) + CONTEXT_FEATURES.index("alpha x distance km")] = 1.0
+    actor = LandingActor(w)
+    actor.configure(override(PlannerConfig(), plan__alpha=0.9))
+    assert actor.alpha == 0.9 and actor.context and actor.joint
+    assert [int(view.depots.candidates[0, a]) for a in actor.act(view)] == [2]
+    w[len(FEATURES) + CONTEXT_FEATURES.index("alpha x distance km")] = -1.0
+    assert [int(view.depots.candidates[0, a]) for a in LandingActor(w).act(view)] == [0]
 
 
 def test_backlog_weights_are_backlog() -> None:
@@ -149,12 +188,13 @@ def test_operating_model_names() -> None:
     assert operating_model(OpsConfig(busy=False)) == "stock=home, batteries"
 
 
-@pytest.mark.parametrize(("fmt", "size"), [("/2", 16), ("/1", 12)])
+@pytest.mark.parametrize(("fmt", "size"), [("/2", 16), ("/3", 22), ("/1", 12)])
 def test_file_round_trip(tmp_path: Path, fmt: str, size: int) -> None:
     w = np.linspace(-1.0, 1.0, size)
     write_landing_actor(w, tmp_path / "a.safetensors", _side(fmt=fmt))
     pol = make_policy(str(tmp_path / "a.safetensors"), model=REALISTIC)
-    assert isinstance(pol, LandingActor) and pol.joint == (size == 16)
+    assert isinstance(pol, LandingActor) and pol.joint == (size != 12)
+    assert pol.context == (size == 22)
     assert pol.weight == pytest.approx(w.astype(np.float32), abs=0)
     assert pol.identity == tmp_path / "a.safetensors"
     with pytest.raises(InputError, match="trained for the operating model"):
@@ -184,6 +224,7 @@ def test_file_round_trip(tmp_path: Path, fmt: str, size: int) -> None:
         ({"weight": np.zeros(12, np.float32)}, [REALISTIC], "expected a JSON object, got a list"),
         ({"weight": np.zeros(12, np.float32)}, _side(fmt="/2"), r"expected float32 \[16\]"),
         ({"weight": np.zeros(16, np.float32)}, _side(), r"expected float32 \[12\]"),
+        ({"weight": np.zeros(16, np.float32)}, _side(fmt="/3"), r"expected float32 \[22\]"),
         (
             {"weight": np.zeros(12, np.float32)},
             {**_side(), "format": ["x"]},
@@ -206,6 +247,7 @@ def test_file_round_trip(tmp_path: Path, fmt: str, size: int) -> None:
         "not-object",
         "joint-of-12",
         "sequential-of-16",
+        "context-of-16",
         "format-list",
         "model-misspelt",
     ],

@@ -281,6 +281,10 @@ def test_training_log_gives_the_time_left(monkeypatch) -> None:
         (["--eval-days", "-1"], "invalid option --eval-days: "),
         (["--alpha-range", "0.5-0.2"], "invalid option --alpha-range: expected 0.001 <= low"),
         (["--energy-slack", "2"], "invalid option --energy-slack: "),
+        (["--features", "deep"], "invalid option --features: Input should be 'basic' or"),
+        (["--energy-per", "km"], "invalid option --energy-per: Input should be 'drone' or"),
+        (["--eval-every", "0"], "invalid option --eval-every: "),
+        (["--spares", "0"], "--spares expects positive whole numbers"),
     ],
 )
 def test_a_bad_training_flag_is_named_as_typed(

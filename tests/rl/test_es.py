@@ -14,7 +14,7 @@ import pytest
 from marops_cli.config import OpsConfig, PlannerConfig
 from marops_cli.errors import InputError
 from marops_cli.policies import make_policy
-from marops_cli.policies.landing import JOINT_START, LandingActor
+from marops_cli.policies.landing import CONTEXT_FEATURES, JOINT_START, LandingActor
 from marops_cli.rl.data import load_training_data
 from marops_cli.rl.es import day_cost
 from marops_cli.rl.train import train_actor
@@ -143,6 +143,36 @@ def test_energy_above_the_slack_costs_the_weight() -> None:
     assert cost(90.0, 505.0, 10.0, 0.01) == pytest.approx(0.9)  # +1 %: within the slack
     assert cost(90.0, 515.0, 10.0, 0.01) == pytest.approx(0.9 + 10 * 0.02)  # +3 %: 2 % priced
     assert cost(90.0, 515.0, 1.0, 0.0) == pytest.approx(0.9 + 0.03)  # no slack: all of it
+
+
+def test_energy_per_parcel_counts_what_was_delivered() -> None:
+    # The same energy per drone delivering 10 % more parcels is 1/1.1 the energy per
+    # parcel: no excess; 10 % more energy for 5 % fewer parcels is 1.1 / 0.95 − 1 above.
+    ref = {"j": 100.0, "energy": 500.0, "share": 0.8}
+
+    def cost(e: float, share: float) -> float:
+        row = {"objective_j_mj": 100.0, "mean_energy_kj": e, "delivered_share": share}
+        return day_cost(row, ref, 2.0, per_parcel=True)
+
+    assert cost(550.0, 0.88) == pytest.approx(1.0)
+    assert cost(550.0, 0.76) == pytest.approx(1.0 + 2.0 * (1.1 / 0.95 - 1.0))
+    row = {"objective_j_mj": 100.0, "mean_energy_kj": 550.0, "delivered_share": 0.88}
+    assert day_cost(row, ref, 2.0) == pytest.approx(1.0 + 2.0 * 0.1)  # per drone: priced
+
+
+def test_context_features_and_spares_train_a_format_3_actor(
+    tiny_csv: Path, small_cfg: PlannerConfig, tmp_path: Path
+) -> None:
+    tcfg = _es(episodes=13, landing_features="context", es_energy_basis="parcel")
+    td = load_training_data(tiny_csv, small_cfg, tcfg, spares=[1, 3])
+    assert [s.cfg.ops.batteries_per_depot for s in td.ctx.scenarios] == [1, 3]
+    side = train_actor(td, tmp_path / "a.safetensors", resume=False)
+    assert side["format"] == "marops-landing-actor/3" and len(side["weight"]) == 22
+    assert side["features"][12:18] == list(CONTEXT_FEATURES)
+    assert [s["spares"] for s in side["scenarios"]] == [1, 3]
+    assert "per parcel" in side["reward"]
+    pol = make_policy(str(tmp_path / "a.safetensors"), model=side["operating_model"])
+    assert isinstance(pol, LandingActor) and pol.context
 
 
 def test_a_day_lost_costs_the_loss_weight_more() -> None:
