@@ -10,7 +10,12 @@ from typer.testing import CliRunner
 
 from marops_cli.cli.app import app
 from marops_cli.config import OpsConfig
-from marops_cli.policies.landing import FEATURES, FREE_FEATURES, operating_model
+from marops_cli.policies.landing import (
+    CONTEXT_FEATURES,
+    FEATURES,
+    FREE_FEATURES,
+    operating_model,
+)
 from marops_cli.policies.observation import OBS_VERSION
 from marops_cli.policies.registry import (
     DEFAULT_LANDING_NAME,
@@ -44,8 +49,9 @@ def test_shipped_sidecars_match_this_build() -> None:
     assert default_policy_path(DEFAULT_MAPPO_NAME) == POLICIES / "mappo-basic.pt"
     # The landing actor: the default operating model's, made by the command it records.
     doc = json.loads((POLICIES / "marops-ops.json").read_text())
-    assert doc["format"] == "marops-landing-actor/2"
-    assert len(doc["weight"]) == len(FEATURES) + len(FREE_FEATURES)
+    assert doc["format"] == "marops-landing-actor/3"  # it reads the situation
+    assert len(doc["weight"]) == len(FEATURES) + len(CONTEXT_FEATURES) + len(FREE_FEATURES)
+    assert doc["features"] == [*FEATURES, *CONTEXT_FEATURES, *FREE_FEATURES]
     assert doc["operating_model"] == operating_model(OpsConfig())
     assert doc["command"].startswith("marops train") and "--algorithm es" in doc["command"]
     assert doc["data"]["origin"].startswith("marops synth")
