@@ -3,8 +3,9 @@
 
 The landing actor (:class:`~marops_cli.policies.landing.LandingActor`) scores each
 destination by ``weight · features`` and assigns the drones to landings jointly.
-Training searches the 16 weights directly on the quantities the actor is judged by,
-from the ``backlog`` rule's score (:data:`~marops_cli.policies.landing.JOINT_START`):
+Training searches the 16 weights (22 with ``landing_features = "context"``) directly on
+the quantities the actor is judged by, from the ``backlog`` rule's score
+(:data:`~marops_cli.policies.landing.JOINT_START`, ``CONTEXT_START``):
 
 * each training day is first replayed with the rules the actor must beat,
   :data:`RULES` (``ops-global``, ``backlog``, ``rebalance``); the day's *best rule* is the
@@ -310,11 +311,7 @@ class LandingTrainer:
         """The best rule's J and energy of each of ``days`` (replayed once per run)."""
         need = sorted({d for d in days if _key(d) not in self.reference})
         for d, best in zip(need, self._best_rules(workers, need), strict=True):
-            self.reference[_key(d)] = {
-                "j": best["objective_j_mj"],
-                "energy": best["mean_energy_kj"],
-                "share": best["delivered_share"],
-            }
+            self.reference[_key(d)] = _reference(best)
         return [self.reference[_key(d)] for d in days]
 
     def _cost(self, rows: list[dict[str, float]], refs: list[dict[str, float]]) -> float:
@@ -392,10 +389,7 @@ class LandingTrainer:
         best = self.held_out_rules
         w = tuple(float(x) for x in self.weight)
         mine = workers.results([LandingDay(k, w, *d, held_out=True) for k, d in enumerate(days)])
-        refs = [
-            {"j": b["objective_j_mj"], "energy": b["mean_energy_kj"], "share": b["delivered_share"]}
-            for b in best
-        ]
+        refs = [_reference(b) for b in best]
         cost = self._cost(mine, refs)
         ev = {
             "episode": self.episode,
@@ -510,6 +504,16 @@ def day_cost(
     excess = ratio - 1.0 - slack
     rel = row["objective_j_mj"] / max(ref["j"], 1e-9)
     return rel + weight * max(0.0, excess) + loss_weight * max(0.0, rel - 1.0)
+
+
+def _reference(best: dict[str, Any]) -> dict[str, float]:
+    """What :func:`day_cost` compares a replay with: the best rule's J, energy per drone
+    and delivered share."""
+    return {
+        "j": best["objective_j_mj"],
+        "energy": best["mean_energy_kj"],
+        "share": best["delivered_share"],
+    }
 
 
 def _key(d: Day) -> str:
