@@ -15,7 +15,8 @@ the quantities the actor is judged by, from the ``backlog`` rule's score
   the weights w, w + σε and w − σε (antithetic pairs: the same days for every member,
   so the day's own difficulty cancels);
 * a member's cost on a day is its J over the best rule's J, plus ``es_energy_weight`` ×
-  the share by which its energy per drone exceeds the best rule's by more than
+  the share by which its energy per drone (``es_energy_basis = "parcel"``: per delivered
+  parcel) exceeds the best rule's by more than
   ``es_energy_slack`` (0 within it), plus ``es_loss_weight`` × the share by which its J
   exceeds the best rule's (:func:`day_cost`): a plan must not win by spending energy
   the best rule saves, nor by losing some days to win more on others; its cost is the
@@ -95,7 +96,7 @@ class _Reference(FileModel):
     noun: ClassVar[str] = "reference"
     j: float
     energy: float
-    share: float | None = None
+    share: float
 
 
 class _HeldOutRule(FileModel):
@@ -500,7 +501,7 @@ def day_cost(
     costs more than a day won gains)."""
     ratio = row["mean_energy_kj"] / max(ref["energy"], 1e-9)
     if per_parcel:  # the same day and fleet: energy per parcel ∝ energy per drone / share
-        ratio *= max(ref.get("share") or 0.0, 1e-9) / max(row["delivered_share"], 1e-9)
+        ratio *= max(ref["share"], 1e-9) / max(row["delivered_share"], 1e-9)
     excess = ratio - 1.0 - slack
     rel = row["objective_j_mj"] / max(ref["j"], 1e-9)
     return rel + weight * max(0.0, excess) + loss_weight * max(0.0, rel - 1.0)

@@ -68,6 +68,10 @@ EDITS = {
     "needs evals": lambda s: {k: v for k, v in s.items() if k != "evals"},
     "reference: expected a table, got null": lambda s: {**s, "reference": None},
     "reference.d.j: expected a number, got 'x'": lambda s: {**s, "reference": {"d": {"j": "x"}}},
+    "reference.d.share: a reference needs share": lambda s: {
+        **s,
+        "reference": {"d": {"j": 1.0, "energy": 2.0}},
+    },
     "weight: expected a list, got 'heavy'": lambda s: {**s, "weight": "heavy"},
     f"weight must be {JOINT_START.size} numbers": lambda s: {**s, "weight": [1.0]},
     "best: expected the best evaluation": lambda s: {**s, "best": 3},
