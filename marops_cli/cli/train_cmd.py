@@ -291,7 +291,8 @@ def train_command(
         algorithm=algorithm,
         es_energy_weight=energy_weight,
         es_energy_slack=energy_slack,
-        **{"es_energy_basis": energy_per, "landing_features": features},
+        es_energy_basis=energy_per,
+        landing_features=features,
         es_loss_weight=loss_weight,
         method=method,
         episodes=episodes,
@@ -302,14 +303,18 @@ def train_command(
         obs_version=obs_version,
         **_alpha_range(alpha_range),
     )
-    command = "marops " + shlex.join(sys.argv[1:]) if sys.argv else None
     setup = TrainSetup(
-        cfg, tcfg, **scenarios, resume=resume, command=command, data_origin=data_origin
+        cfg, tcfg, **scenarios, resume=resume, command=_command(), data_origin=data_origin
     )
     res = run_training(data, setup, out, progress=_Reporter(tcfg.checkpoint_every))
     console.print(f"wrote {', '.join(map(str, res.files))} ({res.training_time_s:.0f} s)")
     if res.heldout:
         _print_heldout(res.heldout)
+
+
+def _command() -> str | None:
+    """The command as typed, for the sidecar."""
+    return "marops " + shlex.join(sys.argv[1:]) if sys.argv else None
 
 
 def _planner(
