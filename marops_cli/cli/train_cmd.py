@@ -207,12 +207,20 @@ def train_command(
         str,
         typer.Option(
             "--features",
-            help="--algorithm es: the landing actor's features, basic (16 weights) or context "
-            "(22: fleet density, load, stranding and α too; docs/method.md §6.1) "
-            "[default: basic].",
+            help="--algorithm es: the landing actor's features, basic (16 weights), context "
+            "(22: fleet density, load, stranding and α too) or rules (25: the flow rule's "
+            "landings too; docs/method.md §6.1) [default: basic].",
             show_default=False,
         ),
     ] = "basic",
+    init: Annotated[
+        Path | None,
+        typer.Option(
+            "--init",
+            help="--algorithm es: a landing actor (.safetensors) whose weights training "
+            "starts from, new features at 0 [default: the backlog score].",
+        ),
+    ] = None,
     spares: Annotated[
         str | None,
         typer.Option(
@@ -285,7 +293,7 @@ def train_command(
 
     _check_args(data, out, algorithm, method, obs_version)
     allow_replacing_foreign(force)
-    protect_inputs(actor_files(out, algorithm), [*data, config])  # before the long work
+    protect_inputs(actor_files(out, algorithm), [*data, config, init])  # before the long work
     cfg, scenarios = _planner(config, options, (drones, n_depots, spares), days)
     tcfg = _train_config(
         algorithm=algorithm,
@@ -293,6 +301,7 @@ def train_command(
         es_energy_slack=energy_slack,
         es_energy_basis=energy_per,
         landing_features=features,
+        landing_start=_start_weights(init, algorithm),
         es_loss_weight=loss_weight,
         method=method,
         episodes=episodes,
@@ -310,6 +319,21 @@ def train_command(
     console.print(f"wrote {', '.join(map(str, res.files))} ({res.training_time_s:.0f} s)")
     if res.heldout:
         _print_heldout(res.heldout)
+
+
+def _start_weights(init: Path | None, algorithm: str) -> list[float] | None:
+    """The weights of the landing actor file ``init`` (``--init``), read as data only."""
+    if init is None:
+        return None
+    if algorithm != "es":
+        raise InputError("--init is the landing actor's (--algorithm es)")
+    from ..data.jsonfile import read_json
+    from ..policies.landing import load_landing_actor
+
+    if init.suffix != ".safetensors" or not init.is_file():
+        raise InputError("--init must name a landing actor's .safetensors file", file=init)
+    sidecar = init.with_suffix(".json")
+    return load_landing_actor(init, read_json(sidecar, "actor sidecar"), sidecar).weight.tolist()
 
 
 def _command() -> str | None:

@@ -25,6 +25,12 @@ Three kinds of actor, told apart by their number of weights (and their file's fo
   actor with six more destination features (12–17 below) that let one score stay where
   drones are many or batteries short and spread where drones are few, and weigh a
   flight's distance by the run's α; its free landing is weights 18–21.
+* **joint, reading the situation and the flow rule** (25 weights,
+  ``marops-landing-actor/4``): the ``/3`` actor with three more features (18–20 below)
+  that read the ``flow`` rule's plan of the window (:class:`~.rules.FlowPolicy`): one
+  weight can make it fly the flow rule's landings, the situation's weights say where; its
+  free landing is weights 21–24, and scores staying without features 18–20 (the flow rule
+  never lands free).
 * **sequential** (12 weights, ``marops-landing-actor/1``): drones choose one after
   another, as :class:`~.rules.BacklogPolicy` does, each seeing where the drones before
   it chose to land; with :data:`BACKLOG_WEIGHTS` it is exactly the ``backlog`` rule.
@@ -57,9 +63,18 @@ The situation's features (format ``/3`` only; ``density``: lg (1 + drones per ar
 16. α × feature 4 (a flight's energy, priced by α)
 17. α × feature 9
 
+The flow rule's features (format ``/4`` only; ``flow(d)``: how many of the ready drones the
+``flow`` rule lands at d this window, staying ones included; slot j of d is the (j + 1)-th
+ready drone to land there):
+
+18. 1 when the slot is one the flow rule fills (j < flow(d))
+19. density × feature 18
+20. load × feature 18
+
 The file format is data only: ``NAME.safetensors`` holds one float32 tensor ``weight`` of
-shape ``(16,)`` (or ``(22,)``, ``(12,)``), its sidecar ``NAME.json`` says ``format`` and the
-operating model it was trained for (docs/method.md §6, "Trust model of actor files").
+shape ``(16,)`` (or ``(22,)``, ``(25,)``, ``(12,)``), its sidecar ``NAME.json`` says
+``format`` and the operating model it was trained for (docs/method.md §6, "Trust model
+of actor files").
 """
 
 from __future__ import annotations
@@ -74,7 +89,7 @@ from ..data.jsonfile import first_line, refuse_misspelt_keys
 from ..errors import InputError, quoted
 from ..plans.view import FREE
 from .base import WindowView, check_weight_range
-from .rules import EnergyAware, reachable, waiting_per_depot
+from .rules import EnergyAware, FlowPolicy, reachable, waiting_per_depot
 
 if TYPE_CHECKING:
     from ..config import OpsConfig, PlannerConfig
@@ -88,8 +103,12 @@ __all__ = [
     "JOINT_START",
     "CONTEXT_START",
     "LANDING_FORMAT",
+    "RULE_FEATURES",
+    "RULES_FORMAT",
+    "RULES_START",
     "LandingActor",
     "check_trained_for",
+    "extend_weights",
     "landing_features",
     "operating_model",
 ]
@@ -119,6 +138,8 @@ CONTEXT_FEATURES = (
     "alpha x stay",
 )
 """The situation's destination features of a ``/3`` actor, in order (module docstring)."""
+RULE_FEATURES = ("flow slot", "flow slot x drones per area", "flow slot x parcels per drone")
+"""The flow rule's destination features of a ``/4`` actor, in order (module docstring)."""
 FREE_FEATURES = ("free", "free x time", "free x backlog score", "free x drones per area")
 """The joint actor's free landing: its weights 12–15 multiply these (module docstring)."""
 BACKLOG_WEIGHTS = np.eye(N_FEATURES)[2]
@@ -129,13 +150,20 @@ CONTEXT_START = np.concatenate(
     [BACKLOG_WEIGHTS, np.zeros(len(CONTEXT_FEATURES) + len(FREE_FEATURES))]
 )
 """Where training a ``/3`` actor starts: the backlog score, every other weight at 0."""
+RULES_START = np.concatenate(
+    [BACKLOG_WEIGHTS, np.zeros(len(CONTEXT_FEATURES) + len(RULE_FEATURES) + len(FREE_FEATURES))]
+)
+"""Where training a ``/4`` actor starts (without ``--init``): as a ``/3`` actor's."""
 LANDING_FORMAT = "marops-landing-actor/2"
 """The format of the joint actor's sidecar."""
 CONTEXT_FORMAT = "marops-landing-actor/3"
 """The format of the joint actor that reads the situation (features 12–17)."""
+RULES_FORMAT = "marops-landing-actor/4"
+"""The format of the joint actor that reads the situation and the flow rule (12–20)."""
 _FORMATS = {
     LANDING_FORMAT: JOINT_START.size,
     CONTEXT_FORMAT: CONTEXT_START.size,
+    RULES_FORMAT: RULES_START.size,
     "marops-landing-actor/1": N_FEATURES,
 }
 """The sidecar formats a landing actor may have, and their numbers of weights."""
@@ -147,6 +175,23 @@ _UNLIMITED_SPARES = 3.0
 
 def _lg(x: np.ndarray) -> np.ndarray:
     return np.log1p(np.maximum(x, 0.0))
+
+
+def extend_weights(weight: np.ndarray, size: int) -> np.ndarray:
+    """The weights of a landing actor (12, 16 or 22 of them) as the first of ``size``
+    (16, 22 or 25): its destination weights first, its free landing's last (a sequential
+    actor's at 0), every new feature at 0, so the larger actor decides as the smaller one
+    did."""
+    w = np.asarray(weight, dtype=np.float64).reshape(-1)
+    if size not in _FORMATS.values() or size == N_FEATURES or w.size > size:
+        raise ValueError(f"cannot extend {w.size} landing weights to {size}")
+    n_free = len(FREE_FEATURES)
+    dest = w if w.size == N_FEATURES else w[:-n_free]
+    out = np.zeros(size)
+    out[: dest.size] = dest
+    if w.size != N_FEATURES:
+        out[-n_free:] = w[-n_free:]
+    return out
 
 
 def operating_model(ops: OpsConfig) -> str:
@@ -192,14 +237,22 @@ class DepotState:
         self.density = view.n_drones / max(1, n)
         self.alpha = alpha
         self.load = float(self.count.sum()) / max(1, view.n_drones)
+        self.flow: np.ndarray | None = None
+        """``(N,)`` ready drones the flow rule lands at each depot (``/4`` actors only)."""
 
 
 def landing_features(
-    view: WindowView, depots: DepotState, s: int, there: np.ndarray, context: bool = False
+    view: WindowView,
+    depots: DepotState,
+    s: int,
+    there: np.ndarray,
+    context: bool = False,
+    slot: int = 0,
 ) -> np.ndarray:
     """``(A, 12)`` the features of a drone at depot ``s``'s destinations, with ``there``
-    the drones counted at each depot; ``(A, 18)`` with the situation's (``context``;
-    module docstring)."""
+    the drones counted at each depot; ``(A, 18)`` with the situation's (``context``), and
+    ``(A, 21)`` with the flow rule's too where ``depots.flow`` is set, for landing slot
+    ``slot`` of each destination (module docstring)."""
     dep = view.depots
     dests = dep.candidates[s]
     dist = np.hypot(*(dep.xy[dests] - dep.xy[s]).T) / 1000.0
@@ -212,6 +265,9 @@ def landing_features(
         strands = (1.0 - stay) * (depots.spares[dests] <= 0)
         more = [density * stay, density * dist, strands, load * stay]
         more += [depots.alpha * dist, depots.alpha * stay]
+        if depots.flow is not None:
+            fills = (slot < depots.flow[dests]).astype(np.float64)
+            more += [fills, density * fills, load * fills]
     return np.stack(
         [
             _lg(depots.value[dests]),
@@ -234,7 +290,7 @@ def landing_features(
 
 class LandingActor(EnergyAware):
     """Scores each destination by ``weight · features`` and lands where the empty drone
-    can reach: jointly with 16 or 22 weights, one drone after another with 12 (module
+    can reach: jointly with 16, 22 or 25 weights, one drone after another with 12 (module
     docstring); a drone that cannot fly stays. ``trained_for`` is the operating model it
     was trained for (None: any); :meth:`configure` refuses a run under another."""
 
@@ -258,6 +314,8 @@ class LandingActor(EnergyAware):
         self.path = path
         self.alpha = 0.5
         """The run's α (features 16–17), set by :meth:`configure`."""
+        self._flow: FlowPolicy | None = FlowPolicy() if w.size == RULES_START.size else None
+        """The flow rule whose plan features 18–20 read (``/4`` actors)."""
 
     @property
     def joint(self) -> bool:
@@ -266,8 +324,8 @@ class LandingActor(EnergyAware):
 
     @property
     def context(self) -> bool:
-        """Whether the actor reads the situation (features 12–17, 22 weights)."""
-        return self.weight.size == CONTEXT_START.size
+        """Whether the actor reads the situation (features 12–17, 22 or 25 weights)."""
+        return self.weight.size in (CONTEXT_START.size, RULES_START.size)
 
     @property
     def identity(self) -> str | Path:
@@ -276,6 +334,8 @@ class LandingActor(EnergyAware):
     def configure(self, cfg: PlannerConfig) -> None:
         super().configure(cfg)
         self.alpha = cfg.plan.alpha
+        if self._flow is not None:
+            self._flow.configure(cfg)
         self.check_model(operating_model(cfg.ops))
 
     def check_model(self, model: str) -> None:
@@ -310,6 +370,8 @@ class LandingActor(EnergyAware):
         if not ready:
             return out
         depots = DepotState(view, self.alpha)
+        if self._flow is not None:
+            depots.flow = self._flow_landings(view, ready)
         held = np.ones(view.n_drones, dtype=bool)
         held[ready] = False
         n = len(dep)
@@ -326,6 +388,7 @@ class LandingActor(EnergyAware):
         score = np.full((k, int(first[-1]) + k), _UNSUITED)
         n_dest = self.weight.size - len(FREE_FEATURES)
         w, w_free = self.weight[:n_dest], self.weight[n_dest:]
+        n_own = n_dest - (len(RULE_FEATURES) if self._flow is not None else 0)
         rows: dict[tuple[int, int], np.ndarray] = {}  # (depot, slot): its destinations' scores
         free: dict[int, float] = {}
         for i, (s, ok) in enumerate(zip(homes, oks, strict=True)):
@@ -333,11 +396,13 @@ class LandingActor(EnergyAware):
             room = slots[dests[ok]]  # the slots of each reachable destination
             for j in range(int(room.max())):
                 if (s, j) not in rows:
-                    f = landing_features(view, depots, s, base + j, self.context)
+                    f = landing_features(view, depots, s, base + j, self.context, j)
                     rows[s, j] = f @ w
                     if j == 0:
                         extra = w_free @ (1.0, depots.time, f[0, 2], depots.density)
-                        free[s] = rows[s, j][0] + extra - 1e-9  # ties go to a slot
+                        # Staying, without the flow rule's features (it never lands free).
+                        own = rows[s, j][0] if n_own == n_dest else f[0, :n_own] @ w[:n_own]
+                        free[s] = float(own + extra) - 1e-9  # ties go to a slot
                 for a in ok[j < room]:  # ties to the lower action index
                     col = int(first[dests[a]]) + j
                     score[i, col] = max(score[i, col], rows[s, j][a] - 1e-9 * a)
@@ -350,12 +415,21 @@ class LandingActor(EnergyAware):
                 out[ready[i]] = int(np.flatnonzero(dep.candidates[homes[i]] == landing[c])[0])
         return out
 
+    def _flow_landings(self, view: WindowView, ready: list[int]) -> np.ndarray:
+        """``(N,)`` how many of the ``ready`` drones the flow rule lands at each depot."""
+        assert self._flow is not None
+        acts = self._flow.act(view)
+        cand = view.depots.candidates
+        lands = [int(cand[int(view.drone_depot[u]), acts[u]]) for u in ready]
+        n = len(view.depots)
+        return np.bincount(np.asarray(lands, dtype=np.int64), minlength=n)[:n].astype(np.float64)
+
 
 def load_landing_actor(path: Path, side: Any, sidecar: Path) -> LandingActor:
     """The landing actor of the weights file ``path`` (``NAME.safetensors``) described by
     ``side`` (read from ``sidecar``): one finite float32 tensor ``weight`` of 16 values
-    (format ``/2``), 22 (``/3``) or 12 (``/1``). Nothing of the file runs (a safetensors file is a
-    JSON header and raw numbers)."""
+    (format ``/2``), 22 (``/3``), 25 (``/4``) or 12 (``/1``). Nothing of the file runs (a
+    safetensors file is a JSON header and raw numbers)."""
     from safetensors import SafetensorError, safe_open
 
     from ..data.filemodel import validated

@@ -123,10 +123,16 @@ class TrainConfig(BaseModel):
         description="es: the energy es_energy_weight prices: per drone, or per delivered "
         "parcel (so delivering more for the same energy per parcel costs nothing)",
     )
-    landing_features: Literal["basic", "context"] = Field(
+    landing_features: Literal["basic", "context", "rules"] = Field(
         "basic",
-        description="es: the landing actor's features: basic (16 weights, format /2), or "
-        "context (22 weights, format /3: fleet density, load, stranding and α as well)",
+        description="es: the landing actor's features: basic (16 weights, format /2), "
+        "context (22 weights, format /3: fleet density, load, stranding and α as well), or "
+        "rules (25 weights, format /4: the flow rule's landings as well)",
+    )
+    landing_start: list[float] | None = Field(
+        None,
+        description="es: the weights training starts from (another landing actor's, "
+        "extended with zeros; --init); None: the backlog score",
     )
     es_loss_weight: float = Field(
         2.0,

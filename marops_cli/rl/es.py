@@ -3,9 +3,10 @@
 
 The landing actor (:class:`~marops_cli.policies.landing.LandingActor`) scores each
 destination by ``weight · features`` and assigns the drones to landings jointly.
-Training searches the 16 weights (22 with ``landing_features = "context"``) directly on
-the quantities the actor is judged by, from the ``backlog`` rule's score
-(:data:`~marops_cli.policies.landing.JOINT_START`, ``CONTEXT_START``):
+Training searches the 16 weights (22 with ``landing_features = "context"``, 25 with
+``"rules"``) directly on the quantities the actor is judged by, from the ``backlog`` rule's
+score (:data:`~marops_cli.policies.landing.JOINT_START`, ``CONTEXT_START``,
+``RULES_START``) or from another actor's weights (``landing_start``, ``--init``):
 
 * each training day is first replayed with the rules the actor must beat,
   :data:`RULES` (``ops-global``, ``backlog``, ``rebalance``); the day's *best rule* is the
@@ -59,7 +60,11 @@ from ..policies.landing import (
     FREE_FEATURES,
     JOINT_START,
     LANDING_FORMAT,
+    RULE_FEATURES,
+    RULES_FORMAT,
+    RULES_START,
     LandingActor,
+    extend_weights,
     operating_model,
 )
 from ..policies.registry import make_policy
@@ -83,8 +88,15 @@ _STREAM_BATCH, _STREAM_NOISE = 11, 12
 _CKPT_FORMAT = "marops-landing-ckpt/1"
 Event = dict[str, Any]
 _KEYS = ("objective_j_mj", "delivered_share", "mean_energy_kj", "avg_delay_h")
-_START = {"basic": JOINT_START, "context": CONTEXT_START}
-"""Where training starts, per ``landing_features``."""
+_START = {"basic": JOINT_START, "context": CONTEXT_START, "rules": RULES_START}
+"""Where training starts, per ``landing_features`` (without ``landing_start``)."""
+_FORMAT = {"basic": LANDING_FORMAT, "context": CONTEXT_FORMAT, "rules": RULES_FORMAT}
+_NAMES = {
+    "basic": (*FEATURES, *FREE_FEATURES),
+    "context": (*FEATURES, *CONTEXT_FEATURES, *FREE_FEATURES),
+    "rules": (*FEATURES, *CONTEXT_FEATURES, *RULE_FEATURES, *FREE_FEATURES),
+}
+"""Each ``landing_features``'s sidecar format and weight names."""
 RULES = reference_rules()
 """The rules the landing actor must beat (method -> policy spec; the methods registered
 as references, marops_cli/methods.py): each day's best of them is its reference."""
@@ -209,7 +221,10 @@ class LandingTrainer:
         if len(models) > 1:
             raise InputError("every training scenario needs the same operating model")
         self.model = models.pop()
-        self.weight = _START[self.tcfg.landing_features].astype(np.float64).copy()
+        start = _START[self.tcfg.landing_features]
+        if self.tcfg.landing_start is not None:
+            start = extend_weights(np.array(self.tcfg.landing_start), start.size)
+        self.weight = start.astype(np.float64).copy()
         self.generation = self.episode = 0
         self.elapsed_s = 0.0
         self.reference: dict[str, dict[str, float]] = {}
@@ -446,12 +461,11 @@ class LandingTrainer:
         if t.keep_best and self.best is not None:
             weight = np.array(self.best["weight"])
             chosen = next(e for e in self.evals if e["episode"] == self.best["episode"])
-        context = t.landing_features == "context"
         side = {
-            "format": CONTEXT_FORMAT if context else LANDING_FORMAT,
+            "format": _FORMAT[t.landing_features],
             "method": "marops",
             "operating_model": self.model,
-            "features": [*FEATURES, *(CONTEXT_FEATURES if context else ()), *FREE_FEATURES],
+            "features": list(_NAMES[t.landing_features]),
             "weight": [round(float(x), 6) for x in weight],
             "seed": t.seed,
             "episodes": self.episode,

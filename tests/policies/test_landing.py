@@ -15,7 +15,7 @@ from marops_cli.cli.app import app
 from marops_cli.config import OpsConfig, PlannerConfig, override
 from marops_cli.errors import InputError
 from marops_cli.plans.view import FREE
-from marops_cli.policies import BacklogPolicy, make_policy
+from marops_cli.policies import BacklogPolicy, FlowPolicy, make_policy
 from marops_cli.policies.landing import (
     BACKLOG_WEIGHTS,
     CONTEXT_FEATURES,
@@ -23,8 +23,11 @@ from marops_cli.policies.landing import (
     FEATURES,
     FREE_FEATURES,
     JOINT_START,
+    RULE_FEATURES,
+    RULES_START,
     DepotState,
     LandingActor,
+    extend_weights,
     landing_features,
     operating_model,
 )
@@ -98,6 +101,70 @@ def test_context_actor_reads_alpha() -> None:
     assert [int(view.depots.candidates[0, a]) for a in actor.act(view)] == [2]
     w[len(FEATURES) + CONTEXT_FEATURES.index("alpha x distance km")] = -1.0
     assert [int(view.depots.candidates[0, a]) for a in LandingActor(w).act(view)] == [0]
+
+
+def test_flow_features_by_hand() -> None:
+    # The view of test_features_by_hand; the flow rule lands 2 ready drones at depot 1
+    # and none elsewhere: slots 0 and 1 of depot 1 are the flow rule's, slot 2 is not.
+    view = _view([0.0, 1000.0, 3000.0], [1, 1, 2], [0, 1], [0.5, 1.5, 0.0], arrivals={2: 2.0})
+    view = replace(view, depot_spares=np.array([0, 1, 2]), depot_charging=np.array([3, 0, 0]))
+    depots = DepotState(view, alpha=0.8)
+    there = np.array([0.0, 1.0, 0.0])
+    context = landing_features(view, depots, 0, there, context=True)
+    depots.flow = np.array([0.0, 2.0, 0.0])
+    n = len(FEATURES) + len(CONTEXT_FEATURES)
+    density, load = np.log1p(2 / 3), np.log1p(3 / 2)
+    for slot, fills in ((0, 1.0), (1, 1.0), (2, 0.0)):
+        f = landing_features(view, depots, 0, there, context=True, slot=slot)
+        assert f.shape == (3, n + len(RULE_FEATURES))
+        assert np.array_equal(f[:, :n], context)  # the first eighteen unchanged
+        assert f[1, n:] == pytest.approx([fills, density * fills, load * fills], abs=1e-12)
+        assert not f[[0, 2], n:].any()  # no drone of the flow rule's lands at depot 0 or 2
+
+
+def _landed(view, acts) -> list[int]:  # noqa: ANN001
+    cand = view.depots.candidates
+    return sorted(int(cand[s, a]) for s, a in zip(view.drone_depot, acts, strict=True))
+
+
+def test_an_actor_on_the_flow_features_flies_the_flow_rule_plan() -> None:
+    # Weight on "flow slot" only (and a little on distance): the actor lands as many
+    # drones at each depot as the flow rule does, and none free (the free landing does
+    # not share the flow rule's score of staying).
+    rng = np.random.default_rng(7)
+    w = np.zeros(RULES_START.size)
+    w[len(FEATURES) + len(CONTEXT_FEATURES) + RULE_FEATURES.index("flow slot")] = 10.0
+    w[FEATURES.index("distance km")] = -0.01
+    actor, flow = LandingActor(w), FlowPolicy()
+    cfg = override(PlannerConfig(), plan__alpha=0.5)
+    actor.configure(cfg)
+    flow.configure(cfg)
+    moved = 0
+    for _ in range(10):
+        stock = list(rng.integers(0, 6, size=12))
+        drones = list(rng.integers(0, 6, size=5))
+        view = _view([0.0, 400.0, 800.0, 1200.0, 1600.0, FAR], stock, drones, spares=[2] * 6)
+        mine, theirs = actor.act(view), flow.act(view)
+        assert FREE not in mine
+        assert _landed(view, mine) == _landed(view, theirs)
+        moved += int((theirs != 0).sum())
+    assert moved > 0  # the flow rule moved drones: the check was not all staying
+
+
+def test_extended_weights_decide_as_before() -> None:
+    rng = np.random.default_rng(9)
+    w3 = rng.normal(size=CONTEXT_START.size)
+    w4 = extend_weights(w3, RULES_START.size)
+    assert w4[:18] == pytest.approx(w3[:18]) and w4[-4:] == pytest.approx(w3[-4:])
+    assert not w4[18:21].any()
+    assert extend_weights(BACKLOG_WEIGHTS, JOINT_START.size) == pytest.approx(JOINT_START)
+    for _ in range(5):
+        view = _view([0.0, 800.0, 1600.0, 2400.0], list(rng.integers(0, 4, 8)), [0, 1, 1, 3])
+        assert np.array_equal(LandingActor(w3).act(view), LandingActor(w4).act(view))
+    with pytest.raises(ValueError, match="cannot extend 25 landing weights to 22"):
+        extend_weights(w4, CONTEXT_START.size)
+    with pytest.raises(ValueError, match="cannot extend 16 landing weights to 12"):
+        extend_weights(JOINT_START, BACKLOG_WEIGHTS.size)
 
 
 def test_backlog_weights_are_backlog() -> None:
@@ -188,13 +255,13 @@ def test_operating_model_names() -> None:
     assert operating_model(OpsConfig(busy=False)) == "stock=home, batteries"
 
 
-@pytest.mark.parametrize(("fmt", "size"), [("/2", 16), ("/3", 22), ("/1", 12)])
+@pytest.mark.parametrize(("fmt", "size"), [("/2", 16), ("/3", 22), ("/4", 25), ("/1", 12)])
 def test_file_round_trip(tmp_path: Path, fmt: str, size: int) -> None:
     w = np.linspace(-1.0, 1.0, size)
     write_landing_actor(w, tmp_path / "a.safetensors", _side(fmt=fmt))
     pol = make_policy(str(tmp_path / "a.safetensors"), model=REALISTIC)
     assert isinstance(pol, LandingActor) and pol.joint == (size != 12)
-    assert pol.context == (size == 22)
+    assert pol.context == (size in (22, 25))
     assert pol.weight == pytest.approx(w.astype(np.float32), abs=0)
     assert pol.identity == tmp_path / "a.safetensors"
     with pytest.raises(InputError, match="trained for the operating model"):
@@ -225,6 +292,7 @@ def test_file_round_trip(tmp_path: Path, fmt: str, size: int) -> None:
         ({"weight": np.zeros(12, np.float32)}, _side(fmt="/2"), r"expected float32 \[16\]"),
         ({"weight": np.zeros(16, np.float32)}, _side(), r"expected float32 \[12\]"),
         ({"weight": np.zeros(16, np.float32)}, _side(fmt="/3"), r"expected float32 \[22\]"),
+        ({"weight": np.zeros(22, np.float32)}, _side(fmt="/4"), r"expected float32 \[25\]"),
         (
             {"weight": np.zeros(12, np.float32)},
             {**_side(), "format": ["x"]},
@@ -248,6 +316,7 @@ def test_file_round_trip(tmp_path: Path, fmt: str, size: int) -> None:
         "joint-of-12",
         "sequential-of-16",
         "context-of-16",
+        "rules-of-22",
         "format-list",
         "model-misspelt",
     ],

@@ -281,7 +281,7 @@ def test_training_log_gives_the_time_left(monkeypatch) -> None:
         (["--eval-days", "-1"], "invalid option --eval-days: "),
         (["--alpha-range", "0.5-0.2"], "invalid option --alpha-range: expected 0.001 <= low"),
         (["--energy-slack", "2"], "invalid option --energy-slack: "),
-        (["--features", "deep"], "invalid option --features: Input should be 'basic' or"),
+        (["--features", "deep"], "invalid option --features: Input should be 'basic', 'co"),
         (["--energy-per", "km"], "invalid option --energy-per: Input should be 'drone' or"),
         (["--eval-every", "0"], "invalid option --eval-every: "),
         (["--spares", "0"], "--spares expects positive whole numbers"),
@@ -295,6 +295,24 @@ def test_a_bad_training_flag_is_named_as_typed(
     assert res.stderr.count("\n") == 1 and res.stderr.startswith(f"marops: error: {line}")
     assert "_" not in res.stderr.split(":")[2]  # the flag as typed, not the setting's name
     assert not list(tmp_path.iterdir())
+
+
+def test_init_must_be_a_landing_actor(tiny_csv: Path, tmp_path: Path) -> None:
+    other = tmp_path / "notes.txt"
+    other.write_text("not an actor\n")
+    out = tmp_path / "out" / "a.safetensors"
+    out.parent.mkdir()
+    for algo, init, line in (
+        ("ppo", other, "--init is the landing actor's (--algorithm es)"),
+        ("es", other, f"{other}: --init must name a landing actor's .safetensors file"),
+    ):
+        dest = out if algo == "es" else out.with_suffix(".pt")
+        args = ["train", str(tiny_csv), "--algorithm", algo, "--init", str(init)]
+        res = runner.invoke(app, [*args, "--out", str(dest)])
+        assert res.exit_code == 2, res.output
+        assert res.stderr.count("\n") == 1 and line in res.stderr
+    assert not list(out.parent.iterdir())
+    assert other.read_text() == "not an actor\n"
 
 
 class _RunsOnUnpickle:

@@ -14,9 +14,15 @@ import pytest
 from marops_cli.config import OpsConfig, PlannerConfig
 from marops_cli.errors import InputError
 from marops_cli.policies import make_policy
-from marops_cli.policies.landing import CONTEXT_FEATURES, JOINT_START, LandingActor
+from marops_cli.policies.landing import (
+    CONTEXT_FEATURES,
+    JOINT_START,
+    RULE_FEATURES,
+    LandingActor,
+    extend_weights,
+)
 from marops_cli.rl.data import load_training_data
-from marops_cli.rl.es import day_cost
+from marops_cli.rl.es import LandingTrainer, day_cost
 from marops_cli.rl.train import train_actor
 
 from .conftest import quick
@@ -177,6 +183,21 @@ def test_context_features_and_spares_train_a_format_3_actor(
     assert "per parcel" in side["reward"]
     pol = make_policy(str(tmp_path / "a.safetensors"), model=side["operating_model"])
     assert isinstance(pol, LandingActor) and pol.context
+
+
+def test_rule_features_train_a_format_4_actor_from_a_given_start(
+    tiny_csv: Path, small_cfg: PlannerConfig, tmp_path: Path
+) -> None:
+    start = list(np.linspace(-0.5, 0.5, 22))  # a /3 actor's weights
+    tcfg = _es(episodes=7, landing_features="rules", landing_start=start)
+    td = load_training_data(tiny_csv, small_cfg, tcfg)
+    trainer = LandingTrainer(td, tmp_path / "a.safetensors")
+    assert trainer.weight == pytest.approx(extend_weights(np.array(start), 25), abs=0)
+    side = train_actor(td, tmp_path / "a.safetensors", resume=False)
+    assert side["format"] == "marops-landing-actor/4" and len(side["weight"]) == 25
+    assert side["features"][18:21] == list(RULE_FEATURES)
+    pol = make_policy(str(tmp_path / "a.safetensors"), model=side["operating_model"])
+    assert isinstance(pol, LandingActor) and pol.context and pol.weight.size == 25
 
 
 def test_a_day_lost_costs_the_loss_weight_more() -> None:
