@@ -221,6 +221,15 @@ def train_command(
             "starts from, new features at 0 [default: the backlog score].",
         ),
     ] = None,
+    train_weights: Annotated[
+        str,
+        typer.Option(
+            "--train-weights",
+            help="--algorithm es: the weights training moves, all, or new: only those of "
+            "the features --init's actor lacks [default: all].",
+            show_default=False,
+        ),
+    ] = "all",
     spares: Annotated[
         str | None,
         typer.Option(
@@ -301,7 +310,8 @@ def train_command(
         es_energy_slack=energy_slack,
         es_energy_basis=energy_per,
         landing_features=features,
-        landing_start=_start_weights(init, algorithm),
+        landing_start=_start_weights(init, algorithm, train_weights),
+        landing_train=train_weights,
         es_loss_weight=loss_weight,
         method=method,
         episodes=episodes,
@@ -321,9 +331,13 @@ def train_command(
         _print_heldout(res.heldout)
 
 
-def _start_weights(init: Path | None, algorithm: str) -> list[float] | None:
+def _start_weights(init: Path | None, algorithm: str, train_weights: str) -> list[float] | None:
     """The weights of the landing actor file ``init`` (``--init``), read as data only."""
     if init is None:
+        if train_weights == "new":
+            raise InputError(
+                "--train-weights new trains the features --init's actor lacks: pass --init"
+            )
         return None
     if algorithm != "es":
         raise InputError("--init is the landing actor's (--algorithm es)")
@@ -386,6 +400,7 @@ _FLAGS = {
     "es_energy_slack": "energy-slack",
     "es_energy_basis": "energy-per",
     "landing_features": "features",
+    "landing_train": "train-weights",
     "es_loss_weight": "loss-weight",
     "eval_days_per_scenario": "eval-days",
 }

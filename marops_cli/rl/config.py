@@ -134,6 +134,11 @@ class TrainConfig(BaseModel):
         description="es: the weights training starts from (another landing actor's, "
         "extended with zeros; --init); None: the backlog score",
     )
+    landing_train: Literal["all", "new"] = Field(
+        "all",
+        description="es: the weights training moves: all, or only those of the features "
+        "landing_start's actor lacks (its own stay as they are)",
+    )
     es_loss_weight: float = Field(
         2.0,
         ge=0,

@@ -6,7 +6,8 @@ destination by ``weight · features`` and assigns the drones to landings jointly
 Training searches the 16 weights (22 with ``landing_features = "context"``, 25 with
 ``"rules"``) directly on the quantities the actor is judged by, from the ``backlog`` rule's
 score (:data:`~marops_cli.policies.landing.JOINT_START`, ``CONTEXT_START``,
-``RULES_START``) or from another actor's weights (``landing_start``, ``--init``):
+``RULES_START``) or from another actor's weights (``landing_start``, ``--init``; with
+``landing_train = "new"`` only the weights of the features that actor lacks move):
 
 * each training day is first replayed with the rules the actor must beat,
   :data:`RULES` (``ops-global``, ``backlog``, ``rebalance``); the day's *best rule* is the
@@ -222,8 +223,15 @@ class LandingTrainer:
             raise InputError("every training scenario needs the same operating model")
         self.model = models.pop()
         start = _START[self.tcfg.landing_features]
+        self.moves = np.ones(start.size, dtype=bool)
+        """The weights training moves (``landing_train``)."""
         if self.tcfg.landing_start is not None:
-            start = extend_weights(np.array(self.tcfg.landing_start), start.size)
+            given = np.array(self.tcfg.landing_start)
+            start = extend_weights(given, start.size)
+            if self.tcfg.landing_train == "new":
+                self.moves = extend_weights(np.ones(given.size), start.size) == 0
+        elif self.tcfg.landing_train == "new":
+            raise InputError("training only the new weights needs an actor to start from (--init)")
         self.weight = start.astype(np.float64).copy()
         self.generation = self.episode = 0
         self.elapsed_s = 0.0
@@ -369,7 +377,7 @@ class LandingTrainer:
         days = self._batch()
         refs = self._references(workers, days)
         rng = np.random.default_rng(derive_seed(t.seed, _STREAM_NOISE, self.generation))
-        eps = rng.standard_normal((t.es_pairs, self.weight.size))
+        eps = rng.standard_normal((t.es_pairs, self.weight.size)) * self.moves
         members = [self.weight, *(self.weight + t.es_sigma * eps)]
         members += [*(self.weight - t.es_sigma * eps)]
         pairs = [(w, d) for w in members for d in days]

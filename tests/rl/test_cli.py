@@ -285,6 +285,8 @@ def test_training_log_gives_the_time_left(monkeypatch) -> None:
         (["--energy-per", "km"], "invalid option --energy-per: Input should be 'drone' or"),
         (["--eval-every", "0"], "invalid option --eval-every: "),
         (["--spares", "0"], "--spares expects positive whole numbers"),
+        (["--train-weights", "new"], "--train-weights new trains the features --init's actor"),
+        (["--train-weights", "some"], "invalid option --train-weights: Input should be 'all'"),
     ],
 )
 def test_a_bad_training_flag_is_named_as_typed(

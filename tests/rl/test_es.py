@@ -200,6 +200,22 @@ def test_rule_features_train_a_format_4_actor_from_a_given_start(
     assert isinstance(pol, LandingActor) and pol.context and pol.weight.size == 25
 
 
+def test_training_the_new_weights_only_keeps_the_given_ones(
+    tiny_csv: Path, small_cfg: PlannerConfig, tmp_path: Path
+) -> None:
+    start = np.linspace(-0.5, 0.5, 22).astype(np.float32).astype(np.float64)
+    tcfg = _es(
+        episodes=13, landing_features="rules", landing_start=list(start), landing_train="new"
+    )
+    side = train_actor(load_training_data(tiny_csv, small_cfg, tcfg), tmp_path / "a.safetensors")
+    w = np.array(_weights(tmp_path / "a.safetensors"))
+    assert side["generations"] == 2
+    assert w[:18] == pytest.approx(start[:18], abs=0) and w[21:] == pytest.approx(start[18:], abs=0)
+    assert np.abs(w[18:21]).sum() > 0  # the flow rule's three moved
+    with pytest.raises(InputError, match="needs an actor to start from"):
+        LandingTrainer(load_training_data(tiny_csv, small_cfg, _es(landing_train="new")), tmp_path)
+
+
 def test_a_day_lost_costs_the_loss_weight_more() -> None:
     ref = {"j": 100.0, "energy": 500.0}
 
