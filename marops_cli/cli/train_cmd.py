@@ -310,7 +310,7 @@ def train_command(
         es_energy_slack=energy_slack,
         es_energy_basis=energy_per,
         landing_features=features,
-        landing_start=_start_weights(init, algorithm, train_weights),
+        landing_start=_start_weights(init, algorithm, (features, train_weights)),
         landing_train=train_weights,
         es_loss_weight=loss_weight,
         method=method,
@@ -331,8 +331,13 @@ def train_command(
         _print_heldout(res.heldout)
 
 
-def _start_weights(init: Path | None, algorithm: str, train_weights: str) -> list[float] | None:
-    """The weights of the landing actor file ``init`` (``--init``), read as data only."""
+def _start_weights(
+    init: Path | None, algorithm: str, training: tuple[str, str]
+) -> list[float] | None:
+    """The weights of the landing actor file ``init`` (``--init``), read as data only;
+    ``training``: ``--features`` and ``--train-weights``, which the actor must leave
+    room for."""
+    features, train_weights = training
     if init is None:
         if train_weights == "new":
             raise InputError(
@@ -342,12 +347,25 @@ def _start_weights(init: Path | None, algorithm: str, train_weights: str) -> lis
     if algorithm != "es":
         raise InputError("--init is the landing actor's (--algorithm es)")
     from ..data.jsonfile import read_json
-    from ..policies.landing import load_landing_actor
+    from ..policies.landing import CONTEXT_START, JOINT_START, RULES_START, load_landing_actor
 
     if init.suffix != ".safetensors" or not init.is_file():
         raise InputError("--init must name a landing actor's .safetensors file", file=init)
     sidecar = init.with_suffix(".json")
-    return load_landing_actor(init, read_json(sidecar, "actor sidecar"), sidecar).weight.tolist()
+    weight = load_landing_actor(init, read_json(sidecar, "actor sidecar"), sidecar).weight
+    sizes = {"basic": JOINT_START.size, "context": CONTEXT_START.size, "rules": RULES_START.size}
+    size = sizes.get(features, RULES_START.size)  # a bad --features is named below
+    if weight.size > size:
+        raise InputError(
+            f"its {weight.size} weights do not fit --features {features} ({size} weights)",
+            file=init,
+        )
+    if weight.size == size and train_weights == "new":
+        raise InputError(
+            f"it has every weight of --features {features}: --train-weights new would train none",
+            file=init,
+        )
+    return weight.tolist()
 
 
 def _command() -> str | None:

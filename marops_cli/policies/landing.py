@@ -183,7 +183,8 @@ def extend_weights(weight: np.ndarray, size: int) -> np.ndarray:
     actor's at 0), every new feature at 0, so the larger actor decides as the smaller one
     did."""
     w = np.asarray(weight, dtype=np.float64).reshape(-1)
-    if size not in _FORMATS.values() or size == N_FEATURES or w.size > size:
+    sizes = _FORMATS.values()
+    if w.size not in sizes or size not in sizes or size == N_FEATURES or w.size > size:
         raise ValueError(f"cannot extend {w.size} landing weights to {size}")
     n_free = len(FREE_FEATURES)
     dest = w if w.size == N_FEATURES else w[:-n_free]

@@ -230,6 +230,8 @@ class LandingTrainer:
             start = extend_weights(given, start.size)
             if self.tcfg.landing_train == "new":
                 self.moves = extend_weights(np.ones(given.size), start.size) == 0
+                if not self.moves.any():
+                    raise InputError("the actor to start from has every weight: none to train")
         elif self.tcfg.landing_train == "new":
             raise InputError("training only the new weights needs an actor to start from (--init)")
         self.weight = start.astype(np.float64).copy()

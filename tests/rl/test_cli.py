@@ -5,10 +5,12 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import numpy as np
 import pytest
 from typer.testing import CliRunner
 
 from marops_cli.cli.app import app
+from marops_cli.rl.es import write_landing_actor
 
 runner = CliRunner()
 pytestmark = pytest.mark.filterwarnings("ignore:`torch.jit:DeprecationWarning")
@@ -304,12 +306,25 @@ def test_init_must_be_a_landing_actor(tiny_csv: Path, tmp_path: Path) -> None:
     other.write_text("not an actor\n")
     out = tmp_path / "out" / "a.safetensors"
     out.parent.mkdir()
-    for algo, init, line in (
-        ("ppo", other, "--init is the landing actor's (--algorithm es)"),
-        ("es", other, f"{other}: --init must name a landing actor's .safetensors file"),
+    actor = tmp_path / "b.safetensors"
+    write_landing_actor(
+        np.zeros(22),
+        actor,
+        {"format": "marops-landing-actor/3", "operating_model": "stock=home, batteries, busy"},
+    )
+    for algo, init, more, line in (
+        ("ppo", other, [], "--init is the landing actor's (--algorithm es)"),
+        ("es", other, [], f"{other}: --init must name a landing actor's .safetensors file"),
+        ("es", actor, [], f"{actor}: its 22 weights do not fit --features basic (16 weights)"),
+        (
+            "es",
+            actor,
+            ["--features", "context", "--train-weights", "new"],
+            f"{actor}: it has every weight of --features context: --train-weights new",
+        ),
     ):
         dest = out if algo == "es" else out.with_suffix(".pt")
-        args = ["train", str(tiny_csv), "--algorithm", algo, "--init", str(init)]
+        args = ["train", str(tiny_csv), "--algorithm", algo, "--init", str(init), *more]
         res = runner.invoke(app, [*args, "--out", str(dest)])
         assert res.exit_code == 2, res.output
         assert res.stderr.count("\n") == 1 and line in res.stderr
