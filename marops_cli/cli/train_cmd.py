@@ -309,9 +309,7 @@ def train_command(
         es_energy_weight=energy_weight,
         es_energy_slack=energy_slack,
         es_energy_basis=energy_per,
-        landing_features=features,
-        landing_start=_start_weights(init, algorithm, (features, train_weights)),
-        landing_train=train_weights,
+        **_landing_fields(features, init, train_weights, algorithm),
         es_loss_weight=loss_weight,
         method=method,
         episodes=episodes,
@@ -329,6 +327,18 @@ def train_command(
     console.print(f"wrote {', '.join(map(str, res.files))} ({res.training_time_s:.0f} s)")
     if res.heldout:
         _print_heldout(res.heldout)
+
+
+def _landing_fields(
+    features: str, init: Path | None, train_weights: str, algorithm: str
+) -> dict[str, Any]:
+    """The landing actor's training settings of ``--features``, ``--init`` and
+    ``--train-weights`` (as :func:`_alpha_range` gives α's)."""
+    return {
+        "landing_features": features,
+        "landing_start": _start_weights(init, algorithm, (features, train_weights)),
+        "landing_train": train_weights,
+    }
 
 
 def _start_weights(
