@@ -357,14 +357,15 @@ def _start_weights(
     if algorithm != "es":
         raise InputError("--init is the landing actor's (--algorithm es)")
     from ..data.jsonfile import read_json
-    from ..policies.landing import CONTEXT_START, JOINT_START, RULES_START, load_landing_actor
+    from ..policies.landing import FEATURE_SETS, load_landing_actor
 
     if init.suffix != ".safetensors" or not init.is_file():
         raise InputError("--init must name a landing actor's .safetensors file", file=init)
     sidecar = init.with_suffix(".json")
     weight = load_landing_actor(init, read_json(sidecar, "actor sidecar"), sidecar).weight
-    sizes = {"basic": JOINT_START.size, "context": CONTEXT_START.size, "rules": RULES_START.size}
-    size = sizes.get(features, RULES_START.size)  # a bad --features is named below
+    if features not in FEATURE_SETS:
+        return weight.tolist()  # the bad --features is named as the settings are checked
+    size = FEATURE_SETS[features].start.size
     if weight.size > size:
         raise InputError(
             f"its {weight.size} weights do not fit --features {features} ({size} weights)",

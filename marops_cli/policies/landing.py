@@ -81,7 +81,7 @@ from __future__ import annotations
 
 import functools
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, ClassVar, Literal
+from typing import TYPE_CHECKING, Any, ClassVar, Literal, NamedTuple
 
 import numpy as np
 
@@ -102,6 +102,8 @@ __all__ = [
     "FREE_FEATURES",
     "JOINT_START",
     "CONTEXT_START",
+    "FEATURE_SETS",
+    "FeatureSet",
     "LANDING_FORMAT",
     "RULE_FEATURES",
     "RULES_FORMAT",
@@ -160,6 +162,31 @@ CONTEXT_FORMAT = "marops-landing-actor/3"
 """The format of the joint actor that reads the situation (features 12–17)."""
 RULES_FORMAT = "marops-landing-actor/4"
 """The format of the joint actor that reads the situation and the flow rule (12–20)."""
+
+
+class FeatureSet(NamedTuple):
+    """What ``marops train --features NAME`` trains."""
+
+    format: str
+    """The sidecar's format."""
+    names: tuple[str, ...]
+    """The names of the weights, in order."""
+    start: np.ndarray
+    """Where training starts without ``--init``."""
+
+
+FEATURE_SETS = {
+    "basic": FeatureSet(LANDING_FORMAT, (*FEATURES, *FREE_FEATURES), JOINT_START),
+    "context": FeatureSet(
+        CONTEXT_FORMAT, (*FEATURES, *CONTEXT_FEATURES, *FREE_FEATURES), CONTEXT_START
+    ),
+    "rules": FeatureSet(
+        RULES_FORMAT,
+        (*FEATURES, *CONTEXT_FEATURES, *RULE_FEATURES, *FREE_FEATURES),
+        RULES_START,
+    ),
+}
+"""The feature sets a landing actor trains with, by the name ``--features`` gives."""
 _FORMATS = {
     LANDING_FORMAT: JOINT_START.size,
     CONTEXT_FORMAT: CONTEXT_START.size,

@@ -54,16 +54,7 @@ from ..errors import InputError
 from ..io.atomic import output_set
 from ..methods import reference_rules
 from ..policies.landing import (
-    CONTEXT_FEATURES,
-    CONTEXT_FORMAT,
-    CONTEXT_START,
-    FEATURES,
-    FREE_FEATURES,
-    JOINT_START,
-    LANDING_FORMAT,
-    RULE_FEATURES,
-    RULES_FORMAT,
-    RULES_START,
+    FEATURE_SETS,
     LandingActor,
     extend_weights,
     operating_model,
@@ -89,15 +80,6 @@ _STREAM_BATCH, _STREAM_NOISE = 11, 12
 _CKPT_FORMAT = "marops-landing-ckpt/1"
 Event = dict[str, Any]
 _KEYS = ("objective_j_mj", "delivered_share", "mean_energy_kj", "avg_delay_h")
-_START = {"basic": JOINT_START, "context": CONTEXT_START, "rules": RULES_START}
-"""Where training starts, per ``landing_features`` (without ``landing_start``)."""
-_FORMAT = {"basic": LANDING_FORMAT, "context": CONTEXT_FORMAT, "rules": RULES_FORMAT}
-_NAMES = {
-    "basic": (*FEATURES, *FREE_FEATURES),
-    "context": (*FEATURES, *CONTEXT_FEATURES, *FREE_FEATURES),
-    "rules": (*FEATURES, *CONTEXT_FEATURES, *RULE_FEATURES, *FREE_FEATURES),
-}
-"""Each ``landing_features``'s sidecar format and weight names."""
 RULES = reference_rules()
 """The rules the landing actor must beat (method -> policy spec; the methods registered
 as references, marops_cli/methods.py): each day's best of them is its reference."""
@@ -222,7 +204,7 @@ class LandingTrainer:
         if len(models) > 1:
             raise InputError("every training scenario needs the same operating model")
         self.model = models.pop()
-        start = _START[self.tcfg.landing_features]
+        start = FEATURE_SETS[self.tcfg.landing_features].start
         self.moves = np.ones(start.size, dtype=bool)
         """The weights training moves (``landing_train``)."""
         if self.tcfg.landing_start is not None:
@@ -472,10 +454,10 @@ class LandingTrainer:
             weight = np.array(self.best["weight"])
             chosen = next(e for e in self.evals if e["episode"] == self.best["episode"])
         side = {
-            "format": _FORMAT[t.landing_features],
+            "format": FEATURE_SETS[t.landing_features].format,
             "method": "marops",
             "operating_model": self.model,
-            "features": list(_NAMES[t.landing_features]),
+            "features": list(FEATURE_SETS[t.landing_features].names),
             "weight": [round(float(x), 6) for x in weight],
             "seed": t.seed,
             "episodes": self.episode,
