@@ -73,6 +73,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import numpy as np  # noqa: E402
 
+from marops_cli.config import BATTERY_PRESETS, battery_preset  # noqa: E402
+
 SHAPES = ("hubs", "river", "corridor", "polycentric")
 SEEDS = {"hubs": 41, "river": 42, "corridor": 43, "polycentric": 44}
 KEYS = ("objective_j_mj", "avg_delay_h", "mean_energy_kj", "delivered_share")
@@ -80,12 +82,9 @@ PER_PARCEL = "energy_per_parcel"  # mean_energy_kj / delivered_share: energy per
 OPS_KEYS = ("battery_waits", "busy_windows", "stock_left_total", "stock_left_max", "charged_min")
 RULES = "ops-global,backlog,rebalance,flow,battery"
 """The grid's reference rules (``--against`` unless given)."""
-BATTERIES: dict[str, dict[str, Any]] = {
-    "scarce": {"batteries_per_depot": 1, "chargers_per_depot": 1, "charge_power_w": 31.0},
-    "default": {},  # the config's own [ops] (OpsConfig's defaults: 2, 1, 62.5 W)
-    "ample": {"batteries_per_depot": 4, "chargers_per_depot": 2, "charge_power_w": 125.0},
-}
-"""The battery presets: the ``[ops]`` options each sets over the run's config."""
+BATTERIES = BATTERY_PRESETS
+"""The battery presets: the ``[ops]`` options each sets over the run's config (the
+regimes ``marops train --batteries`` trains on)."""
 GRID = {"drones": "4,8,16,32", "depots": "16,25,36", "batteries": "scarce,default,ample",
         "load": "1,3"}  # fmt: skip
 """``--grid``: every axis of the generalisation benchmark."""
@@ -114,11 +113,6 @@ def held_out_cities(
             )
             out[(s, k)] = write(generate(cfg), tmp / (f"{s}.csv" if k == 1 else f"{s}-x{k:g}.csv"))
     return out
-
-
-def battery_ops(name: str) -> dict[str, Any]:
-    """The ``override`` fields (``ops__...``) of the battery preset ``name``."""
-    return {f"ops__{k}": v for k, v in BATTERIES[name].items()}
 
 
 def _floats(text: str, option: str) -> list[float]:
@@ -162,7 +156,7 @@ def _job(task: tuple[Any, ...]) -> list[dict[str, Any]]:
 
     path, shape, history, n_dep, drones, alpha, method, policy, config, batteries, load = task
     base = PlannerConfig() if config is None else load_config(Path(config))
-    base = override(base, **battery_ops(batteries))
+    base = override(base, **battery_preset(batteries))
     table = read_lade(path, base.data)
     days = table.days()[history:]
     cfg = override(

@@ -436,6 +436,21 @@ class OpsConfig(_Stage):
         return self.stock == "any" and self.batteries_per_depot is None and not self.busy
 
 
+BATTERY_PRESETS: dict[str, dict[str, Any]] = {
+    "scarce": {"batteries_per_depot": 1, "chargers_per_depot": 1, "charge_power_w": 31.0},
+    "default": {},  # the config's own [ops] (OpsConfig's defaults: 2, 1, 62.5 W)
+    "ample": {"batteries_per_depot": 4, "chargers_per_depot": 2, "charge_power_w": 125.0},
+}
+"""The battery regimes (docs/method.md §6.1): the ``[ops]`` options each sets over a
+run's config. ``marops train --batteries`` trains on them and ``benchmarks/heldout.py``
+judges on them."""
+
+
+def battery_preset(name: str) -> dict[str, Any]:
+    """The :func:`override` fields (``ops__...``) of the battery regime ``name``."""
+    return {f"ops__{k}": v for k, v in BATTERY_PRESETS[name].items()}
+
+
 class PlannerConfig(_Stage):
     """Every stage's settings together; loadable from TOML with one table per stage."""
 

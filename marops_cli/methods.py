@@ -149,10 +149,16 @@ landing_rule(
     reference=True,
 )
 landing_rule(
-    "flow", _RULES + "FlowPolicy", "min-cost flow of drones to the coming work, batteries kept"
+    "flow",
+    _RULES + "FlowPolicy",
+    "min-cost flow of drones to the coming work, batteries kept",
+    reference=True,
 )
 landing_rule(
-    "battery", _RULES + "BatteryPolicy", "backlog, never landing where no spare battery is"
+    "battery",
+    _RULES + "BatteryPolicy",
+    "backlog, never landing where no spare battery is",
+    reference=True,
 )
 for _m in (
     Method("squares", "squares", "learned", "learned flight range on a square grid"),

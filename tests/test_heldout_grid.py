@@ -10,7 +10,7 @@ from typing import Any
 
 import pytest
 
-from marops_cli.config import PlannerConfig, override
+from marops_cli.config import PlannerConfig, battery_preset, override
 from marops_cli.policies.landing import operating_model
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -25,7 +25,7 @@ _spec.loader.exec_module(heldout)
     [("scarce", 1, 1, 31.0), ("default", 2, 1, 62.5), ("ample", 4, 2, 125.0)],
 )
 def test_battery_presets_set_the_ops_options(name: str, spares: int, chargers: int, watts: float):
-    ops = override(PlannerConfig(), **heldout.battery_ops(name)).ops
+    ops = override(PlannerConfig(), **battery_preset(name)).ops
     assert (ops.batteries_per_depot, ops.chargers_per_depot, ops.charge_power_w) == (
         spares,
         chargers,

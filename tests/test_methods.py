@@ -53,6 +53,8 @@ def test_a_registered_rule_is_a_policy_and_a_method(toy_rule: methods.Method) ->
         "ops-global": "global",
         "backlog": "backlog",
         "rebalance": "rebalance",
+        "flow": "flow",
+        "battery": "battery",
     }, "a rule is a reference of training only when registered as one"
 
 

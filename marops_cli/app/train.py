@@ -38,6 +38,9 @@ class TrainSetup:
     """Fleet sizes to train on; empty: the config's."""
     spares: Sequence[int] = ()
     """Batteries per depot to train on (the landing actor); empty: the config's."""
+    batteries: Sequence[str] = ()
+    """Battery regimes to train on (the landing actor; names of
+    :data:`~marops_cli.config.BATTERY_PRESETS`, not with ``spares``); empty: the config's."""
     resume: bool = True
     """Continue from the checkpoint beside the actor when there is one."""
     command: str | None = None
@@ -128,6 +131,7 @@ def train(
         n_depots=setup.n_depots,
         drones=setup.drones,
         spares=setup.spares,
+        batteries=setup.batteries,
     )
     report = _Report(progress)
     try:

@@ -237,6 +237,14 @@ def train_command(
             help="--algorithm es: batteries per depot to train on (1,2,4) [default: the config's].",
         ),
     ] = None,
+    batteries: Annotated[
+        str | None,
+        typer.Option(
+            "--batteries",
+            help="--algorithm es: battery regimes to train on, of scarce, default, ample "
+            "(spares, chargers and charging power; not with --spares) [default: the config's].",
+        ),
+    ] = None,
     workers: Annotated[int, typer.Option("--workers", help="Rollout processes, 1 to 256.")] = 2,
     resume: Annotated[
         bool, typer.Option("--resume/--no-resume", help="Continue from NAME.ckpt if present.")
@@ -303,7 +311,7 @@ def train_command(
     _check_args(data, out, algorithm, method, obs_version)
     allow_replacing_foreign(force)
     protect_inputs(actor_files(out, algorithm), [*data, config, init])  # before the long work
-    cfg, scenarios = _planner(config, options, (drones, n_depots, spares), days)
+    cfg, scenarios = _planner(config, options, (drones, n_depots, spares, batteries), days)
     tcfg = _train_config(
         algorithm=algorithm,
         es_energy_weight=energy_weight,
@@ -387,16 +395,16 @@ def _command() -> str | None:
 def _planner(
     config: Path | None,
     options: dict[str, Any],
-    sizes: tuple[str | None, str | None, str | None],
+    sizes: tuple[str | None, str | None, str | None, str | None],
     days: str | None,
 ) -> tuple[PlannerConfig, dict[str, Any]]:
     """The planner config of the options (the first of several fleet sizes or depot
     counts), and the scenarios trained on: the ``sizes`` (``--drones``, ``--n-depots``,
-    ``--spares``) and the days."""
+    ``--spares``, ``--batteries``) and the days."""
     from ..app.options import planner_config
     from ..data.dates import parse_days
 
-    drones, n_depots, spares = sizes
+    drones, n_depots, spares, batteries = sizes
     fleets, depot_counts = _sizes(drones, "--drones"), _sizes(n_depots, "--n-depots")
     cfg = planner_config(
         config,
@@ -406,7 +414,25 @@ def _planner(
     )
     train_days = parse_days(days, cfg.data.year, "--dates") if days is not None else None
     scenarios = {"drones": fleets, "n_depots": depot_counts, "spares": _sizes(spares, "--spares")}
-    return cfg, {**scenarios, "train_days": train_days}
+    return cfg, {**scenarios, "batteries": _regimes(batteries, spares), "train_days": train_days}
+
+
+def _regimes(text: str | None, spares: str | None) -> list[str]:
+    """``--batteries``' names of :data:`~marops_cli.config.BATTERY_PRESETS` (``"scarce,ample"``
+    -> ``["scarce", "ample"]``), refused with ``--spares`` or an unknown name."""
+    from ..config import BATTERY_PRESETS
+
+    names = [t.strip() for t in (text or "").split(",") if t.strip()]
+    if text is not None and not names:
+        raise InputError(f"--batteries expects names of {', '.join(BATTERY_PRESETS)}, got {text!r}")
+    bad = [b for b in names if b not in BATTERY_PRESETS]
+    if bad:
+        raise InputError(
+            f"--batteries: unknown regime {bad[0]!r} (expected {', '.join(BATTERY_PRESETS)})"
+        )
+    if names and spares is not None:
+        raise InputError("--batteries and --spares both set the batteries per depot; give one")
+    return names
 
 
 def _check_args(data: list[Path], out: Path, algorithm: str, method: str, obs_version: int) -> None:

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from ..config import PlannerConfig, override
+from ..config import BATTERY_PRESETS, PlannerConfig, battery_preset, override
 from ..data.dates import split_by_date
 from ..data.frame import Frame
 from ..data.prepare import prepare_day
@@ -88,16 +88,19 @@ def load_training_data(
     n_depots: Sequence[int] = (),
     drones: Sequence[int] = (),
     spares: Sequence[int] = (),
+    batteries: Sequence[str] = (),
 ) -> TrainData:
     """Read every file of ``data``, split each by date, segment each on its training
     days (once per area count of ``n_depots``, default the config's), prepare every day,
     and make one scenario per (file, area count, fleet size of ``drones``, batteries per
-    depot of ``spares``, default the config's)."""
+    depot of ``spares`` or battery regime of ``batteries`` (names of
+    :data:`~marops_cli.config.BATTERY_PRESETS`), default the config's)."""
     paths = [Path(data)] if isinstance(data, (str, Path)) else [Path(p) for p in data]
     if not paths:
         raise InputError("no training data given")
     depot_counts = list(n_depots) or [cfg.segment.n_depots]
     fleets = list(drones) or [cfg.sim.drones]
+    settings = _battery_settings(spares, batteries)
     scenarios: list[TrainScenario] = []
     files: list[dict[str, Any]] = []
     for fi, path in enumerate(paths):
@@ -120,11 +123,9 @@ def load_training_data(
                         file=str(path),
                     )
             for u in fleets:
-                for b in _each(spares):
+                for b, ops in settings:
                     name = f"{path.name}:{n}x{u}" + ("" if b is None else f"/{b}")
-                    cu = override(c, sim__drones=u)
-                    if b is not None:
-                        cu = override(cu, ops__batteries_per_depot=b)
+                    cu = override(c, sim__drones=u, **ops)
                     scenarios.append(TrainScenario(name, scn.depots, cu, tr_reqs, ev_reqs))
         files.append(
             {
@@ -137,9 +138,21 @@ def load_training_data(
     return TrainData(WorkerContext(scenarios, tcfg), files)
 
 
-def _each(spares: Sequence[int]) -> list[int | None]:
-    """The batteries per depot of each scenario: ``spares``, or the config's (None)."""
-    return [*spares] if spares else [None]
+def _battery_settings(
+    spares: Sequence[int], batteries: Sequence[str]
+) -> list[tuple[int | str | None, dict[str, Any]]]:
+    """Each scenario's batteries: its name's suffix and its ``[ops]`` overrides, one per
+    count of ``spares`` or regime of ``batteries``, or the config's (None, none)."""
+    if spares and batteries:
+        raise InputError("give batteries per depot (spares) or battery regimes, not both")
+    unknown = [b for b in batteries if b not in BATTERY_PRESETS]
+    if unknown:
+        raise InputError(
+            f"unknown battery regime {unknown[0]!r} (expected {', '.join(BATTERY_PRESETS)})"
+        )
+    if batteries:
+        return [(b, battery_preset(b)) for b in batteries]
+    return [(b, {"ops__batteries_per_depot": b}) for b in spares] or [(None, {})]
 
 
 def fingerprint(td: TrainData) -> dict[str, Any]:

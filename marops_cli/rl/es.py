@@ -10,8 +10,8 @@ score (:data:`~marops_cli.policies.landing.JOINT_START`, ``CONTEXT_START``,
 ``landing_train = "new"`` only the weights of the features that actor lacks move):
 
 * each training day is first replayed with the rules the actor must beat,
-  :data:`RULES` (``ops-global``, ``backlog``, ``rebalance``); the day's *best rule* is the
-  one with the lowest day objective J (docs/method.md §8);
+  :data:`RULES` (``ops-global``, ``backlog``, ``rebalance``, ``flow``, ``battery``); the
+  day's *best rule* is the one with the lowest day objective J (docs/method.md §8);
 * each generation draws ``es_days`` training days (scenario, day, α from
   ``alpha_range``) and ``es_pairs`` directions ε ~ N(0, I), and replays every day with
   the weights w, w + σε and w − σε (antithetic pairs: the same days for every member,
@@ -472,6 +472,8 @@ class LandingTrainer:
                     "n_depots": len(s.depots),
                     "drones": s.cfg.sim.drones,
                     "spares": s.cfg.ops.batteries_per_depot,
+                    "chargers": s.cfg.ops.chargers_per_depot,
+                    "charge_power_w": s.cfg.ops.charge_power_w,
                 }
                 for s in self.td.ctx.scenarios
             ],

@@ -185,6 +185,30 @@ def test_context_features_and_spares_train_a_format_3_actor(
     assert isinstance(pol, LandingActor) and pol.context
 
 
+def test_battery_regimes_set_spares_chargers_and_power_per_scenario(
+    tiny_csv: Path, small_cfg: PlannerConfig, tmp_path: Path
+) -> None:
+    tcfg = _es(episodes=7)
+    td = load_training_data(tiny_csv, small_cfg, tcfg, batteries=["scarce", "default", "ample"])
+    ops = [s.cfg.ops for s in td.ctx.scenarios]
+    base = small_cfg.ops
+    assert [(o.batteries_per_depot, o.chargers_per_depot, o.charge_power_w) for o in ops] == [
+        (1, 1, 31.0),
+        (base.batteries_per_depot, base.chargers_per_depot, base.charge_power_w),
+        (4, 2, 125.0),
+    ]
+    assert [s.name.rsplit("/", 1)[1] for s in td.ctx.scenarios] == ["scarce", "default", "ample"]
+    side = train_actor(td, tmp_path / "a.safetensors", resume=False)
+    assert [(s["spares"], s["chargers"], s["charge_power_w"]) for s in side["scenarios"]][::2] == [
+        (1, 1, 31.0),
+        (4, 2, 125.0),
+    ]
+    for bad, line in (({"batteries": ["lots"]}, "unknown battery regime 'lots'"),
+                      ({"batteries": ["ample"], "spares": [2]}, "not both")):  # fmt: skip
+        with pytest.raises(InputError, match=line):
+            load_training_data(tiny_csv, small_cfg, tcfg, **bad)
+
+
 def test_rule_features_train_a_format_4_actor_from_a_given_start(
     tiny_csv: Path, small_cfg: PlannerConfig, tmp_path: Path
 ) -> None:
