@@ -237,6 +237,14 @@ def train_command(
             help="--algorithm es: batteries per depot to train on (1,2,4) [default: the config's].",
         ),
     ] = None,
+    rules: Annotated[
+        str | None,
+        typer.Option(
+            "--rules",
+            help="--algorithm es: the rules each training day's best rule is chosen from "
+            "(ops-global,backlog,rebalance) [default: all five references].",
+        ),
+    ] = None,
     batteries: Annotated[
         str | None,
         typer.Option(
@@ -317,7 +325,7 @@ def train_command(
         es_energy_weight=energy_weight,
         es_energy_slack=energy_slack,
         es_energy_basis=energy_per,
-        **_landing_fields(features, init, train_weights, algorithm),
+        **_landing_fields(features, init, train_weights, algorithm, rules),
         es_loss_weight=loss_weight,
         method=method,
         episodes=episodes,
@@ -338,14 +346,16 @@ def train_command(
 
 
 def _landing_fields(
-    features: str, init: Path | None, train_weights: str, algorithm: str
+    features: str, init: Path | None, train_weights: str, algorithm: str, rules: str | None
 ) -> dict[str, Any]:
-    """The landing actor's training settings of ``--features``, ``--init`` and
-    ``--train-weights`` (as :func:`_alpha_range` gives α's)."""
+    """The landing actor's training settings of ``--features``, ``--init``,
+    ``--train-weights`` and ``--rules`` (as :func:`_alpha_range` gives α's)."""
+    names = None if rules is None else [r.strip() for r in rules.split(",") if r.strip()]
     return {
         "landing_features": features,
         "landing_start": _start_weights(init, algorithm, (features, train_weights)),
         "landing_train": train_weights,
+        "es_rules": names,
     }
 
 
@@ -457,6 +467,7 @@ _FLAGS = {
     "landing_features": "features",
     "landing_train": "train-weights",
     "es_loss_weight": "loss-weight",
+    "es_rules": "rules",
     "eval_days_per_scenario": "eval-days",
 }
 """The flag of a training setting whose name differs from it."""

@@ -145,8 +145,23 @@ class TrainConfig(BaseModel):
         description="es: cost of each share of J above the day's best rule's, on top of the "
         "share itself (so a day lost weighs more than a day won)",
     )
+    es_rules: list[str] | None = Field(
+        None,
+        description="es: the rules a day's best rule is chosen from (names of the reference "
+        "rules, marops_cli/methods.py); None: every reference rule",
+    )
     eval_every: int = Field(200, ge=1, description="episodes between held-out evaluations")
     checkpoint_every: int = Field(40, ge=1, description="episodes between checkpoints")
+
+    @field_validator("es_rules")
+    @classmethod
+    def _es_rules(cls, v: list[str] | None) -> list[str] | None:
+        from ..methods import reference_rules  # deferred: the registry loads the policies
+
+        known = reference_rules()
+        if v is not None and (not v or any(r not in known for r in v) or len(set(v)) < len(v)):
+            raise ValueError(f"expected distinct names of {', '.join(known)}")
+        return v
 
     @field_validator("alpha_range")
     @classmethod

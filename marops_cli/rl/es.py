@@ -10,8 +10,9 @@ score (:data:`~marops_cli.policies.landing.JOINT_START`, ``CONTEXT_START``,
 ``landing_train = "new"`` only the weights of the features that actor lacks move):
 
 * each training day is first replayed with the rules the actor must beat,
-  :data:`RULES` (``ops-global``, ``backlog``, ``rebalance``, ``flow``, ``battery``); the
-  day's *best rule* is the one with the lowest day objective J (docs/method.md §8);
+  :data:`RULES` (``ops-global``, ``backlog``, ``rebalance``, ``flow``, ``battery``; or
+  those of ``es_rules``); the day's *best rule* is the one with the lowest day objective
+  J (docs/method.md §8);
 * each generation draws ``es_days`` training days (scenario, day, α from
   ``alpha_range``) and ``es_pairs`` directions ε ~ N(0, I), and replays every day with
   the weights w, w + σε and w − σε (antithetic pairs: the same days for every member,
@@ -193,6 +194,8 @@ class LandingTrainer:
 
     def __init__(self, td: TrainData, out: Path, on_event: Callable[[Event], None] | None = None):
         self.td, self.tcfg, self.out = td, td.ctx.tcfg, Path(out)
+        self.rules = list(self.tcfg.es_rules or RULES)
+        """The rules each training day's best rule is chosen from (``es_rules``)."""
         self.ckpt = self.out.with_suffix(".ckpt")
         self.emit = on_event or (lambda e: None)
         models = {operating_model(s.cfg.ops) for s in td.ctx.scenarios}
@@ -300,9 +303,10 @@ class LandingTrainer:
     def _best_rules(
         self, workers: LocalPool, days: list[Day], held_out: bool = False
     ) -> list[dict[str, Any]]:
-        """Each day's best rule (lowest J, the first of :data:`RULES` on ties): its name and
-        metrics. A rule's replay of a training day counts as an episode."""
-        pairs = [(d, r) for d in days for r in RULES]
+        """Each day's best rule (lowest J, the first of the run's rules on ties): its name
+        and metrics. A rule's replay of a training day counts as an episode."""
+        rules = self.rules
+        pairs = [(d, r) for d in days for r in rules]
         rows = workers.results(
             [LandingDay(k, None, *d, held_out=held_out, rule=r) for k, (d, r) in enumerate(pairs)]
         )
@@ -310,7 +314,7 @@ class LandingTrainer:
             self.episode += len(rows)
         out = []
         for i in range(len(days)):
-            part = dict(zip(RULES, rows[i * len(RULES) : (i + 1) * len(RULES)], strict=True))
+            part = dict(zip(rules, rows[i * len(rules) : (i + 1) * len(rules)], strict=True))
             name = min(part, key=lambda r: part[r]["objective_j_mj"])
             out.append({"rule": name, **part[name]})
         return out
@@ -478,7 +482,7 @@ class LandingTrainer:
                 for s in self.td.ctx.scenarios
             ],
             "files": self.td.files,
-            "reward": f"cost = J / J of the day's best rule ({', '.join(RULES)}) + "
+            "reward": f"cost = J / J of the day's best rule ({', '.join(self.rules)}) + "
             f"es_energy_weight * max(0, energy per {t.es_energy_basis} / its - 1 - "
             "es_energy_slack) + "
             "es_loss_weight * max(0, J / its J - 1), mean over days (docs/method.md §6.1)",

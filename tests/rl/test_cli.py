@@ -287,6 +287,7 @@ def test_training_log_gives_the_time_left(monkeypatch) -> None:
         (["--energy-per", "km"], "invalid option --energy-per: Input should be 'drone' or"),
         (["--eval-every", "0"], "invalid option --eval-every: "),
         (["--spares", "0"], "--spares expects positive whole numbers"),
+        (["--rules", "flow,stay"], "invalid option --rules: expected distinct names of ops-global"),
         (["--batteries", "plenty"], "--batteries: unknown regime 'plenty' (expected scarce, "),
         (["--batteries", ","], "--batteries expects names of scarce, default, ample"),
         (["--batteries", "ample", "--spares", "2"], "--batteries and --spares both set the"),

@@ -22,7 +22,7 @@ from marops_cli.policies.landing import (
     extend_weights,
 )
 from marops_cli.rl.data import load_training_data
-from marops_cli.rl.es import LandingTrainer, day_cost
+from marops_cli.rl.es import RULES, LandingTrainer, day_cost
 from marops_cli.rl.train import train_actor
 
 from .conftest import quick
@@ -207,6 +207,22 @@ def test_battery_regimes_set_spares_chargers_and_power_per_scenario(
                       ({"batteries": ["ample"], "spares": [2]}, "not both")):  # fmt: skip
         with pytest.raises(InputError, match=line):
             load_training_data(tiny_csv, small_cfg, tcfg, **bad)
+
+
+def test_the_best_rule_is_chosen_from_the_given_rules(
+    tiny_csv: Path, small_cfg: PlannerConfig, tmp_path: Path
+) -> None:
+    tcfg = _es(episodes=7, es_rules=["backlog", "flow"])
+    td = load_training_data(tiny_csv, small_cfg, tcfg)
+    trainer = LandingTrainer(td, tmp_path / "a.safetensors")
+    assert trainer.rules == ["backlog", "flow"]
+    every = load_training_data(tiny_csv, small_cfg, _es(episodes=7))
+    assert LandingTrainer(every, tmp_path / "b.safetensors").rules == list(RULES)
+    side = train_actor(td, tmp_path / "a.safetensors", resume=False)
+    assert "best rule (backlog, flow)" in side["reward"]
+    assert side["train_config"]["es_rules"] == ["backlog", "flow"]
+    # One generation: its day replayed with the two rules, then by w, w + σε and w − σε.
+    assert (side["generations"], side["episodes"]) == (1, 2 + 3)
 
 
 def test_rule_features_train_a_format_4_actor_from_a_given_start(
