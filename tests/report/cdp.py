@@ -166,16 +166,23 @@ async def _drive(
         if screenshot is not None:
             shot = await s.call("Page.captureScreenshot", format="png")
             screenshot.write_bytes(base64.b64decode(shot["data"]))
-        run.url = await _current_url(s)
+        run.url = await _current_url(s, url)
         while follow and run.url == url and time.monotonic() < deadline:
             await asyncio.sleep(0.1)  # the navigation an expression started
-            run.url = await _current_url(s)
+            run.url = await _current_url(s, url)
     finally:
         ws.close()
 
 
-async def _current_url(s: _Session) -> str:
-    history = await s.call("Page.getNavigationHistory")
+async def _current_url(s: _Session, before: str) -> str:
+    """The page's URL; ``before`` while the tab is between two documents (a navigation an
+    expression started detaches it for a moment), so that the caller asks again."""
+    try:
+        history = await s.call("Page.getNavigationHistory")
+    except RuntimeError as exc:
+        if "Not attached to an active page" not in str(exc):
+            raise
+        return before
     return str(history["entries"][history["currentIndex"]]["url"])
 
 
