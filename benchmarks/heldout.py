@@ -27,7 +27,8 @@ lowest day J that day) over drones × areas × batteries × load, on the held-ou
 
 ``--grid`` is drones 4,8,16,32 × areas 16,25,36 × batteries scarce,default,ample ×
 load 1,3 (explicit ``--drones``, ``--depots``, ``--batteries``, ``--load`` replace its
-axis). Batteries (:data:`BATTERIES`, the ``[ops]`` options each preset sets):
+axis). Batteries (``marops_cli.config.BATTERY_PRESETS``, the ``[ops]`` options each preset
+sets; the regimes ``marops train --batteries`` trains on):
 
     =========  ===================  ==================  ==============
     preset     batteries_per_depot  chargers_per_depot  charge_power_w
@@ -82,9 +83,6 @@ PER_PARCEL = "energy_per_parcel"  # mean_energy_kj / delivered_share: energy per
 OPS_KEYS = ("battery_waits", "busy_windows", "stock_left_total", "stock_left_max", "charged_min")
 RULES = "ops-global,backlog,rebalance,flow,battery"
 """The grid's reference rules (``--against`` unless given)."""
-BATTERIES = BATTERY_PRESETS
-"""The battery presets: the ``[ops]`` options each sets over the run's config (the
-regimes ``marops train --batteries`` trains on)."""
 GRID = {"drones": "4,8,16,32", "depots": "16,25,36", "batteries": "scarce,default,ample",
         "load": "1,3"}  # fmt: skip
 """``--grid``: every axis of the generalisation benchmark."""
@@ -400,7 +398,7 @@ def grid_pairs(
     for r in rows:
         if r["method"] == a and r["alpha"] == 0.5 and _day(r) in ref:
             out.setdefault(tuple(r[k] for k in SETTING), []).append((r, ref[_day(r)]))
-    order = list(BATTERIES)
+    order = list(BATTERY_PRESETS)
 
     def rank(key: tuple[Any, ...]) -> tuple[Any, ...]:
         drones, n_dep, batteries, load = key
@@ -523,7 +521,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     ap.add_argument(
         "--batteries",
         default=None,
-        help=f"battery presets, comma-separated, of {', '.join(BATTERIES)} (the grid)",
+        help=f"battery presets, comma-separated, of {', '.join(BATTERY_PRESETS)} (the grid)",
     )
     ap.add_argument(
         "--load", default=None, help="orders_per_day multipliers, comma-separated (the grid)"
@@ -572,7 +570,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
             "hubs", args.history + 2, "16", "8", "0.5",
         )  # fmt: skip
     try:
-        args.battery_list = _names(args.batteries or "default", "--batteries", BATTERIES)
+        args.battery_list = _names(args.batteries or "default", "--batteries", BATTERY_PRESETS)
         args.load_list = _floats(args.load or "1", "--load")
     except ValueError as exc:
         ap.error(str(exc))
@@ -643,7 +641,7 @@ def report_grid(args: argparse.Namespace, rows: list[dict[str, Any]]) -> None:
             "history": args.history,
             "drones": args.drone_list,
             "depots": args.depot_list,
-            "batteries": {b: BATTERIES[b] for b in args.battery_list},
+            "batteries": {b: BATTERY_PRESETS[b] for b in args.battery_list},
             "load": args.load_list,
             "against": refs,
             "policy": args.policy,
