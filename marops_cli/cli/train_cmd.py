@@ -350,13 +350,18 @@ def _landing_fields(
 ) -> dict[str, Any]:
     """The landing actor's training settings of ``--features``, ``--init``,
     ``--train-weights`` and ``--rules`` (as :func:`_alpha_range` gives α's)."""
-    names = None if rules is None else [r.strip() for r in rules.split(",") if r.strip()]
     return {
         "landing_features": features,
         "landing_start": _start_weights(init, algorithm, (features, train_weights)),
         "landing_train": train_weights,
-        "es_rules": names,
+        "es_rules": None if rules is None else _listed(rules),
     }
+
+
+def _listed(text: str) -> list[str]:
+    """The names of a comma-separated flag (``--rules``, ``--batteries``), as typed and in
+    order (repeats kept: ``es_rules``' check refuses them), empty ones left out."""
+    return [t.strip() for t in text.split(",") if t.strip()]
 
 
 def _start_weights(
@@ -432,7 +437,7 @@ def _regimes(text: str | None, spares: str | None) -> list[str]:
     -> ``["scarce", "ample"]``), refused with ``--spares`` or an unknown name."""
     from ..config import BATTERY_PRESETS
 
-    names = [t.strip() for t in (text or "").split(",") if t.strip()]
+    names = _listed(text or "")
     if text is not None and not names:
         raise InputError(f"--batteries expects names of {', '.join(BATTERY_PRESETS)}, got {text!r}")
     bad = [b for b in names if b not in BATTERY_PRESETS]
