@@ -235,7 +235,8 @@ def test_api_plan_window_out_is_a_folder_as_the_flag_is(example_csv: Path, tmp_p
             marops.plan_window(
                 example_csv, tmp_path / "depots.json", "0811", 5, out=tmp_path / name
             )
-    assert [p.name for p in tmp_path.iterdir()] == ["depots.json"]
+    # The depots file and the journal that lists it (docs/outputs.md): nothing else.
+    assert sorted(p.name for p in tmp_path.iterdir()) == [".marops-files.json", "depots.json"]
 
 
 def test_api_evaluate_returns_the_paired_comparison_with_against(example_csv: Path) -> None:

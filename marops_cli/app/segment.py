@@ -130,7 +130,7 @@ def segment(
     path = Path(out)
     gj_path, png_path = path.with_suffix(".geojson"), path.with_suffix(".png")
     with output_set() as files:
-        files.write_json(path, done.doc())
+        files.write_json(path, done.doc(), journal=True)  # analysts edit it
         if geojson:
             files.write_json(gj_path, areas_geojson(res.depots, meta))
         if plot:  # matplotlib loads only to draw (its first import writes its font cache)
@@ -263,7 +263,7 @@ def _write_hubs(
         progress.warning(f"hub {hub}: no depots drawn ({reason})")
     gj_path, png_path = path.with_suffix(".geojson"), path.with_suffix(".png")
     with output_set() as files:
-        files.write_json(path, done.doc())
+        files.write_json(path, done.doc(), journal=True)  # analysts edit it
         files.write_json(gj_path, hubs_geojson(done.hubs, done.total, depots, done.meta))
         if plot:  # matplotlib loads only to draw
             from ..segment.plot import plot_hubs

@@ -1,11 +1,12 @@
 """Which files marops may replace (docs/outputs.md): its own, judged by provenance, never
 a run's inputs, and only where it can write.
 
-A file is marops's when its content says so (a Parquet file's ``marops`` metadata, a
-JSON document's marops ``meta``, a training checkpoint's format) or, for files that
-carry no metadata (CSV, PNG, Markdown, HTML, actors), when the folder's journal
-``.marops-files.json`` lists it with the SHA-256 of what is there now. A file edited
-since is not marops's any more. The name never decides.
+A file is marops's when the folder's journal ``.marops-files.json`` lists it with the
+SHA-256 of what is there now; where the journal does not list it, when its content says
+so (a Parquet file's ``marops`` metadata, a JSON document's marops ``meta``, a training
+checkpoint's format). Files without metadata (CSV, PNG, Markdown, HTML, actors) go into
+the journal, and so do the depots and hubs files, which analysts edit: a file edited
+since is not marops's any more, whatever its metadata says. The name never decides.
 """
 
 from __future__ import annotations
@@ -90,11 +91,16 @@ def check_not_input(final: Path) -> None:
 
 
 def written_by_marops(path: Path) -> bool:
-    """An existing file is marops's: Parquet with ``marops`` metadata, JSON or GeoJSON
-    with a marops ``meta``/``marops`` member (or an actor's sidecar), a training
-    checkpoint, or any file the folder's journal lists with the content it has now."""
+    """An existing file is marops's: one the folder's journal lists with the content it
+    has now; of those the journal does not list, Parquet with ``marops`` metadata, JSON
+    or GeoJSON with a marops ``meta``/``marops`` member (or an actor's sidecar), a
+    training checkpoint. A listed file whose content changed (a depots file edited by
+    hand) is not marops's, whatever its metadata says."""
     suffix = path.suffix.lower()
     try:
+        listed = _journal(path.parent).get(path.name)
+        if listed:
+            return sha256_file(path) in listed
         if suffix == ".parquet":
             from ..data.arrow import read_parquet_schema
 
@@ -103,7 +109,7 @@ def written_by_marops(path: Path) -> bool:
             ours = _json_is_ours(path)
         else:
             ours = suffix == ".ckpt" and _checkpoint_is_ours(path)
-        return ours or sha256_file(path) in _journal(path.parent).get(path.name, [])
+        return ours
     except (OSError, ValueError, zipfile.BadZipFile):
         return False
 
@@ -248,7 +254,8 @@ def _reason(exc: OSError) -> str:
 
 # -- the journal ---------------------------------------------------------------------
 def needs_journal(final: Path) -> bool:
-    """Files without marops metadata in their content are recorded in the journal."""
+    """Files without marops metadata in their content are recorded in the journal (and
+    those a writer asks for, :meth:`~marops_cli.io.atomic.OutputSet.path_for`)."""
     return final.suffix.lower() not in _WITH_METADATA
 
 

@@ -54,6 +54,32 @@ def test_a_hand_written_depots_file_is_not_marops_own(tmp_path: Path) -> None:
     assert written_by_marops(path)
 
 
+def test_a_depots_file_edited_by_hand_is_not_replaced_unasked(tmp_path: Path) -> None:
+    """A depots file marops wrote and an analyst then edited keeps marops' ``meta``:
+    the journal, not the meta, says whose content it holds, so ``segment --out`` asks
+    for ``--force`` instead of dropping the edit."""
+    data = tmp_path / "city.csv"
+    assert marops("synth", "--days", "2", "--orders-per-day", "80", "--out", data).returncode == 0
+    out = tmp_path / "depots.json"
+    args = ("segment", data, "--n-depots", "4", "--out", out)
+    assert marops(*args).returncode == 0
+    assert out.name in json.loads((tmp_path / JOURNAL).read_text())["files"]
+    assert marops(*args).returncode == 0  # marops's own: replaced without --force
+    doc = json.loads(out.read_text())
+    doc["depots"][0]["x_m"] += 100.0
+    edited = json.dumps(doc)
+    out.write_text(edited)
+    assert doc["meta"]["package"] == "marops" and not written_by_marops(out)
+    res = marops(*args)
+    assert res.returncode == 2
+    assert one_line(res.stderr) == (
+        f"marops: error: {out}: exists and was not written by marops; pass --force to replace it"
+    )
+    assert out.read_text() == edited
+    assert marops(*args, "--force").returncode == 0
+    assert written_by_marops(out)
+
+
 # -- failure 3: synth replaced a user's file judged by its extension -------------------
 def test_synth_never_replaces_a_file_marops_did_not_write(tmp_path: Path) -> None:
     notes = tmp_path / "analyst_notes.csv"
