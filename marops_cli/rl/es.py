@@ -48,12 +48,13 @@ import numpy as np
 from pydantic import Field, ValidationError
 
 from .. import __version__
-from ..config import override
+from ..config import MAX_EPISODES, override
 from ..data.filemodel import FileModel, Whole, error_text
 from ..data.jsonfile import read_json
 from ..errors import InputError
 from ..io.atomic import output_set
 from ..methods import reference_rules
+from ..policies.base import MAX_WEIGHT
 from ..policies.landing import (
     FEATURE_SETS,
     LandingActor,
@@ -134,8 +135,8 @@ class _Checkpoint(FileModel):
     format: Literal["marops-landing-ckpt/1"]
     fingerprint: Any
     weight: list[float]
-    generation: Whole = Field(ge=0)
-    episode: Whole = Field(ge=0)
+    generation: Whole = Field(ge=0, le=MAX_EPISODES)
+    episode: Whole = Field(ge=0, le=2 * MAX_EPISODES)  # a run stops within a generation
     elapsed_s: float = Field(ge=0)
     reference: dict[str, _Reference]
     held_out_rules: list[_HeldOutRule]
@@ -286,6 +287,13 @@ class LandingTrainer:
                 )
             if best.episode not in [e.episode for e in ckpt.evals]:
                 raise edited_checkpoint(self.ckpt, kind, "best must be one of the evaluations")
+        # The weights an actor file may hold (policies/base.py): training would otherwise
+        # go on from, and export, weights no run can fly.
+        for key, w in (("weight", weight), ("best.weight", best.weight if best else [])):
+            if np.abs(np.asarray(w, dtype=np.float64)).max(initial=0.0) > MAX_WEIGHT:
+                raise edited_checkpoint(
+                    self.ckpt, kind, f"{key} holds a weight beyond {MAX_WEIGHT:.0e}"
+                )
         self.weight = weight
         self.generation, self.episode, self.elapsed_s = (
             ckpt.generation,

@@ -83,8 +83,15 @@ EDITS = {
     "best: expected the best evaluation": lambda s: {**s, "best": 3},
     "generation: expected a whole number, got null": lambda s: {**s, "generation": None},
     "history: expected a list, got an object": lambda s: {**s, "history": {}},
-    "episode: expected episode ≥ 0, got -5": lambda s: {**s, "episode": -5},
+    "episode: expected 0 ≤ episode ≤ 20000000, got -5": lambda s: {**s, "episode": -5},
     "generation: expected a whole number, got inf": lambda s: {**s, "generation": math.inf},
+    # Counters no run reaches, and weights no actor file may hold (policies/base.py).
+    "generation: expected 0 ≤ generation ≤ 10000000, got 1000": lambda s: {
+        **s,
+        "generation": 1e30,
+    },
+    "episode: expected 0 ≤ episode ≤ 20000000": lambda s: {**s, "episode": 10**30},
+    "weight holds a weight beyond 1e+06": lambda s: {**s, "weight": [1e30] * len(s["weight"])},
 }
 
 
@@ -101,6 +108,7 @@ READ_LATER = {
     "best.weight[0]: expected a number, got nan": _in_best(
         weight=[float("nan")] * JOINT_START.size
     ),
+    "best.weight holds a weight beyond 1e+06": _in_best(weight=[-2e6] * JOINT_START.size),
     "history[0].generation: a history entry needs": _set("history", [{"episode": 1}]),
     "evals[0].cost: expected a number": _set(
         "evals", [{"episode": 4, "cost": "low", "methods": {}}]
