@@ -97,7 +97,7 @@ def _error_line(exc: BaseException) -> str:
     text = str(exc)
     if _stdin_copy is not None:
         text = text.replace(str(_stdin_copy), "standard input (-)")
-    return text.replace("\r", "\\r").replace("\n", "\\n")
+    return one_line(text)
 
 
 MAX_STDIN = 2 << 30
@@ -108,6 +108,8 @@ that never ends is refused at this size instead of filling the temporary disk.""
 _STDIN_FOLDER = "marops-stdin-"
 """Start of the name of the temporary folder of standard input's copy: the folder is
 ``marops-stdin-PID-XXXXXXXX``, PID the run's process id (:func:`_sweep_stdin_copies`)."""
+_STDIN_MARK = ".marops-stdin"
+"""The file in that folder that says marops made it: it holds ``marops-stdin PID``."""
 
 
 def stdin_file() -> Path:
@@ -130,6 +132,7 @@ def stdin_file() -> Path:
     _sweep_stdin_copies(Path(tempfile.gettempdir()))
     folder = Path(tempfile.mkdtemp(prefix=f"{_STDIN_FOLDER}{os.getpid()}-"))
     atexit.register(shutil.rmtree, folder, True)
+    (folder / _STDIN_MARK).write_text(f"marops-stdin {os.getpid()}\n", encoding="ascii")
     path = folder / "stdin"
     _stdin_copy = path  # errors name "standard input", not this file
     try:
@@ -145,9 +148,11 @@ def stdin_file() -> Path:
 def _sweep_stdin_copies(temp: Path) -> None:
     """Remove from ``temp`` the copies of standard input that runs of marops left when
     killed: a folder ``marops-stdin-PID-XXXXXXXX`` of this user whose process PID has
-    ended, holding nothing but the file ``stdin`` (or nothing). Anything else is left
-    as it is: another user's folder, a running process's, one holding other files,
-    a link. Where a process id cannot be asked after (not POSIX), nothing is removed."""
+    ended, holding marops' mark (:data:`_STDIN_MARK`, naming that PID) and at most the
+    file ``stdin`` beside it. Anything else is left as it is: another user's folder, a
+    running process's, one without the mark (a folder someone made by that name), one
+    holding other files, a link. Where a process id cannot be asked after (not POSIX),
+    nothing is removed."""
     import re
     import stat
 
@@ -167,7 +172,14 @@ def _sweep_stdin_copies(temp: Path) -> None:
             if not stat.S_ISDIR(st.st_mode) or st.st_uid != os.getuid():
                 continue
             inside = list(os.scandir(entry.path))
-            if any(e.name != "stdin" or not e.is_file(follow_symlinks=False) for e in inside):
+            names = {_STDIN_MARK, "stdin"}
+            if any(e.name not in names or not e.is_file(follow_symlinks=False) for e in inside):
+                continue
+            mark = Path(entry.path, _STDIN_MARK)  # missing: OSError below, left as it is
+            if (
+                mark.stat().st_size > 64
+                or mark.read_bytes() != b"marops-stdin %s\n" % found[1].encode()
+            ):
                 continue
             for e in inside:
                 os.unlink(e.path)
@@ -211,9 +223,15 @@ def _copy_stdin(path: Path) -> int:
 
 
 def info(message: str) -> None:
-    """A progress or status line on stderr; silent with ``--quiet`` or ``--json``."""
+    """A progress or status line on stderr; silent with ``--quiet`` or ``--json``. One
+    line: a line break inside (a file name may hold one) is written as ``\\n``."""
     if not (STATE["quiet"] or STATE["json"]):
-        console.print(message)
+        console.print(one_line(message))
+
+
+def one_line(text: str) -> str:
+    """``text`` on one line: carriage returns and line breaks written as ``\\r``, ``\\n``."""
+    return text.replace("\r", "\\r").replace("\n", "\\n")
 
 
 def warn(message: str) -> None:

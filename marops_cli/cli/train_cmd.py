@@ -25,6 +25,7 @@ from .common import (
     console,
     guarded,
     is_terminal,
+    one_line,
     protect_inputs,
     require_input,
     show_table,
@@ -340,7 +341,7 @@ def train_command(
         cfg, tcfg, **scenarios, resume=resume, command=_command(), data_origin=data_origin
     )
     res = run_training(data, setup, out, progress=_Reporter(tcfg.checkpoint_every))
-    console.print(f"wrote {', '.join(map(str, res.files))} ({res.training_time_s:.0f} s)")
+    console.print(one_line(f"wrote {', '.join(map(str, res.files))} ({res.training_time_s:.0f} s)"))
     if res.heldout:
         _print_heldout(res.heldout)
 

@@ -161,9 +161,12 @@ def test_a_killed_runs_copy_of_standard_input_goes_with_the_next_run(
     running = temp / f"marops-stdin-{os.getppid()}-abcd1234"  # a running process's
     theirs = temp / f"marops-stdin-{killed.pid}-efgh5678"  # holds more than a copy
     plain = temp / "marops-stdin-ijkl9012"  # no process id in its name
-    for folder in (running, theirs, plain):
+    made = temp / f"marops-stdin-{killed.pid}-mnop3456"  # someone's, without marops' mark
+    for folder in (running, theirs, plain, made):
         folder.mkdir()
         (folder / "stdin").write_text("x")
+        if folder is not made:
+            (folder / ".marops-stdin").write_text(f"marops-stdin {killed.pid}\n")
     (theirs / "notes.txt").write_text("mine")
     again = subprocess.run(
         [sys.executable, *main, "--out", str(tmp_path / "b.json")],
@@ -172,8 +175,10 @@ def test_a_killed_runs_copy_of_standard_input_goes_with_the_next_run(
         env=env,
     )
     assert again.returncode == 0, again.stderr
-    assert sorted(p.name for p in temp.iterdir()) == sorted([running.name, theirs.name, plain.name])
+    kept = [running.name, theirs.name, plain.name, made.name]
+    assert sorted(p.name for p in temp.iterdir()) == sorted(kept)
     assert (theirs / "notes.txt").read_text() == "mine"
+    assert (made / "stdin").read_text() == "x"
 
 
 # Every command that writes, with --out under a file: one line naming the path, exit 2,
@@ -281,6 +286,21 @@ def test_a_file_name_with_a_line_break_is_still_one_line(tmp_path: Path) -> None
     res = runner.invoke(app, ["segment", str(missing), "--out", str(tmp_path / "d.json")])
     assert res.exit_code == 2 and len(res.output.strip().splitlines()) == 1, res.output
     assert "two\\nlines.csv" in res.output
+
+
+def test_the_files_written_are_one_line_whatever_their_names(
+    example_csv: Path, tmp_path: Path
+) -> None:
+    """The closing line names the files as errors do: a line break in a name is ``\\n``."""
+    out = tmp_path / "my\ndepots.json"
+    res = runner.invoke(
+        app, ["segment", str(example_csv), "--dates", "0801..0803", "--out", str(out)]
+    )
+    assert res.exit_code == 0, res.output
+    (line,) = [x for x in res.output.splitlines() if x.startswith("wrote ")]
+    assert line == f"wrote {tmp_path}/my\\ndepots.json"
+    assert not any(x.startswith("depots.json") for x in res.output.splitlines())
+    assert out.is_file()
 
 
 def test_segmenting_again_keeps_the_days_replayed_with_its_depots(
