@@ -28,6 +28,7 @@ from pydantic.fields import FieldInfo
 from .data.jsonfile import parse_toml, read_document, read_small_text
 from .data.settings import MAX_SEED
 from .errors import InputError, SettingError
+from .methods import unknown_policy
 
 MAX_DRONES = 1000
 """The most drones one study area plans for (``--drones``, a fleet file, a hub's
@@ -371,6 +372,16 @@ class SimConfig(_Stage):
         description="load a TorchScript actor file without a weights file beside it, which "
         "runs its code (--trust-actor; docs/method.md §6)",
     )
+
+    @field_validator("policy")
+    @classmethod
+    def _check_policy(cls, v: str | None) -> str | None:
+        """A policy's name or an actor file's path (the file itself is read later), so
+        a misspelt one is named with the config file and key, or the option."""
+        why = None if v is None else unknown_policy(v)
+        if why is not None:
+            raise ValueError(why)
+        return v
 
 
 class OpsConfig(_Stage):

@@ -31,6 +31,8 @@ __all__ = [
     "reference_rules",
     "register",
     "register_kind",
+    "SHIPPED_KINDS",
+    "unknown_policy",
 ]
 
 
@@ -216,6 +218,26 @@ def policy_kinds() -> list[PolicyKind]:
 def policy_names() -> str:
     """``"stay, random, …"``: the policies named by a word, for help texts and errors."""
     return ", ".join(_KINDS)
+
+
+SHIPPED_KINDS = ("learned", "direct")
+"""The policy kinds that fly an actor marops ships: the flight-range actor, the MAPPO
+actor (their files: marops_cli/policies/registry.py, ``SHIPPED``)."""
+
+
+def unknown_policy(spec: str) -> str | None:
+    """Why ``spec`` names no policy (None when it does: a registered policy kind's name,
+    a shipped actor's kind, ``torchscript:PATH`` or an actor file's ``.pt`` or
+    ``.safetensors`` path; the file itself is read later). The config checks a
+    ``[sim] policy`` with it, and the policy registry parses every spec by it."""
+    if spec in SHIPPED_KINDS or spec in _KINDS:
+        return None
+    if spec.startswith("torchscript:") or spec.endswith((".pt", ".safetensors")):
+        return None
+    return (
+        f"unknown policy {spec!r}: expected one of {policy_names()}, "
+        "torchscript:PATH, a .pt file or an actor's .safetensors file"
+    )
 
 
 def reference_rules() -> dict[str, str]:

@@ -175,6 +175,8 @@ CONFIG: dict[str, Callable[[Path], None]] = {
     "rotor_1e-300.toml": _text("[energy]\nrotor_diameter_m = 1e-300\n"),
     "tz_too_long.toml": _text('[data]\ntz = "' + "A" * 5000 + '"\n'),
     "pipe.toml": _pipe,
+    # A policy that is neither a name nor an actor file's path: named with its key.
+    "policy_unknown.toml": _text('[sim]\npolicy = "/etc/passwd"\n'),
 }
 FRAME = {"center_lng": 121.44, "center_lat": 31.22, "size_km": 10.0}
 DEPOT = {"id": 0, "x_m": 0.0, "y_m": 0.0, "lng": 121.44, "lat": 31.22, "n_history": 3}
@@ -353,6 +355,7 @@ FLEET: dict[str, Callable[[Path], None]] = {
 # What the one line names besides the file: the key, row or column at fault (any of a
 # tuple: with a depots file, scattered data lie outside its study area).
 NEEDLES: dict[str, str | tuple[str, ...]] = {
+    "policy_unknown.toml": "invalid setting sim.policy: unknown policy '/etc/passwd'",
     "world_scattered.csv": ("column 'lng'", "holds none of the requests of world_scattered.csv"),
     "bool_lng.parquet": "column 'lng'",
     "lng_twice.csv": "row 1, column 'lng'",

@@ -9,14 +9,14 @@ from importlib import resources
 from pathlib import Path
 
 from ..errors import InputError, not_a_file
-from ..methods import policy_kind, policy_names
+from ..methods import SHIPPED_KINDS, policy_kind, unknown_policy
 from .base import Policy
 from .landing import check_trained_for
 
 DEFAULT_POLICY_NAME = "marops-basic.pt"
 DEFAULT_MAPPO_NAME = "mappo-basic.pt"
 DEFAULT_LANDING_NAME = "marops-ops.safetensors"
-SHIPPED = {"learned": DEFAULT_POLICY_NAME, "direct": DEFAULT_MAPPO_NAME}
+SHIPPED = dict(zip(SHIPPED_KINDS, (DEFAULT_POLICY_NAME, DEFAULT_MAPPO_NAME), strict=True))
 """A method's shipped actor, by policy kind: the flight-range actor, the MAPPO actor."""
 SHIPPED_OPERATING = {"learned": DEFAULT_LANDING_NAME}
 """The shipped actor of a policy kind under an operating model other than the paper's
@@ -40,15 +40,12 @@ class PolicySpec:
     def parse(cls, spec: str) -> PolicySpec:
         """A registered policy kind's name (:func:`~marops_cli.methods.policy_names`),
         ``learned``, ``direct``, ``torchscript:PATH`` or a ``.pt`` path."""
+        why = unknown_policy(spec)
+        if why is not None:
+            raise InputError(why)
         if spec in SHIPPED or _registered(spec):
             return cls(spec)
-        path = spec.removeprefix("torchscript:")
-        if spec.startswith("torchscript:") or path.endswith((".pt", ".safetensors")):
-            return cls.actor(path)
-        raise InputError(
-            f"unknown policy {spec!r}: expected one of {policy_names()}, "
-            "torchscript:PATH, a .pt file or an actor's .safetensors file"
-        )
+        return cls.actor(spec.removeprefix("torchscript:"))
 
     @classmethod
     def actor(cls, path: str | Path) -> PolicySpec:
