@@ -283,7 +283,8 @@ def parse_ds(column: pa.ChunkedArray | pa.Array, year: int) -> np.ndarray:
     arr = column.combine_chunks() if isinstance(column, pa.ChunkedArray) else column
     if pa.types.is_floating(arr.type):  # a column with gaps re-saved by pandas: 820.0
         f = arr.fill_null(-1.0).to_numpy(zero_copy_only=False)
-        whole = np.isfinite(f) & (f == np.floor(f))
+        # Beyond 2**62 no date, and casting it would warn (a second line on stderr).
+        whole = np.isfinite(f) & (f == np.floor(f)) & (np.abs(f) < 2.0**62)
         value = np.where(whole, f, -1).astype(np.int64)
     elif pa.types.is_integer(arr.type):
         # An unsigned value past int64 wraps to a negative one, which is no date.

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import datetime as dt
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -145,6 +146,15 @@ def test_parse_ds() -> None:
     text = pa.array(["820", "0820", "1231", "20220820", "1301", "0230", "", None, "x", " 820"])
     np.testing.assert_array_equal(parse_ds(text, 2022), [True] * 4 + [False] * 5 + [True])
     np.testing.assert_array_equal(parse_ds(pa.array([820, 229, None]), 2022), [True, False, False])
+
+
+def test_parse_ds_of_floats_beyond_any_integer_warns_of_nothing() -> None:
+    """A float ``ds`` column (pandas re-saved it) with 1e30 in it: not a date, and no
+    numpy warning of a cast (it would print a second line before the error's one)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        got = parse_ds(pa.array([820.0, 1e30, -1e30, 820.5, None]), 2022)
+    np.testing.assert_array_equal(got, [True, False, False, False, False])
 
 
 def _dates(n: int) -> list[dt.date]:
