@@ -505,7 +505,7 @@ def _sidecar_model() -> type[Any]:
         noun: ClassVar[str] = "landing actor's sidecar"
         shape: ClassVar[str] = "a JSON object"
         format: Literal[tuple(_FORMATS)] = Field(  # type: ignore[valid-type]
-            description=f"format {LANDING_FORMAT!r}"
+            description="format, one of " + ", ".join(map(repr, _FORMATS))
         )
         operating_model: str = Field(
             min_length=1, description="the operating model the actor was trained for"
