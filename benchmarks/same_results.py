@@ -62,6 +62,7 @@ VOLATILE_PATHS = frozenset({"marops", "meta.hubs_file.sha256"})
 # Columns (evaluate's results.parquet): wall times.
 VOLATILE_COLUMNS = frozenset({"runtime_s", "solver_solve_s"})
 PART_HEX = 12  # characters of a part's hash kept; the file's own hash is whole
+JOURNAL = ".marops-files.json"  # a folder's record of marops' files (docs/outputs.md)
 
 
 # ---------------------------------------------------------------- canonical forms
@@ -162,9 +163,21 @@ def file_fingerprint(path: Path) -> dict[str, Any]:
 
 
 def tree_fingerprints(folder: Path, patterns: tuple[str, ...]) -> dict[str, Any]:
-    """Fingerprints of the files under ``folder`` matching any pattern, by relative path."""
+    """Fingerprints of the files under ``folder`` matching any pattern, by relative path.
+    A folder's journal (``.marops-files.json``, docs/outputs.md) counts without its
+    entries for JSON documents, whose hashes change with the run's time their ``meta``
+    holds (their content is fingerprinted without it), and not at all with none left."""
     found = sorted({p for pat in patterns for p in folder.glob(pat) if p.is_file()})
-    return {str(p.relative_to(folder)): file_fingerprint(p) for p in found}
+    out = {}
+    for p in found:
+        if p.name == JOURNAL:
+            doc = json.loads(p.read_text(encoding="utf-8"))
+            doc["files"] = {k: v for k, v in doc["files"].items() if not k.endswith(".json")}
+            if doc["files"]:
+                out[str(p.relative_to(folder))] = json_fingerprint(strip_volatile(doc))
+        else:
+            out[str(p.relative_to(folder))] = file_fingerprint(p)
+    return out
 
 
 # ---------------------------------------------------------------- running the commands
