@@ -289,6 +289,23 @@ class PlanConfig(_Stage):
         "save, when routes are built and chosen (0 = off); J and G stay the window "
         "objective's",
     )
+    pack_price: float = Field(
+        0.0,
+        ge=0,
+        le=1,
+        description="pool planner: each loaded leg is priced this share of the way from its "
+        "load's energy per metre to the full payload's when routes are built and chosen, so "
+        "payload a route leaves unused costs energy (0 = off); J, G and the energies flown "
+        "stay exact",
+    )
+    serve_h: float = Field(
+        0.0,
+        ge=0,
+        le=24,
+        description="pool planner: hours of delay every pending request's prize counts more "
+        "when routes are built and chosen, a delivery worth more beside its delay (0 = off); "
+        "J and G stay the window objective's",
+    )
     night_h: float | None = Field(
         None,
         ge=0,

@@ -284,6 +284,7 @@ def _pool_plans(
         n_candidates=cfg.pool_candidates,
         iterations=cfg.pool_iterations,
         seed=problem.t,
+        pack=cfg.pack_price,
     )
     routes = [dict(zip(r, e, strict=True)) for r, e in zip(res.routes, res.energy_j, strict=True)]
     if pyvrp_iterations > 0:

@@ -132,10 +132,15 @@ class RoutePool(PoolConstruction, PoolRuins):
 
 
 def build_pool(
-    problem: WindowProblem, *, n_candidates: int = 80, iterations: int = 80, seed: int = 0
+    problem: WindowProblem,
+    *,
+    n_candidates: int = 80,
+    iterations: int = 80,
+    seed: int = 0,
+    pack: float = 0.0,
 ) -> PoolResult:
     """The route pool of one window (module docstring), built for ``problem.search``."""
-    return RoutePool(problem, n_candidates).build(iterations, seed)
+    return RoutePool(problem, n_candidates, pack).build(iterations, seed)
 
 
 def finish_route(

@@ -52,7 +52,12 @@ class Kind:
     table: NDArray[np.float64]
 
     @classmethod
-    def of(cls, model: EnergyModel) -> Kind:
+    def of(cls, model: EnergyModel, pack: float = 0.0) -> Kind:
+        """The type of ``model``; ``pack`` > 0 prices each loaded leg that share of the way
+        to the full payload's energy per metre (``[plan] pack_price``)."""
+        table = np.asarray(model.table_j_per_m, dtype=np.float64)
+        if pack > 0:
+            table = (1.0 - pack) * table + pack * float(model.energy_per_m(model.max_payload_kg))
         return cls(
             model,
             model.max_payload_kg,
@@ -60,7 +65,7 @@ class Kind:
             float(model.energy_per_m(0.0)),
             model.max_payload_kg + PAYLOAD_TOL_KG,
             model.grid_kg,
-            model.table_j_per_m,
+            table,
         )
 
     def e(self, load: NDArray[np.float64] | float) -> NDArray[np.float64]:
@@ -110,12 +115,12 @@ class Drone:
 class PoolState:
     """Each drone's candidates and route, and the pool's solutions (module docstring)."""
 
-    def __init__(self, problem: WindowProblem, n_candidates: int = 80) -> None:
+    def __init__(self, problem: WindowProblem, n_candidates: int = 80, pack: float = 0.0) -> None:
         """The pool of ``problem``'s drones, built for the prizes ``problem.search``;
         each drone keeps its ``n_candidates`` best requests (and those it is home to)."""
         tasks = list(problem.tasks)
         kinds: dict[int, Kind] = {}  # one per energy model (drone type)
-        self.kinds = [kinds.setdefault(id(t.model), Kind.of(t.model)) for t in tasks]
+        self.kinds = [kinds.setdefault(id(t.model), Kind.of(t.model, pack)) for t in tasks]
         self.w = np.asarray(problem.weight, dtype=np.float64)
         self.prize = np.asarray(problem.search, dtype=np.float64)
         self.xy = np.asarray(problem.xy, dtype=np.float64)

@@ -265,7 +265,8 @@ def pricing_delay_h(
     delay; plus, in hours of λ, the energy waiting would not save (``[plan]
     wait_credit`` times its cheapest detour, :func:`wait_credit_j`); plus, in the day's
     last window, the night a parcel left then waits (``[plan] night_h``; None: 24 h less
-    the service hours). The paper's planner prices the delay alone."""
+    the service hours); plus, in every window, ``[plan] serve_h``. The paper's planner
+    prices the delay alone."""
     delay = np.asarray(view.pending_delay_h, dtype=np.float64)
     if cfg.planner != "pool":
         return delay
@@ -276,7 +277,7 @@ def pricing_delay_h(
     if cfg.wait_credit > 0 and delay.size:
         credit = wait_credit_j(view.pending_xy, view.depots.xy, float(model.energy_per_m(0.0)))
         priced = priced + cfg.wait_credit * credit / lam
-    return priced
+    return priced + cfg.serve_h if cfg.serve_h > 0 else priced
 
 
 def _tasks(

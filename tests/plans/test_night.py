@@ -1,6 +1,6 @@
 """What the route pool prices beyond a request's delay (docs/method.md §4.4): the energy
-waiting would not save, and in the day's last window the night a parcel left then would
-wait; J and G stay the window objective's."""
+waiting would not save, in the day's last window the night a parcel left then would
+wait, and ``serve_h``; J and G stay the window objective's."""
 
 from __future__ import annotations
 
@@ -72,3 +72,16 @@ def test_the_credit_is_priced_in_hours_of_lambda_in_every_window() -> None:
     lam = lam_j(0.8, MODEL.usable_j)
     credit = 600.0 * E0 / lam  # A and B: 300 m from each other
     np.testing.assert_allclose(_priced(_view(3), cfg), [credit, 1.5 + credit], rtol=1e-12)
+
+
+@pytest.mark.parametrize("t", [3, 15])
+def test_serve_h_adds_its_hours_to_every_request_in_every_window(t: int) -> None:
+    """With the credit off and a night of 2 h: 0.75 h more than without, in the last
+    window (night priced too) and any other; the paper's planner ignores it."""
+    base = PlanConfig(wait_credit=0.0, night_h=2.0)
+    night = 2.0 if t == 15 else 0.0
+    np.testing.assert_allclose(_priced(_view(t), base), [night, night + 1.5])
+    more = PlanConfig(wait_credit=0.0, night_h=2.0, serve_h=0.75)
+    np.testing.assert_allclose(_priced(_view(t), more), [night + 0.75, night + 2.25])
+    paper = PlanConfig(planner="subsets", serve_h=0.75)
+    np.testing.assert_allclose(_priced(_view(t), paper), [0.0, 1.5])

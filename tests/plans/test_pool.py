@@ -224,3 +224,33 @@ def test_where_every_request_pays_alone_no_seed_is_tried(model):
         pool_problem(depots, xy, np.full(2, 0.5), np.full(2, model.usable_j), [task], model)
     )
     assert not pool.drones[0].seedable
+
+
+@pytest.mark.parametrize("pack", [0.0, 0.5, 1.0])
+def test_pack_price_prices_each_loaded_leg_toward_the_full_payload(model, pack):
+    """One drone at depot 0 (0, 0) landing there, one 0.5 kg parcel at (0, 1000): the
+    route flies 1,000 m with 0.5 kg and 1,000 m back empty. ``pack_price`` p prices the
+    loaded leg at (1 − p) e(0.5) + p e(2.5) J/m and leaves the empty leg as it is."""
+    depots, xy, w = np.array([[0.0, 0.0]]), np.array([[0.0, 1000.0]]), np.array([0.5])
+    task = Task(0, 0, np.arange(1, dtype=np.int64))
+    pool = RoutePool(pool_problem(depots, xy, w, [LAM], [task], model), pack=pack)
+    res = pool.build(iterations=0)
+    e = model.energy_per_m
+    loaded = (1.0 - pack) * float(e(0.5)) + pack * float(e(2.5))
+    assert res.routes == [[(0,)]]
+    assert_allclose(res.energy_j[0][0], 1000.0 * loaded + 1000.0 * float(e(0.0)), rtol=1e-9)
+
+
+def test_pack_price_leaves_a_light_parcel_whose_flight_pays_only_at_its_own_weight(model):
+    """The same parcel with a prize halfway between its route's exact energy and that
+    energy priced with the loaded leg at the full payload: it is flown without the price
+    and left with ``pack_price = 1``."""
+    depots, xy, w = np.array([[0.0, 0.0]]), np.array([[0.0, 1000.0]]), np.array([0.5])
+    e = model.energy_per_m
+    exact = 1000.0 * float(e(0.5)) + 1000.0 * float(e(0.0))
+    full = 1000.0 * float(e(2.5)) + 1000.0 * float(e(0.0))
+    assert full > exact * 1.05  # the full payload costs more per metre, by more than 5 %
+    task = Task(0, 0, np.arange(1, dtype=np.int64))
+    problem = pool_problem(depots, xy, w, [(exact + full) / 2], [task], model)
+    assert RoutePool(problem).build(iterations=20).routes == [[(0,)]]
+    assert RoutePool(problem, pack=1.0).build(iterations=20).routes == [[]]

@@ -571,6 +571,8 @@ def pool_instances(draw):
         pool_candidates=draw(st.sampled_from([3, 10, 80])),
         pool_iterations=draw(st.sampled_from([0, 5, 40])),
         pool_urgency=draw(st.sampled_from([0.0, 1.0])),
+        pack_price=draw(st.sampled_from([0.0, 1.0])),
+        serve_h=draw(st.sampled_from([0.0, 0.75])),
     )
     scope = draw(st.sampled_from(["range", "global"]))
     selector = draw(st.sampled_from(["cvxpy", "highs", "greedy"]))
@@ -652,8 +654,14 @@ def test_pool_routes_never_break_payload_battery_or_one_visit(inst):
     score = score_routes(
         view.pending_idx, problem.priced_h, [(r.stops, r.energy_j) for r in plan.routes], lam
     )
-    # (the pool's best is scored with the urgency bonus when there is one, G without)
-    if sel_name != "greedy" and cfg.pool_urgency == 0 and cfg.planner == "pool":
+    # (the pool's best is scored with the urgency bonus when there is one, G without,
+    # and with the packing price's energies when there is one, the exact ones without)
+    if (
+        sel_name != "greedy"
+        and cfg.pool_urgency == 0
+        and cfg.pack_price == 0
+        and cfg.planner == "pool"
+    ):
         best = build_pool(
             problem,
             n_candidates=cfg.pool_candidates,
