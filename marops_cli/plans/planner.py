@@ -288,7 +288,7 @@ def _pool_plans(
     )
     routes = [dict(zip(r, e, strict=True)) for r, e in zip(res.routes, res.energy_j, strict=True)]
     if pyvrp_iterations > 0:
-        _add_pyvrp_routes(problem, pyvrp_iterations, routes)
+        _add_pyvrp_routes(problem, pyvrp_iterations, routes, cfg.pack_price)
     t_cand = time.perf_counter() - t0
     plan_sets, plan_ends = [], []
     for u, task in enumerate(problem.tasks):
@@ -314,9 +314,13 @@ def _pool_plans(
 
 
 def _add_pyvrp_routes(
-    problem: WindowProblem, iterations: int, routes: list[dict[tuple[int, ...], float]]
+    problem: WindowProblem,
+    iterations: int,
+    routes: list[dict[tuple[int, ...], float]],
+    pack: float = 0.0,
 ) -> None:
-    """PyVRP's routes for the window as extra columns (each re-costed exactly)."""
+    """PyVRP's routes for the window as extra columns, each re-costed exactly and priced
+    as the pool prices its own (``pack``: ``[plan] pack_price``)."""
     from .pyvrp_routes import solve_window  # the optional pyvrp extra, loaded when asked for
 
     tasks = problem.tasks
@@ -329,15 +333,26 @@ def _add_pyvrp_routes(
             if t.start != int(s) or not allowed[u, stops].all():
                 continue
             own = t.model  # the drone's own limits (a mixed fleet)
-            e = _route_energy_j(problem, t, stops)
+            e, priced = _route_energy_j(problem, t, stops, pack)
             w = float(problem.weight[stops].sum())
             if e <= own.usable_j and own.fits(w):
-                routes[u].setdefault(tuple(int(i) for i in stops), e)
+                routes[u].setdefault(tuple(int(i) for i in stops), priced)
 
 
-def _route_energy_j(problem: WindowProblem, task: DroneTask, stops: np.ndarray) -> float:
+def _route_energy_j(
+    problem: WindowProblem, task: DroneTask, stops: np.ndarray, pack: float = 0.0
+) -> tuple[float, float]:
+    """The route's exact energy, and its energy as the pool prices it: each loaded leg
+    ``pack`` of the way to the full payload's energy per metre, the empty last leg as
+    it is (docs/method.md §4.4, step 8)."""
     depots_xy = problem.depots_xy
     xy = problem.xy[stops]
     end = task.end if task.end >= 0 else int(nearest_depot(xy[-1], depots_xy)[0][0])
     pts = np.vstack([depots_xy[task.start], xy, depots_xy[end]])
-    return float(task.model.route_energy(pts, problem.weight[stops])[1].sum())
+    legs_m, legs_j = task.model.route_energy(pts, problem.weight[stops])
+    exact = float(legs_j.sum())
+    if pack <= 0:
+        return exact, exact
+    full = float(task.model.energy_per_m(task.model.max_payload_kg))
+    loaded = (1.0 - pack) * legs_j[:-1].sum() + pack * full * legs_m[:-1].sum()
+    return exact, float(loaded + legs_j[-1])

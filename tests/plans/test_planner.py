@@ -72,3 +72,35 @@ def test_a_given_planner_overrides_the_config(scope):
     assert [(r.stops, r.end, r.action) for r in given.routes] == [
         (r.stops, r.end, r.action) for r in own.routes
     ]
+
+
+@pytest.mark.parametrize("pack", [0.0, 0.5, 1.0])
+def test_a_pyvrp_column_is_priced_as_the_pool_prices_its_own(pack):
+    """Depot 0 at (0, 0), depot 1 at (3000, 0); a drone from depot 0 landing at the depot
+    nearest its last stop serves A (0, 1000) 0.5 kg then B (2000, 1000) 1.0 kg: legs of
+    1,000 m with 1.5 kg, 2,000 m with 1.0 kg, then the empty leg to depot 1 (√2 km).
+    Its exact energy is theirs; ``pack_price`` p prices each loaded leg at
+    (1 − p) e(load) + p e(2.5), the empty leg as it is."""
+    from marops_cli.plans.planner import _route_energy_j
+    from marops_cli.plans.problem import DroneTask
+
+    model = EnergyModel()
+    e = lambda kg: float(model.energy_per_m(kg))  # noqa: E731
+    task = DroneTask(0, -1, np.arange(2, dtype=np.int64), model)
+    problem = WindowProblem.of_requests(
+        np.array([[0.0, 0.0], [3000.0, 0.0]]),
+        np.array([[0.0, 1000.0], [2000.0, 1000.0]]),
+        np.array([0.5, 1.0]),
+        np.zeros(2),
+        1.0,
+        [task],
+    )
+    last = 1000.0 * np.sqrt(2.0) * e(0.0)
+    exact = 1000.0 * e(1.5) + 2000.0 * e(1.0) + last
+    priced = (
+        1000.0 * ((1 - pack) * e(1.5) + pack * e(2.5))
+        + 2000.0 * ((1 - pack) * e(1.0) + pack * e(2.5))
+        + last
+    )
+    got = _route_energy_j(problem, task, np.array([0, 1]), pack)
+    np.testing.assert_allclose(got, (exact, priced), rtol=1e-9)
