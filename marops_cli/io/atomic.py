@@ -61,14 +61,13 @@ class OutputSet:
             self._journal.add(final)
         return tmp
 
-    def write_bytes(self, final: str | Path, data: bytes) -> None:
-        self.write_with(final, lambda tmp: tmp.write_bytes(data))
+    def write_bytes(self, final: str | Path, data: bytes, journal: bool = False) -> None:
+        self.write_with(final, lambda tmp: tmp.write_bytes(data), journal)
 
     def write_json(self, final: str | Path, doc: Any, journal: bool = False) -> None:
         """``doc`` as JSON; ``journal``: recorded in the folder's journal too, so that an
         edit makes it the user's (a depots or hubs file, which analysts edit)."""
-        data = dumps_json(doc).encode("utf-8", "backslashreplace")
-        self.write_with(final, lambda tmp: tmp.write_bytes(data), journal)
+        self.write_bytes(final, dumps_json(doc).encode("utf-8", "backslashreplace"), journal)
 
     def write_with(
         self, final: str | Path, writer: Callable[[Path], object], journal: bool = False
