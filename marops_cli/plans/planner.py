@@ -27,6 +27,7 @@ from ..segment.depots import nearest_depot
 from .candidates import by_delay, draft, range_candidates
 from .plans import Candidates, PlanSet, build_plans
 from .pool import build_pool
+from .pool_state import pack_priced
 from .problem import DroneTask, Scope, WindowProblem, can_reach
 from .view import EVERY_DEPOT, FREE, WindowView
 
@@ -353,6 +354,5 @@ def _route_energy_j(
     exact = float(legs_j.sum())
     if pack <= 0:
         return exact, exact
-    full = float(task.model.energy_per_m(task.model.max_payload_kg))
-    loaded = (1.0 - pack) * legs_j[:-1].sum() + pack * full * legs_m[:-1].sum()
+    loaded = pack_priced(legs_j[:-1].sum(), legs_m[:-1].sum(), task.model, pack)
     return exact, float(loaded + legs_j[-1])

@@ -36,6 +36,19 @@ def best_of(score: NDArray[np.float64]) -> tuple[float, int]:
     return float(score[j]), j
 
 
+def pack_priced(
+    energy_j: NDArray[np.float64] | float,
+    metres: NDArray[np.float64] | float,
+    model: EnergyModel,
+    pack: float,
+) -> NDArray[np.float64] | float:
+    """What the route pool prices loaded flight at (``[plan] pack_price``, docs/method.md
+    §4.4 step 8): ``pack`` of the way from its exact energy ``energy_j`` to the full
+    payload's energy over its ``metres``."""
+    full = float(model.energy_per_m(model.max_payload_kg))
+    return (1.0 - pack) * energy_j + pack * full * metres
+
+
 @dataclass(frozen=True)
 class Kind:
     """What the search needs of a drone type: payload, usable battery, energy per metre."""
@@ -56,8 +69,8 @@ class Kind:
         """The type of ``model``; ``pack`` > 0 prices each loaded leg that share of the way
         to the full payload's energy per metre (``[plan] pack_price``)."""
         table = np.asarray(model.table_j_per_m, dtype=np.float64)
-        if pack > 0:
-            table = (1.0 - pack) * table + pack * float(model.energy_per_m(model.max_payload_kg))
+        if pack > 0:  # per metre
+            table = np.asarray(pack_priced(table, 1.0, model, pack), dtype=np.float64)
         return cls(
             model,
             model.max_payload_kg,
