@@ -9,10 +9,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .pool_pricing import PoolPricing
-from .pool_state import best_of
+from .pool_state import Drone, best_of
 
 __all__ = ["PoolConstruction"]
-_SEED_TRIES = 3  # an empty route tries this many seeds (:meth:`PoolConstruction._seed`)
+_SEED_TRIES = 3  # an opening route tries this many seeds (:meth:`PoolConstruction._seed`)
 _SEED_NEAR = 8  # a seed is rated with this many of its best neighbours
 
 
@@ -28,9 +28,10 @@ class PoolConstruction(PoolPricing):
         seed: bool = True,
     ) -> None:
         """Greedy insertion into the routes of ``users`` until nothing profitable fits
-        (scores blurred with ``rng``, :meth:`_refresh`); then each drone left empty whose
-        candidates do not all pay alone gets a seeded route when one pays
-        (:meth:`_seed`; not with ``seed`` False)."""
+        (scores blurred with ``rng``, :meth:`_refresh`); then each drone that started
+        empty, some of whose candidates do not pay alone, tries seeded routes against
+        the one insertion opened (:meth:`_seed`; not with ``seed`` False)."""
+        opened = [u for u in users if not self.drones[u].stops and self.drones[u].seedable]
         best, at = [], []  # each drone's best score and its candidate
         for u in users:
             b, j = self._refresh(u, score_kind, free, rng)
@@ -53,9 +54,8 @@ class PoolConstruction(PoolPricing):
                         if hit == at[i2]:  # it was that drone's best
                             best[i2], at[i2] = best_of(d2.score)
         if seed:
-            for u in users:
-                if self.drones[u].seedable and not self.drones[u].stops:
-                    self._seed(u, score_kind, free, rng)
+            for u in opened:
+                self._seed(u, score_kind, free, rng)
 
     def _seed(
         self,
@@ -64,30 +64,32 @@ class PoolConstruction(PoolPricing):
         free: NDArray[np.bool_],
         rng: np.random.Generator | None,
     ) -> None:
-        """Start drone ``u``'s empty route at a request that does not pay alone.
+        """Open drone ``u``'s route at a request that need not pay alone.
 
-        Greedy insertion never opens a route with a request whose prize is below its
-        flight (insertions must gain), so where delay is priced low no route would start
-        although a cluster of such requests pays together. Each free candidate is rated
-        by its gain alone plus what its ``_SEED_NEAR`` best neighbours would add (prize
-        less a there-and-back detour); the ``_SEED_TRIES`` best with a positive rating
-        each start a route that is then filled greedily, and the route of highest G is
-        kept if its G is positive (else the route stays empty)."""
+        Greedy insertion opens a route with the request that pays best alone, or with
+        none where none pays (a high α prices delay low), although a cluster of requests
+        that do not pay alone may pay together, and better than the route the greedy
+        opening leads to (a heavy parcel that barely pays fills the payload). Each free
+        candidate is rated by its gain alone plus what its ``_SEED_NEAR`` best
+        neighbours that share the payload with it would add (prize less a there-and-back
+        detour); the ``_SEED_TRIES`` best with a positive rating each start a route that
+        is then filled greedily, and the route of highest G, the one already there
+        included, is kept if its G is positive (else the route stays empty)."""
         dr = self.drones[u]
+        best: tuple[float, list[int], float, float] | None = None
+        if dr.stops:  # the route the greedy opening built competes with the seeds
+            best = (self._psum(dr) - (dr.energy - dr.start_end), dr.stops, dr.energy, dr.weight)
+            self._clear(dr, free)
         sub = (free[dr.cand] & (dr.cand_w <= dr.k.fit_kg)).nonzero()[0]
-        if not sub.size:
-            return
         d_e, _ = self._insertion(dr, sub)
         gain = dr.cand_prize[sub] - d_e
-        pair_w = np.minimum(dr.cand_w[sub][:, None] + dr.cand_w[sub][None, :], dr.k.cap)
-        add = dr.cand_prize[sub][None, :] - 2.0 * dr.dmat[np.ix_(sub, sub)] * dr.k.e(pair_w)
+        add = dr.cand_prize[sub][None, :] - dr.pair_j[np.ix_(sub, sub)]
         np.fill_diagonal(add, 0.0)
         add = np.maximum(add, 0.0)
         if add.shape[1] > _SEED_NEAR:
             add = np.partition(add, add.shape[1] - _SEED_NEAR, axis=1)[:, -_SEED_NEAR:]
         rating = gain + add.sum(axis=1)
         order = np.lexsort((sub, -rating))[:_SEED_TRIES]
-        best: tuple[float, list[int], float, float] | None = None
         for i in order[rating[order] > 0].tolist():
             j = int(sub[i])
             dr.slot[j], dr.d_e[j] = 0, d_e[i]
@@ -96,13 +98,18 @@ class PoolConstruction(PoolPricing):
             self._fill([u], score_kind, free, rng, seed=False)
             g = self._psum(dr) - (dr.energy - dr.start_end)
             if g > 1e-9 and (best is None or g > best[0] + 1e-9):
-                best = (g, list(dr.stops), dr.energy, dr.weight)
-            free[dr.cand[dr.stops]] = True
-            dr.stops, dr.energy, dr.weight, dr.psum = [], dr.start_end, 0.0, None
+                best = (g, dr.stops, dr.energy, dr.weight)
+            self._clear(dr, free)
         if best is not None:
             _, dr.stops, dr.energy, dr.weight = best
             dr.psum = None
             free[dr.cand[dr.stops]] = False
+
+    @staticmethod
+    def _clear(dr: Drone, free: NDArray[np.bool_]) -> None:
+        """Empty ``dr``'s route, its requests free again."""
+        free[dr.cand[dr.stops]] = True
+        dr.stops, dr.energy, dr.weight, dr.psum = [], dr.start_end, 0.0, None
 
     def _exchange(self, users: list[int], free: NDArray[np.bool_], kind: str) -> None:
         """Swap a served stop for an unserved candidate while a route's G grows

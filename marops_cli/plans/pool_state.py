@@ -104,7 +104,7 @@ class Drone:
     dmat: NDArray[np.float64]  # (m, m + 1) distances candidate -> candidate, or -> start
     cand_end: NDArray[np.float64]  # energy of the empty last leg from each candidate
     start_end: float  # ... and from the start (the empty route)
-    seedable: bool = False  # some candidate does not pay alone: an empty route is seeded
+    seedable: bool = False  # some candidate does not pay alone: an opening tries seeds
     stops: list[int] = field(default_factory=list)  # indices into cand
     energy: float = 0.0
     weight: float = 0.0
@@ -118,6 +118,17 @@ class Drone:
     def arrays(self) -> tuple[Any, ...]:
         """What the compiled kernels read of the drone (:data:`._jit.Drone`)."""
         return (self.dmat, self.cand_w, self.cand_end, self.start_end, self.cand, self.cand_prize)
+
+    @cached_property
+    def pair_j(self) -> NDArray[np.float64]:
+        """``(m, m)`` the there-and-back detour from candidate i to candidate j carrying
+        both parcels (capped at the payload), J; +inf where the two exceed the payload
+        together (a seed's neighbours, :meth:`PoolConstruction._seed`)."""
+        m = self.cand.size
+        both = self.cand_w[:, None] + self.cand_w[None, :]
+        out = 2.0 * self.dmat[:, :m] * self.k.e(np.minimum(both, self.k.cap))
+        out[both > self.k.fit_kg] = np.inf
+        return out
 
     @cached_property
     def best(self) -> tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.float64]]:

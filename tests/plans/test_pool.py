@@ -214,6 +214,49 @@ def test_a_cluster_that_pays_only_together_gets_a_route(model):
     assert all(3 not in r for r in res.routes[0])
 
 
+def test_a_heavy_parcel_that_barely_pays_does_not_keep_a_cluster_from_its_route(model):
+    """The cluster of the test above, and 1 km east a parcel at the full payload whose
+    prize is 5 % above its own flight there and back: the only request that pays alone,
+    so greedy insertion opens the route with it and the payload is then full. The seeds
+    compete with that route: the cluster's G (about 0.8 of a 2 km flight) beats the
+    heavy parcel's (5 % of a 1 km flight), and the best solution flies the cluster."""
+    depots = np.array([[0.0, 0.0]])
+    xy = np.array([[0.0, 2000.0], [20.0, 2010.0], [-20.0, 2010.0], [1000.0, 0.0]])
+    cap = model.max_payload_kg
+    w = np.array([0.5, 0.5, 0.5, cap])
+    e0 = float(model.energy_per_m(0.0))
+    alone = 2000.0 * (float(model.energy_per_m(0.5)) + e0)
+    heavy = 1000.0 * (float(model.energy_per_m(cap)) + e0)
+    prize = np.array([0.6 * alone] * 3 + [1.05 * heavy])
+    task = Task(0, 0, np.arange(4, dtype=np.int64))
+    pool = RoutePool(pool_problem(depots, xy, w, prize, [task], model))
+    assert pool.drones[0].seedable
+    res = pool.build(iterations=0, seed=0)
+    g = {r: prize[list(r)].sum() - e for r, e in zip(res.routes[0], res.energy_j[0], strict=True)}
+    best = max(g, key=lambda r: g[r])
+    assert sorted(best) == [0, 1, 2]
+    assert res.best_g == pytest.approx(g[best], rel=1e-9)
+    assert res.best_g > 10 * 0.05 * heavy  # the heavy parcel's route: 5 % of its flight
+
+
+def test_pair_detours_carry_both_parcels_and_are_barred_over_the_payload(model):
+    """A seed's neighbours (docs/method.md §4.4, "Seeds"): the detour there and back
+    between two candidates 300 m apart with 0.5 and 0.7 kg on board is 600 m at the
+    1.2 kg energy per metre; two parcels that exceed the payload together get none."""
+    cap = model.max_payload_kg
+    depots = np.array([[0.0, 0.0]])
+    xy = np.array([[0.0, 1000.0], [300.0, 1000.0], [0.0, 1300.0]])
+    w = np.array([0.5, 0.7, cap - 0.6])
+    task = Task(0, 0, np.arange(3, dtype=np.int64))
+    pool = RoutePool(pool_problem(depots, xy, w, np.full(3, 1e6), [task], model))
+    dr = pool.drones[0]
+    i, j, k = (int(np.flatnonzero(dr.cand == q)[0]) for q in range(3))
+    assert dr.pair_j[i, j] == pytest.approx(600.0 * float(model.energy_per_m(1.2)), rel=1e-12)
+    assert dr.pair_j[j, i] == pytest.approx(dr.pair_j[i, j], rel=1e-12)
+    assert dr.pair_j[i, k] == pytest.approx(600.0 * float(model.energy_per_m(cap - 0.1)), rel=1e-12)
+    assert dr.pair_j[j, k] == np.inf  # 0.7 + (cap - 0.6) > cap
+
+
 def test_where_every_request_pays_alone_no_seed_is_tried(model):
     """Delay priced high (α ≤ 0.5: the prize is at least a usable battery): every
     candidate pays alone, so the drone is not seedable and the pool is as before."""
