@@ -31,7 +31,8 @@ class PoolConstruction(PoolPricing):
         (scores blurred with ``rng``, :meth:`_refresh`); then each drone that started
         empty, some of whose candidates do not pay alone, tries seeded routes against
         the one insertion opened (:meth:`_seed`; not with ``seed`` False)."""
-        opened = [u for u in users if not self.drones[u].stops and self.drones[u].seedable]
+        drones = self.drones
+        opened = [u for u in users if drones[u].seedable and not drones[u].stops] if seed else []
         best, at = [], []  # each drone's best score and its candidate
         for u in users:
             b, j = self._refresh(u, score_kind, free, rng)
@@ -53,9 +54,8 @@ class PoolConstruction(PoolPricing):
                         d2.score[hit] = -np.inf
                         if hit == at[i2]:  # it was that drone's best
                             best[i2], at[i2] = best_of(d2.score)
-        if seed:
-            for u in opened:
-                self._seed(u, score_kind, free, rng)
+        for u in opened:
+            self._seed(u, score_kind, free, rng)
 
     def _seed(
         self,
@@ -78,7 +78,7 @@ class PoolConstruction(PoolPricing):
         dr = self.drones[u]
         best: tuple[float, list[int], float, float] | None = None
         if dr.stops:  # the route the greedy opening built competes with the seeds
-            best = (self._psum(dr) - (dr.energy - dr.start_end), dr.stops, dr.energy, dr.weight)
+            best = (self._opened_g(dr), dr.stops, dr.energy, dr.weight)
             self._clear(dr, free)
         sub = (free[dr.cand] & (dr.cand_w <= dr.k.fit_kg)).nonzero()[0]
         d_e, _ = self._insertion(dr, sub)
@@ -96,7 +96,7 @@ class PoolConstruction(PoolPricing):
             self._insert(u, j)
             free[dr.cand[j]] = False
             self._fill([u], score_kind, free, rng, seed=False)
-            g = self._psum(dr) - (dr.energy - dr.start_end)
+            g = self._opened_g(dr)
             if g > 1e-9 and (best is None or g > best[0] + 1e-9):
                 best = (g, dr.stops, dr.energy, dr.weight)
             self._clear(dr, free)
@@ -104,6 +104,10 @@ class PoolConstruction(PoolPricing):
             _, dr.stops, dr.energy, dr.weight = best
             dr.psum = None
             free[dr.cand[dr.stops]] = False
+
+    def _opened_g(self, dr: Drone) -> float:
+        """G the drone's route adds to its empty flight: prizes less the extra energy."""
+        return self._psum(dr) - (dr.energy - dr.start_end)
 
     @staticmethod
     def _clear(dr: Drone, free: NDArray[np.bool_]) -> None:
