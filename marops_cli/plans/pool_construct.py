@@ -9,7 +9,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .pool_pricing import PoolPricing
-from .pool_state import Drone, best_of
+from .pool_state import Drone, Route, best_of
 
 __all__ = ["PoolConstruction"]
 _SEED_TRIES = 3  # an opening route tries this many seeds (:meth:`PoolConstruction._seed`)
@@ -76,9 +76,9 @@ class PoolConstruction(PoolPricing):
         is then filled greedily, and the route of highest G, the one already there
         included, is kept if its G is positive (else the route stays empty)."""
         dr = self.drones[u]
-        best: tuple[float, list[int], float, float] | None = None
+        best: tuple[float, Route] | None = None
         if dr.stops:  # the route the greedy opening built competes with the seeds
-            best = (self._opened_g(dr), dr.stops, dr.energy, dr.weight)
+            best = (self._opened_g(dr), self._state(u))
             self._clear(dr, free)
         sub = (free[dr.cand] & (dr.cand_w <= dr.k.fit_kg)).nonzero()[0]
         d_e, _ = self._insertion(dr, sub)
@@ -98,12 +98,10 @@ class PoolConstruction(PoolPricing):
             self._fill([u], score_kind, free, rng, seed=False)
             g = self._opened_g(dr)
             if g > 1e-9 and (best is None or g > best[0] + 1e-9):
-                best = (g, dr.stops, dr.energy, dr.weight)
+                best = (g, self._state(u))
             self._clear(dr, free)
         if best is not None:
-            _, dr.stops, dr.energy, dr.weight = best
-            dr.psum = None
-            free[dr.cand[dr.stops]] = False
+            self._put(dr, best[1], free)
 
     def _opened_g(self, dr: Drone) -> float:
         """G the drone's route adds to its empty flight: prizes less the extra energy."""

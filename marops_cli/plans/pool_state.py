@@ -271,9 +271,8 @@ class PoolState:
 
     def _restore(self, snap: list[Route]) -> NDArray[np.bool_]:
         free = np.ones(self.w.size, dtype=bool)
-        for dr, (stops, e, w, ps) in zip(self.drones, snap, strict=True):
-            dr.stops, dr.energy, dr.weight, dr.psum = list(stops), e, w, ps
-            free[dr.cand[list(stops)]] = False
+        for dr, route in zip(self.drones, snap, strict=True):
+            self._put(dr, route, free)
         return free
 
     def _restore_some(self, snap: list[Route], users: list[int], free: NDArray[np.bool_]) -> None:
@@ -282,10 +281,14 @@ class PoolState:
             dr = self.drones[u]
             free[dr.cand[dr.stops]] = True
         for u in users:
-            dr = self.drones[u]
-            stops, dr.energy, dr.weight, dr.psum = snap[u]
-            dr.stops = list(stops)
-            free[dr.cand[dr.stops]] = False
+            self._put(self.drones[u], snap[u], free)
+
+    @staticmethod
+    def _put(dr: Drone, route: Route, free: NDArray[np.bool_]) -> None:
+        """Give ``dr`` the route ``route`` (its requests taken; ``dr``'s own were freed)."""
+        stops, dr.energy, dr.weight, dr.psum = route
+        dr.stops = list(stops)
+        free[dr.cand[dr.stops]] = False
 
     def _record(
         self, pool: list[dict[tuple[int, ...], float]], users: list[int] | None = None

@@ -146,17 +146,37 @@ def _readme_evaluate_line() -> list[str]:
     return re.sub(r"\[[^\]]*\]", "", cell.replace("\\|", "|")).split()
 
 
+def _one_district(example_csv: Path, out: Path) -> Path:
+    """The example's rows within about 4 km of its median point, as they are: an export
+    whose whole city is one hub (the example's is twelve)."""
+    lines = example_csv.read_text(encoding="utf-8").splitlines()
+    located = [
+        (line, float(f[4]), float(f[5]))
+        for line in lines[1:]
+        if re.fullmatch(r"[\d.]+", (f := line.split(","))[4]) and re.fullmatch(r"[\d.]+", f[5])
+    ]
+    lng = sorted(x for _, x, _ in located)[len(located) // 2]
+    lat = sorted(y for _, _, y in located)[len(located) // 2]
+    near = [line for line, x, y in located if abs(x - lng) < 0.04 and abs(y - lat) < 0.035]
+    out.write_text("\n".join([lines[0], *near]) + "\n", encoding="utf-8")
+    return out
+
+
 def test_the_readme_evaluate_line_runs(example_csv: Path, tmp_path: Path) -> None:
-    """As written (the default methods, --against myopic), on one held-out day."""
+    """As written (the default methods, --against myopic, every hub of the export), on
+    one held-out day of a district's export: one hub's 30 replays, not the example
+    city's 360."""
     words = _readme_evaluate_line()
     assert words[:3] == ["marops", "evaluate", "DATA"] and "--against" in words
     at = words.index("--split")
     words[at : at + 2] = ["--dates", "0811"]  # one day instead of the file's last 20 %
-    args = [{"DATA": str(example_csv), "DIR": str(tmp_path / "out")}.get(w, w) for w in words]
+    data = _one_district(example_csv, tmp_path / "district.csv")
+    args = [{"DATA": str(data), "DIR": str(tmp_path / "out")}.get(w, w) for w in words]
     res = runner.invoke(app, [*args[1:], "--no-plot"])
     assert res.exit_code == 0, res.output
     paired = (tmp_path / "out" / "paired.csv").read_text().splitlines()
     assert len(paired) > 1 and all(',"myopic",' in row for row in paired[1:])
+    assert [p.name for p in (tmp_path / "out" / "jobs").glob("hub=*")] == ["hub=0"]
 
 
 def test_against_outside_the_listed_methods_names_both_flags(
