@@ -242,6 +242,11 @@ DEPOTS: dict[str, Callable[[Path], None]] = {
     "text_position.json": _json(
         {"frame": FRAME, "depots": [{**DEPOT, "x_m": "12"}], "candidates": {"0": [0]}}
     ),
+    # Two frames, the first another city's: JSON keeps the last unsaid, marops refuses.
+    "two_frames.json": _text(
+        '{"frame": {"center_lng": 116.4}, '
+        + json.dumps({"frame": FRAME, "depots": [DEPOT], "candidates": {"0": [0]}})[1:]
+    ),
 }
 
 
@@ -350,6 +355,7 @@ FLEET: dict[str, Callable[[Path], None]] = {
     "fleet_huge_int.toml": _text("[counts]\ndefault = " + "1" * 5000 + "\n"),
     "fleet_bool_battery.json": _json({"types": {"a": {"battery_j": True}}, "counts": {"a": 2}}),
     "fleet_drone_colour.json": _json({"drones": [{"depot": 1, "color": "red"}]}),
+    "fleet_twice.json": _text('{"counts": {"default": 2}, "counts": {"default": 900}}'),
     "fleet_pipe.json": _pipe,
 }
 # What the one line names besides the file: the key, row or column at fault (any of a
@@ -422,6 +428,8 @@ NEEDLES: dict[str, str | tuple[str, ...]] = {
     "center_bools.toml": "key 'data.center'",
     "fleet_bool_battery.json": "types.a.battery_j",
     "fleet_drone_colour.json": "drones[0].color",
+    "fleet_twice.json": "the key 'counts' appears twice",
+    "two_frames.json": "the key 'frame' appears twice",
 }
 KINDS = {"data": DATA, "config": CONFIG, "depots": DEPOTS, "policy": POLICY, "fleet": FLEET}
 

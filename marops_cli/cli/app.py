@@ -126,7 +126,7 @@ def _run() -> int | str | None:
             raise
         ctx = getattr(exc, "ctx", None)
         hint = f" (see '{ctx.command_path} --help')" if ctx is not None else ""
-        text = " ".join(str(message()).split())
+        text = _named_source(" ".join(str(message()).split()), getattr(exc, "param", None))
         if text == "Missing command." and ctx is not None:  # a bare `marops`: name them
             text = f"Missing command: one of {', '.join(ctx.command.list_commands(ctx))}."
         typer.echo(f"marops: error: {text}{hint}", err=True)
@@ -135,6 +135,30 @@ def _run() -> int | str | None:
             error_json(_command_name(ctx), f"{text}{hint}", status)
         return status
     return code if isinstance(code, int) else 0
+
+
+def _named_source(text: str, param: Any) -> str:
+    """A bad value's line names where it came from: the environment variable only when
+    the value was read from it (click names it whenever the option has one), and the
+    value itself (``--drones abc``: ``, got 'abc'``)."""
+    opts = tuple(getattr(param, "opts", ()))
+    envvar = getattr(param, "envvar", None)
+    names = [envvar] if isinstance(envvar, str) else list(envvar or ())
+    args = sys.argv[1:]
+    given = None
+    for i, arg in enumerate(args[: args.index("--")] if "--" in args else args):
+        if arg in opts and i + 1 < len(args):
+            given = args[i + 1]
+        elif arg.split("=", 1)[0] in opts and "=" in arg:
+            given = arg.split("=", 1)[1]
+    for name in names:
+        if given is None and name in os.environ:
+            given = os.environ[name]
+        else:
+            text = text.replace(f" (env var: '{name}')", "")
+    if given is not None and text.startswith("Invalid value for") and "got " not in text:
+        text = f"{text.rstrip('.')}, got {given!r}"
+    return text
 
 
 def _wants_json(command: object) -> bool:

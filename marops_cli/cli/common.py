@@ -124,8 +124,9 @@ def stdin_file() -> Path:
     import tempfile
 
     if sys.stdin is None or sys.stdin.isatty():
+        what = "closed" if sys.stdin is None else "a terminal"
         raise InputError(
-            "DATA - reads the LaDe export from standard input, which is a terminal; "
+            f"DATA - reads the LaDe export from standard input, which is {what}; "
             "pipe it in (marops CMD - … < lade.csv)"
         )
     global _stdin_copy
@@ -320,6 +321,8 @@ def guarded(fn: F) -> F:
             # A use case interrupted after some of its work was written says what it
             # keeps in the exception's notes (marops_cli/app/replay_areas.py).
             stopped(exc, "; ".join(getattr(exc, "__notes__", ())), command)
+        except typer.Exit:  # the command's own end, a stop it reported included
+            raise
         except Exception:
             # SIGTERM or Ctrl-C inside a library's import (pandas's, loaded lazily by
             # pyarrow, which swallows the interruption) leaves that module half made,

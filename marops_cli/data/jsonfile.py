@@ -47,14 +47,26 @@ def read_small_text(path: str | Path, what: str, limit: int | None = None) -> st
 
 
 def parse_json(text: str | bytes) -> Any:
-    """``json.loads``; a document nested too deeply for the parser is a ``ValueError`` as
-    any malformed one is (numbers too long to convert already are: :func:`_long_number`)."""
+    """``json.loads``; a key given twice in an object, and a document nested too deeply
+    for the parser, are a ``ValueError`` as any malformed document is (numbers too long
+    to convert already are: :func:`_long_number`)."""
     try:
-        return json.loads(text)
+        return json.loads(text, object_pairs_hook=_unique_keys)
     except RecursionError:
         raise ValueError("nested too deeply") from None
     except ValueError as exc:
         raise _long_number(exc) from None
+
+
+def _unique_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+    """A JSON object as a dict; a key given twice in it is a ``ValueError``, as TOML's
+    parser has it (``json`` would keep the last value unsaid)."""
+    doc: dict[str, Any] = {}
+    for key, value in pairs:
+        if key in doc:
+            raise ValueError(f"the key {key!r} appears twice in one object")
+        doc[key] = value
+    return doc
 
 
 def parse_toml(text: str) -> dict[str, Any]:

@@ -254,6 +254,10 @@ def _csv_error(
         column = names[int(m.group(1))] if m and int(m.group(1)) < len(names) else None
         row = _first_non_utf8_line(path, compression)
         return InputError("not UTF-8 text", file=path, row=row, column=column)
+    if "straddles two block boundaries" in msg:  # a row longer than a parser block
+        row = _first_long_line(path, compression, _BLOCK_BYTES)
+        mib = _BLOCK_BYTES >> 20
+        return InputError(f"a row longer than {mib} MiB (a LaDe row is short)", file=path, row=row)
     # Only the single-threaded parser reports the row; the error path can afford it.
     try:
         retry()
@@ -263,6 +267,22 @@ def _csv_error(
     row = int(m.group(1)) if m else None  # pyarrow counts the header as row 1 too
     msg = re.sub(r"Row #\d+: ", "", msg.removeprefix("CSV parse error: ")).strip()
     return InputError(f"not a valid CSV file: {msg}", file=path, row=row)
+
+
+def _first_long_line(path: Path, compression: str | None, limit: int) -> int | None:
+    """The number of the first line of more than ``limit`` bytes, read a block at a time
+    (such a line is never held whole)."""
+    number, length = 1, 0
+    with _stream(path, compression) as f:
+        while block := f.read(1 << 20):
+            for part in block.split(b"\n")[:-1]:
+                if length + len(part) > limit:
+                    return number
+                number, length = number + 1, 0
+            length += len(block) - block.rfind(b"\n") - 1 if b"\n" in block else len(block)
+            if length > limit:
+                return number
+    return None
 
 
 def _first_non_utf8_line(path: Path, compression: str | None) -> int | None:

@@ -44,6 +44,8 @@ class OutputSet:
         self.placed: dict[Path, os.stat_result] = {}
         """Each file committed, with what it was as it was renamed into place (a run
         checks later that a day's files are still the ones it wrote)."""
+        self._made: list[Path] = []
+        """Folders made for the files, removed again if empty when the set is discarded."""
 
     def path_for(self, final: str | Path, journal: bool = False) -> Path:
         """A temporary for ``final``; ``journal``: ``final`` goes into its folder's
@@ -51,6 +53,10 @@ class OutputSet:
         without marops metadata, such as ``synth``'s data)."""
         final = Path(final)
         check_replaceable([final], journal)
+        folder = final.absolute().parent
+        while not folder.exists() and folder != folder.parent:
+            self._made.append(folder)
+            folder = folder.parent
         try:
             final.parent.mkdir(parents=True, exist_ok=True)
             tmp = temporary(final.parent, final.name)
@@ -132,6 +138,10 @@ class OutputSet:
             tmp.unlink(missing_ok=True)
             settled(tmp)
         self._pending.clear()
+        for folder in sorted(self._made, key=lambda p: len(p.parts), reverse=True):
+            with contextlib.suppress(OSError):  # one that holds something stays
+                folder.rmdir()
+        self._made.clear()
 
 
 @contextmanager

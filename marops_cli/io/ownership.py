@@ -154,6 +154,11 @@ def check_replaceable(paths: Iterable[Path], journal: bool = False) -> None:
             check_not_input(final)
             if final.is_dir():  # renaming a file onto it would fail after the work
                 raise InputError("is a folder, expected a file name", file=final)
+            if _special(final):  # a pipe or a device is no output, --force or not
+                raise InputError(
+                    "is a pipe, a socket or a device, not a file marops may replace",
+                    file=final,
+                )
             # A pipe, a device or a dangling symlink is no file marops wrote, and reading
             # one to find out could block.
             foreign = (
@@ -170,6 +175,17 @@ def check_replaceable(paths: Iterable[Path], journal: bool = False) -> None:
             )
         if (journal or needs_journal(final)) and not _REPLACE_FOREIGN.get():
             _check_journal(final.parent)
+
+
+def _special(path: Path) -> bool:
+    """Whether ``path`` itself (not a link's target) is a pipe, a socket or a device."""
+    import stat
+
+    try:
+        mode = os.lstat(path).st_mode
+    except OSError:  # absent, or below a file: judged where the folder is made
+        return False
+    return not (stat.S_ISREG(mode) or stat.S_ISDIR(mode) or stat.S_ISLNK(mode))
 
 
 def _check_journal(folder: Path) -> None:

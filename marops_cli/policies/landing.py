@@ -489,7 +489,27 @@ def load_landing_actor(path: Path, side: Any, sidecar: Path) -> LandingActor:
     if not np.isfinite(weight).all():
         raise InputError("NaN or infinite weights", file=path, column="weight")
     check_weight_range(float(np.abs(weight).max()), path, "weight")
+    _check_listed_weights(side, sidecar, weight, path)
     return LandingActor(weight, trained_for=read.operating_model, path=path)
+
+
+def _check_listed_weights(side: Any, sidecar: Path, weight: np.ndarray, path: Path) -> None:
+    """Refuse a sidecar whose ``weight`` (the weights ``marops train`` lists, to 6
+    decimals) are not those of the weights file ``path``: the sidecar of another actor
+    (docs/method.md §6). A sidecar without the key (written by hand) says nothing."""
+    listed = side.get("weight") if isinstance(side, dict) else None
+    if listed is None:
+        return
+    try:
+        said = np.asarray(listed, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise InputError("expected a list of numbers", file=sidecar, column="weight") from None
+    if said.shape != weight.shape or not np.allclose(said, weight, rtol=1e-6, atol=1e-5):
+        raise InputError(
+            f"not the weights of {path.name} (the sidecar of another actor?)",
+            file=sidecar,
+            column="weight",
+        )
 
 
 @functools.cache

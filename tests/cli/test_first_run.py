@@ -54,6 +54,34 @@ def test_a_bad_value_names_its_flag(
     assert "plan.alpha" not in line and "1.5" in line
 
 
+def test_a_value_click_refuses_is_quoted_with_where_it_came_from(
+    example_csv: Path, tmp_path: Path
+) -> None:
+    """``--drones abc``: the line quotes the value and names the environment variable
+    only when the value came from it."""
+    import os
+    import subprocess
+    import sys
+
+    main = "from marops_cli.cli.app import main; main()"
+    base = [sys.executable, "-c", main, "replay-day", str(example_csv), "--date", "0811"]
+    env = {k: v for k, v in os.environ.items() if k != "MAROPS_DRONES"}
+    for i, (extra, environ, needles, absent) in enumerate(
+        (
+            (["--drones", "abc"], env, ("'--drones'", "got 'abc'"), "env var"),
+            (["--drones=x2"], {**env, "MAROPS_DRONES": "7"}, ("got 'x2'",), "env var"),
+            ([], {**env, "MAROPS_DRONES": "abc"}, ("env var: 'MAROPS_DRONES'", "got 'abc'"), "x2"),
+        )
+    ):
+        out = tmp_path / f"out{i}"
+        res = subprocess.run(
+            [*base, *extra, "--out", str(out)], capture_output=True, text=True, env=environ
+        )
+        (line,) = res.stderr.splitlines()
+        assert res.returncode == 2 and not out.exists()
+        assert all(n in line for n in needles) and absent not in line, line
+
+
 def test_a_range_written_with_a_dash_gets_a_hint(
     example_csv: Path, tmp_path: Path, fails_cleanly
 ) -> None:
@@ -95,6 +123,22 @@ def test_empty_standard_input_is_one_line(tmp_path: Path, fails_cleanly) -> None
     )
     out = str(tmp_path / "a.pt")
     fails_cleanly(["train", "-", "--out", out], tmp_path, "standard input")
+
+
+def test_closed_standard_input_is_called_closed(tmp_path: Path) -> None:
+    """``-`` with standard input closed (a cron line's ``<&-``): one line saying so, not
+    that it is a terminal."""
+    import shlex
+    import subprocess
+    import sys
+
+    main = "from marops_cli.cli.app import main; main()"
+    args = [sys.executable, "-c", main, "segment", "-", "--out", str(tmp_path / "d.json")]
+    cmd = shlex.join(args) + " <&-"
+    res = subprocess.run(["bash", "-c", cmd], capture_output=True, text=True)
+    assert res.returncode == 2 and not (tmp_path / "d.json").exists()
+    (line,) = res.stderr.splitlines()
+    assert "standard input, which is closed" in line
 
 
 def test_standard_input_beyond_the_cap_is_one_line_and_no_copy_stays(

@@ -268,6 +268,16 @@ def test_not_a_lade_file(tmp_path: Path) -> None:
     assert "not a LaDe delivery file" in str(err.value)
 
 
+def test_a_row_longer_than_a_parser_block_is_named(tmp_path: Path) -> None:
+    """A field of 33 MiB in the third data row (row 4 with the header): one line naming
+    the row and the bound, not the parser's words about block boundaries."""
+    rows = [*CLEAN[:2], row("1004", city="x" * (33 << 20)), CLEAN[2]]
+    path = write_csv(tmp_path / "long.csv", rows)
+    with pytest.raises(InputError) as err:
+        read_lade(path, DataConfig())
+    assert err.value.row == 4 and "a row longer than 16 MiB" in err.value.message
+
+
 def test_binary_file(tmp_path: Path) -> None:
     path = tmp_path / "image.png"
     path.write_bytes(b"\x89PNG\r\n\x1a\n\x00\x00\x00\rIHDR" + bytes(range(256)))

@@ -204,6 +204,9 @@ def test_ctrl_c_exits_130_keeps_finished_jobs_and_prints_no_traceback(
     assert code == 130, err
     assert "Traceback" not in err and "KeyboardInterrupt" not in err
     assert "run the same command again to resume" in err
+    # one line says it, the last: a script's `tail -1` keeps the hint
+    said = [line for line in err.splitlines() if line.startswith("marops: interrupted")]
+    assert len(said) == 1 and err.splitlines()[-1] == said[0], err
     kept = len(list(jobs.rglob("*.parquet")))
     assert kept >= 1 and not (out / "results.parquet").exists()
     assert f"{kept} of 8 replays are kept" in err

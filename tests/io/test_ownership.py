@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import os
 import shutil
+import stat
 import subprocess
 import sys
 from pathlib import Path
@@ -202,20 +203,27 @@ def test_a_broken_journal_makes_nothing_marops_s(tmp_path: Path) -> None:
         assert not written_by_marops(fig)
 
 
-@pytest.mark.parametrize("kind", ["pipe", "dangling symlink"])
-def test_an_entry_that_is_no_regular_file_is_never_marops_s(tmp_path: Path, kind: str) -> None:
-    """A pipe or a dangling symlink where an output goes is someone else's: refused
-    without --force, and judged without opening it (a pipe would block the read)."""
+def test_a_dangling_symlink_is_never_marops_s(tmp_path: Path) -> None:
+    """A dangling symlink where an output goes is someone else's: refused without
+    --force."""
     target = tmp_path / "stops.parquet"
-    if kind == "pipe":
-        os.mkfifo(target)
-    else:
-        target.symlink_to(tmp_path / "nowhere")
+    target.symlink_to(tmp_path / "nowhere")
     with pytest.raises(InputError, match="stops.parquet: exists and was not written by marops"):
         check_replaceable([target])
     with replacing_foreign_files(True):
         check_replaceable([target])
     assert os.path.lexists(target)
+
+
+def test_a_pipe_where_an_output_goes_is_refused_even_with_force(tmp_path: Path) -> None:
+    """A named pipe (or a device) is no file to replace: refused with --force too, and
+    judged without opening it (a pipe would block the read)."""
+    target = tmp_path / "stops.parquet"
+    os.mkfifo(target)
+    for force in (False, True):
+        with replacing_foreign_files(force), pytest.raises(InputError, match="is a pipe"):
+            check_replaceable([target])
+    assert stat.S_ISFIFO(os.lstat(target).st_mode)
 
 
 def test_a_folder_or_a_loop_where_a_file_goes_is_refused_before_the_work(tmp_path: Path) -> None:

@@ -69,6 +69,29 @@ def test_a_failed_write_names_the_file(tmp_path: Path, code: int, reason: str) -
     assert list(tmp_path.iterdir()) == []  # nothing half-written stays
 
 
+def test_a_failed_set_removes_the_folders_it_made_and_no_other(tmp_path: Path) -> None:
+    """The folders made for a set that fails go with it (a full disk left ``a/b``
+    behind), the ones that were there stay, and so does one that now holds a user's file."""
+    (tmp_path / "kept").mkdir()
+    (tmp_path / "x" / "y").mkdir(parents=True)
+    user = tmp_path / "x" / "y" / "notes.txt"
+
+    def fails(tmp: Path) -> None:
+        user.write_text("mine")  # another program writes into a folder meanwhile
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+    with pytest.raises(RunError), output_set() as files:
+        files.write_bytes(tmp_path / "kept" / "a" / "b" / "one.csv", b"1")
+        files.write_bytes(tmp_path / "x" / "y" / "z" / "two.csv", b"2")
+        files.write_with(tmp_path / "x" / "y" / "three.csv", fails)
+    assert sorted(p.relative_to(tmp_path).as_posix() for p in tmp_path.rglob("*")) == [
+        "kept",
+        "x",
+        "x/y",
+        "x/y/notes.txt",
+    ]
+
+
 def test_a_full_disk_while_writing_names_the_file(tmp_path: Path) -> None:
     final = tmp_path / "routes.png"
 

@@ -374,3 +374,23 @@ def test_cli_refuses_another_model(example_csv: Path, tmp_path: Path) -> None:
     lines = res.output.strip().splitlines()
     assert len(lines) == 1 and "'stock=home, batteries, busy'" in lines[0] and "'paper'" in lines[0]
     assert not (tmp_path / "out").exists()
+
+
+def test_the_shipped_sidecar_beside_other_weights_is_refused(tmp_path: Path) -> None:
+    """The sidecar `marops train` writes lists the weights (to 6 decimals): the shipped
+    actor's loads with its own, and beside another actor's weights of the same shape it
+    is refused, naming the sidecar's key."""
+    from safetensors.numpy import load_file, save_file
+
+    shipped = Path(__file__).resolve().parents[2] / "policies" / "marops-ops.safetensors"
+    side = json.loads(shipped.with_suffix(".json").read_text(encoding="utf-8"))
+    own = load_file(str(shipped))["weight"]
+    for name, weight in (("same", own), ("other", own + np.float32(0.001))):
+        save_file({"weight": weight}, str(tmp_path / f"{name}.safetensors"))
+        (tmp_path / f"{name}.json").write_text(json.dumps(side), encoding="utf-8")
+    actor = make_policy(str(tmp_path / "same.safetensors"), model=REALISTIC)
+    assert isinstance(actor, LandingActor)
+    with pytest.raises(InputError) as err:
+        make_policy(str(tmp_path / "other.safetensors"), model=REALISTIC)
+    assert err.value.file == str(tmp_path / "other.json") and err.value.column == "weight"
+    assert "not the weights of other.safetensors" in err.value.message
