@@ -331,7 +331,12 @@ def _checked(use: str | None = None) -> Callable[[F], F]:
         @functools.wraps(fn)
         def call(*args: Any, **kwargs: Any) -> Any:
             from .errors import InputError, bad_path, keyword
+            from .workers.pool import not_in_a_starting_worker
 
+            # A worker importing a script without a main guard stops at its first call
+            # (the parent says why), not at the one that asks for workers: it would run
+            # what comes before that, and the pool start another in its place, for ever.
+            not_in_a_starting_worker()
             sig = checks.signature()
             try:
                 bound = sig.bind(*args, **kwargs)

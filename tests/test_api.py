@@ -308,19 +308,25 @@ def test_api_figures_leave_the_callers_matplotlib_backend(
     assert (tmp_path / "depots.png").is_file() and (tmp_path / "day" / "routes.png").is_file()
 
 
+@pytest.mark.parametrize("before", ["", "replay_day"])
 def test_api_workers_in_an_unguarded_script_stop_with_the_reason(
-    example_csv: Path, tmp_path: Path
+    example_csv: Path, tmp_path: Path, before: str
 ) -> None:
     # Python's multiprocessing has each worker import the script that started it: one
     # that calls evaluate() outside `if __name__ == "__main__":` fails, naming the
     # remedy once: the parent's one traceback, none from a worker, no Broken pipe's.
+    # A call before it (a day replayed) stops a starting worker too: it was run by each
+    # worker, which the pool replaced as it stopped, for ever.
     import subprocess
     import sys
 
     script = tmp_path / "unguarded.py"
+    data = repr(str(example_csv))
+    first = f"api.replay_day({data}, '0811', area='square')\n" if before else ""
     script.write_text(
         "from marops_cli import api\n"
-        f"api.evaluate({str(example_csv)!r}, methods='stay,ops-global', dates='0811', workers=2)\n"
+        + first
+        + f"api.evaluate({data}, methods='stay,ops-global', dates='0811', workers=2)\n"
     )
     env = {**os.environ, "MAROPS_CACHE_DIR": str(tmp_path / "cache"), "PYTHONWARNINGS": "ignore"}
     done = subprocess.run(

@@ -212,7 +212,13 @@ def evaluate(
         hubs=config.hubs,
         cache=not in_memory(data),  # a table in memory: no depots cache written
     )
-    drop_report(progress, prep.source.report, prep.source.source.name)
+    drop_report(progress, prep.source, prep.source.source.name)
+    if prep.hubs and config.hubs is None:
+        from ..segment.hubs import outside_warning
+
+        far = outside_warning(prep.source, prep.hubs, prep.days)
+        if far is not None:
+            progress.warning(far)
     if prep.skipped:
         left = ", ".join(d.isoformat() for d in prep.skipped)
         where = "any hub's square" if prep.hubs else "the study area"

@@ -6,16 +6,26 @@ from __future__ import annotations
 import datetime as dt
 from typing import Any
 
-from ..data.table import DropReport
+from ..data.table import LadeTable
 from .progress import Progress
 
 UNDELIVERED_WARN = 0.10
 """Share of a day's requests left undelivered above which a run warns."""
 
 
-def drop_report(progress: Progress, report: DropReport, name: str) -> None:
-    """Which rows were dropped and why (docs/method.md §1)."""
-    progress.message(report.describe(name))
+def drop_report(progress: Progress, table: LadeTable, name: str) -> None:
+    """Which rows were dropped and why (docs/method.md §1), and a warning when kept rows
+    share an order id: each is planned as an order of its own, which an export's repeated
+    upload with other times or positions would deliver twice."""
+    progress.message(table.report.describe(name))
+    ids = table.order_id
+    repeated = len(ids) - len(set(ids.tolist()))
+    if repeated:
+        progress.warning(
+            f"{name}: {repeated:,} kept {'row repeats' if repeated == 1 else 'rows repeat'} "
+            "an earlier row's order_id with other times or positions; each is planned as "
+            "an order of its own"
+        )
 
 
 def day_scope(progress: Progress, scope: Any, cfg: Any, label: str = "") -> None:

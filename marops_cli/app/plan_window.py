@@ -147,7 +147,7 @@ def plan_window(
     check_window(window, cfg)  # as the planner would, naming the option as its caller does
     plan, reqs = plan_one_window(scn, day, window, drones, pol, done)
     scope = DayScope.of(reqs)
-    drop_report(progress, scn.table.report, data_name(data))
+    drop_report(progress, scn.table, data_name(data))
     day_scope(progress, scope, cfg)
     unservable_requests(progress, day, reqs, scn.depots.xy, list(dict.fromkeys(drones.models())))
     stops, routes = route_tables(scn, reqs, [plan], drones, method)

@@ -45,8 +45,11 @@ class Silent:
         return None
 
     def warning(self, text: str) -> None:
-        # Said at the caller's line (``day = api.replay_day(...)``), not inside marops.
-        warnings.warn(text, stacklevel=_caller_level())
+        from ..errors import keyword, spelled
+
+        # Said at the caller's line (``day = api.replay_day(...)``), not inside marops,
+        # naming an option by its keyword (marops_cli/errors.py).
+        warnings.warn(spelled(text, keyword), stacklevel=_caller_level())
 
     def start(self, label: str, total: int, unit: str) -> None:
         return None

@@ -215,7 +215,7 @@ def _one_area(
     # The fleet file and the days already in ``out`` are checked before the drop report:
     # an error is the only line a failed run prints.
     area = make_area(scn, out, days, several, fleet, run, given)
-    drop_report(progress, scn.table.report, data_name(data))
+    drop_report(progress, scn.table, data_name(data))
     rows, tables = _replay_areas([area], run, progress)
     return ReplayResult(rows[0], aggregate_days(rows[0]), tables, None, out, area.written)
 

@@ -37,10 +37,12 @@ def replay_hubs(
     table = read_data(data, cfg.data)
     check_days_in_file(table, days)
     history = hubs_history(table, days)
+    far = None
     if hubs_path is None:
-        from ..segment.hubs import place_hubs
+        from ..segment.hubs import outside_warning, place_hubs
 
         hub_list = place_hubs(table, cfg, history, cfg.segment.n_depots)
+        far = outside_warning(table, hub_list, days)
     else:
         hub_list = load_hubs(hubs_path, cfg.data)
     hub_list = city_fleet(table, hub_list, history, cfg)
@@ -69,7 +71,9 @@ def replay_hubs(
         area.report_top = out  # the city's pages share one plotly.js (docs/report.md)
         areas.append(area)
     # Said once every hub's fleet and folder passed: an error is a failed run's only line.
-    drop_report(progress, table.report, data_name(data))
+    drop_report(progress, table, data_name(data))
+    if far is not None:
+        progress.warning(far)
     for line in skipped:
         progress.message(line)
     with ExitStack() as held:

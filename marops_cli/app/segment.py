@@ -107,7 +107,7 @@ def segment(
         res = segment_table(read_data(data, cfg.data), cfg, day_list)
     finally:
         progress.finish()
-    drop_report(progress, res.table.report, data_name(data))
+    drop_report(progress, res.table, data_name(data))
     _far_depots(progress, res.depots, res.history_xy)
     # No time stamp: the runs that read a depots file record its SHA-256 and keep their
     # days only while it matches, so segmenting again the same way gives the same bytes.
@@ -231,7 +231,7 @@ def segment_hubs(
     day_list = history_days(days, cfg.data.year)
     table = read_data(data, cfg.data)
     found, total = find_hubs(table, cfg.data, day_list, n_hubs)
-    drop_report(progress, table.report, data_name(data))
+    drop_report(progress, table, data_name(data))
     used = day_list or table.days()
     meta = run_meta(  # no time stamp, as a depots file's
         command="segment",

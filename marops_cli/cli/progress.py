@@ -16,6 +16,7 @@ from rich.progress import (
     TimeRemainingColumn,
 )
 
+from ..errors import spelled
 from .common import PLAIN, STATE, console, info, is_terminal, warn
 
 
@@ -33,7 +34,7 @@ class Terminal:
         info(text)
 
     def warning(self, text: str) -> None:
-        warn(text)
+        warn(spelled(text))  # an option named by its flag (marops_cli/errors.py)
 
     def start(self, label: str, total: int, unit: str) -> None:
         """A bar of ``total`` steps on a terminal; ``total`` 0: a spinner."""

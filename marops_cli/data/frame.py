@@ -101,8 +101,9 @@ def _square_grid(
     if not keep.any():
         raise InputError(
             "the requests are scattered: none lies within 150 km of their median position "
-            f"({ref.center_lng:.3f}, {ref.center_lat:.3f}); set [data] center or --center "
-            "to place the study area",
+            f"({ref.center_lng:.3f}, {ref.center_lat:.3f}); place the study area with [data] "
+            "center in a config file (segment: --center), or plan each city from a file of "
+            "its own",
             column="lng",
         )
     x, y = x[keep], y[keep]

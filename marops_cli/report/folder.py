@@ -127,6 +127,8 @@ def _local(value: Any) -> dt.datetime:
 def metrics(folder: Path) -> dict[str, Any] | None:
     """``folder/metrics.json`` (None when absent); a day's metric the page shows as a
     number that is none (edited to text) is one line naming the file and key."""
+    from math import inf
+
     from ..config import clipped
     from ..sim.metrics import DAY_METRICS
 
@@ -144,9 +146,13 @@ def metrics(folder: Path) -> dict[str, Any] | None:
             raise InputError("expected a day's metrics (an object)", file=path, column=at[:-1])
         for key, value in record.items():
             number = isinstance(value, int | float) and not isinstance(value, bool)
-            if key in numbers and value is not None and not number:
+            # Every day metric is finite as marops writes it, and all but G not negative.
+            low = -inf if key == "objective_g_mj" else 0.0
+            if key in numbers and value is not None and (not number or not low <= value < inf):
+                kind = "a number" if not number else "a finite number"
+                kind += " of at least 0" if number and low == 0 else ""
                 raise InputError(
-                    f"expected a number, got {clipped(repr(value))}: edited since marops wrote it",
+                    f"expected {kind}, got {clipped(repr(value))}: edited since marops wrote it",
                     file=path,
                     column=at + key,
                 )

@@ -249,6 +249,27 @@ def hub_demand(table: LadeTable, hubs: Sequence[Hub], days: Sequence[dt.date]) -
     return [int(c) for c in counts]
 
 
+OUTSIDE_WARNING = 0.05
+"""The share of the orders due that, outside every hub the run placed, it warns of."""
+
+
+def outside_warning(table: LadeTable, hubs: Sequence[Hub], days: Sequence[dt.date]) -> str | None:
+    """A warning when at least :data:`OUTSIDE_WARNING` of the orders due on ``days`` lie
+    outside every hub placed (another city in the export, scattered points): the run
+    leaves them out, and its figures per hub would not show it."""
+    on = np.isin(table.delivery_day, np.array(list(days), dtype="datetime64[D]"))
+    total = int(on.sum())
+    outside = int((on & (hub_owner(table, hubs) < 0)).sum())
+    if not total or outside < OUTSIDE_WARNING * total:
+        return None
+    return (
+        f"{outside:,} of the {total:,} orders due ({outside / total:.0%}) lie outside every "
+        "hub, and are left out: hubs are placed within 150 km of the export's median point, "
+        "where at least 1 % of its orders are; give another city a file of its own, or name "
+        f"its squares in a hubs file ({option('hubs')})"
+    )
+
+
 def place_hubs(
     table: LadeTable, cfg: PlannerConfig, history: Sequence[dt.date], n_depots: int
 ) -> list[Hub]:

@@ -53,7 +53,7 @@ _MAIN_GUARD = (
 )
 
 
-def _not_in_a_starting_worker() -> None:
+def not_in_a_starting_worker() -> None:
     """A worker importing the main script as it starts (as Python's multiprocessing
     does), asked there for workers of its own, stops at once and quietly (exit 1): the
     script it imports has no main guard, which the parent says, once, as its pool finds
@@ -132,7 +132,7 @@ def warm_up(modules: Sequence[str]) -> None:
     group) neither stops its imports with a traceback nor reaches a worker it forks
     before the worker is set up: the parent alone handles it, and stops the workers."""
     global _server_started
-    _not_in_a_starting_worker()
+    not_in_a_starting_worker()
     ctx = _context()
     if ctx.get_start_method() != "forkserver":
         return
@@ -187,7 +187,7 @@ class LocalPool:
         if workers <= 1:
             _init(work)
             return
-        _not_in_a_starting_worker()
+        not_in_a_starting_worker()
         _main_importable()
         warm_up(work.preload)
         try:

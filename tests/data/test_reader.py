@@ -707,3 +707,28 @@ def test_ds_is_optional_and_may_be_empty_or_float(tmp_path: Path) -> None:
         table = read_lade(tmp_path / name, DataConfig())
         assert len(table) == 3
         assert [d.isoformat() for d in table.days()] == ["2022-08-20"]
+
+
+def test_kept_rows_that_repeat_an_order_id_are_warned_of(tmp_path: Path) -> None:
+    """A row repeating an order id with other times is kept (only exact repeats are
+    dropped) and planned as an order of its own: the run says how many there are."""
+    from marops_cli.app.messages import drop_report
+
+    class Said:
+        def __init__(self) -> None:
+            self.messages: list[str] = []
+            self.warnings: list[str] = []
+
+        def message(self, text: str) -> None:
+            self.messages.append(text)
+
+        def warning(self, text: str) -> None:
+            self.warnings.append(text)
+
+    again = row("1002", "121.4810", "31.2400", "08-20 09:40:00", "08-20 11:30:00")
+    for rows, warned in ((CLEAN, []), ([*CLEAN, again, CLEAN[0]], ["1 kept row repeats"])):
+        table = read_lade(write_csv(tmp_path / "d.csv", rows), DataConfig())
+        said = Said()
+        drop_report(said, table, "d.csv")  # type: ignore[arg-type]
+        assert [w[len("d.csv: ") :][:18] for w in said.warnings] == warned
+        assert len(said.messages) == 1

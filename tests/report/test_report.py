@@ -225,7 +225,15 @@ def test_marops_report_names_a_missing_stops_file(day_run: Path, tmp_path: Path)
 
 
 @pytest.mark.parametrize(
-    "edit", ["times-as-numbers", "drone-as-text", "column-dropped", "text-metric"]
+    "edit",
+    [
+        "times-as-numbers",
+        "drone-as-text",
+        "column-dropped",
+        "text-metric",
+        "nan-metric",
+        "negative-count",
+    ],
 )
 def test_marops_report_on_an_edited_column_is_one_line(
     day_run: Path, tmp_path: Path, edit: str
@@ -238,11 +246,16 @@ def test_marops_report_on_an_edited_column_is_one_line(
     copy = tmp_path / "copy"
     shutil.copytree(day_run, copy)
     routes = pq.read_table(copy / "routes.parquet")
-    if edit == "text-metric":
+    if edit.endswith(("metric", "count")):  # NaN is Python's JSON, not the standard's
+        key, value = {
+            "text-metric": ("avg_delay_h", "lots"),
+            "nan-metric": ("avg_delay_h", float("nan")),
+            "negative-count": ("delivered", -5),
+        }[edit]
         doc = json.loads((copy / "metrics.json").read_text())
-        doc["days"][0]["avg_delay_h"] = "lots"
+        doc["days"][0][key] = value
         (copy / "metrics.json").write_text(json.dumps(doc))
-        file, column = "metrics.json", "key 'days[0].avg_delay_h'"
+        file, column = "metrics.json", f"key 'days[0].{key}'"
     else:
         name = {"times-as-numbers": "window_start"}.get(edit, "drone")
         i = routes.schema.get_field_index(name)
@@ -754,3 +767,18 @@ def test_the_city_map_draws_what_the_files_hold_and_leaves_out_the_rest(tmp_path
     assert "3 hubs: 100 orders due, 40 delivered (40.0 % of orders due)." in html
     assert "Not drawn (no square in their files): hubs 2." in html
     assert '<a href="hub-2/report.html">report</a>' in html
+
+
+def test_the_city_map_draws_a_hub_with_nothing_due_that_day() -> None:
+    """A hub of the city where no order was due on the day has no delivered share: its
+    square is grey and the map is drawn (plotly refused the None among the colours, and a
+    real city run's report failed)."""
+    from marops_cli.data.frame import Frame
+    from marops_cli.report.citymap import CityHub, city_map_figure
+
+    busy = CityHub(0, Frame(121.40, 31.20, 10.0), {"orders_due": 40, "delivered": 30}, 8, "hub-0/")
+    idle = CityHub(1, Frame(121.50, 31.20, 10.0), {"orders_due": 0, "delivered": 0}, 8, "hub-1/")
+    fig = city_map_figure([busy, idle])
+    (labels,) = [t for t in fig.data if t.name == "hubs"]
+    assert list(labels.marker.color) == [0.75, 0.0]
+    assert [t.line.color for t in fig.data if t.name == "hub 1"] == ["rgb(150,150,150)"]

@@ -36,14 +36,17 @@ def points_table() -> Callable[..., LadeTable]:
 
 def moved_example(example_csv: Path, out: Path, place) -> Path:  # noqa: ANN001
     """The example's first 300 rows written to ``out`` with row k at ``place(k)``, a
-    (lng, lat) pair: a town of one's own shape from real rows."""
+    (lng, lat) pair: a town of one's own shape from real rows. A row repeating an
+    earlier one (the example has exact repeats) goes where that one went, and stays a
+    repeat the reader drops."""
     lines = example_csv.read_text().splitlines()
     head = lines[0].split(",")
-    ilng, ilat = head.index("lng"), head.index("lat")
+    ilng, ilat, iid = head.index("lng"), head.index("lat"), head.index("order_id")
     rows = []
+    first: dict[str, int] = {}
     for k, line in enumerate(lines[1:301]):
         cells = line.split(",")
-        lng, lat = place(k)
+        lng, lat = place(first.setdefault(cells[iid], k))
         cells[ilng], cells[ilat] = f"{lng:.6f}", f"{lat:.6f}"
         rows.append(",".join(cells))
     out.write_text("\n".join([lines[0], *rows]) + "\n")

@@ -70,6 +70,29 @@ def test_an_order_belongs_to_the_first_hub_that_holds_it(points_table):
     assert owner.tolist() == [0, 0, 1, -1]
 
 
+def test_a_run_warns_when_many_orders_lie_outside_every_hub(points_table):
+    """Orders outside every hub placed (another city) are left out: at 5 % of the day's
+    orders and above the run says how many, naming the hubs file as the way to plan
+    them; below, nothing."""
+    import datetime as dt
+
+    from marops_cli.errors import spelled
+    from marops_cli.segment.hubs import outside_warning
+
+    ref = Frame(LNG, LAT, 10.0)
+    day = [dt.date(1970, 1, 1)]  # the points' orders are due at time 0
+    hub = [Hub(0, Frame(LNG, LAT, 2.0))]
+    for n, said in ((21, None), (20, "1 of the 20 orders due (5%) lie outside every hub")):
+        x = np.r_[np.zeros(n - 1), 300_000.0]  # one order 300 km east: another city
+        table = points_table(*ref.to_lnglat(x, np.zeros(n)))
+        warning = outside_warning(table, hub, day)
+        if said is None:
+            assert warning is None
+        else:
+            assert warning is not None and said in warning
+            assert "--hubs" in spelled(warning) and "are left out" in warning
+
+
 @pytest.mark.parametrize(
     ("doc", "column", "needle"),
     [
