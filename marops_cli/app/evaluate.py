@@ -216,7 +216,7 @@ def evaluate(
     if prep.hubs and config.hubs is None:
         from ..segment.hubs import outside_warning
 
-        far = outside_warning(prep.source, prep.hubs, prep.days)
+        far = outside_warning(prep.source, prep.hubs, prep.days, cfg.data.hub_min_share)
         if far is not None:
             progress.warning(far)
     if prep.skipped:

@@ -42,7 +42,7 @@ def replay_hubs(
         from ..segment.hubs import outside_warning, place_hubs
 
         hub_list = place_hubs(table, cfg, history, cfg.segment.n_depots)
-        far = outside_warning(table, hub_list, days)
+        far = outside_warning(table, hub_list, days, cfg.data.hub_min_share)
     else:
         hub_list = load_hubs(hubs_path, cfg.data)
     hub_list = city_fleet(table, hub_list, history, cfg)

@@ -80,6 +80,10 @@ def _median_lng(lng: np.ndarray) -> float:
     return float(_wrap(np.array(np.median(np.mod(lng, 360.0)))))
 
 
+REACH_M = 150_000.0
+"""How far from the points' median (east-west and north-south) a study area or a hub
+is sought: points beyond it (another city, a bad fix) would only blow up the grid."""
+
 MAX_GRID_CELLS = 16_000_000
 """Cells the densest-square search may count (128 MB, and as much for its sums): a 10 m
 step over 40 km."""
@@ -96,11 +100,11 @@ def _square_grid(
         raise ValueError("no points to place a study area on")
     ref = Frame(_median_lng(lng), float(np.median(lat)), size_km)
     x, y = ref.to_xy(lng, lat)
-    # Points far from the bulk (another city, a bad fix) would only blow up the grid.
-    keep = (np.abs(x) <= 150_000) & (np.abs(y) <= 150_000)
+    keep = (np.abs(x) <= REACH_M) & (np.abs(y) <= REACH_M)
     if not keep.any():
         raise InputError(
-            "the requests are scattered: none lies within 150 km of their median position "
+            f"the requests are scattered: none lies within {REACH_M / 1000:g} km of their "
+            "median position "
             f"({ref.center_lng:.3f}, {ref.center_lat:.3f}); place the study area with [data] "
             "center in a config file (segment: --center), or plan each city from a file of "
             "its own",

@@ -275,11 +275,12 @@ def _first_long_line(path: Path, compression: str | None, limit: int) -> int | N
     number, length = 1, 0
     with _stream(path, compression) as f:
         while block := f.read(1 << 20):
-            for part in block.split(b"\n")[:-1]:
+            *ended, rest = block.split(b"\n")
+            for part in ended:
                 if length + len(part) > limit:
                     return number
                 number, length = number + 1, 0
-            length += len(block) - block.rfind(b"\n") - 1 if b"\n" in block else len(block)
+            length += len(rest)  # the line goes on into the next block
             if length > limit:
                 return number
     return None

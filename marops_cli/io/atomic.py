@@ -26,6 +26,7 @@ from .ownership import (
     check_replaceable,
     folder_held,
     journal_update,
+    missing_folders,
     needs_journal,
 )
 
@@ -53,10 +54,7 @@ class OutputSet:
         without marops metadata, such as ``synth``'s data)."""
         final = Path(final)
         check_replaceable([final], journal)
-        folder = final.absolute().parent
-        while not folder.exists() and folder != folder.parent:
-            self._made.append(folder)
-            folder = folder.parent
+        self._made += missing_folders(final)
         try:
             final.parent.mkdir(parents=True, exist_ok=True)
             tmp = temporary(final.parent, final.name)

@@ -159,8 +159,8 @@ def check_replaceable(paths: Iterable[Path], journal: bool = False) -> None:
                     "is a pipe, a socket or a device, not a file marops may replace",
                     file=final,
                 )
-            # A pipe, a device or a dangling symlink is no file marops wrote, and reading
-            # one to find out could block.
+            # A symbolic link that leads to no regular file is no file marops wrote, and
+            # reading one (to a pipe) to find out could block.
             foreign = (
                 not _REPLACE_FOREIGN.get()
                 and os.path.lexists(final)
@@ -218,6 +218,16 @@ def refuse_links_below(root: Path, paths: Iterable[Path]) -> None:
             folder = folder.parent
 
 
+def missing_folders(final: Path) -> list[Path]:
+    """The folders above ``final`` that do not exist yet, deepest first."""
+    missing = []
+    folder = Path(final).absolute().parent
+    while not folder.exists() and folder != folder.parent:
+        missing.append(folder)
+        folder = folder.parent
+    return missing
+
+
 def check_outputs(paths: Iterable[Path], journal: bool = False) -> None:
     """Before any work: each output may be replaced (above; ``journal`` as there) and
     its folder written, found out by creating and removing a temporary there (or, for a
@@ -226,14 +236,11 @@ def check_outputs(paths: Iterable[Path], journal: bool = False) -> None:
     for final in paths:
         final = Path(final)
         check_replaceable([final], journal)
-        folder = final.absolute().parent
-        to_make: list[str] = []
-        while not folder.exists():
-            to_make.append(folder.name)
-            folder = folder.parent
+        to_make = missing_folders(final)
+        folder = (to_make[-1] if to_make else final.absolute()).parent
         if not folder.is_dir():
             raise InputError(f"cannot be created: {folder} is a file", file=final)
-        _names_fit(final, folder, to_make)
+        _names_fit(final, folder, [f.name for f in to_make])
         try:
             fd, probe = tempfile.mkstemp(
                 prefix=f".{final.name}.{TMP_MARK}", suffix=".tmp", dir=folder

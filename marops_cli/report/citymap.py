@@ -295,8 +295,7 @@ def city_map_figure(hubs: list[CityHub], left_out: LeftOut | None = None) -> Any
         )
     # The labels' invisible markers carry the colour bar: a hub with nothing due that
     # day has no share, and plotly takes no None among a marker's colours.
-    shares = [delivered_of_due(h) for h in drawn]
-    shares = [0.0 if s is None else s for s in shares]
+    shares = [0.0 if s is None else s for s in map(delivered_of_due, drawn)]
     fig.add_trace(
         go.Scatter(
             x=[h.frame.center_lng for h in drawn if h.frame is not None],

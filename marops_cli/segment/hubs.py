@@ -21,7 +21,7 @@ from pydantic import Field
 
 from ..config import MAX_DRONES, DataConfig, PlannerConfig, override
 from ..data.filemodel import FileModel, Whole, validated
-from ..data.frame import Frame, hub_squares
+from ..data.frame import REACH_M, Frame, hub_squares
 from ..data.jsonfile import read_json
 from ..data.prepare import check_days_in_file, prepare_day
 from ..data.table import LadeTable
@@ -253,20 +253,22 @@ OUTSIDE_WARNING = 0.05
 """The share of the orders due that, outside every hub the run placed, it warns of."""
 
 
-def outside_warning(table: LadeTable, hubs: Sequence[Hub], days: Sequence[dt.date]) -> str | None:
+def outside_warning(
+    table: LadeTable, hubs: Sequence[Hub], days: Sequence[dt.date], min_share: float
+) -> str | None:
     """A warning when at least :data:`OUTSIDE_WARNING` of the orders due on ``days`` lie
-    outside every hub placed (another city in the export, scattered points): the run
-    leaves them out, and its figures per hub would not show it."""
-    on = np.isin(table.delivery_day, np.array(list(days), dtype="datetime64[D]"))
-    total = int(on.sum())
-    outside = int((on & (hub_owner(table, hubs) < 0)).sum())
+    outside every hub placed (``[data] hub_min_share`` ``min_share``; another city in the
+    export, scattered points): the run leaves them out, and its figures per hub would not
+    show it."""
+    total = int(np.isin(table.delivery_day, np.array(list(days), dtype="datetime64[D]")).sum())
+    outside = total - sum(hub_demand(table, hubs, days))
     if not total or outside < OUTSIDE_WARNING * total:
         return None
     return (
         f"{outside:,} of the {total:,} orders due ({outside / total:.0%}) lie outside every "
-        "hub, and are left out: hubs are placed within 150 km of the export's median point, "
-        "where at least 1 % of its orders are; give another city a file of its own, or name "
-        f"its squares in a hubs file ({option('hubs')})"
+        f"hub, and are left out: hubs are placed within {REACH_M / 1000:g} km of the "
+        f"export's median point, where at least {min_share:.0%} of its orders are; give "
+        f"another city a file of its own, or name its squares in a hubs file ({option('hubs')})"
     )
 
 

@@ -85,7 +85,7 @@ def test_a_run_warns_when_many_orders_lie_outside_every_hub(points_table):
     for n, said in ((21, None), (20, "1 of the 20 orders due (5%) lie outside every hub")):
         x = np.r_[np.zeros(n - 1), 300_000.0]  # one order 300 km east: another city
         table = points_table(*ref.to_lnglat(x, np.zeros(n)))
-        warning = outside_warning(table, hub, day)
+        warning = outside_warning(table, hub, day, 0.01)
         if said is None:
             assert warning is None
         else:
