@@ -10,7 +10,7 @@ from __future__ import annotations
 import json
 import types
 import typing
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any, Literal
 
@@ -472,6 +472,22 @@ BATTERY_PRESETS: dict[str, dict[str, Any]] = {
 """The battery regimes (docs/method.md §6.1): the ``[ops]`` options each sets over a
 run's config. ``marops train --batteries`` trains on them and ``benchmarks/heldout.py``
 judges on them."""
+
+
+def check_battery_regimes(names: Sequence[str], with_spares: bool, flag: str = "") -> None:
+    """Refuse a name of ``names`` that is not a battery regime of :data:`BATTERY_PRESETS`,
+    and regimes given ``with_spares`` (both set the batteries per depot); ``flag`` (the
+    command line's ``--batteries``) starts the line."""
+    unknown = [b for b in names if b not in BATTERY_PRESETS]
+    if unknown:
+        raise InputError(
+            f"{flag + ': ' if flag else ''}unknown battery regime {unknown[0]!r} "
+            f"(expected {', '.join(BATTERY_PRESETS)})"
+        )
+    if names and with_spares:
+        raise InputError(
+            "give batteries per depot (--spares) or battery regimes (--batteries), not both"
+        )
 
 
 def battery_preset(name: str) -> dict[str, Any]:

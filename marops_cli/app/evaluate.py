@@ -337,7 +337,7 @@ def _plan_line(prep: Prepared, config: EvaluateConfig) -> str:
         if scheduler == "local"
         else f"the Dask scheduler at {scheduler}"
     )
-    hub_note = f" over {len(prep.hubs)} hubs (hub-days with requests)" if prep.hubs else ""
+    hub_note = f" over {count(len(prep.hubs), 'hub')} (hub-days with requests)" if prep.hubs else ""
     return (
         f"evaluate: {count(len(prep.methods), 'method')} x "
         f"{count(len(prep.settings), 'setting')} x {count(len(prep.days), 'day')} x "

@@ -10,6 +10,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from ..config import clipped
+from ..data.dates import format_days
 from ..data.jsonfile import parse_json, read_small_text
 from ..errors import InputError, option, switch
 from ..io import run_meta
@@ -114,17 +115,7 @@ def _shown(key: str, value: Any) -> str:
         days = [dt.date.fromisoformat(d) for d in value]
     except (TypeError, ValueError):
         return repr(value)
-    runs: list[list[dt.date]] = []
-    for d in days:
-        if runs and d - runs[-1][-1] == dt.timedelta(days=1):
-            runs[-1].append(d)
-        else:
-            runs.append([d])
-    text = ", ".join(
-        r[0].isoformat() if len(r) == 1 else f"{r[0].isoformat()}..{r[-1].isoformat()}"
-        for r in runs
-    )
-    return repr(text)
+    return repr(format_days(days, most=len(days)))
 
 
 def _check_records(

@@ -7,6 +7,7 @@ from contextlib import ExitStack
 from pathlib import Path
 from typing import Any
 
+from ..config import count
 from ..errors import InputError, in_hub
 from ..io import folder_lock, output_set, run_meta
 from ..io.meta import file_sha256
@@ -249,7 +250,7 @@ def city_line(city: dict[str, Any], n_hubs: int) -> str:
         return f"{100 * n / due:.1f} %" if due else "-"
 
     line = (
-        f"city: {city['planned']:,} of {due:,} orders due planned in {n_hubs} hubs "
+        f"city: {city['planned']:,} of {due:,} orders due planned in {count(n_hubs, 'hub')} "
         f"({pct(city['planned'])}), {city['delivered']:,} delivered ({pct(city['delivered'])})"
     )
     left = [

@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..config import PlannerConfig, clipped
+from ..config import PlannerConfig, clipped, count
 from ..errors import InputError, option
 from ..io import output_set, run_meta
 from ..io.ownership import register_inputs
@@ -272,7 +272,7 @@ def _write_hubs(
             on = np.isin(t.delivery_day, np.array(days, dtype="datetime64[D]"))
             n = sum(len(d) for d in depots.values())
             title = (
-                f"{len(done.hubs)} hubs of {cfg.data.size_km:g} km, {n} depots, "
+                f"{count(len(done.hubs), 'hub')} of {cfg.data.size_km:g} km, {count(n, 'depot')}, "
                 f"{done.total:,} orders, {len(days)} days"
             )
             files.write_with(

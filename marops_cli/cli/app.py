@@ -22,7 +22,7 @@ from .report_cmd import report_command
 from .segment_cmd import segment_command
 from .synth_cmd import synth_command
 from .train_cmd import train_command
-from .usage import Command, Group
+from .usage import Command, Group, options_part
 
 app = typer.Typer(
     name="marops",
@@ -146,7 +146,7 @@ def _named_source(text: str, param: Any) -> str:
     names = [envvar] if isinstance(envvar, str) else list(envvar or ())
     args = sys.argv[1:]
     given = None
-    for i, arg in enumerate(args[: args.index("--")] if "--" in args else args):
+    for i, arg in enumerate(options_part(args)):
         if arg in opts and i + 1 < len(args):
             given = args[i + 1]
         elif arg.split("=", 1)[0] in opts and "=" in arg:
@@ -168,8 +168,7 @@ def _wants_json(command: object) -> bool:
     known = any(getattr(p, "name", None) == "as_json" for p in getattr(command, "params", []))
     if not known and not hasattr(command, "commands"):
         return False
-    args = sys.argv[1:]
-    if "--json" in (args[: args.index("--")] if "--" in args else args):
+    if "--json" in options_part(sys.argv[1:]):
         return True
     return os.environ.get("MAROPS_JSON", "").strip().lower() in _TRUE
 

@@ -436,18 +436,12 @@ def _planner(
 def _regimes(text: str | None, spares: str | None) -> list[str]:
     """``--batteries``' names of :data:`~marops_cli.config.BATTERY_PRESETS` (``"scarce,ample"``
     -> ``["scarce", "ample"]``), refused with ``--spares`` or an unknown name."""
-    from ..config import BATTERY_PRESETS
+    from ..config import BATTERY_PRESETS, check_battery_regimes
 
     names = _listed(text or "")
     if text is not None and not names:
         raise InputError(f"--batteries expects names of {', '.join(BATTERY_PRESETS)}, got {text!r}")
-    bad = [b for b in names if b not in BATTERY_PRESETS]
-    if bad:
-        raise InputError(
-            f"--batteries: unknown regime {bad[0]!r} (expected {', '.join(BATTERY_PRESETS)})"
-        )
-    if names and spares is not None:
-        raise InputError("--batteries and --spares both set the batteries per depot; give one")
+    check_battery_regimes(names, spares is not None, "--batteries")
     return names
 
 

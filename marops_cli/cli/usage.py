@@ -41,10 +41,16 @@ class Group(typer.core.TyperGroup):
         return super().parse_args(ctx, hoist_debug(args))
 
 
+def options_part(args: list[str]) -> list[str]:
+    """The part of a command line that holds options: everything before a ``--``, after
+    which every word is an argument."""
+    return args[: args.index("--")] if "--" in args else args
+
+
 def hoist_debug(args: list[str]) -> list[str]:
     """``args`` with a ``--debug`` given after the command (before any ``--``) moved in
     front of it, where the group reads it."""
-    end = args.index("--") if "--" in args else len(args)
+    end = len(options_part(args))
     if "--debug" not in args[:end]:
         return args
     return ["--debug", *(a for i, a in enumerate(args) if i >= end or a != "--debug")]

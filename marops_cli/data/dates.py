@@ -95,12 +95,21 @@ def parse_days(spec: str, year: int, option: str | None = None) -> list[dt.date]
     return list(dict.fromkeys(days))
 
 
-def format_days(days: list[dt.date]) -> str:
-    """``2022-08-01..2022-08-30`` (first..last), one date alone, or ``no dates``."""
-    if not days:
+def format_days(days: Iterable[dt.date], most: int = 6) -> str:
+    """The days as runs of consecutive days, in date order (``2022-08-01..2022-08-08,
+    2022-08-12``), so a gap shows; past ``most`` runs, the first of them and how many
+    days the rest hold; ``no dates`` when there are none."""
+    runs: list[list[dt.date]] = []
+    for d in sorted(set(days)):
+        if runs and d - runs[-1][-1] == dt.timedelta(days=1):
+            runs[-1].append(d)
+        else:
+            runs.append([d])
+    if not runs:
         return "no dates"
-    first, last = min(days), max(days)
-    return first.isoformat() if first == last else f"{first}..{last}"
+    shown = [r[0].isoformat() if len(r) == 1 else f"{r[0]}..{r[-1]}" for r in runs[:most]]
+    rest = sum(len(r) for r in runs[most:])
+    return ", ".join(shown) + (f" and {rest} more day{'s' * (rest != 1)}" if rest else "")
 
 
 HELD_OUT_SHARE = 0.2  # docs/method.md §6: 80 % / 20 % split by date

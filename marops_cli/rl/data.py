@@ -14,7 +14,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from ..config import BATTERY_PRESETS, PlannerConfig, battery_preset, override
+from ..config import PlannerConfig, battery_preset, check_battery_regimes, override
 from ..data.dates import split_by_date
 from ..data.frame import Frame
 from ..data.prepare import prepare_day
@@ -143,13 +143,7 @@ def _battery_settings(
 ) -> list[tuple[int | str | None, dict[str, Any]]]:
     """Each scenario's batteries: its name's suffix and its ``[ops]`` overrides, one per
     count of ``spares`` or regime of ``batteries``, or the config's (None, none)."""
-    if spares and batteries:
-        raise InputError("give batteries per depot (spares) or battery regimes, not both")
-    unknown = [b for b in batteries if b not in BATTERY_PRESETS]
-    if unknown:
-        raise InputError(
-            f"unknown battery regime {unknown[0]!r} (expected {', '.join(BATTERY_PRESETS)})"
-        )
+    check_battery_regimes(batteries, bool(spares))
     if batteries:
         return [(b, battery_preset(b)) for b in batteries]
     return [(b, {"ops__batteries_per_depot": b}) for b in spares] or [(None, {})]

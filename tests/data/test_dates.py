@@ -83,9 +83,18 @@ def test_cli_names_the_date_option(example_csv: Path, tmp_path: Path) -> None:
 
 
 def test_format_days() -> None:
-    assert format_days([dt.date(2022, 8, 30), dt.date(2022, 8, 1)]) == "2022-08-01..2022-08-30"
+    month = [dt.date(2022, 8, d) for d in range(30, 0, -1)]
+    assert format_days(month) == "2022-08-01..2022-08-30"
+    assert format_days([dt.date(2022, 8, 30), dt.date(2022, 8, 1)]) == "2022-08-01, 2022-08-30"
     assert format_days([AUG20]) == "2022-08-20"
     assert format_days([]) == "no dates"
+    # A day missing in the middle shows (it read "2022-08-01..2022-08-05" before).
+    gap = [dt.date(2022, 8, d) for d in (5, 1, 2, 4, 2)]
+    assert format_days(gap) == "2022-08-01..2022-08-02, 2022-08-04..2022-08-05"
+    # Past ``most`` runs, the rest are counted: every other day of August.
+    odd = [dt.date(2022, 8, d) for d in range(1, 32, 2)]
+    assert format_days(odd, most=2) == "2022-08-01, 2022-08-03 and 14 more days"
+    assert format_days(odd[:3], most=2) == "2022-08-01, 2022-08-03 and 1 more day"
 
 
 def test_parse_times_formats_and_status() -> None:
