@@ -271,3 +271,19 @@ def test_float16_coordinates_are_refused_float32_read(example_csv: Path) -> None
     assert rows.num_rows == marops.read_lade(frame).num_rows
     with pytest.raises(InputError, match=r"^DataFrame, column 'lat': .* float16, whose numbers"):
         marops.read_lade(frame.astype({"lat": "float16"}))
+
+
+def test_whole_degree_coordinates_are_refused(example_csv: Path, tmp_path: Path) -> None:
+    # Coordinates cast to whole numbers (int32 in a Parquet file) are whole degrees,
+    # about 100 km apart: every request would share one or two points.
+    import pandas as pd
+
+    frame = pd.read_csv(example_csv, nrows=200)
+    path = tmp_path / "whole.parquet"
+    frame.astype({"lng": "int32", "lat": "int32"}).to_parquet(path)
+    with pytest.raises(
+        InputError, match=r"whole.parquet, column 'lng': .* whole numbers \(int32\)"
+    ):
+        marops.read_lade(path)
+    with pytest.raises(InputError, match=r"^DataFrame, column 'lat': .* about 100 km apart"):
+        marops.read_lade(frame.astype({"lat": "int64"}))

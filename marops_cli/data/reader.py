@@ -367,6 +367,13 @@ def _check_column_types(table: pa.Table, path: Path) -> pa.Table:
                 file=path,
                 column=name,
             )
+        if name in ("lng", "lat") and pa.types.is_integer(t):
+            raise InputError(
+                f"expected coordinates in decimal degrees, got a column of whole numbers ({t}): "
+                "whole degrees are about 100 km apart, so every order would share a few points",
+                file=path,
+                column=name,
+            )
         if name in _NUMBER_COLUMNS and not numeric:
             raise InputError(
                 f"expected a column of numbers, got a column of type {t}", file=path, column=name

@@ -439,8 +439,8 @@ def test_a_parquet_column_of_ids_or_times_holds_text_numbers_or_times(
 
 
 def test_parquet_binary_text_and_huge_integers(tmp_path: Path) -> None:
-    """Unannotated binary ids read as their text; integers beyond 2**53 in ``lng`` are
-    no coordinates (dropped), not a failed cast."""
+    """Unannotated binary ids read as their text; integers in ``lng``, beyond 2**53 or
+    not, are no coordinates: the column is refused by name, not a failed cast."""
     path = _as_parquet(tmp_path, "d.parquet")
     t = pq.read_table(path)
     i = t.schema.get_field_index("order_id")
@@ -451,8 +451,8 @@ def test_parquet_binary_text_and_huge_integers(tmp_path: Path) -> None:
     j = t.schema.get_field_index("lng")
     huge = pa.array([2**62, 2**63 - 1, 121], pa.int64())
     pq.write_table(t.set_column(j, "lng", huge), tmp_path / "huge.parquet")
-    got = read_lade(tmp_path / "huge.parquet", DataConfig())
-    assert got.report.dropped["bad_coordinates"] == 2 and got.report.kept == 1
+    with pytest.raises(InputError, match=r"huge.parquet, column 'lng': .* whole numbers \(int64\)"):
+        read_lade(tmp_path / "huge.parquet", DataConfig())
 
 
 def test_parquet_times_with_fractions_of_a_second_read_as_whole_seconds(tmp_path: Path) -> None:
