@@ -11,7 +11,15 @@ from typing import TYPE_CHECKING, Any, TypeGuard
 
 from ..data.jsonfile import first_line
 from ..errors import InputError
-from .folder import REPORT, is_evaluation, metrics, route_files, route_files_exist, sub_reports
+from .folder import (
+    REPORT,
+    is_evaluation,
+    metrics,
+    one_run,
+    route_files,
+    route_files_exist,
+    sub_reports,
+)
 from .page import EXTRA, Page, require_plotly, script_bytes, script_name
 
 if TYPE_CHECKING:
@@ -39,6 +47,8 @@ def report_page(folder: Path, depots: Depots | None = None) -> Page | None:
         return evaluation_page(folder)
     files = route_files(folder)
     doc = metrics(folder)
+    if files is not None and doc is not None:
+        one_run(folder / "metrics.json", doc.get("meta"), files.meta)
     if files is not None:
         from .day import day_page
 

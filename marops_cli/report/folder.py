@@ -39,12 +39,14 @@ def route_files(folder: Path) -> RouteFiles | None:
         for name, table in zip(("stops", "routes"), tables, strict=True):
             _check_columns(table, name, folder / f"{name}.parquet")
         meta = table_meta(tables[1], folder / "routes.parquet")
+        one_run(folder / "stops.parquet", table_meta(tables[0], folder / "stops.parquet"), meta)
         stops, routes = (t.to_pylist() for t in tables)
     elif (folder / "routes.json").is_file():
         docs = [_json(folder / f"{n}.json") for n in ("stops", "routes")]
         for name, doc in zip(("stops", "routes"), docs, strict=True):
             _check_rows(doc, name, folder / f"{name}.json")
         stops, routes, meta = docs[0]["stops"], docs[1]["routes"], docs[1].get("meta", {})
+        one_run(folder / "stops.json", docs[0].get("meta", {}), meta)
     else:
         return None
     for row in (*stops, *routes):
@@ -116,6 +118,27 @@ def _check_rows(doc: dict[str, Any], name: str, path: Path) -> None:
                     file=path,
                     column=f"{name}[{i}].{field.name}",
                 )
+
+
+_RUN_KEYS = ("version", "command", "config", "input", "policy", "method", "seed", "day", "frame")
+"""What the metadata of one run's files share (docs/outputs.md): files of a folder that
+differ in one of them were written by different runs."""
+
+
+def one_run(path: Path, meta: Any, routes_meta: dict[str, Any]) -> None:
+    """Refuse the file ``path`` whose marops metadata ``meta`` is not of the run that
+    wrote the folder's routes (``routes_meta``): a page would mix two runs' figures. A
+    file without metadata (written by hand, or an older marops) is not checked."""
+    if not isinstance(meta, dict):
+        return
+    for key in _RUN_KEYS:
+        if key in meta and key in routes_meta and meta[key] != routes_meta[key]:
+            raise InputError(
+                f"is not of the run that wrote the routes beside it (its {key!r} differs): "
+                "keep each run's files in a folder of their own, or run it again",
+                file=path,
+                column=key,
+            )
 
 
 def _local(value: Any) -> dt.datetime:

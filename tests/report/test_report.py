@@ -224,6 +224,27 @@ def test_marops_report_names_a_missing_stops_file(day_run: Path, tmp_path: Path)
     assert res.stderr.startswith(line)
 
 
+@pytest.mark.parametrize("name", ["metrics.json", "stops.parquet"])
+def test_marops_report_refuses_files_of_two_runs(day_run: Path, tmp_path: Path, name: str) -> None:
+    """A folder's metrics or stops from another run (another seed, another method) beside
+    its routes: one line naming the file and what differs, not a page mixing both."""
+    copy = tmp_path / "copy"
+    shutil.copytree(day_run, copy)
+    if name == "metrics.json":
+        doc = json.loads((copy / name).read_text(encoding="utf-8"))
+        (copy / name).write_text(json.dumps({**doc, "meta": {**doc["meta"], "seed": 7}}))
+        key = "key 'seed'"
+    else:
+        rewrite_parquet(copy / name, "order_id", lambda v: v, method="stay")
+        key = "column 'method'"
+    page = (copy / "report.html").read_bytes()
+    res = runner.invoke(app, ["report", str(copy), "--force"])
+    lines = res.output.strip().splitlines()
+    assert res.exit_code == 2 and len(lines) == 1, res.output
+    assert f"{copy / name}, {key}: is not of the run that wrote the routes" in lines[0]
+    assert (copy / "report.html").read_bytes() == page
+
+
 @pytest.mark.parametrize(
     "edit",
     [
