@@ -229,6 +229,7 @@ def city_coverage(
             }
         )
     return {
+        "drones": sum(int(h.drones or 0) for h in hubs),
         "orders_due": due_all,
         "planned": planned_all,
         "delivered": delivered_all,
@@ -252,6 +253,7 @@ def city_line(city: dict[str, Any], n_hubs: int) -> str:
     line = (
         f"city: {city['planned']:,} of {due:,} orders due planned in {count(n_hubs, 'hub')} "
         f"({pct(city['planned'])}), {city['delivered']:,} delivered ({pct(city['delivered'])})"
+        + (f" by {count(city['drones'], 'drone')}" if city.get("drones") else "")
     )
     left = [
         f"{city[k]:,} {label}"

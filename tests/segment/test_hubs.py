@@ -217,7 +217,7 @@ def test_city_day_covers_the_hubs_once_each(city):
     assert all(d["outside_area"] == 0 for d in days)
     assert c["planned"] + c["outside_hubs"] + c["outside_hours"] == c["orders_due"]
     assert [h["orders_due"] for h in c["hubs"]] == [d["orders_due"] for d in days]
-    assert [h["drones"] for h in c["hubs"]] == [8, 8, 4]
+    assert [h["drones"] for h in c["hubs"]] == [8, 8, 4] and c["drones"] == 20
     assert c["covered_share"] == pytest.approx(c["planned"] / c["orders_due"], rel=1e-12)
     assert c["delivered_share"] == pytest.approx(c["delivered"] / c["orders_due"], rel=1e-12)
     assert 0 < c["covered_share"] < 1
@@ -598,3 +598,16 @@ def test_the_whole_export_places_no_hub_too_sparse_for_its_depots(example_csv):
     assert min(hub_demand(table, few, history)) >= 400
     with pytest.raises(InputError, match="no hub placed over the history days holds"):
         place_hubs(table, cfg, history, 10**6)
+
+
+def test_the_city_line_names_the_hubs_and_the_fleet() -> None:
+    from marops_cli.app.replay_hubs import city_line
+
+    city = {"drones": 1, "orders_due": 200, "planned": 150, "delivered": 120, "outside_hubs": 50}
+    assert city_line(city, 1) == (
+        "city: 150 of 200 orders due planned in 1 hub (75.0 %), 120 delivered (60.0 %) "
+        "by 1 drone; left out: 50 outside every hub"
+    )
+    assert "in 12 hubs (75.0 %), 120 delivered (60.0 %) by 96 drones;" in city_line(
+        {**city, "drones": 96}, 12
+    )
