@@ -58,6 +58,35 @@ def identity(
     return meta
 
 
+def route_meta(ident: dict[str, Any], day: dt.date) -> dict[str, Any]:
+    """The ``marops`` metadata of a replayed day's route files: the run's identity (less
+    the file format and the history days, which metrics.json records) and the day."""
+    meta = {k: v for k, v in ident.items() if k not in ("format", "history_days")}
+    meta.update(command="replay-day", day=day.isoformat())
+    return meta
+
+
+def written_with(path: Path, meta: dict[str, Any]) -> bool:
+    """Whether the route file ``path`` (Parquet, JSON or GeoJSON) carries ``meta`` as its
+    ``marops`` metadata: the output of the run and day ``meta`` describes, not another
+    day's copied in or a window's of ``plan-window``. False for a file that does not
+    read as one."""
+    import json
+
+    try:
+        if path.suffix == ".parquet":
+            from ..data.arrow import read_parquet_schema
+
+            held = parse_json((read_parquet_schema(path).metadata or {})[b"marops"])
+        else:
+            doc = parse_json(path.read_text(encoding="utf-8"))
+            held = doc["marops" if path.suffix == ".geojson" else "meta"]
+    except (OSError, ValueError, KeyError, TypeError):
+        return False
+    # As the file holds it: through JSON (a tuple reads back as a list).
+    return bool(held == json.loads(json.dumps(meta)))
+
+
 def _flatten(doc: Any, prefix: str = "") -> dict[str, Any]:
     if not isinstance(doc, dict):
         return {prefix: doc}

@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING, Any
 from ..errors import InputError, option
 from ..io import folder_lock, output_set, run_meta
 from ..io.ownership import JOURNAL
-from .identity import identity, matching_days
+from .identity import identity, matching_days, route_meta, written_with
 from .messages import day_scope, undelivered
 from .progress import Progress
 
@@ -115,10 +115,6 @@ class Area:
         return self.out / day.isoformat() if self.several else self.out
 
 
-DAY_FILES = ("metrics.json", "stops.parquet", "routes.parquet")
-"""What a replayed day's folder holds (docs/outputs.md), ``report.html`` aside."""
-
-
 def make_area(
     scn: Scenario,
     out: Path | None,
@@ -132,7 +128,9 @@ def make_area(
     """A study area to replay ``days`` of into ``out`` (a folder per day when
     ``several``); ``label`` names the hub in messages. A day folder that is complete is
     kept only if it was made with these settings: every day is checked here, before
-    anything is replayed or written."""
+    anything is replayed or written; one whose route files are not this run's output
+    for the day (another day's copied in, a window's of ``plan-window``) is replayed."""
+    from ..io.tables import route_file_paths
     from ..sim.fleet import Fleet
     from ..sim.scenario import load_fleet
 
@@ -146,17 +144,22 @@ def make_area(
     area = Area(scn, drones, out, days, several, ident, {}, label)
     # The files asked for too: a day kept without the map or figures asked for now is
     # replayed to write them, not kept without a word.
-    asked = (
-        DAY_FILES + ("routes.geojson",) * run.geojson + ("routes.png", "operations.png") * run.plot
-    )
+    routes = [p.name for p in route_file_paths(Path(), run.fmt, run.geojson)]
+    asked = ["metrics.json", *routes] + ["routes.png", "operations.png"] * run.plot
     for day in days:
         folder = area.folder(day)
         # A day is done when all its files are there: one lost since is replayed.
         if folder is not None and all((folder / f).is_file() for f in asked) and not run.force:
             # The files as they are before their metrics are read: the summary claims
             # the day only if they are these still (a run that wrote the day meanwhile).
-            area.placed[day] = {folder / f: _signature(folder / f) for f in asked}
-            area.keep[day] = matching_days(folder / "metrics.json", ident, day, TOTALLED)
+            placed = {folder / f: _signature(folder / f) for f in asked}
+            records = matching_days(folder / "metrics.json", ident, day, TOTALLED)
+            # Route files written since by another command or copied from another day
+            # are marops's, not this day's: the day is replayed over them.
+            meta = route_meta(ident, day)
+            if all(written_with(folder / f, meta) for f in routes):
+                area.placed[day] = placed
+                area.keep[day] = records
     return area
 
 
@@ -376,10 +379,7 @@ def _finish_day(
 
     day_scope(progress, out.scope, area.scn.cfg, area.label)
     undelivered(progress, out.metrics, len(area.fleet), area.label)
-    # The route files' metadata: the run's identity (less the file format and the
-    # history days, which metrics.json records) and the day.
-    meta = {k: v for k, v in area.identity.items() if k not in ("format", "history_days")}
-    meta.update(command="replay-day", day=day.isoformat())
+    meta = route_meta(area.identity, day)
     folder = area.folder(day)
     if folder is not None:
         with output_set() as files:

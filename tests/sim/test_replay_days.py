@@ -320,3 +320,80 @@ def test_a_day_another_run_wrote_meanwhile_is_not_claimed_by_the_summary(
     assert line.startswith(f"marops: error: {out / '2022-08-11'}: was written by another run")
     assert "metrics.json is not the file this run wrote" in line
     assert not (out / "metrics.json").exists()
+
+
+def test_a_day_whose_route_files_are_not_its_own_is_replayed(
+    example_csv: Path, tmp_path: Path
+) -> None:
+    """A day is kept only when its route files are the run's output for that day (their
+    marops metadata): another day's copied in, or a window that plan-window wrote into
+    the day's folder, is replayed over (the files are marops's), not claimed as the day."""
+    out = tmp_path / "week"
+    _replay(example_csv, out)
+    day = out / "2022-08-12"
+    for name in ("stops.parquet", "routes.parquet"):
+        (day / name).write_bytes((out / "2022-08-11" / name).read_bytes())
+    res = runner.invoke(
+        app,
+        ["replay-day", *SQUARE, str(example_csv), "--dates", "0811..0812", "--method", "greedy"]
+        + ["--out", str(out)],
+    )
+    assert res.exit_code == 0, res.output
+    assert res.output.count("skipped") == 1 and "2022-08-11: output with" in res.output
+    for name in ("stops.parquet", "routes.parquet"):
+        meta = json.loads(pq.read_schema(day / name).metadata[b"marops"])
+        assert meta["day"] == "2022-08-12"
+    assert {r["day"].isoformat() for r in pq.read_table(day / "stops.parquet").to_pylist()} == {
+        "2022-08-12"
+    }
+    # A window planned into the day's folder by plan-window: replayed over as well.
+    depots = tmp_path / "depots.json"
+    res = runner.invoke(app, ["segment", str(example_csv), "--out", str(depots), "-q"])
+    assert res.exit_code == 0, res.output
+    res = runner.invoke(
+        app,
+        ["plan-window", str(example_csv), "--depots", str(depots), "--date", "0812"]
+        + ["--window", "3", "--out", str(day), "-q"],
+    )
+    assert res.exit_code == 0, res.output
+    res = runner.invoke(
+        app,
+        ["replay-day", *SQUARE, str(example_csv), "--dates", "0811..0812", "--method", "greedy"]
+        + ["--out", str(out)],
+    )
+    assert res.exit_code == 0, res.output
+    assert res.output.count("skipped") == 1
+    meta = json.loads(pq.read_schema(day / "routes.parquet").metadata[b"marops"])
+    assert meta["command"] == "replay-day" and meta["day"] == "2022-08-12"
+    # The same command again keeps both days.
+    res = runner.invoke(
+        app,
+        ["replay-day", *SQUARE, str(example_csv), "--dates", "0811..0812", "--method", "greedy"]
+        + ["--out", str(out)],
+    )
+    assert res.exit_code == 0 and res.output.count("skipped") == 2, res.output
+
+
+def test_days_of_json_route_files_are_kept_by_their_metadata(
+    example_csv: Path, tmp_path: Path
+) -> None:
+    """``--format json``: a rerun keeps the days whose route files (and routes.geojson)
+    are the run's for that day, and replays one whose routes.json is another day's."""
+    out = tmp_path / "week"
+    _replay(example_csv, out, "--format", "json", "--geojson")
+    assert (out / "2022-08-12" / "routes.json").is_file()
+    res = runner.invoke(
+        app,
+        ["replay-day", *SQUARE, str(example_csv), "--dates", "0811..0812", "--method", "greedy"]
+        + ["--format", "json", "--geojson", "--out", str(out)],
+    )
+    assert res.exit_code == 0 and res.output.count("skipped") == 2, res.output
+    day = out / "2022-08-12" / "routes.geojson"
+    day.write_bytes((out / "2022-08-11" / "routes.geojson").read_bytes())
+    res = runner.invoke(
+        app,
+        ["replay-day", *SQUARE, str(example_csv), "--dates", "0811..0812", "--method", "greedy"]
+        + ["--format", "json", "--geojson", "--out", str(out)],
+    )
+    assert res.exit_code == 0 and res.output.count("skipped") == 1, res.output
+    assert json.loads(day.read_text())["marops"]["day"] == "2022-08-12"
