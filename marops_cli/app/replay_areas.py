@@ -163,6 +163,31 @@ def make_area(
     return area
 
 
+DAY_OUTPUTS = (
+    "stops.parquet",
+    "routes.parquet",
+    "stops.json",
+    "routes.json",
+    "routes.geojson",
+    "routes.png",
+    "operations.png",
+    "report.html",
+)
+"""What a replayed day's folder may hold beside its metrics.json (docs/outputs.md)."""
+
+
+def _clear_day(folder: Path, writes: list[Path]) -> None:
+    """Before a day's files go into ``folder``: remove an earlier run's outputs of the
+    day that this run does not write again (a map or figures not asked for now, route
+    files of the other format, the day's page, written again at the end with
+    ``--report``), so none is taken for this run's. Only files marops wrote go."""
+    from ..io.ownership import written_by_marops
+
+    for path in (folder / name for name in DAY_OUTPUTS):
+        if path not in writes and path.is_file() and written_by_marops(path):
+            path.unlink()
+
+
 def _signature(path: Path) -> tuple[int, ...]:
     """Which file is at ``path``: device, inode, size and time of its last change; a
     file renamed into its place, or written over, has another. Empty when none is."""
@@ -375,13 +400,17 @@ def _finish_day(
 ) -> tuple[dict[str, Any], DayTables | None]:
     """Say what the day planned and write its files (metrics.json last) when the area
     has a folder; its metrics and, when kept, its tables."""
-    from ..io.tables import with_meta, write_route_files
+    from ..io.tables import route_file_paths, with_meta, write_route_files
 
     day_scope(progress, out.scope, area.scn.cfg, area.label)
     undelivered(progress, out.metrics, len(area.fleet), area.label)
     meta = route_meta(area.identity, day)
     folder = area.folder(day)
     if folder is not None:
+        writes = route_file_paths(folder, run.fmt, run.geojson)
+        writes += [folder / "routes.png"] * (out.png is not None)
+        writes += [folder / "operations.png"] * (out.ops_png is not None)
+        _clear_day(folder, writes)
         with output_set() as files:
             paths = write_route_files(
                 files, folder, out.stops, out.routes, meta, run.fmt, run.geojson

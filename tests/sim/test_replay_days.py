@@ -397,3 +397,31 @@ def test_days_of_json_route_files_are_kept_by_their_metadata(
     )
     assert res.exit_code == 0 and res.output.count("skipped") == 1, res.output
     assert json.loads(day.read_text())["marops"]["day"] == "2022-08-12"
+
+
+def test_a_day_replayed_again_loses_the_earlier_runs_extra_files(
+    example_csv: Path, tmp_path: Path
+) -> None:
+    """A day replayed over an earlier run's (--force) removes that run's outputs it does
+    not write again (its map, figures, route files of the other format), so a later
+    rerun does not keep them as its own; a file marops did not write stays."""
+    out = tmp_path / "day"
+    args = ["replay-day", *SQUARE, str(example_csv), "--date", "0811", "--method", "greedy"]
+    args += ["--out", str(out)]
+    res = runner.invoke(app, [*args, "--geojson", "--plot", "--format", "json"])
+    assert res.exit_code == 0, res.output
+    (out / "report.html").write_text("<p>notes of mine</p>")
+    res = runner.invoke(app, [*args, "--alpha", "0.9", "--force"])
+    assert res.exit_code == 0, res.output
+    assert {p.name for p in out.iterdir() if not p.name.startswith(".")} == {
+        "stops.parquet",
+        "routes.parquet",
+        "metrics.json",
+        "report.html",
+    }
+    assert (out / "report.html").read_text() == "<p>notes of mine</p>"
+    # Asked for the map now: the day is replayed to write it, with these settings.
+    res = runner.invoke(app, [*args, "--alpha", "0.9", "--geojson"])
+    assert res.exit_code == 0 and "skipped" not in res.output, res.output
+    geo = json.loads((out / "routes.geojson").read_text())
+    assert geo["marops"]["config"]["plan"]["alpha"] == 0.9
