@@ -108,6 +108,11 @@ class Area:
     hub); None: the report's own (docs/report.md)."""
     placed: dict[dt.date, dict[Path, tuple[int, ...]]] = field(default_factory=dict)
     """Each day's files in its folder as this run kept or wrote them (:func:`_own_days`)."""
+    summaries: list[Path] = field(default_factory=list)
+    """The files over the area's days (``metrics.json`` over several days, a city's files,
+    their pages): removed, when marops's, before the first of its days is replaced
+    (:func:`_clear_summaries`)."""
+    cleared: bool = False
 
     def folder(self, day: dt.date) -> Path | None:
         if self.out is None:
@@ -142,6 +147,8 @@ def make_area(
         scn, run.method, run.pol.identity, depots, run.fmt, drones.describe(cfg.energy)
     )
     area = Area(scn, drones, out, days, several, ident, {}, label)
+    if out is not None and several:
+        area.summaries = [out / "metrics.json", out / "report.html"]
     # The files asked for too: a day kept without the map or figures asked for now is
     # replayed to write them, not kept without a word.
     routes = [p.name for p in route_file_paths(Path(), run.fmt, run.geojson)]
@@ -186,6 +193,21 @@ def _clear_day(folder: Path, writes: list[Path]) -> None:
     for path in (folder / name for name in DAY_OUTPUTS):
         if path not in writes and path.is_file() and written_by_marops(path):
             path.unlink()
+
+
+def _clear_summaries(area: Area) -> None:
+    """Before the first of ``area``'s days is replaced: remove the summaries over its
+    days that marops wrote (``area.summaries``), so that none, left by an earlier run,
+    claims a day that holds this run's files should this run stop before writing its
+    own."""
+    from ..io.ownership import written_by_marops
+
+    if area.cleared:
+        return
+    for path in area.summaries:
+        if path.is_file() and written_by_marops(path):
+            path.unlink()
+    area.cleared = True
 
 
 def _signature(path: Path) -> tuple[int, ...]:
@@ -410,6 +432,7 @@ def _finish_day(
         writes = route_file_paths(folder, run.fmt, run.geojson)
         writes += [folder / "routes.png"] * (out.png is not None)
         writes += [folder / "operations.png"] * (out.ops_png is not None)
+        _clear_summaries(area)
         _clear_day(folder, writes)
         with output_set() as files:
             paths = write_route_files(

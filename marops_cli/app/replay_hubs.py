@@ -70,6 +70,8 @@ def replay_hubs(
         folder = out / f"hub-{a.hub.id}" if out is not None else None
         area = make_area(scn, folder, a.days, several, fleet, run, None, f"hub {a.hub.id}: ")
         area.report_top = out  # the city's pages share one plotly.js (docs/report.md)
+        if out is not None:  # the city's summary claims every hub's days
+            area.summaries += [out / "metrics.json", out / "left_out.csv", out / "report.html"]
         areas.append(area)
     # Said once every hub's fleet and folder passed: an error is a failed run's only line.
     drop_report(progress, table, data_name(data))

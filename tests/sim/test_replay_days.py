@@ -425,3 +425,50 @@ def test_a_day_replayed_again_loses_the_earlier_runs_extra_files(
     assert res.exit_code == 0 and "skipped" not in res.output, res.output
     geo = json.loads((out / "routes.geojson").read_text())
     assert geo["marops"]["config"]["plan"]["alpha"] == 0.9
+
+
+@pytest.mark.parametrize(
+    ("where", "summaries"),
+    [
+        (["--dates", "0811..0812", "--report"], ["metrics.json", "report.html"]),
+        (["--date", "0811", "--area", "hubs"], ["metrics.json", "left_out.csv"]),
+    ],
+    ids=["days", "city"],
+)
+def test_a_rerun_stopped_after_its_first_day_leaves_no_summary_of_the_earlier_run(
+    example_csv: Path,
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    where: list[str],
+    summaries: list[str],
+) -> None:
+    """--force replays days over an earlier run's: the summary over them (metrics.json of
+    several days and its page, a city's metrics.json and left_out.csv) goes before the
+    first day is replaced, so a run stopped then leaves none claiming the earlier run's
+    numbers for a day that holds this run's files."""
+    from marops_cli.app import replay_areas
+
+    out = tmp_path / "out"
+    args = ["replay-day", str(example_csv), *where, "--method", "stay", "--out", str(out)]
+    if "--area" not in where:
+        args += SQUARE
+    res = runner.invoke(app, args)
+    assert res.exit_code == 0, res.output
+    assert all((out / name).is_file() for name in summaries)
+    finish = replay_areas._finish_day
+
+    def and_stopped(area, day, out, run, progress):  # type: ignore[no-untyped-def]
+        finish(area, day, out, run, progress)
+        raise KeyboardInterrupt  # the run stops right after its first day's files
+
+    monkeypatch.setattr(replay_areas, "_finish_day", and_stopped)
+    res = runner.invoke(app, [*args, "--alpha", "0.9", "--force"])
+    assert res.exit_code == 130, res.output
+
+    def alpha(path: Path) -> float:
+        return json.loads(path.read_text())["meta"]["settings"]["config"]["plan"]["alpha"]
+
+    days = sorted(p for p in out.rglob("metrics.json") if p.parent != out)
+    replaced = [p for p in days if alpha(p) == 0.9]
+    assert len(days) > 1 and len(replaced) == 1, replaced
+    assert not any((out / name).exists() for name in summaries)
