@@ -49,7 +49,107 @@ def nearest_candidates(xy: np.ndarray, n_actions: int) -> np.ndarray:
     d = np.hypot(xy[:, None, 0] - xy[None, :, 0], xy[:, None, 1] - xy[None, :, 1])
     np.fill_diagonal(d, -1.0)  # itself always first
     order = np.lexsort((np.broadcast_to(np.arange(n), (n, n)), d), axis=1)
-    return order[:, :k].astype(np.int64)
+    return _connected(order[:, :k].astype(np.int64), d)
+
+
+def _components(cand: np.ndarray) -> np.ndarray:
+    """Each depot's strongly connected component of the moves ``i -> cand[i, 1:]``,
+    numbered by their lowest depot id (0 holds depot 0)."""
+    from scipy.sparse import csr_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    n = cand.shape[0]
+    rows = np.repeat(np.arange(n), cand.shape[1] - 1)
+    graph = csr_matrix((np.ones(rows.size), (rows, cand[:, 1:].ravel())), shape=(n, n))
+    labels = connected_components(graph, directed=True, connection="strong")[1]
+    first = np.unique(labels, return_index=True)[1]  # each component's lowest depot
+    return np.argsort(np.argsort(first, kind="stable"), kind="stable")[labels]
+
+
+def _connected(cand: np.ndarray, d: np.ndarray) -> np.ndarray:
+    """``cand`` with the moves between depots made to reach every depot from every other
+    (docs/method.md §2): the nearest depots alone can leave a group of depots that no
+    move enters, or one no move leaves (a village across a field, an island, the end of a
+    corridor); a parcel leaves only from its own depot, so no drone from elsewhere could
+    ever fly the first group's parcels, and a drone in the second could never leave.
+
+    Where the moves already connect every depot, or each depot has one move alone (every
+    depot would have to lie on one cycle), ``cand`` is returned as it is. Else,
+    among the groups of mutually reachable depots, each group no move leaves gets a move
+    to the nearest depot outside it, and each group no move enters a move from the
+    nearest depot outside it, in place of the moving depot's farthest move that leaves
+    its own group (else its farthest move); a pass that joins no groups links them all
+    in a round instead (from depot 0's group to the nearest group not yet visited, and
+    back). Repeated until connected (kept only where it joins groups); ties go to the lower
+    depot id, so the table is reproducible."""
+    n, k = cand.shape
+    if n < 3 or k < 3:  # a single move per depot: every depot in one cycle or none
+        return cand
+    before = int(_components(cand).max()) + 1
+    original, cand = cand, cand.copy()
+    kept = np.zeros(cand.shape, dtype=bool)  # the moves added, never replaced
+    kept[:, 0] = True
+    groups = n + 1
+    for _ in range(2 * n):
+        labels = _components(cand)
+        m = int(labels.max()) + 1
+        if m == 1:
+            break
+        members = [np.flatnonzero(labels == c) for c in range(m)]
+        if m < groups:
+            groups = m
+            leaves = np.zeros(m, dtype=bool)
+            enters = np.zeros(m, dtype=bool)
+            cross = labels[cand[:, 1:]] != labels[:, None]
+            rows = np.nonzero(cross)
+            leaves[labels[rows[0]]] = True
+            enters[labels[cand[:, 1:][rows]]] = True
+            for c in range(m):
+                outside = np.flatnonzero(labels != c)
+                if not leaves[c]:
+                    _link(cand, kept, d, members[c], outside, labels)
+                if not enters[c]:
+                    _link(cand, kept, d, outside, members[c], labels)
+            continue
+        gap = np.full((m, m), np.inf)
+        for a in range(m):
+            for b in range(m):
+                if a != b:
+                    gap[a, b] = d[np.ix_(members[a], members[b])].min()
+        tour, left = [0], set(range(1, m))
+        while left:
+            nxt = min(left, key=lambda c: (gap[tour[-1], c], c))
+            tour.append(nxt)
+            left.remove(nxt)
+        for a, b in zip(tour, tour[1:] + tour[:1], strict=True):
+            _link(cand, kept, d, members[a], members[b], labels)
+        groups = m
+    return cand if int(_components(cand).max()) + 1 < before else original
+
+
+def _link(
+    cand: np.ndarray,
+    kept: np.ndarray,
+    d: np.ndarray,
+    source: np.ndarray,
+    target: np.ndarray,
+    labels: np.ndarray,
+) -> None:
+    """Give the depot of ``source`` nearest ``target`` a move to the depot of ``target``
+    nearest it (the nearest pair whose source has a move left to give)."""
+    block = d[np.ix_(source, target)]
+    for flat in np.lexsort((np.arange(block.size), block.ravel())):
+        i, j = int(source[flat // target.size]), int(target[flat % target.size])
+        if j in cand[i]:
+            kept[i, int(np.flatnonzero(cand[i] == j)[0])] = True
+            return
+        free = np.flatnonzero(~kept[i])
+        if free.size == 0:
+            continue
+        leaving = free[labels[cand[i, free]] != labels[i]]
+        slot = int((leaving if leaving.size else free)[-1])
+        cand[i, slot], kept[i, slot] = j, True
+        return
 
 
 @dataclass

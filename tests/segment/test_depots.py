@@ -42,7 +42,41 @@ def test_candidates_itself_first_then_nearest() -> None:
     # Four depots on a line at 0, 1, 3, 7 km: depot 1's nearest are 0 (1 km), then 2 (2 km).
     xy = np.array([[0.0, 0.0], [1000.0, 0.0], [3000.0, 0.0], [7000.0, 0.0]])
     cand = nearest_candidates(xy, 3)
-    assert cand.tolist() == [[0, 1, 2], [1, 0, 2], [2, 1, 0], [3, 2, 1]]
+    # By nearness alone depot 2's moves are 1 and 0, and no depot's move reaches 3: a
+    # drone could never fly there. Depot 2, the nearest to 3, gives its farthest move
+    # (0, 3 km; it stays in 0, 1, 2's group, which 1 still joins) to 3.
+    assert cand.tolist() == [[0, 1, 2], [1, 0, 2], [2, 1, 3], [3, 2, 1]]
+
+
+def _reach(cand: np.ndarray, start: int) -> set[int]:
+    """The depots a drone at ``start`` can reach by moves (``cand[i, 1:]``)."""
+    seen, todo = {start}, [start]
+    while todo:
+        for j in cand[todo.pop(), 1:].tolist():
+            if j not in seen:
+                seen.add(j)
+                todo.append(j)
+    return seen
+
+
+def test_candidates_reach_every_depot_of_two_villages() -> None:
+    # Two villages 8 km apart, four depots each on a 100 m square: each depot's three
+    # nearest are its village's, so no move would ever leave a village. The nearest pair
+    # across (depot 1 at (100, 0) and depot 4 at (8000, 0)) each give their farthest move
+    # (the square's diagonal: 3 and 7) to the other; every other row is nearness alone.
+    square = np.array([[0.0, 0.0], [100.0, 0.0], [0.0, 100.0], [100.0, 100.0]])
+    xy = np.vstack([square, square + [7900.0, 0.0]])
+    cand = nearest_candidates(xy, 4)
+    assert cand.tolist() == [
+        [0, 1, 2, 3], [1, 0, 3, 4], [2, 0, 3, 1], [3, 1, 2, 0],
+        [4, 5, 6, 1], [5, 4, 7, 6], [6, 4, 7, 5], [7, 5, 6, 4],
+    ]  # fmt: skip
+    for i in range(8):
+        assert _reach(cand, i) == set(range(8)), i
+    # Depots already all reachable keep their nearest moves; one move each is kept too.
+    line = np.array([[0.0, 0.0], [1000.0, 0.0], [2000.0, 0.0], [3000.0, 0.0]])
+    assert nearest_candidates(line, 3).tolist() == [[0, 1, 2], [1, 0, 2], [2, 1, 3], [3, 2, 1]]
+    assert nearest_candidates(xy, 2)[:, 1].tolist() == [1, 0, 0, 1, 5, 4, 4, 5]
 
 
 def test_candidates_ties_go_to_lower_id_and_cap_at_n() -> None:
