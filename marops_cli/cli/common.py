@@ -20,7 +20,7 @@ from rich.table import Table
 
 from ..app.inputs import protect_inputs, require_input
 from ..errors import InputError, MaropsError, bad_path
-from ..io.ownership import allow_replacing_foreign
+from ..io.ownership import allow_replacing_foreign, register_stdin
 
 __all__ = [
     "PLAIN",
@@ -118,7 +118,8 @@ def stdin_file() -> Path:
     by its first bytes, hashed for the depots cache, read again by worker processes.
     More than :data:`MAX_STDIN` bytes is an error, and the copy is removed at once. The
     copies that killed runs left behind (kill -9 leaves no time to remove one) are
-    removed first (:func:`_sweep_stdin_copies`)."""
+    removed first (:func:`_sweep_stdin_copies`). A regular file on standard input
+    (``< FILE``) is an input of the run: no output may replace it."""
     import atexit
     import shutil
     import tempfile
@@ -129,6 +130,7 @@ def stdin_file() -> Path:
             f"DATA - reads the LaDe export from standard input, which is {what}; "
             "pipe it in (marops CMD - … < lade.csv)"
         )
+    register_stdin()
     global _stdin_copy
     _sweep_stdin_copies(Path(tempfile.gettempdir()))
     folder = Path(tempfile.mkdtemp(prefix=f"{_STDIN_FOLDER}{os.getpid()}-"))

@@ -15,6 +15,7 @@ import contextlib
 import errno
 import json
 import os
+import stat
 import tempfile
 import zipfile
 from collections.abc import Iterable, Iterator
@@ -34,6 +35,8 @@ TMP_MARK = "marops-"
 
 _REPLACE_FOREIGN: ContextVar[bool] = ContextVar("replace_foreign", default=False)
 _RUN_INPUTS: ContextVar[tuple[Path, ...]] = ContextVar("run_inputs", default=())
+_STDIN_INPUT: ContextVar[tuple[int, int] | None] = ContextVar("stdin_input", default=None)
+"""Standard input's device and inode when the run reads a regular file from it."""
 _WITH_METADATA = (".parquet", ".json", ".geojson", ".ckpt")
 
 
@@ -43,9 +46,11 @@ def replacing_foreign_files(allowed: bool) -> Iterator[None]:
     (``--force``), and the run's inputs are registered afresh."""
     token = _REPLACE_FOREIGN.set(allowed)
     inputs = _RUN_INPUTS.set(())
+    stdin = _STDIN_INPUT.set(None)
     try:
         yield
     finally:
+        _STDIN_INPUT.reset(stdin)
         _RUN_INPUTS.reset(inputs)
         _REPLACE_FOREIGN.reset(token)
 
@@ -59,6 +64,7 @@ def new_run() -> None:
     """A command starts: no inputs registered, no foreign file replaced."""
     _REPLACE_FOREIGN.set(False)
     _RUN_INPUTS.set(())
+    _STDIN_INPUT.set(None)
 
 
 def register_inputs(paths: Iterable[object]) -> None:
@@ -72,9 +78,21 @@ def register_inputs(paths: Iterable[object]) -> None:
     _RUN_INPUTS.set(tuple(known))
 
 
+def register_stdin() -> None:
+    """Standard input, when it is a regular file (``marops CMD - < FILE``), is an input
+    of the run too: its name is unknown, so it is told by its device and inode."""
+    try:
+        st = os.fstat(0)
+    except OSError:  # closed
+        return
+    if stat.S_ISREG(st.st_mode):
+        _STDIN_INPUT.set((st.st_dev, st.st_ino))
+
+
 def check_not_input(final: Path) -> None:
     """Refuse an output that is one of the run's inputs: the same resolved path or the
-    same file (an inode reached through a symlink, a hard link or ``..``)."""
+    same file (an inode reached through a symlink, a hard link or ``..``, or the file
+    standard input reads)."""
     try:
         target = Path(final).resolve()
     except RuntimeError:  # a symlink loop (Python 3.11 raises this, not OSError)
@@ -87,6 +105,17 @@ def check_not_input(final: Path) -> None:
         if same:
             raise InputError(
                 f"is an input of this run ({inp}); choose another {option('out')}", file=final
+            )
+    stdin = _STDIN_INPUT.get()
+    if stdin is not None:
+        try:
+            st = os.stat(final)
+        except OSError:  # absent: no input
+            return
+        if (st.st_dev, st.st_ino) == stdin:
+            raise InputError(
+                f"is an input of this run (standard input); choose another {option('out')}",
+                file=final,
             )
 
 
@@ -179,8 +208,6 @@ def check_replaceable(paths: Iterable[Path], journal: bool = False) -> None:
 
 def _special(path: Path) -> bool:
     """Whether ``path`` itself (not a link's target) is a pipe, a socket or a device."""
-    import stat
-
     try:
         mode = os.lstat(path).st_mode
     except OSError:  # absent, or below a file: judged where the folder is made

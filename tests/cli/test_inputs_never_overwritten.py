@@ -99,3 +99,32 @@ def test_a_file_marops_did_not_write_is_replaced_only_with_force(
     assert not list(tmp_path.glob(".*.tmp"))
     assert CliRunner().invoke(app, [*args, "--force"]).exit_code == 0
     assert CliRunner().invoke(app, args).exit_code == 0  # now ours: replaced freely
+
+
+def test_the_file_on_standard_input_is_never_overwritten(example_csv: Path, tmp_path: Path) -> None:
+    """``marops segment - --out F --force < F``: standard input's file is an input of the
+    run (told by device and inode, its name being unknown), so no output replaces it."""
+    import subprocess
+    import sys
+
+    root = Path(__file__).resolve().parents[2]
+    data = tmp_path / "data.json"  # a data file under an output's name
+    shutil.copy(example_csv, data)
+    before = _sha(data)
+    code = (
+        f"import sys; sys.path.insert(0, {str(root)!r}); "
+        "from marops_cli.cli.app import main; main()"
+    )
+    with data.open("rb") as stdin:
+        res = subprocess.run(
+            [sys.executable, "-c", code, "segment", "-", "--out", str(data), "--force"],
+            cwd=tmp_path,
+            stdin=stdin,
+            capture_output=True,
+            text=True,
+            timeout=300,
+        )
+    assert res.returncode == 2, res.stderr
+    assert "data.json: is an input of this run (standard input)" in res.stderr
+    assert len(res.stderr.strip().splitlines()) == 1
+    assert _sha(data) == before
