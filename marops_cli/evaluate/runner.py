@@ -41,7 +41,16 @@ from ..sim.scenario import (
 )
 from ..workers import outcomes
 from ..workers.pool import check_workers
-from .settings import Job, Setting, check_repeats, check_settings, plan_jobs, split_days
+from .settings import (
+    Job,
+    Setting,
+    check_repeats,
+    check_replays,
+    check_settings,
+    plan_jobs,
+    replay_counts,
+    split_days,
+)
 
 OnResult = Callable[[int, int, Job], None]
 
@@ -150,12 +159,15 @@ def prepare(
     actors = {k: Path(v) for k, v in (actors or {}).items()}
     # Fails here, not in a worker.
     actor_files = check_methods(methods, actors, trust=cfg.sim.trust_actor, ops=cfg.ops)
-    check_settings(cfg, settings, methods)
     check_repeats(repeats)
+    counts = replay_counts(len(settings), methods, repeats)
+    check_replays(counts)  # before every setting's config is checked
+    check_settings(cfg, settings, methods)
     table = data if isinstance(data, LadeTable) else read_lade(data, cfg.data)
     chosen = list(days) if days else split_days(table.days(), split)
     if not chosen:
         raise InputError(f"no days to evaluate (the file has {format_days(table.days())})")
+    check_replays([*counts, (len(chosen), "day", "days")])  # before any segmentation
     history = hubs_history(table, chosen)
     if hubs is None and cfg.data.area == "hubs" and cfg.data.center is None:
         hubs = place_hubs(table, cfg, history, max(s.depots_n for s in settings))

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import datetime as dt
 import itertools
+import math
 from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass
 from typing import Any, TypeVar
@@ -40,6 +41,26 @@ def check_repeats(repeats: int) -> None:
         raise InputError(
             f"invalid option {option('repeats')}: got {repeats} "
             f"(expected 1 ≤ repeats ≤ {MAX_REPEATS}, docs/config.md)"
+        )
+
+
+MAX_REPLAYS = 100_000
+"""The most replays one evaluation runs (settings × methods × repeats × days, a city's
+hubs counting their days each; docs/config.md): days of work on any machine, far more
+than a study needs. A larger sweep is refused before its settings or jobs are listed."""
+
+
+def check_replays(parts: Sequence[tuple[int, str, str]]) -> None:
+    """Refuse more than :data:`MAX_REPLAYS` replays, counted as the product of ``parts``
+    (a count with what one and several of it are called: ``(12, "method", "methods")``),
+    before any list of them is made; one line naming the counts and the bound."""
+    total = math.prod(n for n, _, _ in parts)
+    if total > MAX_REPLAYS:
+        said = " × ".join(f"{n:,} {one if n == 1 else many}" for n, one, many in parts)
+        raise InputError(
+            f"the evaluation would run {total:,} replays ({said}), more than the "
+            f"{MAX_REPLAYS:,} one evaluation runs (docs/config.md); give fewer values or "
+            "split the sweep over several runs"
         )
 
 
@@ -116,6 +137,7 @@ def expand_settings(
     """Every combination of the given values (a flag left out keeps the config's value).
 
     The order is fixed (α slowest, depots fastest) so results always line up the same.
+    More combinations than :data:`MAX_REPLAYS` are refused before any is made.
     """
     axes = (
         list(alpha) if alpha else [cfg.plan.alpha],
@@ -123,6 +145,10 @@ def expand_settings(
         list(coverage) if coverage else [cfg.plan.coverage],
         list(depots_n) if depots_n else [cfg.segment.n_depots],
     )
+    names = [option("n_depots" if flag == "depots_n" else flag) for flag in SWEEP_FLAGS]
+    counts = [len(axis) for axis in axes]
+    swept = zip(counts, names, strict=True)
+    check_replays([(k, f"{n} value", f"{n} values") for k, n in swept if k > 1])
     return [Setting(float(a), int(u), float(c), int(n)) for a, u, c, n in itertools.product(*axes)]
 
 
@@ -159,6 +185,17 @@ def split_days(days: Sequence[dt.date], split: str) -> list[dt.date]:
     return test if split == "test" else train
 
 
+def replay_counts(
+    n_settings: int, methods: Sequence[str], repeats: int
+) -> list[tuple[int, str, str]]:
+    """The counts an evaluation's replays multiply, its days aside (:func:`check_replays`)."""
+    return [
+        (n_settings, "setting", "settings"),
+        (len(methods), "method", "methods"),
+        (repeats, "repeat", "repeats"),
+    ]
+
+
 def plan_jobs(
     n_settings: int,
     methods: Sequence[str],
@@ -173,6 +210,12 @@ def plan_jobs(
     a city, gives each hub with its own days instead."""
     check_repeats(repeats)
     areas = list(hub_days) if hub_days is not None else [(0, days)]
+    check_replays(
+        [
+            *replay_counts(n_settings, methods, repeats),
+            (sum(len(d) for _, d in areas), "day", "days"),
+        ]
+    )
     jobs: list[Job] = []
     for s, m, r in itertools.product(range(n_settings), methods, range(repeats)):
         for hub, area_days in areas:

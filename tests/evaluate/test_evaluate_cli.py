@@ -138,6 +138,24 @@ def test_repeats_out_of_range_is_refused_up_front(
     assert f"at most {MAX_REPEATS}" in " ".join(help_text.replace("│", " ").split())
 
 
+def test_a_sweep_of_too_many_replays_is_refused_up_front(
+    example_csv: Path, tmp_path: Path, fails_cleanly
+) -> None:
+    """Thousands of --alpha values × a thousand --drones grew to gigabytes before failing:
+    more replays than docs/config.md allows is one line naming the flags and the counts,
+    before anything is read or written."""
+    from marops_cli.evaluate.settings import MAX_REPLAYS
+
+    alpha = ",".join(str(i / 1000) for i in range(1, 3001))
+    drones = ",".join(str(i) for i in range(1, 1001))
+    args = ["evaluate", str(example_csv), "--methods", "stay", "--alpha", alpha]
+    needles = ("3,000,000 replays (3,000 --alpha values × 1,000 --drones values)",)
+    needles += (f"{MAX_REPLAYS:,}", "docs/config.md")
+    fails_cleanly([*args, "--drones", drones, "--out", str(tmp_path / "out")], tmp_path, *needles)
+    args = [*args[:-1], alpha[:1000], "--repeats", "1000", "--out", str(tmp_path / "out")]
+    fails_cleanly(args, tmp_path, "× 1 method × 1,000 repeats)")
+
+
 def _readme_evaluate_line() -> list[str]:
     """The README's `marops evaluate …` line of the commands table, its optional parts
     ([--workers N] …) left out."""

@@ -101,3 +101,29 @@ def test_jobs_are_ordered_and_repeats_change_the_seed() -> None:
     assert (jobs[3].repeat, jobs[3].seed, jobs[3].day) == (1, 6, days[1])
     assert jobs[4].method == "ops-random"
     assert jobs[8].setting == 1
+
+
+def test_a_sweep_of_more_replays_than_the_bound_is_refused_before_it_is_listed() -> None:
+    """Thousands of values of two flags once made a list of millions of settings (and of
+    jobs) that filled memory: more than MAX_REPLAYS is one line naming the counts."""
+    from marops_cli.evaluate.settings import MAX_REPLAYS
+
+    alpha = [i / 1000 for i in range(1, 401)]
+    with pytest.raises(InputError) as err:
+        expand_settings(PlannerConfig(), alpha=alpha, drones=list(range(1, 301)))
+    said = str(err.value)
+    assert "120,000 replays (400 --alpha values × 300 --drones values)" in said
+    assert f"{MAX_REPLAYS:,}" in said and "docs/config.md" in said
+    assert (
+        len(expand_settings(PlannerConfig(), alpha=alpha, drones=list(range(1, 251))))
+        == MAX_REPLAYS
+    )
+    days = [dt.date(2022, 8, 11), dt.date(2022, 8, 12)]
+    with pytest.raises(
+        InputError, match=r"120,000 replays \(20,000 settings × 3 methods × 1 repeat × 2 days\)"
+    ):
+        plan_jobs(20_000, ["stay", "greedy", "myopic"], days, repeats=1, seed=0)
+    hubs = [(0, days), (1, days[:1])]  # a city: each hub counts its own days
+    with pytest.raises(InputError, match=r"× 3 days\)"):
+        plan_jobs(20_000, ["stay", "greedy"], days, repeats=1, seed=0, hub_days=hubs)
+    assert len(plan_jobs(20_000, ["stay"], days, repeats=1, seed=0, hub_days=hubs)) == 60_000
