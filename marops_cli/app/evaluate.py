@@ -156,7 +156,10 @@ def evaluate(
     register_inputs([data, *(f for a in config.actors.values() for f in actor_files(a))])
     if out is not None:  # before any work: a folder, no file marops did not write
         check_out(out)
+        from ..evaluate.dataset import check_jobs_folder
         from ..io.atomic import check_free
+
+        check_jobs_folder(out / JOBS)
 
         check_free(out)  # no other run writes there, nor above it or inside it
         sweep = {

@@ -49,6 +49,23 @@ def job_key(job: Job) -> dict[str, Any]:
     }
 
 
+def check_jobs_folder(root: Path) -> None:
+    """``OUT/jobs`` is absent or a folder of its own: a link (another evaluation's jobs,
+    cleared through it) or a file there is refused, naming it, before any work."""
+    if root.is_symlink():
+        raise InputError(
+            f"is a link; the jobs folder below {option('out')} is marops's own: remove it "
+            f"or choose another {option('out')}",
+            file=root,
+        )
+    if os.path.lexists(root) and not root.is_dir():
+        raise InputError(
+            "is a file, not the folder where marops evaluate keeps its jobs; move it or choose "
+            f"another {option('out')}",
+            file=root,
+        )
+
+
 class JobStore:
     """The jobs dataset of one evaluation under ``root`` (``OUT/jobs``).
 
@@ -86,12 +103,7 @@ class JobStore:
         error naming the folder (``force``: they are cleared when the first job of this
         run is written). Writes nothing: a run that fails before its first job leaves the
         folder as it was."""
-        if self.root.is_symlink():  # another evaluation's jobs, cleared through it
-            raise InputError(
-                f"is a link; the jobs folder below {option('out')} is marops's own: remove it "
-                f"or choose another {option('out')}",
-                file=self.root,
-            )
+        check_jobs_folder(self.root)
         held = self._held_identity()
         self._done = set()
         # A link (to a file or a folder) is never a job: writing there would write elsewhere.

@@ -191,6 +191,31 @@ def test_out_that_is_a_file_fails_before_any_work(
     fails_cleanly(args, tmp_path, "--out must be a folder")
 
 
+@pytest.mark.parametrize("kind", ["file", "fifo", "link"])
+def test_out_jobs_that_is_no_folder_fails_before_any_work(
+    example_csv: Path, tmp_path: Path, fails_cleanly, kind: str
+) -> None:
+    """``OUT/jobs`` a file or a pipe (once ``Not a directory``, exit 1, after reading and
+    segmenting), or a link: one line naming it, before any work, the file as it was."""
+    import os
+
+    out = tmp_path / "out"
+    out.mkdir()
+    jobs = out / "jobs"
+    if kind == "file":
+        jobs.write_text("mine")
+    elif kind == "fifo":
+        os.mkfifo(jobs)
+    else:
+        (tmp_path / "elsewhere").mkdir()
+        jobs.symlink_to(tmp_path / "elsewhere")
+    args = ["evaluate", str(example_csv), "--area", "square", "--dates", "0811"]
+    args += ["--methods", "stay", "--workers", "1", "--no-plot", "--out", str(out)]
+    said = "is a link" if kind == "link" else "is a file, not the folder where marops"
+    fails_cleanly(args, tmp_path, f"{jobs}: {said}")
+    assert kind != "file" or jobs.read_text() == "mine"
+
+
 def test_ctrl_c_exits_130_keeps_finished_jobs_and_prints_no_traceback(
     example_csv: Path, tmp_path: Path, stop_marops
 ) -> None:
