@@ -224,6 +224,11 @@ def _path(value: Any) -> Path | None:
     return Path(value) if isinstance(value, str | Path) else None
 
 
+def _hub_name(path: Path) -> bool:
+    """Whether ``path`` is named as a hub's folder is (``hub-<id>``)."""
+    return path.name.removeprefix("hub-").isdecimal()
+
+
 def _outputs(
     out: Path, days: list[dt.date], several: bool, hubs: bool, options: ReplayOptions
 ) -> list[Path]:
@@ -251,10 +256,12 @@ def _outputs(
         shared = [out / script_name()]
     if not hubs:
         return area(out) + shared
-    # out/hub-<id>/ below the city's metrics.json
-    # (a link named so is listed too, for refuse_links_below to refuse)
+    # out/hub-<id>/ below the city's metrics.json (a link named so is listed too, for
+    # refuse_links_below to refuse, and a file named hub-<id>, which no folder can be)
     hub_folders = (
-        [p for p in out.glob("hub-*") if p.is_dir() or p.is_symlink()] if out.is_dir() else []
+        [p for p in out.glob("hub-*") if p.is_dir() or p.is_symlink() or _hub_name(p)]
+        if out.is_dir()
+        else []
     )
     city = [out / n for n in above] + [out / "left_out.csv"]
     return city + shared + [p for a in hub_folders for p in area(a)]

@@ -196,6 +196,11 @@ def folder_lock(folder: str | Path) -> Iterator[None]:
     removed; the lines go when none is left): the only files the next run removes.
     """
     folder = Path(folder)
+    if os.path.lexists(folder) and not folder.is_dir():  # a file of its name
+        raise InputError(
+            f"is a file where marops makes a folder; move it or choose another {option('out')}",
+            file=folder,
+        )
     created = not folder.exists()
     folder.mkdir(parents=True, exist_ok=True)
     lock = folder / LOCK

@@ -249,6 +249,20 @@ TOO_LONG = {
 }
 
 
+def test_a_file_where_a_hub_s_folder_goes_is_refused_before_any_work(
+    example_csv: Path, tmp_path: Path, fails_cleanly
+) -> None:
+    """``OUT/hub-0`` a file in a city run (once ``File exists``, exit 1, after segmenting):
+    refused naming it before any work, as a day's folder that is a file is."""
+    out = tmp_path / "city"
+    out.mkdir()
+    (out / "hub-0").write_text("mine")
+    (out / "hub-notes").write_text("mine")  # no hub's name: no obstacle
+    args = ["replay-day", str(example_csv), "--date", "0811", "--area", "hubs"]
+    fails_cleanly([*args, "--out", str(out)], tmp_path, f"{out / 'hub-0'} is a file")
+    assert (out / "hub-0").read_text() == "mine"
+
+
 @pytest.mark.parametrize("name", sorted(TOO_LONG))
 def test_a_folder_name_too_long_is_one_line_naming_the_path(
     example_csv: Path, tmp_path: Path, fails_cleanly, name: str

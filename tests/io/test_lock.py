@@ -159,3 +159,18 @@ def test_replay_day_into_a_day_folder_of_a_running_replay_is_refused(
         assert f"another marops run (pid {first.pid}) is writing into this folder" in line
     finally:
         first.communicate("", timeout=60)
+
+
+def test_a_file_where_the_locked_folder_goes_is_one_line_naming_it(tmp_path: Path) -> None:
+    """A file (or a pipe) by the folder's name: exit 2 naming it, not ``File exists``, and
+    the file as it was."""
+    import pytest
+
+    from marops_cli.errors import InputError
+    from marops_cli.io.atomic import folder_lock
+
+    taken = tmp_path / "hub-0"
+    taken.write_text("mine")
+    with pytest.raises(InputError, match="is a file where marops makes a folder") as err:
+        folder_lock(taken).__enter__()
+    assert err.value.file == str(taken) and taken.read_text() == "mine"
