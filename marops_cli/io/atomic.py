@@ -201,7 +201,7 @@ def folder_lock(folder: str | Path) -> Iterator[None]:
             f"is a file where marops makes a folder; move it or choose another {option('out')}",
             file=folder,
         )
-    created = not folder.exists()
+    made = missing_folders(folder / LOCK)  # the folder and those above it, deepest first
     folder.mkdir(parents=True, exist_ok=True)
     lock = folder / LOCK
     fh = _take(folder, lock)
@@ -214,12 +214,15 @@ def folder_lock(folder: str | Path) -> Iterator[None]:
     finally:
         with _GUARD:
             _HELD.pop(root, None)
-        empty = created and not any(p.name != LOCK for p in folder.iterdir())
+        empty = bool(made) and not any(p.name != LOCK for p in folder.iterdir())
         lock.unlink(missing_ok=True)  # still holding it: the next run takes a fresh one
         fh.close()
-        if empty:  # a failed run leaves no empty folder
-            with contextlib.suppress(OSError):  # another run created its lock meanwhile
-                folder.rmdir()
+        if empty:  # a failed run leaves no empty folder, nor the empty ones above it
+            for above in made:
+                try:
+                    above.rmdir()
+                except OSError:  # another run's lock or files in it meanwhile: it stays
+                    break
 
 
 def _take(folder: Path, lock: Path) -> Any:

@@ -174,3 +174,22 @@ def test_a_file_where_the_locked_folder_goes_is_one_line_naming_it(tmp_path: Pat
     with pytest.raises(InputError, match="is a file where marops makes a folder") as err:
         folder_lock(taken).__enter__()
     assert err.value.file == str(taken) and taken.read_text() == "mine"
+
+
+def test_a_failed_run_leaves_none_of_the_empty_folders_it_made(tmp_path: Path) -> None:
+    """``--out new/a/b/c`` of a run that fails (or is stopped) before writing: ``c`` goes,
+    and so do ``new/a/b``, ``new/a`` and ``new``, which the run made too; a folder that
+    existed, or holds something, stays."""
+    import pytest
+
+    from marops_cli.io.atomic import folder_lock
+
+    with pytest.raises(KeyboardInterrupt), folder_lock(tmp_path / "new" / "a" / "b" / "c"):
+        raise KeyboardInterrupt
+    assert list(tmp_path.iterdir()) == []
+    (tmp_path / "new" / "a").mkdir(parents=True)
+    (tmp_path / "new" / "mine.txt").write_text("mine")
+    with pytest.raises(KeyboardInterrupt), folder_lock(tmp_path / "new" / "a" / "b" / "c"):
+        raise KeyboardInterrupt
+    assert sorted(p.name for p in (tmp_path / "new").iterdir()) == ["a", "mine.txt"]
+    assert list((tmp_path / "new" / "a").iterdir()) == []
