@@ -279,16 +279,18 @@ def check_outputs(paths: Iterable[Path], journal: bool = False) -> None:
 
 
 def _names_fit(final: Path, folder: Path, to_make: list[str]) -> None:
-    """The folders ``to_make`` under ``folder`` (and the whole path of ``final``) fit the
-    file system's limits: a name too long would fail only when the folders are made,
-    after the work and with the folders above it already made."""
+    """The folders ``to_make`` under ``folder`` (and the whole path of ``final``'s
+    temporary, ``.NAME.marops-XXXXXXXX.tmp`` beside it, longer than ``final``) fit the
+    file system's limits: a name too long would fail only when the folders are made or
+    the temporary written, after the work and with the folders above it already made."""
     try:
         name_max = os.pathconf(folder, "PC_NAME_MAX")
         path_max = os.pathconf(folder, "PC_PATH_MAX")
     except (OSError, ValueError):  # no limit known: the write says it, if it comes to that
         return
-    too_long = any(len(os.fsencode(n)) > name_max for n in to_make)
-    if too_long or len(os.fsencode(final.absolute())) >= path_max:
+    tmp = f".{final.name}.{TMP_MARK}{'x' * 8}.tmp"  # as io/atomic.py temporary() names it
+    too_long = any(len(os.fsencode(n)) > name_max for n in [*to_make, tmp])
+    if too_long or len(os.fsencode(final.absolute().parent / tmp)) >= path_max:
         raise InputError(f"cannot write ({os.strerror(errno.ENAMETOOLONG)})", file=final)
 
 

@@ -256,6 +256,25 @@ def test_a_folder_to_make_whose_name_is_too_long_is_refused_before_the_work(
     assert list(tmp_path.iterdir()) == []
 
 
+def test_a_path_whose_temporary_is_too_long_is_refused_before_the_work(
+    tmp_path: Path,
+) -> None:
+    """The temporary ``.NAME.marops-XXXXXXXX.tmp`` is 21 bytes longer than the output: an
+    output whose own name or path fits, but whose temporary's does not, failed only when
+    written, after the work. Both limits count the temporary, and nothing is made."""
+    name_max = os.pathconf(tmp_path, "PC_NAME_MAX")
+    path_max = os.pathconf(tmp_path, "PC_PATH_MAX")
+    with pytest.raises(InputError, match="cannot write .File name too long"):
+        check_outputs([tmp_path / ("x" * (name_max - 10))])
+    top = len(os.fsencode(tmp_path / "new")) + 1
+    n, rest = divmod(path_max - 10 - top, 201)  # folders of 200 bytes and a slash each
+    final = tmp_path / "new" / "/".join(["y" * 200] * n) / ("z" * max(rest - 1, 1))
+    assert len(os.fsencode(final)) < path_max  # the output's path fits
+    with pytest.raises(InputError, match="cannot write .File name too long"):
+        check_outputs([final])
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_plan_window_into_a_folder_whose_name_is_too_long_does_no_work(
     example_csv: Path, tmp_path: Path
 ) -> None:
