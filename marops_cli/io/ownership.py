@@ -188,12 +188,12 @@ def check_replaceable(paths: Iterable[Path], journal: bool = False) -> None:
                     "is a pipe, a socket or a device, not a file marops may replace",
                     file=final,
                 )
-            # A symbolic link that leads to no regular file is no file marops wrote, and
-            # reading one (to a pipe) to find out could block.
+            # A symbolic link is the user's, whatever it leads to: marops writes none (and
+            # reading one to a pipe to find out whose its target is could block).
             foreign = (
                 not _REPLACE_FOREIGN.get()
                 and os.path.lexists(final)
-                and (not final.is_file() or not written_by_marops(final))
+                and (final.is_symlink() or not final.is_file() or not written_by_marops(final))
             )
         except OSError as exc:  # a name too long, a loop of symbolic links
             raise InputError(f"cannot write ({_reason(exc)})", file=final) from None

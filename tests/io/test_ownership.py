@@ -194,6 +194,25 @@ def test_no_output_replaces_an_input_reached_another_way(tmp_path: Path, link: s
     assert not [p for p in out.iterdir() if p.name.endswith(".tmp")]
 
 
+def test_a_symlink_to_a_marops_file_is_the_user_s(example_csv: Path, tmp_path: Path) -> None:
+    """A user's link at an output's name (``latest.json -> target.json``) was replaced by
+    a plain file when it led to a file marops wrote: a link is never marops's, so it is
+    refused without --force, its target read by no one and kept."""
+    target = tmp_path / "target.json"
+    target.write_text(json.dumps({"meta": {"package": "marops"}}))
+    assert written_by_marops(target)
+    link = tmp_path / "latest.json"
+    link.symlink_to("target.json")
+    with pytest.raises(InputError, match="latest.json: exists and was not written by marops"):
+        check_replaceable([link])
+    args = ["segment", example_csv, "--dates", "0809..0810", "--out", link]
+    res = marops(*args)
+    assert res.returncode == 2 and "pass --force" in one_line(res.stderr)
+    assert link.is_symlink() and json.loads(target.read_text())["meta"] == {"package": "marops"}
+    assert marops(*args, "--force").returncode == 0
+    assert not link.is_symlink() and json.loads(target.read_text())["meta"] == {"package": "marops"}
+
+
 def test_a_broken_journal_makes_nothing_marops_s(tmp_path: Path) -> None:
     fig = tmp_path / "routes.png"
     with output_set() as files:
