@@ -149,6 +149,16 @@ def train(
     if setup.train.algorithm == "es":
         files = actor_files(out, "es")
         return TrainResult(files[0], files, side)
+    from ..errors import switch
+    from ..policies.installation import record_path, trained_here
+
+    if not trained_here(out.read_bytes()):  # a record that is a link, a pipe, read-only
+        progress.warning(
+            f"{record_path()}: this installation's record of trained actors was not "
+            f"written (a symbolic link, a pipe or no write access): {out.name} loads by "
+            f"its weights file {out.with_suffix('.safetensors').name}, or with "
+            f"{switch('trust_actor')}"
+        )
     files = [out, out.with_suffix(".safetensors"), out.with_suffix(".json")]
     if side.get("learning_curve"):  # drawn from it (rl/export.py)
         files.append(out.with_suffix(".curve.png"))

@@ -18,7 +18,7 @@ from rich.progress import (
     TimeRemainingColumn,
 )
 
-from ..errors import InputError
+from ..errors import InputError, spelled
 from ..io.ownership import allow_replacing_foreign
 from . import options as o
 from .common import (
@@ -65,7 +65,7 @@ class _Reporter:
         console.print(text)
 
     def warning(self, text: str) -> None:
-        warn(text)
+        warn(spelled(text))  # an option named by its flag (marops_cli/errors.py)
 
     def start(self, label: str, total: int, unit: str) -> None:
         if not is_terminal():

@@ -5,7 +5,8 @@ so it loads without ``--trust-actor`` (docs/method.md §6, "Trust model of actor
 
 The record is only appended to (one short line per write, with ``O_APPEND``), so runs
 training at once never lose each other's lines and no temporary is needed. A record
-that cannot be written is skipped: the actor then needs its weights file or the flag.
+that cannot be written (a symbolic link included, never followed) is skipped, and
+``train`` warns: the actor then needs its weights file or the flag.
 """
 
 from __future__ import annotations
@@ -37,7 +38,8 @@ def sha256_bytes(data: bytes) -> str:
 
 def record_trained(actor: bytes, path: str | Path) -> bool:
     """Note that this installation wrote the TorchScript file ``actor`` (its bytes) to
-    ``path``; False when the record could not be written."""
+    ``path``; False when the record could not be written (or is a symbolic link, never
+    followed: the line would land in whatever file it leads to)."""
     line = json.dumps(
         {
             "sha256": sha256_bytes(actor),
@@ -50,7 +52,8 @@ def record_trained(actor: bytes, path: str | Path) -> bool:
     try:
         record.parent.mkdir(parents=True, exist_ok=True)
         # Without blocking: a named pipe nobody reads would hold the open for ever.
-        fd = os.open(record, os.O_WRONLY | os.O_APPEND | os.O_CREAT | os.O_NONBLOCK, 0o600)
+        flags = os.O_WRONLY | os.O_APPEND | os.O_CREAT | os.O_NONBLOCK | os.O_NOFOLLOW
+        fd = os.open(record, flags, 0o600)
         try:
             if not stat.S_ISREG(os.fstat(fd).st_mode):
                 return False  # a pipe or a device is no record
@@ -64,10 +67,11 @@ def record_trained(actor: bytes, path: str | Path) -> bool:
 
 def _record_lines() -> list[str]:
     """The record's lines; none when it is missing, unreadable, no regular file (a pipe
-    is never waited on), larger than :data:`MAX_RECORD`, or not this user's alone (owned
-    by another user, or writable by others: anyone could vouch for any file there)."""
+    is never waited on, a symbolic link never followed), larger than :data:`MAX_RECORD`,
+    or not this user's alone (owned by another user, or writable by others: anyone could
+    vouch for any file there)."""
     try:
-        fd = os.open(record_path(), os.O_RDONLY | os.O_NONBLOCK)
+        fd = os.open(record_path(), os.O_RDONLY | os.O_NONBLOCK | os.O_NOFOLLOW)
     except OSError:
         return []
     with os.fdopen(fd, "rb") as f:

@@ -412,6 +412,28 @@ def test_a_record_that_is_a_pipe_is_neither_waited_on_nor_written(
         signal.signal(signal.SIGALRM, previous)
 
 
+def test_a_record_that_is_a_symbolic_link_is_never_followed(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The installation's record as a link: training's line never lands in the file it
+    leads to, and the lines there vouch for nothing."""
+    from marops_cli.policies.installation import record_path, record_trained, trained_here
+
+    monkeypatch.setenv("XDG_DATA_HOME", str(tmp_path))
+    elsewhere = tmp_path / "elsewhere.jsonl"
+    elsewhere.write_text("")
+    os.chmod(elsewhere, 0o600)
+    record_path().parent.mkdir(parents=True)
+    record_path().symlink_to(elsewhere)
+    assert not record_trained(b"x", tmp_path / "a.pt")
+    assert elsewhere.read_text() == "" and record_path().is_symlink()
+    record_path().unlink()
+    assert record_trained(b"x", tmp_path / "a.pt") and trained_here(b"x")  # a record of its own
+    os.replace(record_path(), elsewhere)
+    record_path().symlink_to(elsewhere)
+    assert not trained_here(b"x")
+
+
 def test_weights_that_are_not_the_sidecars_are_refused(tmp_path: Path) -> None:
     """The sidecar records the weights' SHA-256: other weights of the same shapes (another
     actor's) are refused, naming the sidecar's key."""

@@ -363,3 +363,25 @@ def test_a_checkpoint_that_would_run_code_is_refused_without_running_it(
     line = fails_cleanly(args, tmp_path, str(ckpt), "pass --no-resume")
     assert "never loads" in line and "system" in line and "weights_only" not in line, line
     assert not planted.exists()
+
+
+def test_train_warns_when_its_record_is_a_link_and_leaves_it(
+    tiny_csv: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """This installation's record of trained actors as a symbolic link: never appended to
+    through it (the file it leads to unchanged); the run says the actor went unrecorded."""
+    from marops_cli.policies.installation import record_path
+
+    monkeypatch.setenv("XDG_DATA_HOME", str(tmp_path / "data"))
+    elsewhere = tmp_path / "elsewhere.txt"
+    elsewhere.write_text("mine\n")
+    record_path().parent.mkdir(parents=True)
+    record_path().symlink_to(elsewhere)
+    out = tmp_path / "a.pt"
+    args = ["train", str(tiny_csv), "--episodes", "1", "--workers", "1", "--out", str(out)]
+    res = runner.invoke(app, args)
+    assert res.exit_code == 0, res.output
+    assert elsewhere.read_text() == "mine\n" and record_path().is_symlink()
+    said = " ".join(res.stderr.split())
+    assert f"{record_path()}: this installation's record of trained actors was not" in said
+    assert "--trust-actor" in said, said
