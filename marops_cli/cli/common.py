@@ -302,6 +302,8 @@ def guarded(fn: F) -> F:
             if STATE["debug"]:
                 raise
             exc = _blame_setting(exc, kwargs)
+            if isinstance(exc, InputError):
+                _name_env_vars(exc)
             _fail(_error_line(exc), exc.exit_code, command, kwargs)
         except OSError as exc:
             if STATE["debug"]:
@@ -352,6 +354,29 @@ def error_json(command: str, text: str, code: int) -> None:
     """A failed run's JSON document on stdout (docs/outputs.md): the command, the error
     line without its ``marops: error:`` prefix, and the exit code."""
     emit_json({"command": command, "error": text, "exit_code": code})
+
+
+def _name_env_vars(exc: InputError) -> None:
+    """An option whose value came from its environment variable is named with it, the
+    first time, as click names one it cannot parse: ``invalid option --drones (env var:
+    'MAROPS_DRONES'): …``; the user gave no ``--drones``."""
+    from ..errors import flag
+    from .usage import env_sourced, invoked
+
+    ctx = invoked()
+    from_env = env_sourced(ctx) if ctx is not None else {}
+    if not from_env:
+        return
+    named: set[str] = set()
+
+    def spell(name: str, on: bool) -> str:
+        text = flag(name, on)
+        if on or text not in from_env or text in named:  # a switch asked for: no value
+            return text
+        named.add(text)
+        return f"{text} (env var: '{from_env[text]}')"
+
+    exc.respell(spell)
 
 
 def _blame_setting(exc: MaropsError, options: dict[str, Any]) -> MaropsError:

@@ -4,6 +4,7 @@ and ``--debug`` after a command's name as before it."""
 
 from __future__ import annotations
 
+from contextvars import ContextVar
 from pathlib import PurePath
 from typing import Any, get_args
 
@@ -78,6 +79,41 @@ class Command(typer.core.TyperCommand):
             if hasattr(exc, "format_message") and getattr(exc, "ctx", False) is None:
                 exc.ctx = ctx  # type: ignore[attr-defined]
             raise
+
+    def invoke(self, ctx: Any) -> Any:
+        """Run the command, its context known to :func:`invoked` meanwhile (where each
+        option's value came from, for its errors: marops_cli/cli/common.py)."""
+        token = _INVOKED.set(ctx)
+        try:
+            return super().invoke(ctx)
+        finally:
+            _INVOKED.reset(token)
+
+
+_INVOKED: ContextVar[Any] = ContextVar("invoked", default=None)
+
+
+def invoked() -> Any:
+    """The context of the command running now (None outside one)."""
+    return _INVOKED.get()
+
+
+def env_sourced(ctx: Any) -> dict[str, str]:
+    """Each flag of ``ctx``'s command whose value came from its environment variable
+    (click's parameter source), with that variable: ``{"--drones": "MAROPS_DRONES"}``."""
+    import os
+
+    found: dict[str, str] = {}
+    for param in ctx.command.params:
+        source = ctx.get_parameter_source(param.name) if param.name else None
+        if getattr(source, "name", None) != "ENVIRONMENT":
+            continue
+        envvar = param.envvar
+        names = [envvar] if isinstance(envvar, str) else list(envvar or ())
+        var = next((n for n in names if os.environ.get(n)), None)  # click's first set
+        if var is not None:
+            found.update(dict.fromkeys(param.opts, var))
+    return found
 
 
 def _takes_paths(param: Any) -> bool:

@@ -82,6 +82,31 @@ def test_a_value_click_refuses_is_quoted_with_where_it_came_from(
         assert all(n in line for n in needles) and absent not in line, line
 
 
+def test_a_value_out_of_range_names_the_environment_variable_it_came_from(
+    example_csv: Path, tmp_path: Path
+) -> None:
+    """``MAROPS_DRONES=-1``: the value click takes but the planner refuses was reported as
+    ``--drones``, a flag never given; it names the variable, as click's own errors do, and
+    a flag given on the line is named alone."""
+    from typer.testing import CliRunner
+
+    from marops_cli.cli.app import app
+
+    base = ["replay-day", str(example_csv), "--date", "0811", "--area", "square"]
+    for i, (extra, environ, needles, absent) in enumerate(
+        (
+            ([], {"MAROPS_DRONES": "-1"}, ("--drones (env var: 'MAROPS_DRONES')", "got -1"), ""),
+            (["--drones", "-1"], {"MAROPS_DRONES": "5"}, ("--drones: ", "got -1"), "env var"),
+            (["--drones", "-1"], {"MAROPS_DRONES": None}, ("--drones: ", "got -1"), "env var"),
+        )
+    ):
+        out = tmp_path / f"out{i}"
+        res = CliRunner().invoke(app, [*base, *extra, "--out", str(out)], env=environ)
+        (line,) = res.stderr.splitlines()
+        assert res.exit_code == 2 and not out.exists()
+        assert all(n in line for n in needles) and (not absent or absent not in line), line
+
+
 def test_a_range_written_with_a_dash_gets_a_hint(
     example_csv: Path, tmp_path: Path, fails_cleanly
 ) -> None:
