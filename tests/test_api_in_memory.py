@@ -186,6 +186,19 @@ def test_a_frame_reads_its_lade_columns_as_a_file_does(example_csv: Path) -> Non
         marops.read_lade(twice)
 
 
+def test_a_frame_of_float_or_padded_ids_reads_as_its_plain_ids(example_csv: Path) -> None:
+    # pandas holds integer ids as floats once the column has a gap (601954.0); a
+    # hand-edited frame may pad them. Either is the plain id: the same rows and ids.
+    import pandas as pd
+
+    frame = pd.read_csv(example_csv)
+    base = marops.read_lade(frame)
+    assert marops.read_lade(frame.astype({"order_id": float})).equals(base)
+    padded = frame.astype({"order_id": str})
+    padded["order_id"] = " " + padded["order_id"] + " "
+    assert marops.read_lade(padded).equals(base)
+
+
 class DataFrame:
     """A frame of another library (polars, say): not pandas, whatever its name."""
 

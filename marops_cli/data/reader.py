@@ -6,8 +6,12 @@ every other row in its :class:`DropReport`. What is an error and what is dropped
 - errors (:class:`InputError`, exit 2, naming file, row and column): a file that
   is not CSV/Parquet, is empty or has no data rows; a missing required column; a
   non-empty time that does not parse; a ``ds`` that is not a ``MMDD`` date; an
-  empty ``order_id``; a ``weight_kg`` (when the column exists) that is empty, not
-  a number or not positive.
+  empty ``order_id`` (or one of whitespace only); a ``weight_kg`` (when the column
+  exists) that is empty, not a number or not positive.
+- ``order_id`` is read as the text of the id: trimmed of whitespace, and an integral
+  number written with a fraction of zeros (``601954.0``: a float column, or its
+  text) as its digits (``601954``); duplicates, parcel weights and the outputs see
+  this text.
 - dropped and counted, in this order of precedence (a row counts once, under the
   first reason that applies): ``missing_time`` (accept or delivery time empty),
   ``bad_coordinates`` (lng/lat empty, 0, not a number, NaN or out of range; a
@@ -411,6 +415,29 @@ def _utf8(column: pa.ChunkedArray, path: Path, name: str) -> pa.ChunkedArray:
         raise
 
 
+def _order_ids(column: pa.ChunkedArray) -> pa.ChunkedArray:
+    """``order_id`` as text that names an order however the export wrote it: trimmed of
+    whitespace, and an integral number written with a fraction of zeros (``601954.0``,
+    as a float column or its text, which pandas writes for ids in a column with gaps)
+    as the integer's digits. An id is hashed into its parcel weight, deduplicated and
+    written to the outputs by this text, so ``' 601954 '`` and ``601954.0`` are order
+    601954 there. NaN in a float column is no id (an empty cell); other ids keep their
+    text, digits or not."""
+    arr = column.combine_chunks()
+    if pa.types.is_floating(arr.type):
+        f = arr.cast(pa.float64()).fill_null(np.nan).to_numpy(zero_copy_only=False)
+        with np.errstate(invalid="ignore"):
+            whole = np.isfinite(f) & (f == np.floor(f)) & (np.abs(f) < 2.0**63)
+        digits = pa.array(np.where(whole, f, 0).astype(np.int64)).cast(pa.string())
+        text = pc.if_else(pa.array(whole), digits, arr.cast(pa.string()))
+        return pa.chunked_array([pc.if_else(pa.array(np.isnan(f)), None, text)])
+    text = arr if is_text(arr.type) else arr.cast(pa.string())
+    text = pc.utf8_trim_whitespace(text)
+    if pc.any(pc.match_substring(text, ".0")).as_py():  # a clean column has no fraction
+        text = pc.replace_substring_regex(text, r"^(\d+)\.0+$", r"\1")
+    return pa.chunked_array([text])
+
+
 def _strings(column: pa.ChunkedArray) -> np.ndarray:
     """A column as an object array of str (ints in Parquet files become their digits)."""
     if not is_text(column.type):
@@ -516,7 +543,7 @@ def _drop_reasons(
     accept, delivery = parsed["accept_time"], parsed["delivery_time"]
     live = np.flatnonzero(code == 0)
     live = live[_repeated(accept[live], delivery[live], lng[live], lat[live])]
-    oid = table["order_id"].cast(pa.string()).take(live)
+    oid = table["order_id"].take(live)  # text (_order_ids)
     keys = pa.table(
         {"o": oid, "a": accept[live], "d": delivery[live], "x": lng[live], "y": lat[live]}
     ).append_column("i", pa.array(live))
@@ -661,6 +688,8 @@ def _lade_table(
     names it in errors, ``source()`` is its identity."""
     path = Path(where)
     table = _check_column_types(table, path)
+    k = table.schema.get_field_index("order_id")
+    table = table.set_column(k, "order_id", _order_ids(table["order_id"]))
     parsed = _check_errors(table, path, cfg)
     code, lng, lat = _drop_reasons(table, parsed)
     pa.default_memory_pool().release_unused()

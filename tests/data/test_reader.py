@@ -242,9 +242,50 @@ def test_error_beats_drop_and_earliest_row_wins(tmp_path: Path) -> None:
     assert (err.value.row, err.value.column) == (3, "ds")
 
 
-def test_empty_order_id_is_an_error(tmp_path: Path) -> None:
+@pytest.mark.parametrize("blank", ["", "   ", "\t"])
+def test_empty_order_id_is_an_error(tmp_path: Path, blank: str) -> None:
     with pytest.raises(InputError) as err:
-        read_lade(write_csv(tmp_path / "d.csv", [CLEAN[0], row("")]), DataConfig())
+        read_lade(write_csv(tmp_path / "d.csv", [CLEAN[0], row(blank)]), DataConfig())
+    assert (err.value.row, err.value.column) == (3, "order_id")
+    assert "expected an order id" in str(err.value)
+
+
+def test_an_order_id_padded_or_written_as_a_float_is_the_same_order(tmp_path: Path) -> None:
+    """An id padded with spaces, or an integer id with a fraction .0 (pandas writes ids
+    in a column with gaps so), is the order of the plain id: the same text in the
+    outputs, the same parcel weight, and an exact repeat is a duplicate."""
+    from marops_cli.data.prepare import parcel_weights
+
+    plain = read_lade(write_csv(tmp_path / "plain.csv", CLEAN), DataConfig())
+    rows = [
+        dict(CLEAN[0], order_id=" 1001 "),
+        dict(CLEAN[1], order_id="1002.0"),
+        dict(CLEAN[2], order_id="\t1003.00 "),
+        dict(CLEAN[0]),  # a repeat of row 2, whose id was padded: a duplicate
+        row("A7.0"),  # not a number: kept as written
+        row("0042.0"),  # leading zeros stay: the id's digits
+        row("1001.5"),  # not integral: kept as written
+    ]
+    t = read_lade(write_csv(tmp_path / "messy.csv", rows), DataConfig())
+    assert list(t.order_id) == ["1001", "1002", "1003", "A7.0", "0042", "1001.5"]
+    assert t.report.dropped["duplicate"] == 1
+    np.testing.assert_array_equal(t.row, [2, 3, 4, 6, 7, 8])
+    np.testing.assert_array_equal(
+        parcel_weights(t.order_id[:3], DataConfig()), parcel_weights(plain.order_id, DataConfig())
+    )
+    assert_accounted(t)
+    # A float column in Parquet: integral ids as their digits, NaN no id at all.
+    base = pq.read_table(_as_parquet(tmp_path, "d.parquet"))
+    k = base.schema.get_field_index("order_id")
+    floats = base.set_column(k, "order_id", pa.array([1001.0, 1002.0, 1003.0]))
+    pq.write_table(floats, tmp_path / "f.parquet")
+    assert list(read_lade(tmp_path / "f.parquet", DataConfig()).order_id) == list(plain.order_id)
+    pq.write_table(
+        base.set_column(k, "order_id", pa.array([1001.0, float("nan"), 1003.0])),
+        tmp_path / "nan.parquet",
+    )
+    with pytest.raises(InputError) as err:
+        read_lade(tmp_path / "nan.parquet", DataConfig())
     assert (err.value.row, err.value.column) == (3, "order_id")
 
 
