@@ -176,7 +176,8 @@ def parse_times(
     """A column of ``MM-DD HH:MM:SS`` / ``YYYY-MM-DD HH:MM:SS`` strings -> (seconds, status).
 
     Seconds are naive local time since 1970-01-01 (int64, 0 where not OK);
-    status is :data:`TIME_OK`, :data:`TIME_EMPTY` (null or blank) or
+    status is :data:`TIME_OK`, :data:`TIME_EMPTY` (null, blank, or a marker exports
+    write for a missing value, such as ``NULL`` or ``\\N``: :data:`MISSING_MARKERS`) or
     :data:`TIME_BAD` per row. Parsing is strict: ``02-30`` or ``24:00:00`` is bad
     (pyarrow's strptime would roll the first over to March). A timestamp column
     (from Parquet) is taken as it is when it has no zone, and as the wall-clock time
@@ -244,8 +245,24 @@ def parse_times(
     status[empty] = TIME_EMPTY
     bad = np.flatnonzero(status == TIME_BAD)
     if bad.size:
+        marker = _missing_marker(arr.take(pa.array(bad)))
+        status[bad[marker]] = TIME_EMPTY
+        bad = bad[~marker]
+    if bad.size:
         _lenient(arr, bad, year, secs, status)
     return secs, status
+
+
+# What exports write for a missing value (SQL and Hive dumps, pandas, spreadsheets),
+# compared trimmed and in lower case.
+MISSING_MARKERS = ("null", "\\n", "nan", "nat", "none", "--")
+
+
+def _missing_marker(cells: pa.Array) -> np.ndarray:
+    """Mask of the text cells that are a missing-value marker (:data:`MISSING_MARKERS`)."""
+    text = pc.utf8_lower(pc.utf8_trim_whitespace(cells))
+    found = pc.is_in(text, value_set=pa.array(MISSING_MARKERS, pa.string()))
+    return found.fill_null(False).to_numpy(zero_copy_only=False)
 
 
 # Forms other tools write: 2022/08/20, 8-20 9:05, 10:31 without seconds, 10:31:05.000.

@@ -5,15 +5,17 @@ every other row in its :class:`DropReport`. What is an error and what is dropped
 
 - errors (:class:`InputError`, exit 2, naming file, row and column): a file that
   is not CSV/Parquet, is empty or has no data rows; a missing required column; a
-  non-empty time that does not parse; a ``ds`` that is not a ``MMDD`` date; an
-  empty ``order_id`` (or one of whitespace only); a ``weight_kg`` (when the column
-  exists) that is empty, not a number or not positive.
+  non-empty time that does not parse (and is no missing-value marker); a ``ds``
+  that is not a ``MMDD`` date; an empty ``order_id`` (or one of whitespace only); a
+  ``weight_kg`` (when the column exists) that is empty, not a number or not positive.
 - ``order_id`` is read as the text of the id: trimmed of whitespace, and an integral
   number written with a fraction of zeros (``601954.0``: a float column, or its
   text) as its digits (``601954``); duplicates, parcel weights and the outputs see
   this text.
 - dropped and counted, in this order of precedence (a row counts once, under the
-  first reason that applies): ``missing_time`` (accept or delivery time empty),
+  first reason that applies): ``missing_time`` (accept or delivery time empty, or
+  a marker exports write for a missing value: ``NULL``, ``\\N``, ``NaN``, ``None``,
+  ``--``),
   ``bad_coordinates`` (lng/lat empty, 0, not a number, NaN or out of range; a
   non-numeric string is dropped rather than an error because real exports write
   placeholders such as ``null`` or ``--`` there), ``duplicate`` (same order_id,

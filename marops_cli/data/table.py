@@ -38,7 +38,7 @@ DROP_REASONS: tuple[str, ...] = (
     "bad_coordinates",  # lng/lat empty, 0, or outside [-180, 180] x [-90, 90]
     "duplicate",  # a repeat of an earlier row (same order_id and times)
     "delivery_before_accept",
-    "missing_time",  # accept_time or delivery_time empty
+    "missing_time",  # accept_time or delivery_time empty (or NULL, \N, NaN, None, --)
 )
 
 

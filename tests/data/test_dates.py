@@ -110,6 +110,14 @@ def test_parse_times_formats_and_status() -> None:
     np.testing.assert_array_equal(status, [TIME_OK] * 3 + [TIME_EMPTY] * 2 + [TIME_BAD] * 4)
 
 
+def test_parse_times_missing_value_markers_are_empty() -> None:
+    # What exports write for a missing value is an empty time, not a bad one.
+    markers = ["NULL", "null", "\\N", "NaN", "None", "--", " NaT ", "\\n"]
+    secs, status = parse_times(pa.array([*markers, "nul", "-", "N", "08-20 10:31:05"]), 2022)
+    np.testing.assert_array_equal(status, [TIME_EMPTY] * len(markers) + [TIME_BAD] * 3 + [TIME_OK])
+    assert (secs[:-1] == 0).all()
+
+
 def test_parse_times_lenient_forms_of_other_exporters() -> None:
     # Unpadded fields, slashes, no seconds, fractional seconds: read, not rejected.
     col = pa.array(

@@ -147,6 +147,19 @@ def test_strict_names_first_dropped_row(tmp_path: Path, bad, column: str, reason
     assert reason in str(e) and "d.csv" in str(e) and "row 3" in str(e)
 
 
+@pytest.mark.parametrize("marker", ["NULL", "null", "\\N", "NaN", "None", "--"])
+def test_a_missing_value_marker_in_a_time_is_a_missing_time(tmp_path: Path, marker: str) -> None:
+    """Exports write NULL, \\N or -- for a missing value: in a time, the row is dropped
+    as an empty time is (missing_time), and --strict names it."""
+    path = write_csv(tmp_path / "d.csv", [CLEAN[0], row("2", dlv=marker), CLEAN[1]])
+    t = read_lade(path, DataConfig())
+    assert t.report.dropped["missing_time"] == 1 and list(t.order_id) == ["1001", "1002"]
+    assert_accounted(t)
+    with pytest.raises(InputError, match="missing_time") as err:
+        read_lade(path, DataConfig(strict=True))
+    assert (err.value.row, err.value.column) == (3, "delivery_time")
+
+
 def test_strict_clean_file_reads(tmp_path: Path) -> None:
     t = read_lade(write_csv(tmp_path / "d.csv", CLEAN), DataConfig(strict=True))
     assert len(t) == 3
