@@ -94,7 +94,8 @@ DATA: dict[str, Callable[[Path], None]] = {
     "latin1.csv": _bytes(
         ("\n".join([HEADER, *_rows()[:5], row(99, lng="121,47é")]) + "\n").encode("latin-1")
     ),
-    "ragged.csv": _csv([HEADER, *_rows()[:5], "1,2,3"]),
+    # Most lines of another number of fields: no LaDe layout (one such line is dropped).
+    "ragged.csv": _csv([HEADER, *_rows()[:5], *["1,2,3"] * 6]),
     "garbage.csv.gz": _bytes(b"\x1f\x8b\x08" + b"not really gzip" * 10),
     "truncated.csv.gz": _bytes(gzip.compress(("\n".join([HEADER, *_rows()])).encode())[:60]),
     "garbage.parquet": _bytes(b"PAR1" + b"\x00" * 50),
@@ -105,7 +106,7 @@ DATA: dict[str, Callable[[Path], None]] = {
         [HEADER + ",weight_kg", *[r + ",0.5" for r in _rows()[:7]], row(7) + ",-1"]
     ),
     "all_out_of_day.csv": _csv([HEADER, *(row(i, dlv="08-12 03:00:00") for i in range(20))]),
-    "comma_decimals.csv": _csv([HEADER, *_rows(lng="121,47")]),
+    "comma_decimals.csv": _csv([HEADER, *(r.replace(",121.", ",121,", 1) for r in _rows())]),
     "only_bad_rows_strict.csv": _csv([HEADER, *(row(i, lng="0", lat="0") for i in range(10))]),
     # An even count with no point at the median position: none within 150 km of it.
     "world_scattered.csv": _csv(

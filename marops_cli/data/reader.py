@@ -12,6 +12,11 @@ every other row in its :class:`DropReport`. What is an error and what is dropped
   number written with a fraction of zeros (``601954.0``: a float column, or its
   text) as its digits (``601954``); duplicates, parcel weights and the outputs see
   this text.
+- dropped and counted, before any check: ``malformed_row`` (a CSV line of another
+  number of fields than the header: a last line cut short by an interrupted export,
+  a stray separator; when they are most of the file's rows it is no LaDe layout, an
+  error naming the first) and ``repeated_header`` (the header line again, where two
+  exports were written one after the other).
 - dropped and counted, in this order of precedence (a row counts once, under the
   first reason that applies): ``missing_time`` (accept or delivery time empty, or
   a marker exports write for a missing value: ``NULL``, ``\\N``, ``NaN``, ``None``,
@@ -24,7 +29,8 @@ every other row in its :class:`DropReport`. What is an error and what is dropped
   order is an error instead.
 
 Row numbers are 1-based with the header as row 1, counting non-blank lines
-(pyarrow skips blank lines); for Parquet the first data row is row 2 as well.
+(pyarrow skips blank lines) and the dropped malformed lines; for Parquet the first
+data row is row 2 as well.
 :func:`read_lade_table` reads the same columns from a pandas DataFrame or a pyarrow
 Table in memory (the Python API's data), numbering its rows the same way.
 """
@@ -39,6 +45,7 @@ import re
 import stat
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -212,7 +219,15 @@ def _check_columns(names: list[str], path: Path) -> list[str]:
     return [n for n in wanted if n in names]
 
 
-def _read_csv(path: Path, compression: str | None) -> pa.Table:
+Malformed = tuple[int, int, int]
+"""A row the CSV parser left out: (its row number, its fields, the header's fields)."""
+
+
+def _read_csv(path: Path, compression: str | None) -> tuple[pa.Table, list[Malformed]]:
+    """The file's rows, and those left out for holding another number of fields than
+    the header (a line cut short by an interrupted export, a stray separator): they
+    are dropped as ``malformed_row``, unless they are most of the file's rows (another
+    separator, say), which is an error naming the first."""
     names = _csv_header(path, compression)
     include = _check_columns(names, path)
     # Every column as text: times and ids keep their exact form, and a stray word in
@@ -225,25 +240,46 @@ def _read_csv(path: Path, compression: str | None) -> pa.Table:
         null_values=[""],
     )
 
-    def read(threads: bool) -> pa.Table:
+    def read(threads: bool, malformed: list[Malformed] | None) -> pa.Table:
+        """The rows; those of another number of fields are left out and listed in
+        ``malformed`` (with ``None`` for a number when the parser runs on threads),
+        or an error when it is None."""
         opts = pacsv.ReadOptions(
             column_names=names, skip_rows=1, block_size=_BLOCK_BYTES, use_threads=threads
         )
-        with _stream(path, compression) as f:
-            return pacsv.read_csv(f, read_options=opts, convert_options=convert)
 
+        def skip(row: Any) -> str:  # pyarrow.csv.InvalidRow
+            assert malformed is not None
+            malformed.append((row.number, row.actual_columns, row.expected_columns))
+            return "skip"
+
+        parse = pacsv.ParseOptions(invalid_row_handler=None if malformed is None else skip)
+        with _stream(path, compression) as f:
+            return pacsv.read_csv(
+                f, read_options=opts, parse_options=parse, convert_options=convert
+            )
+
+    malformed: list[Malformed] = []
     try:
         try:
-            table = read(threads=True)
+            table = read(threads=True, malformed=malformed)
+            mostly = 2 * len(malformed) > table.num_rows + len(malformed)
+            if malformed and not mostly and malformed[0][0] is None:
+                # Only the single-threaded parser numbers the rows it leaves out.
+                malformed = []
+                table = read(threads=False, malformed=malformed)
+            if mostly:  # not the rows of its header (another separator?): name the first
+                read(threads=False, malformed=None)
         except pa.ArrowInvalid as exc:
-            raise _csv_error(exc, path, names, compression, lambda: read(threads=False)) from exc
+            again = partial(read, threads=False, malformed=[])
+            raise _csv_error(exc, path, names, compression, again) from exc
     except OSError as exc:  # a gzip stream damaged or cut short past its first megabyte
         why = " ".join(str(exc).split())
         what = "not a valid gzip file" if compression == "gzip" else "cannot read the file"
         raise InputError(f"{what} ({why})", file=path) from exc
     if table.num_rows == 0:
         raise InputError("the file has a header but no data rows", file=path, row=2)
-    return table
+    return table, sorted(malformed)
 
 
 def _csv_error(
@@ -462,8 +498,11 @@ def _shown(column: pa.ChunkedArray, i: int) -> str:
         return f"{getattr(cell, 'value', cell)} ({cell.type}), outside the years 1-9999"
 
 
-def _check_errors(table: pa.Table, path: Path, cfg: DataSettings) -> dict[str, np.ndarray]:
-    """Parse times, ds and weights; raise at the first cell that is an error, not a drop."""
+def _check_errors(
+    table: pa.Table, path: Path, cfg: DataSettings, rows: np.ndarray
+) -> dict[str, np.ndarray]:
+    """Parse times, ds and weights; raise at the first cell that is an error, not a drop
+    (naming its file row, ``rows``)."""
     out: dict[str, np.ndarray] = {}
     bad: list[tuple[int, str, str]] = []  # (index, column, message)
     for name in ("accept_time", "delivery_time"):
@@ -500,7 +539,7 @@ def _check_errors(table: pa.Table, path: Path, cfg: DataSettings) -> dict[str, n
         out["weight_kg"] = w
     if bad:
         i, column, message = min(bad)
-        raise InputError(message, file=path, row=i + 2, column=column)
+        raise InputError(message, file=path, row=int(rows[i]), column=column)
     return out
 
 
@@ -560,19 +599,61 @@ def _drop_reasons(
 
 
 def _strict_error(
-    code: np.ndarray, parsed: dict[str, np.ndarray], lng: np.ndarray, path: Path
+    code: np.ndarray,
+    parsed: dict[str, np.ndarray],
+    lng: np.ndarray,
+    rows: np.ndarray,
+    set_aside: list[tuple[int, str, str]],
+    path: Path,
 ) -> InputError:
-    i = int(np.flatnonzero(code)[0])
-    reason = DROP_REASONS[code[i] - 1]
-    if reason == "missing_time":
-        column = "accept_time" if parsed["accept_time_status"][i] == TIME_EMPTY else "delivery_time"
-    elif reason == "bad_coordinates":
-        column = "lat" if _good_lng(lng[i : i + 1])[0] else "lng"
-    else:
-        column = _REASON_COLUMN[reason]
+    """The error of the first row in the file that would be dropped: of the rows of
+    ``code`` (their file rows ``rows``) and those set aside before, as (row, reason,
+    what it held)."""
+    first: list[tuple[int, str, str | None]] = [
+        (r, f"{why}: {held}", None) for r, why, held in set_aside
+    ]
+    if code.any():
+        i = int(np.flatnonzero(code)[0])
+        reason = DROP_REASONS[code[i] - 1]
+        if reason == "missing_time":
+            status = parsed["accept_time_status"][i]
+            name = "accept_time" if status == TIME_EMPTY else "delivery_time"
+        elif reason == "bad_coordinates":
+            name = "lat" if _good_lng(lng[i : i + 1])[0] else "lng"
+        else:
+            name = _REASON_COLUMN[reason]
+        first.append((int(rows[i]), reason, name))
+    row, why, column = min(first, key=lambda f: f[0])
     return InputError(
-        f"row would be dropped ({reason}) and --strict is set", file=path, row=i + 2, column=column
+        f"row would be dropped ({why}) and --strict is set", file=path, row=row, column=column
     )
+
+
+def _file_rows(n: int, left_out: list[int]) -> np.ndarray:
+    """The file's row number (the first data row is 2) of each of the ``n`` rows read,
+    where the parser left out the rows numbered ``left_out``."""
+    rows = np.arange(2, n + 2 + len(left_out), dtype=np.int64)
+    if left_out:
+        rows = rows[~np.isin(rows, left_out)]
+    return rows[:n]
+
+
+def _repeated_header(table: pa.Table) -> np.ndarray:
+    """Mask of the rows that are the header line again (two exports written one after
+    the other): each column read holds its own name (trimmed, a byte-order mark too)."""
+    oid = table["order_id"]
+    names = pa.array(["order_id", "\ufefforder_id"])
+    maybe = np.flatnonzero(
+        pc.is_in(oid, value_set=names).fill_null(False).to_numpy(zero_copy_only=False)
+    )
+    header = np.zeros(table.num_rows, dtype=bool)
+    if maybe.size:
+        cells = table.take(pa.array(maybe)).to_pylist()
+        header[maybe] = [
+            all(str(v).strip().lstrip("\ufeff").strip() == k for k, v in cell.items())
+            for cell in cells
+        ]
+    return header
 
 
 def read_lade(path: str | Path, cfg: DataSettings) -> LadeTable:
@@ -587,7 +668,11 @@ def read_lade(path: str | Path, cfg: DataSettings) -> LadeTable:
     # Hashing the file overlaps the parse: both release the GIL on large buffers.
     with ThreadPoolExecutor(max_workers=1) as pool:
         digest = pool.submit(sha256_file, path)
-        table = _read_parquet(path) if kind == "parquet" else _read_csv(path, compression)
+        malformed: list[Malformed] = []
+        if kind == "parquet":
+            table = _read_parquet(path)
+        else:
+            table, malformed = _read_csv(path, compression)
         # mimalloc keeps freed parse buffers; returning them cuts the peak by ~200 MB.
         pa.default_memory_pool().release_unused()
 
@@ -596,7 +681,7 @@ def read_lade(path: str | Path, cfg: DataSettings) -> LadeTable:
                 path=str(path), name=path.name, size=path.stat().st_size, sha256=digest.result()
             )
 
-        return _lade_table(table, str(path), cfg, source)
+        return _lade_table(table, str(path), cfg, source, malformed)
 
 
 IN_MEMORY = ("DataFrame", "Table")
@@ -684,19 +769,34 @@ def _frame_table(frame: Any, where: str) -> pa.Table:
 
 
 def _lade_table(
-    table: pa.Table, where: str, cfg: DataSettings, source: Callable[[], SourceInfo]
+    table: pa.Table,
+    where: str,
+    cfg: DataSettings,
+    source: Callable[[], SourceInfo],
+    malformed: list[Malformed] | None = None,
 ) -> LadeTable:
     """The kept rows of ``table`` (all columns read) and its drop report; ``where``
-    names it in errors, ``source()`` is its identity."""
+    names it in errors, ``source()`` is its identity; ``malformed`` are the rows the
+    CSV parser left out (:func:`_read_csv`), sorted."""
     path = Path(where)
+    malformed = malformed or []
     table = _check_column_types(table, path)
     k = table.schema.get_field_index("order_id")
     table = table.set_column(k, "order_id", _order_ids(table["order_id"]))
-    parsed = _check_errors(table, path, cfg)
+    rows = _file_rows(table.num_rows, [m[0] for m in malformed])
+    set_aside = [
+        (row, "malformed_row", f"{got} fields, the header has {want}")
+        for row, got, want in malformed
+    ]
+    header = _repeated_header(table)
+    if header.any():  # the header's names are no times: set aside before the checks
+        set_aside += [(int(r), "repeated_header", "the header line again") for r in rows[header]]
+        table, rows = table.filter(pa.array(~header)), rows[~header]
+    parsed = _check_errors(table, path, cfg, rows)
     code, lng, lat = _drop_reasons(table, parsed)
     pa.default_memory_pool().release_unused()
-    if cfg.strict and code.any():
-        raise _strict_error(code, parsed, lng, path)
+    if cfg.strict and (code.any() or set_aside):
+        raise _strict_error(code, parsed, lng, rows, set_aside, path)
     keep = code == 0
     idx = np.flatnonzero(keep)
     kept = table.take(idx)
@@ -707,8 +807,10 @@ def _lade_table(
     )
     weight = parsed["weight_kg"][keep] if "weight_kg" in parsed else None
     counts = np.bincount(code, minlength=len(DROP_REASONS) + 1)
+    for _, reason, _ in set_aside:
+        counts[DROP_REASONS.index(reason) + 1] += 1
     report = DropReport(
-        total=int(code.size),
+        total=int(code.size) + len(set_aside),
         kept=int(idx.size),
         dropped={r: int(counts[k + 1]) for k, r in enumerate(DROP_REASONS)},
     )
@@ -720,7 +822,7 @@ def _lade_table(
         delivery_s=parsed["delivery_time"][keep],
         aoi_id=aoi,
         weight_kg=weight,
-        row=(idx + 2).astype(np.int64),
+        row=rows[idx],
         source=source(),
         report=report,
     )

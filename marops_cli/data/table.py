@@ -39,6 +39,8 @@ DROP_REASONS: tuple[str, ...] = (
     "duplicate",  # a repeat of an earlier row (same order_id and times)
     "delivery_before_accept",
     "missing_time",  # accept_time or delivery_time empty (or NULL, \N, NaN, None, --)
+    "malformed_row",  # a CSV line of another number of fields than the header (cut short)
+    "repeated_header",  # the header line again (two exports written one after the other)
 )
 
 

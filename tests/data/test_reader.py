@@ -116,6 +116,8 @@ def test_bad_rows_dropped_and_counted(tmp_path: Path) -> None:
         "duplicate": 1,
         "delivery_before_accept": 1,
         "missing_time": 3,
+        "malformed_row": 0,
+        "repeated_header": 0,
     }
     assert t.report.total == 12 and t.report.kept == 3
     assert_accounted(t)
@@ -382,12 +384,80 @@ def test_missing_file(tmp_path: Path) -> None:
         read_lade(tmp_path / "nothere.csv", DataConfig())
 
 
-def test_ragged_row(tmp_path: Path) -> None:
-    path = write_csv(tmp_path / "ragged.csv", CLEAN)
-    path.write_text(path.read_text() + "1,2,3\n")
+def _lines(rows: list[dict[str, str]]) -> list[str]:
+    return [",".join(r[c] for c in LADE_COLUMNS) for r in rows]
+
+
+def test_a_row_of_another_number_of_fields_is_dropped_and_later_rows_keep_their_numbers(
+    tmp_path: Path,
+) -> None:
+    """A line cut short (an interrupted export) or with a field too many is dropped as
+    malformed_row; the rows after it keep their numbers in the file, in the kept rows
+    and in errors, and --strict names it."""
+    header = ",".join(LADE_COLUMNS)
+    a, b, c = _lines(CLEAN)
+    extra = _lines([row("5")])[0] + ",x"
+    # Rows: 2 a, 3 extra, (blank), 4 b, 5 c, 6 cut short with no line end.
+    text = "\n".join([header, a, extra, "", b, c, a[:30]])
+    path = tmp_path / "ragged.csv"
+    path.write_text(text)
+    t = read_lade(path, DataConfig())
+    assert list(t.order_id) == ["1001", "1002", "1003"]
+    np.testing.assert_array_equal(t.row, [2, 4, 5])
+    assert t.report.dropped["malformed_row"] == 2 and t.report.total == 5
+    assert_accounted(t)
+    with pytest.raises(InputError) as err:
+        read_lade(path, DataConfig(strict=True))
+    assert err.value.row == 3 and err.value.column is None
+    assert "malformed_row: 18 fields, the header has 17" in str(err.value)
+    # An error past a malformed row names the row of the file.
+    bad = _lines([dict(CLEAN[2], delivery_time="08-32 10:00:00")])[0]
+    path.write_text("\n".join([header, a, a[:30], b, bad]) + "\n")
+    with pytest.raises(InputError) as err:
+        read_lade(path, DataConfig())
+    assert (err.value.row, err.value.column) == (5, "delivery_time")
+    # --strict names the first row in the file of any reason.
+    dup = _lines([CLEAN[0]])[0]
+    path.write_text("\n".join([header, a, dup, b, a[:30]]) + "\n")
+    with pytest.raises(InputError) as err:
+        read_lade(path, DataConfig(strict=True))
+    assert (err.value.row, err.value.column) == (3, "order_id")
+
+
+def test_a_file_of_mostly_malformed_rows_is_refused(tmp_path: Path) -> None:
+    """Most rows of another number of fields is no cut line but another layout (another
+    separator in the rows): the file is refused, naming the first."""
+    lines = _lines(CLEAN)
+    text = "\n".join([",".join(LADE_COLUMNS), lines[0], *(x.replace(",", ";") for x in lines)])
+    path = tmp_path / "ragged.csv"
+    path.write_text(text + "\n")
     with pytest.raises(InputError) as err:
         read_lade(path, DataConfig())
     assert "ragged.csv" in str(err.value) and "not a valid CSV" in str(err.value)
+    assert "Expected 17 columns, got 1" in str(err.value) and err.value.row == 3
+
+
+def test_the_header_line_again_is_dropped(tmp_path: Path) -> None:
+    """Two exports written one after the other repeat the header (with its byte-order
+    mark, padded, quoted): the line is dropped as repeated_header, not a bad time."""
+    header = ",".join(LADE_COLUMNS)
+    quoted = {"lat": '"lat"', "accept_time": " accept_time "}
+    again = ",".join(quoted.get(c, c) for c in LADE_COLUMNS)
+    a, b, c = _lines(CLEAN)
+    path = tmp_path / "twice.csv"
+    path.write_text("\n".join([header, a, "\ufeff" + header, b, again, c]) + "\n")
+    t = read_lade(path, DataConfig())
+    assert list(t.order_id) == ["1001", "1002", "1003"]
+    np.testing.assert_array_equal(t.row, [2, 4, 6])
+    assert t.report.dropped["repeated_header"] == 2
+    assert_accounted(t)
+    with pytest.raises(InputError, match="repeated_header") as err:
+        read_lade(path, DataConfig(strict=True))
+    assert err.value.row == 3
+    # A row holding the name in order_id alone is no header: an order like any other.
+    path.write_text("\n".join([header, a, _lines([row("order_id")])[0]]) + "\n")
+    t = read_lade(path, DataConfig())
+    assert list(t.order_id) == ["1001", "order_id"]
 
 
 def _as_parquet(tmp_path: Path, name: str) -> Path:
