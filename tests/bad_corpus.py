@@ -131,9 +131,17 @@ DATA: dict[str, Callable[[Path], None]] = {
         ),
         p,
     ),
-    "latin1_city.csv": _bytes(
+    # Latin-1 in city, which is not read (any bytes), and in aoi_id, which is.
+    "latin1_aoi.csv": _bytes(
         (
-            "\n".join([HEADER, *_rows()[:3], row(3).replace("Shanghai", "Sh\xe0ngh\xe0i")]) + "\n"
+            "\n".join(
+                [
+                    HEADER,
+                    *(r.replace("Shanghai", "Sh\xe0ngh\xe0i") for r in _rows()[:3]),
+                    row(3).replace(",5,1,08-11", ",\xe05,1,08-11"),
+                ]
+            )
+            + "\n"
         ).encode("latin-1")
     ),
 }
@@ -367,7 +375,7 @@ NEEDLES: dict[str, str | tuple[str, ...]] = {
     "bool_lng.parquet": "column 'lng'",
     "lng_twice.csv": "row 1, column 'lng'",
     "all_nan_lng.csv": "none of its 20 rows can be used (20 bad coordinates)",
-    "latin1_city.csv": "row 5, column 'city'",
+    "latin1_aoi.csv": "row 5, column 'aoi_id'",
     "dict_weight_text.parquet": "row 9, column 'weight_kg': expected a positive weight in kg",
     "header_no_line_end.csv": "row 2: the file has a header but no data rows",
     "header_field_200k.csv": "row 1: expected column names on the first line",

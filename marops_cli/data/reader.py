@@ -28,6 +28,9 @@ every other row in its :class:`DropReport`. What is an error and what is dropped
   ``delivery_before_accept``. With ``cfg.strict`` the first such row in file
   order is an error instead.
 
+Only the columns used are read (``REQUIRED_COLUMNS`` and ``ds``, ``aoi_id``,
+``weight_kg``): the others may hold anything, bytes that are not UTF-8 included.
+
 Row numbers are 1-based with the header as row 1, counting non-blank lines
 (pyarrow skips blank lines) and the dropped malformed lines; for Parquet the first
 data row is row 2 as well.
@@ -105,12 +108,21 @@ def _sniff(path: Path) -> tuple[str, str | None]:
         raise InputError(f"{wide} text, not UTF-8 (save the file as UTF-8)", file=path)
     if b"\x00" in head:
         raise InputError("not a CSV or Parquet file", file=path)
-    try:
-        head.decode("utf-8")
-    except UnicodeDecodeError as exc:
+    at = 0
+    while True:
+        try:
+            head[at:].decode("utf-8")
+            break
+        except UnicodeDecodeError as exc:
+            at += exc.start
         # A cut multi-byte character at the end of the sample is fine; bytes before it are not.
-        if exc.start < len(head) - 4:
-            raise _not_utf8(head, exc.start, path) from exc
+        if at >= len(head) - 4:
+            break
+        error = _not_utf8(head, at, path)
+        # Columns marops does not read are not read (pyarrow leaves them out): any bytes.
+        if error.column is None or error.column in REQUIRED_COLUMNS + _OPTIONAL_COLUMNS:
+            raise error
+        at += 1
     return "csv", None
 
 
@@ -291,10 +303,15 @@ def _csv_error(
 ) -> InputError:
     """An InputError for a CSV the parser refused, with the row when it can be found."""
     msg = str(exc)
-    if "invalid UTF8" in msg:
+    if "invalid UTF8" in msg:  # in a column read (the others are not read)
+        try:  # the single-threaded parser names the row
+            retry()
+        except pa.ArrowInvalid as again:
+            msg = str(again) if "invalid UTF8" in str(again) else msg
         m = re.search(r"column #(\d+)", msg)
         column = names[int(m.group(1))] if m and int(m.group(1)) < len(names) else None
-        row = _first_non_utf8_line(path, compression)
+        r = re.search(r"Row #(\d+)", msg)
+        row = int(r.group(1)) if r else _first_non_utf8_line(path, compression)
         return InputError("not UTF-8 text", file=path, row=row, column=column)
     if "straddles two block boundaries" in msg:  # a row longer than a parser block
         row = _first_long_line(path, compression, _BLOCK_BYTES)

@@ -748,6 +748,27 @@ def test_a_gzip_stream_damaged_past_its_first_megabyte_is_one_error(tmp_path: Pa
         assert err.value.exit_code == 2
 
 
+def test_bytes_that_are_not_utf8_in_a_column_not_read_do_not_matter(tmp_path: Path) -> None:
+    """A column marops does not read (city, in GBK here) is not read at all: its bytes
+    cannot stop a run. Bytes that are not UTF-8 in a column it reads are an error
+    naming that cell, within the file's first bytes or past them."""
+    rows = [row(str(1000 + i), lng=f"{121.40 + 0.001 * i:.4f}") for i in range(80)]
+    text = write_csv(tmp_path / "d.csv", rows).read_bytes()
+    plain = read_lade(tmp_path / "d.csv", DataConfig())
+    gbk = text.replace(b"Shanghai", "上海市".encode("gbk"))
+    (tmp_path / "gbk.csv").write_bytes(gbk)
+    t = read_lade(tmp_path / "gbk.csv", DataConfig())
+    assert list(t.order_id) == list(plain.order_id) and len(t) == 80
+    np.testing.assert_array_equal(t.lng, plain.lng)
+    for k in (3, 60):  # row 5 in the first 4 KiB, row 62 past them
+        lines = gbk.split(b"\n")
+        lines[k + 1] = lines[k + 1].replace(f",aoi{1000 + k},".encode(), b",aoi\xc9\xcf,")
+        (tmp_path / "bad.csv").write_bytes(b"\n".join(lines))
+        with pytest.raises(InputError, match="not UTF-8") as err:
+            read_lade(tmp_path / "bad.csv", DataConfig())
+        assert (err.value.row, err.value.column) == (k + 2, "aoi_id")
+
+
 def test_a_file_name_that_is_not_utf8_reads(tmp_path: Path) -> None:
     """A name in another encoding (an archive's GBK names) is no reason to fail: pyarrow
     opened the path as UTF-8 and raised UnicodeEncodeError, a traceback."""
