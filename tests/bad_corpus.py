@@ -380,7 +380,7 @@ NEEDLES: dict[str, str | tuple[str, ...]] = {
     "header_no_line_end.csv": "row 2: the file has a header but no data rows",
     "header_field_200k.csv": "row 1: expected column names on the first line",
     "order_id_lists.parquet": "column 'order_id': expected a column of text",
-    "lng_beyond_2_53.parquet": "none of its 40 rows can be used (40 bad coordinates)",
+    "lng_beyond_2_53.parquet": "column 'lng': expected coordinates in decimal degrees",
     "pipe.csv": "is not a regular file",
     "alpha_1e-300.toml": "plan.alpha",
     "rotor_1e-300.toml": "energy.rotor_diameter_m",
