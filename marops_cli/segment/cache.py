@@ -131,12 +131,13 @@ def _load(
             stored = str(z["key"])
             method = str(z["method"])
             xy, n_hist, cand = z["xy"], z["n_history"], z["candidates"]
+            digest = str(z["digest"])
     except Exception:  # noqa: BLE001 - zip, format and dtype errors alike mean a miss
         return None, None
     if stored != key or method != segment.method:
         return None, None
-    if not _plausible(xy, n_hist, cand, frame):
-        return None, None
+    if not _plausible(xy, n_hist, cand, frame) or digest != _digest(key, method, xy, n_hist, cand):
+        return None, None  # damaged or edited since it was stored
     depots = Depots(
         method, frame, xy.astype(np.float64), n_hist.astype(np.int64), cand.astype(np.int64)
     )
@@ -165,6 +166,17 @@ def _plausible(xy: np.ndarray, n_hist: np.ndarray, cand: np.ndarray, frame: Fram
     )
 
 
+def _digest(key: str, method: str, xy: np.ndarray, n_hist: np.ndarray, cand: np.ndarray) -> str:
+    """The SHA-256 of an entry's key and arrays, stored with them: an entry whose
+    numbers were edited or damaged since (a depot moved 500 m still looks plausible)
+    no longer matches it, and is segmented again."""
+    h = hashlib.sha256(f"{key}\0{method}\0".encode())
+    for a, dtype in ((xy, "<f8"), (n_hist, "<i8"), (cand, "<i8")):
+        h.update(repr(a.shape).encode())
+        h.update(np.ascontiguousarray(a, dtype=dtype).tobytes())
+    return h.hexdigest()
+
+
 def _store(path: Path, key: str, depots: Depots) -> None:
     """Cache ``depots`` at ``path`` under a temporary name then renamed; where that
     fails (a full disk, a folder in the way) nothing is left behind. The temporary is
@@ -185,6 +197,9 @@ def _store(path: Path, key: str, depots: Depots) -> None:
                 xy=depots.xy,
                 n_history=depots.n_history,
                 candidates=depots.candidates,
+                digest=np.array(
+                    _digest(key, depots.method, depots.xy, depots.n_history, depots.candidates)
+                ),
             )
         with contextlib.suppress(FileNotFoundError):
             there = os.lstat(path)

@@ -91,9 +91,10 @@ def test_a_run_from_the_cache_plans_what_the_run_that_filled_it_planned(
 
 
 def test_a_damaged_or_edited_cache_is_a_miss(tmp_path, monkeypatch, points_table):
-    """A cache file cut short, or holding what no segmentation makes (NaN or far-away
-    positions, candidates that are no depot, counts that do not match, text), is
-    segmented again and cached anew, never a failed run or moved depots."""
+    """A cache file cut short, holding what no segmentation makes (NaN or far-away
+    positions, candidates that are no depot, counts that do not match, text), or edited
+    since it was stored (depots moved 500 m), is segmented again and cached anew, never
+    a failed run or moved depots."""
     monkeypatch.setenv("MAROPS_CACHE_DIR", str(tmp_path))
     cfg = PlannerConfig()
     key = (points_table([121.47] * 3, [31.23] * 3, "abc"), DAYS, FRAME, cfg.data, cfg.segment)
@@ -107,6 +108,9 @@ def test_a_damaged_or_edited_cache_is_a_miss(tmp_path, monkeypatch, points_table
         "ids": dict(fine, candidates=fine["candidates"] + 100),
         "counts": dict(fine, n_history=np.array([4])),
         "text": dict(fine, xy=np.array([["a", "b"], ["c", "d"]])),
+        # Plausible, but not what was stored: the digest stored with it tells.
+        "moved": dict(fine, xy=fine["xy"] + 500.0),
+        "no digest": {k: v for k, v in fine.items() if k != "digest"},
     }
     for name, arrays in [("cut", None), *edits.items()]:
         if arrays is None:
