@@ -85,19 +85,17 @@ def _connected(cand: np.ndarray, d: np.ndarray) -> np.ndarray:
     n, k = cand.shape
     if n < 3 or k < 3:  # a single move per depot: every depot in one cycle or none
         return cand
-    before = int(_components(cand).max()) + 1
+    labels = _components(cand)
+    before = m = int(labels.max()) + 1
+    if m == 1:
+        return cand
     original, cand = cand, cand.copy()
     kept = np.zeros(cand.shape, dtype=bool)  # the moves added, never replaced
     kept[:, 0] = True
     groups = n + 1
     for _ in range(2 * n):
-        labels = _components(cand)
-        m = int(labels.max()) + 1
-        if m == 1:
-            break
         members = [np.flatnonzero(labels == c) for c in range(m)]
         if m < groups:
-            groups = m
             leaves = np.zeros(m, dtype=bool)
             enters = np.zeros(m, dtype=bool)
             cross = labels[cand[:, 1:]] != labels[:, None]
@@ -110,21 +108,25 @@ def _connected(cand: np.ndarray, d: np.ndarray) -> np.ndarray:
                     _link(cand, kept, d, members[c], outside, labels)
                 if not enters[c]:
                     _link(cand, kept, d, outside, members[c], labels)
-            continue
-        gap = np.full((m, m), np.inf)
-        for a in range(m):
-            for b in range(m):
-                if a != b:
-                    gap[a, b] = d[np.ix_(members[a], members[b])].min()
-        tour, left = [0], set(range(1, m))
-        while left:
-            nxt = min(left, key=lambda c: (gap[tour[-1], c], c))
-            tour.append(nxt)
-            left.remove(nxt)
-        for a, b in zip(tour, tour[1:] + tour[:1], strict=True):
-            _link(cand, kept, d, members[a], members[b], labels)
+        else:
+            gap = np.full((m, m), np.inf)
+            for a in range(m):
+                for b in range(m):
+                    if a != b:
+                        gap[a, b] = d[np.ix_(members[a], members[b])].min()
+            tour, left = [0], set(range(1, m))
+            while left:
+                nxt = min(left, key=lambda c: (gap[tour[-1], c], c))
+                tour.append(nxt)
+                left.remove(nxt)
+            for a, b in zip(tour, tour[1:] + tour[:1], strict=True):
+                _link(cand, kept, d, members[a], members[b], labels)
         groups = m
-    return cand if int(_components(cand).max()) + 1 < before else original
+        labels = _components(cand)
+        m = int(labels.max()) + 1
+        if m == 1:
+            return cand
+    return cand if m < before else original
 
 
 def _link(
