@@ -28,6 +28,8 @@ from .ownership import (
     journal_update,
     missing_folders,
     needs_journal,
+    remove_empty_folders,
+    temporary_name,
 )
 
 
@@ -136,9 +138,7 @@ class OutputSet:
             tmp.unlink(missing_ok=True)
             settled(tmp)
         self._pending.clear()
-        for folder in sorted(self._made, key=lambda p: len(p.parts), reverse=True):
-            with contextlib.suppress(OSError):  # one that holds something stays
-                folder.rmdir()
+        remove_empty_folders(self._made)
         self._made.clear()
 
 
@@ -218,11 +218,7 @@ def folder_lock(folder: str | Path) -> Iterator[None]:
         lock.unlink(missing_ok=True)  # still holding it: the next run takes a fresh one
         fh.close()
         if empty:  # a failed run leaves no empty folder, nor the empty ones above it
-            for above in made:
-                try:
-                    above.rmdir()
-                except OSError:  # another run's lock or files in it meanwhile: it stays
-                    break
+            remove_empty_folders(made)  # one with another run's lock or files stays
 
 
 def _take(folder: Path, lock: Path) -> Any:
@@ -468,7 +464,7 @@ def temporary(folder: Path, name: str) -> Path:
     nothing that is merely named so). Call :func:`settled` once it is renamed or removed."""
     for _ in range(100):
         suffix = "".join(secrets.choice(_CHARS) for _ in range(8))
-        tmp = folder / f".{name}.{TMP_MARK}{suffix}.tmp"
+        tmp = folder / temporary_name(name, suffix)
         _record(tmp)
         try:
             fd = os.open(tmp, os.O_RDWR | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW, 0o600)

@@ -255,6 +255,19 @@ def missing_folders(final: Path) -> list[Path]:
     return missing
 
 
+def remove_empty_folders(folders: Iterable[Path]) -> None:
+    """Remove those of ``folders`` that are empty, deepest first (a run's own, made for
+    outputs it did not write); one that holds something stays, and so do those above it."""
+    for folder in sorted(folders, key=lambda p: len(Path(p).absolute().parts), reverse=True):
+        with contextlib.suppress(OSError):
+            folder.rmdir()
+
+
+def temporary_name(name: str, tag: str) -> str:
+    """The name of a temporary for the output ``name``: ``.NAME.marops-TAG.tmp``."""
+    return f".{name}.{TMP_MARK}{tag}.tmp"
+
+
 def check_outputs(paths: Iterable[Path], journal: bool = False) -> None:
     """Before any work: each output may be replaced (above; ``journal`` as there) and
     its folder written, found out by creating and removing a temporary there (or, for a
@@ -288,7 +301,7 @@ def _names_fit(final: Path, folder: Path, to_make: list[str]) -> None:
         path_max = os.pathconf(folder, "PC_PATH_MAX")
     except (OSError, ValueError):  # no limit known: the write says it, if it comes to that
         return
-    tmp = f".{final.name}.{TMP_MARK}{'x' * 8}.tmp"  # as io/atomic.py temporary() names it
+    tmp = temporary_name(final.name, "x" * 8)  # as long as io/atomic.py's temporary
     too_long = any(len(os.fsencode(n)) > name_max for n in [*to_make, tmp])
     if too_long or len(os.fsencode(final.absolute().parent / tmp)) >= path_max:
         raise InputError(f"cannot write ({os.strerror(errno.ENAMETOOLONG)})", file=final)
