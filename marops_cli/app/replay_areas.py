@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import datetime as dt
 import os
+from collections.abc import Iterable
 from contextlib import ExitStack
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -188,11 +189,7 @@ def _clear_day(folder: Path, writes: list[Path]) -> None:
     day that this run does not write again (a map or figures not asked for now, route
     files of the other format, the day's page, written again at the end with
     ``--report``), so none is taken for this run's. Only files marops wrote go."""
-    from ..io.ownership import written_by_marops
-
-    for path in (folder / name for name in DAY_OUTPUTS):
-        if path not in writes and path.is_file() and written_by_marops(path):
-            path.unlink()
+    _remove_ours(folder / name for name in DAY_OUTPUTS if folder / name not in writes)
 
 
 def _clear_summaries(area: Area) -> None:
@@ -200,14 +197,18 @@ def _clear_summaries(area: Area) -> None:
     days that marops wrote (``area.summaries``), so that none, left by an earlier run,
     claims a day that holds this run's files should this run stop before writing its
     own."""
+    if not area.cleared:
+        _remove_ours(area.summaries)
+        area.cleared = True
+
+
+def _remove_ours(paths: Iterable[Path]) -> None:
+    """Remove those of ``paths`` that are files marops wrote; any other file stays."""
     from ..io.ownership import written_by_marops
 
-    if area.cleared:
-        return
-    for path in area.summaries:
+    for path in paths:
         if path.is_file() and written_by_marops(path):
             path.unlink()
-    area.cleared = True
 
 
 def _signature(path: Path) -> tuple[int, ...]:
