@@ -229,6 +229,10 @@ def evaluate(
             f"left out {left} of the {config.split} split: nothing due inside {where} "
             "within service hours"
         )
+    from ..workers.pool import workers_note
+
+    if (note := workers_note(config.workers, config.scheduler, len(prep.jobs))) is not None:
+        progress.warning(note)
     progress.message(_plan_line(prep, config))
     if out is None:
         ev = _run(prep, config, None, progress)
@@ -332,7 +336,9 @@ def actor_paths(policy: str | Path | None, mappo_policy: str | Path | None) -> d
 
 def _plan_line(prep: Prepared, config: EvaluateConfig) -> str:
     """``evaluate: 3 methods x 1 setting x 4 days x 1 repeat = 12 replays, on 2 workers``."""
-    workers, scheduler = config.workers, config.scheduler
+    from ..workers.pool import local_workers
+
+    workers, scheduler = local_workers(config.workers), config.scheduler
     where = (
         count(workers, "worker")
         if scheduler is None

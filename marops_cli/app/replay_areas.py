@@ -391,9 +391,12 @@ def _replay_on_workers(
     """Replay ``jobs`` (days of areas) of ``work`` on worker processes or a Dask cluster;
     each day's files are written here as it comes back, its metrics go into ``done``."""
     from ..workers import outcomes
+    from ..workers.pool import local_workers, workers_note
 
+    if (note := workers_note(run.workers, run.scheduler, len(jobs))) is not None:
+        progress.warning(note)
     where = (
-        f"{min(run.workers, len(jobs))} workers"
+        f"{local_workers(min(run.workers, len(jobs)))} workers"
         if run.scheduler is None
         else "a local Dask cluster"
         if run.scheduler == "local"

@@ -133,6 +133,10 @@ def train(
         spares=setup.spares,
         batteries=setup.batteries,
     )
+    from ..workers.pool import workers_note
+
+    if (note := workers_note(setup.train.workers)) is not None:
+        progress.warning(note)
     report = _Report(progress)
     try:
         side = train_actor(

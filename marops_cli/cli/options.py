@@ -84,8 +84,8 @@ Workers = Annotated[
     int,
     typer.Option(
         "--workers",  # its range is checked with the run's (workers/pool.py: check_workers)
-        help="Worker processes, 1 to 256 (with --scheduler local: the cluster's); without "
-        "--scheduler, a single job runs here.",
+        help="Worker processes, 1 to 256, at most 4 per CPU run (with --scheduler local: "
+        "the cluster's); without --scheduler, a single job runs here.",
     ),
 ]
 Scheduler = Annotated[

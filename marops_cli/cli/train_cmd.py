@@ -254,7 +254,9 @@ def train_command(
             "(spares, chargers and charging power; not with --spares) [default: the config's].",
         ),
     ] = None,
-    workers: Annotated[int, typer.Option("--workers", help="Rollout processes, 1 to 256.")] = 2,
+    workers: Annotated[
+        int, typer.Option("--workers", help="Rollout processes, 1 to 256, at most 4 per CPU run.")
+    ] = 2,
     resume: Annotated[
         bool, typer.Option("--resume/--no-resume", help="Continue from NAME.ckpt if present.")
     ] = True,

@@ -21,7 +21,7 @@ from types import ModuleType
 from typing import Any
 
 from ..errors import InputError, option
-from .pool import sigint_ignored
+from .pool import local_workers, sigint_ignored
 from .threads import one_thread
 from .work import Job, Outcome, Work, run_safe
 
@@ -76,7 +76,8 @@ def _stop_http(dask_scheduler: Any = None, dask_worker: Any = None) -> None:
 @contextmanager
 def connect(scheduler: str, workers: int) -> Iterator[Any]:
     """A ``distributed.Client`` of the scheduler at ``scheduler``, or of a LocalCluster
-    of ``workers`` single-threaded processes for ``local``, usable by this process alone
+    of ``workers`` single-threaded processes for ``local`` (at most
+    :func:`~.pool.local_workers`), usable by this process alone
     (:func:`owner_only`, no HTTP server); closed on the way out."""
     distributed = require_distributed()
     if scheduler == LOCAL:
@@ -88,7 +89,7 @@ def connect(scheduler: str, workers: int) -> Iterator[Any]:
         # none prints a traceback.
         with sigint_ignored(), dask.config.set(_NO_HTTP):
             cluster = distributed.LocalCluster(
-                n_workers=workers,
+                n_workers=local_workers(workers),
                 threads_per_worker=1,
                 processes=True,
                 host="127.0.0.1",

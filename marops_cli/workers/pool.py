@@ -160,6 +160,44 @@ def check_workers(workers: int) -> None:
         raise InputError(f"{option('workers')} expects 1 to {MAX_WORKERS}, got {workers}")
 
 
+PER_CPU = 4
+"""The most local worker processes a run starts per CPU it may use (:func:`local_workers`):
+each is single-threaded, so more only hold more memory (each its copy of the days)."""
+
+
+def usable_cpus() -> int:
+    """The CPUs this process may run on: its CPU affinity where the system keeps one (a
+    container's or ``taskset``'s share), else the machine's count."""
+    try:
+        return max(len(os.sched_getaffinity(0)), 1)
+    except (AttributeError, OSError):  # no affinity (macOS, Windows)
+        return max(os.cpu_count() or 1, 1)
+
+
+def local_workers(workers: int) -> int:
+    """How many of ``workers`` local processes a run starts: at most :data:`PER_CPU` per
+    usable CPU. The results never depend on it, so a command asking more than this
+    machine runs well still runs, to the same bytes."""
+    return min(workers, PER_CPU * usable_cpus())
+
+
+def workers_note(workers: int, scheduler: str | None = None, jobs: int | None = None) -> str | None:
+    """The one-line warning of a run asking more local processes than it starts
+    (:func:`local_workers`), None when it starts them all. A run of ``jobs`` jobs here
+    starts no more processes than jobs; a remote Dask cluster's workers are its own
+    (``scheduler`` neither None nor ``local``, as workers/cluster.py names it)."""
+    if scheduler not in (None, "local"):
+        return None
+    asked = min(workers, jobs) if jobs is not None and scheduler is None else workers
+    if (start := local_workers(asked)) == asked:
+        return None
+    return (
+        f"{option('workers')} {workers} is more than {PER_CPU} per CPU this process may use "
+        f"({usable_cpus()}): {start} worker process{'es' if start > 1 else ''} run (the results "
+        "are the same)"
+    )
+
+
 def _init(work: Work) -> None:
     # Ctrl-C reaches the whole process group: the parent stops the pool and keeps what
     # finished; workers ignore it, so no worker prints a traceback.
@@ -176,12 +214,13 @@ def _run_pooled(job: Job) -> Outcome:
 
 
 class LocalPool:
-    """``work``'s jobs on ``workers`` local processes, each set up once from ``work``;
-    this process itself when ``workers`` is 1. A context manager: leaving it (Ctrl-C
-    included) stops the workers."""
+    """``work``'s jobs on ``workers`` local processes (at most :func:`local_workers`),
+    each set up once from ``work``; this process itself when ``workers`` is 1. A context
+    manager: leaving it (Ctrl-C included) stops the workers."""
 
     def __init__(self, work: Work, workers: int) -> None:
         check_workers(max(workers, 1))
+        workers = local_workers(workers)
         self.work = work
         self._pool: Any = None
         if workers <= 1:

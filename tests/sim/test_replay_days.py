@@ -472,3 +472,28 @@ def test_a_rerun_stopped_after_its_first_day_leaves_no_summary_of_the_earlier_ru
     replaced = [p for p in days if alpha(p) == 0.9]
     assert len(days) > 1 and len(replaced) == 1, replaced
     assert not any((out / name).exists() for name in summaries)
+
+
+def test_more_workers_than_the_cpus_run_are_one_warning(
+    example_csv: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """--workers past 4 per CPU is no error: the run starts 4 per CPU, says so in one
+    line, and writes its days as any number of workers does."""
+    from marops_cli.workers import pool
+
+    monkeypatch.setattr(pool, "usable_cpus", lambda: 1)
+    monkeypatch.setattr(pool, "PER_CPU", 1)  # one process: the days run here
+    out = tmp_path / "days"
+    res = runner.invoke(
+        app,
+        ["replay-day", *SQUARE, str(example_csv), "--dates", "0811..0812", "--method", "stay"]
+        + ["--workers", "2", "--out", str(out)],
+    )
+    assert res.exit_code == 0, res.output
+    line = (
+        "warning: --workers 2 is more than 1 per CPU this process may use (1): 1 worker "
+        "process run (the results are the same)"
+    )
+    assert " ".join(res.output.split()).count(line) == 1, res.output
+    assert "on 1 workers" in res.output
+    assert len(json.loads((out / "metrics.json").read_text())["days"]) == 2

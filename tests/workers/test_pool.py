@@ -255,3 +255,27 @@ def test_torch_blas_runs_the_code_path_of_every_processor(monkeypatch: pytest.Mo
     )
     out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True)
     assert out.stdout.strip().splitlines()[-1] == "COMPATIBLE", out
+
+
+def test_a_pool_starts_at_most_4_processes_per_cpu(monkeypatch: pytest.MonkeyPatch) -> None:
+    """--workers 6 on one CPU starts 4 processes, with the same results; a run says so
+    in one warning line, and says nothing when its jobs are fewer or its cluster remote."""
+    from marops_cli.errors import spelled
+    from marops_cli.workers import pool
+
+    monkeypatch.setattr(pool, "usable_cpus", lambda: 1)
+    assert pool.local_workers(6) == 4 and pool.local_workers(3) == 3
+    jobs = [Square(i, x) for i, x in enumerate(range(8))]
+    with LocalPool(SquareWork(), 6) as started:
+        assert started._pool._processes == 4
+        assert [square for square, _, _ in started.results(jobs)] == [x * x for x in range(8)]
+    note = pool.workers_note(6)
+    assert note is not None
+    assert spelled(note) == (
+        "--workers 6 is more than 4 per CPU this process may use (1): 4 worker processes "
+        "run (the results are the same)"
+    )
+    assert pool.workers_note(6, "local") == note
+    assert pool.workers_note(6, None, jobs=3) is None  # 3 jobs start 3 processes
+    assert pool.workers_note(6, "tcp://10.0.0.1:8786") is None
+    assert pool.workers_note(4) is None
