@@ -4,6 +4,7 @@ one wording for the command line and the Python API."""
 from __future__ import annotations
 
 import datetime as dt
+from collections.abc import Sequence
 from typing import Any
 
 from ..data.table import LadeTable
@@ -66,17 +67,54 @@ def _unservable(progress: Progress, day: str, heavy: int, far: int, label: str =
     )
 
 
-def undelivered(progress: Progress, metrics: dict[str, Any], drones: int, label: str = "") -> None:
-    """Warn when more than 10 % of a day's requests stayed undelivered, and about
-    requests no drone can serve at all (too heavy, too far); ``label`` names the hub of
-    a city run."""
-    heavy, far = metrics.get("unservable_heavy", 0), metrics.get("unservable_far", 0)
-    if heavy or far:
-        _unservable(progress, str(metrics["day"]), heavy, far, label)
-    share = metrics["undelivered"] / max(metrics["requests"], 1)
-    if share > UNDELIVERED_WARN:
+FEW_DAYS = 3
+"""Replayed days (hub-days) whose warnings a run says each in a line of its own; more
+are said in one line (a city run over many hubs and days)."""
+
+
+def undelivered(progress: Progress, days: Sequence[tuple[dict[str, Any], int, str]]) -> None:
+    """Warn about the replayed ``days`` (each its metrics, drones and hub label) that left
+    more than 10 % of their requests undelivered, and about requests no drone can serve
+    at all (too heavy, too far): a line for each of a few days, one line for many, which
+    names the worst (each day's counts are in its metrics.json)."""
+    unit = "hub-days" if any(label for _, _, label in days) else "days"
+    cut = [d for d in days if d[0].get("unservable_heavy", 0) or d[0].get("unservable_far", 0)]
+    if len(cut) <= FEW_DAYS:
+        for m, _, label in cut:
+            heavy, far = m.get("unservable_heavy", 0), m.get("unservable_far", 0)
+            _unservable(progress, str(m["day"]), heavy, far, label)
+    else:
+        heavy = sum(m.get("unservable_heavy", 0) for m, _, _ in cut)
+        far = sum(m.get("unservable_far", 0) for m, _, _ in cut)
         progress.warning(
-            f"{label}{metrics['day']}: {metrics['undelivered']:,} of {metrics['requests']:,} "
-            f"requests ({share:.0%}) stayed undelivered with {drones} "
-            + ("drone" if drones == 1 else "drones")
+            f"{len(cut):,} of {len(days):,} {unit}: {heavy:,} parcels heavier than the "
+            f"payload limit and {far:,} requests beyond any drone's reach from the nearest "
+            "depot cannot be served, in all; each day's metrics (metrics.json) count them "
+            "(unservable_heavy, unservable_far)"
         )
+    short = [d for d in days if _short(d[0]) > UNDELIVERED_WARN]
+    if len(short) <= FEW_DAYS:
+        for m, drones, label in short:
+            progress.warning(
+                f"{label}{m['day']}: {m['undelivered']:,} of {m['requests']:,} requests "
+                f"({_short(m):.0%}) stayed undelivered with {_drones(drones)}"
+            )
+        return
+    worst = ", ".join(
+        f"{label}{m['day']} ({_short(m):.0%} of {m['requests']:,}, with {_drones(drones)})"
+        for m, drones, label in sorted(short, key=lambda d: -_short(d[0]))[:FEW_DAYS]
+    )
+    progress.warning(
+        f"{len(short):,} of {len(days):,} {unit}: more than {UNDELIVERED_WARN:.0%} of their "
+        f"requests stayed undelivered, the most {worst}; each day's metrics (metrics.json) "
+        "count them (undelivered, requests)"
+    )
+
+
+def _short(metrics: dict[str, Any]) -> float:
+    """The share of a day's requests that stayed undelivered."""
+    return float(metrics["undelivered"] / max(metrics["requests"], 1))
+
+
+def _drones(drones: int) -> str:
+    return f"{drones} drone" if drones == 1 else f"{drones} drones"

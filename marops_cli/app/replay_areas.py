@@ -285,6 +285,10 @@ def replay_areas(
                     "again to replay the others"
                 )
             raise
+        replayed = [(job, areas[job.area]) for job in jobs]
+        undelivered(
+            progress, [(done[j.area, j.day][0], len(a.fleet), a.label) for j, a in replayed]
+        )
         return _collect(areas, run, done, progress)
 
 
@@ -429,7 +433,6 @@ def _finish_day(
     from ..io.tables import route_file_paths, with_meta, write_route_files
 
     day_scope(progress, out.scope, area.scn.cfg, area.label)
-    undelivered(progress, out.metrics, len(area.fleet), area.label)
     meta = route_meta(area.identity, day)
     folder = area.folder(day)
     if folder is not None:

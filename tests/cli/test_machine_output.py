@@ -166,7 +166,10 @@ def test_quiet_keeps_warnings_only(example_csv: Path, tmp_path: Path) -> None:
     assert res.stderr.strip().splitlines() == [
         ln for ln in res.stderr.strip().splitlines() if ln.startswith("warning: ")
     ]
-    assert "stayed undelivered" in res.stderr
+    # a city's hub-days short of drones: one line for them all, naming the worst
+    warned = [ln for ln in res.stderr.splitlines() if "stayed undelivered" in ln]
+    assert len(warned) == 1 and " hub-days: more than 10% of their requests" in warned[0]
+    assert "the most hub " in warned[0] and "(metrics.json)" in warned[0], warned
     # settings from the environment (MAROPS_*): the same run, its fleet size from MAROPS_DRONES
     env = run([*args, "--out", "e", "--json"], tmp_path, MAROPS_DRONES="1")
     assert json.loads(env.stdout)["days"][0]["drones"] == 1

@@ -497,3 +497,41 @@ def test_more_workers_than_the_cpus_run_are_one_warning(
     assert " ".join(res.output.split()).count(line) == 1, res.output
     assert "on 1 workers" in res.output
     assert len(json.loads((out / "metrics.json").read_text())["days"]) == 2
+
+
+def test_many_short_days_are_one_warning_naming_the_worst() -> None:
+    """A few days left short of drones are a line each; many (a city's hub-days) one
+    line, with the count and the three worst; the same for requests no drone serves."""
+    from marops_cli.app.messages import undelivered
+
+    class Said:
+        def __init__(self) -> None:
+            self.lines: list[str] = []
+
+        def warning(self, text: str) -> None:
+            self.lines.append(text)
+
+    def day(hub: int, short: int, far: int = 0) -> tuple[dict[str, int | str], int, str]:
+        m = {"day": "2022-08-11", "requests": 100, "undelivered": short, "unservable_far": far}
+        return m, 2, f"hub {hub}: "
+
+    said = Said()
+    undelivered(said, [day(0, 50), day(1, 5), day(2, 30, far=1)])  # type: ignore[arg-type]
+    assert said.lines == [
+        "hub 2: 2022-08-11: 0 parcels heavier than the payload limit and 1 requests beyond "
+        "any drone's reach from the nearest depot cannot be served",
+        "hub 0: 2022-08-11: 50 of 100 requests (50%) stayed undelivered with 2 drones",
+        "hub 2: 2022-08-11: 30 of 100 requests (30%) stayed undelivered with 2 drones",
+    ]
+    said = Said()
+    days = [day(h, short, far=1) for h, short in enumerate([20, 5, 60, 40, 30, 11])]
+    undelivered(said, days)  # type: ignore[arg-type]
+    assert said.lines == [
+        "6 of 6 hub-days: 0 parcels heavier than the payload limit and 6 requests beyond "
+        "any drone's reach from the nearest depot cannot be served, in all; each day's "
+        "metrics (metrics.json) count them (unservable_heavy, unservable_far)",
+        "5 of 6 hub-days: more than 10% of their requests stayed undelivered, the most "
+        "hub 2: 2022-08-11 (60% of 100, with 2 drones), hub 3: 2022-08-11 (40% of 100, "
+        "with 2 drones), hub 4: 2022-08-11 (30% of 100, with 2 drones); each day's "
+        "metrics (metrics.json) count them (undelivered, requests)",
+    ]
