@@ -306,6 +306,24 @@ def parse_ds(column: pa.ChunkedArray | pa.Array, year: int) -> np.ndarray:
     ``ds`` is read as text or as integers (a date or time column as its date); empty,
     non-digit and impossible dates (``231``, ``1301``) are not valid.
     """
+    return _ds(column, year)[0]
+
+
+def ds_other_day(table: pa.Table, delivery_s: np.ndarray, year: int) -> int:
+    """How many rows of ``table`` have a valid ``ds`` of another day than their delivery
+    time (``delivery_s``, naive seconds since 1970-01-01); 0 without a ``ds`` column. A
+    note, not a drop: a request's day is the date of its delivery time
+    (docs/decisions.md, "Reading LaDe")."""
+    if "ds" not in table.column_names:
+        return 0
+    ds = _ds(table["ds"], year)[1]
+    day = (np.asarray(delivery_s) // 86_400).astype("datetime64[D]")
+    return int((~np.isnat(ds) & (ds != day)).sum())
+
+
+def _ds(column: pa.ChunkedArray | pa.Array, year: int) -> tuple[np.ndarray, np.ndarray]:
+    """The mask of valid ``ds`` cells (:func:`parse_ds`) and their dates (datetime64[D]),
+    NaT where a cell is no valid date or one past the year 9999 (no time's)."""
     arr = column.combine_chunks() if isinstance(column, pa.ChunkedArray) else column
     if pa.types.is_floating(arr.type):  # a column with gaps re-saved by pandas: 820.0
         f = arr.fill_null(-1.0).to_numpy(zero_copy_only=False)
@@ -331,4 +349,9 @@ def parse_ds(column: pa.ChunkedArray | pa.Array, year: int) -> np.ndarray:
     long = value >= 10_000_000
     yr = np.where(long, value // 10_000, year)
     mmdd = np.where(long, value % 10_000, value)
-    return (value >= 0) & _valid_ymd(yr, mmdd // 100, mmdd % 100)
+    valid = (value >= 0) & _valid_ymd(yr, mmdd // 100, mmdd % 100)
+    ok = valid & (yr <= 9999)
+    yr, month, day = (np.where(ok, v, 1) for v in (yr, mmdd // 100, mmdd % 100))
+    months = (yr - 1970) * 12 + month - 1
+    dates = months.astype("datetime64[M]").astype("datetime64[D]") + (day - 1)
+    return valid, np.where(ok, dates, np.datetime64("NaT", "D"))

@@ -60,7 +60,7 @@ import pyarrow.parquet as pq
 
 from ..errors import InputError, not_found
 from .arrow import is_text, native_file
-from .dates import TIME_BAD, TIME_EMPTY, parse_ds, parse_times
+from .dates import TIME_BAD, TIME_EMPTY, ds_other_day, parse_ds, parse_times
 from .digest import sha256_file
 from .settings import DataSettings
 from .table import DROP_REASONS, REQUIRED_COLUMNS, DropReport, LadeTable, SourceInfo
@@ -830,6 +830,7 @@ def _lade_table(
         total=int(code.size) + len(set_aside),
         kept=int(idx.size),
         dropped={r: int(counts[k + 1]) for k, r in enumerate(DROP_REASONS)},
+        ds_other_day=ds_other_day(kept, parsed["delivery_time"][keep], cfg.year),
     )
     return LadeTable(
         order_id=_strings(kept["order_id"]),

@@ -64,13 +64,23 @@ class DropReport:
     total: int
     kept: int
     dropped: dict[str, int] = field(default_factory=dict)
+    ds_other_day: int = 0
+    """Kept rows whose ``ds`` names another day than their delivery time: a note, not a
+    drop (a request's day is the date of its delivery time)."""
 
     @property
     def n_dropped(self) -> int:
         return int(sum(self.dropped.values()))
 
     def to_dict(self) -> dict[str, object]:
-        return {"total": self.total, "kept": self.kept, "dropped": dict(self.dropped)}
+        doc: dict[str, object] = {
+            "total": self.total,
+            "kept": self.kept,
+            "dropped": dict(self.dropped),
+        }
+        if self.ds_other_day:
+            doc["ds_other_day"] = self.ds_other_day
+        return doc
 
     def reasons(self) -> str:
         """The rows dropped for each reason, in words (``73 bad coordinates, 120
@@ -82,12 +92,18 @@ class DropReport:
     def describe(self, name: str) -> str:
         """What was read from the file ``name`` and which rows were dropped and why
         (docs/method.md §1), as one line for the user."""
+        note = (
+            f"; {self.ds_other_day:,} kept {'row has' if self.ds_other_day == 1 else 'rows have'}"
+            " a ds of another day than the delivery time, whose day is used"
+            if self.ds_other_day
+            else ""
+        )
         if self.n_dropped == 0:
-            return f"{name}: {self.total:,} rows read, none dropped"
+            return f"{name}: {self.total:,} rows read, none dropped{note}"
         parts = self.reasons()
         return (
             f"{name}: {self.total:,} rows read, {self.kept:,} kept, "
-            f"{self.n_dropped:,} dropped ({parts}); --strict makes these errors"
+            f"{self.n_dropped:,} dropped ({parts}); --strict makes these errors{note}"
         )
 
 

@@ -854,6 +854,30 @@ def test_ds_is_optional_and_may_be_empty_or_float(tmp_path: Path) -> None:
         assert [d.isoformat() for d in table.days()] == ["2022-08-20"]
 
 
+def test_a_ds_of_another_day_is_counted_not_dropped(tmp_path: Path) -> None:
+    """A ds naming another day than the delivery time is kept (the delivery time's day
+    is the request's) and counted in the report's line; an empty ds is no other day."""
+    rows = [
+        *CLEAN,  # 1003: accepted 08-19, delivered and ds 08-21
+        row("1004", ds="819"),  # delivered 08-20
+        row("1005", ds="20220821"),
+        row("1006", ds=""),
+        row("1007", acc="", ds="101"),  # dropped: not counted again
+    ]
+    t = read_lade(write_csv(tmp_path / "d.csv", rows), DataConfig())
+    assert len(t) == 6 and t.report.ds_other_day == 2
+    assert t.report.to_dict()["ds_other_day"] == 2
+    assert t.report.describe("d.csv") == (
+        "d.csv: 7 rows read, 6 kept, 1 dropped (1 missing time); --strict makes these "
+        "errors; 2 kept rows have a ds of another day than the delivery time, whose day "
+        "is used"
+    )
+    assert [d.isoformat() for d in t.days()] == ["2022-08-20", "2022-08-21"]
+    clean = read_lade(write_csv(tmp_path / "c.csv", CLEAN), DataConfig()).report
+    assert clean.ds_other_day == 0 and "ds_other_day" not in clean.to_dict()
+    assert clean.describe("c.csv") == "c.csv: 3 rows read, none dropped"
+
+
 def test_kept_rows_that_repeat_an_order_id_are_warned_of(tmp_path: Path) -> None:
     """A row repeating an order id with other times is kept (only exact repeats are
     dropped) and planned as an order of its own: the run says how many there are."""
