@@ -22,7 +22,7 @@ from .report_cmd import report_command
 from .segment_cmd import segment_command
 from .synth_cmd import synth_command
 from .train_cmd import train_command
-from .usage import Command, Group, options_part
+from .usage import Command, Group, env_sourced, options_part
 
 app = typer.Typer(
     name="marops",
@@ -126,7 +126,7 @@ def _run() -> int | str | None:
             raise
         ctx = getattr(exc, "ctx", None)
         hint = f" (see '{ctx.command_path} --help')" if ctx is not None else ""
-        text = _named_source(" ".join(str(message()).split()), getattr(exc, "param", None))
+        text = _named_source(" ".join(str(message()).split()), getattr(exc, "param", None), ctx)
         if text == "Missing command." and ctx is not None:  # a bare `marops`: name them
             text = f"Missing command: one of {', '.join(ctx.command.list_commands(ctx))}."
         typer.echo(f"marops: error: {text}{hint}", err=True)
@@ -137,24 +137,25 @@ def _run() -> int | str | None:
     return code if isinstance(code, int) else 0
 
 
-def _named_source(text: str, param: Any) -> str:
+def _named_source(text: str, param: Any, ctx: Any) -> str:
     """A bad value's line names where it came from: the environment variable only when
-    the value was read from it (click names it whenever the option has one), and the
-    value itself (``--drones abc``: ``, got 'abc'``)."""
+    the value was read from it (click's parameter source, :func:`~.usage.env_sourced`;
+    click names the variable whenever the option has one), and the value itself
+    (``--drones abc``: ``, got 'abc'``)."""
     opts = tuple(getattr(param, "opts", ()))
     envvar = getattr(param, "envvar", None)
     names = [envvar] if isinstance(envvar, str) else list(envvar or ())
+    from_env = env_sourced(ctx) if ctx is not None and param is not None else {}
+    var = next((from_env[o] for o in opts if o in from_env), None)
+    given = os.environ.get(var) if var is not None else None
     args = sys.argv[1:]
-    given = None
-    for i, arg in enumerate(options_part(args)):
+    for i, arg in enumerate(options_part(args) if var is None else ()):
         if arg in opts and i + 1 < len(args):
             given = args[i + 1]
         elif arg.split("=", 1)[0] in opts and "=" in arg:
             given = arg.split("=", 1)[1]
     for name in names:
-        if given is None and name in os.environ:
-            given = os.environ[name]
-        else:
+        if name != var:
             text = text.replace(f" (env var: '{name}')", "")
     if given is not None and text.startswith("Invalid value for") and "got " not in text:
         text = f"{text.rstrip('.')}, got {given!r}"

@@ -82,6 +82,31 @@ def test_a_value_click_refuses_is_quoted_with_where_it_came_from(
         assert all(n in line for n in needles) and absent not in line, line
 
 
+def test_a_bad_value_names_a_variable_only_when_click_read_it(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Where a value came from is click's own record of it: a variable set but empty
+    (click passes over it) is not where a bad value came from, nor quoted as it."""
+    import sys
+
+    import click
+
+    from marops_cli.cli.app import _named_source
+
+    @click.command()
+    @click.option("--n", type=int, default="zz", envvar="MAROPS_TEST_N")
+    def command(n: int) -> None:
+        """A bad default: the value came from neither the line nor the variable."""
+
+    monkeypatch.setattr(sys, "argv", ["marops"])
+    for environ, ending in (("", "'zz' is not a valid integer."), ("yy", ", got 'yy'")):
+        monkeypatch.setenv("MAROPS_TEST_N", environ)
+        with pytest.raises(click.BadParameter) as err:
+            command.main([], standalone_mode=False)
+        text = " ".join(err.value.format_message().split())
+        assert _named_source(text, err.value.param, err.value.ctx).endswith(ending)
+
+
 def test_a_value_out_of_range_names_the_environment_variable_it_came_from(
     example_csv: Path, tmp_path: Path
 ) -> None:
