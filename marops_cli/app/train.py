@@ -139,7 +139,7 @@ def train(
         progress.warning(note)
     report = _Report(progress)
     try:
-        side = train_actor(
+        written = train_actor(
             td,
             out,
             resume=setup.resume,
@@ -150,13 +150,14 @@ def train(
     finally:
         if report.started:
             progress.finish()
+    side = written.sidecar
     if setup.train.algorithm == "es":
         files = actor_files(out, "es")
         return TrainResult(files[0], files, side)
     from ..errors import switch
-    from ..policies.installation import record_path, trained_here
+    from ..policies.installation import record_path
 
-    if not trained_here(out.read_bytes()):  # a record that is a link, a pipe, read-only
+    if not written.recorded:  # a record that is a link, a pipe, read-only
         progress.warning(
             f"{record_path()}: this installation's record of trained actors was not "
             f"written (a symbolic link, a pipe or no write access): {out.name} loads by "

@@ -15,7 +15,7 @@ from __future__ import annotations
 import io
 import warnings
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import torch
 
@@ -55,14 +55,26 @@ def weights_bytes(actor: Actor) -> bytes:
     return save(state)
 
 
-def write_actor(actor: Actor, path: str | Path, sidecar: dict[str, Any]) -> dict[str, Any]:
+class Written(NamedTuple):
+    """A trained actor as written: its sidecar, and whether this installation's record of
+    the actors it trained notes it."""
+
+    sidecar: dict[str, Any]
+    """The sidecar document written (docs/method.md §6)."""
+    recorded: bool
+    """False when the TorchScript actor went unrecorded (the record a symbolic link, a
+    pipe or read-only): it then loads by its weights file, or with ``--trust-actor``.
+    True for the landing actor, whose weights file needs no record."""
+
+
+def write_actor(actor: Actor, path: str | Path, sidecar: dict[str, Any]) -> Written:
     """Write ``path`` (TorchScript), its ``.safetensors`` weights and its ``.json`` sidecar
     together, atomically, and notes the TorchScript file in this installation's record
     of the actors it trained (marops_cli/policies/installation.py).
 
     The sidecar gets the fields the loader requires (``obs_version``, ``n_actions``,
     ``hidden_size``) and the weights' SHA-256 (``weights_sha256``, checked on loading)
-    on top of ``sidecar``; returns the document written.
+    on top of ``sidecar``; returns the document written and whether the record notes it.
     """
     path = Path(path)
     script, weights = actor_bytes(actor), weights_bytes(actor)
@@ -87,5 +99,4 @@ def write_actor(actor: Actor, path: str | Path, sidecar: dict[str, Any]) -> dict
             from .curve import curve_png
 
             files.write_bytes(path.with_suffix(".curve.png"), curve_png(doc))
-    record_trained(script, path)
-    return doc
+    return Written(doc, record_trained(script, path))

@@ -37,7 +37,7 @@ from .data import (
 )
 from .env import DeliveryEnv
 from .evaluate import summarise
-from .export import write_actor
+from .export import Written, write_actor
 from .networks import Actor, Critic
 from .ppo import make_batch, ppo_update
 from .rollout import Episode, derive_seed
@@ -319,7 +319,7 @@ class Trainer:
                 if ev is not None:
                     self.emit({"kind": "eval", **ev})
 
-    def export(self, command: str | None, data_origin: str | None = None) -> dict[str, Any]:
+    def export(self, command: str | None, data_origin: str | None = None) -> Written:
         """Write the TorchScript actor and its sidecar (docs/method.md §6)."""
         t, cfg = self.tcfg, self.td.ctx.scenarios[0].cfg
         chosen = self.evals[-1] if self.evals else None
@@ -484,10 +484,11 @@ def train_actor(
     command: str | None = None,
     data_origin: str | None = None,
     on_event: Callable[[Event], None] | None = None,
-) -> dict[str, Any]:
+) -> Written:
     """Train on the scenarios of ``td`` (:func:`~.data.load_training_data`), resuming
     from ``out``'s ``.ckpt`` when ``resume`` says so; write ``out``, its ``.json``
-    sidecar and ``.curve.png``; return the sidecar.
+    sidecar and ``.curve.png``; return the sidecar and whether this installation's
+    record of trained actors notes the actor.
 
     ``command`` and ``data_origin`` (how the data was made) go into the sidecar as given.
     """
@@ -499,7 +500,7 @@ def train_actor(
 
         landing = LandingTrainer(td, Path(out), on_event)
         landing.run(resume)
-        return landing.export(command, data_origin)
+        return Written(landing.export(command, data_origin), recorded=True)
     with single_threaded(deterministic=True):
         trainer = Trainer(td, Path(out), on_event)
         trainer.run(resume)

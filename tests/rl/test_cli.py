@@ -385,3 +385,25 @@ def test_train_warns_when_its_record_is_a_link_and_leaves_it(
     said = " ".join(res.stderr.split())
     assert f"{record_path()}: this installation's record of trained actors was not" in said
     assert "--trust-actor" in said, said
+
+
+def test_train_knows_its_actor_recorded_without_reading_the_record_back(
+    tiny_csv: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Whether the actor went into this installation's record is what writing it said:
+    the run neither reads the record back nor hashes the actor again."""
+    from marops_cli.policies import installation
+
+    def read_back(actor: bytes) -> bool:
+        raise AssertionError("the record was read back after training")
+
+    monkeypatch.setenv("XDG_DATA_HOME", str(tmp_path / "data"))
+    monkeypatch.setattr(installation, "trained_here", read_back)
+    out = tmp_path / "a.pt"
+    args = ["train", str(tiny_csv), "--episodes", "1", "--workers", "1", "--out", str(out)]
+    res = runner.invoke(app, args)
+    assert res.exit_code == 0, res.output
+    assert "record of trained actors was not" not in res.output
+    monkeypatch.undo()
+    monkeypatch.setenv("XDG_DATA_HOME", str(tmp_path / "data"))
+    assert installation.trained_here(out.read_bytes())

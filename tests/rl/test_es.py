@@ -41,7 +41,7 @@ def test_generations_move_the_weights_and_export(
     tiny_csv: Path, small_cfg: PlannerConfig, tmp_path: Path
 ) -> None:
     td = load_training_data(tiny_csv, small_cfg, _es(episodes=13))
-    side = train_actor(td, tmp_path / "a.safetensors", resume=False)
+    side = train_actor(td, tmp_path / "a.safetensors", resume=False).sidecar
     assert side["operating_model"] == "stock=home, batteries, busy"
     assert side["format"] == "marops-landing-actor/2" and len(side["features"]) == 16
     assert side["generations"] == 2 and side["episodes"] >= 7
@@ -184,7 +184,7 @@ def test_context_features_and_spares_train_a_format_3_actor(
     tcfg = _es(episodes=13, landing_features="context", es_energy_basis="parcel")
     td = load_training_data(tiny_csv, small_cfg, tcfg, spares=[1, 3])
     assert [s.cfg.ops.batteries_per_depot for s in td.ctx.scenarios] == [1, 3]
-    side = train_actor(td, tmp_path / "a.safetensors", resume=False)
+    side = train_actor(td, tmp_path / "a.safetensors", resume=False).sidecar
     assert side["format"] == "marops-landing-actor/3" and len(side["weight"]) == 22
     assert side["features"][12:18] == list(CONTEXT_FEATURES)
     assert [s["spares"] for s in side["scenarios"]] == [1, 3]
@@ -206,7 +206,7 @@ def test_battery_regimes_set_spares_chargers_and_power_per_scenario(
         (4, 2, 125.0),
     ]
     assert [s.name.rsplit("/", 1)[1] for s in td.ctx.scenarios] == ["scarce", "default", "ample"]
-    side = train_actor(td, tmp_path / "a.safetensors", resume=False)
+    side = train_actor(td, tmp_path / "a.safetensors", resume=False).sidecar
     assert [(s["spares"], s["chargers"], s["charge_power_w"]) for s in side["scenarios"]][::2] == [
         (1, 1, 31.0),
         (4, 2, 125.0),
@@ -226,7 +226,7 @@ def test_the_best_rule_is_chosen_from_the_given_rules(
     assert trainer.rules == ["backlog", "flow"]
     every = load_training_data(tiny_csv, small_cfg, _es(episodes=7))
     assert LandingTrainer(every, tmp_path / "b.safetensors").rules == list(RULES)
-    side = train_actor(td, tmp_path / "a.safetensors", resume=False)
+    side = train_actor(td, tmp_path / "a.safetensors", resume=False).sidecar
     assert "best rule (backlog, flow)" in side["reward"]
     assert side["train_config"]["es_rules"] == ["backlog", "flow"]
     # One generation: its day replayed with the two rules, then by w, w + σε and w − σε.
@@ -241,7 +241,7 @@ def test_rule_features_train_a_format_4_actor_from_a_given_start(
     td = load_training_data(tiny_csv, small_cfg, tcfg)
     trainer = LandingTrainer(td, tmp_path / "a.safetensors")
     assert trainer.weight == pytest.approx(extend_weights(np.array(start), 25), abs=0)
-    side = train_actor(td, tmp_path / "a.safetensors", resume=False)
+    side = train_actor(td, tmp_path / "a.safetensors", resume=False).sidecar
     assert side["format"] == "marops-landing-actor/4" and len(side["weight"]) == 25
     assert side["features"][18:21] == list(RULE_FEATURES)
     pol = make_policy(str(tmp_path / "a.safetensors"), model=side["operating_model"])
@@ -255,7 +255,8 @@ def test_training_the_new_weights_only_keeps_the_given_ones(
     tcfg = _es(
         episodes=13, landing_features="rules", landing_start=list(start), landing_train="new"
     )
-    side = train_actor(load_training_data(tiny_csv, small_cfg, tcfg), tmp_path / "a.safetensors")
+    td = load_training_data(tiny_csv, small_cfg, tcfg)
+    side = train_actor(td, tmp_path / "a.safetensors").sidecar
     w = np.array(_weights(tmp_path / "a.safetensors"))
     assert side["generations"] == 2
     assert w[:18] == pytest.approx(start[:18], abs=0) and w[21:] == pytest.approx(start[18:], abs=0)

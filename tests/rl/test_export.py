@@ -42,7 +42,8 @@ def _fixed_obs() -> torch.Tensor:
 def test_reloaded_actor_gives_the_same_actions(tmp_path: Path) -> None:
     actor = _actor()
     path = tmp_path / "p.pt"
-    doc = write_actor(actor, path, {"alpha": 0.5})
+    doc, recorded = write_actor(actor, path, {"alpha": 0.5})
+    assert recorded
     assert doc["n_actions"] == 4 and json.loads(path.with_suffix(".json").read_text()) == doc
     obs, h0 = _fixed_obs(), torch.zeros(5, 64)
     with torch.no_grad():
