@@ -32,24 +32,28 @@ def replay_hubs(
     whole export: each a study area with its own depots and share of the fleet, into
     ``out/hub-<id>/``, and the city's coverage into ``out/metrics.json``."""
     from ..data.prepare import check_days_in_file
-    from ..segment.hubs import hub_areas, hubs_history, load_hubs
+    from ..segment.hubs import hub_areas, hub_owner, hubs_history, load_hubs
     from ..sim.scenario import load_scenario
 
     table = read_data(data, cfg.data)
     check_days_in_file(table, days)
     history = hubs_history(table, days)
-    far = None
     if hubs_path is None:
-        from ..segment.hubs import outside_warning, place_hubs
+        from ..segment.hubs import place_hubs
 
         hub_list = place_hubs(table, cfg, history, cfg.segment.n_depots)
-        far = outside_warning(table, hub_list, days, cfg.data.hub_min_share)
     else:
         hub_list = load_hubs(hubs_path, cfg.data)
-    hub_list = city_fleet(table, hub_list, history, cfg)
+    owner = hub_owner(table, hub_list)  # once: the hubs' squares are set from here on
+    far = None
+    if hubs_path is None:
+        from ..segment.hubs import outside_warning
+
+        far = outside_warning(table, hub_list, days, cfg.data.hub_min_share, owner)
+    hub_list = city_fleet(table, hub_list, history, cfg, owner)
     areas = []
     skipped: list[str] = []
-    for a in hub_areas(table, cfg, hub_list, days):  # every hub-day checked before writing
+    for a in hub_areas(table, cfg, hub_list, days, owner):  # every hub-day checked first
         skipped += [
             f"hub {a.hub.id}: no requests on {day.isoformat()} in its square, skipped"
             for day in a.skipped
@@ -85,7 +89,7 @@ def replay_hubs(
         per_area, tables = replay_areas(areas, run, progress)
         written = [f for a in areas for f in a.written]
         all_metrics = [m for rows in per_area for m in rows]
-        left = left_out(table, days, hub_list, cfg)  # once: the city's figures and its list
+        left = left_out(table, days, owner, cfg)  # once: the city's figures and its list
         city = city_coverage(table, days, all_metrics, hub_list, left)
         total = aggregate_days(all_metrics)
         if out is not None:
@@ -124,24 +128,26 @@ def replay_hubs(
     return ReplayResult(all_metrics, total, tables, city, out, written)
 
 
-def city_fleet(table: Any, hubs: list[Any], history: list[dt.date], cfg: Any) -> list[Any]:
+def city_fleet(
+    table: Any, hubs: list[Any], history: list[dt.date], cfg: Any, owner: Any
+) -> list[Any]:
     """The hubs with their fleets: their own, or a share of the city's (``[sim]
-    city_drones``, else ``drones`` each) by their demand on the history days."""
+    city_drones``, else ``drones`` each) by their demand on the history days (``owner``:
+    each row's hub, :func:`~marops_cli.segment.hubs.hub_owner`)."""
     from ..segment.hubs import hub_demand, with_fleets
 
-    demand = hub_demand(table, hubs, history)
+    demand = hub_demand(table, hubs, history, owner)
     return with_fleets(hubs, demand, cfg.sim.drones, cfg.sim.city_drones)
 
 
-def left_out(table: Any, days: list[dt.date], hubs: list[Any], cfg: Any) -> tuple[Any, Any]:
-    """Rows due on ``days`` and not planned: (mask, reason per row) — outside every hub,
-    or in a hub and due outside service hours."""
+def left_out(table: Any, days: list[dt.date], owner: Any, cfg: Any) -> tuple[Any, Any]:
+    """Rows due on ``days`` and not planned: (mask, reason per row) — outside every hub
+    (``owner``: each row's hub, :func:`~marops_cli.segment.hubs.hub_owner`), or in a hub
+    and due outside service hours."""
     import numpy as np
 
     from ..data.prepare import in_service_hours
-    from ..segment.hubs import hub_owner
 
-    owner = hub_owner(table, hubs)
     due = np.isin(table.delivery_day, np.array(days, dtype="datetime64[D]"))
     hours = in_service_hours(table, cfg.data)
     outside = due & (owner < 0)

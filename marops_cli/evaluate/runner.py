@@ -28,7 +28,15 @@ from ..data.table import LadeTable
 from ..errors import InputError, in_hub, not_a_file, option
 from ..methods import Method, register
 from ..methods import method as method_spec
-from ..segment.hubs import Hub, hub_areas, hub_demand, hubs_history, place_hubs, with_fleets
+from ..segment.hubs import (
+    Hub,
+    hub_areas,
+    hub_demand,
+    hub_owner,
+    hubs_history,
+    place_hubs,
+    with_fleets,
+)
 from ..sim.scenario import (
     METHODS,
     Scenario,
@@ -171,7 +179,8 @@ def prepare(
     history = hubs_history(table, chosen)
     if hubs is None and cfg.data.area == "hubs" and cfg.data.center is None:
         hubs = place_hubs(table, cfg, history, max(s.depots_n for s in settings))
-    demand = hub_demand(table, hubs, history) if hubs else []
+    owner = hub_owner(table, hubs) if hubs else None  # once: the hubs are set from here on
+    demand = hub_demand(table, hubs, history, owner) if hubs else []
     path = Path(table.source.path)
     scenarios: dict[tuple[int, str, int], Scenario] = {}
     hub_days: list[tuple[int, list[dt.date]]] = []
@@ -179,7 +188,9 @@ def prepare(
     areas = (
         [(0, cfg, table, chosen)]
         if not hubs
-        else [(a.hub.id, a.cfg, a.table, a.days) for a in hub_areas(table, cfg, hubs, chosen)]
+        else [
+            (a.hub.id, a.cfg, a.table, a.days) for a in hub_areas(table, cfg, hubs, chosen, owner)
+        ]
     )
     for hub, cfg_h, table_h, days_h in areas:
         if not days_h:

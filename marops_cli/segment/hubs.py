@@ -203,13 +203,17 @@ class HubArea:
 
 
 def hub_areas(
-    table: LadeTable, cfg: PlannerConfig, hubs: Sequence[Hub], days: Sequence[dt.date]
+    table: LadeTable,
+    cfg: PlannerConfig,
+    hubs: Sequence[Hub],
+    days: Sequence[dt.date],
+    owner: np.ndarray | None = None,
 ) -> list[HubArea]:
     """Every hub as a study area over ``days``. An order belongs to the first hub whose
-    square holds it (:func:`hub_owner`): a hub's rows are those it owns, so no order is
-    planned twice, and no hub counts another's orders, or those outside every hub,
-    among its own left out."""
-    owner = hub_owner(table, hubs)
+    square holds it (:func:`hub_owner`; ``owner``, when the caller has it): a hub's rows
+    are those it owns, so no order is planned twice, and no hub counts another's orders,
+    or those outside every hub, among its own left out."""
+    owner = hub_owner(table, hubs) if owner is None else owner
     areas = []
     for h in hubs:
         f = h.frame
@@ -241,9 +245,15 @@ def hubs_history(table: LadeTable, days: Sequence[dt.date]) -> list[dt.date]:
     return other or list(days)
 
 
-def hub_demand(table: LadeTable, hubs: Sequence[Hub], days: Sequence[dt.date]) -> list[int]:
-    """Each hub's demand: the orders it owns (:func:`hub_owner`) due on ``days``."""
-    owner = hub_owner(table, hubs)
+def hub_demand(
+    table: LadeTable,
+    hubs: Sequence[Hub],
+    days: Sequence[dt.date],
+    owner: np.ndarray | None = None,
+) -> list[int]:
+    """Each hub's demand: the orders it owns (:func:`hub_owner`; ``owner``, when the
+    caller has it) due on ``days``."""
+    owner = hub_owner(table, hubs) if owner is None else owner
     on = np.isin(table.delivery_day, np.array(list(days), dtype="datetime64[D]"))
     counts = np.bincount(owner[on & (owner >= 0)], minlength=len(hubs))
     return [int(c) for c in counts]
@@ -254,14 +264,18 @@ OUTSIDE_WARNING = 0.05
 
 
 def outside_warning(
-    table: LadeTable, hubs: Sequence[Hub], days: Sequence[dt.date], min_share: float
+    table: LadeTable,
+    hubs: Sequence[Hub],
+    days: Sequence[dt.date],
+    min_share: float,
+    owner: np.ndarray | None = None,
 ) -> str | None:
     """A warning when at least :data:`OUTSIDE_WARNING` of the orders due on ``days`` lie
     outside every hub placed (``[data] hub_min_share`` ``min_share``; another city in the
     export, scattered points): the run leaves them out, and its figures per hub would not
-    show it."""
+    show it. ``owner``: each row's hub (:func:`hub_owner`), when the caller has it."""
     total = int(np.isin(table.delivery_day, np.array(list(days), dtype="datetime64[D]")).sum())
-    outside = total - sum(hub_demand(table, hubs, days))
+    outside = total - sum(hub_demand(table, hubs, days, owner))
     if not total or outside < OUTSIDE_WARNING * total:
         return None
     return (

@@ -243,6 +243,25 @@ def test_a_hub_days_warning_names_its_hub(example_csv, city, tmp_path):
     assert warned and all(w.startswith("warning: hub 0: 2022-08-11: ") for w in warned), warned
 
 
+def test_a_city_run_finds_each_orders_hub_once(example_csv, city, tmp_path, monkeypatch):
+    """Which hub owns each order is worked out once per run and handed to the fleet
+    shares, the hubs' areas and the orders left out, not again by each."""
+    from marops_cli.segment import hubs as hubs_module
+
+    calls = []
+    owner = hubs_module.hub_owner
+
+    def counted(table, hubs):
+        calls.append(len(hubs))
+        return owner(table, hubs)
+
+    monkeypatch.setattr(hubs_module, "hub_owner", counted)
+    args = ["replay-day", str(example_csv), "--date", "0811", "--hubs", str(city["hubs"])]
+    res = runner.invoke(app, [*args, "--method", "stay", "--out", str(tmp_path / "o")])
+    assert res.exit_code == 0, res.output
+    assert len(calls) == 1, calls
+
+
 def test_a_single_hub_writes_the_plain_runs_bytes(city):
     """Hub 0 of the city run is the plain run with its square as the study area: the
     route files are the same bytes, the day's metrics the same bar wall times and the
