@@ -54,7 +54,7 @@ from ..data.jsonfile import read_json
 from ..errors import InputError
 from ..io.atomic import output_set
 from ..methods import reference_rules
-from ..policies.base import MAX_WEIGHT
+from ..policies.base import check_weight_range
 from ..policies.landing import (
     FEATURE_SETS,
     LandingActor,
@@ -287,13 +287,14 @@ class LandingTrainer:
                 )
             if best.episode not in [e.episode for e in ckpt.evals]:
                 raise edited_checkpoint(self.ckpt, kind, "best must be one of the evaluations")
-        # The weights an actor file may hold (policies/base.py): training would otherwise
-        # go on from, and export, weights no run can fly.
+        # The weights an actor file may hold, refused as there (policies/base.py):
+        # training would otherwise go on from, and export, weights no run can fly.
         for key, w in (("weight", weight), ("best.weight", best.weight if best else [])):
-            if np.abs(np.asarray(w, dtype=np.float64)).max(initial=0.0) > MAX_WEIGHT:
-                raise edited_checkpoint(
-                    self.ckpt, kind, f"{key} holds a weight beyond {MAX_WEIGHT:.0e}"
-                )
+            try:
+                largest = float(np.abs(np.asarray(w, dtype=np.float64)).max(initial=0.0))
+                check_weight_range(largest, self.ckpt, key)
+            except InputError as exc:
+                raise edited_checkpoint(self.ckpt, kind, f"{key} {exc.message}") from None
         self.weight = weight
         self.generation, self.episode, self.elapsed_s = (
             ckpt.generation,

@@ -91,7 +91,10 @@ EDITS = {
         "generation": 1e30,
     },
     "episode: expected 0 ≤ episode ≤ 20000000": lambda s: {**s, "episode": 10**30},
-    "weight holds a weight beyond 1e+06": lambda s: {**s, "weight": [1e30] * len(s["weight"])},
+    "weight holds a weight of magnitude 1e+30, beyond the 1e+06 an actor's": lambda s: {
+        **s,
+        "weight": [1e30] * len(s["weight"]),
+    },
 }
 
 
@@ -108,7 +111,9 @@ READ_LATER = {
     "best.weight[0]: expected a number, got nan": _in_best(
         weight=[float("nan")] * JOINT_START.size
     ),
-    "best.weight holds a weight beyond 1e+06": _in_best(weight=[-2e6] * JOINT_START.size),
+    "best.weight holds a weight of magnitude 2e+06, beyond the 1e+06": _in_best(
+        weight=[-2e6] * JOINT_START.size
+    ),
     "history[0].generation: a history entry needs": _set("history", [{"episode": 1}]),
     "evals[0].cost: expected a number": _set(
         "evals", [{"episode": 4, "cost": "low", "methods": {}}]
