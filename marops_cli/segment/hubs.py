@@ -34,6 +34,7 @@ __all__ = [
     "find_hubs",
     "hub_areas",
     "hub_demand",
+    "hub_locations",
     "hub_owner",
     "hubs_history",
     "hubs_doc",
@@ -286,26 +287,39 @@ def outside_warning(
     )
 
 
+def hub_locations(table: LadeTable, hubs: Sequence[Hub], days: Sequence[dt.date]) -> list[int]:
+    """Each hub's distinct customer locations (``lng, lat``) among the orders it owns
+    (:func:`hub_owner`) due on ``days``: k-means places one depot on each at most."""
+    owner = hub_owner(table, hubs)
+    on = np.isin(table.delivery_day, np.array(list(days), dtype="datetime64[D]"))
+    mine = on & (owner >= 0)
+    points = np.column_stack([owner[mine].astype(np.float64), table.lng[mine], table.lat[mine]])
+    held = np.unique(points, axis=0)[:, 0].astype(np.int64)
+    return [int(c) for c in np.bincount(held, minlength=len(hubs))]
+
+
 def place_hubs(
     table: LadeTable, cfg: PlannerConfig, history: Sequence[dt.date], n_depots: int
 ) -> list[Hub]:
     """The hubs the whole-export run places (docs/method.md §1.1): covering squares over
-    the ``history`` days (:func:`find_hubs`), less any that would own fewer history
-    orders than its ``n_depots`` depots need; those orders fall to the hubs left, or
+    the ``history`` days (:func:`find_hubs`), less any that would own fewer distinct
+    history locations (:func:`hub_locations`) than its ``n_depots`` depots need (rounded
+    coordinates put many orders on one point); those orders fall to the hubs left, or
     outside every hub. Refused when no hub is left."""
     import dataclasses
 
     hubs, _ = find_hubs(table, cfg.data, history, None, cfg.data.hub_min_share, cover=True)
     while True:
-        demand = hub_demand(table, hubs, history)
-        keep = [h for h, d in zip(hubs, demand, strict=True) if d >= n_depots]
+        held = hub_locations(table, hubs, history)
+        keep = [h for h, d in zip(hubs, held, strict=True) if d >= n_depots]
         if len(keep) == len(hubs):
             return hubs
         if not keep:
+            most = max(held)
             raise InputError(
-                f"no hub placed over the history days holds the {n_depots} orders its "
-                f"{n_depots} depots need: lower {option('n_depots')}, or plan one square "
-                f"with {option('area')} square",
+                f"no hub placed over the history days holds the {n_depots} distinct customer "
+                f"locations its {n_depots} depots need (the most any holds is {most:,}): "
+                f"lower {option('n_depots')}, or plan one square with {option('area')} square",
                 file=table.source.path,
             )
         hubs = [dataclasses.replace(h, id=i) for i, h in enumerate(keep)]

@@ -619,6 +619,35 @@ def test_the_whole_export_places_no_hub_too_sparse_for_its_depots(example_csv):
         place_hubs(table, cfg, history, 10**6)
 
 
+def test_a_hub_of_rounded_coordinates_too_few_for_its_depots_is_not_placed(points_table):
+    """An export of coordinates rounded to 2 decimals (about 1 km) puts a town's 300
+    orders on 5 points: its hub holds enough orders for 16 depots but not the 16 distinct
+    locations k-means needs, so it is left out, not placed to fail the whole run; a
+    city of one building is refused naming the locations, not the orders."""
+    from marops_cli.config import PlannerConfig
+    from marops_cli.segment.hubmap import hub_depots
+    from marops_cli.segment.hubs import hub_demand, hub_locations, place_hubs
+
+    rng = np.random.default_rng(3)
+    town_lng, town_lat = _cluster(rng, 0, 0, 2000)
+    spots = np.round(_cluster(rng, 25_000, 0, 5, sd=300.0), 2)
+    pick = rng.integers(0, 5, 300)
+    lng = np.concatenate([town_lng, spots[0][pick]])
+    lat = np.concatenate([town_lat, spots[1][pick]])
+    table = points_table(lng, lat)
+    cfg = PlannerConfig()
+    history = table.days()
+    hubs = place_hubs(table, cfg, history, 16)
+    assert len(hubs) == 1
+    assert hub_demand(table, hubs, history) == [2000]
+    assert hub_locations(table, hubs, history) == [2000]
+    _, why = hub_depots(table, cfg, hubs, history)
+    assert why == {}
+    one = points_table(np.full(500, LNG), np.full(500, LAT))
+    with pytest.raises(InputError, match="16 distinct customer locations .* most any holds is 1"):
+        place_hubs(one, cfg, one.days(), 16)
+
+
 def test_the_city_line_names_the_hubs_and_the_fleet() -> None:
     from marops_cli.app.replay_hubs import city_line
 
