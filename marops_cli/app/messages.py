@@ -19,6 +19,8 @@ def drop_report(progress: Progress, table: LadeTable, name: str) -> None:
     share an order id: each is planned as an order of its own, which an export's repeated
     upload with other times or positions would deliver twice."""
     progress.message(table.report.describe(name))
+    if (wrap := new_year_warning(table.days(), name)) is not None:
+        progress.warning(wrap)
     ids = table.order_id
     repeated = len(ids) - len(set(ids.tolist()))
     if repeated:
@@ -27,6 +29,38 @@ def drop_report(progress: Progress, table: LadeTable, name: str) -> None:
             "an earlier row's order_id with other times or positions; each is planned as "
             "an order of its own"
         )
+
+
+NEW_YEAR_GAP_DAYS = 183
+"""Days between an export's January and its December beyond which it looks like one that
+runs over the new year, read with one year."""
+
+
+def new_year_warning(days: list[dt.date], name: str) -> str | None:
+    """A warning when the file's due ``days``, all in one year, hold January and December
+    with more than :data:`NEW_YEAR_GAP_DAYS` days between: an export over the new year
+    written with ``MM-DD`` times, which take one year (``--year``), so its January days
+    come before its December and an order accepted on 31 December and delivered on 1
+    January reads as delivered before it was accepted."""
+    if len(days) < 2 or days[0].year != days[-1].year:
+        return None
+    if days[0].month != 1 or days[-1].month != 12:
+        return None
+    gap = max(b - a for a, b in zip(days, days[1:], strict=False))
+    if gap.days <= NEW_YEAR_GAP_DAYS:
+        return None
+    from ..data.dates import format_days
+    from ..errors import option
+
+    year = days[0].year
+    return (
+        f"{name}: its days are {format_days(days)}, {gap.days - 1} days without orders "
+        f"between: if the export runs over the new year, MM-DD times take one "
+        f"year ({option('year')} {year}), so its January days are read as January {year}, "
+        f"before its December, and an order accepted in December and delivered in January "
+        f"as delivered before it was accepted (dropped); write its times as "
+        f"YYYY-MM-DD HH:MM:SS"
+    )
 
 
 def day_scope(progress: Progress, scope: Any, cfg: Any, label: str = "") -> None:

@@ -64,8 +64,13 @@ def check_days_in_file(table: LadeTable, days: Iterable[dt.date]) -> None:
     held = f"the {table.source.path}" if table.source.path in IN_MEMORY else "the file"
     for day in days:
         if day not in present:
+            # A day given without its year (0101) takes --year; the file's may be another.
+            same = [d for d in have if (d.month, d.day) == (day.month, day.day)]
+            hint = (
+                f"; its {day:%m-%d} is {same[0].isoformat()}: give the date in full" if same else ""
+            )
             raise InputError(
-                f"date {day.isoformat()} not in {held} (it has {format_days(have)})",
+                f"date {day.isoformat()} not in {held} (it has {format_days(have)}{hint})",
                 file=table.source.path,
                 column="delivery_time",
             )

@@ -103,6 +103,27 @@ def test_weights_from_hash_or_file(tmp_path: Path, table) -> None:
     np.testing.assert_allclose(day.weight_kg, [0.1, 0.2, 0.5, 0.4, 0.3], rtol=1e-12)
 
 
+def test_a_date_without_its_year_names_the_files_day_of_another_year(tmp_path: Path) -> None:
+    """An export over the new year with full dates: ``--date 0101`` takes the default year
+    (2022-01-01), which the file has not; the error names the file's 1 January
+    (2023-01-01) to give in full."""
+    from marops_cli.data.prepare import check_days_in_file
+
+    path = tmp_path / "ny.csv"
+    path.write_text(
+        "order_id,lng,lat,accept_time,delivery_time\n"
+        "1,121.47,31.23,2022-12-31 08:00:00,2022-12-31 10:00:00\n"
+        "2,121.48,31.24,2022-12-31 21:00:00,2023-01-01 10:00:00\n"
+    )
+    table = read_lade(path, DataConfig())
+    with pytest.raises(InputError) as err:
+        check_days_in_file(table, [dt.date(2022, 1, 1)])
+    assert (
+        "date 2022-01-01 not in the file (it has 2022-12-31..2023-01-01; its 01-01 is "
+        "2023-01-01: give the date in full)" in str(err.value)
+    )
+
+
 def test_date_not_in_file(table) -> None:
     with pytest.raises(InputError) as err:
         prepare_day(table, study_frame(table, CFG), dt.date(2022, 8, 22), CFG)

@@ -878,6 +878,58 @@ def test_a_ds_of_another_day_is_counted_not_dropped(tmp_path: Path) -> None:
     assert clean.describe("c.csv") == "c.csv: 3 rows read, none dropped"
 
 
+def test_an_mm_dd_export_over_the_new_year_is_warned_of(tmp_path: Path) -> None:
+    """MM-DD times take one year: an export from 30 December to 1 January reads its 1
+    January as January of that year, before December, and drops an order accepted on
+    31 December and delivered on 1 January as delivered before it was accepted. The run
+    says so and what to write instead; the same rows with full dates, and an export of
+    one year's January to December without such a gap, read without it."""
+    from marops_cli.app.messages import drop_report
+
+    class Said:
+        def __init__(self) -> None:
+            self.messages: list[str] = []
+            self.warnings: list[str] = []
+
+        def message(self, text: str) -> None:
+            self.messages.append(text)
+
+        def warning(self, text: str) -> None:
+            self.warnings.append(text)
+
+    def warned(rows: list[dict[str, str]]) -> list[str]:
+        table = read_lade(write_csv(tmp_path / "d.csv", rows), DataConfig())
+        said = Said()
+        drop_report(said, table, "d.csv")  # type: ignore[arg-type]
+        return said.warnings
+
+    mmdd = [
+        row("1", acc="12-30 08:00:00", dlv="12-30 10:00:00", ds="1230"),
+        row("2", acc="12-31 08:00:00", dlv="12-31 10:00:00", ds="1231"),
+        row("3", acc="12-31 21:00:00", dlv="01-01 10:00:00", ds="101"),
+        row("4", acc="01-01 08:00:00", dlv="01-01 11:00:00", ds="101"),
+    ]
+    (said,) = warned(mmdd)
+    assert said.startswith("d.csv: its days are 2022-01-01, 2022-12-30..2022-12-31, ")
+    assert "MM-DD times take one year" in said and " 2022), so its January days" in said
+    assert "YYYY-MM-DD HH:MM:SS" in said
+    full = [
+        {**r, "accept_time": y + r["accept_time"], "delivery_time": z + r["delivery_time"]}
+        for r, y, z in zip(
+            mmdd,
+            ["2022-", "2022-", "2022-", "2023-"],
+            ["2022-", "2022-", "2023-", "2023-"],
+            strict=True,
+        )
+    ]
+    assert warned(full) == []
+    year = [
+        row(str(m), acc=f"{m:02d}-10 08:00:00", dlv=f"{m:02d}-10 10:00:00", ds=f"{m}10")
+        for m in range(1, 13)
+    ]
+    assert warned(year) == []
+
+
 def test_kept_rows_that_repeat_an_order_id_are_warned_of(tmp_path: Path) -> None:
     """A row repeating an order id with other times is kept (only exact repeats are
     dropped) and planned as an order of its own: the run says how many there are."""
