@@ -7,6 +7,8 @@ import datetime as dt
 from collections.abc import Sequence
 from typing import Any
 
+import numpy as np
+
 from ..data.table import LadeTable
 from .progress import Progress
 
@@ -21,6 +23,8 @@ def drop_report(progress: Progress, table: LadeTable, name: str) -> None:
     progress.message(table.report.describe(name))
     if (wrap := new_year_warning(table.days(), name)) is not None:
         progress.warning(wrap)
+    if (grams := grams_warning(table.weight_kg, name)) is not None:
+        progress.warning(grams)
     ids = table.order_id
     repeated = len(ids) - len(set(ids.tolist()))
     if repeated:
@@ -60,6 +64,27 @@ def new_year_warning(days: list[dt.date], name: str) -> str | None:
         f"before its December, and an order accepted in December and delivered in January "
         f"as delivered before it was accepted (dropped); write its times as "
         f"YYYY-MM-DD HH:MM:SS"
+    )
+
+
+GRAMS_MEDIAN_KG = 100.0
+"""A file's median ``weight_kg`` above which its weights look like grams: no parcel
+export's typical parcel weighs 100 kg, while grams put a 0.5 kg parcel at 500."""
+
+
+def grams_warning(weight_kg: np.ndarray | None, name: str) -> str | None:
+    """A warning when the file's ``weight_kg`` column has a median above
+    :data:`GRAMS_MEDIAN_KG`: weights written in grams, each parcel then 1,000 times too
+    heavy for any drone, which the run would say only hub by hub as parcels heavier than
+    the payload limit."""
+    if weight_kg is None or not len(weight_kg):
+        return None
+    median = float(np.median(weight_kg))
+    if median <= GRAMS_MEDIAN_KG:
+        return None
+    return (
+        f"{name}: its weight_kg column's median parcel weighs {median:,.0f} kg: weights are "
+        "read in kg; if the column holds grams, divide it by 1,000"
     )
 
 

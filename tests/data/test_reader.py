@@ -930,6 +930,38 @@ def test_an_mm_dd_export_over_the_new_year_is_warned_of(tmp_path: Path) -> None:
     assert warned(year) == []
 
 
+def test_weights_in_grams_are_warned_of(tmp_path: Path) -> None:
+    """A weight_kg column written in grams (a median of hundreds) reads as parcels no
+    drone lifts, which the run said only hub by hub: it warns once, naming the median and
+    the remedy; weights in kg, heavy ones among them, read without it."""
+    from marops_cli.app.messages import drop_report
+
+    class Said:
+        def __init__(self) -> None:
+            self.warnings: list[str] = []
+
+        def message(self, text: str) -> None:
+            pass
+
+        def warning(self, text: str) -> None:
+            self.warnings.append(text)
+
+    def warned(weights: list[str]) -> list[str]:
+        rows = [{**r, "weight_kg": w} for r, w in zip(CLEAN, weights, strict=True)]
+        table = read_lade(
+            write_csv(tmp_path / "d.csv", rows, (*LADE_COLUMNS, "weight_kg")), DataConfig()
+        )
+        said = Said()
+        drop_report(said, table, "d.csv")  # type: ignore[arg-type]
+        return said.warnings
+
+    assert warned(["850", "1200", "430"]) == [
+        "d.csv: its weight_kg column's median parcel weighs 850 kg: weights are read in kg; "
+        "if the column holds grams, divide it by 1,000"
+    ]
+    assert warned(["0.85", "1.2", "30"]) == []
+
+
 def test_kept_rows_that_repeat_an_order_id_are_warned_of(tmp_path: Path) -> None:
     """A row repeating an order id with other times is kept (only exact repeats are
     dropped) and planned as an order of its own: the run says how many there are."""
