@@ -75,6 +75,24 @@ def _range_hint(text: str, year: int) -> str:
     return ""
 
 
+def _over_new_year(start: dt.date, end: dt.date, last: str, year: int) -> str:
+    """What a range that ends before it starts (``1230..0102``) meant when its end has no
+    year and is, in the next year, less than half a year after its start: both ends
+    took ``year``."""
+    if len(last.strip()) > 5:  # 2023-01-02: a year of its own
+        return ""
+    try:
+        nxt = end.replace(year=year + 1)
+    except ValueError:  # 29 February
+        return ""
+    if (nxt - start).days > 183:  # 0827..0820: a range given backwards
+        return ""
+    return (
+        f" (days without a year are in {year}: over the new year, write "
+        f"{start.isoformat()}..{nxt.isoformat()})"
+    )
+
+
 def parse_days(spec: str, year: int, option: str | None = None) -> list[dt.date]:
     """``"0820,0821"`` or ``"0820..0827"`` (inclusive), mixed freely -> dates.
 
@@ -90,7 +108,10 @@ def parse_days(spec: str, year: int, option: str | None = None) -> list[dt.date]
         start = parse_day(first, year, option)
         end = parse_day(last, year, option) if sep else start
         if end < start:
-            raise _bad(f"expected a range from an earlier to a later date, got {item!r}", option)
+            over = _over_new_year(start, end, last, year)
+            raise _bad(
+                f"expected a range from an earlier to a later date, got {item!r}{over}", option
+            )
         days.extend(start + dt.timedelta(days=i) for i in range((end - start).days + 1))
     return list(dict.fromkeys(days))
 

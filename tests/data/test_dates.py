@@ -71,6 +71,28 @@ def test_parse_days_bad(spec: str) -> None:
         parse_days(spec, 2022, "--dates")  # the option that gave it, as the commands name it
 
 
+def test_a_range_over_the_new_year_says_how_to_write_it() -> None:
+    """``1230..0102`` takes 2022 for both ends, so it ends before it starts: the error
+    says so and gives the range in full; a range given backwards gets no such hint."""
+    with pytest.raises(InputError) as err:
+        parse_days("1230..0102", 2022, "--dates")
+    assert str(err.value) == (
+        "invalid option --dates: expected a range from an earlier to a later date, got "
+        "'1230..0102' (days without a year are in 2022: over the new year, write "
+        "2022-12-30..2023-01-02)"
+    )
+    with pytest.raises(InputError) as err:
+        parse_days("0827..0820", 2022)
+    assert "new year" not in str(err.value)
+    with pytest.raises(InputError) as err:
+        parse_days("2022-12-30..2022-01-02", 2022)
+    assert "new year" not in str(err.value)
+    assert parse_days("2022-12-31..2023-01-01", 2022) == [
+        dt.date(2022, 12, 31),
+        dt.date(2023, 1, 1),
+    ]
+
+
 def test_cli_names_the_date_option(example_csv: Path, tmp_path: Path) -> None:
     from typer.testing import CliRunner
 
