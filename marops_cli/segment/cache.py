@@ -41,7 +41,8 @@ from .depots import Depots
 
 __all__ = ["cache_dir", "cached_depots", "depots_key"]
 
-_FORMAT = 2  # bump when the stored arrays change meaning (2: moves reach every depot)
+_FORMAT = 3  # bump when the stored arrays change meaning (2: moves reach every depot;
+# 3: k-means of the points in a canonical order)
 MAX_ENTRY = 16 << 20
 """Bytes of a cache entry read at most: :data:`MAX_DEPOTS` depots with the action
 candidates a run may have (docs/config.md) take under 4 MiB; a larger entry is a miss."""

@@ -13,6 +13,9 @@ from .depots import Depots, nearest_candidates
 def kmeans_depots(x: np.ndarray, y: np.ndarray, frame: Frame, cfg: SegmentConfig) -> Depots:
     """Depots at the k-means centroids of the history customer locations."""
     pts = np.column_stack([x, y]).astype(np.float64)
+    # k-means++ seeds by row index: the points in a canonical order, so an export's row
+    # order (a database dump's is arbitrary) does not move the depots.
+    pts = pts[np.lexsort((pts[:, 1], pts[:, 0]))]
     distinct = np.unique(pts, axis=0).shape[0]
     if distinct < cfg.n_depots:
         held = (
