@@ -441,7 +441,60 @@ class LandingActor(EnergyAware):
                 out[ready[i]] = FREE
             elif score[i, c] > _UNSUITED / 2:
                 out[ready[i]] = int(np.flatnonzero(dep.candidates[homes[i]] == landing[c])[0])
+        self._call_drones(view, out, ready, base)
         return out
+
+    def _call_drones(
+        self, view: WindowView, out: np.ndarray, ready: list[int], held: np.ndarray
+    ) -> None:
+        """Parcels no drone is coming for call one (docs/method.md §6.1): a depot where
+        parcels have waited a window or more, with no drone there and none landing, takes
+        the drone with the shortest way to it over the depots' moves among those that
+        would land where nothing waits; that drone flies the way's first move. ``out`` is
+        changed in place; ``held``: the drones at each depot that cannot fly."""
+        dep = view.depots
+        n = len(dep)
+        cand = dep.candidates
+        waiting = waiting_per_depot(view)
+        if not waiting.any():
+            return
+        lands = {u: int(cand[int(view.drone_depot[u]), out[u]]) for u in ready if out[u] != FREE}
+        there = held + np.bincount(list(lands.values()), minlength=n)[:n]
+        oldest = np.zeros(n)
+        keep = view.pending_servable
+        at, delay = view.waiting_at(), view.pending_delay_h
+        if keep is not None:
+            at, delay = at[keep], delay[keep]
+        np.maximum.at(oldest, at, delay)
+        value = waiting_per_depot(view, 1.0 + view.pending_delay_h)
+        calling = [
+            int(d)
+            for d in np.argsort(-value, kind="stable")  # the most waiting value first
+            if waiting[d] > 0 and there[d] == 0 and oldest[d] >= view.window_h - 1e-9
+        ]
+        idle = sorted(u for u, d in lands.items() if waiting[d] == 0)
+        if not calling or not idle:
+            return
+        dist, pred = _ways(dep, self._model, sorted({int(view.drone_depot[u]) for u in idle}))
+        for d in calling:
+            best: tuple[float, int, int] | None = None  # (way m, drone, action)
+            for u in idle:
+                s = int(view.drone_depot[u])
+                if not np.isfinite(dist[s][d]):
+                    continue
+                hop = d  # back along the way to its first move (none: the drone is there)
+                while hop != s and pred[s][hop] != s:
+                    hop = int(pred[s][hop])
+                ok = reachable(view, u, self._drone_model(view, u))
+                act = np.flatnonzero((cand[s] == hop) & ok)
+                if act.size and (best is None or dist[s][d] < best[0]):
+                    best = (float(dist[s][d]), u, int(act[0]))
+            if best is not None:
+                _, u, a = best
+                out[u] = a
+                idle.remove(u)
+                if not idle:
+                    return
 
     def _flow_landings(self, view: WindowView, ready: list[int]) -> np.ndarray:
         """``(N,)`` how many of the ``ready`` drones the flow rule lands at each depot."""
@@ -451,6 +504,26 @@ class LandingActor(EnergyAware):
         lands = [int(cand[int(view.drone_depot[u]), acts[u]]) for u in ready]
         n = len(view.depots)
         return np.bincount(np.asarray(lands, dtype=np.int64), minlength=n)[:n].astype(np.float64)
+
+
+def _ways(
+    dep: Any, model: Any, sources: list[int]
+) -> tuple[dict[int, np.ndarray], dict[int, np.ndarray]]:
+    """Shortest ways (metres) from each of ``sources`` to every depot over the depots'
+    moves an empty drone of ``model`` can fly (``scipy.sparse.csgraph.dijkstra``), and
+    each way's predecessors: ``(dist[s], pred[s])`` per source depot ``s``."""
+    from scipy.sparse import coo_array
+    from scipy.sparse.csgraph import dijkstra
+
+    n, a = dep.candidates.shape
+    src = np.repeat(np.arange(n), a - 1)
+    dst = dep.candidates[:, 1:].reshape(-1)
+    metres = np.hypot(*(dep.xy[src] - dep.xy[dst]).T)
+    fly = np.array([float(model.leg_energy_j(m, 0.0)) <= model.usable_j for m in metres])
+    # 1 m more a move: of two ways of the same length the one of fewer moves.
+    graph = coo_array((metres[fly] + 1.0, (src[fly], dst[fly])), shape=(n, n)).tocsr()
+    dist, pred = dijkstra(graph, indices=sources, return_predecessors=True)
+    return dict(zip(sources, dist, strict=True)), dict(zip(sources, pred, strict=True))
 
 
 def load_landing_actor(path: Path, side: Any, sidecar: Path) -> LandingActor:

@@ -249,6 +249,39 @@ def test_joint_spreads_a_large_fleet() -> None:
     assert len(set(landed)) > 2  # spread, not all at home
 
 
+def _called(stock: list[int], drones: list[int], delays: list[float]) -> list[int]:
+    """Depots at 0, 1.0, 1.9 and 2.7 km, each with one move, to its nearest other
+    (0 -> 1 -> 2 -> 3, and 3 -> 2): the joint actor from the backlog score, each drone's
+    landing depot."""
+    view = _view([0.0, 1000.0, 1900.0, 2700.0], stock, drones, delays, n_actions=2)
+    assert view.depots.candidates[:, 1].tolist() == [1, 2, 3, 2]
+    return _landed(view, LandingActor(JOINT_START).act(view))
+
+
+def test_parcels_no_drone_comes_for_call_the_nearest_idle_one() -> None:
+    """Parcels at depot 3 that have waited a window, no drone there: the drone that
+    would stay at an empty depot takes the first move of its way there (depot 0 -> 1),
+    although no score sees that far; the nearer of two such drones goes (2 -> 3)."""
+    assert _called([3], [0], [0.5]) == [1]
+    assert _called([3, 3], [0, 2], [0.5, 1.5]) == [0, 3]
+    assert _called([3], [0, 1], [0.5]) == [0, 2]
+    # A drone that would leave the depot where the parcels wait for an empty one stays.
+    view = _view([0.0, 1000.0, 1900.0, 2700.0], [0], [0], [1.0], n_actions=2)
+    w = JOINT_START.copy()
+    w[FEATURES.index("stay")] = -5.0  # every drone that can fly leaves
+    assert _landed(view, LandingActor(w).act(view)) == [0]
+
+
+def test_no_drone_is_called_for_fresh_parcels_or_where_one_is() -> None:
+    # Waited less than a window (0.5 h): the drone stays.
+    assert _called([3], [0], [0.4]) == [0]
+    # A drone at depot 3 already: no other is called.
+    assert _called([3], [0, 3], [1.0]) == [0, 3]
+    # A drone landing where parcels wait is not idle: the backlog score sends the drone
+    # at depot 1 to depot 2's parcel, and nothing calls it on to depot 3.
+    assert _called([2, 3], [1], [0.0, 1.0]) == [2]
+
+
 def test_operating_model_names() -> None:
     assert operating_model(OpsConfig()) == REALISTIC
     assert operating_model(OpsConfig.paper_model()) == "paper"

@@ -37,17 +37,20 @@ def _view(
     arrivals: dict[int, float] | None = None,
     ready: list[bool] | None = None,
     spares: list[int] | None = None,
+    n_actions: int | None = None,
 ) -> WindowView:
     """Depots on a line at ``depot_x`` metres; a pending parcel stocked at each depot of
     ``stock`` (delay 0 h unless ``delays``); ``arrivals``: depot -> requests expected in
     the next window (t + 1) of the history profile; ``spares``: charged spare batteries
-    per depot (None: unlimited swaps)."""
+    per depot (None: unlimited swaps); ``n_actions``: each depot's moves, itself and its
+    nearest others (None: every depot)."""
     xy = np.array([[x, 0.0] for x in depot_x])
     n, n_w, t = len(depot_x), 16, 4
     prof = np.zeros((n, n_w))
     for d, k in (arrivals or {}).items():
         prof[d, t + 1] = k
-    dep = Depots("kmeans", FRAME, xy, np.zeros(n, np.int64), nearest_candidates(xy, n), prof)
+    cand = nearest_candidates(xy, n if n_actions is None else n_actions)
+    dep = Depots("kmeans", FRAME, xy, np.zeros(n, np.int64), cand, prof)
     p = len(stock)
     where = np.array(stock, dtype=np.int64)
     return WindowView.paper(
