@@ -233,13 +233,13 @@ class LocalPool:
             with _signals_held():  # a Ctrl-C meanwhile stops the started pool below
                 self._pool = _context().Pool(workers, initializer=_init, initargs=(work,))
         except (BrokenPipeError, EOFError, ConnectionResetError) as exc:
-            self.close()
+            self.close(failed=True)
             # from None: the broken pipe's traceback above the reason adds nothing.
             raise RunError(
                 f"the worker processes stopped as they started ({exc}): {_MAIN_GUARD}"
             ) from None
         except BaseException:
-            self.close()
+            self.close(failed=True)
             raise
 
     def outcomes(self, jobs: Iterable[Job]) -> Iterator[Outcome]:
@@ -254,14 +254,48 @@ class LocalPool:
         found = {outcome.index: outcome.value() for outcome in self.outcomes(jobs)}
         return [found[job.index] for job in jobs]
 
-    def close(self) -> None:
-        if self._pool is not None:
-            self._pool.terminate()
-            self._pool.join()
-            self._pool = None
+    def close(self, failed: bool = False) -> None:
+        """Stop the workers: as the pool stops them after its work, or by :func:`_abandon`
+        when an error, Ctrl-C or a signal stopped the work (``failed``) or a worker died."""
+        pool, self._pool = self._pool, None
+        if pool is None:
+            return
+        if failed or any(proc.exitcode is not None for proc in pool._pool):
+            _abandon(pool)
+        else:
+            pool.terminate()
+            pool.join()
 
     def __enter__(self) -> LocalPool:
         return self
 
-    def __exit__(self, *exc: object) -> None:
-        self.close()
+    def __exit__(self, kind: object, *exc: object) -> None:
+        self.close(failed=kind is not None)
+
+
+def _abandon(pool: Any) -> None:
+    """Stop ``pool`` without ``Pool.terminate()``: that waits on the pool's queue locks,
+    and a worker killed from outside while it held one (a SIGTERM to the whole process
+    group, as ``timeout``, ``kill -- -PGID`` and systemd send) left it held for ever, so
+    the run hung. The pool stops replacing workers, every worker is killed (SIGKILL: its
+    job's result is not wanted) and reaped, and the pool's finaliser is cancelled, so
+    nothing waits on those locks, at exit either; its other threads are daemons."""
+    from multiprocessing.pool import TERMINATE, Pool
+
+    if not isinstance(pool, Pool):  # another kind of pool stops as it stops itself
+        pool.terminate()
+        pool.join()
+        return
+    inner: Any = pool  # the pool's internals: its threads' states, queues and workers
+    inner._state = TERMINATE
+    inner._worker_handler._state = TERMINATE
+    inner._change_notifier.put(None)  # wakes the worker handler, which then ends
+    # Any worker it was starting in place of a dead one is started before it ends, and
+    # killed below with the others (one killed half-started printed a traceback).
+    inner._worker_handler.join(timeout=10)
+    for proc in list(inner._pool):
+        if proc.exitcode is None:
+            proc.kill()
+    for proc in list(inner._pool):
+        proc.join(timeout=10)
+    inner._terminate.cancel()

@@ -5,6 +5,8 @@ one-thread limit that training takes back (docs/decisions.md, "Workers")."""
 from __future__ import annotations
 
 import os
+import subprocess
+import sys
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -69,6 +71,41 @@ def test_a_failed_job_is_raised_as_one_line(workers: int) -> None:
             pool.results([Square(0, 2), Square(1, 13)])
         with pytest.raises(RunError, match=r"^the run broke$"):
             pool.results([Square(0, 666)])
+
+
+_KILLED_WORKERS = """
+import os, signal, sys
+sys.path[:0] = [{root!r}]
+from tests.workers.test_pool import Square, SquareWork
+from marops_cli.workers.pool import LocalPool
+
+if __name__ == "__main__":
+    try:
+        with LocalPool(SquareWork(), 2) as pool:
+            assert [r[0] for r in pool.results([Square(0, 2), Square(1, 3)])] == [4, 9]
+            procs = list(pool._pool._pool)
+            for proc in procs:  # as a SIGTERM to the process group kills the idle workers
+                os.kill(proc.pid, signal.SIGTERM)
+            for proc in procs:
+                proc.join()
+            raise KeyboardInterrupt  # as the signal stops this process's work
+    except KeyboardInterrupt:
+        print("stopped", all(proc.exitcode is not None for proc in procs))
+"""
+
+
+def test_workers_killed_from_outside_do_not_hang_the_stop(tmp_path: Path) -> None:
+    """Idle workers hold the job queue's read lock while they wait; one killed there by a
+    SIGTERM to the whole process group (``timeout``, ``kill -- -PGID``, systemd) left it
+    held, and stopping the pool waited on it for ever. The pool now stops, and so does
+    the process (its exit does not wait on the pool either). ``timeout`` only ends a
+    hang."""
+    script = tmp_path / "killed.py"
+    script.write_text(_KILLED_WORKERS.format(root=str(ROOT)))
+    res = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=120)
+    assert res.returncode == 0, res.stderr
+    assert res.stdout.strip() == "stopped True"
+    assert "Traceback" not in res.stderr
 
 
 def test_outcomes_hold_every_job_once() -> None:
