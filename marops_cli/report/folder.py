@@ -189,6 +189,11 @@ def read_input(path: Path, read: Callable[[Path], T]) -> T:
         raise InputError(
             "not found: the report reads it with the folder's other outputs", file=path
         )
+    if not path.is_file():  # a pipe nobody writes would block for ever, a device never end
+        raise InputError(
+            "is not a regular file (a folder, a pipe or a device): not an output marops wrote",
+            file=path,
+        )
     try:
         return read(path)
     except (OSError, ValueError) as exc:

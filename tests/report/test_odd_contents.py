@@ -8,6 +8,8 @@ import html
 import json
 import os
 import shutil
+import threading
+import time
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -197,3 +199,43 @@ def test_one_of_a_thing_is_said_in_the_singular(evaluation_run: Path) -> None:
     assert _title(one, None) == "marops: 2022-08-11 — stay, 1 drone"
     page = (evaluation_run / "report.html").read_text(encoding="utf-8")
     assert "1 day (2022-08-11), 1 repeat;" in page
+
+
+def _opened_then_closed(fifo: Path, seconds: float) -> threading.Thread:
+    """A writer that, within ``seconds``, opens the pipe ``fifo`` once someone reads it
+    and closes it at once (so a reader blocked on it ends), else gives up."""
+
+    def write() -> None:
+        deadline = time.monotonic() + seconds
+        while time.monotonic() < deadline:
+            try:
+                fd = os.open(fifo, os.O_WRONLY | os.O_NONBLOCK)
+            except OSError:  # no reader yet
+                time.sleep(0.05)
+                continue
+            os.close(fd)
+            return
+
+    thread = threading.Thread(target=write, daemon=True)
+    thread.start()
+    return thread
+
+
+def test_a_pipe_or_device_in_place_of_an_output_is_refused_unread(
+    day_run: Path, tmp_path: Path
+) -> None:
+    """A pipe nobody writes to would block the report for ever (Arrow's open does not
+    give way to SIGTERM), and a device such as /dev/zero would fill the memory: neither
+    is opened, and the line names the file."""
+    copy = tmp_path / "copy"
+    shutil.copytree(day_run, copy)
+    (copy / "report.html").unlink()
+    stops = copy / "stops.parquet"
+    stops.unlink()
+    os.mkfifo(stops)
+    writer = _opened_then_closed(stops, 5.0)  # the old reader would otherwise wait for ever
+    res = runner.invoke(app, ["report", str(copy)])
+    writer.join()
+    assert res.exit_code == 2, res.output
+    assert "stops.parquet: is not a regular file" in res.stderr, res.stderr
+    assert not (copy / "report.html").exists()
