@@ -15,7 +15,15 @@ from numpy.typing import ArrayLike, NDArray
 
 from .config import EnergyConfig
 
-__all__ = ["ENERGY_TOL_J", "PAYLOAD_TOL_KG", "EnergyModel", "power_curve_w", "reference_power_w"]
+__all__ = [
+    "ENERGY_TOL_J",
+    "MAX_TABLE_ENTRIES",
+    "PAYLOAD_TOL_KG",
+    "EnergyModel",
+    "power_curve_w",
+    "reference_power_w",
+    "table_steps",
+]
 
 PAYLOAD_TOL_KG = 1e-9
 """A load fits the payload limit up to this much over it: sums of the same parcel weights
@@ -25,6 +33,12 @@ ENERGY_TOL_J = 1e-6
 leg by leg, or by insertions, differs by rounding; a search that adds energies up
 insertion by insertion plans this much under the battery so that its routes, recomputed,
 still fit (docs/method.md, "Feasibility")."""
+
+MAX_TABLE_ENTRIES = 20_000_000
+"""Payload-table entries a run's drone types may need together (about 0.5 GB): a type's
+table has :func:`table_steps` + 1 entries, at most 5,000,001 (a 500 kg payload in steps
+of 0.1 g), and each type of a fleet has its own, so a fleet file of hundreds of such
+types would fill the memory before any window is planned."""
 
 _NEWTON_MAX_ITER = 60
 _NEWTON_RTOL = 1e-14
@@ -99,6 +113,12 @@ def reference_power_w(payload_kg: float, cfg: EnergyConfig | None = None) -> flo
     return (v * math.sin(theta) + v_hat) * thrust / cfg.efficiency  # eq. (8)
 
 
+def table_steps(cfg: EnergyConfig) -> int:
+    """Steps of the payload table of the drone parameters ``cfg`` (its entries: one more)."""
+    # At least one step: a payload limit far below the step would otherwise make none.
+    return max(1, int(math.ceil(cfg.max_payload_kg / cfg.table_step_kg - 1e-9)))
+
+
 class EnergyModel:
     """Power by payload from a precomputed table; leg and route energies (eq. (9)).
 
@@ -121,8 +141,7 @@ class EnergyModel:
 
     def __init__(self, cfg: EnergyConfig | None = None) -> None:
         self.cfg = cfg or EnergyConfig()
-        # At least one step: a payload limit far below the step would otherwise make none.
-        n = max(1, int(math.ceil(self.cfg.max_payload_kg / self.cfg.table_step_kg - 1e-9)))
+        n = table_steps(self.cfg)
         self.grid_kg = np.linspace(0.0, self.cfg.max_payload_kg, n + 1)
         self.table_w = power_curve_w(self.grid_kg, self.cfg)
         self.table_j_per_m = self.table_w / self.cfg.speed_ms

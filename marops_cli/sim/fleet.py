@@ -27,7 +27,7 @@ from pydantic import Field
 from ..config import MAX_DRONES, EnergyConfig, check_file_types
 from ..data.filemodel import FileModel, Whole, validated
 from ..data.jsonfile import read_document
-from ..energy import EnergyModel
+from ..energy import MAX_TABLE_ENTRIES, EnergyModel, table_steps
 from ..errors import InputError
 from ..segment.depots import Depots
 
@@ -176,7 +176,25 @@ def load_fleet(
         depot, kind = _from_drones(file.drones or [], types, depots, p)
     if kind.size == 0:
         raise InputError("the fleet file lists no drones", file=p)
+    _check_tables([types[int(k)] for k in np.unique(kind)], p)
     return Fleet(depot, kind, types)
+
+
+def _check_tables(used: list[DroneType], path: Path) -> None:
+    """Refuse, before any table is built, drone types whose payload tables (one per type
+    the drones use, :class:`~marops_cli.energy.EnergyModel`) would together have more
+    than :data:`~marops_cli.energy.MAX_TABLE_ENTRIES` entries."""
+    distinct = {t.energy.model_dump_json(): t.energy for t in used}  # as EnergyModel.of shares
+    entries = sum(table_steps(cfg) + 1 for cfg in distinct.values())
+    if entries > MAX_TABLE_ENTRIES:
+        raise InputError(
+            f"its {len(distinct)} drone types need payload tables of {entries:,} entries "
+            f"together (max_payload_kg / table_step_kg + 1 each), more than the "
+            f"{MAX_TABLE_ENTRIES:,} a run builds: use fewer types, a larger table_step_kg "
+            "or a lower max_payload_kg",
+            file=path,
+            column="types",
+        )
 
 
 def _check_size(n: int, path: Path, column: str) -> None:

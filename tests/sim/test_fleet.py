@@ -117,6 +117,32 @@ def test_bad_fleet_files_name_the_key(tmp_path, depots, text, column, needle):
     assert needle in err.value.message
 
 
+def _big_types(n: int, used: int) -> str:
+    """``n`` distinct types of the largest payload table (500 kg in steps of 0.1 g), the
+    first ``used`` of them flown by one drone each."""
+    types = "".join(
+        f"[types.t{i}]\nmax_payload_kg = 500.0\ntable_step_kg = 0.0001\nbattery_j = {1e8 - i}\n"
+        for i in range(n)
+    )
+    return types + "[counts]\n" + "".join(f"t{i} = 1\n" for i in range(used))
+
+
+def test_types_whose_tables_would_fill_the_memory_are_refused_before_any_is_built(tmp_path, depots):
+    """Each drone type has its own payload table, up to 5,000,001 entries: a fleet file
+    of hundreds of such types took 116 MB and 0.6 s each before the first window. Only
+    the types the drones fly count, and types of the same parameters share one table."""
+    path = _write(tmp_path, "big.toml", _big_types(5, 5))
+    with pytest.raises(InputError) as err:
+        load_fleet(path, depots, 8, BASE)
+    assert err.value.file == str(path) and err.value.column == "types"
+    assert "5 drone types need payload tables of 25,000,005 entries" in err.value.message
+    assert not any(json.loads(k)["table_step_kg"] == 0.0001 for k in EnergyModel._built)
+    unused = load_fleet(_write(tmp_path, "unused.toml", _big_types(50, 3)), depots, 8, BASE)
+    assert len(unused) == 3
+    same = "[types.big]\nmax_payload_kg = 500.0\ntable_step_kg = 0.0001\n[counts]\nbig = 1000\n"
+    assert len(load_fleet(_write(tmp_path, "same.toml", same), depots, 8, BASE)) == 1000
+
+
 def test_uniform_fleet_is_one_default_type():
     f = Fleet.uniform(np.array([3, 1]), BASE)
     assert f.type_names() == [DEFAULT_TYPE, DEFAULT_TYPE] and len(f) == 2
