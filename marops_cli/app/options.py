@@ -16,7 +16,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from ..errors import InputError, option
+from ..errors import InputError, option, quoted
 from .inputs import parse_center
 
 if TYPE_CHECKING:  # the settings' models load with the first config (not for --help)
@@ -330,13 +330,17 @@ def hubs_options(options: Mapping[str, Any]) -> tuple[dict[str, Any], dict[str, 
 # --- the config --------------------------------------------------------------------
 
 
-def planner_config(config: str | Path | None, **options: Any) -> PlannerConfig:
+def planner_config(
+    config: str | Path | None, *, flies_policy: bool = True, **options: Any
+) -> PlannerConfig:
     """The TOML config (or the defaults) with the options (:data:`OPTIONS`, by name)
     applied on top: an option left unset (None) or a switch left off (False) keeps the
     config's value; ``center`` may be ``"LNG,LAT"`` text, a text option a path. An
     invalid value is an error naming its option (``--alpha`` on the command line,
     ``alpha`` in the API: marops_cli/errors.py). An unknown option name is a
-    ``TypeError``."""
+    ``TypeError``. ``flies_policy``: the run flies ``sim.policy`` (not evaluate, whose
+    actors are its own options), so ``trust_actor`` must not reach an actor file only
+    the config names."""
     from ..config import load_config, override
 
     unknown = set(options) - set(OPTIONS)
@@ -348,7 +352,10 @@ def planner_config(config: str | Path | None, **options: Any) -> PlannerConfig:
         OPTIONS[name].field.replace(".", "__"): _given(value) for name, value in options.items()
     }
     names = {OPTIONS[name].field.replace(".", "__"): option(name) for name in options}
-    cfg = override(load_config(Path(config) if config is not None else None), names, **overrides)
+    loaded = load_config(Path(config) if config is not None else None)
+    if flies_policy:
+        _refuse_trust_for_config_actor(loaded, config, options)
+    cfg = override(loaded, names, **overrides)
     seg = cfg.segment
     if options.get("actions") is not None and seg.n_actions > seg.n_depots:
         # Each depot's candidates are itself and its nearest others: never more than
@@ -360,6 +367,28 @@ def planner_config(config: str | Path | None, **options: Any) -> PlannerConfig:
             f"or fewer, or {n_depots} {seg.n_actions} or more"
         )
     return cfg
+
+
+def _refuse_trust_for_config_actor(
+    loaded: PlannerConfig, config: str | Path | None, options: Mapping[str, Any]
+) -> None:
+    """Refuse ``--trust-actor`` for an actor file that only the config names (``[sim]
+    policy``): the flag trusts the code of an actor the person at the command line
+    chose, and a config file from elsewhere would otherwise choose which code runs
+    (docs/method.md §6, "Trust model of actor files")."""
+    spec = loaded.sim.policy
+    if not options.get("trust_actor") or options.get("policy") is not None or not spec:
+        return
+    from ..policies.registry import PolicySpec
+
+    if PolicySpec.parse(spec).kind != "torchscript":  # a rule or a shipped actor by name
+        return
+    raise InputError(
+        f"{option('trust_actor')} trusts an actor named by {option('policy')}, not one a "
+        f"config file names ({quoted(spec)}): give it as {option('policy')} to trust its code",
+        file=config,
+        column="sim.policy",
+    )
 
 
 def _given(value: Any) -> Any:
@@ -390,7 +419,7 @@ def evaluate_config(
     from ..segment.hubs import load_hubs
     from .evaluate import EvaluateConfig, actor_paths, method_list
 
-    cfg = planner_config(config, **options)
+    cfg = planner_config(config, flies_policy=False, **options)
     hub_list = load_hubs(hubs, cfg.data) if hubs is not None else None
     # --dates "" (an empty list from a script) is an error, not the split's days.
     days = parse_days(dates, cfg.data.year, option("dates")) if dates is not None else None

@@ -311,6 +311,40 @@ def test_a_config_file_cannot_grant_trust(tmp_path: Path) -> None:
         load_config(cfg)
 
 
+@pytest.mark.parametrize("how", ["cli", "api"])
+def test_the_flag_does_not_trust_an_actor_only_a_config_file_names(
+    example_csv: Path, tmp_path: Path, how: str
+) -> None:
+    """``--trust-actor`` trusts the actor the person at the command line names by
+    ``--policy``: a config file from elsewhere naming a TorchScript file as ``[sim]
+    policy`` would otherwise choose which code the flag lets run. Refused before any
+    work, naming the key; given as ``--policy``, the same file is trusted."""
+    from typer.testing import CliRunner
+
+    from marops_cli import api
+    from marops_cli.cli.app import app
+
+    victim = tmp_path / "victim"
+    victim.mkdir()
+    target = victim / "planted.pth"
+    path = _hostile("setstate", tmp_path, target)
+    path.with_suffix(".json").write_text(json.dumps(SIDECAR))
+    paper = (example_csv.parent / "paper.toml").read_text(encoding="utf-8")
+    cfg = tmp_path / "foreign.toml"
+    cfg.write_text(f"{paper}\n[sim]\npolicy = {json.dumps(str(path))}\n", encoding="utf-8")
+    if how == "cli":
+        args = ["replay-day", str(example_csv), "--date", "0811", "--config", str(cfg)]
+        res = CliRunner().invoke(app, [*args, "--trust-actor", "--out", str(tmp_path / "o")])
+        assert res.exit_code == 2, res.output
+        line = res.stderr.strip()
+        assert line.startswith(f"marops: error: {cfg}, key 'sim.policy': --trust-actor trusts")
+        assert "give it as --policy" in line and "\n" not in line
+    else:
+        with pytest.raises(InputError, match=r"key 'sim.policy': trust_actor trusts .* policy"):
+            api.replay_day(example_csv, date="0811", config=cfg, trust_actor=True)
+    assert not target.exists() and not (tmp_path / "o").exists()
+
+
 def test_an_actor_this_installation_trained_loads_without_the_flag(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
