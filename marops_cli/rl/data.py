@@ -14,7 +14,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from ..config import PlannerConfig, battery_preset, check_battery_regimes, override
+from ..config import PlannerConfig, battery_preset, check_battery_regimes, count, override
 from ..data.dates import split_by_date
 from ..data.frame import Frame
 from ..data.prepare import prepare_day
@@ -25,6 +25,12 @@ from ..io.meta import file_sha256
 from ..sim.scenario import load_scenario
 from .config import TrainConfig
 from .rollout import TrainScenario, WorkerContext
+
+MAX_SCENARIOS = 1_000
+"""The most scenarios one training run makes (files × area counts × fleet sizes ×
+battery settings, docs/config.md): each is evaluated on its held-out days against the
+baselines, so 1000 is days of evaluation already, far more than an actor needs (the
+shipped ones trained on 16 and 216). More are refused before any file is read."""
 
 
 def split_days(days: list[dt.date], train: list[dt.date] | None = None) -> tuple[list, list]:
@@ -79,6 +85,26 @@ class TrainData:
         }
 
 
+def _check_scenarios(files: int, areas: int, fleets: int, batteries: int) -> None:
+    """Refuse more than :data:`MAX_SCENARIOS` scenarios, one line naming the counts."""
+    n = files * areas * fleets * batteries
+    if n > MAX_SCENARIOS:
+        said = " × ".join(
+            count(k, thing)
+            for k, thing in (
+                (files, "file"),
+                (areas, "area count"),
+                (fleets, "fleet size"),
+                (batteries, "battery setting"),
+            )
+        )
+        raise InputError(
+            f"training would make {n} scenarios ({said}), more than the "
+            f"{MAX_SCENARIOS:,} one run trains on (docs/config.md): give fewer values of "
+            "--n-depots, --drones, --spares or --batteries"
+        )
+
+
 def load_training_data(
     data: str | Path | Sequence[str | Path],
     cfg: PlannerConfig,
@@ -101,6 +127,7 @@ def load_training_data(
     depot_counts = list(n_depots) or [cfg.segment.n_depots]
     fleets = list(drones) or [cfg.sim.drones]
     settings = _battery_settings(spares, batteries)
+    _check_scenarios(len(paths), len(depot_counts), len(fleets), len(settings))
     scenarios: list[TrainScenario] = []
     files: list[dict[str, Any]] = []
     for fi, path in enumerate(paths):

@@ -197,6 +197,24 @@ def test_train_on_cities_with_fewer_depots_than_destinations_names_them(
     assert "at least 4 depots in every city (--n-depots)" in line
 
 
+def test_train_refuses_more_scenarios_than_a_run_trains_on_before_reading(
+    tiny_csv: Path, tmp_path: Path, fails_cleanly
+) -> None:
+    """Every file × area count × fleet size × battery setting is a scenario evaluated on
+    its held-out days: 1000 fleet sizes × 199 area counts made 199,000 of them and ran
+    out of memory, 1000 alone queued days of evaluation. Over 1000, one line naming the
+    counts, before any file is read."""
+    drones = ",".join(str(u) for u in range(1, 201))
+    args = ["train", str(tiny_csv), "--workers", "1"]
+    args += ["--drones", drones, "--n-depots", "2,3,4,5,6,7"]
+    line = fails_cleanly([*args, "--episodes", "1", "--out", str(tmp_path / "a.pt")], tmp_path)
+    assert line == (
+        "marops: error: training would make 1200 scenarios (1 file × 6 area counts × "
+        "200 fleet sizes × 1 battery setting), more than the 1,000 one run trains on "
+        "(docs/config.md): give fewer values of --n-depots, --drones, --spares or --batteries"
+    )
+
+
 def test_a_checkpoint_that_unpacks_to_gigabytes_is_refused_unopened(
     tiny_csv: Path, tmp_path: Path, fails_cleanly
 ) -> None:
