@@ -90,7 +90,7 @@ def make_report(
         try:
             written = write_pages(folder, loaded, progress, targets)
         except InputError as exc:
-            if depots is not None and exc.column == "frame":  # depots of another square
+            if depots is not None and exc.column in ("frame", "depot"):  # another run's
                 named = Path(depots) if isinstance(depots, str | Path) else DEPOTS_IN_MEMORY
                 raise naming(exc, named) from None
             raise

@@ -3,6 +3,7 @@ metrics and the orders it left out (docs/report.md)."""
 
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING, Any
 
 from ..config import count
@@ -51,11 +52,37 @@ LEFT_OUT = (
 
 
 def depot_points(files: RouteFiles, depots: Depots | None) -> dict[int, tuple[float, float]]:
-    """Every depot's (lng, lat): of the depots given, else those the routes use."""
-    if depots is not None:
-        lng, lat = depots.lnglat()
-        return {i: (float(lng[i]), float(lat[i])) for i in range(len(depots))}
-    return {s["depot"]: (s["lng"], s["lat"]) for s in files.stops if s["depot"] is not None}
+    """Every depot's (lng, lat): of the depots given, else those the routes use. Depots
+    given must hold every depot the routes take off from or land at, where they have it
+    (within a metre): else they are another run's depots of the same square."""
+    if depots is None:
+        return {s["depot"]: (s["lng"], s["lat"]) for s in files.stops if s["depot"] is not None}
+    lng, lat = depots.lnglat()
+    points = {i: (float(lng[i]), float(lat[i])) for i in range(len(depots))}
+    for s in files.stops:
+        d = s["depot"]
+        if d is None or s.get("kind") not in ("start", "end"):
+            continue
+        if d not in points:
+            raise InputError(
+                f"the depots file has {len(depots)} depots and the run's routes fly from depot "
+                f"{d}: give the run's depots file",
+                column="depot",  # app.report names the depots file
+            )
+        if _metres_apart(points[d], (float(s["lng"]), float(s["lat"]))) > 1.0:
+            raise InputError(
+                f"the depots file puts depot {d} elsewhere than the run's routes do: give the "
+                "run's depots file",
+                column="depot",
+            )
+    return points
+
+
+def _metres_apart(a: tuple[float, float], b: tuple[float, float]) -> float:
+    """Distance of two (lng, lat) points a few kilometres apart at most, in metres."""
+    k = 111_320.0  # metres per degree of latitude
+    dx = (a[0] - b[0]) * k * math.cos(math.radians((a[1] + b[1]) / 2.0))
+    return math.hypot(dx, (a[1] - b[1]) * k)
 
 
 def area_rings(depots: Depots | None) -> list[tuple[int, list[float], list[float]]]:
@@ -114,8 +141,9 @@ def day_page(files: RouteFiles, metrics_doc: dict[str, Any] | None, depots: Depo
         )
         + ("" if depots is not None else " Depots: those the routes use (no depots file given).")
     )
+    frame = _frame(meta, depots)  # the square first: depots of another square say so
     points = depot_points(files, depots)
-    fig = map_figure(files, points, area_rings(depots), _frame(meta, depots))
+    fig = map_figure(files, points, area_rings(depots), frame)
     page.figure(fig, "map", TILE_CREDIT_SCRIPT if fig.layout.images else None)
     page.heading("Drones over the day")
     page.note(

@@ -169,6 +169,43 @@ def test_depots_of_another_square_are_named(
     assert (copy / "report.html").read_bytes() == before  # nothing written
 
 
+def _one_depot(doc: dict) -> None:
+    doc["depots"], doc["candidates"] = doc["depots"][:1], {"0": [0]}
+
+
+def _moved_east(doc: dict) -> None:
+    for d in doc["depots"]:
+        d["x_m"] += 500.0
+        del d["lng"], d["lat"]  # placed by the metres alone
+
+
+@pytest.mark.parametrize(
+    ("edit", "says"),
+    [
+        (_one_depot, "has 1 depots and the run's routes fly from depot "),
+        (_moved_east, " elsewhere than the run's routes do"),
+    ],
+)
+def test_depots_of_another_run_of_the_same_square_are_named(
+    day_run: Path, depots_json: Path, tmp_path: Path, edit, says: str
+) -> None:
+    """A depots file of the run's square but not the run's (cut to one depot, or every
+    depot 500 m east): the map drew the routes from depots it did not have, or where
+    they were not; now one line naming the file, and nothing written."""
+    doc = json.loads(depots_json.read_text())
+    edit(doc)
+    other = tmp_path / "other.json"
+    other.write_text(json.dumps(doc))
+    copy = tmp_path / "copy"
+    shutil.copytree(day_run, copy)
+    before = (copy / "report.html").read_bytes()
+    res = runner.invoke(app, ["report", str(copy), "--depots", str(other), "--force"])
+    assert res.exit_code == 2 and len(res.stderr.splitlines()) == 1, res.stderr
+    assert res.stderr.startswith(f"marops: error: {other}, key 'depot': the depots file ")
+    assert says in res.stderr and "give the run's depots file" in res.stderr
+    assert (copy / "report.html").read_bytes() == before  # nothing written
+
+
 def test_marops_report_refuses_what_it_cannot_read_or_replace(
     day_run: Path, tmp_path: Path
 ) -> None:
