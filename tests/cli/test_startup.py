@@ -56,22 +56,20 @@ def test_help_and_version_load_no_library_of_the_commands(flag: str) -> None:
 def test_python_m_runs_the_command(tmp_path: Path) -> None:
     """``python -m marops_cli`` is the ``marops`` command, exit codes and one-line errors
     included (for a notebook's kernel or a cron job without the console script)."""
-    ok = subprocess.run(
-        [sys.executable, "-m", "marops_cli", "-V"],
-        cwd=tmp_path,
-        capture_output=True,
-        text=True,
-        timeout=120,
-    )
+
+    def run(*args: str) -> subprocess.CompletedProcess[str]:
+        return subprocess.run(
+            [sys.executable, "-m", "marops_cli", *args],
+            cwd=tmp_path,
+            capture_output=True,
+            text=True,
+            timeout=120,
+        )
+
+    ok = run("-V")
     assert ok.returncode == 0, ok.stderr
     assert ok.stdout.startswith("marops ")
-    bad = subprocess.run(
-        [sys.executable, "-m", "marops_cli", "segment"],
-        cwd=tmp_path,
-        capture_output=True,
-        text=True,
-        timeout=120,
-    )
+    bad = run("segment")
     assert bad.returncode == 2
     assert bad.stderr.count("\n") == 1 and "Missing argument 'DATA'" in bad.stderr
     assert list(tmp_path.iterdir()) == []

@@ -878,6 +878,20 @@ def test_a_ds_of_another_day_is_counted_not_dropped(tmp_path: Path) -> None:
     assert clean.describe("c.csv") == "c.csv: 3 rows read, none dropped"
 
 
+class _Said:
+    """What a run says: its messages and warnings, as drop_report hands them out."""
+
+    def __init__(self) -> None:
+        self.messages: list[str] = []
+        self.warnings: list[str] = []
+
+    def message(self, text: str) -> None:
+        self.messages.append(text)
+
+    def warning(self, text: str) -> None:
+        self.warnings.append(text)
+
+
 def test_an_mm_dd_export_over_the_new_year_is_warned_of(tmp_path: Path) -> None:
     """MM-DD times take one year: an export from 30 December to 1 January reads its 1
     January as January of that year, before December, and drops an order accepted on
@@ -886,20 +900,9 @@ def test_an_mm_dd_export_over_the_new_year_is_warned_of(tmp_path: Path) -> None:
     one year's January to December without such a gap, read without it."""
     from marops_cli.app.messages import drop_report
 
-    class Said:
-        def __init__(self) -> None:
-            self.messages: list[str] = []
-            self.warnings: list[str] = []
-
-        def message(self, text: str) -> None:
-            self.messages.append(text)
-
-        def warning(self, text: str) -> None:
-            self.warnings.append(text)
-
     def warned(rows: list[dict[str, str]]) -> list[str]:
         table = read_lade(write_csv(tmp_path / "d.csv", rows), DataConfig())
-        said = Said()
+        said = _Said()
         drop_report(said, table, "d.csv")  # type: ignore[arg-type]
         return said.warnings
 
@@ -936,22 +939,12 @@ def test_weights_in_grams_are_warned_of(tmp_path: Path) -> None:
     the remedy; weights in kg, heavy ones among them, read without it."""
     from marops_cli.app.messages import drop_report
 
-    class Said:
-        def __init__(self) -> None:
-            self.warnings: list[str] = []
-
-        def message(self, text: str) -> None:
-            pass
-
-        def warning(self, text: str) -> None:
-            self.warnings.append(text)
-
     def warned(weights: list[str]) -> list[str]:
         rows = [{**r, "weight_kg": w} for r, w in zip(CLEAN, weights, strict=True)]
         table = read_lade(
             write_csv(tmp_path / "d.csv", rows, (*LADE_COLUMNS, "weight_kg")), DataConfig()
         )
-        said = Said()
+        said = _Said()
         drop_report(said, table, "d.csv")  # type: ignore[arg-type]
         return said.warnings
 
@@ -967,21 +960,10 @@ def test_kept_rows_that_repeat_an_order_id_are_warned_of(tmp_path: Path) -> None
     dropped) and planned as an order of its own: the run says how many there are."""
     from marops_cli.app.messages import drop_report
 
-    class Said:
-        def __init__(self) -> None:
-            self.messages: list[str] = []
-            self.warnings: list[str] = []
-
-        def message(self, text: str) -> None:
-            self.messages.append(text)
-
-        def warning(self, text: str) -> None:
-            self.warnings.append(text)
-
     again = row("1002", "121.4810", "31.2400", "08-20 09:40:00", "08-20 11:30:00")
     for rows, warned in ((CLEAN, []), ([*CLEAN, again, CLEAN[0]], ["1 kept row repeats"])):
         table = read_lade(write_csv(tmp_path / "d.csv", rows), DataConfig())
-        said = Said()
+        said = _Said()
         drop_report(said, table, "d.csv")  # type: ignore[arg-type]
         assert [w[len("d.csv: ") :][:18] for w in said.warnings] == warned
         assert len(said.messages) == 1

@@ -158,15 +158,22 @@ def test_depots_of_another_square_are_named(
     doc["frame"]["center_lng"] += 1.0  # the same depots, a square one degree east
     for d in doc["depots"]:
         d["lng"] += 1.0
+    said = _refused_depots(day_run, doc, tmp_path)
+    assert said.startswith(f"marops: error: {tmp_path / 'other.json'}, key 'frame': the depots ")
+
+
+def _refused_depots(day_run: Path, doc: dict, tmp_path: Path) -> str:
+    """``marops report`` of a copy of ``day_run`` with the depots file ``doc``: refused
+    in one line (returned), exit 2, nothing written."""
     other = tmp_path / "other.json"
     other.write_text(json.dumps(doc))
     copy = tmp_path / "copy"
     shutil.copytree(day_run, copy)
     before = (copy / "report.html").read_bytes()
     res = runner.invoke(app, ["report", str(copy), "--depots", str(other), "--force"])
-    assert res.exit_code == 2 and len(res.stderr.splitlines()) == 1
-    assert res.stderr.startswith(f"marops: error: {other}, key 'frame': the depots file is of ")
+    assert res.exit_code == 2 and len(res.stderr.splitlines()) == 1, res.stderr
     assert (copy / "report.html").read_bytes() == before  # nothing written
+    return res.stderr
 
 
 def _one_depot(doc: dict) -> None:
@@ -194,16 +201,9 @@ def test_depots_of_another_run_of_the_same_square_are_named(
     they were not; now one line naming the file, and nothing written."""
     doc = json.loads(depots_json.read_text())
     edit(doc)
-    other = tmp_path / "other.json"
-    other.write_text(json.dumps(doc))
-    copy = tmp_path / "copy"
-    shutil.copytree(day_run, copy)
-    before = (copy / "report.html").read_bytes()
-    res = runner.invoke(app, ["report", str(copy), "--depots", str(other), "--force"])
-    assert res.exit_code == 2 and len(res.stderr.splitlines()) == 1, res.stderr
-    assert res.stderr.startswith(f"marops: error: {other}, key 'depot': the depots file ")
-    assert says in res.stderr and "give the run's depots file" in res.stderr
-    assert (copy / "report.html").read_bytes() == before  # nothing written
+    said = _refused_depots(day_run, doc, tmp_path)
+    assert said.startswith(f"marops: error: {tmp_path / 'other.json'}, key 'depot': the depots ")
+    assert says in said and "give the run's depots file" in said
 
 
 def test_marops_report_refuses_what_it_cannot_read_or_replace(
