@@ -208,13 +208,27 @@ def _separator_hint(names: list[str], name: str) -> str:
     return ""
 
 
+def _near_name_hint(names: list[str], name: str) -> str:
+    """A hint naming the header's column that is ``name`` but for case, spaces or
+    hyphens (``'Order_ID '``, ``order-id``); empty when there is none."""
+
+    def plain(text: str) -> str:
+        return "_".join(text.strip().strip('"').lower().replace("-", " ").split())
+
+    near = next((n for n in names if n != name and plain(n) == name), None)
+    if near is None:
+        return ""
+    return f"; the header has {near!r}: name it '{name}' (lower case, no spaces)"
+
+
 def _check_columns(names: list[str], path: Path) -> list[str]:
     """The columns to load; raises for a missing required column or one named twice."""
     for name in REQUIRED_COLUMNS:
         if name not in names:
+            hint = _near_name_hint(names, name) or _separator_hint(names, name)
             raise InputError(
                 f"missing required column '{name}': not a LaDe delivery file "
-                f"(expected columns {', '.join(REQUIRED_COLUMNS)}){_separator_hint(names, name)}",
+                f"(expected columns {', '.join(REQUIRED_COLUMNS)}){hint}",
                 file=path,
                 row=1,
                 column=name,
@@ -570,6 +584,13 @@ def _good_lat(lat: np.ndarray) -> np.ndarray:
         return (np.abs(lat) <= 90) & (lat != 0)
 
 
+def _swapped(code: np.ndarray, lng: np.ndarray, lat: np.ndarray) -> int:
+    """How many rows dropped for bad coordinates would be good with lng and lat swapped
+    (a latitude beyond ±90 whose longitude is one): the columns may be swapped."""
+    bad = code == DROP_REASONS.index("bad_coordinates") + 1
+    return int((bad & _good_lng(lat) & _good_lat(lng)).sum())
+
+
 def _repeated(*columns: np.ndarray) -> np.ndarray:
     """Mask of rows whose values in ``columns`` (64-bit each) may repeat another row's.
 
@@ -831,6 +852,7 @@ def _lade_table(
         kept=int(idx.size),
         dropped={r: int(counts[k + 1]) for k, r in enumerate(DROP_REASONS)},
         ds_other_day=ds_other_day(kept, parsed["delivery_time"][keep], cfg.year),
+        swapped_coordinates=_swapped(code, lng, lat),
     )
     return LadeTable(
         order_id=_strings(kept["order_id"]),

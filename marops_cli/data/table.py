@@ -67,6 +67,8 @@ class DropReport:
     ds_other_day: int = 0
     """Kept rows whose ``ds`` names another day than their delivery time: a note, not a
     drop (a request's day is the date of its delivery time)."""
+    swapped_coordinates: int = 0
+    """Rows dropped for bad coordinates that would be good with lng and lat swapped."""
 
     @property
     def n_dropped(self) -> int:
@@ -80,13 +82,24 @@ class DropReport:
         }
         if self.ds_other_day:
             doc["ds_other_day"] = self.ds_other_day
+        if self.swapped_coordinates:
+            doc["swapped_coordinates"] = self.swapped_coordinates
         return doc
 
     def reasons(self) -> str:
         """The rows dropped for each reason, in words (``73 bad coordinates, 120
         duplicate``)."""
+        swapped = self.swapped_coordinates
         return ", ".join(
-            f"{n:,} {reason.replace('_', ' ')}" for reason, n in self.dropped.items() if n
+            f"{n:,} {reason.replace('_', ' ')}"
+            + (
+                f" ({'all' if swapped == n else f'{swapped:,}'} good with lng and lat swapped:"
+                " are the columns swapped?)"
+                if reason == "bad_coordinates" and swapped
+                else ""
+            )
+            for reason, n in self.dropped.items()
+            if n
         )
 
     def describe(self, name: str) -> str:

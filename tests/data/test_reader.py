@@ -967,3 +967,35 @@ def test_kept_rows_that_repeat_an_order_id_are_warned_of(tmp_path: Path) -> None
         drop_report(said, table, "d.csv")  # type: ignore[arg-type]
         assert [w[len("d.csv: ") :][:18] for w in said.warnings] == warned
         assert len(said.messages) == 1
+
+
+@pytest.mark.parametrize("header", ["Order_ID ", " order-id", '"ORDER ID"'])
+def test_a_column_named_but_for_case_or_spaces_is_named_in_the_error(
+    tmp_path: Path, header: str
+) -> None:
+    """A header that writes order_id otherwise (case, spaces, a hyphen) was refused as a
+    missing column with no word of the near match."""
+    path = write_csv(tmp_path / "d.csv", CLEAN)
+    text = path.read_text(encoding="utf-8").replace("order_id", header, 1)
+    path.write_text(text, encoding="utf-8")
+    with pytest.raises(InputError) as err:
+        read_lade(path, DataConfig())
+    near = header.strip().strip('"')  # the reader trims the header's names
+    assert f"the header has {near!r}: name it 'order_id' (lower case, no spaces)" in str(err.value)
+
+
+def test_lng_and_lat_swapped_are_suggested_with_the_bad_coordinates(tmp_path: Path) -> None:
+    """lng and lat written the other way round (31, 121) dropped every row as bad
+    coordinates with no hint; the report now says how many would be good swapped."""
+    swapped = [{**r, "lng": r["lat"], "lat": r["lng"]} for r in CLEAN]
+    bad = row("1004", lng="0", lat="0")  # bad either way
+    t = read_lade(write_csv(tmp_path / "s.csv", [*swapped, bad]), DataConfig())
+    assert t.report.swapped_coordinates == 3
+    assert t.report.to_dict()["swapped_coordinates"] == 3
+    assert "4 bad coordinates (3 good with lng and lat swapped: are the columns swapped?)" in (
+        t.report.describe("s.csv")
+    )
+    all_swapped = read_lade(write_csv(tmp_path / "a.csv", swapped), DataConfig())
+    assert "3 bad coordinates (all good with lng and lat swapped" in all_swapped.report.reasons()
+    clean = read_lade(write_csv(tmp_path / "c.csv", CLEAN), DataConfig()).report
+    assert clean.swapped_coordinates == 0 and "swapped_coordinates" not in clean.to_dict()
