@@ -8,6 +8,7 @@ override single fields afterwards with :func:`override`.
 from __future__ import annotations
 
 import json
+import re
 import types
 import typing
 from collections.abc import Callable, Sequence
@@ -75,12 +76,12 @@ class _Stage(BaseModel):
 
 
 def _parse_hhmm(value: str) -> int:
-    """``"09:00"`` -> seconds after midnight."""
-    try:
-        hh, mm = value.split(":")
-        h, m = int(hh), int(mm)
-    except ValueError as exc:
-        raise ValueError(f"expected a time of day HH:MM, got {value!r}") from exc
+    """``"09:00"`` -> seconds after midnight (ASCII digits: ``int`` alone also took
+    ``"٠٩:٠٠"``, ``"+9:0_0"``)."""
+    match = re.fullmatch(r"([0-9]{1,2}):([0-9]{2})", value)
+    if match is None:
+        raise ValueError(f"expected a time of day HH:MM, got {value!r}")
+    h, m = int(match[1]), int(match[2])
     if not (0 <= h <= 24 and 0 <= m < 60) or h * 60 + m > 24 * 60:
         raise ValueError(f"expected a time of day HH:MM, got {value!r}")
     return h * 3600 + m * 60

@@ -149,3 +149,15 @@ def test_a_config_with_a_byte_order_mark_loads_as_without(tmp_path: Path) -> Non
     marked.write_bytes(b"\xef\xbb\xbf" + plain.read_bytes())
     assert load_config(marked) == load_config(plain)
     assert load_config(marked).plan.alpha == 0.3
+
+
+@pytest.mark.parametrize("value", ["٠٩:٠٠", "+9:00", "9:0_0", "09:00:00", " 9:00", "9:0"])
+def test_service_hours_take_ascii_digits_only(tmp_path: Path, value: str) -> None:
+    """A time of day is HH:MM in ASCII digits: Python's int() took Arabic-Indic digits,
+    a sign and an underscore, so such a config loaded as 09:00."""
+    path = tmp_path / "c.toml"
+    path.write_text(f'[data]\nservice_start = "{value}"\n', encoding="utf-8")
+    with pytest.raises(InputError, match="service_start"):
+        load_config(path)
+    path.write_text('[data]\nservice_start = "9:30"\n', encoding="utf-8")
+    assert load_config(path).data.service_start == "9:30"
