@@ -33,6 +33,24 @@ def check_weight_range(largest: float, file: Path, tensor: str) -> None:
         )
 
 
+def check_header_keys(path: Path) -> None:
+    """Refuse a safetensors file whose JSON header gives a key twice, as every other
+    JSON marops reads is refused (the safetensors reader keeps the last one unsaid).
+    The file's size is bounded by the caller; a header that does not read is left to the
+    safetensors reader's own error."""
+    from ..data.jsonfile import parse_json
+
+    with open(path, "rb") as f:
+        head = f.read(8)
+        size = int.from_bytes(head, "little") if len(head) == 8 else 0
+        text = f.read(size) if 0 < size <= path.stat().st_size else b""
+    try:
+        parse_json(text)
+    except ValueError as exc:
+        if "appears twice" in str(exc):
+            raise InputError(f"not a safetensors weights file ({exc})", file=path) from None
+
+
 SLOT_PLANNER = "subsets"
 """The planner whose plans a policy that picks plans by slot ranks (the MAPPO baseline:
 the paper's subset plans, docs/method.md §4.5)."""

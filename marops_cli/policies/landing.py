@@ -88,7 +88,7 @@ import numpy as np
 from ..data.jsonfile import first_line, refuse_misspelt_keys
 from ..errors import InputError, quoted
 from ..plans.view import FREE
-from .base import WindowView, check_weight_range
+from .base import WindowView, check_header_keys, check_weight_range
 from .rules import EnergyAware, FlowPolicy, reachable, waiting_per_depot
 
 if TYPE_CHECKING:
@@ -541,6 +541,7 @@ def load_landing_actor(path: Path, side: Any, sidecar: Path) -> LandingActor:
     size = _FORMATS[read.format]
     if path.stat().st_size > (1 << 16):
         raise InputError("larger than a landing actor's weights", file=path)
+    check_header_keys(path)
     try:
         with safe_open(str(path), framework="numpy") as f:
             names = set(f.keys())

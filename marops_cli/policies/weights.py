@@ -22,7 +22,7 @@ from typing import TYPE_CHECKING, Any, ClassVar, Literal
 
 from ..data.jsonfile import first_line
 from ..errors import InputError
-from .base import check_weight_range
+from .base import check_header_keys, check_weight_range
 
 if TYPE_CHECKING:
     from .network import Actor
@@ -101,6 +101,7 @@ def load_weights(model_path: str | Path, side: dict[str, Any], sidecar: Path) ->
         raise InputError(
             f"larger than the network its sidecar describes ({limit:,} bytes)", file=path
         )
+    check_header_keys(path)
     try:
         # Read as NumPy: torch's reader takes the path as UTF-8 only, and a file name may
         # be any bytes (the same float32 values either way).

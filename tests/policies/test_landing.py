@@ -364,6 +364,24 @@ def test_bad_files(tmp_path: Path, tensors: dict, side: object, match: str) -> N
         make_policy(str(tmp_path / "a.safetensors"), model=REALISTIC)
 
 
+def test_a_header_giving_a_key_twice_is_refused(tmp_path: Path) -> None:
+    """The weights file's JSON header gives 'weight' twice: the safetensors reader kept
+    the last unsaid, where every other JSON marops reads refuses a key given twice."""
+    entry = {"dtype": "F32", "shape": [12], "data_offsets": [0, 48]}
+    one = json.dumps({"weight": entry})
+    header = ("{" + one[1:-1] + "," + one[1:-1] + "}").encode()
+    header += b" " * (-len(header) % 8)
+    path = tmp_path / "a.safetensors"
+    path.write_bytes(len(header).to_bytes(8, "little") + header + bytes(48))
+    (tmp_path / "a.json").write_text(json.dumps(_side()))
+    with pytest.raises(InputError, match="the key 'weight' appears twice in one object"):
+        make_policy(str(path), model=REALISTIC)
+    header = json.dumps({"weight": entry}).encode()  # the same file, the key once
+    header += b" " * (-len(header) % 8)
+    path.write_bytes(len(header).to_bytes(8, "little") + header + bytes(48))
+    assert isinstance(make_policy(str(path), model=REALISTIC), LandingActor)
+
+
 @pytest.mark.parametrize("value", [3.4e38, -3.4e38, 1.5e6])
 def test_finite_weights_beyond_the_documented_range_are_refused_on_load(
     tmp_path: Path, value: float
