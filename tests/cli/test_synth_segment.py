@@ -226,7 +226,12 @@ def test_segment_of_a_file_whose_rows_are_all_dropped_says_why(
     data = tmp_path / "swapped.csv"
     data.write_text("\n".join([header, *rows]) + "\n", encoding="utf-8")
     args = ["segment", str(data), *extra, "--out", str(tmp_path / "out" / "d.json")]
-    fails_cleanly(args, tmp_path, "swapped.csv: none of its 5 rows can be used (5 bad coordinates)")
+    fails_cleanly(
+        args,
+        tmp_path,
+        "swapped.csv: none of its 5 rows can be used (5 bad coordinates (all good with lng "
+        "and lat swapped: are the columns swapped?))",
+    )
 
 
 def test_segment_of_a_file_named_in_another_encoding_writes_its_name_escaped(
