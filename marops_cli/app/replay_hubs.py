@@ -146,9 +146,9 @@ def left_out(table: Any, days: list[dt.date], owner: Any, cfg: Any) -> tuple[Any
     and due outside service hours."""
     import numpy as np
 
-    from ..data.prepare import in_service_hours
+    from ..data.prepare import due_on, in_service_hours
 
-    due = np.isin(table.delivery_day, np.array(days, dtype="datetime64[D]"))
+    due = due_on(table, days)
     hours = in_service_hours(table, cfg.data)
     outside = due & (owner < 0)
     late = due & (owner >= 0) & ~hours

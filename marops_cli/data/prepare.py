@@ -76,7 +76,7 @@ def check_days_in_file(table: LadeTable, days: Iterable[dt.date]) -> None:
             )
 
 
-def _on_days(table: LadeTable, days: Iterable[dt.date]) -> np.ndarray:
+def due_on(table: LadeTable, days: Iterable[dt.date]) -> np.ndarray:
     """Mask of rows due on any of ``days``."""
     wanted = np.array([np.datetime64(d, "D") for d in days], dtype="datetime64[D]")
     return np.isin(table.delivery_day, wanted)
@@ -94,7 +94,7 @@ def study_frame(
     else:
         days = list(days)
         check_days_in_file(table, days)
-        mask = _on_days(table, days)
+        mask = due_on(table, days)
         lng, lat = table.lng[mask], table.lat[mask]
     if lng.size == 0:
         raise InputError("no requests to place a study area on", file=table.source.path)
@@ -145,7 +145,7 @@ def prepare_day(table: LadeTable, frame: Frame, day: dt.date, cfg: DataSettings)
     file row. Raises :class:`InputError` when the day is not in the file or
     nothing is left.
     """
-    on_day = _on_days(table, [day])
+    on_day = due_on(table, [day])
     if not on_day.any():
         check_days_in_file(table, [day])  # raises, naming the days the file has
     start, due, x, y, inside, mask = _in_service(table, frame, on_day, cfg)
@@ -193,7 +193,7 @@ def arrival_windows(
     """``(x, y, visible_w)`` of every request :func:`prepare_day` would keep on ``days``,
     all days at once: where and in which window each became visible (the window of its
     accept time, 0 when accepted before service start)."""
-    start, due, x, y, _, keep = _in_service(table, frame, _on_days(table, list(days)), cfg)
+    start, due, x, y, _, keep = _in_service(table, frame, due_on(table, list(days)), cfg)
     due_w = _windows(due[keep], cfg.window_s, cfg.n_windows)
     accept = (table.accept_s[keep] - start[keep]).astype(np.float64)
     return x[keep], y[keep], _visible_windows(accept, due_w, cfg)

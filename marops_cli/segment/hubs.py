@@ -23,7 +23,7 @@ from ..config import MAX_DRONES, DataConfig, PlannerConfig, override
 from ..data.filemodel import FileModel, Whole, validated
 from ..data.frame import REACH_M, Frame, hub_squares
 from ..data.jsonfile import read_json
-from ..data.prepare import check_days_in_file, prepare_day
+from ..data.prepare import check_days_in_file, due_on, prepare_day
 from ..data.table import LadeTable
 from ..errors import InputError, naming, option
 
@@ -81,10 +81,7 @@ def find_hubs(
     (:func:`~marops_cli.data.frame.hub_squares`). Returns the hubs and the number of
     orders they were placed from."""
     check_days_in_file(table, list(days or ()))  # every row dropped: says why
-    if days:
-        mask = np.isin(table.delivery_day, np.array(list(days), dtype="datetime64[D]"))
-    else:
-        mask = np.ones(len(table), dtype=bool)
+    mask = due_on(table, days) if days else np.ones(len(table), dtype=bool)
     if not mask.any():
         raise InputError("no requests to place hubs on", file=table.source.path)
     try:
@@ -255,7 +252,7 @@ def hub_demand(
     """Each hub's demand: the orders it owns (:func:`hub_owner`; ``owner``, when the
     caller has it) due on ``days``."""
     owner = hub_owner(table, hubs) if owner is None else owner
-    on = np.isin(table.delivery_day, np.array(list(days), dtype="datetime64[D]"))
+    on = due_on(table, days)
     counts = np.bincount(owner[on & (owner >= 0)], minlength=len(hubs))
     return [int(c) for c in counts]
 
@@ -275,7 +272,7 @@ def outside_warning(
     outside every hub placed (``[data] hub_min_share`` ``min_share``; another city in the
     export, scattered points): the run leaves them out, and its figures per hub would not
     show it. ``owner``: each row's hub (:func:`hub_owner`), when the caller has it."""
-    total = int(np.isin(table.delivery_day, np.array(list(days), dtype="datetime64[D]")).sum())
+    total = int(due_on(table, days).sum())
     outside = total - sum(hub_demand(table, hubs, days, owner))
     if not total or outside < OUTSIDE_WARNING * total:
         return None
@@ -291,7 +288,7 @@ def hub_locations(table: LadeTable, hubs: Sequence[Hub], days: Sequence[dt.date]
     """Each hub's distinct customer locations (``lng, lat``) among the orders it owns
     (:func:`hub_owner`) due on ``days``: k-means places one depot on each at most."""
     owner = hub_owner(table, hubs)
-    on = np.isin(table.delivery_day, np.array(list(days), dtype="datetime64[D]"))
+    on = due_on(table, days)
     mine = on & (owner >= 0)
     points = np.column_stack([owner[mine].astype(np.float64), table.lng[mine], table.lat[mine]])
     held = np.unique(points, axis=0)[:, 0].astype(np.int64)
