@@ -476,6 +476,7 @@ class LandingActor(EnergyAware):
         if not calling or not idle:
             return
         dist, pred = _ways(dep, self._model, sorted({int(view.drone_depot[u]) for u in idle}))
+        oks = {u: reachable(view, u, self._drone_model(view, u)) for u in idle}
         for d in calling:
             best: tuple[float, int, int] | None = None  # (way m, drone, action)
             for u in idle:
@@ -485,8 +486,7 @@ class LandingActor(EnergyAware):
                 hop = d  # back along the way to its first move (none: the drone is there)
                 while hop != s and pred[s][hop] != s:
                     hop = int(pred[s][hop])
-                ok = reachable(view, u, self._drone_model(view, u))
-                act = np.flatnonzero((cand[s] == hop) & ok)
+                act = np.flatnonzero((cand[s] == hop) & oks[u])
                 if act.size and (best is None or dist[s][d] < best[0]):
                     best = (float(dist[s][d]), u, int(act[0]))
             if best is not None:
