@@ -54,9 +54,11 @@ def report_page(folder: Path, depots: Depots | None = None) -> Page | None:
 
         return day_page(files, doc, depots)
     if _over_several(doc):
+        from .checks import reading
         from .index import index_page
 
-        return index_page(folder, doc)
+        with reading(folder / "metrics.json"):
+            return index_page(folder, doc)
     return None
 
 
@@ -184,7 +186,9 @@ def write_reports(
                 page = report_page(f, depots)
             except (TypeError, ValueError, KeyError, AttributeError, IndexError) as exc:
                 # Files that read, but hold what no marops run writes (a column of another
-                # type, a key gone): edited since, or not marops's.
+                # type, a key gone) that the checks of each file the page reads missed
+                # (.checks: those name the file, and the row and column or key): edited
+                # since, or not marops's.
                 why = first_line(exc)
                 raise InputError(
                     f"holds outputs marops cannot report on, edited or not marops's ({why})",

@@ -10,6 +10,7 @@ from ..config import count
 from ..data.frame import Frame
 from ..errors import InputError
 from .basemap import tiles_on
+from .checks import reading
 from .daymap import TILE_CREDIT_SCRIPT, flown, map_figure
 from .folder import RouteFiles
 from .page import Page
@@ -143,18 +144,22 @@ def day_page(files: RouteFiles, metrics_doc: dict[str, Any] | None, depots: Depo
     )
     frame = _frame(meta, depots)  # the square first: depots of another square say so
     points = depot_points(files, depots)
-    fig = map_figure(files, points, area_rings(depots), frame)
-    page.figure(fig, "map", TILE_CREDIT_SCRIPT if fig.layout.images else None)
-    page.heading("Drones over the day")
-    page.note(
-        "Each bar a flight from take-off to landing (→ the depot it lands at); grey: "
-        "a window the drone waits at its depot."
-    )
-    page.figure(timeline_figure(files), "timeline")
+    with reading(*files.paths):
+        fig = map_figure(files, points, area_rings(depots), frame)
+        page.figure(fig, "map", TILE_CREDIT_SCRIPT if fig.layout.images else None)
+        page.heading("Drones over the day")
+        page.note(
+            "Each bar a flight from take-off to landing (→ the depot it lands at); grey: "
+            "a window the drone waits at its depot."
+        )
+        page.figure(timeline_figure(files), "timeline")
+    routes = files.paths[-1:]  # none where the rows were not read from a folder
     if day is not None:
-        _metrics(page, day)
+        with reading(*(p.with_name("metrics.json") for p in routes)):
+            _metrics(page, day)
     elif meta.get("objective") or meta.get("solver"):
-        _window(page, meta)
+        with reading(*routes):  # the window's plan: the routes' metadata
+            _window(page, meta)
     return page
 
 

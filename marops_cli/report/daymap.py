@@ -11,7 +11,7 @@ from typing import Any
 
 from ..data.frame import Frame
 from .basemap import ATTRIBUTION, extent, tile_images, tiles_on
-from .folder import RouteFiles
+from .folder import RouteFiles, flown
 from .page import plain, short
 
 ROUTE_UID = "route-w{window}-d{drone}"
@@ -49,11 +49,6 @@ def drone_colour(drone: int) -> str:
 
     palette = qualitative.Plotly if drone < 10 else qualitative.Dark24
     return palette[drone % len(palette)]
-
-
-def flown(route: dict[str, Any]) -> bool:
-    """A route that is drawn: it delivers a parcel or moves its drone to another depot."""
-    return route["n_parcels"] > 0 or route["start_depot"] != route["end_depot"]
 
 
 def route_stops(files: RouteFiles) -> dict[tuple[int, int], list[dict[str, Any]]]:

@@ -10,50 +10,80 @@ from pathlib import Path
 from typing import Any, TypeVar
 
 from ..data.jsonfile import first_line, parse_json
-from ..errors import InputError
+from ..errors import InputError, quoted
 from ..io.paths import natural_key
+from .checks import EDITED, Col, Kind, cell_fits, check_cell, check_meta, check_table, meta_error
 
 T = TypeVar("T")
 
 REPORT = "report.html"
 """The page's name in each output folder."""
 _TIMES = ("window_start", "arrive_time")
+"""The times of a stop (a route's: its window's start)."""
 
 
 @dataclass(frozen=True)
 class RouteFiles:
     """A folder's stops and routes (rows with local times without their zone, as a
-    clock shows them) and the metadata they carry."""
+    clock shows them) and the metadata they carry; ``paths``: the stops and routes files
+    they were read from."""
 
     stops: list[dict[str, Any]]
     routes: list[dict[str, Any]]
     meta: dict[str, Any]
+    paths: tuple[Path, ...] = ()
 
 
 def route_files(folder: Path) -> RouteFiles | None:
-    """The stops and routes of ``folder`` (Parquet, else JSON); None when it has none."""
+    """The stops and routes of ``folder`` (Parquet, else JSON); None when it has none.
+    Each value the page uses is checked as marops writes it (:mod:`.checks`)."""
     if (folder / "routes.parquet").is_file():
         from ..data.arrow import read_parquet
 
-        tables = [read_input(folder / f"{n}.parquet", read_parquet) for n in ("stops", "routes")]
-        for name, table in zip(("stops", "routes"), tables, strict=True):
-            _check_columns(table, name, folder / f"{name}.parquet")
-        meta = table_meta(tables[1], folder / "routes.parquet")
-        one_run(folder / "stops.parquet", table_meta(tables[0], folder / "stops.parquet"), meta)
+        paths = tuple(folder / f"{n}.parquet" for n in ("stops", "routes"))
+        tables = [read_input(path, read_parquet) for path in paths]
+        for name, table, path in zip(("stops", "routes"), tables, paths, strict=True):
+            _check_columns(table, name, path)
+            check_table(table, path, _columns(name), f"a {name} file", redo=_REDO)
+        meta = table_meta(tables[1], paths[1])
+        one_run(paths[0], table_meta(tables[0], paths[0]), meta)
         stops, routes = (t.to_pylist() for t in tables)
     elif (folder / "routes.json").is_file():
-        docs = [_json(folder / f"{n}.json") for n in ("stops", "routes")]
-        for name, doc in zip(("stops", "routes"), docs, strict=True):
-            _check_rows(doc, name, folder / f"{name}.json")
+        paths = tuple(folder / f"{n}.json" for n in ("stops", "routes"))
+        docs = [_json(path) for path in paths]
+        for name, doc, path in zip(("stops", "routes"), docs, paths, strict=True):
+            _check_rows(doc, name, path)
+            if not isinstance(doc.get("meta", {}), dict):
+                raise InputError(
+                    f"expected an object, got {quoted(doc['meta'])}: {EDITED}",
+                    file=path,
+                    column="meta",
+                )
         stops, routes, meta = docs[0]["stops"], docs[1]["routes"], docs[1].get("meta", {})
-        one_run(folder / "stops.json", docs[0].get("meta", {}), meta)
+        one_run(paths[0], docs[0].get("meta", {}), meta)
     else:
         return None
-    for row in (*stops, *routes):
-        for k in _TIMES:
-            if k in row and row[k] is not None:
+    check_route_meta(meta, paths[1])
+    for rows, keys in ((stops, _TIMES), (routes, _TIMES[:1])):
+        for row in rows:
+            for k in keys:
                 row[k] = _local(row[k])
-    return RouteFiles(stops, routes, meta)
+    _check_flown(stops, routes, paths)
+    return RouteFiles(stops, routes, meta, paths)
+
+
+_REDO = "replay again"
+_DEPOTS = frozenset({"start", "end"})
+_KINDS = ("start", "customer", "end")
+_EMPTY = {
+    "stops": {
+        "depot": frozenset({"customer"}),
+        **dict.fromkeys(("order_id", "weight_kg", "due_window", "delay_h"), _DEPOTS),
+    },
+    "routes": {},
+}
+"""Columns that are empty (null) in some rows as marops writes them (docs/outputs.md):
+a stop's depot for a customer, its parcel's figures for a depot."""
 
 
 def _schema(name: str) -> Any:
@@ -61,6 +91,29 @@ def _schema(name: str) -> Any:
     from ..io.tables import routes_schema, stops_schema
 
     return stops_schema() if name == "stops" else routes_schema()
+
+
+def _columns(name: str) -> dict[str, Col]:
+    """What each column of the route table ``name`` holds (docs/outputs.md)."""
+    columns = {}
+    for field in _schema(name):
+        values = _KINDS if field.name == "kind" else ()
+        empty = _EMPTY[name].get(field.name, False)
+        columns[field.name] = Col(_kind(field.type), empty=empty, values=values)
+    return columns
+
+
+def _kind(t: Any) -> Kind:
+    """What a value of the Arrow type ``t`` is, as :class:`~.checks.Col` says it."""
+    import pyarrow as pa
+
+    if pa.types.is_integer(t):
+        return "int"
+    if pa.types.is_floating(t):
+        return "number"
+    if pa.types.is_timestamp(t):
+        return "time"
+    return "date" if pa.types.is_date(t) else "text"
 
 
 def _check_columns(table: Any, name: str, path: Path) -> None:
@@ -74,7 +127,7 @@ def _check_columns(table: Any, name: str, path: Path) -> None:
         if field.name not in table.schema.names:
             raise InputError(
                 f"has no column {field.name!r}: not as marops writes a {name} file "
-                "(edited since, or of an older marops: replay again)",
+                f"(edited since, or of an older marops: {_REDO})",
                 file=path,
                 column=field.name,
             )
@@ -82,7 +135,7 @@ def _check_columns(table: Any, name: str, path: Path) -> None:
         stamp = pa.types.is_timestamp(got) and pa.types.is_timestamp(field.type)
         if got != field.type and not stamp:
             raise InputError(
-                f"expected a column of {field.type}, got {got}: edited since marops wrote it",
+                f"expected a column of {field.type}, got {got}: {EDITED}",
                 file=path,
                 column=field.name,
             )
@@ -90,34 +143,85 @@ def _check_columns(table: Any, name: str, path: Path) -> None:
 
 def _check_rows(doc: dict[str, Any], name: str, path: Path) -> None:
     """The rows of a ``--format json`` route file as marops writes them: each an object
-    with every column of the table ``name``, a number where the column is one."""
-    import pyarrow as pa
-
+    with every column of the table ``name``, each value of the column's type (a number,
+    text, an ISO time or date; empty only where marops leaves it so), a stop's kind one
+    of :data:`_KINDS`."""
     rows = doc.get(name)
     if not isinstance(rows, list):
-        raise InputError(f"expected a list of {name}, edited since marops wrote it", file=path)
-    expected = _schema(name)
-    numeric = {
-        f.name for f in expected if pa.types.is_integer(f.type) or pa.types.is_floating(f.type)
-    }
+        raise InputError(f"expected a list of {name}, {EDITED}", file=path)
+    columns = _columns(name)
     for i, row in enumerate(rows):
         if not isinstance(row, dict):
             raise InputError("expected an object", file=path, column=f"{name}[{i}]")
-        for field in expected:
-            if field.name not in row:
+        for key in columns:
+            if key not in row:
                 raise InputError(
-                    f"has no {field.name!r}: not as marops writes a {name} file",
+                    f"has no {key!r}: not as marops writes a {name} file",
                     file=path,
-                    column=f"{name}[{i}].{field.name}",
+                    column=f"{name}[{i}].{key}",
                 )
-            value = row[field.name]
-            number = isinstance(value, int | float) and not isinstance(value, bool)
-            if field.name in numeric and value is not None and not number:
-                raise InputError(
-                    f"expected a number, got {value!r}: edited since marops wrote it",
-                    file=path,
-                    column=f"{name}[{i}].{field.name}",
-                )
+        kind = row.get("kind")
+        for key, col in columns.items():
+            check_cell(row[key], col, path, f"{name}[{i}].{key}", kind)
+
+
+def _check_flown(
+    stops: list[dict[str, Any]], routes: list[dict[str, Any]], paths: tuple[Path, ...]
+) -> None:
+    """Every route flown has its stops in the stops file (the map draws them)."""
+    have = {(s["window"], s["drone"]) for s in stops}
+    for i, r in enumerate(routes):
+        if flown(r) and (r["window"], r["drone"]) not in have:
+            where: dict[str, Any] = (
+                {"column": f"routes[{i}]"} if paths[1].suffix == ".json" else {"row": i + 2}
+            )
+            raise InputError(
+                f"drone {r['drone']} flies in window {r['window']}, but {paths[0].name} has no "
+                f"stops of that flight: {EDITED}",
+                file=paths[1],
+                **where,
+            )
+
+
+def flown(route: dict[str, Any]) -> bool:
+    """A route that is drawn: it delivers a parcel or moves its drone to another depot."""
+    return route["n_parcels"] > 0 or route["start_depot"] != route["end_depot"]
+
+
+_ROUTE_META: dict[str, type | tuple[type, ...]] = {
+    "day": str,
+    "method": str,
+    "frame": dict,
+    "solver": dict,
+    "objective": dict,
+    "config": dict,
+}
+"""The keys of a route file's marops metadata the page reads, and their types."""
+
+
+def check_route_meta(meta: dict[str, Any], path: Path) -> None:
+    """The route file's metadata the page reads (its title, the study square, the
+    window's plan, the window length of the config) as marops writes it."""
+    check_meta(meta, path, _ROUTE_META)
+    frame = meta.get("frame")
+    if frame:
+        for key in ("center_lng", "center_lat", "size_km"):
+            value = frame.get(key)
+            if not cell_fits(value, Col("number")):
+                raise meta_error(path, f"frame.{key}", "a finite number", value)
+    data = (meta.get("config") or {}).get("data")
+    if data is None:
+        return
+    if not isinstance(data, dict):
+        raise meta_error(path, "config.data", "an object", data)
+    for key, col in (
+        ("window_min", Col("number", empty=True)),
+        ("windows", Col("int", empty=True)),
+        ("service_start", Col("text", empty=True)),
+        ("service_end", Col("text", empty=True)),
+    ):
+        if not cell_fits(data.get(key), col):
+            raise meta_error(path, f"config.data.{key}", col.expected(), data.get(key))
 
 
 _RUN_KEYS = ("version", "command", "config", "input", "policy", "method", "seed", "day", "frame")
@@ -142,7 +246,8 @@ def one_run(path: Path, meta: Any, routes_meta: dict[str, Any]) -> None:
 
 
 def _local(value: Any) -> dt.datetime:
-    """A time of day in the data's zone, without the zone (the files store local times)."""
+    """A time of day in the data's zone, without the zone (the files store local times;
+    a JSON file's as ISO text, checked by :func:`_check_rows`)."""
     t = dt.datetime.fromisoformat(value) if isinstance(value, str) else value
     return t.replace(tzinfo=None)
 
@@ -160,6 +265,11 @@ def metrics(folder: Path) -> dict[str, Any] | None:
         return None
     doc = _json(path)
     numbers = {m.name for m in DAY_METRICS}
+    # A page reads it beside a day's routes, or over several days or a city; another
+    # tool's metrics.json (a folder of one's own among the days) is left as it is.
+    used = "total" in doc or "city" in doc or route_files_exist(folder)
+    if used:
+        check_meta(doc, path, {"days": list, "total": dict, "city": dict}, at="")
     days = doc.get("days")
     records = [(f"days[{i}].", d) for i, d in enumerate(days)] if isinstance(days, list) else []
     if isinstance(doc.get("total"), dict):
@@ -167,6 +277,11 @@ def metrics(folder: Path) -> dict[str, Any] | None:
     for at, record in records:
         if not isinstance(record, dict):
             raise InputError("expected a day's metrics (an object)", file=path, column=at[:-1])
+        if used and at.startswith("days"):  # a day's record names its day and method
+            for key, col in _DAY_KEYS.items():
+                if key not in record and not col.empty:
+                    raise InputError(f"has no {key!r}: {EDITED}", file=path, column=at + key)
+                check_cell(record.get(key), col, path, at + key)
         for key, value in record.items():
             number = isinstance(value, int | float) and not isinstance(value, bool)
             # Every day metric is finite as marops writes it, and all but G not negative.
@@ -175,11 +290,16 @@ def metrics(folder: Path) -> dict[str, Any] | None:
                 kind = "a number" if not number else "a finite number"
                 kind += " of at least 0" if number and low == 0 else ""
                 raise InputError(
-                    f"expected {kind}, got {clipped(repr(value))}: edited since marops wrote it",
+                    f"expected {kind}, got {clipped(repr(value))}: {EDITED}",
                     file=path,
                     column=at + key,
                 )
     return doc
+
+
+_DAY_KEYS = {"day": Col("text"), "method": Col("text"), "hub": Col("int", empty=True)}
+"""What a day's record in ``metrics.json`` is named by: its day, method and hub (0, or
+none, for a single study area)."""
 
 
 def read_input(path: Path, read: Callable[[Path], T]) -> T:

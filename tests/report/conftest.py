@@ -55,6 +55,23 @@ def day_run(
 
 
 @pytest.fixture(scope="session")
+def json_day_run(
+    example_csv: Path,
+    small_config: Path,
+    depots_json: Path,
+    tmp_path_factory: pytest.TempPathFactory,
+) -> Path:
+    """``replay-day --format json --report`` of one small day (tests copy it before
+    changing it)."""
+    out = tmp_path_factory.mktemp("json") / "0811"
+    invoke(
+        "replay-day", example_csv, "--date", "0811", "--depots", depots_json, "--drones", 2,
+        "--config", small_config, "--format", "json", "--report", "--out", out, "--quiet",
+    )  # fmt: skip
+    return out
+
+
+@pytest.fixture(scope="session")
 def days_run(
     example_csv: Path,
     small_config: Path,

@@ -774,12 +774,128 @@ def test_marops_report_on_an_edited_json_route_file_names_the_key(
     (out / "routes.json").write_text(json.dumps(doc))
     res = runner.invoke(app, ["report", str(out)])
     assert res.exit_code == 2, res.output
-    assert f"{out / 'routes.json'}, key 'routes[1].drone': expected a number" in res.output
+    assert f"{out / 'routes.json'}, key 'routes[1].drone': expected a whole number" in res.output
     del doc["routes"][1]["drone"]
     (out / "routes.json").write_text(json.dumps(doc))
     res = runner.invoke(app, ["report", str(out)])
     assert res.exit_code == 2 and "key 'routes[1].drone': has no 'drone'" in res.output
     assert not (out / "report.html").exists()
+
+
+def _refused(folder: Path, page: bytes) -> str:
+    """``marops report --force`` on ``folder``, refused: its one line; the page as it was
+    (``page``: its bytes), nothing else written."""
+    res = runner.invoke(app, ["report", str(folder), "--force"])
+    lines = res.output.strip().splitlines()
+    assert res.exit_code == 2 and len(lines) == 1, res.output
+    assert (folder / "report.html").read_bytes() == page
+    return lines[0]
+
+
+_FINITE = "expected a finite number, got"
+
+
+def _first_customer(doc: dict) -> int:
+    return next(i for i, s in enumerate(doc["stops"]) if s["kind"] == "customer")
+
+
+def _first_flown(doc: dict) -> int:
+    return next(i for i, r in enumerate(doc["routes"]) if r["n_parcels"] > 0)
+
+
+_KINDS = "expected one of 'start', 'customer', 'end', got"
+_ISO = "expected a time (ISO 8601: 2022-08-11T09:00:00+08:00), got"
+
+
+@pytest.mark.parametrize(
+    ("name", "key", "value", "says"),
+    [
+        ("stops.json", "stops[{i}].arrive_time", "garbage", f"{_ISO} 'garbage'"),
+        ("routes.json", "routes[{i}].window_start", 12345, f"{_ISO} 12345"),
+        ("stops.json", "stops[{i}].kind", 5, f"{_KINDS} 5"),
+        ("stops.json", "stops[{i}].kind", "teleport", f"{_KINDS} 'teleport'"),
+        ("stops.json", "stops[{i}].lng", float("nan"), f"{_FINITE} nan"),
+        ("stops.json", "stops[{i}].weight_kg", None, f"{_FINITE} null"),
+        ("routes.json", "meta.solver", [1], "expected an object, got [1]"),
+        ("routes.json", "meta", "x", "expected an object, got 'x'"),
+        ("routes.json", "routes[{i}].drone", 99, "drone 99 flies in window 0, but stops.json has"),
+        ("metrics.json", "days", "x", "expected a list, got 'x'"),
+    ],
+    ids=[
+        "text-time", "number-time", "number-kind", "unknown-kind", "nan-number",
+        "empty-weight", "list-solver", "text-meta", "flight-without-stops", "text-days",
+    ],
+)  # fmt: skip
+def test_marops_report_on_an_edited_json_output_names_the_key(
+    json_day_run: Path, tmp_path: Path, name: str, key: str, value: object, says: str
+) -> None:
+    """A --format json day's files edited (a time that is none, a stop of no kind marops
+    knows, NaN, metadata of another type, a flight without its stops): one line naming
+    the file and the key, the page left as it was. Each was an error of the page's
+    making that named the folder alone (``Invalid isoformat string``)."""
+    copy = tmp_path / "day"
+    shutil.copytree(json_day_run, copy)
+    path = copy / name
+    doc = json.loads(path.read_text(encoding="utf-8"))
+    i = _first_customer(doc) if name == "stops.json" else 0
+    i = _first_flown(doc) if key.startswith("routes[") else i
+    *parents, last = key.format(i=i).replace("[", ".").replace("]", "").split(".")
+    held = doc
+    for k in parents:
+        held = held[int(k) if k.isdigit() else k]
+    held[last] = value
+    path.write_text(json.dumps(doc), encoding="utf-8")  # NaN as Python's JSON writes it
+    line = _refused(copy, (copy / "report.html").read_bytes())
+    if key.endswith(".drone"):  # the flight is named, not its drone's key
+        key = key.removesuffix(".drone")
+    assert line.startswith(f"marops: error: {path}, key '{key.format(i=i)}': {says}"), line
+
+
+def _set_cells(path: Path, column: str, cells: dict[int, object]) -> None:
+    """Parquet ``column``'s rows ``cells`` (0-based) set, its type and the file's
+    metadata kept."""
+    import pyarrow as pa
+
+    table = pq.read_table(path)
+    values = table.column(column).to_pylist()
+    for i, v in cells.items():
+        values[i] = v
+    field = table.schema.field(column)
+    new = pa.array(values, type=field.type)
+    table = table.set_column(table.schema.get_field_index(column), field, new)
+    pq.write_table(table, path)
+
+
+@pytest.mark.parametrize(
+    ("name", "column", "value", "says"),
+    [
+        ("stops.parquet", "kind", "teleport", f"{_KINDS} 'teleport'"),
+        ("stops.parquet", "arrive_time", None, "expected a time, got an empty cell"),
+        ("stops.parquet", "weight_kg", None, f"{_FINITE} an empty cell"),
+        ("stops.parquet", "lat", float("inf"), f"{_FINITE} inf"),
+        ("routes.parquet", "drone", 99, "drone 99 flies in window 0, but stops.parquet has"),
+    ],
+    ids=["unknown-kind", "empty-time", "empty-weight", "inf-number", "flight-without-stops"],
+)
+def test_marops_report_on_an_edited_route_table_names_its_row_and_column(
+    day_run: Path, tmp_path: Path, name: str, column: str, value: object, says: str
+) -> None:
+    """A day's Parquet files edited in a cell, each column of its type (a stop of no
+    kind marops knows, a time or a customer's weight emptied, a flight without its
+    stops): one line naming the file, the row and the column, not an error of the
+    page's making naming the folder alone."""
+    copy = tmp_path / "day"
+    shutil.copytree(day_run, copy)
+    path = copy / name
+    rows = pq.read_table(path).to_pylist()
+    if name == "stops.parquet":
+        i = next(k for k, s in enumerate(rows) if s["kind"] == "customer")
+    else:
+        i = next(k for k, r in enumerate(rows) if r["n_parcels"] > 0 and r["window"] == 0)
+    _set_cells(path, column, {i: value})
+    line = _refused(copy, (copy / "report.html").read_bytes())
+    at = f"row {i + 2}" + (f", column '{column}'" if name == "stops.parquet" else "")
+    assert line.startswith(f"marops: error: {path}, {at}: {says}"), line
 
 
 def test_the_city_map_draws_what_the_files_hold_and_leaves_out_the_rest(tmp_path: Path) -> None:
