@@ -3,24 +3,137 @@ the paired differences with their bootstrap intervals, and the sweeps, interacti
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Any
 
 from ..config import count
+from .checks import Col, check_meta, check_table, meta_error, reading
 from .folder import read_input, table_meta
 from .page import Page, plain, short
 
+_INT, _NUMBER, _TEXT = Col("int"), Col("number"), Col("text")
+_SETTING = {
+    "setting": _INT,
+    "alpha": _NUMBER,
+    "drones": _INT,
+    "coverage": _NUMBER,
+    "depots_n": _INT,
+    "n_actions": _INT,
+}
+"""A setting's columns in the summary (its title, the sweeps' axes)."""
+_RESULTS = {
+    "setting": _INT,
+    "method": _TEXT,
+    "day": Col("date"),
+    "objective_j_mj": _NUMBER,
+    "delivered_share": _NUMBER,
+}
+"""The columns of ``results.parquet`` the chart of every day draws."""
+_PAIRED = {
+    "setting": _INT,
+    "method": _TEXT,
+    "metric": _TEXT,
+    "days": _INT,
+    # no interval where no day is shared (a CSV's nan reads as an empty cell)
+    **dict.fromkeys(("mean_diff", "ci_low", "ci_high"), Col("number", empty=True, finite=False)),
+    "days_better": _INT,
+    "lower_is_better": Col("bool"),
+}
+_FRONTIER = {
+    "method": _TEXT,
+    **dict.fromkeys(("alpha", "delivered", "avg_delay_h", "energy_kj"), _NUMBER),
+    "dominated": Col("bool"),
+}
+"""The frontier's columns its figure draws (a frontier.csv without them has none)."""
+_OPTIONAL = {
+    "calendar_days": _INT,
+    "hub": _INT,
+    "repeat": _INT,
+    "against": _TEXT,
+    "few_days": Col("bool"),
+    "drones": _INT,
+    "depots_n": _INT,
+    # none per parcel where a point delivers none
+    "energy_per_parcel_kj": Col("number", empty=True, finite=False),
+    "delivered_share": _NUMBER,
+    "dominated_by": Col("text", empty=True),
+}
+"""Columns the page reads where a table has them (an older marops wrote fewer)."""
+_META: dict[str, type | tuple[type, ...]] = {
+    "days": list,
+    "methods": list,
+    "repeats": int,
+    "swept": list,
+    "settings": list,
+    "config": dict,
+}
+"""The keys of ``results.parquet``'s marops metadata the page reads."""
+
+
+def _columns(table: Any, columns: dict[str, Col]) -> dict[str, Col]:
+    """``columns``, with the :data:`_OPTIONAL` ones that ``table`` has."""
+    extra = {c: col for c, col in _OPTIONAL.items() if c in table.column_names}
+    return {**extra, **columns}
+
+
+def _summary_columns(summary: Any) -> dict[str, Col]:
+    """The summary's columns the page reads: a setting's, the method's, and the mean and
+    spread of each metric of its tables that it has (a spread is empty over one day)."""
+    from ..evaluate.report import TABLE_ROWS
+
+    columns = {**_SETTING, "method": _TEXT}
+    for m in TABLE_ROWS:
+        if f"{m.name}_mean" in summary.column_names:
+            columns[f"{m.name}_mean"] = _NUMBER
+            columns[f"{m.name}_std"] = Col("number", empty=True, finite=False)
+    return columns
+
+
+def _check_meta(meta: dict[str, Any], path: Path) -> None:
+    """``results.parquet``'s metadata as marops writes it: the days and methods as
+    text, each flag swept one of the sweep's and each setting its flags' numbers."""
+    from ..evaluate.settings import SWEEP_FLAGS
+
+    check_meta(meta, path, _META)
+    for key in ("days", "methods", "swept"):
+        for value in meta.get(key) or []:
+            if not isinstance(value, str) or (key == "swept" and value not in SWEEP_FLAGS):
+                what = f"flags among {', '.join(SWEEP_FLAGS)}" if key == "swept" else "text"
+                raise meta_error(path, key, f"a list of {what}", meta[key])
+    for s in meta.get("settings") or []:
+        if not isinstance(s, dict) or not all(
+            isinstance(s.get(f), int | float) and not isinstance(s.get(f), bool)
+            for f in SWEEP_FLAGS
+        ):
+            raise meta_error(path, "settings", "a list of settings", meta["settings"])
+    for section in (meta.get("config") or {}).values():
+        if not isinstance(section, dict):
+            raise meta_error(path, "config", "an object of sections", meta["config"])
+
 
 def _tables(folder: Path) -> tuple[Any, Any, Any | None, dict[str, Any]]:
-    """(summary, results, paired or None, the results' metadata) of ``folder``."""
+    """(summary, results, paired or None, the results' metadata) of ``folder``, each
+    column the page reads checked as marops writes it."""
     from ..data.arrow import read_csv_file, read_parquet
 
     summary = read_input(folder / "summary.csv", read_csv_file)
+    _check(summary, folder / "summary.csv", _summary_columns(summary), "an evaluation's summary")
     results = read_input(folder / "results.parquet", read_parquet)
+    _check(results, folder / "results.parquet", _RESULTS, "an evaluation's results")
     meta = table_meta(results, folder / "results.parquet")
+    _check_meta(meta, folder / "results.parquet")
     paired_path = folder / "paired.csv"
     paired = read_input(paired_path, read_csv_file) if paired_path.is_file() else None
+    if paired is not None and paired.num_rows:
+        _check(paired, paired_path, _PAIRED, "a paired comparison")
     return summary, results, paired, meta
+
+
+def _check(table: Any, path: Path, columns: dict[str, Col], what: str) -> None:
+    """:func:`~.checks.check_table` of ``columns`` and the :data:`_OPTIONAL` ones
+    ``table`` has."""
+    check_table(table, path, _columns(table, columns), what, redo="evaluate again")
 
 
 def evaluation_page(folder: Path) -> Page:
@@ -44,18 +157,26 @@ def evaluation_page(folder: Path) -> Page:
     if front.is_file():  # first: an analyst picks an operating point by looking
         from ..data.arrow import read_csv_file
 
-        _frontier(page, read_input(front, read_csv_file).to_pylist())
-    settings = sorted(set(summary.column("setting").to_pylist()))
-    titles = {s: setting_title(summary, s) for s in settings}
-    for s in settings:
-        methods, body = table3(summary, s)
-        page.heading(f"Setting {s}: {titles[s]}")
-        page.table(("metric", *methods), [(label, *cells) for label, cells in body])
+        table = read_input(front, read_csv_file)
+        if _FRONTIER.keys() <= set(table.column_names):  # else of an older marops: none
+            _check(table, front, _FRONTIER, "a frontier")
+        with reading(front):
+            _frontier(page, table.to_pylist())
+    with reading(folder / "summary.csv"):
+        settings = sorted(set(summary.column("setting").to_pylist()))
+        titles = {s: setting_title(summary, s) for s in settings}
+        for s in settings:
+            methods, body = table3(summary, s)
+            page.heading(f"Setting {s}: {titles[s]}")
+            page.table(("metric", *methods), [(label, *cells) for label, cells in body])
     if paired is not None and paired.num_rows:
-        _paired(page, paired, titles)
-    for flag in meta.get("swept", []):
-        _sweep(page, summary, flag, meta)
-    _per_day(page, results, titles)
+        with reading(folder / "paired.csv"):
+            _paired(page, paired, titles)
+    with reading(folder / "summary.csv"):
+        for flag in meta.get("swept", []):
+            _sweep(page, summary, flag, meta)
+    with reading(folder / "results.parquet"):
+        _per_day(page, results, titles)
     return page
 
 
@@ -66,7 +187,7 @@ def _paired(page: Page, paired: Any, titles: dict[int, str]) -> None:
 
     from ..evaluate.paired import MIN_DAYS, verdict
 
-    rows = paired.to_pylist()
+    rows = [_nan_for_empty(r, ("mean_diff", "ci_low", "ci_high")) for r in paired.to_pylist()]
     against = rows[0].get("against", "the reference")
     page.heading(f"Paired against {against}: per-day difference, bootstrap 95 % CI")
     if any(r.get("few_days") for r in rows):  # as evaluate warns on the terminal
@@ -82,8 +203,8 @@ def _paired(page: Page, paired: Any, titles: dict[int, str]) -> None:
                 r["method"],
                 r["metric"],
                 r["days"],
-                f"{r['mean_diff']:+.4g}",
-                f"[{r['ci_low']:+.4g}, {r['ci_high']:+.4g}]",
+                _shown(r["mean_diff"], "{:+.4g}"),
+                f"[{_shown(r['ci_low'], '{:+.4g}')}, {_shown(r['ci_high'], '{:+.4g}')}]",
                 f"{r['days_better']}/{r['days']}",
                 verdict(r),
             )
@@ -173,8 +294,7 @@ def _frontier(page: Page, rows: list[dict[str, Any]]) -> None:
     from plotly.colors import qualitative
     from plotly.subplots import make_subplots
 
-    need = {"method", "alpha", "delivered", "avg_delay_h", "energy_kj", "dominated"}
-    if not rows or not need <= set(rows[0]):
+    if not rows or not _FRONTIER.keys() <= set(rows[0]):
         return
     groups = list(dict.fromkeys((r.get("drones"), r.get("depots_n")) for r in rows))
     fig = make_subplots(
@@ -242,7 +362,7 @@ def _frontier(page: Page, rows: list[dict[str, Any]]) -> None:
                 f"{r['delivered']:.1f}",
                 f"{r['avg_delay_h']:.3f}",
                 f"{r['energy_kj'] / 1e3:.2f}",
-                f"{r.get('energy_per_parcel_kj', float('nan')):.1f}",
+                _shown(r.get("energy_per_parcel_kj"), "{:.1f}"),
                 r.get("dominated_by") or "—",
             )
             for r in rows
@@ -250,14 +370,26 @@ def _frontier(page: Page, rows: list[dict[str, Any]]) -> None:
     )
 
 
+def _shown(value: float | None, fmt: str) -> str:
+    """``value`` in ``fmt``; ``n/a`` where there is none (NaN, or an older file's cell
+    that is not there), as the summary tables show a spread over one day."""
+    return fmt.format(value) if value is not None and math.isfinite(value) else "n/a"
+
+
+def _nan_for_empty(row: dict[str, Any], keys: tuple[str, ...]) -> dict[str, Any]:
+    """``row`` with NaN for the empty cells of ``keys``: the NaN marops wrote (an interval
+    over no shared day), which a CSV reads back as an empty cell."""
+    return {**row, **{k: float("nan") for k in keys if k in row and row[k] is None}}
+
+
 def _frontier_hover(r: dict[str, Any]) -> list[str]:
     """A frontier point's hover lines (each escaped by the caller)."""
     lines = [
         f"{short(r['method'])} α={r['alpha']:g}",
-        f"delivered {r['delivered']:.1f} per day ({r.get('delivered_share', float('nan')):.3f})",
+        f"delivered {r['delivered']:.1f} per day ({_shown(r.get('delivered_share'), '{:.3f}')})",
         f"delay {r['avg_delay_h']:.3f} h",
         f"energy {r['energy_kj'] / 1e3:.2f} MJ per day "
-        f"({r.get('energy_per_parcel_kj', float('nan')):.1f} kJ per parcel)",
+        f"({_shown(r.get('energy_per_parcel_kj'), '{:.1f}')} kJ per parcel)",
     ]
     if r["dominated"]:
         lines.append(f"dominated by {short(r.get('dominated_by') or '')}")

@@ -792,7 +792,95 @@ def _refused(folder: Path, page: bytes) -> str:
     return lines[0]
 
 
+def _write_csv(path: Path, rows: list[dict]) -> None:
+    import csv
+
+    with path.open("w", newline="") as fh:
+        writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
+        writer.writeheader()
+        writer.writerows(rows)
+
+
 _FINITE = "expected a finite number, got"
+
+
+@pytest.mark.parametrize(
+    ("name", "column", "value", "at", "says"),
+    [
+        ("summary.csv", "mean_energy_kj_mean", "nan", "all", f"{_FINITE} an empty cell or nan"),
+        ("summary.csv", "avg_delay_h_mean", "inf", 1, f"{_FINITE} inf"),
+        ("summary.csv", "alpha", "x", 1, f"{_FINITE} 'x'"),
+        ("summary.csv", "method", None, None, "has no column 'method'"),
+        ("results.parquet", "day", None, None, "has no column 'day'"),
+        ("paired.csv", "mean_diff", "lots", 1, "expected a number, got 'lots'"),
+        ("frontier.csv", "dominated", "perhaps", 2, "expected true or false, got 'perhaps'"),
+    ],
+    ids=["nan-mean", "inf-mean", "text-alpha", "no-method", "no-day", "text-diff", "text-flag"],
+)
+def test_marops_report_on_an_edited_evaluation_table_names_its_row_and_column(
+    evaluation_run: Path, tmp_path: Path, name: str, column: str, value: str | None, at, says: str
+) -> None:
+    """An evaluation's table edited (a mean turned to NaN, infinity or text, a column
+    gone): one line naming the file, the row (the header is row 1) and the column, as
+    the data's readers say it; the page left as it was. The page was an error of its
+    own making that named the folder alone (``unsupported format string``)."""
+    copy = tmp_path / "ev"
+    shutil.copytree(evaluation_run, copy)
+    path = copy / name
+    if name.endswith(".parquet"):
+        table = pq.read_table(path)
+        edited = table.remove_column(table.schema.get_field_index(column))
+        pq.write_table(edited.replace_schema_metadata(table.schema.metadata), path)
+    else:
+        rows = _csv_rows(path)
+        for i, r in enumerate(rows):
+            if value is None:
+                del r[column]
+            elif at in ("all", i):
+                r[column] = value
+        _write_csv(path, rows)
+    line = _refused(copy, (copy / "report.html").read_bytes())
+    row = "" if at is None else f"row {2 if at == 'all' else at + 2}, "
+    assert line.startswith(f"marops: error: {path}, {row}column '{column}': "), line
+    assert says in line
+
+
+def test_what_no_check_catches_is_named_by_the_file_the_page_was_reading(
+    evaluation_run: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The last resort, where a file holds what its checks let through and the page
+    cannot use: one line naming the file whose part of the page failed, not the folder."""
+    import marops_cli.evaluate.report as tables
+
+    def fails(*args: object) -> None:
+        raise KeyError("avg_delay_h_std")
+
+    monkeypatch.setattr(tables, "table3", fails)
+    copy = tmp_path / "ev"
+    shutil.copytree(evaluation_run, copy)
+    line = _refused(copy, (copy / "report.html").read_bytes())
+    said = f"marops: error: {copy / 'summary.csv'}: holds what marops cannot report on, edited"
+    assert line.startswith(said) and line.endswith("('avg_delay_h_std')"), line
+
+
+def test_nan_that_an_evaluation_writes_is_shown_not_refused(
+    evaluation_run: Path, tmp_path: Path
+) -> None:
+    """NaN an evaluation writes (a paired difference over no shared day, the energy per
+    parcel of a point that delivers none) reads back from the CSV as an empty cell: the
+    page shows it (it stopped on formatting an empty cell)."""
+    copy = tmp_path / "ev"
+    shutil.copytree(evaluation_run, copy)
+    paired = _csv_rows(copy / "paired.csv")
+    paired[0].update(mean_diff="nan", ci_low="nan", ci_high="nan")
+    _write_csv(copy / "paired.csv", paired)
+    front = _csv_rows(copy / "frontier.csv")
+    front[0].update(energy_per_parcel_kj="nan")
+    _write_csv(copy / "frontier.csv", front)
+    invoke("report", copy, "--quiet", "--force")
+    html = (copy / "report.html").read_text(encoding="utf-8")
+    assert "<td>n/a</td><td>[n/a, n/a]</td><td>0/1</td><td>n/a</td>" in html  # paired
+    assert "<td>n/a</td><td>—</td>" in html  # the frontier's kJ per parcel
 
 
 def _first_customer(doc: dict) -> int:
