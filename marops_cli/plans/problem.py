@@ -266,7 +266,9 @@ def pricing_delay_h(
     wait_credit`` times its cheapest detour, :func:`wait_credit_j`); plus, in the day's
     last window, the night a parcel left then waits (``[plan] night_h``; None: 24 h less
     the service hours); plus, in every window, ``[plan] serve_h``. The paper's planner
-    prices the delay alone."""
+    prices the delay alone. At α = 1 (λ = 0: energy alone counts) the wait credit has
+    no hours to be counted in and is left out: a delay priced at infinity would make
+    every prize λ · v not a number."""
     delay = np.asarray(view.pending_delay_h, dtype=np.float64)
     if cfg.planner != "pool":
         return delay
@@ -274,7 +276,7 @@ def pricing_delay_h(
     if night is None:
         night = max(0.0, 24.0 - view.n_windows * view.window_h)
     priced = priced_delay_h(delay, view.t == view.n_windows - 1, night)
-    if cfg.wait_credit > 0 and delay.size:
+    if cfg.wait_credit > 0 and delay.size and lam > 0:
         credit = wait_credit_j(view.pending_xy, view.depots.xy, float(model.energy_per_m(0.0)))
         priced = priced + cfg.wait_credit * credit / lam
     return priced + cfg.serve_h if cfg.serve_h > 0 else priced

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import ast
 import pathlib
+import warnings
 from dataclasses import replace
 
 import numpy as np
@@ -102,3 +103,14 @@ def test_lambda_is_derived_in_one_place_in_the_planning_core():
         p.stem for p in PLANS.glob("*.py") if "lam_j(" in p.read_text() and p.stem != "objective"
     }
     assert callers == {"problem", "plans"}
+
+
+def test_alpha_one_prices_every_request_at_a_number(model):
+    """At α = 1 (λ = 0) the pool's wait credit is left out: every priced delay, prize and
+    search prize is a finite number, with no warning of a division by zero."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        problem = WindowProblem.of(hand_view(), np.array([0, 1]), model, PlanConfig(alpha=1.0))
+    assert problem.lam == 0.0
+    assert np.isfinite(problem.priced_h).all() and np.isfinite(problem.search).all()
+    assert_array_equal(problem.search, np.zeros(problem.n_requests))
