@@ -93,13 +93,20 @@ def _over_new_year(start: dt.date, end: dt.date, last: str, year: int) -> str:
     )
 
 
+MAX_DAYS = 3660
+"""Days one list of days may hold (ten years and more): a run checks the outputs of
+every day it names before it reads anything, so ``00010101..99991231`` (3.6 million
+days) would keep it busy for an hour before it found no such day in the file."""
+
+
 def parse_days(spec: str, year: int, option: str | None = None) -> list[dt.date]:
     """``"0820,0821"`` or ``"0820..0827"`` (inclusive), mixed freely -> dates.
 
     Dates keep the order given; a repeated date is listed once. Errors name ``option``
-    (e.g. ``--dates``) when given.
+    (e.g. ``--dates``) when given; more than :data:`MAX_DAYS` days are refused before
+    they are listed.
     """
-    days: list[dt.date] = []
+    days: dict[dt.date, None] = {}
     for item in str(spec).split(","):
         item = item.strip()
         if not item:
@@ -112,8 +119,13 @@ def parse_days(spec: str, year: int, option: str | None = None) -> list[dt.date]
             raise _bad(
                 f"expected a range from an earlier to a later date, got {item!r}{over}", option
             )
-        days.extend(start + dt.timedelta(days=i) for i in range((end - start).days + 1))
-    return list(dict.fromkeys(days))
+        n = (end - start).days + 1
+        if n <= MAX_DAYS:
+            days.update(dict.fromkeys(start + dt.timedelta(days=i) for i in range(n)))
+        if n > MAX_DAYS or len(days) > MAX_DAYS:
+            many = f"{n:,} days in {item!r}" if n > MAX_DAYS else f"more days in {spec!r}"
+            raise _bad(f"{many}, more than the {MAX_DAYS:,} (ten years) one run takes", option)
+    return list(days)
 
 
 def format_days(days: Iterable[dt.date], most: int = 6) -> str:

@@ -11,6 +11,7 @@ import pyarrow as pa
 import pytest
 
 from marops_cli.data.dates import (
+    MAX_DAYS,
     TIME_BAD,
     TIME_EMPTY,
     TIME_OK,
@@ -215,3 +216,27 @@ def test_split_by_date_keeps_the_days_of_the_former_training_rule() -> None:
     for n in range(2, 400):
         n_train = min(n - 1, max(1, round(0.8 * n)))
         assert len(split_by_date(_dates(n))[0]) == n_train, n
+
+
+def test_parse_days_refuses_more_days_than_a_run_takes() -> None:
+    """A range of millions of days is refused before it is listed (a run checks every
+    day's outputs before it reads the file); ten years are taken, repeats counted once."""
+    with pytest.raises(InputError, match=r"^invalid option --dates: 3,652,059 days in "):
+        parse_days("00010101..99991231", 2022, "--dates")
+    with pytest.raises(InputError, match=rf"more days in .*more than the {MAX_DAYS:,}"):
+        parse_days("2000-01-01..2009-12-31,2010-01-01..2010-12-31", 2022)
+    assert len(parse_days("2000-01-01..2009-12-31", 2022)) == 3653
+    assert len(parse_days(",".join(["2000-01-01..2009-12-31"] * 3), 2022)) == 3653
+
+
+def test_cli_refuses_a_range_of_millions_of_days_at_once(example_csv: Path, tmp_path: Path) -> None:
+    from typer.testing import CliRunner
+
+    from marops_cli.cli.app import app
+
+    out = tmp_path / "o"
+    args = ["replay-day", str(example_csv), "--dates", "00010101..99991231", "--out", str(out)]
+    res = CliRunner().invoke(app, args)
+    assert res.exit_code == 2 and not out.exists()
+    assert res.stderr.startswith("marops: error: invalid option --dates: 3,652,059 days")
+    assert res.stderr.count("\n") == 1
