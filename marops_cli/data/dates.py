@@ -22,12 +22,13 @@ import pyarrow.compute as pc
 from ..errors import InputError
 from .arrow import is_text
 
-# (pattern, whether it carries the year)
+# (pattern, whether it carries the year); ASCII digits only, as in the files (``\d``
+# alone also matches Arabic-Indic and full-width digits, which int() reads).
 _DAY_FORMS = (
-    (re.compile(r"(\d{1,2})(\d{2})"), False),  # 820, 0820
-    (re.compile(r"(\d{1,2})-(\d{1,2})"), False),  # 08-20
-    (re.compile(r"(\d{4})(\d{2})(\d{2})"), True),  # 20220820
-    (re.compile(r"(\d{4})-(\d{1,2})-(\d{1,2})"), True),  # 2022-08-20
+    (re.compile(r"(\d{1,2})(\d{2})", re.ASCII), False),  # 820, 0820
+    (re.compile(r"(\d{1,2})-(\d{1,2})", re.ASCII), False),  # 08-20
+    (re.compile(r"(\d{4})(\d{2})(\d{2})", re.ASCII), True),  # 20220820
+    (re.compile(r"(\d{4})-(\d{1,2})-(\d{1,2})", re.ASCII), True),  # 2022-08-20
 )
 _EXPECTED_DAY = "expected a date like 820, 0820 or 2022-08-20"
 
@@ -298,9 +299,11 @@ def _missing_marker(cells: pa.Array) -> np.ndarray:
     return found.fill_null(False).to_numpy(zero_copy_only=False)
 
 
-# Forms other tools write: 2022/08/20, 8-20 9:05, 10:31 without seconds, 10:31:05.000.
+# Forms other tools write: 2022/08/20, 8-20 9:05, 10:31 without seconds, 10:31:05.000;
+# in ASCII digits, as the fast parser and ds take them.
 _LENIENT = re.compile(
-    r"^\s*(?:(\d{4})[-/.])?(\d{1,2})[-/.](\d{1,2})[ T](\d{1,2}):(\d{2})(?::(\d{2})(?:\.\d+)?)?\s*$"
+    r"^\s*(?:(\d{4})[-/.])?(\d{1,2})[-/.](\d{1,2})[ T](\d{1,2}):(\d{2})(?::(\d{2})(?:\.\d+)?)?\s*$",
+    re.ASCII,
 )
 _EPOCH = dt.datetime(1970, 1, 1)
 

@@ -240,3 +240,17 @@ def test_cli_refuses_a_range_of_millions_of_days_at_once(example_csv: Path, tmp_
     assert res.exit_code == 2 and not out.exists()
     assert res.stderr.startswith("marops: error: invalid option --dates: 3,652,059 days")
     assert res.stderr.count("\n") == 1
+
+
+@pytest.mark.parametrize("digits", ["٠١٢٣٤٥٦٧٨٩", "０１２３４５６７８９", "۰۱۲۳۴۵۶۷۸۹"])
+def test_days_and_times_take_ascii_digits_only(digits: str) -> None:
+    """A time or a day in other digits (Arabic-Indic, full-width) is no time or day, as
+    a ds of them is none: int() would read them, so the lenient forms took them."""
+    other = str.maketrans("0123456789", digits)
+    cells = ["08-20 10:31:05", "8-20 9:05:00", "2022/08/20 10:31"]
+    secs, status = parse_times(pa.array([c.translate(other) for c in cells]), 2022)
+    np.testing.assert_array_equal(status, [TIME_BAD] * 3)
+    assert (secs == 0).all()
+    for day in ("0820", "08-20", "20220820", "2022-08-20"):
+        with pytest.raises(InputError, match=r"^invalid option --date: expected a date"):
+            parse_day(day.translate(other), 2022, "--date")
