@@ -150,7 +150,7 @@ def _not_utf8(head: bytes, at: int, path: Path) -> InputError:
     if row > 1:
         names = next(csv.reader([head.split(b"\n", 1)[0].decode("utf-8", "replace")]), [])
         index = next(csv.reader([lines[-1].decode("utf-8", "replace")]), [""])
-        k = len(index) - 1
+        k = max(len(index), 1) - 1  # the line up to the byte is empty: its first field
         column = names[k].strip() if 0 <= k < len(names) else None
     return InputError(
         f"not UTF-8 text: byte 0x{head[at]:02X} at byte offset {at} (save the file as UTF-8)",

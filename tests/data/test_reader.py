@@ -769,6 +769,28 @@ def test_bytes_that_are_not_utf8_in_a_column_not_read_do_not_matter(tmp_path: Pa
         assert (err.value.row, err.value.column) == (k + 2, "aoi_id")
 
 
+def test_bytes_that_are_not_utf8_opening_a_line_in_a_column_not_read_do_not_matter(
+    tmp_path: Path,
+) -> None:
+    """The first column of a line, when marops does not read it (city, first here, in
+    GBK), is not read either; in a first column it reads (order_id) such bytes are an
+    error naming it."""
+    rows = [row(str(1000 + i), lng=f"{121.40 + 0.001 * i:.4f}") for i in range(20)]
+    columns = ("city", *(c for c in LADE_COLUMNS if c != "city"))
+    text = write_csv(tmp_path / "d.csv", rows, columns=columns).read_bytes()
+    plain = read_lade(tmp_path / "d.csv", DataConfig())
+    (tmp_path / "gbk.csv").write_bytes(text.replace(b"Shanghai", "上海市".encode("gbk")))
+    t = read_lade(tmp_path / "gbk.csv", DataConfig())
+    assert list(t.order_id) == list(plain.order_id) and len(t) == 20
+    lines = write_csv(tmp_path / "ids.csv", rows).read_bytes().split(b"\n")
+    assert lines[3].startswith(b"1002,")
+    lines[3] = b"\xc9\xcf" + lines[3]  # order_id, the first column
+    (tmp_path / "bad.csv").write_bytes(b"\n".join(lines))
+    with pytest.raises(InputError, match="not UTF-8") as err:
+        read_lade(tmp_path / "bad.csv", DataConfig())
+    assert (err.value.row, err.value.column) == (4, "order_id")
+
+
 def test_a_file_name_that_is_not_utf8_reads(tmp_path: Path) -> None:
     """A name in another encoding (an archive's GBK names) is no reason to fail: pyarrow
     opened the path as UTF-8 and raised UnicodeEncodeError, a traceback."""
