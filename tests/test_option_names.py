@@ -172,6 +172,11 @@ def test_every_api_function_has_a_case() -> None:
         (["replay-day", "{data}", "--date", "0811", "--segment", "x"], "--segment expects"),
         (["evaluate", "{data}", "--workers", "0"], "--workers expects 1 to 256, got 0"),
         (["evaluate", "{data}", "--alpha", "0.2,x"], "--alpha expects numbers separated"),
+        # Numbers in ASCII digits only: int() and float() read these Arabic-Indic ones.
+        (["segment", "{data}", "--hubs", "\u0663"], "--hubs expects a number of hubs"),
+        (["segment", "{data}", "--center", "\u0661\u0662\u0661,\u0663\u0661"], "--center expects"),
+        (["evaluate", "{data}", "--alpha", "0.2,\u0660.\u0665"], "--alpha expects numbers"),
+        (["evaluate", "{data}", "--drones", "\uff18"], "--drones expects whole numbers"),
         (
             ["evaluate", "{data}", "--methods", "stay", "--against", "myopic"],
             "--against 'myopic' is not among --methods (stay); add it to --methods",

@@ -51,10 +51,12 @@ def require_input(path: str | Path) -> None:
 
 
 def parse_center(text: str | None) -> tuple[float, float] | None:
-    """``"121.47,31.23"`` -> (lng, lat)."""
+    """``"121.47,31.23"`` -> (lng, lat), in ASCII digits (``float`` alone reads others)."""
     if text is None:
         return None
     try:
+        if not text.isascii():
+            raise ValueError(text)
         lng_s, lat_s = text.split(",")
         lng, lat = float(lng_s), float(lat_s)
     except ValueError:

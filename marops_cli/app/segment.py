@@ -173,13 +173,14 @@ def _far_depots(progress: Progress, depots: Depots, history_xy: np.ndarray) -> N
 
 
 def hub_count(text: str | int) -> int | None:
-    """``--hubs``: a number of hubs (1 to ``MAX_HUBS``), or None for ``auto``."""
+    """``--hubs``: a number of hubs (1 to ``MAX_HUBS``, in ASCII digits), or None for
+    ``auto``."""
     from ..segment.hubs import MAX_HUBS
 
     if isinstance(text, str) and text.strip().lower() == "auto":
         return None
     try:
-        n = int(text)
+        n = int(text) if not isinstance(text, str) or text.isascii() else 0
     except ValueError:
         n = 0
     if not 1 <= n <= MAX_HUBS:

@@ -122,6 +122,8 @@ def _alpha_range(text: str | None) -> dict[str, Any]:
         return {"alpha_range": None}
     parts = text.replace(",", "-").split("-")
     try:
+        if not text.isascii():  # float() alone reads Arabic-Indic and full-width digits
+            raise ValueError(text)
         lo, hi = (float(x) for x in parts)
     except ValueError:
         msg = f"--alpha-range expects LOW-HIGH (e.g. 0.1-0.9) or fixed, got {text!r}"

@@ -113,12 +113,16 @@ class Job:
 
 def parse_values(text: str | None, kind: Callable[[str], T], name: str) -> list[T] | None:
     """``"0.2,0.5,0.8"`` -> ``[0.2, 0.5, 0.8]`` (None stays None: use the config's value);
-    a bad value is an error naming ``name`` (``option("alpha")``, marops_cli/errors.py)."""
+    a bad value is an error naming ``name`` (``option("alpha")``, marops_cli/errors.py).
+    Numbers are written in ASCII: ``int`` and ``float`` alone also read Arabic-Indic and
+    full-width digits, which the options of one value refuse."""
     if text is None:
         return None
     values: list[T] = []
     for item in str(text).split(","):
         try:
+            if not item.isascii():
+                raise ValueError(item)
             values.append(kind(item.strip()))
         except ValueError:
             what = "whole numbers" if kind is int else "numbers"

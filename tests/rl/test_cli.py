@@ -305,6 +305,8 @@ def test_training_log_gives_the_time_left(monkeypatch) -> None:
         (["--energy-per", "km"], "invalid option --energy-per: Input should be 'drone' or"),
         (["--eval-every", "0"], "invalid option --eval-every: "),
         (["--spares", "0"], "--spares expects positive whole numbers"),
+        (["--drones", "\u0668"], "--drones expects whole numbers separated by commas"),
+        (["--alpha-range", "\u0660.\u0661-\u0660.\u0669"], "--alpha-range expects LOW-HIGH"),
         (["--rules", "flow,stay"], "invalid option --rules: expected distinct names of ops-global"),
         (["--batteries", "plenty"], "--batteries: unknown battery regime 'plenty' (expected"),
         (["--batteries", ","], "--batteries expects names of scarce, default, ample"),
