@@ -35,6 +35,11 @@ Three kinds of actor, told apart by their number of weights (and their file's fo
   another, as :class:`~.rules.BacklogPolicy` does, each seeing where the drones before
   it chose to land; with :data:`BACKLOG_WEIGHTS` it is exactly the ``backlog`` rule.
 
+A joint actor's assignment is followed by two steps (docs/method.md §6.1): a depot whose
+parcels have waited a window with no drone coming calls an idle one, and every drone
+the actor keeps at its depot is the ``flow`` rule's to move (its min-cost flow of those
+drones, the others counted where they land).
+
 Features of destination d for a drone at depot s (``there``: drones at d that have not
 chosen yet, plus those that chose to land at d; the drone itself is not counted while it
 chooses; value: Σ (1 + delay h) of the parcels waiting at d; ``lg`` = log1p):
@@ -344,6 +349,8 @@ class LandingActor(EnergyAware):
         """The run's α (features 16–17), set by :meth:`configure`."""
         self._flow: FlowPolicy | None = FlowPolicy() if w.size == RULES_START.size else None
         """The flow rule whose plan features 18–20 read (``/4`` actors)."""
+        self._kept = FlowPolicy()
+        """The flow rule that plans the drones a joint actor keeps at their depots."""
 
     @property
     def joint(self) -> bool:
@@ -364,6 +371,7 @@ class LandingActor(EnergyAware):
         self.alpha = cfg.plan.alpha
         if self._flow is not None:
             self._flow.configure(cfg)
+        self._kept.configure(cfg)
         self.check_model(operating_model(cfg.ops))
 
     def check_model(self, model: str) -> None:
@@ -442,7 +450,28 @@ class LandingActor(EnergyAware):
             elif score[i, c] > _UNSUITED / 2:
                 out[ready[i]] = int(np.flatnonzero(dep.candidates[homes[i]] == landing[c])[0])
         self._call_drones(view, out, ready, base)
+        self._plan_kept(view, out, ready, base)
         return out
+
+    def _plan_kept(
+        self, view: WindowView, out: np.ndarray, ready: list[int], held: np.ndarray
+    ) -> None:
+        """The drones the actor keeps at their depots are the flow rule's to move
+        (docs/method.md §6.1): its min-cost flow of those drones to the coming work, the
+        other drones counted where they land (``held``: the drones at each depot that
+        cannot fly). The actor's moves and free landings stand; ``out`` changes in place."""
+        kept = [u for u in ready if out[u] == 0]
+        if not kept:
+            return
+        cand = view.depots.candidates
+        at = held.copy()
+        for u in ready:
+            s = int(view.drone_depot[u])
+            if out[u] == FREE:
+                continue  # lands near its last customer: no depot's drone
+            at[s if out[u] == 0 else int(cand[s, out[u]])] += 1.0
+        acts = self._kept.act(view, kept, at)
+        out[kept] = acts[kept]
 
     def _call_drones(
         self, view: WindowView, out: np.ndarray, ready: list[int], held: np.ndarray

@@ -289,17 +289,24 @@ class FlowPolicy(EnergyAware):
         restored = self._charge_w * view.window_h * 3600.0 / self._model.usable_j
         return self._chargers * min(1.0, restored)
 
-    def act(self, view: WindowView) -> np.ndarray:
+    def act(
+        self, view: WindowView, ready: list[int] | None = None, at: np.ndarray | None = None
+    ) -> np.ndarray:
+        """Each drone's action; ``ready``: the drones the flow plans (by default every
+        drone that can fly; the others stay), ``at``: ``(N,)`` the drones counted at each
+        depot, the planned ones at their own (by default where every drone is)."""
         from scipy.optimize import linprog
         from scipy.sparse import coo_array
 
         dep, n = view.depots, len(view.depots)
         out = np.zeros(view.n_drones, dtype=np.int64)
-        ready = [u for u in range(view.n_drones) if view.ready(u)]
+        if ready is None:
+            ready = [u for u in range(view.n_drones) if view.ready(u)]
         count, value = self.work(view)
         if not ready or count.sum() <= 0:
             return out
-        at = np.bincount(view.drone_depot, minlength=n).astype(np.float64)[:n]
+        if at is None:
+            at = np.bincount(view.drone_depot, minlength=n).astype(np.float64)[:n]
         held = at - np.bincount(view.drone_depot[ready], minlength=n)[:n]
         spares = free_spares(view, at)
         cap = np.minimum(spares, len(ready))

@@ -33,7 +33,7 @@ from marops_cli.policies.landing import (
 )
 from marops_cli.rl.es import write_landing_actor
 
-from .test_rules import FAR, _view
+from .test_rules import FAR, _landings, _view
 
 REALISTIC = "stock=home, batteries, busy"
 
@@ -90,8 +90,9 @@ def test_context_features_by_hand() -> None:
 def test_context_actor_reads_alpha() -> None:
     # Weight on α x distance only: at α 0.9 the actor flies to the farthest depot it can
     # reach when the weight is positive, and stays when it is negative; the run's α comes
-    # from the planner config.
-    view = _view([0.0, 800.0, 1600.0, FAR], [1], [0])
+    # from the planner config. The one parcel waits at the drone's own depot, so the
+    # flow rule, which moves the drones the actor keeps home, keeps it there too.
+    view = _view([0.0, 800.0, 1600.0, FAR], [0], [0])
     w = CONTEXT_START.copy()
     w[FEATURES.index("backlog score")] = 0.0
     w[len(FEATURES) + CONTEXT_FEATURES.index("alpha x distance km")] = 1.0
@@ -280,6 +281,36 @@ def test_no_drone_is_called_for_fresh_parcels_or_where_one_is() -> None:
     # A drone landing where parcels wait is not idle: the backlog score sends the drone
     # at depot 1 to depot 2's parcel, and nothing calls it on to depot 3.
     assert _called([2, 3], [1], [0.0, 1.0]) == [2]
+
+
+def test_the_drones_the_actor_keeps_home_are_the_flow_rules_to_move() -> None:
+    """Two drones at depot 0, where nothing waits; a parcel at depot 1 (2 km) and one at
+    depot 2 (4 km). An actor that keeps every drone home (a large weight on staying)
+    hands both to the flow rule, which sends one to each depot (as it does alone)."""
+    view = _view([0.0, 2000.0, 4000.0], stock=[1, 2], drones=[0, 0])
+    w = JOINT_START.copy()
+    w[FEATURES.index("stay")] = 5.0
+    assert _landed(view, LandingActor(w).act(view)) == [1, 2]
+    assert _landed(view, FlowPolicy().act(view)) == [1, 2]
+
+
+def test_the_actors_moves_stand_and_count_where_they_land() -> None:
+    """Two drones at depot 0; five parcels at depot 1, one drone's share of them, and
+    nothing elsewhere. The actor sends drone 0 to depot 1 and keeps drone 1 home: the
+    flow rule counts drone 0 at depot 1, where no work is left for a second drone, so
+    drone 1 stays; the flow rule alone sends exactly one drone there too."""
+    view = _view([0.0, 2000.0, 4000.0], stock=[1] * 5, drones=[0, 0])
+    w = JOINT_START.copy()
+    w[FEATURES.index("backlog score")] = 0.0
+    w[FEATURES.index("parcels")] = 1.0  # every slot at depot 1 scores lg 6
+    w[FEATURES.index("there")] = -10.0  # a second drone there scores far less
+    acts = LandingActor(w).act(view)
+    cand = view.depots.candidates
+    assert [int(cand[0, a]) for a in acts] == [1, 0]
+    assert sorted(_landings(view, FlowPolicy().act(view))) == [0, 1]
+    # Without the actor's move counted at depot 1, the flow rule would send drone 1 there.
+    flow = FlowPolicy()
+    assert _landings(view, flow.act(view, [1], np.array([2.0, 0.0, 0.0]))) == [0, 1]
 
 
 def test_operating_model_names() -> None:
