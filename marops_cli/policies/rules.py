@@ -295,18 +295,22 @@ class FlowPolicy(EnergyAware):
         """Each drone's action; ``ready``: the drones the flow plans (by default every
         drone that can fly; the others stay), ``at``: ``(N,)`` the drones counted at each
         depot, the planned ones at their own (by default where every drone is)."""
+        n = len(view.depots)
+        if ready is None:
+            ready = [u for u in range(view.n_drones) if view.ready(u)]
+        if at is None:
+            at = np.bincount(view.drone_depot, minlength=n).astype(np.float64)[:n]
+        return self._plan(view, ready, at)
+
+    def _plan(self, view: WindowView, ready: list[int], at: np.ndarray) -> np.ndarray:
         from scipy.optimize import linprog
         from scipy.sparse import coo_array
 
         dep, n = view.depots, len(view.depots)
         out = np.zeros(view.n_drones, dtype=np.int64)
-        if ready is None:
-            ready = [u for u in range(view.n_drones) if view.ready(u)]
         count, value = self.work(view)
         if not ready or count.sum() <= 0:
             return out
-        if at is None:
-            at = np.bincount(view.drone_depot, minlength=n).astype(np.float64)[:n]
         held = at - np.bincount(view.drone_depot[ready], minlength=n)[:n]
         spares = free_spares(view, at)
         cap = np.minimum(spares, len(ready))
