@@ -104,10 +104,7 @@ def _sniff(path: Path) -> tuple[str, str | None]:
         raise InputError("not a Parquet file (no PAR1 magic bytes)", file=path)
     if head[:2] == b"\x1f\x8b":
         return "csv", "gzip"
-    if (wide := _wide_text(head)) is not None:
-        raise InputError(f"{wide} text, not UTF-8 (save the file as UTF-8)", file=path)
-    if b"\x00" in head:
-        raise InputError("not a CSV or Parquet file", file=path)
+    _refuse_binary(head, path)
     at = 0
     while True:
         try:
@@ -124,6 +121,22 @@ def _sniff(path: Path) -> tuple[str, str | None]:
             raise error
         at += 1
     return "csv", None
+
+
+def _refuse_binary(head: bytes, path: Path) -> None:
+    """Refuse a file whose first bytes are no UTF-8 text: wide text (UTF-16, UTF-32), a
+    workbook or a ZIP archive, or any other binary file."""
+    if (wide := _wide_text(head)) is not None:
+        raise InputError(f"{wide} text, not UTF-8 (save the file as UTF-8)", file=path)
+    if head[:4] == b"PK\x03\x04" or head[:8] == b"\xd0\xcf\x11\xe0\xa1\xb1\x1a\xe1":
+        # A ZIP archive (an .xlsx workbook) or an OLE2 one (a legacy .xls).
+        raise InputError(
+            "not a CSV or Parquet file but a spreadsheet workbook or a ZIP archive: "
+            "save the sheet as CSV (UTF-8), or unzip it",
+            file=path,
+        )
+    if b"\x00" in head:
+        raise InputError("not a CSV or Parquet file", file=path)
 
 
 def _wide_text(head: bytes) -> str | None:

@@ -341,6 +341,22 @@ def test_binary_file(tmp_path: Path) -> None:
         read_lade(path, DataConfig())
 
 
+@pytest.mark.parametrize(
+    "magic",
+    [b"PK\x03\x04\x14\x00\x06\x00", b"\xd0\xcf\x11\xe0\xa1\xb1\x1a\xe1"],
+    ids=["xlsx", "xls"],
+)
+def test_a_workbook_named_csv_is_named_as_one(tmp_path: Path, magic: bytes) -> None:
+    """An Excel workbook saved under a .csv name (a ZIP or an OLE2 archive) is told
+    apart from any binary file: the error says to save the sheet as CSV."""
+    path = tmp_path / "orders.csv"
+    path.write_bytes(magic + bytes(range(256)) * 4)
+    with pytest.raises(
+        InputError, match="orders.csv: .*spreadsheet workbook.*save the sheet as CSV"
+    ):
+        read_lade(path, DataConfig())
+
+
 def test_fake_parquet_suffix(tmp_path: Path) -> None:
     path = write_csv(tmp_path / "d.parquet", CLEAN)
     with pytest.raises(InputError, match="d.parquet.*not a Parquet file"):
