@@ -25,7 +25,11 @@ paper's subsets planner; the rest of the config is shared.
   the weight of the due parcels over the ready drones' payload, the full flights every
   drone that can fly would need for what is already due (one per window). A window is
   *backlogged* when its load is above 5 (2.5 hours of due work at half-hour windows);
-  each shape's median load is printed.
+  each shape's median load is printed. The states are marops' own, so where its landing
+  actor moves drones, marops' window pays for flights that put PyVRP's drones in place
+  for free: ``--pyvrp-dest`` also gives PyVRP marops' landings (``pyvrp@dest``: each
+  drone lands at its action's destination, one PyVRP leaves idle still flies there
+  empty), so that only the routing differs.
 * **Closed loop.** Each method flies its own plans for the whole day (PyVRP at each
   ``--closed-pyvrp-s`` limit): delivered, average delay, energy per day, and the check
   against PyVRP at 0.1 s: delivered ≥, average delay ≤, energy ≤ 1.03×. Every day of
@@ -52,7 +56,7 @@ Needs the ``bench`` extra (``pip install -e '.[bench]'``, which brings PyVRP).
     python benchmarks/peer.py [--config TOML] [--shapes hubs,corridor] [--seeds 101,202]
         [--days 11,12 | --data export.csv --days 0820,0821] [--open-seeds SEEDS]
         [--pyvrp-s 0.01,0.1,1,5] [--closed-pyvrp-s 0.01,0.1,1] [--repeats N]
-        [--variants SETTINGS] [--bound] [--bound-labels N] [--large | --only-large]
+        [--variants SETTINGS] [--bound] [--bound-labels N] [--pyvrp-dest] [--large | --only-large]
         [--closed] [--frontier ALPHAS] [--quiet] [--json PATH] [--smoke]
 
 ``--closed``: the closed loop only; ``--json``: every figure (per window, per day and
@@ -92,7 +96,7 @@ from marops_cli.plans.objective import lam_j, relative_gap  # noqa: E402
 from marops_cli.plans.pool import finish_route  # noqa: E402
 from marops_cli.plans.problem import DroneTask, WindowProblem  # noqa: E402
 from marops_cli.plans.pyvrp_routes import solve_window  # noqa: E402
-from marops_cli.plans.view import EVERY_DEPOT  # noqa: E402
+from marops_cli.plans.view import EVERY_DEPOT, FREE  # noqa: E402
 from marops_cli.plans.window import DroneRoute, WindowPlan, score_plan  # noqa: E402
 from marops_cli.policies.base import WindowView, start_day  # noqa: E402
 from marops_cli.segment.depots import Depots  # noqa: E402
@@ -112,6 +116,11 @@ Bound = Callable[[WindowView, np.ndarray], dict[str, float]]
 
 def pyvrp_name(seconds: float) -> str:
     return f"pyvrp {seconds:g}s"
+
+
+def dest_name(seconds: float) -> str:
+    """PyVRP at ``seconds`` flying marops' landings (``--pyvrp-dest``)."""
+    return f"pyvrp@dest {seconds:g}s"
 
 
 # --- the planners -------------------------------------------------------------------
@@ -153,13 +162,82 @@ def pyvrp_routes(
     return sorted(routes, key=lambda r: r.drone)
 
 
+def pyvrp_dest_routes(
+    view: WindowView,
+    actions: np.ndarray,
+    model: EnergyModel,
+    lam: float,
+    seconds: float,
+    seed: int = 0,
+) -> list[DroneRoute]:
+    """PyVRP under marops' landing decisions: each drone that can fly lands at the
+    destination its action gives (the free landing: nearest its last customer, as in
+    ``pyvrp_routes``, an idle one stays), and a drone PyVRP leaves idle still flies
+    to its destination empty, as marops' plan does. Only the routing differs from
+    marops' plan, not where the fleet ends the window."""
+    from marops_cli.plans.problem import flown_actions
+
+    acts = flown_actions(view, actions, [model] * view.n_drones, "range")
+    dest = np.array(
+        [
+            -1 if a == FREE else int(view.depots.candidates[int(s), int(a)])
+            for s, a in zip(view.drone_depot, acts, strict=True)
+        ],
+        dtype=np.int64,
+    )
+    fly = np.array([u for u in range(view.n_drones) if view.ready(u)], dtype=np.int64)
+    routes: list[DroneRoute] = []
+    if fly.size and view.pending_idx.size:
+        every = np.arange(view.pending_idx.size, dtype=np.int64)
+        tasks = []
+        for u in fly:
+            own = every
+            if not (view.pending_stock == EVERY_DEPOT).all():
+                own = every[view.pending_stock == view.drone_depot[u]]
+            tasks.append(DroneTask(int(view.drone_depot[u]), int(dest[u]), own, model))
+        problem = WindowProblem.of_requests(
+            view.depots.xy, view.pending_xy, view.pending_weight, view.pending_delay_h, lam, tasks
+        )
+        peer = solve_window(problem, time_limit_s=seconds, seed=seed)
+        free = {int(u): (int(view.drone_depot[u]), int(dest[u])) for u in fly}
+        for s, e, stops in zip(peer.start, peer.end, peer.stops, strict=True):
+            u = next(
+                u
+                for u, k in free.items()
+                if k[0] == int(s) and (k[1] == int(e) or (k[1] < 0 and int(e) in (-1, int(s))))
+            )
+            del free[u]
+            routes.append(
+                peer_route(view, model, u, int(s), stops, None if dest[u] < 0 else int(dest[u]))
+            )
+    flying = {r.drone for r in routes}
+    for u, s in enumerate(view.drone_depot):
+        if u in flying:
+            continue
+        e = int(dest[u]) if view.ready(u) and dest[u] >= 0 else int(s)
+        if e == int(s):
+            routes.append(stay(u, int(s)))
+        else:
+            pts = np.vstack([view.depots.xy[int(s)], view.depots.xy[e]])
+            legs_m, legs_j = model.route_energy(pts, np.zeros(0))
+            routes.append(DroneRoute(u, int(s), e, 0, (), legs_m, legs_j, 0.0))
+    return sorted(routes, key=lambda r: r.drone)
+
+
 def peer_route(
-    view: WindowView, model: EnergyModel, u: int, s: int, stops: np.ndarray
+    view: WindowView,
+    model: EnergyModel,
+    u: int,
+    s: int,
+    stops: np.ndarray,
+    end_at: int | None = None,
 ) -> DroneRoute:
     """PyVRP's stops for drone ``u`` from depot ``s``, in the energy-best order, landing
-    at the depot nearest the last customer, costed exactly."""
+    at the depot nearest the last customer (or at ``end_at``), costed exactly."""
     xy, w = view.pending_xy[stops], view.pending_weight[stops]
-    order, end = finish_route(view.depots.xy[s], None, view.depots.xy, xy, w, model)
+    end_xy = None if end_at is None else view.depots.xy[end_at]
+    order, end = finish_route(view.depots.xy[s], end_xy, view.depots.xy, xy, w, model)
+    end = end if end_at is None else end_at
     st = stops[order]
     pts = np.vstack([view.depots.xy[s], view.pending_xy[st], view.depots.xy[end]])
     legs_m, legs_j = model.route_energy(pts, view.pending_weight[st])
@@ -197,6 +275,8 @@ class Setup:
     variants: dict[str, dict[str, str]]
     repeats: int = 1
     bound: Bound | None = None
+    dest: bool = False
+    """Also PyVRP flying marops' own landings (``--pyvrp-dest``), in the open loop."""
 
     @property
     def model(self) -> EnergyModel:
@@ -223,6 +303,11 @@ class Setup:
         out.update({n: marops_planner(cfg, **kv) for n, kv in self.variants.items()})
         for s in self.closed_s if closed else self.pyvrp_s:
             out[pyvrp_name(s)] = lambda v, a, s=s: pyvrp_routes(v, model, lam, s, seed=v.t)
+        if self.dest and not closed:
+            for s in self.pyvrp_s:
+                out[dest_name(s)] = lambda v, a, s=s: pyvrp_dest_routes(
+                    v, a, model, lam, s, seed=v.t
+                )
         return out
 
 
@@ -619,8 +704,9 @@ def open_summary(rows: list[dict], setup: Setup) -> dict:
         for n in names
     }
     versus = {}
-    for s in setup.pyvrp_s:
-        p = pyvrp_name(s)
+    peers = [pyvrp_name(s) for s in setup.pyvrp_s]
+    peers += [dest_name(s) for s in setup.pyvrp_s] if setup.dest else []
+    for p in peers:
         versus[p] = {
             "ratio": total("marops", "G") / total(p, "G"),
             "per_shape": {sh: total("marops", "G", sh) / total(p, "G", sh) for sh in shapes},
@@ -872,6 +958,11 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     ap.add_argument("--repeats", type=int, default=1, help="marops plans each window this often")
     ap.add_argument("--bound", action="store_true", help="the bound on G per window and the gaps")
     ap.add_argument(
+        "--pyvrp-dest",
+        action="store_true",
+        help="the open loop also gives PyVRP marops' landings (routing alone compared)",
+    )
+    ap.add_argument(
         "--bound-labels",
         type=int,
         default=500_000,
@@ -904,6 +995,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         args.shapes, args.seeds, args.days = "hubs", "101", "11"
         args.pyvrp_s = args.closed_pyvrp_s = "0.01"
         args.quiet, args.large, args.frontier = True, True, "0.5,0.9"
+        args.pyvrp_dest = True
     return args
 
 
@@ -924,6 +1016,7 @@ def make_setup(args: argparse.Namespace) -> Setup:
         variants,
         max(1, args.repeats),
         load_bound(override(cfg, plan__bound_labels=args.bound_labels)) if args.bound else None,
+        args.pyvrp_dest,
     )
 
 
