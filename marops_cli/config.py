@@ -13,7 +13,7 @@ import types
 import typing
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any, Literal, TypeVar
 
 from pydantic import (
     BaseModel,
@@ -73,6 +73,18 @@ def check_range_table(
 class _Stage(BaseModel):
     # Every number is finite (no inf, no NaN) and in the range docs/config.md gives.
     model_config = ConfigDict(extra="forbid", validate_assignment=True, allow_inf_nan=False)
+
+
+T = TypeVar("T")
+
+
+def ascii_number(text: str, kind: Callable[[str], T]) -> T:
+    """``kind(text)`` (``int`` or ``float``) of a number written in ASCII: ``int`` and
+    ``float`` alone also read Arabic-Indic and full-width digits, which the options of
+    one value (pydantic's) refuse; ``ValueError`` otherwise, as ``kind``'s own."""
+    if not text.isascii():
+        raise ValueError(f"not in ASCII digits: {text!r}")
+    return kind(text)
 
 
 def _parse_hhmm(value: str) -> int:

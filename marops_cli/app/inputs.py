@@ -51,14 +51,14 @@ def require_input(path: str | Path) -> None:
 
 
 def parse_center(text: str | None) -> tuple[float, float] | None:
-    """``"121.47,31.23"`` -> (lng, lat), in ASCII digits (``float`` alone reads others)."""
+    """``"121.47,31.23"`` -> (lng, lat), in ASCII digits."""
+    from ..config import ascii_number
+
     if text is None:
         return None
     try:
-        if not text.isascii():
-            raise ValueError(text)
         lng_s, lat_s = text.split(",")
-        lng, lat = float(lng_s), float(lat_s)
+        lng, lat = ascii_number(lng_s, float), ascii_number(lat_s, float)
     except ValueError:
         raise InputError(
             f"{option('center')} expects LNG,LAT (e.g. 121.47,31.23), got {text!r}"

@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..config import PlannerConfig, clipped, count
+from ..config import PlannerConfig, ascii_number, clipped, count
 from ..errors import InputError, option
 from ..io import output_set, run_meta
 from ..io.ownership import register_inputs
@@ -180,7 +180,7 @@ def hub_count(text: str | int) -> int | None:
     if isinstance(text, str) and text.strip().lower() == "auto":
         return None
     try:
-        n = int(text) if not isinstance(text, str) or text.isascii() else 0
+        n = ascii_number(text, int) if isinstance(text, str) else int(text)
     except ValueError:
         n = 0
     if not 1 <= n <= MAX_HUBS:

@@ -116,15 +116,15 @@ def _sizes(text: str | None, flag: str) -> list[int]:
 def _alpha_range(text: str | None) -> dict[str, Any]:
     """``TrainConfig`` fields of ``--alpha-range``: ``"0.1-0.9"`` or ``"0.1,0.9"`` ->
     (0.1, 0.9); ``"fixed"`` -> None (the ``--alpha`` only); unset -> none (the default)."""
+    from ..config import ascii_number
+
     if text is None:
         return {}
     if text.strip().lower() == "fixed":
         return {"alpha_range": None}
     parts = text.replace(",", "-").split("-")
     try:
-        if not text.isascii():  # float() alone reads Arabic-Indic and full-width digits
-            raise ValueError(text)
-        lo, hi = (float(x) for x in parts)
+        lo, hi = (ascii_number(x, float) for x in parts)
     except ValueError:
         msg = f"--alpha-range expects LOW-HIGH (e.g. 0.1-0.9) or fixed, got {text!r}"
         raise InputError(msg) from None

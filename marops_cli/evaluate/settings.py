@@ -14,7 +14,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass
 from typing import Any, TypeVar
 
-from ..config import PlannerConfig, override
+from ..config import PlannerConfig, ascii_number, override
 from ..data.dates import split_by_date
 from ..errors import InputError, option
 from ..methods import method as method_spec
@@ -113,17 +113,14 @@ class Job:
 
 def parse_values(text: str | None, kind: Callable[[str], T], name: str) -> list[T] | None:
     """``"0.2,0.5,0.8"`` -> ``[0.2, 0.5, 0.8]`` (None stays None: use the config's value);
-    a bad value is an error naming ``name`` (``option("alpha")``, marops_cli/errors.py).
-    Numbers are written in ASCII: ``int`` and ``float`` alone also read Arabic-Indic and
-    full-width digits, which the options of one value refuse."""
+    a bad value is an error naming ``name`` (``option("alpha")``, marops_cli/errors.py),
+    and so is one not in ASCII digits (:func:`~marops_cli.config.ascii_number`)."""
     if text is None:
         return None
     values: list[T] = []
     for item in str(text).split(","):
         try:
-            if not item.isascii():
-                raise ValueError(item)
-            values.append(kind(item.strip()))
+            values.append(ascii_number(item.strip(), kind))
         except ValueError:
             what = "whole numbers" if kind is int else "numbers"
             raise InputError(f"{name} expects {what} separated by commas, got {text!r}") from None
