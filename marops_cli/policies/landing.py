@@ -463,13 +463,8 @@ class LandingActor(EnergyAware):
         kept = [u for u in ready if out[u] == 0]
         if not kept:
             return
-        cand = view.depots.candidates
-        at = held.copy()
-        for u in ready:
-            s = int(view.drone_depot[u])
-            if out[u] == FREE:
-                continue  # lands near its last customer: no depot's drone
-            at[s if out[u] == 0 else int(cand[s, out[u]])] += 1.0
+        n = len(view.depots)
+        at = held + np.bincount(list(_landings(view, out, ready).values()), minlength=n)[:n]
         acts = self._kept.act(view, kept, at)
         out[kept] = acts[kept]
 
@@ -487,7 +482,7 @@ class LandingActor(EnergyAware):
         waiting = waiting_per_depot(view)
         if not waiting.any():
             return
-        lands = {u: int(cand[int(view.drone_depot[u]), out[u]]) for u in ready if out[u] != FREE}
+        lands = _landings(view, out, ready)
         there = held + np.bincount(list(lands.values()), minlength=n)[:n]
         oldest = np.zeros(n)
         keep = view.pending_servable
@@ -528,11 +523,18 @@ class LandingActor(EnergyAware):
     def _flow_landings(self, view: WindowView, ready: list[int]) -> np.ndarray:
         """``(N,)`` how many of the ``ready`` drones the flow rule lands at each depot."""
         assert self._flow is not None
-        acts = self._flow.act(view)
-        cand = view.depots.candidates
-        lands = [int(cand[int(view.drone_depot[u]), acts[u]]) for u in ready]
+        lands = list(_landings(view, self._flow.act(view), ready).values())
         n = len(view.depots)
         return np.bincount(np.asarray(lands, dtype=np.int64), minlength=n)[:n].astype(np.float64)
+
+
+def _landings(view: WindowView, actions: np.ndarray, drones: list[int]) -> dict[int, int]:
+    """The depot each of ``drones`` lands at by its action (staying: its own, the
+    candidates' first), those landing free left out."""
+    cand = view.depots.candidates
+    return {
+        u: int(cand[int(view.drone_depot[u]), actions[u]]) for u in drones if actions[u] != FREE
+    }
 
 
 def _ways(
