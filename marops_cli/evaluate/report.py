@@ -42,12 +42,16 @@ def _rows_of(summary: pa.Table, setting: int) -> list[dict[str, Any]]:
     return [r for r in summary.to_pylist() if r["setting"] == setting]
 
 
+def shown(value: float | None, fmt: str) -> str:
+    """``value`` in ``fmt``; ``n/a`` where there is none (None, NaN: a spread over a
+    single day, an interval with no shared day, a cell an older file has not)."""
+    return fmt.format(value) if value is not None and np.isfinite(value) else "n/a"
+
+
 def mean_pm_std(row: dict[str, Any], key: str, fmt: str = "{:.2f}") -> str:
     """``"0.88 ± 0.10"`` from a summary row's ``key_mean`` and ``key_std`` (``± n/a``
     where the std is missing: a single day or repeat)."""
-    std = row[f"{key}_std"]
-    spread = "n/a" if std is None or not np.isfinite(std) else fmt.format(std)
-    return f"{fmt.format(row[f'{key}_mean'])} ± {spread}"
+    return f"{fmt.format(row[f'{key}_mean'])} ± {shown(row[f'{key}_std'], fmt)}"
 
 
 def table3(summary: pa.Table, setting: int) -> tuple[list[str], list[tuple[str, list[str]]]]:

@@ -3,7 +3,6 @@ the paired differences with their bootstrap intervals, and the sweeps, interacti
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 from typing import Any
 
@@ -186,6 +185,7 @@ def _paired(page: Page, paired: Any, titles: dict[int, str]) -> None:
     from plotly.subplots import make_subplots
 
     from ..evaluate.paired import MIN_DAYS, verdict
+    from ..evaluate.report import shown
 
     rows = [_nan_for_empty(r, ("mean_diff", "ci_low", "ci_high")) for r in paired.to_pylist()]
     against = rows[0].get("against", "the reference")
@@ -203,8 +203,8 @@ def _paired(page: Page, paired: Any, titles: dict[int, str]) -> None:
                 r["method"],
                 r["metric"],
                 r["days"],
-                _shown(r["mean_diff"], "{:+.4g}"),
-                f"[{_shown(r['ci_low'], '{:+.4g}')}, {_shown(r['ci_high'], '{:+.4g}')}]",
+                shown(r["mean_diff"], "{:+.4g}"),
+                f"[{shown(r['ci_low'], '{:+.4g}')}, {shown(r['ci_high'], '{:+.4g}')}]",
                 f"{r['days_better']}/{r['days']}",
                 verdict(r),
             )
@@ -294,6 +294,8 @@ def _frontier(page: Page, rows: list[dict[str, Any]]) -> None:
     from plotly.colors import qualitative
     from plotly.subplots import make_subplots
 
+    from ..evaluate.report import shown
+
     if not rows or not _FRONTIER.keys() <= set(rows[0]):
         return
     groups = list(dict.fromkeys((r.get("drones"), r.get("depots_n")) for r in rows))
@@ -362,18 +364,12 @@ def _frontier(page: Page, rows: list[dict[str, Any]]) -> None:
                 f"{r['delivered']:.1f}",
                 f"{r['avg_delay_h']:.3f}",
                 f"{r['energy_kj'] / 1e3:.2f}",
-                _shown(r.get("energy_per_parcel_kj"), "{:.1f}"),
+                shown(r.get("energy_per_parcel_kj"), "{:.1f}"),
                 r.get("dominated_by") or "—",
             )
             for r in rows
         ],
     )
-
-
-def _shown(value: float | None, fmt: str) -> str:
-    """``value`` in ``fmt``; ``n/a`` where there is none (NaN, or an older file's cell
-    that is not there), as the summary tables show a spread over one day."""
-    return fmt.format(value) if value is not None and math.isfinite(value) else "n/a"
 
 
 def _nan_for_empty(row: dict[str, Any], keys: tuple[str, ...]) -> dict[str, Any]:
@@ -384,12 +380,14 @@ def _nan_for_empty(row: dict[str, Any], keys: tuple[str, ...]) -> dict[str, Any]
 
 def _frontier_hover(r: dict[str, Any]) -> list[str]:
     """A frontier point's hover lines (each escaped by the caller)."""
+    from ..evaluate.report import shown
+
     lines = [
         f"{short(r['method'])} α={r['alpha']:g}",
-        f"delivered {r['delivered']:.1f} per day ({_shown(r.get('delivered_share'), '{:.3f}')})",
+        f"delivered {r['delivered']:.1f} per day ({shown(r.get('delivered_share'), '{:.3f}')})",
         f"delay {r['avg_delay_h']:.3f} h",
         f"energy {r['energy_kj'] / 1e3:.2f} MJ per day "
-        f"({_shown(r.get('energy_per_parcel_kj'), '{:.1f}')} kJ per parcel)",
+        f"({shown(r.get('energy_per_parcel_kj'), '{:.1f}')} kJ per parcel)",
     ]
     if r["dominated"]:
         lines.append(f"dominated by {short(r.get('dominated_by') or '')}")
