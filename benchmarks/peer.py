@@ -127,13 +127,30 @@ def dest_name(seconds: float) -> str:
 
 
 def pyvrp_routes(
-    view: WindowView, model: EnergyModel, lam: float, seconds: float, seed: int = 0
+    view: WindowView,
+    model: EnergyModel,
+    lam: float,
+    seconds: float,
+    seed: int = 0,
+    actions: np.ndarray | None = None,
 ) -> list[DroneRoute]:
     """PyVRP's plan of the window as drone routes (exact energy, order improved).
 
     Only the drones that can fly are vehicles; under home stock each carries only its
     departure depot's parcels (its task's allowed requests: exact, as a parcel can go
-    only with a drone from its depot), and a drone whose depot holds none stays."""
+    only with a drone from its depot), and a drone whose depot holds none stays. Each
+    lands at the depot nearest its last stop; with marops' ``actions``
+    (``--pyvrp-dest``) each lands where its action says instead (the free landing:
+    nearest its last stop), and one PyVRP leaves idle flies there empty, as marops'
+    plan does, so that only the routing differs from marops'."""
+    end = np.full(view.n_drones, -1, dtype=np.int64)
+    if actions is not None:
+        from marops_cli.plans.problem import flown_actions
+
+        acts = flown_actions(view, actions, [model] * view.n_drones, "range")
+        for u, (s, a) in enumerate(zip(view.drone_depot, acts, strict=True)):
+            if a != FREE and view.ready(u):
+                end[u] = int(view.depots.candidates[int(s), int(a)])
     fly = np.array([u for u in range(view.n_drones) if view.ready(u)], dtype=np.int64)
     allowed = None
     if not (view.pending_stock == EVERY_DEPOT).all() and fly.size:
@@ -144,83 +161,37 @@ def pyvrp_routes(
     if fly.size and view.pending_idx.size:
         every = np.arange(view.pending_idx.size, dtype=np.int64)
         serves = [every] * fly.size if allowed is None else [every[ok] for ok in allowed]
-        tasks = [  # each lands at the depot nearest its last stop
-            DroneTask(int(view.drone_depot[u]), -1, own, model)
+        tasks = [
+            DroneTask(int(view.drone_depot[u]), int(end[u]), own, model)
             for u, own in zip(fly, serves, strict=True)
         ]
         problem = WindowProblem.of_requests(
             view.depots.xy, view.pending_xy, view.pending_weight, view.pending_delay_h, lam, tasks
         )
         peer = solve_window(problem, time_limit_s=seconds, seed=seed)
-        free = {int(u): int(view.drone_depot[u]) for u in fly}
-        for s, stops in zip(peer.start, peer.stops, strict=True):
-            u = next(u for u, d in free.items() if d == int(s))  # a drone of that start depot
-            del free[u]
-            routes.append(peer_route(view, model, u, int(s), stops))
-    flying = {r.drone for r in routes}
-    routes += [stay(u, int(s)) for u, s in enumerate(view.drone_depot) if u not in flying]
-    return sorted(routes, key=lambda r: r.drone)
-
-
-def pyvrp_dest_routes(
-    view: WindowView,
-    actions: np.ndarray,
-    model: EnergyModel,
-    lam: float,
-    seconds: float,
-    seed: int = 0,
-) -> list[DroneRoute]:
-    """PyVRP under marops' landing decisions: each drone that can fly lands at the
-    destination its action gives (the free landing: nearest its last customer, as in
-    ``pyvrp_routes``, an idle one stays), and a drone PyVRP leaves idle still flies
-    to its destination empty, as marops' plan does. Only the routing differs from
-    marops' plan, not where the fleet ends the window."""
-    from marops_cli.plans.problem import flown_actions
-
-    acts = flown_actions(view, actions, [model] * view.n_drones, "range")
-    dest = np.array(
-        [
-            -1 if a == FREE else int(view.depots.candidates[int(s), int(a)])
-            for s, a in zip(view.drone_depot, acts, strict=True)
-        ],
-        dtype=np.int64,
-    )
-    fly = np.array([u for u in range(view.n_drones) if view.ready(u)], dtype=np.int64)
-    routes: list[DroneRoute] = []
-    if fly.size and view.pending_idx.size:
-        every = np.arange(view.pending_idx.size, dtype=np.int64)
-        tasks = []
-        for u in fly:
-            own = every
-            if not (view.pending_stock == EVERY_DEPOT).all():
-                own = every[view.pending_stock == view.drone_depot[u]]
-            tasks.append(DroneTask(int(view.drone_depot[u]), int(dest[u]), own, model))
-        problem = WindowProblem.of_requests(
-            view.depots.xy, view.pending_xy, view.pending_weight, view.pending_delay_h, lam, tasks
-        )
-        peer = solve_window(problem, time_limit_s=seconds, seed=seed)
-        free = {int(u): (int(view.drone_depot[u]), int(dest[u])) for u in fly}
+        free = {int(u): (int(view.drone_depot[u]), int(end[u])) for u in fly}
         for s, e, stops in zip(peer.start, peer.end, peer.stops, strict=True):
+            # A drone of that start and end (a free landing: where some end is fixed,
+            # PyVRP brings it back to its start).
             u = next(
                 u
-                for u, k in free.items()
-                if k[0] == int(s) and (k[1] == int(e) or (k[1] < 0 and int(e) in (-1, int(s))))
+                for u, (us, ue) in free.items()
+                if us == int(s) and (ue == int(e) or (ue < 0 and int(e) in (-1, us)))
             )
             del free[u]
             routes.append(
-                peer_route(view, model, u, int(s), stops, None if dest[u] < 0 else int(dest[u]))
+                peer_route(view, model, u, int(s), stops, None if end[u] < 0 else int(end[u]))
             )
     flying = {r.drone for r in routes}
     for u, s in enumerate(view.drone_depot):
         if u in flying:
             continue
-        e = int(dest[u]) if view.ready(u) and dest[u] >= 0 else int(s)
-        if e == int(s):
+        if end[u] < 0 or end[u] == s:
             routes.append(stay(u, int(s)))
-        else:
-            pts = np.vstack([view.depots.xy[int(s)], view.depots.xy[e]])
+        else:  # marops' landing, flown empty
+            pts = view.depots.xy[[int(s), int(end[u])]]
             legs_m, legs_j = model.route_energy(pts, np.zeros(0))
-            routes.append(DroneRoute(u, int(s), e, 0, (), legs_m, legs_j, 0.0))
+            routes.append(DroneRoute(u, int(s), int(end[u]), 0, (), legs_m, legs_j, 0.0))
     return sorted(routes, key=lambda r: r.drone)
 
 
@@ -305,8 +276,8 @@ class Setup:
             out[pyvrp_name(s)] = lambda v, a, s=s: pyvrp_routes(v, model, lam, s, seed=v.t)
         if self.dest and not closed:
             for s in self.pyvrp_s:
-                out[dest_name(s)] = lambda v, a, s=s: pyvrp_dest_routes(
-                    v, a, model, lam, s, seed=v.t
+                out[dest_name(s)] = lambda v, a, s=s: pyvrp_routes(
+                    v, model, lam, s, seed=v.t, actions=a
                 )
         return out
 
