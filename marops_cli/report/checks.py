@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import datetime as dt
 import math
-from collections.abc import Iterator, Mapping
+from collections.abc import Iterable, Iterator, Mapping
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
@@ -90,13 +90,13 @@ def check_cell(value: Any, col: Col, path: Path, key: str, kind: Any = None) -> 
         raise InputError(f"expected {expected}, got {got}: {EDITED}", file=path, column=key)
 
 
-def check_table(
-    table: pa.Table, path: Path, columns: Mapping[str, Col], what: str, *, redo: str
+def require_columns(
+    table: pa.Table, path: Path, names: Iterable[str], what: str, *, redo: str
 ) -> None:
-    """Each of ``columns`` in ``table`` (read from ``path``, ``what`` marops writes there:
-    ``an evaluation's summary``) holding what it says; the first cell that does not is
-    one line naming its row and column. ``redo``: how to write the file again."""
-    for name in columns:
+    """Each of ``names`` a column of ``table`` (read from ``path``, ``what`` marops
+    writes there); the first missing is one line naming it. ``redo``: how to write the
+    file again."""
+    for name in names:
         if name not in table.column_names:
             raise InputError(
                 f"has no column {name!r}: not as marops writes {what} "
@@ -104,6 +104,15 @@ def check_table(
                 file=path,
                 column=name,
             )
+
+
+def check_table(
+    table: pa.Table, path: Path, columns: Mapping[str, Col], what: str, *, redo: str
+) -> None:
+    """Each of ``columns`` in ``table`` (read from ``path``, ``what`` marops writes there:
+    ``an evaluation's summary``) holding what it says; the first cell that does not is
+    one line naming its row and column. ``redo``: how to write the file again."""
+    require_columns(table, path, columns, what, redo=redo)
     kinds = table.column("kind") if "kind" in table.column_names else None
     for name, col in columns.items():
         column = table.column(name)

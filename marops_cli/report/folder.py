@@ -12,7 +12,17 @@ from typing import Any, TypeVar
 from ..data.jsonfile import first_line, parse_json
 from ..errors import InputError, quoted
 from ..io.paths import natural_key
-from .checks import EDITED, Col, Kind, cell_fits, check_cell, check_meta, check_table, meta_error
+from .checks import (
+    EDITED,
+    Col,
+    Kind,
+    cell_fits,
+    check_cell,
+    check_meta,
+    check_table,
+    meta_error,
+    require_columns,
+)
 
 T = TypeVar("T")
 
@@ -123,14 +133,8 @@ def _check_columns(table: Any, name: str, path: Path) -> None:
     import pyarrow as pa
 
     expected = _schema(name)
+    require_columns(table, path, expected.names, f"a {name} file", redo=_REDO)
     for field in expected:
-        if field.name not in table.schema.names:
-            raise InputError(
-                f"has no column {field.name!r}: not as marops writes a {name} file "
-                f"(edited since, or of an older marops: {_REDO})",
-                file=path,
-                column=field.name,
-            )
         got = table.schema.field(field.name).type
         stamp = pa.types.is_timestamp(got) and pa.types.is_timestamp(field.type)
         if got != field.type and not stamp:
