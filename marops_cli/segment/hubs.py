@@ -90,7 +90,13 @@ def find_hubs(
         )
     except InputError as exc:
         raise naming(exc, table.source.path) from None
-    hubs = [Hub(i, f, n) for i, (f, n) in enumerate(squares)]
+    # Each hub's count is the orders it owns (:func:`hub_owner`), those it plans: the
+    # grid's count of its cells misses by a cell's edge where the square's side is no
+    # whole number of grid steps, or where the grid's plane and the square's part.
+    frames = [f for f, _ in squares]
+    owner = _owner(table.lng[mask], table.lat[mask], frames)
+    held = np.bincount(owner[owner >= 0], minlength=len(frames))
+    hubs = [Hub(i, f, int(held[i])) for i, f in enumerate(frames)]
     return hubs, int(mask.sum())
 
 
@@ -172,12 +178,18 @@ def load_hubs(path: str | Path, cfg: DataConfig) -> list[Hub]:
 
 
 def hub_owner(table: LadeTable, hubs: Sequence[Hub]) -> np.ndarray:
-    """Each row's hub: the first (in hub order) whose square holds it, or -1."""
-    owner = np.full(len(table), -1, dtype=np.int64)
-    for h in hubs:
-        x, y = h.frame.to_xy(table.lng, table.lat)
-        mine = (owner < 0) & h.frame.contains(x, y)
-        owner[mine] = h.id
+    """Each row's hub: the id of the first (in hub order) whose square holds it, or -1."""
+    first = _owner(table.lng, table.lat, [h.frame for h in hubs])
+    ids = np.array([h.id for h in hubs] + [-1], dtype=np.int64)
+    return ids[first]  # -1 picks the last entry, no hub
+
+
+def _owner(lng: np.ndarray, lat: np.ndarray, frames: Sequence[Frame]) -> np.ndarray:
+    """Each point's square: the index of the first of ``frames`` that holds it, or -1."""
+    owner = np.full(len(lng), -1, dtype=np.int64)
+    for i, frame in enumerate(frames):
+        x, y = frame.to_xy(lng, lat)
+        owner[(owner < 0) & frame.contains(x, y)] = i
     return owner
 
 

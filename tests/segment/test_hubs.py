@@ -659,3 +659,22 @@ def test_the_city_line_names_the_hubs_and_the_fleet() -> None:
     assert "in 12 hubs (75.0 %), 120 delivered (60.0 %) by 96 drones;" in city_line(
         {**city, "drones": 96}, 12
     )
+
+
+@pytest.mark.parametrize(("size_km", "lat"), [(3.1, LAT), (10.0, 84.0)])
+def test_a_hubs_count_is_the_orders_it_owns(points_table, size_km, lat):
+    """A square whose side is no whole number of grid steps (3.1 km on a 250 m grid: 12
+    cells hold 3 km or 13 hold 3.25) or far north, where the grid's plane and the
+    square's part: each hub's count, as the hubs file and the table give it, is the
+    orders that hub plans (:func:`hub_owner`), not the grid's count of its cells."""
+    from marops_cli.segment.hubs import find_hubs
+
+    rng = np.random.default_rng(5)
+    ref = Frame(LNG, lat, 10.0)
+    table = points_table(*ref.to_lnglat(rng.uniform(-9e3, 9e3, 4000), rng.uniform(-9e3, 9e3, 4000)))
+    cfg = DataConfig(size_km=size_km)
+    hubs, total = find_hubs(table, cfg, None, 4)
+    owner = hub_owner(table, hubs)
+    assert total == 4000 and len(hubs) == 4
+    assert [h.orders for h in hubs] == np.bincount(owner[owner >= 0], minlength=4).tolist()
+    assert all(h.orders > 0 for h in hubs)
