@@ -78,6 +78,7 @@ def route_files(folder: Path) -> RouteFiles | None:
         for row in rows:
             for k in keys:
                 row[k] = _local(row[k])
+    _check_once(stops, routes, paths)
     _check_flown(stops, routes, paths)
     return RouteFiles(stops, routes, meta, paths)
 
@@ -167,6 +168,32 @@ def _check_rows(doc: dict[str, Any], name: str, path: Path) -> None:
         kind = row.get("kind")
         for key, col in columns.items():
             check_cell(row[key], col, path, f"{name}[{i}].{key}", kind)
+
+
+def _check_once(
+    stops: list[dict[str, Any]], routes: list[dict[str, Any]], paths: tuple[Path, ...]
+) -> None:
+    """A route per drone and window, a stop per place in its route, as marops writes
+    them: a row repeated (rows copied within the file) is one line naming it, where the
+    map would draw each of a drone's copies with every copy of its stops (a file of a
+    few hundred kilobytes held minutes and gigabytes)."""
+    tables = (("stops", stops, ("window", "drone", "seq")), ("routes", routes, ("window", "drone")))
+    for (name, rows, keys), path in zip(tables, paths, strict=True):
+        seen: dict[tuple[Any, ...], int] = {}
+        for i, row in enumerate(rows):
+            key = tuple(row[k] for k in keys)
+            first = seen.setdefault(key, i)
+            if first == i:
+                continue
+            json_file = path.suffix == ".json"
+            where: dict[str, Any] = {"column": f"{name}[{i}]"} if json_file else {"row": i + 2}
+            said = ", ".join(f"{k} {v}" for k, v in zip(keys, key, strict=True))
+            again = f"{name}[{first}]" if json_file else f"row {first + 2}"
+            raise InputError(
+                f"repeats {again} ({said}): marops writes one row of each: {EDITED}",
+                file=path,
+                **where,
+            )
 
 
 def _check_flown(

@@ -986,6 +986,30 @@ def test_marops_report_on_an_edited_route_table_names_its_row_and_column(
     assert line.startswith(f"marops: error: {path}, {at}: {says}"), line
 
 
+@pytest.mark.parametrize("name", ["stops.parquet", "routes.parquet"])
+def test_marops_report_refuses_rows_repeated_in_a_route_table(
+    day_run: Path, tmp_path: Path, name: str
+) -> None:
+    """A day's route table whose rows were copied within it (each drone's route or stop
+    twice, or a hundred times): one line naming the file and the first repeated row, not
+    a map that draws every copy of a route with every copy of its stops (a file of a few
+    hundred kilobytes held minutes and gigabytes)."""
+    import pyarrow as pa
+
+    copy = tmp_path / "day"
+    shutil.copytree(day_run, copy)
+    path = copy / name
+    table = pq.read_table(path)
+    pq.write_table(pa.concat_tables([table, table]), path)  # the marops metadata kept
+    line = _refused(copy, (copy / "report.html").read_bytes())
+    first = table.slice(0, 1).to_pylist()[0]
+    said = f"window {first['window']}, drone {first['drone']}"
+    said += ", seq 0" if name == "stops.parquet" else ""
+    assert line.startswith(
+        f"marops: error: {path}, row {table.num_rows + 2}: repeats row 2 ({said})"
+    ), line
+
+
 def test_the_city_map_draws_what_the_files_hold_and_leaves_out_the_rest(tmp_path: Path) -> None:
     """A city folder whose files hold less than a run writes today (no per-hub rows in
     the city block, a day without its planned orders, a hub whose files name no square):
