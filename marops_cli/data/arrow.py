@@ -7,7 +7,14 @@ from pathlib import Path
 
 import pyarrow as pa
 
-__all__ = ["is_text", "native_file", "read_csv_file", "read_parquet", "read_parquet_schema"]
+__all__ = [
+    "is_text",
+    "native_file",
+    "parquet_rows",
+    "read_csv_file",
+    "read_parquet",
+    "read_parquet_schema",
+]
 
 
 def is_text(t: pa.DataType) -> bool:
@@ -36,6 +43,14 @@ def read_parquet_schema(path: str | Path) -> pa.Schema:
 
     with native_file(path) as f:
         return pq.read_schema(f)
+
+
+def parquet_rows(path: str | Path) -> int:
+    """The rows a Parquet file holds, as its footer says (nothing else is read)."""
+    import pyarrow.parquet as pq
+
+    with native_file(path) as f:
+        return int(pq.ParquetFile(f).metadata.num_rows)
 
 
 def read_csv_file(path: str | Path) -> pa.Table:

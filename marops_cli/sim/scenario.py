@@ -17,8 +17,8 @@ from pathlib import Path
 import numpy as np
 import pyarrow as pa
 
-from ..config import OpsConfig, PlannerConfig
-from ..data.arrow import is_text, read_parquet, read_parquet_schema
+from ..config import MAX_DRONES, OpsConfig, PlannerConfig
+from ..data.arrow import is_text, parquet_rows, read_parquet, read_parquet_schema
 from ..data.frame import Frame
 from ..data.jsonfile import first_line
 from ..data.prepare import arrival_windows, check_days_in_file, prepare_day, study_frame
@@ -253,6 +253,15 @@ def delivered_file(path: str | Path) -> Path:
     return p / "stops.parquet" if p.is_dir() else p
 
 
+MAX_DELIVERED_ROWS = 1_000_000 + 2 * 24 * 60 * MAX_DRONES
+"""Rows a ``--delivered`` stops file may hold: the stops of a day marops plans, a
+customer's for each of the busiest day's orders (``synth --orders-per-day`` at most)
+and two for each route of each drone of a study area in each of 1440 windows of a
+minute. Millions of repeated rows compress to kilobytes, and each row is read into
+memory (30 million: 3 GB and a minute and a half): a larger file is refused by its
+footer, before any row is read."""
+
+
 Delivered = Mapping[str, frozenset[tuple[float, float]] | None]
 """Order ids delivered, each with the places (lng, lat) of its stops; None where the file
 gives no places (every request of the id counts as delivered)."""
@@ -280,6 +289,13 @@ def delivered_orders(path: str | Path) -> Delivered:
         for name in ("kind", "order_id"):
             if name not in names:
                 raise InputError(f"not a marops stops file (no column {name!r})", file=p)
+        rows = parquet_rows(p)
+        if rows > MAX_DELIVERED_ROWS:
+            raise InputError(
+                f"not a marops stops file ({rows:,} rows, more than the "
+                f"{MAX_DELIVERED_ROWS:,} stops of any day marops plans)",
+                file=p,
+            )
         placed = {"lng", "lat"} <= names
         table = read_parquet(p, columns=["kind", "order_id", *(["lng", "lat"] if placed else [])])
     except FileNotFoundError as exc:  # removed meanwhile

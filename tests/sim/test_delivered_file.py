@@ -45,6 +45,24 @@ def test_columns_that_match_nothing_are_refused(tmp_path, kind, order_id, column
         delivered_orders(p)
 
 
+def test_a_file_of_more_rows_than_any_day_has_stops_is_refused_unread(tmp_path: Path) -> None:
+    """Millions of repeated rows compress to kilobytes (30 million: 168 kB), and every
+    row was read into memory (3 GB, a minute and a half): one row more than any day's
+    stops is refused by the file's footer, naming the file."""
+    import numpy as np
+
+    from marops_cli.sim.scenario import MAX_DELIVERED_ROWS
+
+    n = MAX_DELIVERED_ROWS + 1
+    zeros = pa.array(np.zeros(n, dtype=np.int32))
+    kinds = pa.DictionaryArray.from_arrays(zeros, pa.array(["customer"]))
+    p = _write(tmp_path / "stops.parquet", kinds, pa.DictionaryArray.from_arrays(zeros, ["7"]))
+    assert p.stat().st_size < 1 << 20
+    with pytest.raises(InputError, match=rf"{n:,} rows, more than the {n - 1:,} stops") as e:
+        delivered_orders(p)
+    assert e.value.file == str(p)
+
+
 @pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="named pipes are POSIX")
 def test_a_pipe_is_no_stops_file(tmp_path: Path) -> None:
     fifo = tmp_path / "stops.parquet"
