@@ -68,6 +68,7 @@ def synth(
     if out is None:
         return Synthesized(generate(cfg), first, None)
     from ..io import output_set
+    from ..io.atomic import check_unheld
     from ..io.ownership import check_outputs
 
     out = Path(out)
@@ -88,6 +89,7 @@ def synth(
         )
     # Never a file marops did not write. The data carries no marops metadata, not even
     # as Parquet (a reader cannot tell it from an export): the journal records it.
+    check_unheld([out])  # not into a folder another run holds
     check_outputs([out], journal=True)
     table = generate(cfg)
     with output_set() as files:

@@ -116,12 +116,14 @@ def train(
     reward, delay, energy and entropy on an update's last), and each held-out
     evaluation.
     """
+    from ..io.atomic import check_unheld
     from ..io.ownership import check_outputs, register_inputs
     from ..rl.data import load_training_data
     from ..rl.train import train_actor
 
     out = Path(out)
     register_inputs([data] if isinstance(data, str | Path) else list(data))
+    check_unheld([out])  # not into a folder another run holds
     check_outputs(actor_files(out, setup.train.algorithm))  # before the long work
     td = load_training_data(
         data,

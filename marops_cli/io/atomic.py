@@ -11,7 +11,7 @@ import secrets
 import signal
 import stat
 import threading
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from contextlib import ExitStack, contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -370,6 +370,18 @@ def check_free(folder: str | Path) -> None:
             "finish or choose another --out"
         )
     _refuse_nested(folder, folder.resolve())
+
+
+def check_unheld(paths: Iterable[str | Path]) -> None:
+    """Before any work: refuse an output file (``segment``'s, ``synth``'s, ``train``'s,
+    which take no folder lock) whose folder, or a folder above it, another run holds
+    (docs/outputs.md, "The folder lock"): it would land among that run's files, or
+    replace one of them as the run writes it."""
+    for final in paths:
+        root = Path(final).absolute().parent
+        while not root.exists():
+            root = root.parent
+        _refuse_nested(Path(final), root.resolve(), made=False)
 
 
 def _mine() -> set[Path]:

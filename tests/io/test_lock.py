@@ -193,3 +193,28 @@ def test_a_failed_run_leaves_none_of_the_empty_folders_it_made(tmp_path: Path) -
         raise KeyboardInterrupt
     assert sorted(p.name for p in (tmp_path / "new").iterdir()) == ["a", "mine.txt"]
     assert list((tmp_path / "new" / "a").iterdir()) == []
+
+
+def test_segment_synth_and_train_into_a_running_run_s_folder_are_refused(
+    example_csv: Path, tmp_path: Path, fails_cleanly
+) -> None:
+    """The commands that write files, not a folder (``segment``, ``synth``, ``train``),
+    take no lock of their own, but a file of theirs in a folder a run holds (or below
+    it) would land among that run's files or replace one as it writes it (a replay's
+    summary ``metrics.json`` replaced by a depots file, exit 0 both): one line naming
+    the held folder, exit 2, nothing written."""
+    out = tmp_path / "o"
+    first = _start(out)
+    try:
+        assert first.stdout is not None and first.stdout.readline() == "holding\n"
+        for args in (
+            ["synth", "--days", "1", "--out", str(out / "2022-08-11" / "stops.parquet")],
+            ["segment", str(example_csv), "--out", str(out / "metrics.json")],
+            ["segment", str(example_csv), "--hubs", "2", "--out", str(out / "h" / "hubs.json")],
+            ["train", str(example_csv), "--episodes", "1", "--out", str(out / "p" / "x.pt")],
+        ):
+            line = fails_cleanly(args, tmp_path, str(out))
+            assert f"another marops run (pid {first.pid}) is writing into this folder" in line
+    finally:
+        first.communicate("", timeout=60)
+    assert first.returncode == 0
