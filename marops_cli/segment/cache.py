@@ -44,8 +44,9 @@ __all__ = ["cache_dir", "cached_depots", "depots_key"]
 _FORMAT = 3  # bump when the stored arrays change meaning (2: moves reach every depot;
 # 3: k-means of the points in a canonical order)
 MAX_ENTRY = 16 << 20
-"""Bytes of a cache entry read at most: :data:`MAX_DEPOTS` depots with the action
-candidates a run may have (docs/config.md) take under 4 MiB; a larger entry is a miss."""
+"""Bytes of a cache entry read at most, as stored and as its arrays unpack:
+:data:`MAX_DEPOTS` depots with the action candidates a run may have (docs/config.md) take
+under 4 MiB; a larger entry is a miss."""
 
 
 def cache_dir() -> Path | None:
@@ -129,6 +130,10 @@ def _load(
         return None, distrust
     try:
         with os.fdopen(fd, "rb") as fh, np.load(fh, allow_pickle=False) as z:
+            # Compressed members (np.savez_compressed) are read whole into memory: what
+            # they unpack to is bounded as the file is (2 MiB of zeros unpack to 2 GiB).
+            if sum(info.file_size for info in z.zip.infolist()) > MAX_ENTRY:
+                return None, None
             stored = str(z["key"])
             method = str(z["method"])
             xy, n_hist, cand = z["xy"], z["n_history"], z["candidates"]

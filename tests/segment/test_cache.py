@@ -130,6 +130,38 @@ def test_a_damaged_or_edited_cache_is_a_miss(tmp_path, monkeypatch, points_table
         assert made == [name], name  # cached anew: the next run is a hit
 
 
+def test_a_compressed_entry_that_unpacks_past_the_bound_is_a_miss_unread(
+    tmp_path, monkeypatch, points_table
+):
+    """An entry of compressed arrays (``np.savez_compressed``) whose positions unpack to
+    64 MiB of zeros from 64 kB (2 MiB made the run take 2.5 GB and 11 s): a miss,
+    segmented again and cached anew, before any array is unpacked."""
+    import tracemalloc
+
+    from marops_cli.segment.cache import MAX_ENTRY
+
+    monkeypatch.setenv("MAROPS_CACHE_DIR", str(tmp_path))
+    cfg = PlannerConfig()
+    key = (points_table([121.47] * 3, [31.23] * 3, "abc"), DAYS, FRAME, cfg.data, cfg.segment)
+    good = _depots()
+    cached_depots(*key, lambda: good)
+    (path,) = (tmp_path / "depots").glob("*.npz")
+    fine = dict(np.load(path, allow_pickle=False))
+    with path.open("wb") as fh:
+        np.savez_compressed(fh, **dict(fine, xy=np.zeros((MAX_ENTRY // 4, 2))))
+    assert path.stat().st_size < MAX_ENTRY // 100
+    made: list[int] = []
+    tracemalloc.start()
+    try:
+        got = cached_depots(*key, lambda: made.append(1) or good)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert made == [1] and got.xy.tobytes() == good.xy.tobytes()
+    assert peak < MAX_ENTRY // 2, peak
+    assert cached_depots(*key, lambda: 1 / 0).xy.tobytes() == good.xy.tobytes()  # anew
+
+
 def test_a_cache_folder_under_an_unknown_home_is_no_cache(monkeypatch, points_table):
     """``~nosuchuser/…`` (or no home at all) cannot be expanded: the run segments
     without the cache rather than stopping on a traceback."""
