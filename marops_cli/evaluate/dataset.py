@@ -22,7 +22,7 @@ from pathlib import Path
 from typing import Any
 from urllib.parse import quote
 
-from ..data.arrow import read_parquet, read_parquet_schema
+from ..data.arrow import parquet_rows, read_parquet, read_parquet_schema
 from ..data.jsonfile import parse_json, read_small_text
 from ..errors import InputError, RunError, option, switch
 from ..io import output_set, run_meta
@@ -268,13 +268,15 @@ class JobStore:
         if not path.is_file():
             return None
         try:
+            # A job's file holds one row: its footer says so before any row is read (a
+            # file of millions of repeated rows compresses to kilobytes).
+            if parquet_rows(path) != 1:
+                return None
             table = read_parquet(path)
             meta = parse_json((table.schema.metadata or {})[b"marops"])
         except (OSError, ValueError, KeyError):
             return None
         if meta.get("identity") != self.identity or meta.get("job") != job_key(job):
-            return None
-        if table.num_rows != 1:
             return None
         row = table.to_pylist()[0]
         keys = {k: v for k, v in key_columns(self.prep, job).items() if k not in PARTITION}
