@@ -35,6 +35,14 @@ MAX_DRONES = 1000
 """The most drones one study area plans for (``--drones``, a fleet file, a hub's
 ``drones``): a window of 1000 drones plans in seconds; a larger fleet is refused up
 front rather than planned for hours (docs/config.md)."""
+MAX_DAY_ROUTES = 24 * 60 * MAX_DRONES
+"""The most routes of one study area's day: one per drone and window, of at most 1440
+windows (``data.windows``)."""
+MAX_DAY_STOPS = 1_000_000 + 2 * MAX_DAY_ROUTES
+"""The most stops of one study area's day: a customer's for each order of the busiest
+day (``synth --orders-per-day`` at most) and two depots' for each route. A stops or
+routes file of more rows was written by no run: millions of repeated rows compress to
+kilobytes, and a reader that reads them first takes gigabytes."""
 MAX_DEPOTS = 4096
 """The most depots one study area has (``segment.n_depots``, a depots file, the depots
 cache): every window sets up a flight range per depot and action candidate over every

@@ -8,7 +8,7 @@ from typing import Any
 
 from ..config import count
 from .checks import Col, check_meta, check_table, meta_error, reading
-from .folder import read_input, table_meta
+from .folder import read_input, rows_at_most, table_meta
 from .page import Page, plain, short
 
 _INT, _NUMBER, _TEXT = Col("int"), Col("number"), Col("text")
@@ -114,14 +114,16 @@ def _check_meta(meta: dict[str, Any], path: Path) -> None:
 def _tables(folder: Path) -> tuple[Any, Any, Any | None, dict[str, Any]]:
     """(summary, results, paired or None, the results' metadata) of ``folder``, each
     column the page reads checked as marops writes it."""
-    from ..data.arrow import read_csv_file, read_parquet
+    from ..data.arrow import read_csv_file
+    from ..evaluate.settings import MAX_REPLAYS
 
     summary = read_input(folder / "summary.csv", read_csv_file)
     _check(summary, folder / "summary.csv", _summary_columns(summary), "an evaluation's summary")
-    results = read_input(folder / "results.parquet", read_parquet)
-    _check(results, folder / "results.parquet", _RESULTS, "an evaluation's results")
-    meta = table_meta(results, folder / "results.parquet")
-    _check_meta(meta, folder / "results.parquet")
+    results_path = folder / "results.parquet"
+    results = read_input(results_path, rows_at_most(MAX_REPLAYS, "replays an evaluation runs"))
+    _check(results, results_path, _RESULTS, "an evaluation's results")
+    meta = table_meta(results, results_path)
+    _check_meta(meta, results_path)
     paired_path = folder / "paired.csv"
     paired = read_input(paired_path, read_csv_file) if paired_path.is_file() else None
     if paired is not None and paired.num_rows:

@@ -48,10 +48,12 @@ def route_files(folder: Path) -> RouteFiles | None:
     """The stops and routes of ``folder`` (Parquet, else JSON); None when it has none.
     Each value the page uses is checked as marops writes it (:mod:`.checks`)."""
     if (folder / "routes.parquet").is_file():
-        from ..data.arrow import read_parquet
+        from ..config import MAX_DAY_ROUTES, MAX_DAY_STOPS
 
         paths = tuple(folder / f"{n}.parquet" for n in ("stops", "routes"))
-        tables = [read_input(path, read_parquet) for path in paths]
+        most = (MAX_DAY_STOPS, MAX_DAY_ROUTES)
+        read = [rows_at_most(n, "a day's replay writes") for n in most]
+        tables = [read_input(path, r) for path, r in zip(paths, read, strict=True)]
         for name, table, path in zip(("stops", "routes"), tables, paths, strict=True):
             _check_columns(table, name, path)
             check_table(table, path, _columns(name), f"a {name} file", redo=_REDO)
@@ -349,6 +351,25 @@ def read_input(path: Path, read: Callable[[Path], T]) -> T:
         return read(path)
     except (OSError, ValueError) as exc:
         raise InputError(f"cannot be read for the report ({first_line(exc)})", file=path) from None
+
+
+def rows_at_most(most: int, writes: str) -> Callable[[Path], Any]:
+    """A reader (for :func:`read_input`) of a Parquet output of at most ``most`` rows,
+    as many as ``writes`` says marops writes at most (``a day's replay writes``): a file
+    of more, which no run writes, is refused by its footer before any row is read (a
+    megabyte of repeated rows unpacks to gigabytes)."""
+    from ..data.arrow import parquet_rows, read_parquet
+
+    def read(path: Path) -> Any:
+        rows = parquet_rows(path)
+        if rows > most:
+            raise InputError(
+                f"holds {rows:,} rows, more than the {most:,} {writes}: {EDITED}",
+                file=path,
+            )
+        return read_parquet(path)
+
+    return read
 
 
 def table_meta(table: Any, path: Path) -> dict[str, Any]:

@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 import pyarrow as pa
 
-from ..config import MAX_DRONES, OpsConfig, PlannerConfig
+from ..config import MAX_DAY_STOPS, OpsConfig, PlannerConfig
 from ..data.arrow import is_text, parquet_rows, read_parquet, read_parquet_schema
 from ..data.frame import Frame
 from ..data.jsonfile import first_line
@@ -253,13 +253,10 @@ def delivered_file(path: str | Path) -> Path:
     return p / "stops.parquet" if p.is_dir() else p
 
 
-MAX_DELIVERED_ROWS = 1_000_000 + 2 * 24 * 60 * MAX_DRONES
-"""Rows a ``--delivered`` stops file may hold: the stops of a day marops plans, a
-customer's for each of the busiest day's orders (``synth --orders-per-day`` at most)
-and two for each route of each drone of a study area in each of 1440 windows of a
-minute. Millions of repeated rows compress to kilobytes, and each row is read into
-memory (30 million: 3 GB and a minute and a half): a larger file is refused by its
-footer, before any row is read."""
+MAX_DELIVERED_ROWS = MAX_DAY_STOPS
+"""Rows a ``--delivered`` stops file may hold: the stops of a day marops plans. Each
+row is read into memory (30 million repeated rows, 168 kB: 3 GB and a minute and a
+half): a larger file is refused by its footer, before any row is read."""
 
 
 Delivered = Mapping[str, frozenset[tuple[float, float]] | None]
