@@ -639,11 +639,20 @@ def _read_back(folder: Path, metrics: dict[str, Any]) -> DayResult:
     GeoParquet ``geometry`` column and ``geo`` metadata."""
     import pyarrow as pa
 
-    from .data.arrow import read_parquet
+    from .config import MAX_DAY_ROUTES, MAX_DAY_STOPS
+    from .data.arrow import parquet_rows, read_parquet
     from .data.jsonfile import first_line
     from .errors import InputError
 
     def read(name: str) -> pa.Table:
+        most = MAX_DAY_STOPS if name == "stops.parquet" else MAX_DAY_ROUTES
+        rows = parquet_rows(folder / name)  # its footer: no row read yet
+        if rows > most:
+            raise InputError(
+                f"a day's file edited since marops wrote it ({rows:,} rows, more than the "
+                f"{most:,} a day's replay writes); pass force=True to replay the day",
+                file=folder / name,
+            )
         table = read_parquet(folder / name)
         if "geometry" in table.column_names:
             table = table.drop_columns(["geometry"])

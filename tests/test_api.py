@@ -363,6 +363,28 @@ def test_api_a_day_kept_without_the_files_asked_for_now_is_replayed(
     assert (tmp_path / "routes.geojson").is_file() and again.routes.equals(first.routes)
 
 
+def test_api_a_kept_day_of_more_rows_than_a_day_has_is_refused_unread(
+    example_csv: Path, tmp_path: Path, monkeypatch
+) -> None:
+    """A day kept in out is read back; a stops or routes file of more rows than any
+    day's (edited since, a megabyte of repeated rows unpacking to gigabytes) is refused
+    by its footer, naming it, not returned as the day's routes."""
+    import numpy as np
+
+    import marops_cli.config
+
+    day = {"method": "stay", "out": tmp_path, "area": "square"}
+    first = marops.replay_day(example_csv, "0811", **day)
+    path = tmp_path / "routes.parquet"
+    table = pq.read_table(path)
+    more = table.take(pa.array(np.arange(10 * table.num_rows) % table.num_rows))
+    pq.write_table(more.replace_schema_metadata(table.schema.metadata), path)
+    monkeypatch.setattr(marops_cli.config, "MAX_DAY_ROUTES", 9 * first.routes.num_rows)
+    with pytest.raises(InputError, match="edited since marops wrote it") as err:
+        marops.replay_day(example_csv, "0811", **day)
+    assert err.value.file == str(path)
+
+
 def test_api_a_path_too_long_to_look_up_is_an_input_error(example_csv: Path, tmp_path: Path):
     # As the flags: a folder name longer than the file system takes is bad input naming
     # the path, not an OSError from deep inside.
