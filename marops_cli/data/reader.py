@@ -73,6 +73,15 @@ _REASON_COLUMN = {
     "delivery_before_accept": "delivery_time",
 }
 _BLOCK_BYTES = 16 << 20  # pyarrow CSV block: large blocks parse faster on few cores
+MAX_EXPORT_ROWS = 20_000_000
+"""The most rows one export may have (docs/method.md §1): a city's LaDe-D file has 1.5
+million (Shanghai's), the whole release about 11 million; a Parquet file of more is
+refused by its footer, before a row is read, where a few megabytes of repeated rows
+would unpack to tens of gigabytes."""
+MAX_EXPORT_BYTES = 4 << 30
+"""The most bytes of text one CSV export may have, once decompressed (Shanghai's LaDe-D
+file has 0.26 GB), and of column data a Parquet export's footer may give: a gzip that
+unpacks to more is refused as its text is read, before it fills the memory."""
 
 
 def _sniff(path: Path) -> tuple[str, str | None]:
@@ -176,6 +185,47 @@ def _not_utf8(head: bytes, at: int, path: Path) -> InputError:
 def _stream(path: Path, compression: str | None) -> pa.NativeFile:
     """The file as a pyarrow stream (:func:`native_file`: a name that is not UTF-8 opens)."""
     return pa.input_stream(native_file(path), compression=compression)
+
+
+def _too_large(path: Path, what: str) -> InputError:
+    return InputError(
+        f"{what}, more than the {MAX_EXPORT_BYTES >> 30} GiB marops reads from one export "
+        f"(a city's LaDe-D file has 0.26 GB); split it by city or by date",
+        file=path,
+    )
+
+
+class _Capped(io.RawIOBase):
+    """A decompressed stream that refuses (:class:`InputError`) to give more than
+    :data:`MAX_EXPORT_BYTES` (a small gzip may unpack to any size)."""
+
+    def __init__(self, stream: pa.NativeFile, path: Path) -> None:
+        super().__init__()
+        self._stream, self._path, self._read = stream, path, 0
+
+    def readable(self) -> bool:
+        return True
+
+    def read(self, size: int = -1) -> bytes:  # type: ignore[override]
+        data = self._stream.read(None if size < 0 else size)
+        self._read += len(data)
+        if self._read > MAX_EXPORT_BYTES:
+            raise _too_large(self._path, "its text unpacks to more than that")
+        return bytes(data)
+
+    def close(self) -> None:
+        self._stream.close()
+        super().close()
+
+
+def _csv_stream(path: Path, compression: str | None) -> io.RawIOBase | pa.NativeFile:
+    """The CSV's text, at most :data:`MAX_EXPORT_BYTES` of it (else :class:`InputError`)."""
+    if compression is None:
+        size = path.stat().st_size
+        if size > MAX_EXPORT_BYTES:
+            raise _too_large(path, f"the file has {size / (1 << 30):.1f} GiB")
+        return _stream(path, None)
+    return _Capped(_stream(path, compression), path)
 
 
 def _csv_header(path: Path, compression: str | None) -> list[str]:
@@ -293,7 +343,7 @@ def _read_csv(path: Path, compression: str | None) -> tuple[pa.Table, list[Malfo
             return "skip"
 
         parse = pacsv.ParseOptions(invalid_row_handler=None if malformed is None else skip)
-        with _stream(path, compression) as f:
+        with _csv_stream(path, compression) as f:
             return pacsv.read_csv(
                 f, read_options=opts, parse_options=parse, convert_options=convert
             )
@@ -386,6 +436,7 @@ def _read_parquet(path: Path) -> pa.Table:
     try:
         with pq.ParquetFile(_stream(path, None)) as pf:  # closed on every way out
             include = _check_columns(list(pf.schema_arrow.names), path)
+            _check_parquet_size(pf, path)
             table = pf.read(columns=include)
     except (pa.ArrowException, OSError, UnicodeDecodeError) as exc:
         # A damaged file raises OSError (a thrift or compression error) or, where a
@@ -395,6 +446,22 @@ def _read_parquet(path: Path) -> pa.Table:
     if table.num_rows == 0:
         raise InputError("the file has no data rows", file=path, row=2)
     return table
+
+
+def _check_parquet_size(pf: pq.ParquetFile, path: Path) -> None:
+    """Refuse a Parquet export whose footer gives more than :data:`MAX_EXPORT_ROWS` rows
+    or :data:`MAX_EXPORT_BYTES` of column data, before any is read."""
+    meta = pf.metadata
+    if meta.num_rows > MAX_EXPORT_ROWS:
+        raise InputError(
+            f"holds {meta.num_rows:,} rows, more than the {MAX_EXPORT_ROWS:,} marops reads "
+            "from one export (a city's LaDe-D file has 1.5 million); split it by city or by "
+            "date",
+            file=path,
+        )
+    unpacked = sum(meta.row_group(i).total_byte_size for i in range(meta.num_row_groups))
+    if unpacked > MAX_EXPORT_BYTES:
+        raise _too_large(path, f"its columns unpack to {unpacked / (1 << 30):.1f} GiB")
 
 
 def _numbers(column: pa.ChunkedArray) -> np.ndarray:

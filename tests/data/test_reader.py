@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pyarrow as pa
+import pyarrow.csv as pacsv
 import pyarrow.parquet as pq
 import pytest
 
@@ -762,6 +763,36 @@ def test_a_gzip_stream_damaged_past_its_first_megabyte_is_one_error(tmp_path: Pa
         with pytest.raises(InputError, match=f"{name}: not a valid gzip file") as err:
             read_lade(tmp_path / name, DataConfig())
         assert err.value.exit_code == 2
+
+
+def test_an_export_larger_than_marops_reads_is_refused_before_it_is_read(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A few megabytes of gzip or Parquet may unpack to tens of gigabytes of repeated
+    rows (a 3.7 MB Parquet file of 50 million, a run's memory filled before any error).
+    Beyond the bounds (lowered here: 2,000 rows, 64 KiB of text) one line names the
+    file, exit 2: a Parquet file by its footer, a gzip as its text is read, a plain CSV
+    by its size; within them the same rows read as before."""
+    import marops_cli.data.reader as reader
+
+    rows = [row(str(i)) for i in range(3_000)]  # about 200 KB of text
+    plain = write_csv(tmp_path / "d.csv", rows)
+    (tmp_path / "d.csv.gz").write_bytes(gzip.compress(plain.read_bytes()))
+    kept = {name: len(read_lade(tmp_path / name, DataConfig())) for name in ("d.csv", "d.csv.gz")}
+    monkeypatch.setattr(reader, "MAX_EXPORT_BYTES", 64 << 10)
+    for name, why in (("d.csv", "the file has"), ("d.csv.gz", "its text unpacks to more")):
+        with pytest.raises(InputError, match=f"{name}: {why} .*split it by city or by date") as e:
+            read_lade(tmp_path / name, DataConfig())
+        assert e.value.exit_code == 2
+    monkeypatch.setattr(reader, "MAX_EXPORT_BYTES", 4 << 30)
+    monkeypatch.setattr(reader, "MAX_EXPORT_ROWS", 2_000)
+    big = tmp_path / "big.parquet"
+    text = pacsv.ConvertOptions(column_types=dict.fromkeys(LADE_COLUMNS, pa.string()))
+    pq.write_table(pacsv.read_csv(plain, convert_options=text), big)
+    with pytest.raises(InputError, match=r"big.parquet: holds 3,000 rows, more than the 2,000"):
+        read_lade(big, DataConfig())
+    monkeypatch.setattr(reader, "MAX_EXPORT_ROWS", 3_000)
+    assert len(read_lade(big, DataConfig())) == kept["d.csv"] == kept["d.csv.gz"]
 
 
 def test_bytes_that_are_not_utf8_in_a_column_not_read_do_not_matter(tmp_path: Path) -> None:
