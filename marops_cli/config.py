@@ -733,4 +733,14 @@ def override(
         return PlannerConfig.model_validate(data)
     except ValidationError as exc:
         dotted = {k.replace("__", "."): v for k, v in (names or {}).items()}
+        # A stage's own check (depots against candidates, say) names the options given
+        # of that stage, not the stage.
+        for stage in type(cfg).model_fields:
+            given = [
+                v
+                for k, v in (names or {}).items()
+                if k.startswith(f"{stage}__") and fields.get(k) is not None
+            ]
+            if given:
+                dotted.setdefault(stage, ", ".join(dict.fromkeys(given)))
         raise InputError(f"invalid option {validation_message(exc, dotted)}") from exc

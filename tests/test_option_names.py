@@ -159,6 +159,15 @@ def test_every_api_function_has_a_case() -> None:
     [
         (["segment", "{data}", "--n-depots", "0"], "invalid option --n-depots: "),
         (["segment", "{data}", "--hubs", "0"], "--hubs expects a number of hubs"),
+        # A stage's own check of two settings names the options given of it.
+        (
+            ["segment", "{data}", "--segmentation", "squares", "--n-depots", "7"],
+            "invalid option --n-depots, --segmentation: expected a square number of depots",
+        ),
+        (
+            ["segment", "{data}", "--n-depots", "4096", "--actions", "4096"],
+            "invalid option --n-depots, --actions: 4096 depots",
+        ),
         (
             ["plan-window", "{data}", "--depots", "{tmp}/d.json", "--date", "0811"]
             + ["--window", "5", "--alpha", "2"],
