@@ -7,8 +7,8 @@ clique table, cuts at the root); re-solving the relaxation with one column fixed
 a tenth of a millisecond from the previous basis. So the selection first branches
 itself: depth first, the fractional column of the largest value fixed to 1 first (then
 to 0), a node pruned when its relaxation cannot beat the best plan found by more than
-the program's relative gap. Past ``max_nodes`` relaxations, or at the deadline, it
-gives up and the caller runs HiGHS' integer solver (docs/decisions.md, "Planning a
+the program's relative gap. Past ``max_nodes`` relaxations, or at the deadline (CPU
+seconds), it gives up and the caller runs HiGHS' integer solver (docs/decisions.md, "Planning a
 window").
 """
 
@@ -47,9 +47,10 @@ def branch_and_bound(
     max_nodes: int | None = None,
 ) -> Branched | None:
     """Minimise ``h``'s model (its relaxation just solved to optimality, fractional)
-    over 0/1 columns; None when ``max_nodes`` or ``deadline`` (``time.perf_counter``)
-    is reached first, or a relaxation ends other than optimal or infeasible. The
-    model's column bounds are left as they were (``max_nodes`` None: :data:`MAX_NODES`)."""
+    over 0/1 columns; None when ``max_nodes`` or ``deadline`` (``time.process_time``,
+    CPU seconds: the same search on a busy machine) is reached first, or a relaxation
+    ends other than optimal or infeasible. The model's column bounds are left as they
+    were (``max_nodes`` None: :data:`MAX_NODES`)."""
     cap = MAX_NODES if max_nodes is None else max_nodes
     n = h.getNumCol()
     best, best_x, lower = np.inf, None, np.inf
@@ -59,7 +60,7 @@ def branch_and_bound(
     try:
         while stack:
             node = stack.pop()
-            if nodes and (nodes >= cap or time.perf_counter() > deadline):
+            if nodes and (nodes >= cap or time.process_time() > deadline):
                 return None
             _fix(h, fixed, node)
             fixed = node

@@ -271,7 +271,7 @@ def _solve_cvxpy(milp: _Milp, strict: bool, time_limit_s: float) -> _Attempt:
 
 
 def _solve_highs(milp: _Milp, strict: bool, time_limit_s: float) -> _Attempt:
-    t0 = time.perf_counter()
+    t0, cpu0 = time.perf_counter(), time.process_time()
     a = milp.rows.tocsc()
     n_row, n_col = a.shape
     lower = np.full(n_row, -highspy.kHighsInf)
@@ -299,7 +299,10 @@ def _solve_highs(milp: _Milp, strict: bool, time_limit_s: float) -> _Attempt:
             bound = _finite(h.getInfo().objective_function_value)
             return _Attempt(np.round(x), "kOptimal", t1 - t0, time.perf_counter() - t1, bound, 0.0)
         # A few branchings usually close it, far sooner than the integer solver starts.
-        done = branch_and_bound(h, _MIP_REL_GAP, _INTEGRAL_TOL, t0 + 0.5 * float(time_limit_s))
+        # Half the time limit in CPU seconds: on a busy machine the wall clock would hand
+        # the program to the integer solver sooner, and its answer may differ.
+        half = cpu0 + 0.5 * float(time_limit_s)
+        done = branch_and_bound(h, _MIP_REL_GAP, _INTEGRAL_TOL, half)
         if done is not None:
             gap = (done.objective - done.bound) / max(abs(done.objective), 1e-9)
             return _Attempt(

@@ -305,6 +305,29 @@ def test_a_fractional_relaxation_is_branched_before_the_integer_solver(monkeypat
     assert MilpSelector().select(easy).chosen.tolist() == [1, 1, 1] and runs == [False]
 
 
+def test_a_busy_machine_branches_as_an_idle_one(monkeypatch):
+    """The branching gives up at half the time limit in CPU seconds, not on the wall
+    clock: on a machine busy with other work (here a wall clock that leaps a minute at
+    every look) the odd cycle is still branched, never handed to the integer solver,
+    whose answer among equal plans may differ (the same bytes under any load)."""
+    import time
+
+    problem = _odd_cycle()
+    runs: list[bool] = []
+    original = highspy.Highs.run
+
+    def counted(self):
+        runs.append(any(t == highspy.HighsVarType.kInteger for t in self.getLp().integrality_))
+        return original(self)
+
+    idle = MilpSelector().select(problem)
+    clock = iter(range(0, 10**6, 60))
+    monkeypatch.setattr(time, "perf_counter", lambda: float(next(clock)))
+    monkeypatch.setattr(highspy.Highs, "run", counted)
+    busy = MilpSelector().select(problem)
+    assert runs == [False, False, False] and busy.chosen.tolist() == idle.chosen.tolist()
+
+
 def _overlapping(seed: int) -> SelectionProblem:
     """5 drones whose plans overlap in pairs and triples of 7 requests (odd cycles)."""
     rng = np.random.default_rng(seed)
