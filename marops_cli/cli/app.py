@@ -14,7 +14,7 @@ import typer
 import typer.core
 
 from .. import __version__
-from .common import INTERRUPTED, PLAIN, STATE, error_json, stop_signal
+from .common import INTERRUPTED, PLAIN, STATE, error_json, one_line, stop_signal
 from .evaluate_cmd import evaluate_command
 from .plan_window_cmd import plan_window_command
 from .replay_cmd import replay_day_command
@@ -102,7 +102,7 @@ def _one_line_warning(
 ) -> None:
     """Library warnings (scikit-learn, cvxpy, torch) as our own one-line messages."""
     text = " ".join(str(message).split())
-    typer.echo(f"warning: {text}", err=True)
+    typer.echo(f"warning: {one_line(text)}", err=True)
 
 
 def _run() -> int | str | None:
@@ -129,7 +129,7 @@ def _run() -> int | str | None:
         text = _named_source(" ".join(str(message()).split()), getattr(exc, "param", None), ctx)
         if text == "Missing command." and ctx is not None:  # a bare `marops`: name them
             text = f"Missing command: one of {', '.join(ctx.command.list_commands(ctx))}."
-        typer.echo(f"marops: error: {text}{hint}", err=True)
+        typer.echo(f"marops: error: {one_line(text)}{hint}", err=True)
         status = int(getattr(exc, "exit_code", 2))
         if ctx is not None and _wants_json(ctx.command):
             error_json(_command_name(ctx), f"{text}{hint}", status)

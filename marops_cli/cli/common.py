@@ -8,6 +8,7 @@ from __future__ import annotations
 import functools
 import json
 import os
+import re
 import sys
 import threading
 from collections.abc import Callable
@@ -58,11 +59,27 @@ def plain_output() -> bool:
 PLAIN = plain_output()
 # In plain mode nothing wraps (lines stay whole in a log) and tables have no box drawing.
 _WIDE = 1_000
-console = Console(
-    stderr=True, highlight=False, width=_WIDE if PLAIN else None, soft_wrap=PLAIN, no_color=PLAIN
-)
+# Messages and tables quote file names and what files hold: rich markup and emoji codes
+# are off, so ``[red]`` or ``:bomb:`` in a name is printed as it is (and ``[/]`` is no
+# MarkupError after the run's files are written).
+
+
+def _console(stderr: bool) -> Console:
+    width = _WIDE if PLAIN else None
+    return Console(
+        stderr=stderr,
+        width=width,
+        soft_wrap=PLAIN,
+        no_color=PLAIN,
+        highlight=False,
+        markup=False,
+        emoji=False,
+    )
+
+
+console = _console(stderr=True)
 """Messages and progress (stderr)."""
-out = Console(highlight=False, width=_WIDE if PLAIN else None, soft_wrap=PLAIN, no_color=PLAIN)
+out = _console(stderr=False)
 """Result tables (stdout), so a cron job's log keeps them whole."""
 STATE: dict[str, bool] = {"debug": False, "quiet": False, "json": False}
 
@@ -232,14 +249,28 @@ def info(message: str) -> None:
         console.print(one_line(message))
 
 
+_CONTROL = re.compile("[\x00-\x08\x0a-\x1f\x7f-\x9f\u2028\u2029\u202a-\u202e\u2066-\u2069]")
+"""Characters a terminal acts on rather than shows (all control characters but tab: ESC
+starts a sequence that clears the screen or recolours what follows; the line and
+paragraph separators; the bidirectional overrides, which reorder what follows)."""
+_NAMED = {"\r": "\\r", "\n": "\\n"}
+
+
 def one_line(text: str) -> str:
-    """``text`` on one line: carriage returns and line breaks written as ``\\r``, ``\\n``."""
-    return text.replace("\r", "\\r").replace("\n", "\\n")
+    """``text`` on one line, as a terminal shows it: carriage returns and line breaks
+    written as ``\\r``, ``\\n``, other control characters (a file name or a cell may hold
+    any) as ``\\x1b``, ``\\u202e``."""
+    return _CONTROL.sub(_escaped, text)
+
+
+def _escaped(m: re.Match[str]) -> str:
+    c = m[0]
+    return _NAMED.get(c) or (f"\\x{ord(c):02x}" if ord(c) < 0x100 else f"\\u{ord(c):04x}")
 
 
 def warn(message: str) -> None:
     """A warning on stderr (shown with ``--quiet`` and ``--json`` too)."""
-    console.print(f"warning: {message}")
+    console.print(one_line(f"warning: {message}"))
 
 
 def emit_json(doc: Any) -> None:
@@ -344,7 +375,7 @@ def _fail(text: str, code: int, command: str, options: dict[str, Any]) -> NoRetu
     """End ``command`` with ``marops: error: TEXT`` on stderr and exit ``code``; with
     ``--json`` (``options["as_json"]``, also when the error came before the command
     applied it) also the error as one JSON document on stdout (:func:`error_json`)."""
-    typer.echo(f"marops: error: {text}", err=True)
+    typer.echo(f"marops: error: {one_line(text)}", err=True)
     if STATE["json"] or options.get("as_json") is True:
         error_json(command, text, code)
     raise typer.Exit(code) from None

@@ -17,7 +17,7 @@ from rich.progress import (
 )
 
 from ..errors import spelled
-from .common import PLAIN, STATE, console, info, is_terminal, warn
+from .common import PLAIN, STATE, console, info, is_terminal, one_line, warn
 
 
 class Terminal:
@@ -42,13 +42,13 @@ class Terminal:
         quiet = STATE["quiet"] or STATE["json"]
         if total == 0:
             if not (PLAIN or quiet):
-                self._status = console.status(label)
+                self._status = console.status(one_line(label))
                 self._status.__enter__()
             return
         if quiet or not is_terminal():
             return
         columns: list[ProgressColumn] = [
-            TextColumn(label),
+            TextColumn(one_line(label), markup=False),
             BarColumn(),
             MofNCompleteColumn(),
             TimeElapsedColumn(),

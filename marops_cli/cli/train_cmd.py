@@ -62,7 +62,7 @@ class _Reporter:
         if e.get("kind") == "start":
             self.first, self.total = int(e["episode"]), int(e["episodes"])
             self.t0 = time.perf_counter()
-        console.print(text)
+        console.print(one_line(text))
 
     def warning(self, text: str) -> None:
         warn(spelled(text))  # an option named by its flag (marops_cli/errors.py)

@@ -397,6 +397,26 @@ def test_the_files_written_are_one_line_whatever_their_names(
     assert out.is_file()
 
 
+def test_names_are_printed_as_they_are_never_as_markup_or_terminal_codes(
+    example_csv: Path, tmp_path: Path
+) -> None:
+    """A name holding rich markup (``[red]``, ``[/]``: a MarkupError and a traceback
+    once the files were written), an emoji code or a terminal's control sequence (ESC
+    clears the screen) is printed as its characters, the control ones escaped."""
+    (tmp_path / "a[").mkdir()
+    out = tmp_path / "a[" / "][red]:bomb:\x1b[2J\u202eb.json"
+    res = runner.invoke(
+        app, ["segment", str(example_csv), "--dates", "0801..0803", "--out", str(out)]
+    )
+    assert res.exit_code == 0, res.output
+    (line,) = [x for x in res.output.splitlines() if x.startswith("wrote ")]
+    assert line == f"wrote {tmp_path}/a[/][red]:bomb:\\x1b[2J\\u202eb.json"
+    assert out.is_file()
+    res = runner.invoke(app, ["segment", str(out.with_suffix(".csv")), "--out", str(out)])
+    assert res.exit_code == 2 and "\x1b" not in res.output, res.output
+    assert "[red]:bomb:\\x1b[2J" in res.output
+
+
 def test_segmenting_again_keeps_the_days_replayed_with_its_depots(
     example_csv: Path, tmp_path: Path
 ) -> None:
