@@ -199,6 +199,32 @@ def test_a_frame_of_float_or_padded_ids_reads_as_its_plain_ids(example_csv: Path
     assert marops.read_lade(padded).equals(base)
 
 
+def test_a_frame_column_of_several_kinds_reads_as_its_cells_text(example_csv: Path) -> None:
+    # Arrow makes one type of a column of Python objects where it can: integer ids
+    # beside a datetime became times of 1970 ("1970-01-01 00:00:00.000001"), every id
+    # wrong; a list among the ids became the id "[1]". Each cell reads as its text, as
+    # a file's; a cell no file holds is refused by its row.
+    import datetime as dt
+
+    import pandas as pd
+
+    frame = pd.read_csv(example_csv)
+    ids = frame.astype({"order_id": object})
+    ids.loc[0, "order_id"] = dt.datetime(2022, 8, 1)
+    got = marops.read_lade(ids).column("order_id").to_pylist()
+    want = marops.read_lade(frame).column("order_id").to_pylist()
+    assert got[0] == "2022-08-01 00:00:00" and got[1:] == want[1:]
+    ids.loc[1, "order_id"] = b"X1"  # bytes as their UTF-8 text
+    assert marops.read_lade(ids).column("order_id").to_pylist()[:2] == [got[0], "X1"]
+    for cell, shown in (([1], r"\[1\] \(list\)"), ({"a": 1}, r"\{'a': 1\} \(dict\)")):
+        odd = frame.astype({"aoi_id": object})
+        odd.at[4, "aoi_id"] = cell
+        with pytest.raises(
+            InputError, match=rf"^DataFrame, row 6, column 'aoi_id': .*got {shown} \(the frame's"
+        ):
+            marops.read_lade(odd)
+
+
 class DataFrame:
     """A frame of another library (polars, say): not pandas, whatever its name."""
 

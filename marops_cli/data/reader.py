@@ -41,6 +41,7 @@ Table in memory (the Python API's data), numbering its rows the same way.
 from __future__ import annotations
 
 import csv
+import datetime as dt
 import errno
 import hashlib
 import io
@@ -48,6 +49,7 @@ import re
 import stat
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
+from decimal import Decimal
 from functools import partial
 from pathlib import Path
 from typing import Any
@@ -58,7 +60,7 @@ import pyarrow.compute as pc
 import pyarrow.csv as pacsv
 import pyarrow.parquet as pq
 
-from ..errors import InputError, not_found
+from ..errors import InputError, not_found, quoted
 from .arrow import is_text, native_file
 from .dates import TIME_BAD, TIME_EMPTY, ds_other_day, parse_ds, parse_times
 from .digest import sha256_file
@@ -874,6 +876,9 @@ def _frame_table(frame: Any, where: str) -> pa.Table:
     columns = {}
     for name in include:
         col = frame.iloc[:, names.index(name)]
+        if col.dtype == object and _of_several_kinds(col):
+            columns[name] = _cells_text(col, frame.index, where, name)
+            continue
         try:
             columns[name] = pa.Array.from_pandas(col)
         except (pa.ArrowException, TypeError, ValueError) as exc:
@@ -884,6 +889,49 @@ def _frame_table(frame: Any, where: str) -> pa.Table:
             text[col.isna().to_numpy(dtype=bool)] = None
             columns[name] = pa.array(text, type=pa.string())
     return pa.table(columns)
+
+
+def _of_several_kinds(col: Any) -> bool:
+    """Whether a column of Python objects holds cells of several kinds (numbers and
+    words, as frames joined together hold) or ones that are no cell of a file (lists,
+    dicts). Arrow would make one type of them where it can: the integers beside a
+    ``datetime`` would be times of 1970, every id wrong."""
+    from pandas.api.types import infer_dtype
+
+    return infer_dtype(col, skipna=True) in ("mixed", "mixed-integer")
+
+
+_CELLS = (str, bytes, int, float, Decimal, dt.date, np.generic)
+"""What a cell of a frame's column may be: what a file's cell reads as (text, a number,
+a time), numpy's scalars included."""
+
+
+def _cells_text(col: Any, index: Any, where: str, name: str) -> pa.Array:
+    """A frame's column of cells of several kinds as their text, as a file's cells are
+    (bytes as UTF-8); a cell that is no text, number or time (a list, a dict) is an
+    error naming its row, which would otherwise be an id ``[1]``."""
+    empty = col.isna().to_numpy(dtype=bool)
+    text: list[str | None] = []
+    for i, cell in enumerate(col.to_numpy(dtype=object)):
+        if empty[i]:
+            text.append(None)
+            continue
+        why = ""
+        if not isinstance(cell, _CELLS) or isinstance(cell, np.ndarray):
+            why = f"expected text, a number or a time, got {quoted(cell)} ({type(cell).__name__})"
+        elif isinstance(cell, bytes):
+            try:
+                cell = cell.decode("utf-8")
+            except UnicodeDecodeError:
+                why = "not UTF-8 text"
+        if why:
+            label = index[i]
+            shown = repr(label) if isinstance(label, str) else str(label)
+            raise InputError(
+                f"{why} (the frame's index {shown})", file=where, row=i + 2, column=name
+            )
+        text.append(str(cell))
+    return pa.array(text, type=pa.string())
 
 
 def _lade_table(
