@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import math
 import os
+import sys
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -228,8 +229,15 @@ def outside_hubs(folder: Path) -> LeftOut:
     path = folder / LEFT_OUT
     if not path.is_file():
         return [], [], []
-    with path.open(encoding="utf-8", errors="replace", newline="") as fh:
-        rows = [r for r in csv.DictReader(fh) if r.get("reason") == OUTSIDE]
+    # An order id is the export's text, of any length: a field longer than csv's limit
+    # of 131,072 characters, which marops wrote, ended the page in a csv.Error.
+    limit = csv.field_size_limit()
+    csv.field_size_limit(max(limit, min(path.stat().st_size, sys.maxsize)))
+    try:
+        with path.open(encoding="utf-8", errors="replace", newline="") as fh:
+            rows = [r for r in csv.DictReader(fh) if r.get("reason") == OUTSIDE]
+    finally:
+        csv.field_size_limit(limit)
     rows = rows[:: len(rows) // MOST_LEFT_OUT + 1]
     lng, lat, text = [], [], []
     for r in rows:

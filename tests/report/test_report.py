@@ -1087,6 +1087,26 @@ def test_the_city_map_draws_what_the_files_hold_and_leaves_out_the_rest(tmp_path
     assert '<a href="hub-2/report.html">report</a>' in html
 
 
+def test_the_city_map_names_an_order_id_longer_than_csvs_field_limit(tmp_path: Path) -> None:
+    """An export's order id is text of any length, and left_out.csv holds it as it is: an
+    id past the csv module's field limit (131,072 characters) ended the city's page, the
+    run's own included, in a csv.Error traceback."""
+    import csv
+
+    from marops_cli.report.citymap import outside_hubs
+
+    long = "L" * 140_000
+    (tmp_path / "left_out.csv").write_text(
+        "day,order_id,row,lng,lat,reason\n"
+        f"2022-08-11,{long},3,121.9,31.5,outside every hub\n"
+        "2022-08-11,b,4,121.4,31.2,outside service hours\n"
+    )
+    limit = csv.field_size_limit()
+    lng, lat, text = outside_hubs(tmp_path)
+    assert (lng, lat, text) == ([121.9], [31.5], [f"order {long}, 2022-08-11: outside every hub"])
+    assert csv.field_size_limit() == limit  # the module's limit as it was
+
+
 def test_the_city_map_draws_a_hub_with_nothing_due_that_day() -> None:
     """A hub of the city where no order was due on the day has no delivered share: its
     square is grey and the map is drawn (plotly refused the None among the colours, and a
