@@ -4,9 +4,11 @@ orders due, planned and delivered; a click on a hub opens its page."""
 
 from __future__ import annotations
 
+import itertools
 import math
 import os
 import sys
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -233,12 +235,18 @@ def outside_hubs(folder: Path) -> LeftOut:
     # of 131,072 characters, which marops wrote, ended the page in a csv.Error.
     limit = csv.field_size_limit()
     csv.field_size_limit(max(limit, min(path.stat().st_size, sys.maxsize)))
-    try:
+
+    def outside() -> Iterator[dict[str, str]]:
         with path.open(encoding="utf-8", errors="replace", newline="") as fh:
-            rows = [r for r in csv.DictReader(fh) if r.get("reason") == OUTSIDE]
+            yield from (r for r in csv.DictReader(fh) if r.get("reason") == OUTSIDE)
+
+    try:
+        # Counted first, then every n-th read: a city's months may leave millions out,
+        # and only :data:`MOST_LEFT_OUT` of them are ever held.
+        step = sum(1 for _ in outside()) // MOST_LEFT_OUT + 1
+        rows = list(itertools.islice(outside(), 0, None, step))
     finally:
         csv.field_size_limit(limit)
-    rows = rows[:: len(rows) // MOST_LEFT_OUT + 1]
     lng, lat, text = [], [], []
     for r in rows:
         try:

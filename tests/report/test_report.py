@@ -1107,6 +1107,25 @@ def test_the_city_map_names_an_order_id_longer_than_csvs_field_limit(tmp_path: P
     assert csv.field_size_limit() == limit  # the module's limit as it was
 
 
+def test_the_city_map_draws_every_nth_order_outside_the_hubs(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Past the most the map draws (lowered here to 10), every n-th of the orders outside
+    every hub, in file order, the others' reasons skipped: 50 outside, so every 6th (0, 6,
+    …, 48), counted in a first pass and read in a second, never all held at once."""
+    import marops_cli.report.citymap as citymap
+
+    monkeypatch.setattr(citymap, "MOST_LEFT_OUT", 10)
+    lines = ["day,order_id,row,lng,lat,reason"]
+    for k in range(50):
+        lines.append(f"2022-08-11,o{k},{k + 2},{121 + k / 100},31.2,outside every hub")
+        lines.append(f"2022-08-11,h{k},{k + 2},121.4,31.2,outside service hours")
+    (tmp_path / "left_out.csv").write_text("\n".join(lines) + "\n")
+    lng, _, text = citymap.outside_hubs(tmp_path)
+    assert [t.split(",")[0] for t in text] == [f"order o{k}" for k in range(0, 50, 6)]
+    assert lng == pytest.approx([121 + k / 100 for k in range(0, 50, 6)])
+
+
 def test_the_city_map_draws_a_hub_with_nothing_due_that_day() -> None:
     """A hub of the city where no order was due on the day has no delivered share: its
     square is grey and the map is drawn (plotly refused the None among the colours, and a
