@@ -219,7 +219,15 @@ def evaluate(
     if prep.hubs and config.hubs is None:
         from ..segment.hubs import outside_warning
 
-        far = outside_warning(prep.source, prep.hubs, prep.days, cfg.data.hub_min_share)
+        far = outside_warning(
+            prep.source,
+            prep.hubs,
+            prep.days,
+            cfg.data.hub_min_share,
+            history=prep.history,
+            unplaced=prep.unplaced,
+            n_depots=max(s.depots_n for s in prep.settings),
+        )
         if far is not None:
             progress.warning(far)
     if prep.skipped:

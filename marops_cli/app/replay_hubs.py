@@ -38,10 +38,11 @@ def replay_hubs(
     table = read_data(data, cfg.data)
     check_days_in_file(table, days)
     history = hubs_history(table, days)
+    unplaced = 0  # squares placed over the history, left out for too few locations
     if hubs_path is None:
         from ..segment.hubs import place_hubs
 
-        hub_list = place_hubs(table, cfg, history, cfg.segment.n_depots)
+        hub_list, unplaced = place_hubs(table, cfg, history, cfg.segment.n_depots)
     else:
         hub_list = load_hubs(hubs_path, cfg.data)
     owner = hub_owner(table, hub_list)  # once: the hubs' squares are set from here on
@@ -49,7 +50,16 @@ def replay_hubs(
     if hubs_path is None:
         from ..segment.hubs import outside_warning
 
-        far = outside_warning(table, hub_list, days, cfg.data.hub_min_share, owner)
+        far = outside_warning(
+            table,
+            hub_list,
+            days,
+            cfg.data.hub_min_share,
+            owner,
+            history=history,
+            unplaced=unplaced,
+            n_depots=cfg.segment.n_depots,
+        )
     hub_list = city_fleet(table, hub_list, history, cfg, owner)
     areas = []
     skipped: list[str] = []

@@ -88,6 +88,10 @@ class Prepared:
     """Days of the split left out: nothing to plan in the study area in service hours."""
     demand: list[int] = field(default_factory=list)
     """Each hub's orders on the history days, by which the hubs share a fleet."""
+    history: list[dt.date] = field(default_factory=list)
+    """The days hubs are placed over and share the fleet by (a city run)."""
+    unplaced: int = 0
+    """Squares the whole-export run left out: too few locations for their depots."""
 
     def drones(self, job: Job) -> int:
         """The fleet size of ``job``: its setting's, or over hubs its hub's own, else its
@@ -177,8 +181,9 @@ def prepare(
         raise InputError(f"no days to evaluate (the file has {format_days(table.days())})")
     check_replays([*counts, (len(chosen), "day", "days")])  # before any segmentation
     history = hubs_history(table, chosen)
+    unplaced = 0
     if hubs is None and cfg.data.area == "hubs" and cfg.data.center is None:
-        hubs = place_hubs(table, cfg, history, max(s.depots_n for s in settings))
+        hubs, unplaced = place_hubs(table, cfg, history, max(s.depots_n for s in settings))
     owner = hub_owner(table, hubs) if hubs else None  # once: the hubs are set from here on
     demand = hub_demand(table, hubs, history, owner) if hubs else []
     path = Path(table.source.path)
@@ -253,6 +258,8 @@ def prepare(
         list(hubs or ()),
         skipped,
         demand,
+        history,
+        unplaced,
     )
 
 

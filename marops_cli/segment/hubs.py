@@ -279,21 +279,56 @@ def outside_warning(
     days: Sequence[dt.date],
     min_share: float,
     owner: np.ndarray | None = None,
+    *,
+    history: Sequence[dt.date] | None = None,
+    unplaced: int = 0,
+    n_depots: int = 0,
 ) -> str | None:
     """A warning when at least :data:`OUTSIDE_WARNING` of the orders due on ``days`` lie
     outside every hub placed (``[data] hub_min_share`` ``min_share``; another city in the
     export, scattered points): the run leaves them out, and its figures per hub would not
-    show it. ``owner``: each row's hub (:func:`hub_owner`), when the caller has it."""
+    show it. ``owner``: each row's hub (:func:`hub_owner`), when the caller has it. The
+    warning says why where it can: the ``history`` days the hubs were placed over hold
+    their orders inside them (these days' orders lie elsewhere), or ``unplaced`` squares
+    were left out, too few distinct locations for their ``n_depots`` depots
+    (:func:`place_hubs`)."""
     total = int(due_on(table, days).sum())
     outside = total - sum(hub_demand(table, hubs, days, owner))
     if not total or outside < OUTSIDE_WARNING * total:
         return None
-    return (
+    head = (
         f"{outside:,} of the {total:,} orders due ({outside / total:.0%}) lie outside every "
-        f"hub, and are left out: hubs are placed within {REACH_M / 1000:g} km of the "
-        f"export's median point, where at least {min_share:.0%} of its orders are; give "
+        "hub, and are left out: "
+    )
+    if history is not None and set(history) != set(days):
+        placed_on = int(due_on(table, history).sum())
+        held = sum(hub_demand(table, hubs, history, owner))
+        if placed_on and placed_on - held < OUTSIDE_WARNING * placed_on:
+            return head + (
+                f"the hubs are placed over the history days ({_span(history)}), whose "
+                f"orders they hold ({held / placed_on:.0%}), and these days' orders lie "
+                f"elsewhere; name their squares in a hubs file ({option('hubs')}; marops "
+                "segment --hubs auto --dates DAYS writes one)"
+            )
+    why = ""
+    if unplaced:
+        why = (
+            f"{unplaced:,} {'hub was' if unplaced == 1 else 'hubs were'} not placed, each "
+            "holding fewer distinct customer locations on the history days than the "
+            f"{n_depots} a hub's depots need (lower {option('n_depots')}); "
+        )
+    reach = (
+        f"hubs are placed within {REACH_M / 1000:g} km of the export's median point, where "
+        f"at least {min_share * 100:g}% of its orders are ([data] hub_min_share); give "
         f"another city a file of its own, or name its squares in a hubs file ({option('hubs')})"
     )
+    return head + why + reach
+
+
+def _span(days: Sequence[dt.date]) -> str:
+    """``days`` as the first and last: ``2022-08-01..2022-08-24``, or the one."""
+    first, last = min(days).isoformat(), max(days).isoformat()
+    return first if first == last else f"{first}..{last}"
 
 
 def hub_locations(table: LadeTable, hubs: Sequence[Hub], days: Sequence[dt.date]) -> list[int]:
@@ -309,20 +344,22 @@ def hub_locations(table: LadeTable, hubs: Sequence[Hub], days: Sequence[dt.date]
 
 def place_hubs(
     table: LadeTable, cfg: PlannerConfig, history: Sequence[dt.date], n_depots: int
-) -> list[Hub]:
+) -> tuple[list[Hub], int]:
     """The hubs the whole-export run places (docs/method.md §1.1): covering squares over
     the ``history`` days (:func:`find_hubs`), less any that would own fewer distinct
     history locations (:func:`hub_locations`) than its ``n_depots`` depots need (rounded
     coordinates put many orders on one point); those orders fall to the hubs left, or
-    outside every hub. Refused when no hub is left."""
+    outside every hub. Returns the hubs and the number of squares left out (the run's
+    warning of orders outside every hub names them). Refused when no hub is left."""
     import dataclasses
 
     hubs, _ = find_hubs(table, cfg.data, history, None, cfg.data.hub_min_share, cover=True)
+    found = len(hubs)
     while True:
         held = hub_locations(table, hubs, history)
         keep = [h for h, d in zip(hubs, held, strict=True) if d >= n_depots]
         if len(keep) == len(hubs):
-            return hubs
+            return hubs, found - len(hubs)
         if not keep:
             most = max(held)
             raise InputError(

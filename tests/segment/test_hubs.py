@@ -93,6 +93,36 @@ def test_a_run_warns_when_many_orders_lie_outside_every_hub(points_table):
             assert "--hubs" in spelled(warning) and "are left out" in warning
 
 
+def test_the_outside_warning_says_why_the_orders_lie_outside(points_table):
+    """The warning names the cause it can tell: the history days the hubs were placed over
+    hold their orders in them, and the day replayed has its orders 40 km away; squares
+    left out for too few locations for their depots (--n-depots); else the reach and
+    the least share, as set (0.1 %, not rounded to 0 %)."""
+    import dataclasses
+    import datetime as dt
+
+    from marops_cli.errors import spelled
+    from marops_cli.segment.hubs import outside_warning
+
+    ref = Frame(LNG, LAT, 10.0)
+    history, day = [dt.date(1970, 1, 1)], [dt.date(1970, 1, 2)]
+    hub = [Hub(0, Frame(LNG, LAT, 10.0))]
+    x = np.r_[np.zeros(20), np.full(20, 40_000.0)]  # day 2's orders 40 km east
+    table = points_table(*ref.to_lnglat(x, np.zeros(40)))
+    table = dataclasses.replace(table, delivery_s=np.r_[np.zeros(20), np.full(20, 86_400)])
+    moved = outside_warning(table, hub, day, 0.01, history=history)
+    assert moved is not None and "20 of the 20 orders due (100%)" in moved
+    assert "placed over the history days (1970-01-01), whose orders they hold (100%)" in moved
+    assert "--hubs" in spelled(moved) and "--dates" in moved and "150 km" not in moved
+    plain = outside_warning(table, hub, day, 0.01)  # no history named: the reach
+    assert plain is not None and "150 km" in plain and "at least 1% " in plain
+    assert "at least 0.1% " in str(outside_warning(table, hub, day, 0.001))
+    both = history + day  # the history days replayed: nothing moved
+    few = outside_warning(table, hub, both, 0.01, history=both, unplaced=3, n_depots=16)
+    assert few is not None and "3 hubs were not placed" in few and "the 16 a hub's" in few
+    assert "--n-depots" in spelled(few) and "150 km" in few
+
+
 @pytest.mark.parametrize(
     ("doc", "column", "needle"),
     [
@@ -610,9 +640,9 @@ def test_the_whole_export_places_no_hub_too_sparse_for_its_depots(example_csv):
     cfg = PlannerConfig()
     table = read_data(example_csv, cfg.data)
     history = [d for d in table.days() if d.isoformat() != "2022-08-11"]
-    every = place_hubs(table, cfg, history, 16)
-    few = place_hubs(table, cfg, history, 400)
-    assert 1 <= len(few) < len(every)
+    every, _ = place_hubs(table, cfg, history, 16)
+    few, unplaced = place_hubs(table, cfg, history, 400)
+    assert 1 <= len(few) < len(every) and unplaced >= len(every) - len(few)
     assert [h.id for h in few] == list(range(len(few)))
     assert min(hub_demand(table, few, history)) >= 400
     with pytest.raises(InputError, match="no hub placed over the history days holds"):
@@ -637,8 +667,8 @@ def test_a_hub_of_rounded_coordinates_too_few_for_its_depots_is_not_placed(point
     table = points_table(lng, lat)
     cfg = PlannerConfig()
     history = table.days()
-    hubs = place_hubs(table, cfg, history, 16)
-    assert len(hubs) == 1
+    hubs, unplaced = place_hubs(table, cfg, history, 16)
+    assert len(hubs) == 1 and unplaced == 1
     assert hub_demand(table, hubs, history) == [2000]
     assert hub_locations(table, hubs, history) == [2000]
     _, why = hub_depots(table, cfg, hubs, history)
