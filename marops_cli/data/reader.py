@@ -21,7 +21,9 @@ every other row in its :class:`DropReport`. What is an error and what is dropped
   first reason that applies): ``missing_time`` (accept or delivery time empty, or
   a marker exports write for a missing value: ``NULL``, ``\\N``, ``NaN``, ``None``,
   ``--``),
-  ``bad_coordinates`` (lng/lat empty, 0, not a number, NaN or out of range; a
+  ``bad_coordinates`` (lng/lat empty, not a number, NaN or out of range, or 0 where
+  the column's other values lie more than a degree from 0: a mark of a missing value,
+  where near the prime meridian or the equator it is a place; a
   non-numeric string is dropped rather than an error because real exports write
   placeholders such as ``null`` or ``--`` there), ``duplicate`` (same order_id,
   both times, lng and lat as an earlier row; the first is kept) and
@@ -656,14 +658,31 @@ def _check_errors(
     return out
 
 
-def _good_lng(lng: np.ndarray) -> np.ndarray:
+ZERO_MARK_DEG = 1.0
+"""A coordinate of 0 marks a missing value where the file's other values of that column
+lie (their median) more than this many degrees from 0, as in LaDe's exports; nearer, by
+the prime meridian or the equator (London, Quito), 0 is a place: an export rounded to 2
+decimals has a strip of its orders there."""
+
+
+def _good(values: np.ndarray, bound: float) -> np.ndarray:
+    """The values that are coordinates within ``bound``: not NaN, and not 0 where 0 marks
+    a missing value in this column (:data:`ZERO_MARK_DEG`)."""
     with np.errstate(invalid="ignore"):  # NaN compares False: dropped, as wanted
-        return (np.abs(lng) <= 180) & (lng != 0)
+        inside = np.abs(values) <= bound
+        placed = inside & (values != 0)
+    others = values[placed]
+    if others.size and abs(float(np.median(others))) <= ZERO_MARK_DEG:
+        return inside
+    return placed
+
+
+def _good_lng(lng: np.ndarray) -> np.ndarray:
+    return _good(lng, 180)
 
 
 def _good_lat(lat: np.ndarray) -> np.ndarray:
-    with np.errstate(invalid="ignore"):
-        return (np.abs(lat) <= 90) & (lat != 0)
+    return _good(lat, 90)
 
 
 def _swapped(code: np.ndarray, lng: np.ndarray, lat: np.ndarray) -> int:
@@ -739,7 +758,7 @@ def _strict_error(
             status = parsed["accept_time_status"][i]
             name = "accept_time" if status == TIME_EMPTY else "delivery_time"
         elif reason == "bad_coordinates":
-            name = "lat" if _good_lng(lng[i : i + 1])[0] else "lng"
+            name = "lat" if _good_lng(lng)[i] else "lng"
         else:
             name = _REASON_COLUMN[reason]
         first.append((int(rows[i]), reason, name))

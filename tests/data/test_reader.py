@@ -1053,6 +1053,28 @@ def test_a_column_named_but_for_case_or_spaces_is_named_in_the_error(
     assert f"the header has {near!r}: name it 'order_id' (lower case, no spaces)" in str(err.value)
 
 
+def test_a_zero_coordinate_is_a_place_by_the_prime_meridian_or_the_equator(
+    tmp_path: Path,
+) -> None:
+    """0 marks a missing coordinate where the city lies away from it (Shanghai's rows:
+    lng 0 or lat 0 dropped as bad coordinates); by the prime meridian (London, rounded
+    to 2 decimals: a strip of its orders at lng 0.00) or the equator (Quito) 0 is a
+    place, and those rows are kept, while a value out of range is still dropped."""
+    shanghai = [*CLEAN, row("1004", lng="0"), row("1005", lat="0")]
+    t = read_lade(write_csv(tmp_path / "sh.csv", shanghai), DataConfig())
+    assert len(t) == 3 and t.report.to_dict()["dropped"]["bad_coordinates"] == 2
+    london = [
+        row(str(2000 + k), lng=f"{x:.2f}", lat="51.48") for k, x in enumerate((-0.02, 0, 0.01))
+    ]
+    quito = [
+        row(str(3000 + k), lng="-78.47", lat=f"{y:.2f}") for k, y in enumerate((-0.22, 0, 0.05))
+    ]
+    for name, rows in (("london.csv", london), ("quito.csv", quito)):
+        kept = read_lade(write_csv(tmp_path / name, [*rows, row("9", lat="95")]), DataConfig())
+        assert len(kept) == 3 and kept.report.to_dict()["dropped"]["bad_coordinates"] == 1
+    assert 0.0 in read_lade(write_csv(tmp_path / "l.csv", london), DataConfig()).lng
+
+
 def test_lng_and_lat_swapped_are_suggested_with_the_bad_coordinates(tmp_path: Path) -> None:
     """lng and lat written the other way round (31, 121) dropped every row as bad
     coordinates with no hint; the report now says how many would be good swapped."""
