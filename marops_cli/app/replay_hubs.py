@@ -61,9 +61,18 @@ def replay_hubs(
             n_depots=cfg.segment.n_depots,
         )
     hub_list = city_fleet(table, hub_list, history, cfg, owner)
+    hub_days = hub_areas(table, cfg, hub_list, days, owner)  # every hub-day checked first
+    planned = {d for a in hub_days for d in a.days}
+    empty = [d for d in days if d not in planned]
+    if empty:  # as one square's run refuses a day with nothing to plan, before any work
+        raise InputError(
+            f"no requests on {empty[0].isoformat()} inside any hub's square due within "
+            "service hours" + (f": {far}" if far is not None else ""),
+            file=table.source.path,
+        )
     areas = []
     skipped: list[str] = []
-    for a in hub_areas(table, cfg, hub_list, days, owner):  # every hub-day checked first
+    for a in hub_days:
         skipped += [
             f"hub {a.hub.id}: no requests on {day.isoformat()} in its square, skipped"
             for day in a.skipped

@@ -708,3 +708,18 @@ def test_a_hubs_count_is_the_orders_it_owns(points_table, size_km, lat):
     assert total == 4000 and len(hubs) == 4
     assert [h.orders for h in hubs] == np.bincount(owner[owner >= 0], minlength=4).tolist()
     assert all(h.orders > 0 for h in hubs)
+
+
+def test_a_day_no_hub_plans_is_refused_before_any_work(example_csv, tmp_path, fails_cleanly):
+    """A named day whose orders all lie outside every hub (a hubs file of a square 50 km
+    away, or hubs placed over history days whose orders lie elsewhere) planned nothing
+    and exited 0, writing empty results; it is refused, as one square's run refuses a
+    day with nothing to plan, naming the day, and nothing is written."""
+    hubs = tmp_path / "far.json"
+    hubs.write_text(json.dumps({"hubs": [{"center_lng": 122.0, "center_lat": 31.6}]}))
+    args = ["replay-day", str(example_csv), "--date", "0811", "--hubs", str(hubs)]
+    fails_cleanly(
+        [*args, "--method", "stay", "--out", str(tmp_path / "o")],
+        tmp_path,
+        "no requests on 2022-08-11 inside any hub's square due within service hours",
+    )
