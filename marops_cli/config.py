@@ -140,7 +140,7 @@ class DataConfig(_Stage):
     )
     hub_min_share: float = Field(
         0.01,
-        ge=0.001,
+        ge=0.004,  # each hub adds this share: at most 250 hubs, within MAX_HUBS (256)
         le=0.5,
         exclude=True,  # the hubs it places are in a city's files
         description='with area = "hubs": hubs are placed while the next one adds at '

@@ -723,3 +723,18 @@ def test_a_day_no_hub_plans_is_refused_before_any_work(example_csv, tmp_path, fa
         tmp_path,
         "no requests on 2022-08-11 inside any hub's square due within service hours",
     )
+
+
+def test_hubs_placed_by_share_stay_within_the_hub_cap() -> None:
+    """Each hub the whole export places adds at least ``[data] hub_min_share`` of the
+    orders, so the least share allowed places at most MAX_HUBS hubs (0.001 placed 404
+    over a 290 km square of scattered orders, past the cap a hubs file is held to)."""
+    from pydantic import ValidationError
+
+    from marops_cli.segment.hubs import MAX_HUBS
+
+    least = 0.004
+    assert 1 / least <= MAX_HUBS
+    DataConfig(hub_min_share=least)
+    with pytest.raises(ValidationError):
+        DataConfig(hub_min_share=least / 2)
