@@ -272,14 +272,8 @@ def test_make_selector_follows_the_config():
     assert isinstance(selector.select(random_problem(1)), SelectionResult)
 
 
-def test_a_fractional_relaxation_is_branched_before_the_integer_solver(monkeypatch):
-    """The odd cycle: the relaxation takes every plan by half (1.5 plans' gain), the
-    program only one. The selection branches on the relaxation (the root, then a plan
-    fixed to 1, whose relaxation is integral, then fixed to 0, pruned): three HiGHS
-    runs, never the integer solver, and the answer is one plan. When branching gives
-    up (here after one relaxation) HiGHS' integer solver answers: two runs. When the
-    relaxation's vertex is integral it is the answer, HiGHS run once."""
-    problem = _odd_cycle()
+def _counted_runs(monkeypatch) -> list[bool]:
+    """HiGHS' runs from here on, each True where it ran the integer solver."""
     runs: list[bool] = []
     original = highspy.Highs.run
 
@@ -288,6 +282,18 @@ def test_a_fractional_relaxation_is_branched_before_the_integer_solver(monkeypat
         return original(self)
 
     monkeypatch.setattr(highspy.Highs, "run", counted)
+    return runs
+
+
+def test_a_fractional_relaxation_is_branched_before_the_integer_solver(monkeypatch):
+    """The odd cycle: the relaxation takes every plan by half (1.5 plans' gain), the
+    program only one. The selection branches on the relaxation (the root, then a plan
+    fixed to 1, whose relaxation is integral, then fixed to 0, pruned): three HiGHS
+    runs, never the integer solver, and the answer is one plan. When branching gives
+    up (here after one relaxation) HiGHS' integer solver answers: two runs. When the
+    relaxation's vertex is integral it is the answer, HiGHS run once."""
+    problem = _odd_cycle()
+    runs = _counted_runs(monkeypatch)
     result = MilpSelector().select(problem)
     assert runs == [False, False, False] and result.status == "optimal"
     assert sorted(result.chosen.tolist()) == [0, 0, 1] and result.gap == 0.0
@@ -313,17 +319,10 @@ def test_a_busy_machine_branches_as_an_idle_one(monkeypatch):
     import time
 
     problem = _odd_cycle()
-    runs: list[bool] = []
-    original = highspy.Highs.run
-
-    def counted(self):
-        runs.append(any(t == highspy.HighsVarType.kInteger for t in self.getLp().integrality_))
-        return original(self)
-
     idle = MilpSelector().select(problem)
     clock = iter(range(0, 10**6, 60))
     monkeypatch.setattr(time, "perf_counter", lambda: float(next(clock)))
-    monkeypatch.setattr(highspy.Highs, "run", counted)
+    runs = _counted_runs(monkeypatch)
     busy = MilpSelector().select(problem)
     assert runs == [False, False, False] and busy.chosen.tolist() == idle.chosen.tolist()
 

@@ -90,18 +90,24 @@ def test_a_run_from_the_cache_plans_what_the_run_that_filled_it_planned(
     assert len(list((tmp_path / "depots").glob("*.npz"))) == 2
 
 
-def test_a_damaged_or_edited_cache_is_a_miss(tmp_path, monkeypatch, points_table):
-    """A cache file cut short, holding what no segmentation makes (NaN or far-away
-    positions, candidates that are no depot, counts that do not match, text), or edited
-    since it was stored (depots moved 500 m), is segmented again and cached anew, never
-    a failed run or moved depots."""
+def _stored(tmp_path, monkeypatch, points_table):
+    """Depots cached under ``tmp_path``: the key, the depots, the entry's path and its
+    arrays as stored."""
     monkeypatch.setenv("MAROPS_CACHE_DIR", str(tmp_path))
     cfg = PlannerConfig()
     key = (points_table([121.47] * 3, [31.23] * 3, "abc"), DAYS, FRAME, cfg.data, cfg.segment)
     good = _depots()
     cached_depots(*key, lambda: good)
     (path,) = (tmp_path / "depots").glob("*.npz")
-    fine = dict(np.load(path, allow_pickle=False))
+    return key, good, path, dict(np.load(path, allow_pickle=False))
+
+
+def test_a_damaged_or_edited_cache_is_a_miss(tmp_path, monkeypatch, points_table):
+    """A cache file cut short, holding what no segmentation makes (NaN or far-away
+    positions, candidates that are no depot, counts that do not match, text), or edited
+    since it was stored (depots moved 500 m), is segmented again and cached anew, never
+    a failed run or moved depots."""
+    key, good, path, fine = _stored(tmp_path, monkeypatch, points_table)
     edits = {
         "nan": dict(fine, xy=np.array([[np.nan, 0.0], [1.0, 2.0]])),
         "far": dict(fine, xy=fine["xy"] + 1e10),
@@ -140,13 +146,7 @@ def test_a_compressed_entry_that_unpacks_past_the_bound_is_a_miss_unread(
 
     from marops_cli.segment.cache import MAX_ENTRY
 
-    monkeypatch.setenv("MAROPS_CACHE_DIR", str(tmp_path))
-    cfg = PlannerConfig()
-    key = (points_table([121.47] * 3, [31.23] * 3, "abc"), DAYS, FRAME, cfg.data, cfg.segment)
-    good = _depots()
-    cached_depots(*key, lambda: good)
-    (path,) = (tmp_path / "depots").glob("*.npz")
-    fine = dict(np.load(path, allow_pickle=False))
+    key, good, path, fine = _stored(tmp_path, monkeypatch, points_table)
     with path.open("wb") as fh:
         np.savez_compressed(fh, **dict(fine, xy=np.zeros((MAX_ENTRY // 4, 2))))
     assert path.stat().st_size < MAX_ENTRY // 100
