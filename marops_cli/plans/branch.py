@@ -47,10 +47,10 @@ def branch_and_bound(
     max_nodes: int | None = None,
 ) -> Branched | None:
     """Minimise ``h``'s model (its relaxation just solved to optimality, fractional)
-    over 0/1 columns; None when ``max_nodes`` or ``deadline`` (``time.process_time``,
-    CPU seconds: the same search on a busy machine) is reached first, or a relaxation
-    ends other than optimal or infeasible. The model's column bounds are left as they
-    were (``max_nodes`` None: :data:`MAX_NODES`)."""
+    over 0/1 columns; None when ``max_nodes`` or ``deadline`` (``time.thread_time``,
+    this thread's CPU seconds: the same search on a busy machine) is reached first, or
+    a relaxation ends other than optimal or infeasible. The model's column bounds are
+    left as they were (``max_nodes`` None: :data:`MAX_NODES`)."""
     cap = MAX_NODES if max_nodes is None else max_nodes
     n = h.getNumCol()
     best, best_x, lower = np.inf, None, np.inf
@@ -60,7 +60,7 @@ def branch_and_bound(
     try:
         while stack:
             node = stack.pop()
-            if nodes and (nodes >= cap or time.process_time() > deadline):
+            if nodes and (nodes >= cap or time.thread_time() > deadline):
                 return None
             _fix(h, fixed, node)
             fixed = node

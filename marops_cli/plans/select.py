@@ -271,7 +271,7 @@ def _solve_cvxpy(milp: _Milp, strict: bool, time_limit_s: float) -> _Attempt:
 
 
 def _solve_highs(milp: _Milp, strict: bool, time_limit_s: float) -> _Attempt:
-    t0, cpu0 = time.perf_counter(), time.process_time()
+    t0, cpu0 = time.perf_counter(), time.thread_time()
     a = milp.rows.tocsc()
     n_row, n_col = a.shape
     lower = np.full(n_row, -highspy.kHighsInf)
@@ -299,8 +299,11 @@ def _solve_highs(milp: _Milp, strict: bool, time_limit_s: float) -> _Attempt:
             bound = _finite(h.getInfo().objective_function_value)
             return _Attempt(np.round(x), "kOptimal", t1 - t0, time.perf_counter() - t1, bound, 0.0)
         # A few branchings usually close it, far sooner than the integer solver starts.
-        # Half the time limit in CPU seconds: on a busy machine the wall clock would hand
-        # the program to the integer solver sooner, and its answer may differ.
+        # Half the time limit in CPU seconds, this thread's: on a busy machine the wall
+        # clock would hand the program to the integer solver sooner, and its answer may
+        # differ. HiGHS' own limit (wall seconds, summed over the object's runs) is
+        # lifted meanwhile, so that no relaxation stops at it.
+        h.setOptionValue("time_limit", highspy.kHighsInf)
         half = cpu0 + 0.5 * float(time_limit_s)
         done = branch_and_bound(h, _MIP_REL_GAP, _INTEGRAL_TOL, half)
         if done is not None:
@@ -310,7 +313,9 @@ def _solve_highs(milp: _Milp, strict: bool, time_limit_s: float) -> _Attempt:
             )
     lp.integrality_ = [highspy.HighsVarType.kInteger] * n_col
     h.passModel(lp)
-    h.setOptionValue("time_limit", max(float(time_limit_s) - (time.perf_counter() - t0), 0.01))
+    # What is left of the limit in CPU seconds, on HiGHS' clock of the object's runs.
+    left = max(float(time_limit_s) - (time.thread_time() - cpu0), 0.01)
+    h.setOptionValue("time_limit", h.getRunTime() + left)
     run_highs(h)
     info = h.getInfo()
     found = info.primal_solution_status == highspy.kSolutionStatusFeasible
@@ -402,7 +407,7 @@ class MilpSelector:
         return chosen, att, SolveVerdict(status, detail)
 
     def select(self, problem: SelectionProblem) -> SelectionResult:
-        t0 = time.perf_counter()
+        t0, cpu0 = time.perf_counter(), time.thread_time()  # budget: CPU, not wall
         milp = _reduce(problem)
         build_s, solve_s = time.perf_counter() - t0, 0.0
         solves: list[SolveVerdict] = []
@@ -417,7 +422,8 @@ class MilpSelector:
                 solves.append(verdict)
                 if chosen is not None:
                     return self._result(problem, chosen, (att, milp), solves, (solve_s, build_s))
-        limit = max(self.time_limit_s - build_s - solve_s, 0.1 * self.time_limit_s)
+        spent = time.thread_time() - cpu0  # the same budget on a busy machine
+        limit = max(self.time_limit_s - spent, 0.1 * self.time_limit_s)
         chosen, att, verdict = self._attempt(problem, milp, False, limit)
         build_s, solve_s = build_s + att.build_s, solve_s + att.solve_s
         solves.append(verdict)
