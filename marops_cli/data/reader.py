@@ -193,8 +193,16 @@ def _stream(path: Path, compression: str | None) -> pa.NativeFile:
 
 def _too_large(path: Path, what: str) -> InputError:
     return InputError(
-        f"{what}, more than the {MAX_EXPORT_BYTES >> 30} GiB marops reads from one export "
-        f"(a city's LaDe-D file has 0.26 GB); split it by city or by date",
+        f"{what} more than the {MAX_EXPORT_BYTES / (1 << 30):g} GiB of text marops reads "
+        "from one export (a city's LaDe-D file has 0.26 GB); split it by city or by date",
+        file=path,
+    )
+
+
+def _too_many_rows(path: Path, rows: int) -> InputError:
+    return InputError(
+        f"holds {rows:,} rows, more than the {MAX_EXPORT_ROWS:,} marops reads from one "
+        "export (a city's LaDe-D file has 1.5 million); split it by city or by date",
         file=path,
     )
 
@@ -214,7 +222,7 @@ class _Capped(io.RawIOBase):
         data = self._stream.read(None if size < 0 else size)
         self._read += len(data)
         if self._read > MAX_EXPORT_BYTES:
-            raise _too_large(self._path, "its text unpacks to more than that")
+            raise _too_large(self._path, "its text unpacks to")
         return bytes(data)
 
     def close(self) -> None:
@@ -227,7 +235,7 @@ def _csv_stream(path: Path, compression: str | None) -> io.RawIOBase | pa.Native
     if compression is None:
         size = path.stat().st_size
         if size > MAX_EXPORT_BYTES:
-            raise _too_large(path, f"the file has {size / (1 << 30):.1f} GiB")
+            raise _too_large(path, f"the file has {size:,} bytes,")
         return _stream(path, None)
     return _Capped(_stream(path, compression), path)
 
@@ -372,6 +380,8 @@ def _read_csv(path: Path, compression: str | None) -> tuple[pa.Table, list[Malfo
         raise InputError(f"{what} ({why})", file=path) from exc
     if table.num_rows == 0:
         raise InputError("the file has a header but no data rows", file=path, row=2)
+    if table.num_rows > MAX_EXPORT_ROWS:  # short rows within the bytes: the same bound
+        raise _too_many_rows(path, table.num_rows)
     return table, sorted(malformed)
 
 
@@ -440,8 +450,7 @@ def _read_parquet(path: Path) -> pa.Table:
     try:
         with pq.ParquetFile(_stream(path, None)) as pf:  # closed on every way out
             include = _check_columns(list(pf.schema_arrow.names), path)
-            _check_parquet_size(pf, path)
-            table = pf.read(columns=include)
+            table = _read_parquet_capped(pf, path, include)
     except (pa.ArrowException, OSError, UnicodeDecodeError) as exc:
         # A damaged file raises OSError (a thrift or compression error) or, where a
         # name is not UTF-8, UnicodeDecodeError, as often as ArrowException.
@@ -452,20 +461,22 @@ def _read_parquet(path: Path) -> pa.Table:
     return table
 
 
-def _check_parquet_size(pf: pq.ParquetFile, path: Path) -> None:
-    """Refuse a Parquet export whose footer gives more than :data:`MAX_EXPORT_ROWS` rows
-    or :data:`MAX_EXPORT_BYTES` of column data, before any is read."""
-    meta = pf.metadata
-    if meta.num_rows > MAX_EXPORT_ROWS:
-        raise InputError(
-            f"holds {meta.num_rows:,} rows, more than the {MAX_EXPORT_ROWS:,} marops reads "
-            "from one export (a city's LaDe-D file has 1.5 million); split it by city or by "
-            "date",
-            file=path,
-        )
-    unpacked = sum(meta.row_group(i).total_byte_size for i in range(meta.num_row_groups))
-    if unpacked > MAX_EXPORT_BYTES:
-        raise _too_large(path, f"its columns unpack to {unpacked / (1 << 30):.1f} GiB")
+def _read_parquet_capped(pf: pq.ParquetFile, path: Path, include: list[str]) -> pa.Table:
+    """The columns ``include`` of a Parquet export: refused when its footer gives more
+    than :data:`MAX_EXPORT_ROWS` rows, before a row is read, or once the columns read
+    pass :data:`MAX_EXPORT_BYTES` (read a batch at a time: a dictionary-encoded column
+    of a few kilobytes may unpack to gigabytes, which no footer tells)."""
+    if pf.metadata.num_rows > MAX_EXPORT_ROWS:
+        raise _too_many_rows(path, pf.metadata.num_rows)
+    batches, size = [], 0
+    for batch in pf.iter_batches(batch_size=1 << 16, columns=include):
+        size += batch.nbytes
+        if size > MAX_EXPORT_BYTES:
+            raise _too_large(path, "its columns unpack to")
+        batches.append(batch)
+    if not batches:  # no rows: the table of its schema
+        return pf.read(columns=include)
+    return pa.Table.from_batches(batches)
 
 
 def _numbers(column: pa.ChunkedArray) -> np.ndarray:

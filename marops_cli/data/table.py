@@ -35,7 +35,7 @@ REQUIRED_COLUMNS: tuple[str, ...] = ("order_id", "lng", "lat", "accept_time", "d
 
 # Reasons a row is dropped (reported to the user; ``--strict`` makes them errors).
 DROP_REASONS: tuple[str, ...] = (
-    "bad_coordinates",  # lng/lat empty, 0, or outside [-180, 180] x [-90, 90]
+    "bad_coordinates",  # lng/lat empty, outside [-180, 180] x [-90, 90], or 0 as a mark
     "duplicate",  # a repeat of an earlier row (same order_id and times)
     "delivery_before_accept",
     "missing_time",  # accept_time or delivery_time empty (or NULL, \N, NaN, None, --)

@@ -7,7 +7,6 @@ from __future__ import annotations
 import itertools
 import math
 import os
-import sys
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -234,7 +233,7 @@ def outside_hubs(folder: Path) -> LeftOut:
     # An order id is the export's text, of any length: a field longer than csv's limit
     # of 131,072 characters, which marops wrote, ended the page in a csv.Error.
     limit = csv.field_size_limit()
-    csv.field_size_limit(max(limit, min(path.stat().st_size, sys.maxsize)))
+    csv.field_size_limit(max(limit, min(path.stat().st_size, 2**31 - 1)))  # a C long
 
     def outside() -> Iterator[dict[str, str]]:
         with path.open(encoding="utf-8", errors="replace", newline="") as fh:

@@ -791,8 +791,19 @@ def test_an_export_larger_than_marops_reads_is_refused_before_it_is_read(
     pq.write_table(pacsv.read_csv(plain, convert_options=text), big)
     with pytest.raises(InputError, match=r"big.parquet: holds 3,000 rows, more than the 2,000"):
         read_lade(big, DataConfig())
+    with pytest.raises(InputError, match=r"d.csv: holds 3,000 rows, more than the 2,000"):
+        read_lade(plain, DataConfig())  # short rows within the bytes: the same bound
     monkeypatch.setattr(reader, "MAX_EXPORT_ROWS", 3_000)
     assert len(read_lade(big, DataConfig())) == kept["d.csv"] == kept["d.csv.gz"]
+    # One 1,000-character id in every row: a dictionary of one entry in the file, 3 MB
+    # once read, which no footer tells.
+    long = pacsv.read_csv(plain, convert_options=text)
+    ids = pa.array(["x" * 1000] * long.num_rows)
+    pq.write_table(long.set_column(0, "order_id", ids), tmp_path / "long.parquet")
+    assert (tmp_path / "long.parquet").stat().st_size < 200_000
+    monkeypatch.setattr(reader, "MAX_EXPORT_BYTES", 1 << 20)
+    with pytest.raises(InputError, match=r"long.parquet: its columns unpack to more than"):
+        read_lade(tmp_path / "long.parquet", DataConfig())
 
 
 def test_bytes_that_are_not_utf8_in_a_column_not_read_do_not_matter(tmp_path: Path) -> None:
