@@ -20,6 +20,7 @@ import numpy as np
 from pydantic import Field
 
 from ..config import MAX_DRONES, DataConfig, PlannerConfig, override
+from ..data.dates import format_days
 from ..data.filemodel import FileModel, Whole, validated
 from ..data.frame import REACH_M, Frame, hub_squares
 from ..data.jsonfile import read_json
@@ -305,7 +306,7 @@ def outside_warning(
         held = sum(hub_demand(table, hubs, history, owner))
         if placed_on and placed_on - held < OUTSIDE_WARNING * placed_on:
             return head + (
-                f"the hubs are placed over the history days ({_span(history)}), whose "
+                f"the hubs are placed over the history days ({format_days(history)}), whose "
                 f"orders they hold ({held / placed_on:.0%}), and these days' orders lie "
                 f"elsewhere; name their squares in a hubs file ({option('hubs')}; marops "
                 "segment --hubs auto --dates DAYS writes one)"
@@ -323,12 +324,6 @@ def outside_warning(
         f"another city a file of its own, or name its squares in a hubs file ({option('hubs')})"
     )
     return head + why + reach
-
-
-def _span(days: Sequence[dt.date]) -> str:
-    """``days`` as the first and last: ``2022-08-01..2022-08-24``, or the one."""
-    first, last = min(days).isoformat(), max(days).isoformat()
-    return first if first == last else f"{first}..{last}"
 
 
 def hub_locations(table: LadeTable, hubs: Sequence[Hub], days: Sequence[dt.date]) -> list[int]:
