@@ -463,8 +463,7 @@ class LandingActor(EnergyAware):
         kept = [u for u in ready if out[u] == 0]
         if not kept:
             return
-        n = len(view.depots)
-        at = held + np.bincount(list(_landings(view, out, ready).values()), minlength=n)[:n]
+        at = held + _per_depot(_landings(view, out, ready), len(view.depots))
         acts = self._kept.act(view, kept, at)
         out[kept] = acts[kept]
 
@@ -483,7 +482,7 @@ class LandingActor(EnergyAware):
         if not waiting.any():
             return
         lands = _landings(view, out, ready)
-        there = held + np.bincount(list(lands.values()), minlength=n)[:n]
+        there = held + _per_depot(lands, n)
         oldest = np.zeros(n)
         keep = view.pending_servable
         at, delay = view.waiting_at(), view.pending_delay_h
@@ -523,9 +522,7 @@ class LandingActor(EnergyAware):
     def _flow_landings(self, view: WindowView, ready: list[int]) -> np.ndarray:
         """``(N,)`` how many of the ``ready`` drones the flow rule lands at each depot."""
         assert self._flow is not None
-        lands = list(_landings(view, self._flow.act(view), ready).values())
-        n = len(view.depots)
-        return np.bincount(np.asarray(lands, dtype=np.int64), minlength=n)[:n].astype(np.float64)
+        return _per_depot(_landings(view, self._flow.act(view), ready), len(view.depots))
 
 
 def _landings(view: WindowView, actions: np.ndarray, drones: list[int]) -> dict[int, int]:
@@ -535,6 +532,12 @@ def _landings(view: WindowView, actions: np.ndarray, drones: list[int]) -> dict[
     return {
         u: int(cand[int(view.drone_depot[u]), actions[u]]) for u in drones if actions[u] != FREE
     }
+
+
+def _per_depot(lands: dict[int, int], n: int) -> np.ndarray:
+    """``(N,)`` how many of the drones of ``lands`` (:func:`_landings`) land at each depot."""
+    at = np.fromiter(lands.values(), dtype=np.int64, count=len(lands))
+    return np.bincount(at, minlength=n)[:n].astype(np.float64)
 
 
 def _ways(
