@@ -253,12 +253,6 @@ def delivered_file(path: str | Path) -> Path:
     return p / "stops.parquet" if p.is_dir() else p
 
 
-MAX_DELIVERED_ROWS = MAX_DAY_STOPS
-"""Rows a ``--delivered`` stops file may hold: the stops of a day marops plans. Each
-row is read into memory (30 million repeated rows, 168 kB: 3 GB and a minute and a
-half): a larger file is refused by its footer, before any row is read."""
-
-
 Delivered = Mapping[str, frozenset[tuple[float, float]] | None]
 """Order ids delivered, each with the places (lng, lat) of its stops; None where the file
 gives no places (every request of the id counts as delivered)."""
@@ -286,11 +280,13 @@ def delivered_orders(path: str | Path) -> Delivered:
         for name in ("kind", "order_id"):
             if name not in names:
                 raise InputError(f"not a marops stops file (no column {name!r})", file=p)
+        # Each row is read into memory (30 million repeated rows, 168 kB: 3 GB and a
+        # minute and a half): a file of more than a day's stops is refused by its footer.
         rows = parquet_rows(p)
-        if rows > MAX_DELIVERED_ROWS:
+        if rows > MAX_DAY_STOPS:
             raise InputError(
                 f"not a marops stops file ({rows:,} rows, more than the "
-                f"{MAX_DELIVERED_ROWS:,} stops of any day marops plans)",
+                f"{MAX_DAY_STOPS:,} stops of any day marops plans)",
                 file=p,
             )
         placed = {"lng", "lat"} <= names

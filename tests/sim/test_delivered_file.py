@@ -51,9 +51,9 @@ def test_a_file_of_more_rows_than_any_day_has_stops_is_refused_unread(tmp_path: 
     stops is refused by the file's footer, naming the file."""
     import numpy as np
 
-    from marops_cli.sim.scenario import MAX_DELIVERED_ROWS
+    from marops_cli.config import MAX_DAY_STOPS
 
-    n = MAX_DELIVERED_ROWS + 1
+    n = MAX_DAY_STOPS + 1
     zeros = pa.array(np.zeros(n, dtype=np.int32))
     kinds = pa.DictionaryArray.from_arrays(zeros, pa.array(["customer"]))
     p = _write(tmp_path / "stops.parquet", kinds, pa.DictionaryArray.from_arrays(zeros, ["7"]))
