@@ -102,7 +102,7 @@ def segment(
     register_inputs([data])  # never an output
     if out is not None:
         check_json_out(out, "depots")
-        check_unheld([out])  # not into a folder another run holds
+        check_unheld(out)  # not into a folder another run holds
     day_list = history_days(days, cfg.data.year)
     progress.start("segmenting…", 0, "")  # no steps to count: a spinner on a terminal
     try:
@@ -229,7 +229,7 @@ def segment_hubs(
     n_hubs = hub_count(hubs)
     if out is not None:
         check_json_out(out, "hubs")
-        check_unheld([out])  # not into a folder another run holds
+        check_unheld(out)  # not into a folder another run holds
     if cfg.data.center is not None:
         raise InputError(f"{option('hubs')} places the study areas itself: drop [data] center")
     day_list = history_days(days, cfg.data.year)

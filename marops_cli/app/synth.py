@@ -89,7 +89,7 @@ def synth(
         )
     # Never a file marops did not write. The data carries no marops metadata, not even
     # as Parquet (a reader cannot tell it from an export): the journal records it.
-    check_unheld([out])  # not into a folder another run holds
+    check_unheld(out)  # not into a folder another run holds
     check_outputs([out], journal=True)
     table = generate(cfg)
     with output_set() as files:

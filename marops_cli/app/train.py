@@ -123,7 +123,7 @@ def train(
 
     out = Path(out)
     register_inputs([data] if isinstance(data, str | Path) else list(data))
-    check_unheld([out])  # not into a folder another run holds
+    check_unheld(out)  # not into a folder another run holds
     check_outputs(actor_files(out, setup.train.algorithm))  # before the long work
     td = load_training_data(
         data,

@@ -11,7 +11,7 @@ import secrets
 import signal
 import stat
 import threading
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Callable, Iterator
 from contextlib import ExitStack, contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -358,10 +358,7 @@ def check_free(folder: str | Path) -> None:
     refused prints that line alone. :func:`folder_lock` checks again as it takes it."""
     folder = Path(folder)
     if not folder.is_dir():
-        root = folder.absolute()
-        while not root.exists():
-            root = root.parent
-        _refuse_nested(folder, root.resolve(), made=False)
+        _refuse_nested(folder, _existing(folder.absolute()), made=False)
         return
     holder = _busy(folder / LOCK)
     if holder is not None and folder.resolve() not in _mine():
@@ -372,16 +369,20 @@ def check_free(folder: str | Path) -> None:
     _refuse_nested(folder, folder.resolve())
 
 
-def check_unheld(paths: Iterable[str | Path]) -> None:
+def check_unheld(path: str | Path) -> None:
     """Before any work: refuse an output file (``segment``'s, ``synth``'s, ``train``'s,
     which take no folder lock) whose folder, or a folder above it, another run holds
     (docs/outputs.md, "The folder lock"): it would land among that run's files, or
     replace one of them as the run writes it."""
-    for final in paths:
-        root = Path(final).absolute().parent
-        while not root.exists():
-            root = root.parent
-        _refuse_nested(Path(final), root.resolve(), made=False)
+    path = Path(path)
+    _refuse_nested(path, _existing(path.absolute().parent), made=False)
+
+
+def _existing(path: Path) -> Path:
+    """The nearest of ``path`` and the folders above it that exists, resolved."""
+    while not path.exists():
+        path = path.parent
+    return path.resolve()
 
 
 def _mine() -> set[Path]:
