@@ -700,6 +700,8 @@ def _swapped(code: np.ndarray, lng: np.ndarray, lat: np.ndarray) -> int:
     """How many rows dropped for bad coordinates would be good with lng and lat swapped
     (a latitude beyond ±90 whose longitude is one): the columns may be swapped."""
     bad = code == DROP_REASONS.index("bad_coordinates") + 1
+    if not bad.any():  # the common file: no median of a column to take
+        return 0
     return int((bad & _good_lng(lat) & _good_lat(lng)).sum())
 
 
