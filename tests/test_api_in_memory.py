@@ -312,6 +312,24 @@ def test_float16_coordinates_are_refused_float32_read(example_csv: Path) -> None
         marops.read_lade(frame.astype({"lat": "float16"}))
 
 
+def test_frames_of_unusual_shapes_read_or_are_named_in_one_line(example_csv: Path) -> None:
+    # A sparse column holds the same cells (it was "Did not pass numpy.dtype object");
+    # complex numbers are no cell of a file (it was "Unsupported numpy type 15"); column
+    # names of two levels (a MultiIndex) were read as "('order_id', 'x')" and said
+    # "missing required column 'order_id'".
+    import pandas as pd
+
+    frame = pd.read_csv(example_csv)
+    sparse = frame.assign(lat=pd.arrays.SparseArray(frame["lat"]))
+    assert marops.read_lade(sparse).equals(marops.read_lade(frame))
+    with pytest.raises(InputError, match=r"^DataFrame, column 'lng': .* got a column of complex"):
+        marops.read_lade(frame.astype({"lng": complex}))
+    levels = frame.copy()
+    levels.columns = pd.MultiIndex.from_tuples([(c, "x") for c in frame.columns])
+    with pytest.raises(InputError, match=r"^DataFrame, row 1: the frame's column names have 2"):
+        marops.read_lade(levels)
+
+
 def test_whole_degree_coordinates_are_refused(example_csv: Path, tmp_path: Path) -> None:
     # Coordinates cast to whole numbers (int32 in a Parquet file) are whole degrees,
     # about 100 km apart: every request would share one or two points.

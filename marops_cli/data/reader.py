@@ -893,6 +893,14 @@ def _frame_table(frame: Any, where: str) -> pa.Table:
     """The LaDe columns of a pandas DataFrame as a table: the other columns are not
     read (as a file's are not), and a column of mixed cells (numbers and words, as
     frames joined together hold) is read as its text, as a file's cells are."""
+    levels = getattr(frame.columns, "nlevels", 1)
+    if levels > 1:
+        raise InputError(
+            f"the frame's column names have {levels} levels (a MultiIndex); give one level, "
+            "e.g. frame.droplevel(1, axis=1)",
+            file=where,
+            row=1,
+        )
     names = [str(n) for n in frame.columns]
     in_index = [str(n) for n in getattr(frame.index, "names", []) if n is not None]
     for name in REQUIRED_COLUMNS:  # set_index("order_id") moves a column out of the rows
@@ -908,6 +916,8 @@ def _frame_table(frame: Any, where: str) -> pa.Table:
     columns = {}
     for name in include:
         col = frame.iloc[:, names.index(name)]
+        if hasattr(col, "sparse") and str(col.dtype).startswith("Sparse"):
+            col = col.sparse.to_dense()  # a sparse column holds the same cells
         if col.dtype == object and _of_several_kinds(col):
             columns[name] = _cells_text(col, frame.index, where, name)
             continue
@@ -915,7 +925,7 @@ def _frame_table(frame: Any, where: str) -> pa.Table:
             columns[name] = pa.Array.from_pandas(col)
         except (pa.ArrowException, TypeError, ValueError) as exc:
             if col.dtype != object:
-                msg = f"cannot read the column ({exc})"
+                msg = f"expected a column of text, numbers or times, got a column of {col.dtype}"
                 raise InputError(msg, file=where, column=name) from exc
             text = col.astype(str).to_numpy(dtype=object)
             text[col.isna().to_numpy(dtype=bool)] = None

@@ -139,12 +139,14 @@ def written_by_marops(path: Path) -> bool:
         else:
             ours = suffix == ".ckpt" and _checkpoint_is_ours(path)
         return ours
-    except (OSError, ValueError, zipfile.BadZipFile):
+    except (OSError, ValueError, zipfile.BadZipFile, InputError):
         return False
 
 
 def _json_is_ours(path: Path) -> bool:
-    doc = parse_json(path.read_text(encoding="utf-8"))
+    # No JSON marops writes comes near the small-file cap: a larger one is not read (an
+    # InputError, so not marops's) rather than loaded whole into memory.
+    doc = parse_json(read_small_text(path, "JSON file"))
     if not isinstance(doc, dict):
         return False
     head = doc.get("meta") or doc.get("marops") or {}

@@ -55,6 +55,20 @@ def test_a_hand_written_depots_file_is_not_marops_own(tmp_path: Path) -> None:
     assert written_by_marops(path)
 
 
+def test_a_json_file_past_the_small_file_cap_is_never_read_to_judge_it(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """An unlisted JSON file is judged by its content; one larger than any marops writes
+    is not read whole into memory to judge it, and so is not marops's (it is kept)."""
+    import marops_cli.data.jsonfile as jsonfile
+
+    path = tmp_path / "metrics.json"
+    path.write_text(json.dumps({"meta": {"package": "marops"}, "pad": "x" * 4096}))
+    assert written_by_marops(path)
+    monkeypatch.setattr(jsonfile, "MAX_SMALL_FILE", 1024)
+    assert not written_by_marops(path)
+
+
 def test_a_depots_file_edited_by_hand_is_not_replaced_unasked(tmp_path: Path) -> None:
     """A depots file marops wrote and an analyst then edited keeps marops' ``meta``:
     the journal, not the meta, says whose content it holds, so ``segment --out`` asks
