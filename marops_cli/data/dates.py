@@ -336,8 +336,9 @@ def _lenient(
             status[r] = TIME_OK
 
 
-def parse_ds(column: pa.ChunkedArray | pa.Array, year: int) -> np.ndarray:
-    """Mask of ``ds`` cells that are a valid ``MMDD`` (or ``YYYYMMDD``) date in ``year``.
+def parse_ds(column: pa.ChunkedArray | pa.Array, year: int | np.ndarray) -> np.ndarray:
+    """Mask of ``ds`` cells that are a valid ``MMDD`` (or ``YYYYMMDD``) date in ``year``
+    (one for every row, or each row's own: :func:`years_of` its delivery time).
 
     ``ds`` is read as text or as integers (a date or time column as its date); empty,
     non-digit and impossible dates (``231``, ``1301``) are not valid.
@@ -345,19 +346,27 @@ def parse_ds(column: pa.ChunkedArray | pa.Array, year: int) -> np.ndarray:
     return _ds(column, year)[0]
 
 
-def ds_other_day(table: pa.Table, delivery_s: np.ndarray, year: int) -> int:
+def years_of(secs: np.ndarray) -> np.ndarray:
+    """The year of each time (naive seconds since 1970-01-01), as int64."""
+    days = (np.asarray(secs) // 86_400).astype("datetime64[D]")
+    return days.astype("datetime64[Y]").astype(np.int64) + 1970
+
+
+def ds_other_day(table: pa.Table, delivery_s: np.ndarray) -> int:
     """How many rows of ``table`` have a valid ``ds`` of another day than their delivery
-    time (``delivery_s``, naive seconds since 1970-01-01); 0 without a ``ds`` column. A
-    note, not a drop: a request's day is the date of its delivery time
-    (docs/decisions.md, "Reading LaDe")."""
+    time (``delivery_s``, naive seconds since 1970-01-01), a ``ds`` without its year
+    taken in the delivery time's year; 0 without a ``ds`` column. A note, not a drop: a
+    request's day is the date of its delivery time (docs/decisions.md, "Reading LaDe")."""
     if "ds" not in table.column_names:
         return 0
-    ds = _ds(table["ds"], year)[1]
+    ds = _ds(table["ds"], years_of(delivery_s))[1]
     day = (np.asarray(delivery_s) // 86_400).astype("datetime64[D]")
     return int((~np.isnat(ds) & (ds != day)).sum())
 
 
-def _ds(column: pa.ChunkedArray | pa.Array, year: int) -> tuple[np.ndarray, np.ndarray]:
+def _ds(
+    column: pa.ChunkedArray | pa.Array, year: int | np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """The mask of valid ``ds`` cells (:func:`parse_ds`) and their dates (datetime64[D]),
     NaT where a cell is no valid date or one past the year 9999 (no time's)."""
     arr = column.combine_chunks() if isinstance(column, pa.ChunkedArray) else column

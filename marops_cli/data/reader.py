@@ -64,7 +64,15 @@ import pyarrow.parquet as pq
 
 from ..errors import InputError, not_found, quoted
 from .arrow import is_text, native_file
-from .dates import TIME_BAD, TIME_EMPTY, ds_other_day, parse_ds, parse_times
+from .dates import (
+    TIME_BAD,
+    TIME_EMPTY,
+    TIME_OK,
+    ds_other_day,
+    parse_ds,
+    parse_times,
+    years_of,
+)
 from .digest import sha256_file
 from .settings import DataSettings
 from .table import DROP_REASONS, REQUIRED_COLUMNS, DropReport, LadeTable, SourceInfo
@@ -641,9 +649,14 @@ def _check_errors(
                 msg += f": February 29 is no day of {cfg.year}, the year of MM-DD times (--year)"
             bad.append((i, name, msg))
     has_ds = "ds" in table.column_names
+    # A ds without its year is a day of its delivery time's year (a full time's own,
+    # 2024 for 229 beside 2024-02-29; --year where the time is MM-DD or no time).
+    ds_year = np.where(
+        out["delivery_time_status"] == TIME_OK, years_of(out["delivery_time"]), cfg.year
+    )
     # An empty ds is harmless (the day comes from delivery_time); a malformed one is not.
     ds_bad = (
-        ~parse_ds(table["ds"], cfg.year)
+        ~parse_ds(table["ds"], ds_year)
         & ~pc.equal(pc.utf8_length(pc.utf8_trim_whitespace(table["ds"].cast(pa.string()))), 0)
         .fill_null(True)
         .to_numpy(zero_copy_only=False)
@@ -652,7 +665,7 @@ def _check_errors(
     )
     if ds_bad is not None and (i := _first(ds_bad)) is not None:
         value = _shown(table["ds"], i)
-        bad.append((i, "ds", f"expected a date MMDD in {cfg.year}, got {value}"))
+        bad.append((i, "ds", f"expected a date MMDD in {ds_year[i]}, got {value}"))
     oid = table["order_id"]
     empty_id = pc.fill_null(pc.equal(pc.utf8_length(oid.cast(pa.string())), 0), True)
     if (i := _first(empty_id.to_numpy(zero_copy_only=False))) is not None:
@@ -1021,7 +1034,7 @@ def _lade_table(
         total=int(code.size) + len(set_aside),
         kept=int(idx.size),
         dropped={r: int(counts[k + 1]) for k, r in enumerate(DROP_REASONS)},
-        ds_other_day=ds_other_day(kept, parsed["delivery_time"][keep], cfg.year),
+        ds_other_day=ds_other_day(kept, parsed["delivery_time"][keep]),
         swapped_coordinates=_swapped(code, lng, lat),
     )
     return LadeTable(

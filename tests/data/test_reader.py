@@ -958,6 +958,23 @@ def test_a_ds_of_another_day_is_counted_not_dropped(tmp_path: Path) -> None:
     assert clean.describe("c.csv") == "c.csv: 3 rows read, none dropped"
 
 
+def test_a_ds_without_its_year_is_a_day_of_the_full_delivery_time_year(tmp_path: Path) -> None:
+    """Beside full times, ``ds`` MMDD names a day of its row's delivery year: 229 beside
+    2024-02-29 is that day (it was refused as no day of --year 2022), and over the new
+    year 101 beside 2023-01-01 is no other day (every such row was counted as one)."""
+    rows = [
+        row("1", acc="2024-02-29 08:00:00", dlv="2024-02-29 10:00:00", ds="229"),
+        row("2", acc="2022-12-31 23:10:00", dlv="2023-01-01 10:20:00", ds="101"),
+        row("3", acc="2022-12-31 08:00:00", dlv="2022-12-31 10:00:00", ds="1231"),
+        row("4", acc="2023-01-01 08:00:00", dlv="2023-01-01 10:00:00", ds="1231"),
+    ]
+    t = read_lade(write_csv(tmp_path / "d.csv", rows), DataConfig())
+    assert len(t) == 4 and t.report.ds_other_day == 1  # row 4's ds is 2023-12-31
+    bad = [row("1", acc="2023-02-28 08:00:00", dlv="2023-02-28 10:00:00", ds="229")]
+    with pytest.raises(InputError, match=r"column 'ds': expected a date MMDD in 2023, got '229'"):
+        read_lade(write_csv(tmp_path / "b.csv", bad), DataConfig(year=2024))
+
+
 class _Said:
     """What a run says: its messages and warnings, as drop_report hands them out."""
 
