@@ -454,6 +454,22 @@ def _first_non_utf8_line(path: Path, compression: str | None) -> int | None:
     return None
 
 
+def _cut_column(path: Path, compression: str | None) -> str | None:
+    """The header's last column when the CSV's text ends without a line end (an
+    interrupted export: its last line may be cut short inside that field, keeping the
+    header's number of fields), else None."""
+    if compression is None:
+        with native_file(path) as f:
+            f.seek(max(f.size() - 1, 0))
+            last = f.read(1)
+    else:
+        last = b""
+        with _stream(path, compression) as f:
+            while block := f.read(1 << 20):
+                last = block[-1:]
+    return None if last in (b"\n", b"\r") else _csv_header(path, compression)[-1]
+
+
 def _read_parquet(path: Path) -> pa.Table:
     try:
         with pq.ParquetFile(_stream(path, None)) as pf:  # closed on every way out
@@ -846,7 +862,8 @@ def read_lade(path: str | Path, cfg: DataSettings) -> LadeTable:
                 path=str(path), name=path.name, size=path.stat().st_size, sha256=digest.result()
             )
 
-        return _lade_table(table, str(path), cfg, source, malformed)
+        cut = None if kind == "parquet" else partial(_cut_column, path, compression)
+        return _lade_table(table, str(path), cfg, source, malformed, cut)
 
 
 IN_MEMORY = ("DataFrame", "Table")
@@ -995,10 +1012,12 @@ def _lade_table(
     cfg: DataSettings,
     source: Callable[[], SourceInfo],
     malformed: list[Malformed] | None = None,
+    cut: Callable[[], str | None] | None = None,
 ) -> LadeTable:
     """The kept rows of ``table`` (all columns read) and its drop report; ``where``
     names it in errors, ``source()`` is its identity; ``malformed`` are the rows the
-    CSV parser left out (:func:`_read_csv`), sorted."""
+    CSV parser left out (:func:`_read_csv`), sorted; ``cut()`` names the column the
+    CSV's last line may be cut short in (:func:`_cut_column`)."""
     path = Path(where)
     malformed = malformed or []
     table = _check_column_types(table, path)
@@ -1013,7 +1032,17 @@ def _lade_table(
     if header.any():  # the header's names are no times: set aside before the checks
         set_aside += [(int(r), "repeated_header", "the header line again") for r in rows[header]]
         table, rows = table.filter(pa.array(~header)), rows[~header]
-    parsed = _check_errors(table, path, cfg, rows)
+    try:
+        parsed = _check_errors(table, path, cfg, rows)
+    except InputError as exc:
+        # An export interrupted inside its last line's last field (LaDe's ds: 8 of 803)
+        # leaves it the header's fields: that cell, not reading, is the cut.
+        last = int(rows[-1])
+        if exc.row != last or table.num_rows < 2 or cut is None or exc.column != cut():
+            raise
+        set_aside.append((last, "malformed_row", "cut short where the file ends"))
+        table, rows = table.slice(0, table.num_rows - 1), rows[:-1]
+        parsed = _check_errors(table, path, cfg, rows)
     code, lng, lat = _drop_reasons(table, parsed)
     pa.default_memory_pool().release_unused()
     if cfg.strict and (code.any() or set_aside):

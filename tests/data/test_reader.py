@@ -441,6 +441,37 @@ def test_a_row_of_another_number_of_fields_is_dropped_and_later_rows_keep_their_
     assert (err.value.row, err.value.column) == (3, "order_id")
 
 
+def test_a_last_line_cut_inside_its_last_field_is_dropped(tmp_path: Path) -> None:
+    """An export interrupted inside its last line's last field (LaDe's ds) leaves it the
+    header's number of fields: the cell that does not read is the cut, and the line is
+    dropped as malformed_row (the file was refused). A file that ends with a line end,
+    or whose cut line fails in another column, is refused as before."""
+    header = ",".join(LADE_COLUMNS)
+    text = "\n".join([header, *_lines(CLEAN)])
+    for name, data in (
+        ("cut.csv", text[:-2].encode()),
+        ("cut.csv.gz", gzip.compress(text[:-1].encode())),
+    ):
+        path = tmp_path / name
+        path.write_bytes(data)
+        t = read_lade(path, DataConfig())
+        assert list(t.order_id) == ["1001", "1002"]
+        assert t.report.dropped["malformed_row"] == 1 and t.report.total == 3
+        assert_accounted(t)
+        with pytest.raises(InputError) as err:
+            read_lade(path, DataConfig(strict=True))
+        assert err.value.row == 4 and "malformed_row: cut short" in str(err.value)
+    path = tmp_path / "ended.csv"
+    path.write_text(text[:-2] + "\n")
+    with pytest.raises(InputError, match="expected a date MMDD in 2022, got '8'"):
+        read_lade(path, DataConfig())
+    bad = _lines([dict(CLEAN[2], delivery_time="08-32 10:00:00")])[0]
+    path.write_text("\n".join([header, *_lines(CLEAN[:2]), bad[:-1]]))
+    with pytest.raises(InputError) as err:
+        read_lade(path, DataConfig())
+    assert (err.value.row, err.value.column) == (4, "delivery_time")
+
+
 def test_a_file_of_mostly_malformed_rows_is_refused(tmp_path: Path) -> None:
     """Most rows of another number of fields is no cut line but another layout (another
     separator in the rows): the file is refused, naming the first."""
