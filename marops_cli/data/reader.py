@@ -6,7 +6,8 @@ every other row in its :class:`DropReport`. What is an error and what is dropped
 - errors (:class:`InputError`, exit 2, naming file, row and column): a file that
   is not CSV/Parquet, is empty or has no data rows; a missing required column; a
   non-empty time that does not parse (and is no missing-value marker); a ``ds``
-  that is not a ``MMDD`` date; an empty ``order_id`` (or one of whitespace only); a
+  that is not a ``MMDD`` date; an empty ``order_id`` (or one of whitespace only) on a
+  row with a time (a row of neither is empty: dropped as ``missing_time``); a
   ``weight_kg`` (when the column exists) that is empty, not a number or not positive.
 - ``order_id`` is read as the text of the id: trimmed of whitespace, and an integral
   number written with a fraction of zeros (``601954.0``: a float column, or its
@@ -684,11 +685,16 @@ def _check_errors(
         bad.append((i, "ds", f"expected a date MMDD in {ds_year[i]}, got {value}"))
     oid = table["order_id"]
     empty_id = pc.fill_null(pc.equal(pc.utf8_length(oid.cast(pa.string())), 0), True)
-    if (i := _first(empty_id.to_numpy(zero_copy_only=False))) is not None:
+    empty_id = empty_id.to_numpy(zero_copy_only=False)
+    # No id and no times is an empty row, no order (a spreadsheet saves a row it
+    # formatted as ,,,,): dropped as missing_time, as a blank line is skipped.
+    empty_row = empty_id & (out["accept_time_status"] == TIME_EMPTY)
+    empty_row &= out["delivery_time_status"] == TIME_EMPTY
+    if (i := _first(empty_id & ~empty_row)) is not None:
         bad.append((i, "order_id", "expected an order id, got an empty cell"))
     if "weight_kg" in table.column_names:
         w = _numbers(table["weight_kg"])
-        if (i := _first(~((w > 0) & np.isfinite(w)))) is not None:
+        if (i := _first(~((w > 0) & np.isfinite(w)) & ~empty_row)) is not None:
             value = table["weight_kg"][i].as_py()
             bad.append((i, "weight_kg", f"expected a positive weight in kg, got {value!r}"))
         out["weight_kg"] = w

@@ -266,6 +266,26 @@ def test_empty_order_id_is_an_error(tmp_path: Path, blank: str) -> None:
     assert "expected an order id" in str(err.value)
 
 
+def test_an_empty_row_is_dropped_as_missing_time(tmp_path: Path) -> None:
+    """A row of separators only (a spreadsheet saves rows it formatted as ,,,,) has no
+    order id and no times: dropped as missing_time, not refused as an empty id; an
+    empty id beside a time is still an error."""
+    columns = [*LADE_COLUMNS, "weight_kg"]
+    rows = [dict(r, weight_kg="1.2") for r in CLEAN]
+    path = write_csv(tmp_path / "d.csv", rows, columns)
+    quoted = ",".join(['""'] * len(columns))
+    path.write_text(path.read_text() + "," * len(LADE_COLUMNS) + "\n" + quoted + "\n")
+    t = read_lade(path, DataConfig())
+    assert len(t) == 3 and t.report.dropped["missing_time"] == 2
+    assert_accounted(t)
+    with pytest.raises(InputError) as err:
+        read_lade(path, DataConfig(strict=True))
+    assert (err.value.row, err.value.column) == (5, "accept_time")
+    half = dict(rows[0], order_id="", accept_time="")
+    with pytest.raises(InputError, match="expected an order id"):
+        read_lade(write_csv(tmp_path / "h.csv", [*rows, half], columns), DataConfig())
+
+
 def test_an_order_id_padded_or_written_as_a_float_is_the_same_order(tmp_path: Path) -> None:
     """An id padded with spaces, or an integer id with a fraction .0 (pandas writes ids
     in a column with gaps so), is the order of the plain id: the same text in the
