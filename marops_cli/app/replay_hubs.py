@@ -67,7 +67,7 @@ def replay_hubs(
     if empty:  # as one square's run refuses a day with nothing to plan, before any work
         raise InputError(
             f"no requests on {empty[0].isoformat()} inside any hub's square due within "
-            "service hours" + (f": {far}" if far is not None else ""),
+            "service hours" + _why_empty(table, empty[0], owner, cfg, far),
             file=table.source.path,
         )
     areas = []
@@ -157,6 +157,19 @@ def city_fleet(
 
     demand = hub_demand(table, hubs, history, owner)
     return with_fleets(hubs, demand, cfg.sim.drones, cfg.sim.city_drones)
+
+
+def _why_empty(table: Any, day: dt.date, owner: Any, cfg: Any, far: str | None) -> str:
+    """Why no hub plans ``day``: its orders in a hub's square are all due outside service
+    hours, or (none in a square) the run's warning of orders outside every hub, ``far``."""
+    mask, reason = left_out(table, [day], owner, cfg)
+    late = int((mask & (reason == "outside service hours")).sum())
+    if late:
+        hours = f"{cfg.data.service_start}-{cfg.data.service_end}"
+        if late == 1:
+            return f": its one order inside a hub's square is due outside {hours}"
+        return f": its {late:,} orders inside a hub's square are all due outside {hours}"
+    return f": {far}" if far is not None else ""
 
 
 def left_out(table: Any, days: list[dt.date], owner: Any, cfg: Any) -> tuple[Any, Any]:

@@ -725,6 +725,28 @@ def test_a_day_no_hub_plans_is_refused_before_any_work(example_csv, tmp_path, fa
     )
 
 
+def test_a_day_no_hub_plans_for_its_hours_says_so(example_csv, tmp_path, fails_cleanly):
+    """A named day whose orders in the hubs' squares are all due outside service hours
+    is refused saying so; before, the error gave no reason, or the run's warning of
+    orders outside every hub where there was one, which was not this day's."""
+    lines = example_csv.read_text(encoding="utf-8").splitlines(keepends=True)
+    late = [
+        ",".join(
+            [f"9{f[0]}", *f[1:8], "08-13 08:00:00", *f[9:12], "08-13 18:30:00", *f[13:16], "813"]
+        )
+        + "\n"
+        for f in (line.split(",") for line in lines[1:])
+        if f[12].startswith("08-11")
+    ]
+    data = tmp_path / "late.csv"
+    data.write_text("".join(lines + late), encoding="utf-8")
+    args = ["replay-day", str(data), "--dates", "0812,0813", "--method", "stay"]
+    out = [*args, "--out", str(tmp_path / "o")]
+    msg = fails_cleanly(out, tmp_path, "no requests on 2022-08-13")
+    assert "orders inside a hub's square are all due outside 09:00-17:00" in msg, msg
+    assert "outside every hub" not in msg, msg
+
+
 def test_hubs_placed_by_share_stay_within_the_hub_cap() -> None:
     """Each hub the whole export places adds at least ``[data] hub_min_share`` of the
     orders, so the least share allowed places at most MAX_HUBS hubs (0.001 placed 404
