@@ -52,6 +52,9 @@ def parse_day(text: str, year: int, option: str | None = None) -> dt.date:
         try:
             return dt.date(y, parts[0], parts[1])
         except ValueError:
+            if parts == [2, 29] and not has_year:  # the form is right, the year is not
+                leap = f": February 29 is no day of {year}, the year of days without one (--year)"
+                raise _bad(f"{_EXPECTED_DAY}, got {text!r}{leap}", option) from None
             break
     raise _bad(f"{_EXPECTED_DAY}, got {text!r}{_range_hint(s, year)}", option)
 

@@ -47,8 +47,11 @@ def test_parse_day_bad_names_the_value(text: str) -> None:
 
 def test_parse_day_leap_year_follows_the_setting() -> None:
     assert parse_day("0229", 2024) == dt.date(2024, 2, 29)
-    with pytest.raises(InputError):
+    # The form is right: the error says the year is not (--date 0229 over 2024's days).
+    with pytest.raises(InputError, match=r"'0229': February 29 is no day of 2022, .*\(--year\)"):
         parse_day("0229", 2022)
+    with pytest.raises(InputError, match=r"got '2023-02-29'$"):
+        parse_day("2023-02-29", 2024)
 
 
 def test_parse_days_list_and_range() -> None:
