@@ -283,7 +283,11 @@ _SEPARATORS = {";": "semicolons", "\t": "tabs", "|": "bars"}
 def _separator_hint(names: list[str], name: str) -> str:
     """``; the header is separated by semicolons, ...`` when the header is one column
     that holds ``name`` between semicolons (tabs, bars): a CSV saved with another
-    separator, which the error would otherwise call no LaDe file at all."""
+    separator, which the error would otherwise call no LaDe file at all; and when the
+    first line is a spreadsheet's ``sep=,`` above the header."""
+    first = ",".join(names).strip()
+    if first.lower().startswith("sep=") and len(first) <= 6:  # sep=, or sep=;
+        return f"; the first line is {first!r}, a line for spreadsheets: delete it"
     if len(names) != 1:
         return ""
     for sep, word in _SEPARATORS.items():

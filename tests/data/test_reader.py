@@ -191,6 +191,16 @@ def test_a_csv_with_another_separator_is_named_as_such(tmp_path: Path, sep: str,
     assert "separated" not in str(err.value)
 
 
+@pytest.mark.parametrize("line", ["sep=,", "sep=;", "SEP=|"])
+def test_a_spreadsheets_separator_line_above_the_header_is_named(tmp_path: Path, line: str) -> None:
+    """A ``sep=,`` line that spreadsheets read (and some exports write) above the
+    header: the missing-column error says to delete it."""
+    path = write_csv(tmp_path / "sep.csv", CLEAN)
+    path.write_text(f"{line}\n" + path.read_text(encoding="utf-8"), encoding="utf-8")
+    with pytest.raises(InputError, match=f"the first line is {line!r}, a line for spreadsheets"):
+        read_lade(path, DataConfig())
+
+
 @pytest.mark.parametrize(
     "encoding, name",
     [("utf-16", "UTF-16"), ("utf-16-le", "UTF-16"), ("utf-16-be", "UTF-16"), ("utf-32", "UTF-32")],
