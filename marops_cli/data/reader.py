@@ -254,6 +254,12 @@ def _csv_header(path: Path, compression: str | None) -> list[str]:
     try:
         with _stream(path, compression) as f:
             head = f.read(1 << 20)
+            # A header of tens of thousands of columns goes on past the first MiB: read
+            # to its line end (a line past a parser block is refused as any row is).
+            while b"\n" not in head and b"\r" not in head and len(head) < _BLOCK_BYTES:
+                if not (more := f.read(1 << 20)):
+                    break
+                head += more
     except (OSError, pa.ArrowException) as exc:
         raise InputError(f"cannot read the file ({exc})", file=path) from exc
     text = head.decode("utf-8", errors="replace").removeprefix("\ufeff")
@@ -270,7 +276,7 @@ def _csv_header(path: Path, compression: str | None) -> list[str]:
             file=path,
             row=1,
         ) from None
-    if len(head) < 1 << 20 and "\n" not in text and "\r" not in text:
+    if len(head) < _BLOCK_BYTES and "\n" not in text and "\r" not in text:
         # A header with no line end: pyarrow would fail on skipping it, with no hint why.
         _check_columns(names, path)
         raise InputError("the file has a header but no data rows", file=path, row=2)

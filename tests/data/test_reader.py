@@ -365,6 +365,20 @@ def test_a_row_longer_than_a_parser_block_is_named(tmp_path: Path) -> None:
     assert err.value.row == 4 and "a row longer than 16 MiB" in err.value.message
 
 
+def test_a_header_longer_than_a_mebibyte_is_read_whole(tmp_path: Path) -> None:
+    """A header of 100,000 extra columns runs past the first MiB: it is read to its line
+    end (it was cut there, and every row refused as of more fields than the header)."""
+    extra = [f"extra_{i}" for i in range(100_000)]
+    lines = [",".join([*LADE_COLUMNS, *extra])]
+    lines += [line + "," * len(extra) for line in _lines(CLEAN)]
+    path = tmp_path / "wide.csv"
+    path.write_text("\n".join(lines) + "\n")
+    assert path.stat().st_size > 1 << 20 and len(lines[0]) > 1 << 20
+    t = read_lade(path, DataConfig())
+    assert list(t.order_id) == ["1001", "1002", "1003"]
+    assert t.report.describe("wide.csv") == "wide.csv: 3 rows read, none dropped"
+
+
 def test_binary_file(tmp_path: Path) -> None:
     path = tmp_path / "image.png"
     path.write_bytes(b"\x89PNG\r\n\x1a\n\x00\x00\x00\rIHDR" + bytes(range(256)))
