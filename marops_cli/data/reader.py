@@ -320,6 +320,11 @@ def _check_columns(names: list[str], path: Path) -> list[str]:
     for name in REQUIRED_COLUMNS:
         if name not in names:
             hint = _near_name_hint(names, name) or _separator_hint(names, name)
+            if name == "delivery_time" and "pickup_time" in names:
+                hint = (
+                    "; it has pickup_time: a LaDe-P pickup export, and marops plans "
+                    "deliveries: give LaDe-D's delivery_<city>.csv"
+                )
             raise InputError(
                 f"missing required column '{name}': not a LaDe delivery file "
                 f"(expected columns {', '.join(REQUIRED_COLUMNS)}){hint}",

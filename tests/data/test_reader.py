@@ -178,6 +178,18 @@ def test_missing_column(tmp_path: Path) -> None:
     assert "nodlv.csv" in str(e) and "row 1" in str(e) and "'delivery_time'" in str(e)
 
 
+def test_a_pickup_export_is_named_as_such(tmp_path: Path) -> None:
+    """LaDe-P's pickup export has order_id, lng, lat and accept_time but pickup_time
+    where LaDe-D has delivery_time: the missing-column error says which file it is."""
+    cols = ["order_id", "region_id", "city", "courier_id", "accept_time"]
+    cols += ["time_window_start", "time_window_end", "lng", "lat", "aoi_id", "aoi_type"]
+    cols += ["pickup_time", "pickup_gps_time", "pickup_gps_lng", "pickup_gps_lat", "ds"]
+    path = write_csv(tmp_path / "pickup_sh.csv", [row("1", pickup_time="08-20 10:15:00")], cols)
+    with pytest.raises(InputError, match="missing required column 'delivery_time'") as err:
+        read_lade(path, DataConfig())
+    assert "it has pickup_time: a LaDe-P pickup export" in str(err.value)
+
+
 @pytest.mark.parametrize("sep, word", [(";", "semicolons"), ("\t", "tabs"), ("|", "bars")])
 def test_a_csv_with_another_separator_is_named_as_such(tmp_path: Path, sep: str, word: str) -> None:
     """A spreadsheet's semicolon (tab, bar) separated export has every column, in one
