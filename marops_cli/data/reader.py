@@ -755,6 +755,21 @@ def _swapped(code: np.ndarray, lng: np.ndarray, lat: np.ndarray) -> int:
     return int((bad & _good_lng(lat) & _good_lat(lng)).sum())
 
 
+def _over_new_year(code: np.ndarray, parsed: dict[str, np.ndarray]) -> int:
+    """How many rows dropped as delivered before accepted were accepted in December and
+    delivered in January of one year: ``MM-DD`` times of an export over the new year,
+    which take one year (``--year``)."""
+    late = code == DROP_REASONS.index("delivery_before_accept") + 1
+    if not late.any():  # the common file: no months to take
+        return 0
+    months = [
+        (parsed[name][late] // 86_400).astype("datetime64[D]").astype("datetime64[M]")
+        for name in ("accept_time", "delivery_time")
+    ]
+    accept, delivery = (m.astype(np.int64) for m in months)  # months since 1970-01
+    return int(((accept % 12 == 11) & (delivery == accept - 11)).sum())
+
+
 def _repeated(*columns: np.ndarray) -> np.ndarray:
     """Mask of rows whose values in ``columns`` (64-bit each) may repeat another row's.
 
@@ -1086,6 +1101,7 @@ def _lade_table(
         dropped={r: int(counts[k + 1]) for k, r in enumerate(DROP_REASONS)},
         ds_other_day=ds_other_day(kept, parsed["delivery_time"][keep]),
         swapped_coordinates=_swapped(code, lng, lat),
+        over_new_year=_over_new_year(code, parsed),
     )
     return LadeTable(
         order_id=_strings(kept["order_id"]),

@@ -69,6 +69,9 @@ class DropReport:
     drop (a request's day is the date of its delivery time)."""
     swapped_coordinates: int = 0
     """Rows dropped for bad coordinates that would be good with lng and lat swapped."""
+    over_new_year: int = 0
+    """Rows dropped as delivered before accepted that were accepted in December and
+    delivered in January of one year: ``MM-DD`` times of an export over the new year."""
 
     @property
     def n_dropped(self) -> int:
@@ -84,23 +87,32 @@ class DropReport:
             doc["ds_other_day"] = self.ds_other_day
         if self.swapped_coordinates:
             doc["swapped_coordinates"] = self.swapped_coordinates
+        if self.over_new_year:
+            doc["over_new_year"] = self.over_new_year
         return doc
 
     def reasons(self) -> str:
         """The rows dropped for each reason, in words (``73 bad coordinates, 120
         duplicate``)."""
-        swapped = self.swapped_coordinates
-        return ", ".join(
-            f"{n:,} {reason.replace('_', ' ')}"
-            + (
-                f" ({'all' if swapped == n else f'{swapped:,}'} good with lng and lat swapped:"
-                " are the columns swapped?)"
-                if reason == "bad_coordinates" and swapped
-                else ""
-            )
-            for reason, n in self.dropped.items()
-            if n
-        )
+        swapped, wrap = self.swapped_coordinates, self.over_new_year
+        notes = {
+            "bad_coordinates": (swapped, "good with lng and lat swapped: are the columns swapped?"),
+            "delivery_before_accept": (
+                wrap,
+                "accepted in December, delivered in January of one year: if the export runs "
+                "over the new year, write its times as YYYY-MM-DD HH:MM:SS",
+            ),
+        }
+        parts = []
+        for reason, n in self.dropped.items():
+            if not n:
+                continue
+            part = f"{n:,} {reason.replace('_', ' ')}"
+            k, why = notes.get(reason, (0, ""))
+            if k:
+                part += f" ({'all' if k == n else f'{k:,}'} {why})"
+            parts.append(part)
+        return ", ".join(parts)
 
     def describe(self, name: str) -> str:
         """What was read from the file ``name`` and which rows were dropped and why

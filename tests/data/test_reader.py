@@ -1205,3 +1205,29 @@ def test_lng_and_lat_swapped_are_suggested_with_the_bad_coordinates(tmp_path: Pa
     assert "3 bad coordinates (all good with lng and lat swapped" in all_swapped.report.reasons()
     clean = read_lade(write_csv(tmp_path / "c.csv", CLEAN), DataConfig()).report
     assert clean.swapped_coordinates == 0 and "swapped_coordinates" not in clean.to_dict()
+
+
+def test_orders_accepted_in_december_and_delivered_in_january_are_named(tmp_path: Path) -> None:
+    """An export of January's first days in MM-DD times: an order accepted on 31
+    December reads as accepted after its delivery (one year for both), and is dropped;
+    the report says how many such rows, and what to write, where it said only
+    'delivery before accept' (the new-year warning needs the file's days to hold a
+    December)."""
+    rows = [
+        row("1", acc="01-01 08:00:00", dlv="01-01 10:00:00", ds="101"),
+        row("2", acc="12-31 20:00:00", dlv="01-01 10:00:00", ds="101"),
+        row("3", acc="12-30 20:00:00", dlv="01-02 10:00:00", ds="102"),
+        row("4", acc="01-02 12:00:00", dlv="01-02 11:00:00", ds="102"),  # no year's mistake
+    ]
+    t = read_lade(write_csv(tmp_path / "jan.csv", rows), DataConfig())
+    assert t.report.dropped["delivery_before_accept"] == 3 and t.report.over_new_year == 2
+    assert t.report.to_dict()["over_new_year"] == 2
+    assert (
+        "3 delivery before accept (2 accepted in December, delivered in January of one year: "
+        "if the export runs over the new year, write its times as YYYY-MM-DD HH:MM:SS)"
+    ) in t.report.describe("jan.csv")
+    full = [dict(r, accept_time=f"2022-{r['accept_time']}") for r in rows[1:3]]
+    full = [dict(r, delivery_time=f"2023-{r['delivery_time']}") for r in full]
+    clean = read_lade(write_csv(tmp_path / "full.csv", full), DataConfig()).report
+    assert clean.over_new_year == 0 and "over_new_year" not in clean.to_dict()
+    assert clean.describe("full.csv") == "full.csv: 2 rows read, none dropped"
