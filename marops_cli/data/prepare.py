@@ -69,6 +69,10 @@ def check_days_in_file(table: LadeTable, days: Iterable[dt.date]) -> None:
             hint = (
                 f"; its {day:%m-%d} is {same[0].isoformat()}: give the date in full" if same else ""
             )
+            if not same and have and have[0] < day < have[-1]:  # a gap the list may not reach
+                before = max(d for d in have if d < day)
+                after = min(d for d in have if d > day)
+                hint = f"; the nearest days it has are {before} and {after}"
             raise InputError(
                 f"date {day.isoformat()} not in {held} (it has {format_days(have)}{hint})",
                 file=table.source.path,

@@ -134,6 +134,23 @@ def test_date_not_in_file(table) -> None:
         study_frame(table, DataConfig(), [dt.date(2022, 9, 1)])
 
 
+def test_a_date_in_a_gap_of_the_file_names_the_days_around_it(tmp_path: Path) -> None:
+    """A day missing among many (an export of 2 orders a day with days off): the list of
+    the file's days stops at its first runs, so the error names the days around it."""
+    from marops_cli.data.prepare import check_days_in_file
+
+    days = [dt.date(2022, 5, 1) + dt.timedelta(days=k) for k in range(60) if k % 7 != 6]
+    rows = [f"{k},121.47,31.23,{d:%m-%d} 08:00:00,{d:%m-%d} 10:00:00" for k, d in enumerate(days)]
+    path = tmp_path / "gaps.csv"
+    path.write_text("order_id,lng,lat,accept_time,delivery_time\n" + "\n".join(rows) + "\n")
+    table = read_lade(path, DataConfig())
+    with pytest.raises(InputError) as err:
+        check_days_in_file(table, [dt.date(2022, 6, 18)])
+    assert "and 16 more days; the nearest days it has are 2022-06-17 and 2022-06-19)" in str(
+        err.value
+    )
+
+
 def test_empty_study_area(table) -> None:
     far = Frame(100.0, 20.0, 10.0)
     with pytest.raises(InputError) as err:
