@@ -138,7 +138,8 @@ def _sniff(path: Path) -> tuple[str, str | None]:
         if at >= len(head) - 4:
             break
         error = _not_utf8(head, at, path)
-        # Columns marops does not read are not read (pyarrow leaves them out): any bytes.
+        # Columns marops does not read are not read (pyarrow leaves them out): any bytes,
+        # their names in the header too (no name it reads holds such a byte).
         if error.column is None or error.column in REQUIRED_COLUMNS + _OPTIONAL_COLUMNS:
             raise error
         at += 1
@@ -178,15 +179,14 @@ def _wide_text(head: bytes) -> str | None:
 
 def _not_utf8(head: bytes, at: int, path: Path) -> InputError:
     """Where the first byte that is not UTF-8 lies in ``head`` (the file's first bytes):
-    its row, its column (from the header line), its byte offset in the file."""
+    its row, its column (from the header line; in the header, the name holding it), its
+    byte offset in the file."""
     lines = head[:at].split(b"\n")
     row = len(lines)
-    column = None
-    if row > 1:
-        names = next(csv.reader([head.split(b"\n", 1)[0].decode("utf-8", "replace")]), [])
-        index = next(csv.reader([lines[-1].decode("utf-8", "replace")]), [""])
-        k = max(len(index), 1) - 1  # the line up to the byte is empty: its first field
-        column = names[k].strip() if 0 <= k < len(names) else None
+    names = next(csv.reader([head.split(b"\n", 1)[0].decode("utf-8", "replace")]), [])
+    index = next(csv.reader([lines[-1].decode("utf-8", "replace")]), [""])
+    k = max(len(index), 1) - 1  # the line up to the byte is empty: its first field
+    column = names[k].strip() if 0 <= k < len(names) else None
     return InputError(
         f"not UTF-8 text: byte 0x{head[at]:02X} at byte offset {at} (save the file as UTF-8)",
         file=path,

@@ -936,6 +936,22 @@ def test_bytes_that_are_not_utf8_opening_a_line_in_a_column_not_read_do_not_matt
     assert (err.value.row, err.value.column) == (4, "order_id")
 
 
+def test_a_name_that_is_not_utf8_of_a_column_not_read_does_not_matter(tmp_path: Path) -> None:
+    """A header naming a column marops does not read in GBK (城市 for city, as a Chinese
+    spreadsheet saves it) or Latin-1 (an extra column 'entrée'): the column is not read,
+    nor its name, where the file was refused as not UTF-8 at row 1."""
+    text = write_csv(tmp_path / "d.csv", CLEAN).read_bytes()
+    header, rest = text.split(b"\n", 1)
+    for name in ("城市".encode("gbk"), "entrée".encode("latin-1")):
+        path = tmp_path / "named.csv"
+        path.write_bytes(header.replace(b"city", name) + b"\n" + rest)
+        t = read_lade(path, DataConfig())
+        assert list(t.order_id) == ["1001", "1002", "1003"]
+    path.write_bytes(header.replace(b"order_id", b"order_id\xe9") + b"\n" + rest)
+    with pytest.raises(InputError, match="missing required column 'order_id'"):
+        read_lade(path, DataConfig())
+
+
 def test_a_file_name_that_is_not_utf8_reads(tmp_path: Path) -> None:
     """A name in another encoding (an archive's GBK names) is no reason to fail: pyarrow
     opened the path as UTF-8 and raised UnicodeEncodeError, a traceback."""
