@@ -755,6 +755,21 @@ def _swapped(code: np.ndarray, lng: np.ndarray, lat: np.ndarray) -> int:
     return int((bad & _good_lng(lat) & _good_lat(lng)).sum())
 
 
+def _decimal_commas(code: np.ndarray, table: pa.Table) -> int:
+    """How many rows dropped for bad coordinates have lng or lat written with a decimal
+    comma (``"121,47"``, as a spreadsheet in a locale that writes numbers so saves them)."""
+    bad = np.flatnonzero(code == DROP_REASONS.index("bad_coordinates") + 1)
+    if not bad.size:  # the common file: no text to match
+        return 0
+    comma = np.zeros(bad.size, dtype=bool)
+    for name in ("lng", "lat"):
+        cells = table[name].take(pa.array(bad))
+        if is_text(cells.type):
+            found = pc.match_substring_regex(cells, r"^\s*[-+]?\d+,\d+\s*$")
+            comma |= pc.fill_null(found, False).to_numpy(zero_copy_only=False)
+    return int(comma.sum())
+
+
 def _over_new_year(code: np.ndarray, parsed: dict[str, np.ndarray]) -> int:
     """How many rows dropped as delivered before accepted were accepted in December and
     delivered in January of one year: ``MM-DD`` times of an export over the new year,
@@ -1102,6 +1117,7 @@ def _lade_table(
         ds_other_day=ds_other_day(kept, parsed["delivery_time"][keep]),
         swapped_coordinates=_swapped(code, lng, lat),
         over_new_year=_over_new_year(code, parsed),
+        decimal_comma=_decimal_commas(code, table),
     )
     return LadeTable(
         order_id=_strings(kept["order_id"]),

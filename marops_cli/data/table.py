@@ -72,6 +72,8 @@ class DropReport:
     over_new_year: int = 0
     """Rows dropped as delivered before accepted that were accepted in December and
     delivered in January of one year: ``MM-DD`` times of an export over the new year."""
+    decimal_comma: int = 0
+    """Rows dropped for bad coordinates written with a decimal comma (``121,47``)."""
 
     @property
     def n_dropped(self) -> int:
@@ -89,29 +91,40 @@ class DropReport:
             doc["swapped_coordinates"] = self.swapped_coordinates
         if self.over_new_year:
             doc["over_new_year"] = self.over_new_year
+        if self.decimal_comma:
+            doc["decimal_comma"] = self.decimal_comma
         return doc
 
     def reasons(self) -> str:
         """The rows dropped for each reason, in words (``73 bad coordinates, 120
         duplicate``)."""
-        swapped, wrap = self.swapped_coordinates, self.over_new_year
-        notes = {
-            "bad_coordinates": (swapped, "good with lng and lat swapped: are the columns swapped?"),
-            "delivery_before_accept": (
-                wrap,
+        notes = [
+            (
+                "bad_coordinates",
+                self.swapped_coordinates,
+                "good with lng and lat swapped: are the columns swapped?",
+            ),
+            (
+                "bad_coordinates",
+                self.decimal_comma,
+                "written with a decimal comma: write the numbers with a decimal point",
+            ),
+            (
+                "delivery_before_accept",
+                self.over_new_year,
                 "accepted in December, delivered in January of one year: if the export runs "
                 "over the new year, write its times as YYYY-MM-DD HH:MM:SS",
             ),
-        }
+        ]
         parts = []
         for reason, n in self.dropped.items():
             if not n:
                 continue
             part = f"{n:,} {reason.replace('_', ' ')}"
-            k, why = notes.get(reason, (0, ""))
-            if k:
-                part += f" ({'all' if k == n else f'{k:,}'} {why})"
-            parts.append(part)
+            said = [
+                f"{'all' if k == n else f'{k:,}'} {why}" for r, k, why in notes if r == reason and k
+            ]
+            parts.append(f"{part} ({'; '.join(said)})" if said else part)
         return ", ".join(parts)
 
     def describe(self, name: str) -> str:

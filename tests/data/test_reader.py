@@ -1247,3 +1247,26 @@ def test_orders_accepted_in_december_and_delivered_in_january_are_named(tmp_path
     clean = read_lade(write_csv(tmp_path / "full.csv", full), DataConfig()).report
     assert clean.over_new_year == 0 and "over_new_year" not in clean.to_dict()
     assert clean.describe("full.csv") == "full.csv: 2 rows read, none dropped"
+
+
+def test_coordinates_written_with_a_decimal_comma_are_named(tmp_path: Path) -> None:
+    """A spreadsheet of a locale that writes 121,47 saves coordinates so (quoted in a
+    comma-separated file): every row is dropped as bad coordinates, and the report says
+    how many were written with a decimal comma, where it said only 'bad coordinates'."""
+    rows = [{**r, "lng": f'"{r["lng"].replace(".", ",")}"'} for r in CLEAN]
+    bad = row("1004", lng="x")  # bad, no comma
+    t = read_lade(
+        write_csv(tmp_path / "c.csv", [*rows, CLEAN[0] | {"order_id": "9"}, bad]), DataConfig()
+    )
+    assert len(t) == 1 and t.report.decimal_comma == 3
+    assert t.report.to_dict()["decimal_comma"] == 3
+    assert (
+        "4 bad coordinates (3 written with a decimal comma: write the numbers with a decimal "
+        "point)" in t.report.describe("c.csv")
+    )
+    swapped = [{**r, "lng": r["lat"], "lat": f'"{r["lng"].replace(".", ",")}"'} for r in CLEAN]
+    both = read_lade(write_csv(tmp_path / "b.csv", swapped), DataConfig()).report
+    assert "(3 good with lng and lat swapped" not in both.reasons()
+    assert "3 bad coordinates (all written with a decimal comma" in both.reasons()
+    clean = read_lade(write_csv(tmp_path / "k.csv", CLEAN), DataConfig()).report
+    assert clean.decimal_comma == 0 and "decimal_comma" not in clean.to_dict()
