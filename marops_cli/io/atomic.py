@@ -8,7 +8,6 @@ import json
 import os
 import re
 import secrets
-import signal
 import stat
 import threading
 from collections.abc import Callable, Iterator
@@ -59,10 +58,11 @@ class OutputSet:
         self._made += missing_folders(final)
         try:
             final.parent.mkdir(parents=True, exist_ok=True)
-            tmp = temporary(final.parent, final.name)
+            with _signals_held():  # made and listed at once: discard() removes what was made
+                tmp = temporary(final.parent, final.name)
+                self._pending.append((tmp, final))
         except OSError as exc:
             raise cannot_write(final, exc) from None
-        self._pending.append((tmp, final))
         if journal:
             self._journal.add(final)
         return tmp
@@ -100,8 +100,9 @@ class OutputSet:
             journals: list[tuple[Path, Path]] = []
             for folder, names in journaled.items():
                 try:
-                    tmp = temporary(folder, JOURNAL)
-                    journals.append((tmp, folder / JOURNAL))
+                    with _signals_held():
+                        tmp = temporary(folder, JOURNAL)
+                        journals.append((tmp, folder / JOURNAL))
                     journal_update(folder, names, tmp)
                 except OSError as exc:
                     self._pending.extend(journals)  # removed by discard()
@@ -114,11 +115,7 @@ class OutputSet:
         order = self._pending[first:] + self._pending[:first]
         # Ctrl-C or SIGTERM waits until every file of the set is in place (the renames
         # take microseconds), so a stopped run never leaves half a set.
-        stop = {signal.SIGINT, signal.SIGTERM}
-        blocked = hasattr(signal, "pthread_sigmask")
-        if blocked:
-            old = signal.pthread_sigmask(signal.SIG_BLOCK, stop)
-        try:
+        with _signals_held():
             for tmp, final in order:
                 try:
                     os.chmod(tmp, mode)
@@ -129,9 +126,6 @@ class OutputSet:
                 self.placed[final] = placed
                 settled(tmp)
             self._pending.clear()
-        finally:
-            if blocked:
-                signal.pthread_sigmask(signal.SIG_SETMASK, old)
 
     def discard(self) -> None:
         for tmp, _ in self._pending:
@@ -156,6 +150,13 @@ def output_set() -> Iterator[OutputSet]:
     except BaseException:
         out.discard()
         raise
+
+
+def _signals_held() -> contextlib.AbstractContextManager[None]:
+    """Ctrl-C and SIGTERM held back within (:func:`~marops_cli.workers.pool.signals_held`)."""
+    from ..workers.pool import signals_held  # deferred: not loaded for --help
+
+    return signals_held()
 
 
 def _umask() -> int:

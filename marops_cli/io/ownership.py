@@ -275,6 +275,8 @@ def check_outputs(paths: Iterable[Path], journal: bool = False) -> None:
     its folder written, found out by creating and removing a temporary there (or, for a
     folder still to be made, by the nearest existing one, whose file system must take
     the names of the folders to make there)."""
+    from ..workers.pool import signals_held  # deferred: not loaded for --help
+
     for final in paths:
         final = Path(final)
         check_replaceable([final], journal)
@@ -284,11 +286,12 @@ def check_outputs(paths: Iterable[Path], journal: bool = False) -> None:
             raise InputError(f"cannot be created: {folder} is a file", file=final)
         _names_fit(final, folder, [f.name for f in to_make])
         try:
-            fd, probe = tempfile.mkstemp(
-                prefix=f".{final.name}.{TMP_MARK}", suffix=".tmp", dir=folder
-            )
-            os.close(fd)
-            os.unlink(probe)
+            with signals_held():  # a Ctrl-C meanwhile leaves no probe behind
+                fd, probe = tempfile.mkstemp(
+                    prefix=f".{final.name}.{TMP_MARK}", suffix=".tmp", dir=folder
+                )
+                os.close(fd)
+                os.unlink(probe)
         except OSError as exc:  # found before the work: bad usage, exit 2
             raise InputError(f"cannot write ({_reason(exc)})", file=final) from None
 

@@ -98,12 +98,16 @@ _HELD = (signal.SIGINT, signal.SIGTERM)
 
 
 @contextmanager
-def _signals_held() -> Iterator[None]:
+def signals_held() -> Iterator[None]:
     """Ctrl-C and SIGTERM held within and delivered on the way out, as the run handles
     them (KeyboardInterrupt, :class:`~marops_cli.io.atomic.Terminated`): so this process
     never stops half-way through handing a worker its start-up data, which the worker
-    would report with a traceback (``pickle data was truncated``). In the main thread
-    only; elsewhere nothing changes."""
+    would report with a traceback (``pickle data was truncated``), nor through making a
+    temporary or renaming a set of files into place (marops_cli/io/atomic.py). Their
+    handlers are swapped, not the signals blocked: a blocked signal goes to another of
+    the process's threads (Arrow's, OpenMP's), and Python runs its handler in the main
+    thread all the same. In the main thread only; elsewhere nothing changes (no handler
+    runs there)."""
     got: list[int] = []
 
     def hold(signum: int, frame: object) -> None:
@@ -230,7 +234,7 @@ class LocalPool:
         _main_importable()
         warm_up(work.preload)
         try:
-            with _signals_held():  # a Ctrl-C meanwhile stops the started pool below
+            with signals_held():  # a Ctrl-C meanwhile stops the started pool below
                 self._pool = _context().Pool(workers, initializer=_init, initargs=(work,))
         except (BrokenPipeError, EOFError, ConnectionResetError) as exc:
             self.close(failed=True)
