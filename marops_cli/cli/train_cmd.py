@@ -422,6 +422,7 @@ def _planner(
     counts), and the scenarios trained on: the ``sizes`` (``--drones``, ``--n-depots``,
     ``--spares``, ``--batteries``) and the days."""
     from ..app.options import planner_config
+    from ..config import override
     from ..data.dates import parse_days
 
     drones, n_depots, spares, batteries = sizes
@@ -432,8 +433,18 @@ def _planner(
         drones=fleets[0] if fleets else None,
         n_depots=depot_counts[0] if depot_counts else None,
     )
+    spare_counts = _sizes(spares, "--spares")
+    # Every value in range before any file is read, named by its flag: the scenarios
+    # apply them only once the data is read and segmented.
+    for flag, key, values in (
+        ("--drones", "sim__drones", fleets),
+        ("--n-depots", "segment__n_depots", depot_counts),
+        ("--spares", "ops__batteries_per_depot", spare_counts),
+    ):
+        for value in values:
+            override(cfg, {key: flag}, **{key: value})
     train_days = parse_days(days, cfg.data.year, "--dates") if days is not None else None
-    scenarios = {"drones": fleets, "n_depots": depot_counts, "spares": _sizes(spares, "--spares")}
+    scenarios = {"drones": fleets, "n_depots": depot_counts, "spares": spare_counts}
     return cfg, {**scenarios, "batteries": _regimes(batteries, spares), "train_days": train_days}
 
 

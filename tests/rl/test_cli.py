@@ -215,6 +215,28 @@ def test_train_refuses_more_scenarios_than_a_run_trains_on_before_reading(
     )
 
 
+@pytest.mark.parametrize(
+    ("flag", "values", "says"),
+    [
+        ("--drones", "4,1001", "got 1001 (expected 1 ≤ drones ≤ 1000"),
+        ("--n-depots", "8,5000", "got 5000 (expected 1 ≤ n_depots ≤ 4096"),
+        ("--spares", "1,10001", "got 10001 (expected 0 ≤ batteries_per_depot ≤ 10000"),
+    ],
+)
+def test_every_value_of_a_training_sweep_is_checked_before_reading(
+    tmp_path: Path, fails_cleanly, flag: str, values: str, says: str
+) -> None:
+    """Only the first of several fleet sizes, depot counts or spare counts was checked up
+    front; the others once the file was read (and segmented), called by their setting
+    (``invalid option sim.drones``). Now every value, named by its flag, before any file
+    is read: a file that is no LaDe export is never opened."""
+    data = tmp_path / "lade.csv"
+    data.write_text("not a LaDe export\n")
+    args = ["train", str(data), "--episodes", "1", "--workers", "1", flag, values]
+    line = fails_cleanly([*args, "--out", str(tmp_path / "a.pt")], tmp_path)
+    assert line.startswith(f"marops: error: invalid option {flag}: ") and says in line
+
+
 def test_a_checkpoint_that_unpacks_to_gigabytes_is_refused_unopened(
     tiny_csv: Path, tmp_path: Path, fails_cleanly
 ) -> None:
