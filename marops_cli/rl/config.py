@@ -9,6 +9,11 @@ from pydantic import BaseModel, ConfigDict, Field, field_validator
 from ..config import MAX_EPISODES, MAX_SEED
 from ..workers.pool import MAX_WORKERS
 
+MAX_ES_WEIGHT = 1000.0
+"""The most ``es_energy_weight`` and ``es_loss_weight`` take: far above any weight that
+shapes training (1 to 5), and a weight near the largest float made the costs infinite,
+which no checkpoint or sidecar can hold."""
+
 
 class TrainConfig(BaseModel):
     """Everything that shapes a training run besides the planner config.
@@ -108,6 +113,7 @@ class TrainConfig(BaseModel):
     es_energy_weight: float = Field(
         1.0,
         ge=0,
+        le=MAX_ES_WEIGHT,
         description="es: cost of each share of energy per drone above the day's best rule's "
         "(beyond es_energy_slack)",
     )
@@ -142,6 +148,7 @@ class TrainConfig(BaseModel):
     es_loss_weight: float = Field(
         2.0,
         ge=0,
+        le=MAX_ES_WEIGHT,
         description="es: cost of each share of J above the day's best rule's, on top of the "
         "share itself (so a day lost weighs more than a day won)",
     )

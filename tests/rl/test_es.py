@@ -280,3 +280,22 @@ def test_a_day_lost_costs_the_loss_weight_more() -> None:
     assert cost(90.0, 2.0) == pytest.approx(0.9)  # a day won: J alone
     assert cost(110.0, 2.0) == pytest.approx(1.1 + 2 * 0.1)  # lost by 10 %: 30 % in all
     assert cost(110.0, 0.0) == pytest.approx(1.1)
+
+
+@pytest.mark.parametrize("field", ["es_energy_weight", "es_loss_weight"])
+def test_the_cost_weights_are_bounded_so_costs_stay_finite(field: str) -> None:
+    """``--loss-weight 1e308`` (or ``--energy-weight``) was taken: a day lost by more
+    than 80 % cost infinity, and after minutes of training the checkpoint could not be
+    written (a traceback, exit 1). At most 1000, where a day a billion times worse than
+    the best rule on every count still costs a finite number."""
+    from pydantic import ValidationError
+
+    from marops_cli.rl.config import MAX_ES_WEIGHT, TrainConfig
+
+    with pytest.raises(ValidationError, match="less than or equal to 1000"):
+        TrainConfig(**{field: 1e308})
+    assert getattr(TrainConfig(**{field: MAX_ES_WEIGHT}), field) == MAX_ES_WEIGHT
+    ref = {"j": 1e-12, "energy": 1e-12, "share": 1.0}
+    row = {"objective_j_mj": 1e9, "mean_energy_kj": 1e9, "delivered_share": 1e-12}
+    worst = day_cost(row, ref, MAX_ES_WEIGHT, 0.0, MAX_ES_WEIGHT, per_parcel=True)
+    assert math.isfinite(worst)
