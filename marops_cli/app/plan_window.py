@@ -123,8 +123,11 @@ def plan_window(
     check_report(report and out is not None)
     register_inputs(policy_files(method, cfg.sim.policy, ops=cfg.ops))  # the actor's too
     if out is not None:  # before any work: an input or a file marops did not write
+        from ..io.atomic import check_free
+
         check_out(out, fmt)
         check_outputs(route_file_paths(Path(out), fmt, geojson))
+        check_free(out)  # no other run writes there, nor above it or inside it
     pol = method_policy(
         method, cfg.sim.policy, cfg.sim.seed, trust=cfg.sim.trust_actor, ops=cfg.ops
     )

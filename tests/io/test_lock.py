@@ -161,6 +161,34 @@ def test_replay_day_into_a_day_folder_of_a_running_replay_is_refused(
         first.communicate("", timeout=60)
 
 
+def test_plan_window_into_a_running_run_s_folder_is_refused_before_planning(
+    example_csv: Path, tmp_path: Path
+) -> None:
+    """As replay-day and evaluate: the refusal is the one line a refused run prints,
+    where plan-window read the data, planned the window and said so first."""
+    from typer.testing import CliRunner
+
+    from marops_cli.cli.app import app
+
+    depots = tmp_path / "depots.json"
+    made = CliRunner().invoke(app, ["segment", str(example_csv), "--out", str(depots)])
+    assert made.exit_code == 0, made.output
+    out = tmp_path / "w"
+    first = _start(out)
+    try:
+        assert first.stdout is not None and first.stdout.readline() == "holding\n"
+        args = ["plan-window", str(example_csv), "--depots", str(depots), "--date", "0811"]
+        res = CliRunner().invoke(app, [*args, "--window", "5", "--out", str(out)])
+        assert res.exit_code == 1
+        assert res.stderr.splitlines() == [
+            f"marops: error: {out}: another marops run (pid {first.pid}) is writing here; "
+            "wait for it to finish or choose another --out"
+        ]
+    finally:
+        first.communicate("", timeout=60)
+    assert not out.exists()  # nothing of plan-window's: the holder removed its folder
+
+
 def test_a_file_where_the_locked_folder_goes_is_one_line_naming_it(tmp_path: Path) -> None:
     """A file (or a pipe) by the folder's name: exit 2 naming it, not ``File exists``, and
     the file as it was."""
