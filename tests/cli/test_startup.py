@@ -75,6 +75,33 @@ def test_python_m_runs_the_command(tmp_path: Path) -> None:
     assert list(tmp_path.iterdir()) == []
 
 
+@pytest.mark.parametrize("how", ["python -m", "console script"])
+def test_ctrl_c_while_the_command_line_loads_is_one_line(how: str) -> None:
+    """Ctrl-C in the first tenths of a second, before the command takes Ctrl-C itself,
+    printed the traceback of the import it stopped (here rich's, as a terminal's Ctrl-C
+    would) and ended the process by the signal; now one line and exit 130, as later on."""
+    entry = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["scripts"]["marops"]
+    module, function = entry.split(":")
+    start = {
+        "python -m": "import runpy; runpy.run_module('marops_cli', run_name='__main__')",
+        "console script": f"from {module} import {function}; {function}()",
+    }[how]
+    code = (
+        "import sys\n"
+        "class Stop:\n"
+        "    def find_spec(self, name, path=None, target=None):\n"
+        "        if name == 'rich.table':\n"
+        "            raise KeyboardInterrupt\n"
+        "sys.meta_path.insert(0, Stop())\n"
+        "sys.argv = ['marops', '--help']\n"
+        f"{start}\n"
+    )
+    res = subprocess.run(
+        [sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, timeout=120
+    )
+    assert (res.returncode, res.stderr) == (130, "marops: interrupted\n")
+
+
 def test_distributed_is_optional_but_tested() -> None:
     """The base install leaves distributed out; the cluster, test and dev extras bring it."""
     project = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
