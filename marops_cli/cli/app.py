@@ -62,7 +62,7 @@ def _root(
     ] = False,
 ) -> None:
     """Operations planner for drone last-mile delivery."""
-    STATE.update(debug=debug, quiet=False, json=False)
+    STATE.update(debug=debug, quiet=False, json=False, stopped=False)
     from ..io.ownership import new_run
 
     new_run()  # each command decides (--force) and registers its inputs
@@ -134,7 +134,21 @@ def _run() -> int | str | None:
         if ctx is not None and _wants_json(ctx.command):
             error_json(_command_name(ctx), f"{text}{hint}", status)
         return status
+    signalled = stop_signal()
+    if code == 130 and signalled is not None and not STATE["stopped"]:
+        # Typer ends a Ctrl-C or SIGTERM that came while it read the command line, before
+        # the command could take it, with a bare exit 130.
+        return _stop_status(signalled)
     return code if isinstance(code, int) else 0
+
+
+def _stop_status(signalled: KeyboardInterrupt) -> int:
+    """A stop no command reported: its one line, and its exit code (130, 143 for SIGTERM)."""
+    from ..io.atomic import Terminated
+
+    term = isinstance(signalled, Terminated)
+    typer.echo(f"marops: {'terminated' if term else 'interrupted'}", err=True)
+    return 143 if term else 130
 
 
 def _named_source(text: str, param: Any, ctx: Any) -> str:
@@ -222,9 +236,5 @@ def main() -> None:
         signalled = exc if isinstance(exc, KeyboardInterrupt) else stop_signal()
         if signalled is None or STATE["debug"]:
             raise
-        from ..io.atomic import Terminated
-
-        term = isinstance(signalled, Terminated)
-        typer.echo(f"marops: {'terminated' if term else 'interrupted'}", err=True)
-        code = 143 if term else 130
+        code = _stop_status(signalled)
     _leave(code)

@@ -81,7 +81,8 @@ console = _console(stderr=True)
 """Messages and progress (stderr)."""
 out = _console(stderr=False)
 """Result tables (stdout), so a cron job's log keeps them whole."""
-STATE: dict[str, bool] = {"debug": False, "quiet": False, "json": False}
+STATE: dict[str, bool] = {"debug": False, "quiet": False, "json": False, "stopped": False}
+"""``stopped``: the run said it was interrupted or terminated (:func:`stopped`)."""
 
 
 def set_output(quiet: bool = False, as_json: bool = False) -> None:
@@ -448,6 +449,7 @@ def stopped(exc: KeyboardInterrupt, kept: str = "", command: str | None = None) 
     how = "terminated" if term else "interrupted"
     line = f"{how}; {kept}" if kept else how
     typer.echo(f"marops: {line}", err=True)
+    STATE["stopped"] = True
     code = 143 if term else 130
     if STATE["json"] and command is not None:
         error_json(command, line, code)

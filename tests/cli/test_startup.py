@@ -102,6 +102,34 @@ def test_ctrl_c_while_the_command_line_loads_is_one_line(how: str) -> None:
     assert (res.returncode, res.stderr) == (130, "marops: interrupted\n")
 
 
+@pytest.mark.parametrize(
+    ("signal_name", "status", "line"),
+    [("SIGINT", 130, "marops: interrupted\n"), ("SIGTERM", 143, "marops: terminated\n")],
+)
+def test_a_stop_while_the_command_line_is_read_is_one_line(
+    signal_name: str, status: int, line: str
+) -> None:
+    """Ctrl-C or SIGTERM while typer reads the command line, before the command takes
+    it, ended with a bare exit 130 (no line; SIGTERM's 130, not 143): typer turns it
+    into that exit code itself. Here the signal's handler runs as the arguments are
+    parsed, as it does when the signal arrives then."""
+    code = (
+        "import signal, sys\n"
+        "from marops_cli.cli import usage\n"
+        "parse = usage.Command.parse_args\n"
+        "def parse_args(self, ctx, args):\n"
+        f"    signal.getsignal(signal.{signal_name})(signal.{signal_name}, None)\n"
+        "    return parse(self, ctx, args)\n"
+        "usage.Command.parse_args = parse_args\n"
+        "sys.argv = ['marops', 'segment', 'lade.csv', '--out', 'depots.json']\n"
+        "from marops_cli.cli.app import main; main()\n"
+    )
+    res = subprocess.run(
+        [sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, timeout=120
+    )
+    assert (res.returncode, res.stderr) == (status, line)
+
+
 def test_distributed_is_optional_but_tested() -> None:
     """The base install leaves distributed out; the cluster, test and dev extras bring it."""
     project = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
