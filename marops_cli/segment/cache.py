@@ -212,10 +212,12 @@ def _store(path: Path, key: str, depots: Depots) -> None:
             if not stat.S_ISREG(there.st_mode) or there.st_uid != os.getuid():
                 raise OSError(errno.EEXIST, "another user's entry")  # left as it is
         os.replace(tmp, path)
-    except OSError:
+    except BaseException as exc:  # Ctrl-C or SIGTERM as it is written too: never left
         if tmp is not None:
             with contextlib.suppress(OSError):
                 tmp.unlink(missing_ok=True)
+        if not isinstance(exc, OSError):
+            raise
 
 
 def cached_depots(

@@ -216,6 +216,26 @@ def test_a_cache_that_cannot_be_stored_leaves_no_temporary_behind(
     assert sorted(p.name for p in path.parent.iterdir()) == [path.name]
 
 
+def test_ctrl_c_as_an_entry_is_stored_leaves_no_temporary_behind(
+    tmp_path, monkeypatch, points_table
+):
+    """Ctrl-C (or SIGTERM) while an entry was written left its temporary
+    (``.KEY.npz.XXXXXXXX.tmp``) in the cache folder for good: one more for each run so
+    stopped."""
+    monkeypatch.setenv("MAROPS_CACHE_DIR", str(tmp_path))
+    cfg = PlannerConfig()
+    table = points_table([121.47] * 3, [31.23] * 3, "abc")
+    path = _key_path(tmp_path, table, cfg)
+
+    def savez(*args: object, **kwargs: object) -> None:
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(np, "savez", savez)
+    with pytest.raises(KeyboardInterrupt):
+        cached_depots(table, DAYS, FRAME, cfg.data, cfg.segment, _depots)
+    assert list(path.parent.iterdir()) == []
+
+
 def test_a_link_planted_at_a_temporary_name_is_never_written_through(
     tmp_path, monkeypatch, points_table
 ):
