@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 import shlex
 import sys
 import time
@@ -122,7 +123,8 @@ def _alpha_range(text: str | None) -> dict[str, Any]:
         return {}
     if text.strip().lower() == "fixed":
         return {"alpha_range": None}
-    parts = text.replace(",", "-").split("-")
+    # LOW,HIGH; or LOW-HIGH, split at a dash after a digit (not an exponent's: 1e-3-0.9)
+    parts = text.split(",") if "," in text else re.split(r"(?<=[0-9.])\s*-", text)
     try:
         lo, hi = (ascii_number(x, float) for x in parts)
     except ValueError:

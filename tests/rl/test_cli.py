@@ -347,6 +347,15 @@ def test_a_bad_training_flag_is_named_as_typed(
     assert not list(tmp_path.iterdir())
 
 
+@pytest.mark.parametrize("text", ["1e-3,0.9", "1e-3-0.9", "0.001-9e-1", "0.001,0.9"])
+def test_alpha_range_takes_numbers_written_with_an_exponent(text: str) -> None:
+    """``--alpha-range 1e-3,0.9`` was refused as not LOW-HIGH: the comma was made a dash
+    and the text split at every dash, the exponent's too."""
+    from marops_cli.cli.train_cmd import _alpha_range
+
+    assert _alpha_range(text) == {"alpha_range": (0.001, 0.9)}
+
+
 def test_init_must_be_a_landing_actor(tiny_csv: Path, tmp_path: Path) -> None:
     other = tmp_path / "notes.txt"
     other.write_text("not an actor\n")
