@@ -150,6 +150,10 @@ def evaluate(
 
     check_report(config.report and out is not None)
     check_workers(config.workers)
+    if config.scheduler is not None:
+        from ..workers.cluster import check_scheduler
+
+        check_scheduler(config.scheduler)
     from ..policies.registry import actor_files
 
     # Never an output: the data, and every file of an actor given (sidecar included).

@@ -70,9 +70,9 @@ def check_options(options: ReplayOptions) -> None:
     check_report(options.report)
     check_workers(options.workers)
     if options.scheduler is not None:
-        from ..workers.cluster import require_distributed
+        from ..workers.cluster import check_scheduler
 
-        require_distributed()
+        check_scheduler(options.scheduler)
     check_format(options.fmt)
     if options.method not in METHODS:
         raise InputError(

@@ -180,9 +180,9 @@ def _sweep_and_outputs(
 
     check_out(out)
     if scheduler is not None:
-        from ..workers.cluster import require_distributed
+        from ..workers.cluster import check_scheduler
 
-        require_distributed()
+        check_scheduler(scheduler)
     sweep = sweep_fields(*sweeps)
     against, plots, report = files
     return sweep, output_files(out, sweep=sweep, against=against, plots=plots, report=report)

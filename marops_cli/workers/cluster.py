@@ -41,6 +41,33 @@ def require_distributed() -> ModuleType:
     return distributed
 
 
+def check_scheduler(scheduler: str) -> None:
+    """Before any work: ``--scheduler`` needs distributed, and an address Dask can connect
+    to (``local``, or ``SCHEME://HOST:PORT`` of a scheme it knows), else one line."""
+    require_distributed()
+    if scheduler != LOCAL:
+        _address(scheduler)
+
+
+def _address(scheduler: str) -> tuple[str, int] | None:
+    """The host and port of a ``tcp://`` address (None for another scheme Dask knows), or
+    one line saying ``scheduler`` is no address."""
+    from distributed.comm.addressing import parse_address, parse_host_port
+    from distributed.comm.registry import get_backend
+
+    try:
+        scheme, location = parse_address(scheduler, strict=False)
+        get_backend(scheme)  # one Dask knows
+        if scheme != "tcp":
+            return None
+        host, port = parse_host_port(location)
+    except (ValueError, TypeError) as exc:
+        raise InputError(
+            f"{option('scheduler')} {scheduler}: not a scheduler address ({_why(exc)})"
+        ) from None
+    return host, port
+
+
 def owner_only() -> Any:
     """The security of a local cluster that only this process can use: TLS with a
     certificate authority and a key made for this run, kept in memory and handed to the
@@ -140,17 +167,10 @@ def _probe(scheduler: str) -> None:
     """
     import socket
 
-    from distributed.comm.addressing import parse_address, parse_host_port
-
-    try:
-        scheme, location = parse_address(scheduler, strict=False)
-        if scheme != "tcp":
-            return
-        host, port = parse_host_port(location)
-    except (ValueError, TypeError) as exc:
-        raise InputError(
-            f"{option('scheduler')} {scheduler}: not a scheduler address ({_why(exc)})"
-        ) from None
+    address = _address(scheduler)
+    if address is None:
+        return
+    host, port = address
     first = b""
     try:
         with socket.create_connection((host, port), timeout=CONNECT_TIMEOUT_S) as sock:

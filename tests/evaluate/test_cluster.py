@@ -158,6 +158,31 @@ def test_unreachable_scheduler_is_one_line_and_writes_nothing(
     assert not (tmp_path / "ev").exists()
 
 
+@pytest.mark.parametrize(
+    ("address", "why"),
+    [
+        ("tcp://host:notaport", "invalid literal for int()"),
+        ("foo://host:8786", "unknown address scheme 'foo'"),
+        ("host", "missing port number"),
+    ],
+)
+@pytest.mark.parametrize("command", ["evaluate", "replay-day"])
+def test_a_scheduler_that_is_no_address_is_refused_before_the_data_is_read(
+    example_csv: Path, tmp_path: Path, fails_cleanly, address: str, why: str, command: str
+) -> None:
+    """An address Dask cannot connect to by its form alone was refused only as the jobs
+    were handed out, after the data was read (its lines printed before the error)."""
+    pytest.importorskip("distributed")
+    if command == "evaluate":
+        args = _evaluate(example_csv, tmp_path / "ev", "--scheduler", address)
+    else:
+        args = ["replay-day", "--area", "square", str(example_csv), "--dates", "0811,0812"]
+        args += ["--scheduler", address, "--out", str(tmp_path / "ev")]
+    line = fails_cleanly(args, tmp_path, f"--scheduler {address}: not a scheduler address")
+    assert why in line
+    assert not (tmp_path / "ev").exists()
+
+
 class _Silent(socketserver.BaseRequestHandler):
     """Waits for a request, as a web server does."""
 
