@@ -161,6 +161,15 @@ def _as_number(kind: type) -> Callable[[Any], Any]:
     return convert
 
 
+def _as_bool(v: Any) -> Any:
+    """numpy's True or False (a frame's ``.any()`` gives them) as Python's; else the value
+    as it is (for the strict type to refuse)."""
+    kind = type(v)
+    if kind.__module__ == "numpy" and kind.__name__ in ("bool", "bool_"):
+        return bool(v)
+    return v
+
+
 def _refused(v: Any) -> Any:
     raise ValueError("refused")
 
@@ -204,7 +213,7 @@ def _simple_kinds() -> dict[Any, tuple[Any, str]]:
     return {
         Path: (Annotated[Any, PlainValidator(_only(_a_path))], "a path"),
         tuple[float, float]: (pair, "a (lng, lat) pair"),
-        bool: (StrictBool, "True or False"),
+        bool: (Annotated[StrictBool, BeforeValidator(_as_bool)], "True or False"),
         int: (Annotated[StrictInt, BeforeValidator(_as_number(int))], "an integer"),
         float: (Annotated[StrictFloat, BeforeValidator(_as_number(float))], "a number"),
         dt.date: (Annotated[dt.date, PlainValidator(_a_day)], "a datetime.date"),

@@ -146,6 +146,23 @@ def test_api_wrong_argument_types_name_the_keyword(example_csv: Path, call, mess
     assert "\n" not in str(err.value)
 
 
+def test_api_takes_numpy_true_or_false_where_a_flag_is_on_or_off(
+    example_csv: Path, tmp_path: Path
+) -> None:
+    # A frame's .any() or a comparison gives numpy's True or False: a switch takes it as
+    # Python's, where it was refused as "expects True or False, got bool np.True_".
+    np = pytest.importorskip("numpy")
+    bad = tmp_path / "bad.csv"
+    lines = example_csv.read_text().splitlines()[:4]
+    lines[3] = lines[3].replace(",121.", ",x121.", 1)  # lng not a number
+    bad.write_text("\n".join(lines) + "\n")
+    assert marops.read_lade(bad, strict=np.False_).equals(marops.read_lade(bad, strict=False))
+    with pytest.raises(InputError, match=r"bad\.csv.*row 4"):
+        marops.read_lade(bad, strict=np.True_)
+    with pytest.raises(InputError, match=r"drones expects an integer, got bool"):
+        marops.replay_day(example_csv, "0811", drones=np.True_)
+
+
 def test_api_takes_lists_and_dates_where_the_flag_takes_them(
     example_csv: Path, tmp_path: Path
 ) -> None:
