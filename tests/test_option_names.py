@@ -127,6 +127,13 @@ API_CASES: list[tuple[str, Call, str]] = [
         r"^against 'myopic' is not among methods \(stay\); add it to methods$",
     ),
     (
+        # The reference alone: nothing to pair with it (paired.csv was an empty file).
+        "evaluate",
+        lambda d, t, k: marops.evaluate(d, workers=1, methods="stay", against="stay"),
+        r"^against 'stay' leaves no other method of methods \(stay\) to compare with it; "
+        r"add one to methods$",
+    ),
+    (
         "evaluate",
         lambda d, t, k: marops.evaluate(d, workers=1, policy=t / "actor.pt"),
         r"actor.pt: trained actor not found \(policy\)$",
@@ -189,6 +196,10 @@ def test_every_api_function_has_a_case() -> None:
         (
             ["evaluate", "{data}", "--methods", "stay", "--against", "myopic"],
             "--against 'myopic' is not among --methods (stay); add it to --methods",
+        ),
+        (
+            ["evaluate", "{data}", "--methods", "stay", "--against", "stay"],
+            "--against 'stay' leaves no other method of --methods (stay) to compare with it",
         ),
     ],
 )

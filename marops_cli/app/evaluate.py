@@ -199,6 +199,12 @@ def evaluate(
                 f"({', '.join(methods)}); add it to {listed}"
             )
         methods.append(config.against)  # the default methods and the reference
+    if config.against is not None and set(methods) == {config.against}:
+        listed = option("methods")
+        raise InputError(
+            f"{option('against')} {config.against!r} leaves no other method of {listed} "
+            f"({', '.join(methods)}) to compare with it; add one to {listed}"
+        )
     if config.scheduler is None and config.workers > 1:
         from ..evaluate.runner import worker_modules
         from ..sim.scenario import loads_actor
