@@ -301,6 +301,9 @@ _CORE = ("mean_energy_kj", "avg_delay_h", "delivered", "requests")
 """Metrics every job's row holds."""
 _NOT_NEGATIVE = ("count", "kJ", "g", "s", "h", "0–1")
 """Units of metrics no replay makes negative."""
+_NOT_NEGATIVE_KEYS = frozenset({"objective_j_mj"})
+"""Metrics of another unit no replay makes negative: the day objective J (energy and
+priced delay; G, its controllable part, may be below 0)."""
 _AT_MOST_ONE = frozenset(
     {
         "delivered_share",
@@ -332,7 +335,11 @@ def _sound(row: dict[str, Any]) -> bool:
         if not isinstance(v, int | float) or not math.isfinite(v):
             return False
         spec = METRICS.get(k)
-        positive = k.startswith(_PER_KEY) or (spec is not None and spec.unit in _NOT_NEGATIVE)
+        positive = (
+            k.startswith(_PER_KEY)
+            or k in _NOT_NEGATIVE_KEYS
+            or (spec is not None and spec.unit in _NOT_NEGATIVE)
+        )
         if (positive and v < 0) or (k in _AT_MOST_ONE and v > 1):
             return False
     return bool(row["delivered"] <= row["requests"])

@@ -175,8 +175,8 @@ def test_an_edited_job_file_runs_again_rather_than_feeding_the_tables(prep, tmp_
         pq.write_table(table.replace_schema_metadata(table.schema.metadata), path)
     again = JobStore(tmp_path / "jobs", prep, run_identity(prep))
     again.open()
-    assert again.finished() == {0, 3}
-    assert sorted(run(prep, workers=1, sink=again)) == [1, 2]
+    assert again.finished() == {0}
+    assert sorted(run(prep, workers=1, sink=again)) == [1, 2, 3]
     got = rows_table(again.rows())
     for name in ("avg_delay_h", "mean_energy_kj", "delivered", "objective_j_mj"):
         assert got[name].equals(want[name]), name
@@ -353,14 +353,15 @@ def test_a_folder_where_a_job_file_goes_is_refused_naming_it(prep, tmp_path: Pat
 
 
 def test_a_job_file_with_a_metric_out_of_its_range_runs_again(prep, tmp_path: Path) -> None:
-    """A job file whose metrics no replay writes (delivered_share NaN, a negative count),
-    its marops metadata kept: its job runs again, to the same row, rather than feeding
-    summary.csv and paired.csv."""
+    """A job file whose metrics no replay writes (delivered_share NaN, a negative count, a
+    negative day objective J: energy and priced delay), its marops metadata kept: its job
+    runs again, to the same row, rather than feeding summary.csv and paired.csv."""
     store = JobStore(tmp_path / "jobs", prep, run_identity(prep))
     store.open()
     ran = run(prep, workers=1, sink=store)
     want = rows_table([job_row(prep, job, ran[job.index]) for job in prep.jobs])
-    for k, name, value in ((1, "delivered_share", float("nan")), (2, "undelivered", -3)):
+    edits = ((1, "delivered_share", float("nan")), (2, "undelivered", -3))
+    for k, name, value in (*edits, (3, "objective_j_mj", -5.0)):
         path = store.path(prep.jobs[k])
         table = pq.read_table(path)
         i = table.schema.get_field_index(name)
@@ -368,8 +369,8 @@ def test_a_job_file_with_a_metric_out_of_its_range_runs_again(prep, tmp_path: Pa
         pq.write_table(table.replace_schema_metadata(table.schema.metadata), path)
     again = JobStore(tmp_path / "jobs", prep, run_identity(prep))
     again.open()
-    assert again.finished() == {0, 3}
-    assert sorted(run(prep, workers=1, sink=again)) == [1, 2]
+    assert again.finished() == {0}
+    assert sorted(run(prep, workers=1, sink=again)) == [1, 2, 3]
     got = rows_table(again.rows())
     for name in ("delivered_share", "undelivered", "delivered", "objective_j_mj"):
         assert got[name].equals(want[name]), name
