@@ -83,6 +83,9 @@ class EvaluationResult:
     paired: pa.Table | None = None
     """With ``against``: each method's per-day difference to it, with a bootstrap 95 %
     interval (``paired.csv``); None without."""
+    frontier: pa.Table | None = None
+    """With two or more values of ``alpha`` (or ``frontier=True``): each method's
+    operating point per α, dominated ones marked (``frontier.csv``); None without."""
 
 
 def _path(value: str | Path | None) -> Path | None:
@@ -746,7 +749,7 @@ def evaluate(
         res = run(source, spec, out=_path(out))
     if (few := comparison_warning(res.summary, res.paired)) is not None:
         SILENT.warning(few)  # as the command warns, at the caller's line
-    return EvaluationResult(res.results, res.summary, res.folder, res.paired)
+    return EvaluationResult(res.results, res.summary, res.folder, res.paired, res.frontier)
 
 
 @_checked()

@@ -288,6 +288,28 @@ def test_api_evaluate_returns_the_paired_comparison_with_against(example_csv: Pa
     assert alone.summary.column("few_days").to_pylist() == [True]
 
 
+def test_api_evaluate_returns_the_frontier_of_an_alpha_sweep(
+    example_csv: Path, tmp_path: Path
+) -> None:
+    # Two values of alpha (or frontier=True) give frontier.csv's table in memory too, the
+    # same rows as the file, where the result had no frontier and without out it was lost.
+    import warnings
+
+    from pyarrow import csv
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # one day: too few to compare, said elsewhere
+        common = {"methods": "stay", "dates": "0811", "workers": 1, "area": "square"}
+        ev = marops.evaluate(example_csv, alpha="0.2,0.8", plots=False, out=tmp_path, **common)
+        alone = marops.evaluate(example_csv, alpha="0.8", **common)
+    assert ev.frontier is not None and alone.frontier is None
+    assert ev.frontier.column("alpha").to_pylist() == [0.2, 0.8]
+    written = csv.read_csv(tmp_path / "frontier.csv")
+    assert written.column_names == ev.frontier.column_names
+    for name in ("method", "alpha", "delivered", "energy_kj", "dominated"):
+        assert written.column(name).to_pylist() == ev.frontier.column(name).to_pylist(), name
+
+
 def test_api_data_may_be_any_path_like(example_csv: Path) -> None:
     # A path is any os.PathLike, for the data as for out and depots (py.path, PurePath).
     from pathlib import PurePath
