@@ -615,14 +615,14 @@ def replay_day(
             protect={"config": _path(config)},
         )
     if res.city is not None:
-        return _city_day(res, _path(out))
+        return _city_day(res, _path(out), fmt, cfg.data.tz)
     if not res.tables:  # the day was in ``out`` already, made with the same settings
-        return _read_back(Path(out or "."), res.days[0])
+        return _read_back(Path(out or "."), res.days[0], fmt, cfg.data.tz)
     tables = res.tables[0]
     return DayResult(tables.stops, tables.routes, res.days[0], _path(out))
 
 
-def _city_day(res: Any, out: Path | None) -> DayResult:
+def _city_day(res: Any, out: Path | None, fmt: str, tz: str) -> DayResult:
     """A city's day: every hub's tables one below the other (each row names its
     ``hub``; a hub kept from an earlier run into ``out`` read back from its folder), the
     city's metrics and coverage."""
@@ -632,7 +632,8 @@ def _city_day(res: Any, out: Path | None) -> DayResult:
     stops, routes = [], []
     for m in res.days:
         t = replayed.get(m["hub"])
-        day = t if t is not None else _read_back(Path(out or ".") / f"hub-{m['hub']}", m)
+        kept = Path(out or ".") / f"hub-{m['hub']}"
+        day = t if t is not None else _read_back(kept, m, fmt, tz)
         stops.append(day.stops.replace_schema_metadata(None))
         routes.append(day.routes.replace_schema_metadata(None))
     metrics = {"city": res.city, "days": res.days, "total": res.total}
@@ -645,10 +646,11 @@ def _city_day(res: Any, out: Path | None) -> DayResult:
     )
 
 
-def _read_back(folder: Path, metrics: dict[str, Any]) -> DayResult:
+def _read_back(folder: Path, metrics: dict[str, Any], fmt: str, tz: str) -> DayResult:
     """A day kept from an earlier run into ``folder``: its tables read from its files,
     as a replayed day's are: in seconds (Parquet keeps milliseconds), without the files'
-    GeoParquet ``geometry`` column and ``geo`` metadata."""
+    GeoParquet ``geometry`` column and ``geo`` metadata; from ``stops.json`` and
+    ``routes.json`` with ``fmt="json"``, times in the data's zone ``tz``."""
     import pyarrow as pa
 
     from .config import MAX_DAY_ROUTES, MAX_DAY_STOPS
@@ -657,6 +659,8 @@ def _read_back(folder: Path, metrics: dict[str, Any]) -> DayResult:
     from .errors import InputError
 
     def read(name: str) -> pa.Table:
+        if fmt == "json":
+            return _json_table(folder / name.replace(".parquet", ".json"), tz)
         most = MAX_DAY_STOPS if name == "stops.parquet" else MAX_DAY_ROUTES
         rows = parquet_rows(folder / name)  # its footer: no row read yet
         if rows > most:
@@ -683,6 +687,47 @@ def _read_back(folder: Path, metrics: dict[str, Any]) -> DayResult:
             ) from None
 
     return DayResult(read("stops.parquet"), read("routes.parquet"), metrics, folder)
+
+
+def _json_table(path: Path, tz: str) -> Any:
+    """A day's ``stops.json`` or ``routes.json`` as the table it was written from: its
+    columns' types, ISO times and days read back, its ``meta`` as the table's."""
+    import pyarrow as pa
+
+    from .data.jsonfile import first_line, read_json
+    from .errors import InputError
+    from .io.tables import routes_schema, stops_schema, with_meta
+
+    key = path.stem  # "stops" or "routes"
+    doc = read_json(path, f"{key} file")
+    rows = doc.get(key) if isinstance(doc, dict) else None
+    if not isinstance(rows, list) or not all(isinstance(r, dict) for r in rows):
+        raise InputError(
+            f"expected a list of rows under {key!r}: edited since marops wrote it; pass "
+            "force=True to replay the day",
+            file=path,
+        )
+    schema = stops_schema(tz) if key == "stops" else routes_schema(tz)
+    parse = {
+        f.name: dt.datetime.fromisoformat
+        if pa.types.is_timestamp(f.type)
+        else dt.date.fromisoformat
+        for f in schema
+        if pa.types.is_timestamp(f.type) or pa.types.is_date(f.type)
+    }
+    try:
+        for row in rows:
+            for name, read in parse.items():
+                if isinstance(row.get(name), str):
+                    row[name] = read(row[name])
+        table = pa.Table.from_pylist(rows, schema=schema)
+    except (ValueError, TypeError, pa.ArrowException) as exc:
+        raise InputError(
+            f"a day's file edited since marops wrote it ({first_line(exc)}); pass force=True "
+            "to replay the day",
+            file=path,
+        ) from None
+    return with_meta(table, doc.get("meta", {}))
 
 
 @_checked("evaluate")

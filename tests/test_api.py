@@ -402,6 +402,19 @@ def test_api_a_day_kept_without_the_files_asked_for_now_is_replayed(
     assert (tmp_path / "routes.geojson").is_file() and again.routes.equals(first.routes)
 
 
+def test_api_a_kept_day_of_json_route_files_is_read_back(example_csv: Path, tmp_path: Path) -> None:
+    """The same call again on a day kept in out as fmt="json" returns its tables read
+    from stops.json and routes.json, the same as the first call's, where it looked for
+    stops.parquet and raised FileNotFoundError."""
+    day = {"method": "stay", "out": tmp_path, "area": "square", "fmt": "json"}
+    first = marops.replay_day(example_csv, "0811", **day)
+    again = marops.replay_day(example_csv, "0811", **day)
+    assert not (tmp_path / "stops.parquet").exists()
+    for a, b in ((first.stops, again.stops), (first.routes, again.routes)):
+        assert b.equals(a) and b.schema.equals(a.schema, check_metadata=True)
+    assert again.metrics == first.metrics
+
+
 def test_api_a_kept_day_of_more_rows_than_a_day_has_is_refused_unread(
     example_csv: Path, tmp_path: Path, monkeypatch
 ) -> None:
