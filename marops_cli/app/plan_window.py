@@ -158,6 +158,7 @@ def plan_window(
     written: list[Path] = []
     if out is not None:
         with folder_lock(out):
+            _clear_window(Path(out), route_file_paths(Path(out), fmt, geojson), report)
             with output_set() as files:
                 written = write_route_files(files, Path(out), stops, routes, meta, fmt, geojson)
             if report:  # from the files just written, as `marops report` reads them
@@ -166,6 +167,36 @@ def plan_window(
                 written += write_reports(Path(out), scn.depots)
     stops, routes = with_meta(stops, meta), with_meta(routes, meta)
     return PlannedWindow(plan, reqs, drones, stops, routes, meta, written, scn.table.report, scope)
+
+
+WINDOW_OUTPUTS = (
+    "stops.parquet",
+    "routes.parquet",
+    "stops.json",
+    "routes.json",
+    "routes.geojson",
+    "report.html",
+)
+"""What a planned window's folder may hold (docs/outputs.md)."""
+
+
+def _clear_window(folder: Path, writes: list[Path], report: bool) -> None:
+    """Before a window's files go into ``folder``: remove an earlier run's outputs that
+    this run does not write again (route files of the other format, a map or a page not
+    asked for now), so none is taken for this run's. Only files marops wrote go, and
+    none this run reads (``--delivered`` an earlier window's stops file there)."""
+    from ..errors import InputError
+    from ..io.ownership import check_not_input, written_by_marops
+
+    keep = [*writes, folder / "report.html"] if report else writes
+    for path in (folder / name for name in WINDOW_OUTPUTS):
+        if path in keep or not path.is_file() or not written_by_marops(path):
+            continue
+        try:
+            check_not_input(path)
+        except InputError:
+            continue
+        path.unlink()
 
 
 def _meta(

@@ -130,6 +130,26 @@ def parquet_out(example_csv, depots_file, tmp_path_factory) -> Path:
     return plan(example_csv, depots_file, tmp_path_factory.mktemp("pq") / "w5")
 
 
+def test_a_window_planned_again_leaves_none_of_the_earlier_runs_other_files(
+    example_csv: Path, depots_file: Path, tmp_path: Path
+) -> None:
+    """Planned again into its folder with other options, a window's folder holds only
+    this run's files: the JSON route files and the map of a run with --format json
+    --geojson go, where they stayed beside the new Parquet files, planned for another
+    fleet; a file marops did not write stays."""
+    out = plan(example_csv, depots_file, tmp_path / "w", "--format", "json", "--geojson")
+    (out / "report.html").write_text("a user's own page")
+    plan(example_csv, depots_file, out, "--drones", "2")
+    names = sorted(p.name for p in out.iterdir() if not p.name.startswith("."))
+    assert names == ["report.html", "routes.parquet", "stops.parquet"]
+    assert (out / "report.html").read_text() == "a user's own page"
+    # An earlier window's stops file read with --delivered is an input: it stays.
+    plan(
+        example_csv, depots_file, out, "--format", "json", "--delivered", str(out / "stops.parquet")
+    )
+    assert (out / "stops.parquet").is_file() and not (out / "routes.parquet").exists()
+
+
 def test_parquet_writes_stops_and_routes_with_the_documented_columns(parquet_out):
     stops = pq.read_table(stops_path(parquet_out))
     routes = pq.read_table(routes_path(parquet_out))
