@@ -334,9 +334,10 @@ def _add_pyvrp_routes(
             if t.start != int(s) or not allowed[u, stops].all():
                 continue
             own = t.model  # the drone's own limits (a mixed fleet)
+            if not own.fits(float(problem.weight[stops].sum())):
+                continue  # PyVRP loads to the largest payload: too heavy for this drone
             e, priced = _route_energy_j(problem, t, stops, pack)
-            w = float(problem.weight[stops].sum())
-            if e <= own.usable_j and own.fits(w):
+            if e <= own.usable_j:
                 routes[u].setdefault(tuple(int(i) for i in stops), priced)
 
 

@@ -144,3 +144,29 @@ def test_pyvrp_serves_each_parcel_only_from_its_stock_depot() -> None:
     assert {int(s) for s in peer.start} == {0, 3}
     for s, stops in zip(peer.start, peer.stops, strict=True):
         assert (stock[stops] == s).all()
+
+
+def test_pyvrp_columns_of_a_mixed_fleet_fit_each_drone_s_own_payload() -> None:
+    """PyVRP loads its routes to the first drone's payload (2.5 kg); a route heavier
+    than a light drone's 1 kg is no column of that drone, and is never costed with its
+    energy model (which refused the payload and stopped the run)."""
+    from marops_cli.config import EnergyConfig
+    from marops_cli.plans.planner import _add_pyvrp_routes
+
+    heavy, light = EnergyModel(), EnergyModel(EnergyConfig(max_payload_kg=1.0))
+    every = np.arange(6, dtype=np.int64)
+    tasks = [DroneTask(0, -1, every, heavy), DroneTask(0, -1, every, light)]
+    rng = np.random.default_rng(1)
+    problem = WindowProblem.of_requests(
+        np.array([[0.0, 0.0], [3000.0, 0.0]]),
+        rng.uniform(-800, 800, (6, 2)),
+        np.full(6, 0.8),
+        np.full(6, 2.0),
+        lam_j(0.5, heavy.usable_j),
+        tasks,
+    )
+    routes: list[dict[tuple[int, ...], float]] = [{}, {}]
+    _add_pyvrp_routes(problem, 200, routes)
+    assert any(len(k) > 1 for k in routes[0]), "PyVRP made no multi-parcel route"
+    for u, model in enumerate((heavy, light)):
+        assert all(problem.weight[list(k)].sum() <= model.max_payload_kg for k in routes[u])
