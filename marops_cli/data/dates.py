@@ -346,7 +346,7 @@ def parse_ds(column: pa.ChunkedArray | pa.Array, year: int | np.ndarray) -> np.n
     ``ds`` is read as text or as integers (a date or time column as its date); empty,
     non-digit and impossible dates (``231``, ``1301``) are not valid.
     """
-    return _ds(column, year)[0]
+    return ds_dates(column, year)[0]
 
 
 def years_of(secs: np.ndarray) -> np.ndarray:
@@ -355,19 +355,16 @@ def years_of(secs: np.ndarray) -> np.ndarray:
     return days.astype("datetime64[Y]").astype(np.int64) + 1970
 
 
-def ds_other_day(table: pa.Table, delivery_s: np.ndarray) -> int:
-    """How many rows of ``table`` have a valid ``ds`` of another day than their delivery
-    time (``delivery_s``, naive seconds since 1970-01-01), a ``ds`` without its year
-    taken in the delivery time's year; 0 without a ``ds`` column. A note, not a drop: a
-    request's day is the date of its delivery time (docs/decisions.md, "Reading LaDe")."""
-    if "ds" not in table.column_names:
-        return 0
-    ds = _ds(table["ds"], years_of(delivery_s))[1]
+def ds_other_day(ds: np.ndarray, delivery_s: np.ndarray) -> int:
+    """How many rows have a valid ``ds`` (``ds``: their dates, :func:`ds_dates`; NaT where
+    none) of another day than their delivery time (``delivery_s``, naive seconds since
+    1970-01-01). A note, not a drop: a request's day is the date of its delivery time
+    (docs/decisions.md, "Reading LaDe")."""
     day = (np.asarray(delivery_s) // 86_400).astype("datetime64[D]")
     return int((~np.isnat(ds) & (ds != day)).sum())
 
 
-def _ds(
+def ds_dates(
     column: pa.ChunkedArray | pa.Array, year: int | np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
     """The mask of valid ``ds`` cells (:func:`parse_ds`) and their dates (datetime64[D]),

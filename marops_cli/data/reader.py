@@ -69,8 +69,8 @@ from .dates import (
     TIME_BAD,
     TIME_EMPTY,
     TIME_OK,
+    ds_dates,
     ds_other_day,
-    parse_ds,
     parse_times,
     years_of,
 )
@@ -680,24 +680,20 @@ def _check_errors(
             if re.fullmatch(r"'\s*02-29[ T][\d:.]+\s*'", value):  # the form is right
                 msg += f": February 29 is no day of {cfg.year}, the year of MM-DD times (--year)"
             bad.append((i, name, msg))
-    has_ds = "ds" in table.column_names
     # A ds without its year is a day of its delivery time's year (a full time's own,
     # 2024 for 229 beside 2024-02-29; --year where the time is MM-DD or no time).
     ds_year = np.where(
         out["delivery_time_status"] == TIME_OK, years_of(out["delivery_time"]), cfg.year
     )
     # An empty ds is harmless (the day comes from delivery_time); a malformed one is not.
-    ds_bad = (
-        ~parse_ds(table["ds"], ds_year)
-        & ~pc.equal(pc.utf8_length(pc.utf8_trim_whitespace(table["ds"].cast(pa.string()))), 0)
-        .fill_null(True)
-        .to_numpy(zero_copy_only=False)
-        if has_ds
-        else None
-    )
-    if ds_bad is not None and (i := _first(ds_bad)) is not None:
-        value = _shown(table["ds"], i)
-        bad.append((i, "ds", f"expected a date MMDD in {ds_year[i]}, got {value}"))
+    if "ds" in table.column_names:
+        valid, out["ds"] = ds_dates(table["ds"], ds_year)
+        ds_bad = ~valid & ~pc.equal(
+            pc.utf8_length(pc.utf8_trim_whitespace(table["ds"].cast(pa.string()))), 0
+        ).fill_null(True).to_numpy(zero_copy_only=False)
+        if (i := _first(ds_bad)) is not None:
+            value = _shown(table["ds"], i)
+            bad.append((i, "ds", f"expected a date MMDD in {ds_year[i]}, got {value}"))
     oid = table["order_id"]
     empty_id = pc.fill_null(pc.equal(pc.utf8_length(oid.cast(pa.string())), 0), True)
     empty_id = empty_id.to_numpy(zero_copy_only=False)
@@ -1114,7 +1110,9 @@ def _lade_table(
         total=int(code.size) + len(set_aside),
         kept=int(idx.size),
         dropped={r: int(counts[k + 1]) for k, r in enumerate(DROP_REASONS)},
-        ds_other_day=ds_other_day(kept, parsed["delivery_time"][keep]),
+        ds_other_day=(
+            ds_other_day(parsed["ds"][keep], parsed["delivery_time"][keep]) if "ds" in parsed else 0
+        ),
         swapped_coordinates=_swapped(code, lng, lat),
         over_new_year=_over_new_year(code, parsed),
         decimal_comma=_decimal_commas(code, table),
