@@ -742,10 +742,15 @@ def _good_lat(lat: np.ndarray) -> np.ndarray:
     return _good(lat, 90)
 
 
+def _code(reason: str) -> int:
+    """The code of a drop reason in a code per row (:func:`_drop_reasons`): 0 is kept."""
+    return DROP_REASONS.index(reason) + 1
+
+
 def _swapped(code: np.ndarray, lng: np.ndarray, lat: np.ndarray) -> int:
     """How many rows dropped for bad coordinates would be good with lng and lat swapped
     (a latitude beyond ±90 whose longitude is one): the columns may be swapped."""
-    bad = code == DROP_REASONS.index("bad_coordinates") + 1
+    bad = code == _code("bad_coordinates")
     if not bad.any():  # the common file: no median of a column to take
         return 0
     return int((bad & _good_lng(lat) & _good_lat(lng)).sum())
@@ -754,7 +759,7 @@ def _swapped(code: np.ndarray, lng: np.ndarray, lat: np.ndarray) -> int:
 def _decimal_commas(code: np.ndarray, table: pa.Table) -> int:
     """How many rows dropped for bad coordinates have lng or lat written with a decimal
     comma (``"121,47"``, as a spreadsheet in a locale that writes numbers so saves them)."""
-    bad = np.flatnonzero(code == DROP_REASONS.index("bad_coordinates") + 1)
+    bad = np.flatnonzero(code == _code("bad_coordinates"))
     if not bad.size:  # the common file: no text to match
         return 0
     comma = np.zeros(bad.size, dtype=bool)
@@ -770,7 +775,7 @@ def _over_new_year(code: np.ndarray, parsed: dict[str, np.ndarray]) -> int:
     """How many rows dropped as delivered before accepted were accepted in December and
     delivered in January of one year: ``MM-DD`` times of an export over the new year,
     which take one year (``--year``)."""
-    late = code == DROP_REASONS.index("delivery_before_accept") + 1
+    late = code == _code("delivery_before_accept")
     if not late.any():  # the common file: no months to take
         return 0
     months = [
@@ -803,7 +808,7 @@ def _drop_reasons(
     code = np.zeros(n, dtype=np.int8)
 
     def mark(mask: np.ndarray, reason: str) -> None:
-        code[(code == 0) & mask] = DROP_REASONS.index(reason) + 1
+        code[(code == 0) & mask] = _code(reason)
 
     a_st, d_st = parsed["accept_time_status"], parsed["delivery_time_status"]
     mark((a_st == TIME_EMPTY) | (d_st == TIME_EMPTY), "missing_time")
@@ -1105,7 +1110,7 @@ def _lade_table(
     weight = parsed["weight_kg"][keep] if "weight_kg" in parsed else None
     counts = np.bincount(code, minlength=len(DROP_REASONS) + 1)
     for _, reason, _ in set_aside:
-        counts[DROP_REASONS.index(reason) + 1] += 1
+        counts[_code(reason)] += 1
     report = DropReport(
         total=int(code.size) + len(set_aside),
         kept=int(idx.size),
