@@ -185,18 +185,10 @@ def _clear_window(folder: Path, writes: list[Path], report: bool) -> None:
     this run does not write again (route files of the other format, a map or a page not
     asked for now), so none is taken for this run's. Only files marops wrote go, and
     none this run reads (``--delivered`` an earlier window's stops file there)."""
-    from ..errors import InputError
-    from ..io.ownership import check_not_input, written_by_marops
+    from ..io.ownership import remove_ours
 
     keep = [*writes, folder / "report.html"] if report else writes
-    for path in (folder / name for name in WINDOW_OUTPUTS):
-        if path in keep or not path.is_file() or not written_by_marops(path):
-            continue
-        try:
-            check_not_input(path)
-        except InputError:
-            continue
-        path.unlink()
+    remove_ours(folder / name for name in WINDOW_OUTPUTS if folder / name not in keep)
 
 
 def _meta(

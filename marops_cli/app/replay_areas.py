@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import datetime as dt
 import os
-from collections.abc import Iterable
 from contextlib import ExitStack
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -188,8 +187,11 @@ def _clear_day(folder: Path, writes: list[Path]) -> None:
     """Before a day's files go into ``folder``: remove an earlier run's outputs of the
     day that this run does not write again (a map or figures not asked for now, route
     files of the other format, the day's page, written again at the end with
-    ``--report``), so none is taken for this run's. Only files marops wrote go."""
-    _remove_ours(folder / name for name in DAY_OUTPUTS if folder / name not in writes)
+    ``--report``), so none is taken for this run's. Only files marops wrote go
+    (:func:`~marops_cli.io.ownership.remove_ours`)."""
+    from ..io.ownership import remove_ours
+
+    remove_ours(folder / name for name in DAY_OUTPUTS if folder / name not in writes)
 
 
 def _clear_summaries(area: Area) -> None:
@@ -198,17 +200,10 @@ def _clear_summaries(area: Area) -> None:
     claims a day that holds this run's files should this run stop before writing its
     own."""
     if not area.cleared:
-        _remove_ours(area.summaries)
+        from ..io.ownership import remove_ours
+
+        remove_ours(area.summaries)
         area.cleared = True
-
-
-def _remove_ours(paths: Iterable[Path]) -> None:
-    """Remove those of ``paths`` that are files marops wrote; any other file stays."""
-    from ..io.ownership import written_by_marops
-
-    for path in paths:
-        if path.is_file() and written_by_marops(path):
-            path.unlink()
 
 
 def _signature(path: Path) -> tuple[int, ...]:

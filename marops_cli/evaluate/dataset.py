@@ -26,7 +26,7 @@ from ..data.arrow import parquet_rows, read_parquet, read_parquet_schema
 from ..data.jsonfile import parse_json, read_small_text
 from ..errors import InputError, RunError, option, switch
 from ..io import output_set, run_meta
-from ..io.ownership import check_not_input, written_by_marops
+from ..io.ownership import remove_ours
 from ..io.tables import with_meta, write_parquet
 from .runner import Prepared, identity_changes, identity_doc
 from .settings import Job
@@ -248,9 +248,8 @@ class JobStore:
                     d = d.parent
             if self._held_identity():  # an evaluation's identity, read as such
                 (self.root / IDENTITY_FILE).unlink()
-            for p in self.built:  # built from those jobs: they would read as this run's
-                if _own_output(p):
-                    p.unlink()
+            # Built from those jobs: they would read as this run's.
+            remove_ours(self.built)
         doc = {
             "identity": self.identity,
             "jobs": len(self.prep.jobs),
@@ -343,18 +342,6 @@ def _sound(row: dict[str, Any]) -> bool:
         if (positive and v < 0) or (k in _AT_MOST_ONE and v > 1):
             return False
     return bool(row["delivered"] <= row["requests"])
-
-
-def _own_output(path: Path) -> bool:
-    """An output file marops wrote (judged by its content, docs/outputs.md), and no input
-    of this run."""
-    if path.is_symlink() or not path.is_file():
-        return False
-    try:
-        check_not_input(path)
-    except InputError:
-        return False
-    return written_by_marops(path)
 
 
 def _job_file(path: Path) -> bool:

@@ -143,6 +143,21 @@ def written_by_marops(path: Path) -> bool:
         return False
 
 
+def remove_ours(paths: Iterable[Path]) -> None:
+    """Remove those of ``paths`` that are files marops wrote (:func:`written_by_marops`),
+    an earlier run's outputs this run does not write again; a link, any other file and
+    the run's inputs (:func:`check_not_input`) stay."""
+    for path in paths:
+        if path.is_symlink() or not path.is_file():
+            continue
+        try:
+            check_not_input(path)
+        except InputError:
+            continue
+        if written_by_marops(path):
+            path.unlink()
+
+
 def _json_is_ours(path: Path) -> bool:
     # No JSON marops writes comes near the small-file cap: a larger one is not read (an
     # InputError, so not marops's) rather than loaded whole into memory.
