@@ -14,7 +14,7 @@ import typer
 import typer.core
 
 from .. import __version__
-from .common import INTERRUPTED, PLAIN, STATE, error_json, one_line, stop_signal
+from .common import INTERRUPTED, PLAIN, STATE, error_json, one_line, say_stopped, stop_signal
 from .evaluate_cmd import evaluate_command
 from .plan_window_cmd import plan_window_command
 from .replay_cmd import replay_day_command
@@ -138,17 +138,8 @@ def _run() -> int | str | None:
     if code == 130 and signalled is not None and not STATE["stopped"]:
         # Typer ends a Ctrl-C or SIGTERM that came while it read the command line, before
         # the command could take it, with a bare exit 130.
-        return _stop_status(signalled)
+        return say_stopped(signalled)[1]
     return code if isinstance(code, int) else 0
-
-
-def _stop_status(signalled: KeyboardInterrupt) -> int:
-    """A stop no command reported: its one line, and its exit code (130, 143 for SIGTERM)."""
-    from ..io.atomic import Terminated
-
-    term = isinstance(signalled, Terminated)
-    typer.echo(f"marops: {'terminated' if term else 'interrupted'}", err=True)
-    return 143 if term else 130
 
 
 def _named_source(text: str, param: Any, ctx: Any) -> str:
@@ -236,5 +227,5 @@ def main() -> None:
         signalled = exc if isinstance(exc, KeyboardInterrupt) else stop_signal()
         if signalled is None or STATE["debug"]:
             raise
-        code = _stop_status(signalled)
+        code = say_stopped(signalled)[1]
     _leave(code)

@@ -82,7 +82,7 @@ console = _console(stderr=True)
 out = _console(stderr=False)
 """Result tables (stdout), so a cron job's log keeps them whole."""
 STATE: dict[str, bool] = {"debug": False, "quiet": False, "json": False, "stopped": False}
-"""``stopped``: the run said it was interrupted or terminated (:func:`stopped`)."""
+"""``stopped``: the run said it was interrupted or terminated (:func:`say_stopped`)."""
 
 
 def set_output(quiet: bool = False, as_json: bool = False) -> None:
@@ -439,10 +439,10 @@ def stop_signal() -> KeyboardInterrupt | None:
     return KeyboardInterrupt() if INTERRUPTED.is_set() else None
 
 
-def stopped(exc: KeyboardInterrupt, kept: str = "", command: str | None = None) -> NoReturn:
-    """Ctrl-C or SIGTERM (:class:`~marops_cli.io.atomic.Terminated`): one line on stderr,
-    with what the run keeps when it says, and exit 130 (143 for SIGTERM); with
-    ``--json`` also ``command``'s JSON error document (:func:`error_json`)."""
+def say_stopped(exc: KeyboardInterrupt, kept: str = "") -> tuple[str, int]:
+    """Ctrl-C or SIGTERM (:class:`~marops_cli.io.atomic.Terminated`): its one line on
+    stderr, with what the run keeps when it says; (that line, the exit code: 130, 143 for
+    SIGTERM)."""
     from ..io.atomic import Terminated
 
     term = isinstance(exc, Terminated)
@@ -450,7 +450,13 @@ def stopped(exc: KeyboardInterrupt, kept: str = "", command: str | None = None) 
     line = f"{how}; {kept}" if kept else how
     typer.echo(f"marops: {line}", err=True)
     STATE["stopped"] = True
-    code = 143 if term else 130
+    return line, 143 if term else 130
+
+
+def stopped(exc: KeyboardInterrupt, kept: str = "", command: str | None = None) -> NoReturn:
+    """Ctrl-C or SIGTERM: its line (:func:`say_stopped`) and its exit; with ``--json``
+    also ``command``'s JSON error document (:func:`error_json`)."""
+    line, code = say_stopped(exc, kept)
     if STATE["json"] and command is not None:
         error_json(command, line, code)
     raise typer.Exit(code) from None
