@@ -419,6 +419,11 @@ def _files_asked(fn: str, out: Any, **asked: bool) -> None:
                 )
 
 
+def _given(options: dict[str, Any], **more: Any) -> set[str]:
+    """The options and keywords a call gave (not None, a switch not False), by name."""
+    return {name for name, v in {**options, **more}.items() if v is not None and v is not False}
+
+
 def _shown(value: Any) -> str:
     from .config import clipped
 
@@ -540,13 +545,14 @@ def plan_window(
     objective (``metrics``). ``depots``: a depots file, or the depots ``segment()``
     returns. Its options (``drones``, ``alpha``, ``policy``, …) are those of the
     command."""
-    from .app.options import planner_config
+    from .app.options import planner_config, refuse_both
     from .app.plan_window import plan_window as run
     from .data.dates import parse_day
     from .errors import option
     from .io.ownership import replacing_foreign_files
 
     _files_asked("plan_window", out, geojson=geojson, report=report)
+    refuse_both(_given(options, fleet=fleet))
     cfg = planner_config(config, **options)
     with replacing_foreign_files(force):
         res = run(
@@ -591,12 +597,14 @@ def replay_day(
     §1.1): the result's tables hold every hub's rows (their ``hub`` column says
     which), ``metrics`` the city's ``metrics.json`` and ``city`` its coverage. Its
     options (``drones``, ``alpha``, ``segment``, …) are those of the command."""
+    from .app.options import refuse_both
     from .app.replay import ReplayOptions, check_options, replay_config, replay_days
     from .data.dates import parse_day
     from .errors import option
     from .io.ownership import replacing_foreign_files
 
     _files_asked("replay_day", out, geojson=geojson, plot=plot, report=report)
+    refuse_both(_given(options, fleet=fleet, depots=depots))
     opts = ReplayOptions(method, fmt, plot, geojson, force, keep_tables=True, report=report)
     check_options(opts)
     cfg = replay_config(config, method=method, **options)

@@ -10,7 +10,7 @@ from __future__ import annotations
 import dataclasses
 import inspect
 import os
-from collections.abc import Callable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Collection, Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
@@ -313,6 +313,27 @@ def split_options(
     mine = {k: v for k, v in kwargs.items() if k in own.parameters and k != "options"}
     options = {spec.name: kwargs[spec.param] for spec in options_for(use) if spec.param in kwargs}
     return mine, options
+
+
+EXCLUSIVE: tuple[tuple[str, str, str], ...] = (
+    ("drones", "fleet", "a fleet file's drones are the fleet"),
+    ("n_depots", "depots", "a depots file's depots are the depots"),
+)
+"""Pairs of options of which one, given, makes the other unused (``(option, option,
+why)``): given both, the second would win unsaid, so both are refused (a config file's
+value under an option is the config's precedence, and no contradiction)."""
+
+
+def refuse_both(given: Collection[str]) -> None:
+    """Refuse, before any work, two options of a pair of :data:`EXCLUSIVE` both given
+    (``given``: the names of the options the caller gave: on the command line, or as
+    the API's keywords)."""
+    for first, second, why in EXCLUSIVE:
+        if first in given and second in given:
+            raise InputError(
+                f"give at most one of {option(first)} or {option(second)}: {why}, "
+                f"so {option(first)} would be left unused"
+            )
 
 
 HUBS_READ = ("year", "size_km", "strict")

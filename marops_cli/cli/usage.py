@@ -73,12 +73,16 @@ class Command(typer.core.TyperCommand):
         """The command line's usage errors all know their command: click's parser raises
         "Option '--date' requires an argument." without one, which left that line
         without its help hint and, with ``--json``, without its JSON document."""
+        line = list(args)  # click's parser consumes the list it is given
         try:
-            return super().parse_args(ctx, args)
+            rest = super().parse_args(ctx, args)
         except Exception as exc:  # click's UsageError, wherever this typer keeps click
             if hasattr(exc, "format_message") and getattr(exc, "ctx", False) is None:
                 exc.ctx = ctx  # type: ignore[attr-defined]
             raise
+        if not ctx.resilient_parsing:
+            refuse_overridden(self, ctx, line)
+        return rest
 
     def invoke(self, ctx: Any) -> Any:
         """Run the command, its context known to :func:`invoked` meanwhile (where each
@@ -88,6 +92,56 @@ class Command(typer.core.TyperCommand):
             return super().invoke(ctx)
         finally:
             _INVOKED.reset(token)
+
+
+ONCE = ("config",)
+"""Options a command line may give once: a second ``--config`` replaced the first
+unsaid, where a reader may take the two files to be merged."""
+
+
+def refuse_overridden(command: Any, ctx: Any, line: list[str]) -> None:
+    """Refuse, as a usage error before any work, a command line on which one option
+    would override another unsaid: an option of :data:`ONCE` given twice, or two options
+    of a pair of :data:`~marops_cli.app.options.EXCLUSIVE` (``--drones`` and ``--fleet``)
+    both given on it. A value from an environment variable or a config file is not given
+    on the line: an option overrides it, as documented (docs/config.md)."""
+    from ..app.options import refuse_both
+    from ..errors import InputError
+
+    _, _, order = command.make_parser(ctx).parse_args(args=list(line))
+    for param in command.params:
+        times = sum(p is param for p in order)
+        if param.name in ONCE and times > 1:
+            flag = param.opts[0]
+            raise Overridden(
+                f"{flag} given {times} times: a run reads one config file, and the last "
+                f"{flag} would replace the others unsaid; give {flag} once (merge the files)",
+                ctx,
+            )
+    on_line = {
+        p.name
+        for p in command.params
+        if p.name and getattr(ctx.get_parameter_source(p.name), "name", None) == "COMMANDLINE"
+    }
+    try:
+        refuse_both(on_line)
+    except InputError as exc:
+        raise Overridden(str(exc), ctx) from None
+
+
+class Overridden(Exception):
+    """A command line on which one option overrides another (:func:`refuse_overridden`):
+    a usage error, reported as click's are (one line naming the command's help, exit 2,
+    with ``--json`` its document; marops_cli/cli/app.py)."""
+
+    exit_code = 2
+
+    def __init__(self, text: str, ctx: Any) -> None:
+        super().__init__(text)
+        self.ctx = ctx
+
+    def format_message(self) -> str:
+        return str(self)
 
 
 _INVOKED: ContextVar[Any] = ContextVar("invoked", default=None)
