@@ -12,8 +12,9 @@ files' ``marops`` metadata, metrics as dictionaries. Nothing is written unless
 nothing is printed (warnings are :mod:`warnings`); errors are raised as
 :class:`marops_cli.errors.InputError` (bad input) or
 :class:`marops_cli.errors.MaropsError`. Depots segmented from a file are cached as the
-commands cache them (``MAROPS_CACHE_DIR``, docs/outputs.md "Depots cache"); from data
-in memory they are not (docs/decisions.md, "Application layer").
+commands cache them (docs/outputs.md "Depots cache") by a call given ``out``; without
+``out`` only when ``MAROPS_CACHE_DIR`` names the cache's folder; from data in memory
+never (docs/decisions.md, "Application layer").
 
     from marops_cli import api as marops
 
@@ -24,13 +25,14 @@ in memory they are not (docs/decisions.md, "Application layer").
 
 from __future__ import annotations
 
+import contextlib
 import datetime as dt
 import functools
 import inspect
 import json
 import numbers
 import os
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any, TypeVar, Union
@@ -419,6 +421,18 @@ def _files_asked(fn: str, out: Any, **asked: bool) -> None:
                 )
 
 
+@contextlib.contextmanager
+def _one_call(force: bool, out: Any) -> Iterator[None]:
+    """One call's run: its outputs may replace files marops did not write with ``force``;
+    without ``out`` it writes nothing, the depots cache included unless
+    ``MAROPS_CACHE_DIR`` names the cache's folder (docs/outputs.md, "Depots cache")."""
+    from .io.ownership import replacing_foreign_files
+    from .segment.cache import cache_named_only
+
+    with replacing_foreign_files(force), cache_named_only(out is None):
+        yield
+
+
 def _given(options: dict[str, Any], **more: Any) -> set[str]:
     """The options and keywords a call gave (not None, a switch not False), by name."""
     return {name for name, v in {**options, **more}.items() if v is not None and v is not False}
@@ -499,7 +513,6 @@ def segment(
     from .app.segment import refuse_with_hubs, segment_hubs
     from .app.segment import segment as run
     from .io.atomic import dumps_json
-    from .io.ownership import replacing_foreign_files
 
     _files_asked("segment", out, geojson=geojson, plot=plot)
     if method is not None:
@@ -511,7 +524,7 @@ def segment(
             raise InputError("segment(): give segmentation alone (method is its former name)")
         warnings.warn("segment(method=) is now segmentation=", DeprecationWarning, stacklevel=3)
         options["segmentation"] = method
-    with replacing_foreign_files(force):
+    with _one_call(force, out):
         if hubs is not None:
             read, refused = hubs_options(options)
             refuse_with_hubs(hubs, refused)
@@ -549,12 +562,11 @@ def plan_window(
     from .app.plan_window import plan_window as run
     from .data.dates import parse_day
     from .errors import option
-    from .io.ownership import replacing_foreign_files
 
     _files_asked("plan_window", out, geojson=geojson, report=report)
     refuse_both(_given(options, fleet=fleet))
     cfg = planner_config(config, **options)
-    with replacing_foreign_files(force):
+    with _one_call(force, out):
         res = run(
             data,
             cfg,
@@ -601,7 +613,6 @@ def replay_day(
     from .app.replay import ReplayOptions, check_options, replay_config, replay_days
     from .data.dates import parse_day
     from .errors import option
-    from .io.ownership import replacing_foreign_files
 
     _files_asked("replay_day", out, geojson=geojson, plot=plot, report=report)
     refuse_both(_given(options, fleet=fleet, depots=depots))
@@ -609,7 +620,7 @@ def replay_day(
     check_options(opts)
     cfg = replay_config(config, method=method, **options)
     day = parse_day(str(date), cfg.data.year, option("date"))
-    with replacing_foreign_files(force):
+    with _one_call(force, out):
         res = replay_days(
             data,
             cfg,
@@ -775,7 +786,6 @@ def evaluate(
     from .app.options import evaluate_config
     from .app.progress import SILENT
     from .evaluate.paired import comparison_warning
-    from .io.ownership import replacing_foreign_files
 
     _files_asked("evaluate", out, report=report)
     sweeps = (_text(alpha), _text(drones), _text(coverage), _text(n_depots))
@@ -798,7 +808,7 @@ def evaluate(
         report=report,
     )
     source = read_data(data, spec.planner.data) if in_memory(data) else Path(data)
-    with replacing_foreign_files(force):
+    with _one_call(force, out):
         res = run(source, spec, out=_path(out))
     if (few := comparison_warning(res.summary, res.paired)) is not None:
         SILENT.warning(few)  # as the command warns, at the caller's line

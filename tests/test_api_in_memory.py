@@ -142,6 +142,28 @@ def test_evaluate_on_a_table_in_memory_writes_no_depots_cache(
     assert _files(*quiet_folders, home) == set()
 
 
+def test_a_file_without_out_writes_no_depots_cache_unless_one_is_named(
+    example_csv: Path, tmp_path: Path, quiet_folders: list[Path], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A call on a file's path without ``out`` writes nothing either: its depots go into
+    the cache only when ``MAROPS_CACHE_DIR`` names one; with ``out`` (as the commands)
+    into the default one too (docs/outputs.md, "Depots cache")."""
+    home = tmp_path / "home"
+    home.mkdir()
+    monkeypatch.setenv("HOME", str(home))
+    monkeypatch.setenv("XDG_CACHE_HOME", str(home / ".cache"))
+    monkeypatch.delenv("MAROPS_CACHE_DIR")
+    day = {"date": "0811", "method": "stay", "area": "square", "drones": 2}
+    marops.replay_day(example_csv, **day)
+    assert _files(*quiet_folders, home) == set()
+    monkeypatch.setenv("MAROPS_CACHE_DIR", str(quiet_folders[2]))  # asked for by name
+    marops.replay_day(example_csv, **day)
+    assert [p.suffix for p in (quiet_folders[2] / "depots").iterdir()] == [".npz"]
+    monkeypatch.delenv("MAROPS_CACHE_DIR")
+    marops.replay_day(example_csv, out=tmp_path / "day", **day)
+    assert [p.suffix for p in (home / ".cache" / "marops" / "depots").iterdir()] == [".npz"]
+
+
 def test_a_table_in_memory_is_checked_as_a_file_is(depots: Path, example_csv: Path) -> None:
     rows = _rows(example_csv)
     with pytest.raises(InputError, match="^Table, row 1, column 'lng': missing required column"):

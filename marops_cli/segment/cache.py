@@ -28,7 +28,8 @@ import os
 import stat
 import tempfile
 import warnings
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
+from contextvars import ContextVar
 from pathlib import Path
 
 import numpy as np
@@ -39,7 +40,7 @@ from ..data.frame import Frame
 from ..data.table import LadeTable
 from .depots import Depots
 
-__all__ = ["cache_dir", "cached_depots", "depots_key"]
+__all__ = ["cache_dir", "cache_named_only", "cached_depots", "depots_key"]
 
 _FORMAT = 3  # bump when the stored arrays change meaning (2: moves reach every depot;
 # 3: k-means of the points in a canonical order)
@@ -49,11 +50,26 @@ MAX_ENTRY = 16 << 20
 under 4 MiB; a larger entry is a miss."""
 
 
+_NAMED_ONLY: ContextVar[bool] = ContextVar("depots_cache_named_only", default=False)
+
+
+@contextlib.contextmanager
+def cache_named_only(only: bool = True) -> Iterator[None]:
+    """Within, with ``only``: depots are cached only when ``MAROPS_CACHE_DIR`` names the
+    cache's folder, never in the default one (the Python API called without ``out``,
+    which writes nothing it was not asked to)."""
+    token = _NAMED_ONLY.set(only)
+    try:
+        yield
+    finally:
+        _NAMED_ONLY.reset(token)
+
+
 def cache_dir() -> Path | None:
-    """Where depots are cached; None when ``MAROPS_CACHE_DIR=off`` or when it names a
-    home that cannot be found."""
+    """Where depots are cached; None when ``MAROPS_CACHE_DIR=off``, when it names a
+    home that cannot be found, or when it is not set within :func:`cache_named_only`."""
     env = os.environ.get("MAROPS_CACHE_DIR", "").strip()
-    if env.lower() in ("off", "0", "none", "false"):
+    if env.lower() in ("off", "0", "none", "false") or (not env and _NAMED_ONLY.get()):
         return None
     base = os.environ.get("XDG_CACHE_HOME", "").strip()
     try:  # a home that cannot be found (~user of no user, no HOME): no cache, no error
