@@ -85,6 +85,8 @@ def make_report(
         raise _nothing_to_report(folder)
     register_inputs([depots])
     check_outputs(report_outputs(folder, targets))
+    if folder not in targets:  # a several-day or city run stopped before its summary
+        progress.warning(_unfinished(folder, targets))
     loaded = _depots(depots)
     with folder_lock(folder):
         try:
@@ -97,6 +99,21 @@ def make_report(
     if not written:  # a metrics.json of no day, no several days and no city
         raise _nothing_to_report(folder)
     return written
+
+
+def _unfinished(folder: Path, targets: list[Path]) -> str:
+    """The line that says ``folder``'s run did not finish, and what is reported of it."""
+    from ..config import count
+
+    parts = list(dict.fromkeys(t.relative_to(folder).parts[0] for t in targets))
+    shown = ", ".join(parts) if len(parts) <= 3 else f"{parts[0]} … {parts[-1]}"
+    hubs = sum(p.startswith("hub-") for p in parts)
+    kind = "hub" if hubs == len(parts) else "day" if not hubs else "day or hub"
+    return (
+        f"{folder} holds no metrics.json over its {kind}s: its run did not finish (which "
+        f"{kind}s it was to replay is not recorded); reporting the {count(len(parts), kind)} "
+        f"there ({shown}); the same replay-day again finishes it, keeping these"
+    )
 
 
 def _nothing_to_report(folder: Path) -> InputError:

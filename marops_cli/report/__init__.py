@@ -19,6 +19,7 @@ from .folder import (
     route_files,
     route_files_exist,
     sub_reports,
+    unfinished_parts,
 )
 from .page import EXTRA, Page, require_plotly, script_bytes, script_name
 
@@ -85,21 +86,25 @@ def _has_page(folder: Path) -> bool:
 def report_folders(folder: Path, *, below: bool = True) -> list[Path]:
     """The folders that get a ``report.html``: ``folder`` and, with ``below``, the day and
     hub folders of a several-day or city run (those first, so the top page links them)."""
-    found: list[Path] = []
     if not _has_page(folder):
-        return found
+        # A run stopped before its metrics.json over the days: the days it finished.
+        return _below(unfinished_parts(folder) if below and not is_evaluation(folder) else [])
     several = not is_evaluation(folder) and not route_files_exist(folder)
-    if below and several:
-        for sub in sub_reports(folder):
-            below_sub = report_folders(sub)
-            if below_sub and sub.is_symlink():  # its pages would go through it, elsewhere
-                raise InputError(
-                    "is a link to a day's or hub's outputs; the report writes pages only "
-                    "into the run's own folders: remove the link, or report on its target",
-                    file=sub,
-                )
-            found += below_sub
-    found.append(folder)
+    return [*_below(sub_reports(folder) if below and several else []), folder]
+
+
+def _below(subs: list[Path]) -> list[Path]:
+    """The folders below ``subs`` (day and hub folders) that get a page, theirs included."""
+    found: list[Path] = []
+    for sub in subs:
+        below_sub = report_folders(sub)
+        if below_sub and sub.is_symlink():  # its pages would go through it, elsewhere
+            raise InputError(
+                "is a link to a day's or hub's outputs; the report writes pages only "
+                "into the run's own folders: remove the link, or report on its target",
+                file=sub,
+            )
+        found += below_sub
     return found
 
 

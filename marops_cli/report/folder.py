@@ -402,5 +402,25 @@ def sub_reports(folder: Path) -> list[Path]:
     return [p for p in subs if (p / "metrics.json").is_file() or route_files_exist(p)]
 
 
+def unfinished_parts(folder: Path) -> list[Path]:
+    """The day and hub folders (``YYYY-MM-DD/``, ``hub-<id>/``) of a several-day or city
+    run that stopped before writing its ``metrics.json`` over them (a run killed half-way
+    keeps every day it finished): ``folder``'s, when it holds no output of its own (no
+    ``metrics.json``, no routes); empty for any other folder."""
+    if (folder / "metrics.json").exists() or route_files_exist(folder):
+        return []
+    return [p for p in sorted(folder.iterdir(), key=natural_key) if _part_name(p.name)]
+
+
+def _part_name(name: str) -> bool:
+    """Whether ``name`` is a day's folder (``2022-08-11``) or a hub's (``hub-3``)."""
+    if name.startswith("hub-"):
+        return name.removeprefix("hub-").isdecimal()
+    try:
+        return dt.date.fromisoformat(name).isoformat() == name
+    except ValueError:
+        return False
+
+
 def route_files_exist(folder: Path) -> bool:
     return any((folder / f"routes.{f}").is_file() for f in ("parquet", "json"))

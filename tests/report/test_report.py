@@ -406,6 +406,32 @@ def test_several_days_link_each_day_report(
     assert res.output.splitlines()[:3] == pages
 
 
+def test_marops_report_on_a_run_stopped_before_its_summary_reports_its_days(
+    days_run: Path, tmp_path: Path
+) -> None:
+    """A ``--dates`` run stopped half-way keeps the days it finished, and no metrics.json
+    over them: ``marops report`` makes the days' pages, saying in one line that the run
+    did not finish, where it said the folder held no outputs."""
+    out = tmp_path / "days"
+    shutil.copytree(days_run, out)
+    for name in ("metrics.json", "report.html", "2022-08-11/report.html"):
+        (out / name).unlink()
+    shutil.rmtree(out / "2022-08-12")
+    res = invoke("report", out)
+    said = [line for line in res.output.splitlines() if line.startswith("warning: ")]
+    assert said == [
+        f"warning: {out} holds no metrics.json over its days: its run did not finish (which "
+        "days it was to replay is not recorded); reporting the 1 day there (2022-08-11); "
+        "the same replay-day again finishes it, keeping these"
+    ]
+    assert (out / "2022-08-11" / "report.html").is_file()
+    assert not (out / "report.html").exists()  # no page over days it does not have
+    # A folder of no run's days is still said to hold no outputs.
+    (tmp_path / "other" / "2022-08-11").mkdir(parents=True)
+    res = runner.invoke(app, ["report", str(tmp_path / "other")])
+    assert res.exit_code == 2 and "holds no marops outputs" in res.output
+
+
 def _policy(page: str) -> dict[str, str]:
     head = page.split("</head>")[0]
     found = re.search(r'<meta http-equiv="Content-Security-Policy" content="([^"]+)">', head)
