@@ -117,9 +117,8 @@ def _run() -> int | str | None:
         code = app(standalone_mode=False)
     except SystemExit as exc:  # the commands' own exits (sys.exit(2) on bad input, ...)
         return exc.code
-    except typer.Abort:
-        typer.echo("marops: interrupted", err=True)
-        return 130
+    except typer.Abort:  # Ctrl-C or SIGTERM that click took as it read the command line
+        return stopped_early(stop_signal() or KeyboardInterrupt())
     except Exception as exc:  # usage errors (unknown option, bad value, missing argument)
         message = getattr(exc, "format_message", None)
         if message is None:
@@ -138,8 +137,33 @@ def _run() -> int | str | None:
     if code == 130 and signalled is not None and not STATE["stopped"]:
         # Typer ends a Ctrl-C or SIGTERM that came while it read the command line, before
         # the command could take it, with a bare exit 130.
-        return say_stopped(signalled)[1]
+        return stopped_early(signalled)
     return code if isinstance(code, int) else 0
+
+
+def stopped_early(signalled: KeyboardInterrupt) -> int:
+    """A Ctrl-C or SIGTERM that came before a command could take it (as marops started,
+    or while its command line was read): its line (:func:`~.common.say_stopped`) and,
+    where the line asks for ``--json`` of a command that has it, the JSON document a stop
+    during the command writes (unless the command wrote it); the exit code."""
+    said = STATE["stopped"]  # a stop the command reported, its document included
+    line, code = say_stopped(signalled)
+    name = _line_command()
+    if not said and name is not None and _json_asked():
+        error_json(name, line, code)
+    return code
+
+
+def _line_command() -> str | None:
+    """The command the command line names (its first word after the group's switches)
+    when that command has ``--json``; None for any other line."""
+    import inspect
+
+    words = [a for a in options_part(sys.argv[1:]) if not a.startswith("-")]
+    for info in app.registered_commands if words else ():
+        if info.name == words[0] and info.callback is not None:
+            return words[0] if "as_json" in inspect.signature(info.callback).parameters else None
+    return None
 
 
 def _named_source(text: str, param: Any, ctx: Any) -> str:
@@ -174,6 +198,12 @@ def _wants_json(command: object) -> bool:
     known = any(getattr(p, "name", None) == "as_json" for p in getattr(command, "params", []))
     if not known and not hasattr(command, "commands"):
         return False
+    return _json_asked()
+
+
+def _json_asked() -> bool:
+    """Whether the command line asks for ``--json`` (on the line, or ``MAROPS_JSON`` as
+    the option reads it)."""
     if "--json" in options_part(sys.argv[1:]):
         return True
     return os.environ.get("MAROPS_JSON", "").strip().lower() in _TRUE
@@ -227,5 +257,5 @@ def main() -> None:
         signalled = exc if isinstance(exc, KeyboardInterrupt) else stop_signal()
         if signalled is None or STATE["debug"]:
             raise
-        code = say_stopped(signalled)[1]
+        code = stopped_early(signalled)
     _leave(code)

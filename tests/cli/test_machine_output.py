@@ -143,6 +143,54 @@ def test_a_bare_marops_with_json_is_one_document(tmp_path: Path) -> None:
 
 
 @pytest.mark.parametrize(
+    ("where", "sig", "args", "env"),
+    [
+        ("Command", "SIGINT", ["segment", "x.csv", "--out", "d.json", "--json"], {}),
+        ("Command", "SIGTERM", ["--debug", "replay-day", "x.csv"], {"MAROPS_JSON": "1"}),
+        ("Group", "SIGINT", ["report", "--json", "."], {}),
+        ("Command", "SIGTERM", ["train", "x.csv", "--out", "a.pt"], {"MAROPS_JSON": "1"}),
+    ],
+    ids=["ctrl-c", "sigterm-json-from-the-environment", "ctrl-c-before-the-command", "no-json"],
+)
+def test_a_stop_while_the_command_line_is_read_writes_the_json_document(
+    tmp_path: Path, where: str, sig: str, args: list[str], env: dict[str, str]
+) -> None:
+    """Ctrl-C or SIGTERM as marops reads the command line (the signal sent from inside its
+    parser): the line and exit code of any stop, and with --json the document a stop
+    during the command writes (train has no --json: stdout stays empty)."""
+    code = (
+        f"import os, signal, sys; sys.path.insert(0, {str(ROOT)!r})\n"
+        "signal.signal(signal.SIGINT, signal.default_int_handler)\n"
+        "from marops_cli.cli import usage\n"
+        f"kind = usage.{where}\n"
+        "parse = kind.parse_args\n"
+        "def parse_args(self, ctx, args):\n"
+        f"    os.kill(os.getpid(), signal.{sig})\n"
+        "    return parse(self, ctx, args)\n"
+        "kind.parse_args = parse_args\n"
+        "from marops_cli.cli.app import main; main()\n"
+    )
+    base = {"PATH": os.environ.get("PATH", "/usr/bin:/bin"), "HOME": str(tmp_path)}
+    res = subprocess.run(
+        [sys.executable, "-c", code, *args],
+        cwd=tmp_path,
+        env=base | env,
+        stdin=subprocess.DEVNULL,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    line, status = ("terminated", 143) if sig == "SIGTERM" else ("interrupted", 130)
+    assert res.returncode == status
+    assert res.stderr.strip().splitlines() == [f"marops: {line}"]
+    command = next(a for a in args if not a.startswith("-"))
+    if command == "train":
+        assert res.stdout == ""
+    else:
+        assert json.loads(res.stdout) == {"command": command, "error": line, "exit_code": status}
+
+
+@pytest.mark.parametrize(
     "args",
     [
         ["segment", "missing.csv", "--out", "d.json"],
