@@ -318,6 +318,7 @@ def split_options(
 EXCLUSIVE: tuple[tuple[str, str, str], ...] = (
     ("drones", "fleet", "a fleet file's drones are the fleet"),
     ("n_depots", "depots", "a depots file's depots are the depots"),
+    ("segment", "depots", "a depots file's depots are the depots"),
 )
 """Pairs of options of which one, given, makes the other unused (``(option, option,
 why)``): given both, the second would win unsaid, so both are refused (a config file's

@@ -55,6 +55,10 @@ CASES = {
         ["replay-day", "{data}", "--date", "0811", "--depots", "d.json", "--n-depots", "4"],
         ("--n-depots", "--depots"),
     ),
+    "replay-segment-depots": (
+        ["replay-day", "{data}", "--date", "0811", "--segment", "squares", "--depots", "d.json"],
+        ("--segment", "--depots"),
+    ),
     "segment-config-twice": (
         ["segment", "{data}", "--config", "a.toml", "--config", "b.toml"],
         ("--config given 2 times",),
@@ -111,6 +115,7 @@ def test_a_value_from_the_environment_is_no_contradiction(files: Path, example_c
     [
         ("replay_day", {"drones": 4, "fleet": "fleet.toml"}, "drones or fleet"),
         ("replay_day", {"n_depots": 4, "depots": "d.json"}, "n_depots or depots"),
+        ("replay_day", {"segment": "squares", "depots": "d.json"}, "segment or depots"),
         ("plan_window", {"drones": 4, "fleet": "fleet.toml"}, "drones or fleet"),
     ],
 )
@@ -123,6 +128,6 @@ def test_the_api_refuses_the_same_pairs(
     args: list[object] = [example_csv, "0811"]
     if fn == "plan_window":
         args = [example_csv, files / "d.json", "0811", 3]
-    kwargs = {k: files / v if isinstance(v, str) else v for k, v in kwargs.items()}
+    kwargs = {k: files / v if k in ("fleet", "depots") else v for k, v in kwargs.items()}
     with pytest.raises(InputError, match=f"give at most one of {needle}"):
         getattr(api, fn)(*args, **kwargs)
