@@ -409,7 +409,8 @@ def unfinished_parts(folder: Path) -> list[Path]:
     ``metrics.json``, no routes); empty for any other folder."""
     if (folder / "metrics.json").exists() or route_files_exist(folder):
         return []
-    return [p for p in sorted(folder.iterdir(), key=natural_key) if _part_name(p.name)]
+    subs = sorted(folder.iterdir(), key=natural_key)
+    return [p for p in subs if _part_name(p.name) and p.is_dir()]
 
 
 def _part_name(name: str) -> bool:

@@ -426,8 +426,10 @@ def test_marops_report_on_a_run_stopped_before_its_summary_reports_its_days(
     ]
     assert (out / "2022-08-11" / "report.html").is_file()
     assert not (out / "report.html").exists()  # no page over days it does not have
-    # A folder of no run's days is still said to hold no outputs.
+    # A folder of no run's days is still said to hold no outputs (a file named as a day
+    # is no day's folder).
     (tmp_path / "other" / "2022-08-11").mkdir(parents=True)
+    (tmp_path / "other" / "2022-08-12").write_text("")
     res = runner.invoke(app, ["report", str(tmp_path / "other")])
     assert res.exit_code == 2 and "holds no marops outputs" in res.output
 
