@@ -94,9 +94,9 @@ class Command(typer.core.TyperCommand):
             _INVOKED.reset(token)
 
 
-ONCE = ("config",)
-"""Options a command line may give once: a second ``--config`` replaced the first
-unsaid, where a reader may take the two files to be merged."""
+ONCE = {"config": "a run reads one config file"}
+"""Options a command line may give once (name -> why): a second ``--config`` replaced
+the first unsaid, where a reader may take the two files to be merged."""
 
 
 def refuse_overridden(command: Any, ctx: Any, line: list[str]) -> None:
@@ -114,8 +114,8 @@ def refuse_overridden(command: Any, ctx: Any, line: list[str]) -> None:
         if param.name in ONCE and times > 1:
             flag = param.opts[0]
             raise Overridden(
-                f"{flag} given {times} times: a run reads one config file, and the last "
-                f"{flag} would replace the others unsaid; give {flag} once (merge the files)",
+                f"{flag} given {times} times: {ONCE[param.name]}, and the last {flag} "
+                f"would replace the others unsaid; give {flag} once (merge the files)",
                 ctx,
             )
     on_line = {
