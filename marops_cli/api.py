@@ -713,12 +713,13 @@ def _json_table(path: Path, tz: str) -> Any:
     columns' types, ISO times and days read back, its ``meta`` as the table's."""
     import pyarrow as pa
 
-    from .data.jsonfile import first_line, read_json
+    from .data.jsonfile import first_line
     from .errors import InputError
+    from .io.routejson import read_route_json
     from .io.tables import routes_schema, stops_schema, with_meta
 
     key = path.stem  # "stops" or "routes"
-    doc = read_json(path, f"{key} file")
+    doc = read_route_json(path)
     rows = doc.get(key) if isinstance(doc, dict) else None
     if not isinstance(rows, list) or not all(isinstance(r, dict) for r in rows):
         raise InputError(

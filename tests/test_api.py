@@ -415,6 +415,30 @@ def test_api_a_kept_day_of_json_route_files_is_read_back(example_csv: Path, tmp_
     assert again.metrics == first.metrics
 
 
+def test_api_a_kept_day_of_json_route_files_reads_back_under_the_route_file_cap(
+    example_csv: Path, tmp_path: Path, monkeypatch
+) -> None:
+    """A kept day's stops.json is read back, and judged marops's, under the route files'
+    cap, as the report reads it, not the small inputs' 64 MiB (made smaller than the file
+    here): a busy day's JSON marops wrote was refused as larger than 64 MiB, or as not
+    written by marops. One past the route files' cap is refused naming it (as no file
+    marops wrote, before it would be read back)."""
+    import marops_cli.data.jsonfile
+    import marops_cli.io.routejson
+
+    day = {"method": "stay", "out": tmp_path, "area": "square", "fmt": "json"}
+    first = marops.replay_day(example_csv, "0811", **day)
+    path = tmp_path / "stops.json"
+    size = path.stat().st_size
+    assert size > 10 * (tmp_path / "metrics.json").stat().st_size  # the small files fit
+    monkeypatch.setattr(marops_cli.data.jsonfile, "MAX_SMALL_FILE", size - 1)
+    assert marops.replay_day(example_csv, "0811", **day).stops.equals(first.stops)
+    monkeypatch.setattr(marops_cli.io.routejson, "MAX_ROUTE_JSON", size - 1)
+    with pytest.raises(InputError, match="not written by marops") as err:
+        marops.replay_day(example_csv, "0811", **day)
+    assert err.value.file == str(path)
+
+
 def test_api_a_kept_day_of_more_rows_than_a_day_has_is_refused_unread(
     example_csv: Path, tmp_path: Path, monkeypatch
 ) -> None:

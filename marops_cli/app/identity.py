@@ -78,10 +78,12 @@ def written_with(path: Path, meta: dict[str, Any]) -> bool:
             from ..data.arrow import read_parquet_schema
 
             held = parse_json((read_parquet_schema(path).metadata or {})[b"marops"])
-        else:
-            doc = parse_json(path.read_text(encoding="utf-8"))
+        else:  # read as the report and the API read a route file back
+            from ..io.routejson import read_route_json
+
+            doc = read_route_json(path)
             held = doc["marops" if path.suffix == ".geojson" else "meta"]
-    except (OSError, ValueError, KeyError, TypeError):
+    except (OSError, ValueError, KeyError, TypeError, InputError):
         return False
     # As the file holds it: through JSON (a tuple reads back as a list).
     return bool(held == json.loads(json.dumps(meta)))

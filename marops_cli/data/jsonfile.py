@@ -21,12 +21,19 @@ it fills the memory."""
 
 
 def read_small_text(path: str | Path, what: str, limit: int | None = None) -> str:
-    """The UTF-8 text of the small input ``path`` (a leading byte-order mark dropped, as
-    some editors write one): an :class:`InputError` naming it when it is larger than
-    :data:`MAX_SMALL_FILE` (or ``limit`` bytes, when smaller: a depots or hubs file's
-    own cap); OS and decoding errors propagate."""
-    p = Path(path)
+    """The UTF-8 text of the small input ``path`` (:func:`read_text_at_most`): an
+    :class:`InputError` naming it when it is larger than :data:`MAX_SMALL_FILE` (or
+    ``limit`` bytes, when smaller: a depots or hubs file's own cap)."""
     cap = MAX_SMALL_FILE if limit is None else min(limit, MAX_SMALL_FILE)
+    return read_text_at_most(path, what, cap)
+
+
+def read_text_at_most(path: str | Path, what: str, cap: int) -> str:
+    """The UTF-8 text of ``path`` (a leading byte-order mark dropped, as some editors
+    write one): an :class:`InputError` naming it when it is larger than ``cap`` bytes,
+    found by reading one byte past the cap, never the whole of a device or a huge file;
+    OS and decoding errors propagate."""
+    p = Path(path)
     # A named pipe nobody writes to would block a plain open for ever; opened without
     # blocking, it reads as empty, while a pipe with a writer (``<(...)``) reads whole.
     fd = os.open(p, os.O_RDONLY | os.O_NONBLOCK)
@@ -99,16 +106,19 @@ def read_document(
     what: str,
     kind: Literal["json", "toml"] | None = None,
     limit: int | None = None,
+    *,
+    cap: int | None = None,
 ) -> Any:
     """The parsed JSON or TOML document ``path`` (``kind`` None: TOML for a ``.toml``
     name, else JSON); a missing, unreadable or malformed file, or one larger than
     ``limit`` bytes (:func:`read_small_text`), is an :class:`InputError` naming it as
-    ``what`` ("fleet file")."""
+    ``what`` ("fleet file"). ``cap``: the bytes it may have in place of the small-file
+    caps (a route file's, above them: :data:`marops_cli.io.routejson.MAX_ROUTE_JSON`)."""
     p = Path(path)
     kind = kind or ("toml" if p.suffix.lower() == ".toml" else "json")
     name = kind.upper()
     try:
-        text = read_small_text(p, what, limit)
+        text = read_small_text(p, what, limit) if cap is None else read_text_at_most(p, what, cap)
         return parse_toml(text) if kind == "toml" else parse_json(text)
     except IsADirectoryError as exc:
         raise InputError(f"{what} is a folder, expected a {name} file", file=p) from exc

@@ -25,7 +25,7 @@ from pathlib import Path
 from typing import Any
 
 from ..data.digest import sha256_file
-from ..data.jsonfile import parse_json, read_small_text
+from ..data.jsonfile import parse_json, read_small_text, read_text_at_most
 from ..errors import InputError, RunError, option, switch
 
 JOURNAL = ".marops-files.json"
@@ -159,9 +159,12 @@ def remove_ours(paths: Iterable[Path]) -> None:
 
 
 def _json_is_ours(path: Path) -> bool:
-    # No JSON marops writes comes near the small-file cap: a larger one is not read (an
-    # InputError, so not marops's) rather than loaded whole into memory.
-    doc = parse_json(read_small_text(path, "JSON file"))
+    # No JSON marops writes is larger than a day's route file at most (a busy day's
+    # stops.json is above the small-file cap): a larger one is not read (an InputError,
+    # so not marops's) rather than loaded whole into memory.
+    from .routejson import MAX_ROUTE_JSON
+
+    doc = parse_json(read_text_at_most(path, "JSON file", MAX_ROUTE_JSON))
     if not isinstance(doc, dict):
         return False
     head = doc.get("meta") or doc.get("marops") or {}

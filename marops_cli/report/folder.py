@@ -62,7 +62,9 @@ def route_files(folder: Path) -> RouteFiles | None:
         stops, routes = (t.to_pylist() for t in tables)
     elif (folder / "routes.json").is_file():
         paths = tuple(folder / f"{n}.json" for n in ("stops", "routes"))
-        docs = [_json(path) for path in paths]
+        from ..io.routejson import read_route_json
+
+        docs = [_json(path, read_route_json) for path in paths]
         for name, doc, path in zip(("stops", "routes"), docs, paths, strict=True):
             _check_rows(doc, name, path)
             if not isinstance(doc.get("meta", {}), dict):
@@ -382,8 +384,10 @@ def table_meta(table: Any, path: Path) -> dict[str, Any]:
     return meta
 
 
-def _json(path: Path) -> dict[str, Any]:
-    doc = read_input(path, lambda p: parse_json(p.read_text(encoding="utf-8")))
+def _json(path: Path, read: Callable[[Path], Any] | None = None) -> dict[str, Any]:
+    """The JSON object ``path`` holds (:func:`read_input`), read by ``read`` (a route
+    file's: :func:`~marops_cli.io.routejson.read_route_json`), else whole (``metrics.json``)."""
+    doc = read_input(path, read or (lambda p: parse_json(p.read_text(encoding="utf-8"))))
     if not isinstance(doc, dict):
         raise InputError("is not a marops output (a JSON object expected)", file=path)
     return doc

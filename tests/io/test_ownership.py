@@ -55,17 +55,21 @@ def test_a_hand_written_depots_file_is_not_marops_own(tmp_path: Path) -> None:
     assert written_by_marops(path)
 
 
-def test_a_json_file_past_the_small_file_cap_is_never_read_to_judge_it(
+def test_a_json_file_past_the_route_file_cap_is_never_read_to_judge_it(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     """An unlisted JSON file is judged by its content; one larger than any marops writes
-    is not read whole into memory to judge it, and so is not marops's (it is kept)."""
+    (a day's route file at most, above the small inputs' cap) is not read whole into
+    memory to judge it, and so is not marops's (it is kept)."""
     import marops_cli.data.jsonfile as jsonfile
+    import marops_cli.io.routejson as routejson
 
     path = tmp_path / "metrics.json"
     path.write_text(json.dumps({"meta": {"package": "marops"}, "pad": "x" * 4096}))
     assert written_by_marops(path)
     monkeypatch.setattr(jsonfile, "MAX_SMALL_FILE", 1024)
+    assert written_by_marops(path)  # a busy day's stops.json is larger than 64 MiB
+    monkeypatch.setattr(routejson, "MAX_ROUTE_JSON", 1024)
     assert not written_by_marops(path)
 
 

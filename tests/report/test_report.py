@@ -967,6 +967,22 @@ def test_marops_report_on_an_edited_json_output_names_the_key(
     assert line.startswith(f"marops: error: {path}, key '{key.format(i=i)}': {says}"), line
 
 
+def test_marops_report_refuses_a_route_json_file_past_the_route_file_cap(
+    json_day_run: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A stops.json larger than any day's (the cap the API reads a kept day back with,
+    made small here) is one line naming it, exit 2, the page as it was: the report read
+    route JSON files whole, of any size."""
+    import marops_cli.io.routejson
+
+    copy = tmp_path / "day"
+    shutil.copytree(json_day_run, copy)
+    path = copy / "stops.json"
+    monkeypatch.setattr(marops_cli.io.routejson, "MAX_ROUTE_JSON", path.stat().st_size - 1)
+    line = _refused(copy, (copy / "report.html").read_bytes())
+    assert line == f"marops: error: {path}: stops file is larger than 0 MiB", line
+
+
 def _set_cells(path: Path, column: str, cells: dict[int, object]) -> None:
     """Parquet ``column``'s rows ``cells`` (0-based) set, its type and the file's
     metadata kept."""
