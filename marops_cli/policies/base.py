@@ -2,9 +2,10 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Literal, Protocol, runtime_checkable
+from typing import TYPE_CHECKING, Any, Literal, Protocol, runtime_checkable
 
 import numpy as np
 
@@ -33,22 +34,106 @@ def check_weight_range(largest: float, file: Path, tensor: str) -> None:
         )
 
 
-def check_header_keys(path: Path) -> None:
-    """Refuse a safetensors file whose JSON header gives a key twice, as every other
-    JSON marops reads is refused (the safetensors reader keeps the last one unsaid).
-    The file's size is bounded by the caller; a header that does not read is left to the
-    safetensors reader's own error."""
-    from ..data.jsonfile import parse_json
+_DTYPE_BYTES = {
+    "BOOL": 1, "U8": 1, "I8": 1, "F8_E5M2": 1, "F8_E4M3": 1,
+    "I16": 2, "U16": 2, "F16": 2, "BF16": 2,
+    "I32": 4, "U32": 4, "F32": 4,
+    "I64": 8, "U64": 8, "F64": 8,
+}  # fmt: skip
+"""Bytes a value of each safetensors dtype takes (a dtype not listed is not checked for
+size: a reader of actors takes float32 only, and refuses any other by name)."""
 
-    with open(path, "rb") as f:
-        head = f.read(8)
-        size = int.from_bytes(head, "little") if len(head) == 8 else 0
-        text = f.read(size) if 0 < size <= path.stat().st_size else b""
+
+@dataclass(frozen=True)
+class Tensors:
+    """A safetensors file read and its JSON header parsed once (:func:`read_tensors`):
+    each tensor's ``dtype`` and ``shape`` from the header, its values on demand."""
+
+    path: Path
+    header: dict[str, dict[str, Any]]
+    data: bytes
+    """The bytes after the header: the tensors' values, at their ``data_offsets``."""
+
+    def names(self) -> set[str]:
+        return set(self.header)
+
+    def dtype(self, name: str) -> str:
+        return str(self.header[name]["dtype"])
+
+    def shape(self, name: str) -> tuple[int, ...]:
+        return tuple(self.header[name]["shape"])
+
+    def float32(self, name: str) -> np.ndarray:
+        """The F32 tensor ``name`` (checked by the caller) as a new native float32 array."""
+        begin, end = self.header[name]["data_offsets"]
+        values = np.frombuffer(self.data, dtype="<f4", count=(end - begin) // 4, offset=begin)
+        return values.astype(np.float32).reshape(self.shape(name))
+
+
+def read_tensors(path: Path) -> Tensors:
+    """The safetensors file ``path`` (its size bounded by the caller), read once and its
+    header parsed once: a file that is none (too short, a header past its end, not a JSON
+    object, or a key given twice, which every other JSON marops reads refuses and the
+    safetensors reader kept the last of unsaid), or whose tensors do not fill its data
+    exactly one after the other, each of its shape's size, is one line naming it. Nothing
+    of the file runs: a safetensors file is a JSON header and raw numbers."""
+    from ..data.jsonfile import first_line, parse_json
+
     try:
-        parse_json(text)
-    except ValueError as exc:
-        if "appears twice" in str(exc):
-            raise InputError(f"not a safetensors weights file ({exc})", file=path) from None
+        with open(path, "rb") as f:
+            raw = f.read()
+    except OSError as exc:
+        raise InputError(f"not a safetensors weights file ({first_line(exc)})", file=path) from None
+    size = int.from_bytes(raw[:8], "little") if len(raw) >= 8 else -1
+    try:
+        if not 0 < size <= len(raw) - 8:
+            raise ValueError("no header of a length within the file")
+        header = parse_json(raw[8 : 8 + size].decode("utf-8"))
+        if not isinstance(header, dict):
+            raise ValueError("its header is not a JSON object")
+        meta = header.pop("__metadata__", None)
+        if meta is not None and not (
+            isinstance(meta, dict) and all(isinstance(v, str) for v in meta.values())
+        ):
+            raise ValueError("its __metadata__ is not an object of texts")
+        data = raw[8 + size :]
+        _check_layout(header, len(data))
+    except (ValueError, UnicodeDecodeError) as exc:
+        raise InputError(f"not a safetensors weights file ({first_line(exc)})", file=path) from None
+    return Tensors(path, header, data)
+
+
+def _check_layout(header: dict[str, Any], length: int) -> None:
+    """Raise ``ValueError`` unless each tensor of ``header`` names its dtype, shape and
+    data offsets, and the tensors fill the ``length`` bytes of data one after the other,
+    each as many bytes as its shape and dtype take (as the safetensors reader checks)."""
+    spans = []
+    for name, info in header.items():
+        entry: dict[str, Any] = info if isinstance(info, dict) else {}
+        dtype: Any = entry.get("dtype")
+        shape: Any = entry.get("shape")
+        offsets: Any = entry.get("data_offsets")
+        lists = isinstance(shape, list) and isinstance(offsets, list) and len(offsets) == 2
+        counts: list[Any] = [*shape, *offsets] if lists else []
+        if not isinstance(dtype, str) or not lists or not _counts(counts):
+            raise ValueError(f"the tensor {name!r} has no dtype, shape and data offsets")
+        begin, end = counts[-2:]
+        width = _DTYPE_BYTES.get(dtype)
+        if end < begin or (width is not None and end - begin != width * math.prod(counts[:-2])):
+            raise ValueError(f"the tensor {name!r}'s data offsets do not fit its shape")
+        spans.append((begin, end))
+    at = 0
+    for begin, end in sorted(spans):
+        if begin != at:
+            raise ValueError("the tensors' data offsets leave a gap or overlap")
+        at = end
+    if at != length:
+        raise ValueError(f"the tensors take {at} bytes of data, the file holds {length}")
+
+
+def _counts(values: list[Any]) -> bool:
+    """Whether every value is a whole number of at least 0 (true is none)."""
+    return all(type(v) is int and v >= 0 for v in values)
 
 
 SLOT_PLANNER = "subsets"

@@ -90,10 +90,10 @@ from typing import TYPE_CHECKING, Any, ClassVar, Literal, NamedTuple
 
 import numpy as np
 
-from ..data.jsonfile import first_line, refuse_misspelt_keys
+from ..data.jsonfile import refuse_misspelt_keys
 from ..errors import InputError, quoted
 from ..plans.view import FREE
-from .base import WindowView, check_header_keys, check_weight_range
+from .base import WindowView, check_weight_range, read_tensors
 from .rules import EnergyAware, FlowPolicy, reachable, waiting_per_depot
 
 if TYPE_CHECKING:
@@ -565,8 +565,6 @@ def load_landing_actor(path: Path, side: Any, sidecar: Path) -> LandingActor:
     ``side`` (read from ``sidecar``): one finite float32 tensor ``weight`` of 16 values
     (format ``/2``), 22 (``/3``), 25 (``/4``) or 12 (``/1``). Nothing of the file runs (a
     safetensors file is a JSON header and raw numbers)."""
-    from safetensors import SafetensorError, safe_open
-
     from ..data.filemodel import validated
 
     if isinstance(side, dict):
@@ -575,25 +573,19 @@ def load_landing_actor(path: Path, side: Any, sidecar: Path) -> LandingActor:
     size = _FORMATS[read.format]
     if path.stat().st_size > (1 << 16):
         raise InputError("larger than a landing actor's weights", file=path)
-    check_header_keys(path)
-    try:
-        with safe_open(str(path), framework="numpy") as f:
-            names = set(f.keys())
-            if names != {"weight"}:
-                raise InputError(
-                    f"expected one tensor 'weight', got {sorted(names)}", file=path, column="weight"
-                )
-            part = f.get_slice("weight")
-            if part.get_dtype() != "F32" or tuple(part.get_shape()) != (size,):
-                raise InputError(
-                    f"expected float32 [{size}], got {part.get_dtype()} {list(part.get_shape())}",
-                    file=path,
-                    column="weight",
-                )
-            weight = np.asarray(f.get_tensor("weight"), dtype=np.float64)
-    except (SafetensorError, OSError, ValueError) as exc:
-        first = first_line(exc)
-        raise InputError(f"not a safetensors weights file ({first})", file=path) from None
+    f = read_tensors(path)
+    names = f.names()
+    if names != {"weight"}:
+        raise InputError(
+            f"expected one tensor 'weight', got {sorted(names)}", file=path, column="weight"
+        )
+    if f.dtype("weight") != "F32" or f.shape("weight") != (size,):
+        raise InputError(
+            f"expected float32 [{size}], got {f.dtype('weight')} {list(f.shape('weight'))}",
+            file=path,
+            column="weight",
+        )
+    weight = f.float32("weight").astype(np.float64)
     if not np.isfinite(weight).all():
         raise InputError("NaN or infinite weights", file=path, column="weight")
     check_weight_range(float(np.abs(weight).max()), path, "weight")

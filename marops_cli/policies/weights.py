@@ -20,9 +20,8 @@ import math
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, ClassVar, Literal
 
-from ..data.jsonfile import first_line
 from ..errors import InputError
-from .base import check_header_keys, check_weight_range
+from .base import Tensors, check_weight_range, read_tensors
 
 if TYPE_CHECKING:
     from .network import Actor
@@ -89,7 +88,6 @@ def load_weights(model_path: str | Path, side: dict[str, Any], sidecar: Path) ->
     """The actor of ``model_path``'s weights file, in eval mode, after checking each
     tensor against the network of the sidecar ``side``."""
     import torch
-    from safetensors import SafetensorError, safe_open
 
     from .network import Actor, actor_shapes
 
@@ -101,16 +99,9 @@ def load_weights(model_path: str | Path, side: dict[str, Any], sidecar: Path) ->
         raise InputError(
             f"larger than the network its sidecar describes ({limit:,} bytes)", file=path
         )
-    check_header_keys(path)
-    try:
-        # Read as NumPy: torch's reader takes the path as UTF-8 only, and a file name may
-        # be any bytes (the same float32 values either way).
-        with safe_open(str(path), framework="numpy") as f:
-            _check_tensors(f, expect, path)
-            state = {name: torch.from_numpy(f.get_tensor(name)) for name in expect}
-    except (SafetensorError, OSError, ValueError) as exc:
-        first = first_line(exc)
-        raise InputError(f"not a safetensors weights file ({first})", file=path) from None
+    f = read_tensors(path)
+    _check_tensors(f, expect, path)
+    state = {name: torch.from_numpy(f.float32(name)) for name in expect}
     _check_digest(path, side, sidecar)  # a well-formed file, but is it this actor's?
     for name, tensor in state.items():
         if not bool(torch.isfinite(tensor).all()):
@@ -143,18 +134,17 @@ def _check_digest(path: Path, side: dict[str, Any], sidecar: Path) -> None:
         )
 
 
-def _check_tensors(f: Any, expect: dict[str, tuple[int, ...]], path: Path) -> None:
-    """Raise unless the open safetensors file ``f`` holds exactly the tensors of
-    ``expect``, float32 and of those shapes (read from its header, before any data)."""
-    names = set(f.keys())
+def _check_tensors(f: Tensors, expect: dict[str, tuple[int, ...]], path: Path) -> None:
+    """Raise unless the safetensors file ``f`` holds exactly the tensors of ``expect``,
+    float32 and of those shapes (read from its header, before any data)."""
+    names = f.names()
     extra = sorted(names - expect.keys())
     if extra:
         raise InputError("a tensor the actor network does not have", file=path, column=extra[0])
     for name, shape in expect.items():
         if name not in names:
             raise InputError("the actor network's tensor is missing", file=path, column=name)
-        part = f.get_slice(name)
-        got, dtype = tuple(part.get_shape()), part.get_dtype()
+        got, dtype = f.shape(name), f.dtype(name)
         if dtype != "F32" or got != shape:
             raise InputError(
                 f"expected float32 {list(shape)} (the sidecar's network), got {dtype} {list(got)}",

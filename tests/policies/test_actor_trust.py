@@ -211,6 +211,28 @@ def test_an_actor_shared_as_data_alone_loads_from_its_weights(tmp_path: Path) ->
         make_policy(str(weights_path(path)))
 
 
+def test_a_recurrent_actor_s_weights_header_is_parsed_once_by_marops(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The weights file is read and its header parsed once, by marops, where the
+    safetensors reader parsed it a second time; the actor acts as written."""
+    import safetensors
+
+    from marops_cli.policies.weights import load_weights
+
+    path, actor = _valid(tmp_path)
+    want = actor.state_dict()
+
+    def refused(*_a: object, **_k: object) -> None:
+        raise AssertionError("the header was parsed a second time")
+
+    monkeypatch.setattr(safetensors, "safe_open", refused)
+    sidecar = path.with_suffix(".json")
+    got = load_weights(path, json.loads(sidecar.read_text()), sidecar).state_dict()
+    assert got.keys() == want.keys()
+    assert all(torch.equal(got[k], want[k]) for k in want)
+
+
 def _load_error(path: Path) -> str:
     with pytest.raises(InputError) as err:
         TorchScriptPolicy(path)

@@ -413,6 +413,72 @@ def test_a_header_giving_a_key_twice_is_refused(tmp_path: Path) -> None:
     assert isinstance(make_policy(str(path), model=REALISTIC), LandingActor)
 
 
+def _weights_file(path: Path, header: dict, data: bytes) -> None:
+    text = json.dumps(header).encode()
+    text += b" " * (-len(text) % 8)
+    path.write_bytes(len(text).to_bytes(8, "little") + text + data)
+
+
+def test_the_weights_header_is_parsed_once_by_marops(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The weights file is read and its JSON header parsed once, by marops (which refuses
+    a key given twice), where the safetensors reader parsed it a second time; the values
+    are the file's."""
+    import safetensors
+
+    def refused(*_a: object, **_k: object) -> None:
+        raise AssertionError("the header was parsed a second time")
+
+    monkeypatch.setattr(safetensors, "safe_open", refused)
+    values = np.arange(12, dtype="<f4") / 10
+    path = tmp_path / "a.safetensors"
+    _weights_file(
+        path, {"weight": {"dtype": "F32", "shape": [12], "data_offsets": [0, 48]}}, values.tobytes()
+    )
+    (tmp_path / "a.json").write_text(json.dumps(_side()))
+    actor = make_policy(str(path), model=REALISTIC)
+    assert isinstance(actor, LandingActor)
+    assert actor.weight.tolist() == values.astype(np.float64).tolist()
+
+
+@pytest.mark.parametrize(
+    ("entry", "data"),
+    [
+        ({"dtype": "F32", "shape": [12], "data_offsets": [0, 48]}, bytes(40)),
+        ({"dtype": "F32", "shape": [12], "data_offsets": [0, 40]}, bytes(40)),
+        ({"dtype": "F32", "shape": [12], "data_offsets": [8, 56]}, bytes(56)),
+        ({"dtype": "F32", "shape": [12], "data_offsets": [0, 48]}, bytes(56)),
+        ({"dtype": "F32", "shape": [-12], "data_offsets": [0, 48]}, bytes(48)),
+        ({"dtype": "F32", "shape": [12]}, bytes(48)),
+        ({"shape": [12], "data_offsets": [0, 48]}, bytes(48)),
+    ],
+    ids=[
+        "short-data",
+        "offsets-off-shape",
+        "gap",
+        "data-beyond",
+        "negative",
+        "no-offsets",
+        "no-dtype",
+    ],
+)
+def test_a_weights_file_whose_tensors_do_not_fill_its_data_is_refused(
+    tmp_path: Path, entry: dict, data: bytes
+) -> None:
+    """The layout the safetensors reader checked, still checked: each tensor its shape's
+    bytes, one after the other, filling the data exactly."""
+    path = tmp_path / "a.safetensors"
+    _weights_file(path, {"weight": entry}, data)
+    (tmp_path / "a.json").write_text(json.dumps(_side()))
+    with pytest.raises(InputError, match="not a safetensors weights file") as err:
+        make_policy(str(path), model=REALISTIC)
+    assert err.value.file == str(path)
+    path.write_bytes(b"\x10" + bytes(6))  # shorter than a header's length
+    with pytest.raises(InputError, match="not a safetensors weights file"):
+        make_policy(str(path), model=REALISTIC)
+
+
 @pytest.mark.parametrize("value", [3.4e38, -3.4e38, 1.5e6])
 def test_finite_weights_beyond_the_documented_range_are_refused_on_load(
     tmp_path: Path, value: float
