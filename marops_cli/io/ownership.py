@@ -38,6 +38,10 @@ _RUN_INPUTS: ContextVar[tuple[Path, ...]] = ContextVar("run_inputs", default=())
 _STDIN_INPUT: ContextVar[tuple[int, int] | None] = ContextVar("stdin_input", default=None)
 """Standard input's device and inode when the run reads a regular file from it."""
 _WITH_METADATA = (".parquet", ".json", ".geojson", ".ckpt")
+_JOURNALS: ContextVar[dict[Path, dict[str, Any] | None] | None] = ContextVar(
+    "journals", default=None
+)
+"""Within :func:`_journals_read_once`: each folder's journal as read, by folder."""
 
 
 @contextmanager
@@ -147,15 +151,16 @@ def remove_ours(paths: Iterable[Path]) -> None:
     """Remove those of ``paths`` that are files marops wrote (:func:`written_by_marops`),
     an earlier run's outputs this run does not write again; a link, any other file and
     the run's inputs (:func:`check_not_input`) stay."""
-    for path in paths:
-        if path.is_symlink() or not path.is_file():
-            continue
-        try:
-            check_not_input(path)
-        except InputError:
-            continue
-        if written_by_marops(path):
-            path.unlink()
+    with _journals_read_once():
+        for path in paths:
+            if path.is_symlink() or not path.is_file():
+                continue
+            try:
+                check_not_input(path)
+            except InputError:
+                continue
+            if written_by_marops(path):
+                path.unlink()
 
 
 def _json_is_ours(path: Path) -> bool:
@@ -197,33 +202,38 @@ def check_replaceable(paths: Iterable[Path], journal: bool = False) -> None:
     """Refuse an output that is an input of the run, or an existing file marops did not
     write (unless ``--force``); ``journal``: the outputs go into their folder's journal
     whatever their suffix (a Parquet file without marops metadata: ``synth``'s)."""
-    for final in paths:
-        final = Path(final)
-        try:
-            check_not_input(final)
-            if final.is_dir():  # renaming a file onto it would fail after the work
-                raise InputError("is a folder, expected a file name", file=final)
-            if _special(final):  # a pipe or a device is no output, --force or not
-                raise InputError(
-                    "is a pipe, a socket or a device, not a file marops may replace",
-                    file=final,
-                )
-            # A symbolic link is the user's, whatever it leads to: marops writes none (and
-            # reading one to a pipe to find out whose its target is could block).
-            foreign = (
-                not _REPLACE_FOREIGN.get()
-                and os.path.lexists(final)
-                and (final.is_symlink() or not final.is_file() or not written_by_marops(final))
-            )
-        except OSError as exc:  # a name too long, a loop of symbolic links
-            raise InputError(f"cannot write ({_reason(exc)})", file=final) from None
-        if foreign:
+    with _journals_read_once():
+        for final in paths:
+            _check_replaceable(Path(final), journal)
+
+
+def _check_replaceable(final: Path, journal: bool) -> None:
+    """:func:`check_replaceable` of one output."""
+    try:
+        check_not_input(final)
+        if final.is_dir():  # renaming a file onto it would fail after the work
+            raise InputError("is a folder, expected a file name", file=final)
+        if _special(final):  # a pipe or a device is no output, --force or not
             raise InputError(
-                f"exists and was not written by marops; pass {switch('force')} to replace it",
+                "is a pipe, a socket or a device, not a file marops may replace",
                 file=final,
             )
-        if (journal or needs_journal(final)) and not _REPLACE_FOREIGN.get():
-            _check_journal(final.parent)
+        # A symbolic link is the user's, whatever it leads to: marops writes none (and
+        # reading one to a pipe to find out whose its target is could block).
+        foreign = (
+            not _REPLACE_FOREIGN.get()
+            and os.path.lexists(final)
+            and (final.is_symlink() or not final.is_file() or not written_by_marops(final))
+        )
+    except OSError as exc:  # a name too long, a loop of symbolic links
+        raise InputError(f"cannot write ({_reason(exc)})", file=final) from None
+    if foreign:
+        raise InputError(
+            f"exists and was not written by marops; pass {switch('force')} to replace it",
+            file=final,
+        )
+    if (journal or needs_journal(final)) and not _REPLACE_FOREIGN.get():
+        _check_journal(final.parent)
 
 
 def _special(path: Path) -> bool:
@@ -295,23 +305,24 @@ def check_outputs(paths: Iterable[Path], journal: bool = False) -> None:
     the names of the folders to make there)."""
     from ..workers.pool import signals_held  # deferred: not loaded for --help
 
-    for final in paths:
-        final = Path(final)
-        check_replaceable([final], journal)
-        to_make = missing_folders(final)
-        folder = (to_make[-1] if to_make else final.absolute()).parent
-        if not folder.is_dir():
-            raise InputError(f"cannot be created: {folder} is a file", file=final)
-        _names_fit(final, folder, [f.name for f in to_make])
-        try:
-            with signals_held():  # a Ctrl-C meanwhile leaves no probe behind
-                fd, probe = tempfile.mkstemp(
-                    prefix=f".{final.name}.{TMP_MARK}", suffix=".tmp", dir=folder
-                )
-                os.close(fd)
-                os.unlink(probe)
-        except OSError as exc:  # found before the work: bad usage, exit 2
-            raise InputError(f"cannot write ({_reason(exc)})", file=final) from None
+    with _journals_read_once():  # the probes below write no journal
+        for final in paths:
+            final = Path(final)
+            check_replaceable([final], journal)
+            to_make = missing_folders(final)
+            folder = (to_make[-1] if to_make else final.absolute()).parent
+            if not folder.is_dir():
+                raise InputError(f"cannot be created: {folder} is a file", file=final)
+            _names_fit(final, folder, [f.name for f in to_make])
+            try:
+                with signals_held():  # a Ctrl-C meanwhile leaves no probe behind
+                    fd, probe = tempfile.mkstemp(
+                        prefix=f".{final.name}.{TMP_MARK}", suffix=".tmp", dir=folder
+                    )
+                    os.close(fd)
+                    os.unlink(probe)
+            except OSError as exc:  # found before the work: bad usage, exit 2
+                raise InputError(f"cannot write ({_reason(exc)})", file=final) from None
 
 
 def _names_fit(final: Path, folder: Path, to_make: list[str]) -> None:
@@ -347,9 +358,33 @@ def needs_journal(final: Path) -> bool:
     return final.suffix.lower() not in _WITH_METADATA
 
 
+@contextmanager
+def _journals_read_once() -> Iterator[None]:
+    """Within: each folder's journal is read once, however many files of the folder are
+    judged (a batch of outputs, which writes no journal meanwhile); an inner batch uses
+    the outer one's."""
+    if _JOURNALS.get() is not None:
+        yield
+        return
+    token = _JOURNALS.set({})
+    try:
+        yield
+    finally:
+        _JOURNALS.reset(token)
+
+
 def _journal_doc(folder: Path) -> dict[str, Any] | None:
     """``folder``'s journal when the file by its name is one of marops' (a regular file
-    of its format), else None."""
+    of its format), else None; read once per folder within :func:`_journals_read_once`."""
+    read = _JOURNALS.get()
+    if read is None:
+        return _read_journal(folder)
+    if folder not in read:
+        read[folder] = _read_journal(folder)
+    return read[folder]
+
+
+def _read_journal(folder: Path) -> dict[str, Any] | None:
     journal = folder / JOURNAL
     try:
         doc = parse_json(read_small_text(journal, "file journal")) if journal.is_file() else None

@@ -405,3 +405,42 @@ def test_a_day_folder_that_is_a_link_is_never_written_through(
     assert "is a link" in one_line(res.stderr) and "2022-08-11" in res.stderr
     assert (other / "metrics.json").read_text() == '{"mine": 1}'
     assert sorted(p.name for p in out.iterdir()) == ["2022-08-11"]
+
+
+def test_a_batch_of_outputs_reads_its_folder_s_journal_once(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Judging many files of one folder (clearing an earlier run's, checking a run's
+    outputs) reads the folder's journal once, where it was read once a file (twice for a
+    file the journal lists: whose it is, and that the journal is marops's); each file is
+    judged as before."""
+    import marops_cli.io.ownership as ownership
+    from marops_cli.io.ownership import remove_ours
+
+    names = [f"figure-{i}.png" for i in range(6)]
+    with output_set() as files:
+        for name in names:
+            files.write_bytes(tmp_path / name, name.encode())
+    (tmp_path / names[0]).write_bytes(b"edited")  # the user's now
+    paths = [tmp_path / n for n in names]
+    reads = []
+    real = ownership.read_small_text
+
+    def counted(path: object, what: str, limit: int | None = None) -> str:
+        reads.append(Path(str(path)).name)
+        return real(path, what, limit)
+
+    monkeypatch.setattr(ownership, "read_small_text", counted)
+    with pytest.raises(InputError, match="not written by marops"):
+        check_replaceable(paths)
+    assert reads == [JOURNAL]
+    reads.clear()
+    check_replaceable(paths[1:])
+    check_outputs(paths[1:])
+    assert reads == [JOURNAL, JOURNAL]
+    reads.clear()
+    remove_ours(paths)
+    assert reads == [JOURNAL]
+    assert sorted(p.name for p in tmp_path.iterdir()) == [JOURNAL, names[0]]
+    reads.clear()
+    assert not written_by_marops(paths[0]) and reads == [JOURNAL]
