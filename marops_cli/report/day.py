@@ -11,7 +11,7 @@ from ..data.frame import Frame
 from ..errors import InputError
 from .basemap import tiles_on
 from .checks import reading
-from .daymap import TILE_CREDIT_SCRIPT, flown, map_figure
+from .daymap import TILE_CREDIT_SCRIPT, WINDOW_SLIDER_SCRIPT, flown, map_figure
 from .folder import RouteFiles
 from .page import Page
 from .timeline import timeline_figure
@@ -146,7 +146,9 @@ def day_page(files: RouteFiles, metrics_doc: dict[str, Any] | None, depots: Depo
     points = depot_points(files, depots)
     with reading(*files.paths):
         fig = map_figure(files, points, area_rings(depots), frame)
-        page.figure(fig, "map", TILE_CREDIT_SCRIPT if fig.layout.images else None)
+        scripts = [TILE_CREDIT_SCRIPT] if fig.layout.images else []
+        scripts += [WINDOW_SLIDER_SCRIPT] if fig.layout.sliders else []
+        page.figure(fig, "map", "".join(scripts) or None)
         page.heading("Drones over the day")
         page.note(
             "Each bar a flight from take-off to landing (→ the depot it lands at); grey: "

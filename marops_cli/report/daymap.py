@@ -41,6 +41,21 @@ var shown = false;
 """.replace("{credit}", TILE_CREDIT)
 """Run after the map is drawn (plotly's ``post_script``): the tiles' credit shows once a
 tile has loaded, never on a map without tiles (offline)."""
+WINDOW_SLIDER_SCRIPT = """
+var gd = document.getElementById('{plot_id}');
+gd.on('plotly_sliderchange', function (e) {
+  var w = e.step.value;
+  Plotly.restyle(gd, {visible: gd.data.map(function (t) {
+    var route = /^route-w(\\d+)-d/.exec(t.uid || '');
+    return !route || w === 'all' || route[1] === w;
+  })});
+});
+"""
+"""Run after the map is drawn (plotly's ``post_script``): the slider's step (its
+``value``: ``all``, or a window's number) shows every trace but the routes of other
+windows (a route's trace is named by its uid, :data:`ROUTE_UID`). Worked out here from
+the step, the page holds no list of every trace per window: it grew with windows times
+routes (a day of 96 windows and 3,000 routes held 288,000 flags)."""
 
 
 def drone_colour(drone: int) -> str:
@@ -136,7 +151,6 @@ def map_figure(
                 uid=LEGEND_UID.format(drone=d),
             )
         )
-    route_windows: list[int] = []
     for r in drawn:
         d, w = r["drone"], r["window"]
         pts = stops[(w, d)]
@@ -158,25 +172,22 @@ def map_figure(
                 uid=ROUTE_UID.format(window=w, drone=d),
             )
         )
-        route_windows.append(w)
-    fixed = len(fig.data) - len(route_windows)
-    _window_slider(fig, fixed, route_windows, windows, files)
+    _window_slider(fig, windows, files)
     map_axes(fig, frame, depots)
     return fig
 
 
-def _window_slider(
-    fig: Any, fixed: int, route_windows: list[int], windows: list[int], files: RouteFiles
-) -> None:
-    """A slider: every window's routes, or one window's."""
+def _window_slider(fig: Any, windows: list[int], files: RouteFiles) -> None:
+    """A slider: every window's routes, or one window's (:data:`WINDOW_SLIDER_SCRIPT`)."""
     if len(windows) < 2:
         return
     starts = {r["window"]: r["window_start"] for r in files.routes}
-    steps = [{"label": "all", "method": "restyle", "args": [{"visible": [True] * len(fig.data)}]}]
+    # Each step only names what it shows; WINDOW_SLIDER_SCRIPT shows it ("skip": the
+    # slider itself changes no trace).
+    steps = [{"label": "all", "value": "all", "method": "skip"}]
     for w in windows:
-        vis = [True] * fixed + [rw == w for rw in route_windows]
         label = f"{plain(w)} {starts[w].strftime('%H:%M')}"
-        steps.append({"label": label, "method": "restyle", "args": [{"visible": vis}]})
+        steps.append({"label": label, "value": str(w), "method": "skip"})
     fig.update_layout(
         sliders=[
             {

@@ -22,6 +22,13 @@ def _flown(routes: list[dict]) -> list[dict]:
     return [r for r in routes if r["n_parcels"] > 0 or r["start_depot"] != r["end_depot"]]
 
 
+def _shown(trace: dict, step: dict) -> bool:
+    """Whether the map's slider at ``step`` shows ``trace``, as the page's script
+    (WINDOW_SLIDER_SCRIPT) works it out: every trace but the routes of other windows."""
+    route = re.match(r"route-w(\d+)-d", trace.get("uid", ""))
+    return route is None or step["value"] in ("all", route[1])
+
+
 def test_day_report_draws_one_line_per_route_the_depots_and_the_metrics(day_run: Path) -> None:
     html = (day_run / "report.html").read_text(encoding="utf-8")
     routes = pq.read_table(day_run / "routes.parquet").to_pylist()
@@ -51,8 +58,7 @@ def test_day_report_draws_one_line_per_route_the_depots_and_the_metrics(day_run:
     steps = layout["sliders"][0]["steps"]
     assert [s["label"].split()[0] for s in steps] == ["all", "0", "1", "2", "3"]
     for s, w in zip(steps[1:], range(4), strict=True):
-        vis = s["args"][0]["visible"]
-        shown = [t["uid"] for t, v in zip(data, vis, strict=True) if v and t in lines]
+        shown = [t["uid"] for t in lines if _shown(t, s)]
         assert shown == [t["uid"] for t in lines if t["uid"].startswith(f"route-w{w}-")]
     bars, _ = figure(html, "timeline")
     assert sum(len(b["x"]) for b in bars if b["name"].endswith("flies")) == len(flown)
@@ -77,13 +83,31 @@ def test_every_window_of_the_slider_keeps_each_drone_in_the_legend(day_run: Path
     for step in steps:
         shown = [
             t["name"]
-            for t, v in zip(data, step["args"][0]["visible"], strict=True)
-            if v and t.get("showlegend", True) and t.get("name", "").startswith("drone ")
+            for t in data
+            if _shown(t, step) and t.get("showlegend", True) and t["name"].startswith("drone ")
         ]
         assert [int(n.split()[1]) for n in shown] == drones, step["label"]
     # Each entry stands for its drone's routes: clicking it hides them all.
     groups = {t["legendgroup"] for t in data if t.get("uid", "").startswith("route-")}
     assert groups == {f"drone {d}" for d in drones}
+
+
+def test_the_map_slider_grows_with_its_windows_not_windows_times_traces(
+    day_run: Path,
+) -> None:
+    """Each step of the map's slider names its window and no more; the page's script
+    shows that window's routes. Each step held a flag for every trace of the map (a day
+    of 96 windows and 3,000 routes: 288,000 flags)."""
+    from marops_cli.report.daymap import WINDOW_SLIDER_SCRIPT
+
+    html = (day_run / "report.html").read_text(encoding="utf-8")
+    _, layout = figure(html, "map")
+    steps = layout["sliders"][0]["steps"]
+    assert [s["value"] for s in steps] == ["all", "0", "1", "2", "3"]
+    assert all(s["method"] == "skip" and not s.get("args") for s in steps)
+    assert "plotly_sliderchange" in html
+    script = WINDOW_SLIDER_SCRIPT.strip().replace("{plot_id}", "map")
+    assert script in html.replace("\\u002f", "/")
 
 
 def test_the_tile_credit_waits_for_a_tile(day_run: Path) -> None:
