@@ -78,11 +78,10 @@ def written_with(path: Path, meta: dict[str, Any]) -> bool:
             from ..data.arrow import read_parquet_schema
 
             held = parse_json((read_parquet_schema(path).metadata or {})[b"marops"])
-        else:  # read as the report and the API read a route file back
-            from ..io.routejson import read_route_json
+        else:  # its metadata only, not a day's stops
+            from ..io.routejson import route_json_meta
 
-            doc = read_route_json(path)
-            held = doc["marops" if path.suffix == ".geojson" else "meta"]
+            held = route_json_meta(path, "marops" if path.suffix == ".geojson" else "meta")
     except (OSError, ValueError, KeyError, TypeError, InputError):
         return False
     # As the file holds it: through JSON (a tuple reads back as a list).

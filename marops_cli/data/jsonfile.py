@@ -65,6 +65,17 @@ def parse_json(text: str | bytes) -> Any:
         raise _long_number(exc) from None
 
 
+def parse_json_at(text: str, pos: int) -> Any:
+    """The JSON value that starts at ``pos`` of ``text``, whatever follows it, checked as
+    :func:`parse_json` checks a document (a key given twice, too deep a nesting)."""
+    try:
+        return json.JSONDecoder(object_pairs_hook=_unique_keys).raw_decode(text, pos)[0]
+    except RecursionError:
+        raise ValueError("nested too deeply") from None
+    except ValueError as exc:
+        raise _long_number(exc) from None
+
+
 def _unique_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
     """A JSON object as a dict; a key given twice in it is a ``ValueError``, as TOML's
     parser has it (``json`` would keep the last value unsaid)."""

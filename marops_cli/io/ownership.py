@@ -25,7 +25,7 @@ from pathlib import Path
 from typing import Any
 
 from ..data.digest import sha256_file
-from ..data.jsonfile import parse_json, read_small_text, read_text_at_most
+from ..data.jsonfile import MAX_SMALL_FILE, parse_json, read_small_text, read_text_at_most
 from ..errors import InputError, RunError, option, switch
 
 JOURNAL = ".marops-files.json"
@@ -164,12 +164,17 @@ def remove_ours(paths: Iterable[Path]) -> None:
 
 
 def _json_is_ours(path: Path) -> bool:
-    # No JSON marops writes is larger than a day's route file at most (a busy day's
-    # stops.json is above the small-file cap): a larger one is not read (an InputError,
-    # so not marops's) rather than loaded whole into memory.
-    from .routejson import MAX_ROUTE_JSON
+    if path.stat().st_size > MAX_SMALL_FILE:
+        # A busy day's stops.json: judged by its first member alone, never loaded whole
+        # into memory.
+        from .routejson import route_json_meta
 
-    doc = parse_json(read_text_at_most(path, "JSON file", MAX_ROUTE_JSON))
+        try:
+            head = route_json_meta(path, "marops" if path.suffix == ".geojson" else "meta")
+        except KeyError:
+            return False
+        return isinstance(head, dict) and head.get("package") == "marops"
+    doc = parse_json(read_text_at_most(path, "JSON file", MAX_SMALL_FILE))
     if not isinstance(doc, dict):
         return False
     head = doc.get("meta") or doc.get("marops") or {}

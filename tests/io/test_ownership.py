@@ -55,22 +55,33 @@ def test_a_hand_written_depots_file_is_not_marops_own(tmp_path: Path) -> None:
     assert written_by_marops(path)
 
 
-def test_a_json_file_past_the_route_file_cap_is_never_read_to_judge_it(
+def test_a_json_file_past_the_small_file_cap_is_judged_by_its_head_alone(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    """An unlisted JSON file is judged by its content; one larger than any marops writes
-    (a day's route file at most, above the small inputs' cap) is not read whole into
-    memory to judge it, and so is not marops's (it is kept)."""
-    import marops_cli.data.jsonfile as jsonfile
+    """An unlisted JSON file is judged by its content. One larger than the small inputs'
+    cap (a busy day's stops.json is) is judged by its first member, read from the file's
+    first bytes, never loaded whole into memory: marops' own, whose "meta" (or a
+    GeoJSON's "marops" after its "type") comes first, is marops's; a file whose "meta"
+    lies past those bytes is not (it is kept)."""
+    import marops_cli.io.ownership as ownership
     import marops_cli.io.routejson as routejson
 
-    path = tmp_path / "metrics.json"
-    path.write_text(json.dumps({"meta": {"package": "marops"}, "pad": "x" * 4096}))
-    assert written_by_marops(path)
-    monkeypatch.setattr(jsonfile, "MAX_SMALL_FILE", 1024)
-    assert written_by_marops(path)  # a busy day's stops.json is larger than 64 MiB
-    monkeypatch.setattr(routejson, "MAX_ROUTE_JSON", 1024)
-    assert not written_by_marops(path)
+    path = tmp_path / "stops.json"
+    path.write_text(json.dumps({"meta": {"package": "marops"}, "stops": ["x" * 4096]}))
+    geo = tmp_path / "routes.geojson"
+    geo.write_text(
+        json.dumps({"type": "FeatureCollection", "marops": {"package": "marops"}, "f": "x" * 4096})
+    )
+    late = tmp_path / "metrics.json"
+    late.write_text(json.dumps({"pad": "x" * 4096, "meta": {"package": "marops"}}))
+    assert written_by_marops(path) and written_by_marops(geo) and written_by_marops(late)
+    for module in (ownership, routejson):
+        monkeypatch.setattr(module, "MAX_SMALL_FILE", 1024)
+    monkeypatch.setattr(routejson, "HEAD_BYTES", 256)
+    assert written_by_marops(path) and written_by_marops(geo)
+    assert not written_by_marops(late)
+    path.write_text(json.dumps({"meta": {"package": "marops", "pad": "x" * 512}, "s": "x" * 4096}))
+    assert not written_by_marops(path)  # its meta is cut by the bytes read
 
 
 def test_a_depots_file_edited_by_hand_is_not_replaced_unasked(tmp_path: Path) -> None:
