@@ -14,6 +14,7 @@ import datetime as dt
 import math
 import re
 from collections.abc import Iterable
+from typing import NamedTuple
 
 import numpy as np
 import pyarrow as pa
@@ -210,6 +211,28 @@ def _string_bytes(arr: pa.Array) -> tuple[np.ndarray, np.ndarray, np.ndarray, np
 def parse_times(
     column: pa.ChunkedArray | pa.Array, year: int, tz: str = "Asia/Shanghai"
 ) -> tuple[np.ndarray, np.ndarray]:
+    """A column of times -> (seconds, status): :func:`read_times` without the offsets."""
+    times = read_times(column, year, tz)
+    return times.secs, times.status
+
+
+class Times(NamedTuple):
+    """A column of times as :func:`read_times` reads it."""
+
+    secs: np.ndarray
+    """Naive wall-clock seconds in the data's zone since 1970-01-01 (0 where not OK)."""
+    status: np.ndarray
+    """:data:`TIME_OK`, :data:`TIME_EMPTY` or :data:`TIME_BAD` per row."""
+    offset: np.ndarray
+    """Seconds the wall clock is ahead of UTC, where the cell carried its zone or offset
+    (0 elsewhere): ``secs - offset`` is the absolute time."""
+    zoned: np.ndarray
+    """Whether the cell carried its zone or offset, so its absolute time is known."""
+
+
+def read_times(
+    column: pa.ChunkedArray | pa.Array, year: int, tz: str = "Asia/Shanghai", offsets: bool = True
+) -> Times:
     """A column of ``MM-DD HH:MM:SS`` / ``YYYY-MM-DD HH:MM:SS`` strings -> (seconds, status).
 
     Seconds are naive local time since 1970-01-01 (int64, 0 where not OK);
@@ -219,26 +242,34 @@ def parse_times(
     (pyarrow's strptime would roll the first over to March). A timestamp column
     (from Parquet) is taken as it is when it has no zone, and as the wall-clock time
     in ``tz`` (the data's zone) when it has one, so a zone-aware export reads like the
-    CSV of the same rows; one outside the years 1-9999 is bad.
+    CSV of the same rows; one outside the years 1-9999 is bad. A text time that ends
+    in its UTC offset (``2022-08-11 08:30:00+08:00``, ``+0800``, ``+08`` or ``Z``) is
+    read the same way as a zone-aware timestamp: the instant it names, as wall-clock
+    time in ``tz``. Where a cell carried its zone, ``offset`` and ``zoned`` say how far
+    its wall clock is ahead of UTC (``offsets=False``: an offset is a bad time).
     """
     arr = column.combine_chunks() if isinstance(column, pa.ChunkedArray) else column
+    n = len(arr)
+    offset, zoned = np.zeros(n, np.int64), np.zeros(n, bool)
     if pa.types.is_timestamp(arr.type):
         empty = arr.is_null().to_numpy(zero_copy_only=False)
         try:
             if arr.type.tz is not None:
-                arr = pc.local_timestamp(arr.cast(pa.timestamp(arr.type.unit, tz=tz)))
-            # Whole seconds, as the text times have: a fraction (pandas writes milli- and
-            # microseconds) is dropped, not refused.
-            secs = pc.cast(arr, pa.timestamp("s"), safe=False).cast(pa.int64())
+                # Whole seconds, as the text times have: a fraction (pandas writes milli-
+                # and microseconds) is dropped, not refused.
+                utc = pc.cast(arr, pa.timestamp("s", tz=arr.type.tz), safe=False)
+                secs, offset = _in_zone(utc, tz)
+                zoned = ~empty
+            else:
+                secs = pc.cast(arr, pa.timestamp("s"), safe=False).cast(pa.int64())
         except pa.ArrowInvalid:  # a time the zone database cannot place: no time
-            return np.zeros(len(arr), np.int64), np.where(empty, TIME_EMPTY, TIME_BAD).astype(
-                np.int8
-            )
+            status = np.where(empty, TIME_EMPTY, TIME_BAD).astype(np.int8)
+            return Times(np.zeros(n, np.int64), status, offset, np.zeros(n, bool))
         values = secs.fill_null(0).to_numpy()
         # A time outside the years 1-9999 has no date (the text form cannot write one).
         bad = ~empty & ((values < _FIRST_S) | (values > _LAST_S))
         status = np.where(empty, TIME_EMPTY, np.where(bad, TIME_BAD, TIME_OK)).astype(np.int8)
-        return np.where(bad, 0, values), status
+        return Times(np.where(bad, 0, values), status, np.where(bad, 0, offset), zoned & ~bad)
     if not is_text(arr.type):
         arr = arr.cast(pa.string())
     data, start, length, isnull = _string_bytes(arr)
@@ -285,9 +316,64 @@ def parse_times(
         marker = _missing_marker(arr.take(pa.array(bad)))
         status[bad[marker]] = TIME_EMPTY
         bad = bad[~marker]
+    if bad.size and offsets:
+        bad = _with_offset(arr, bad, year, tz, Times(secs, status, offset, zoned))
     if bad.size:
         _lenient(arr, bad, year, secs, status)
-    return secs, status
+    return Times(secs, status, offset, zoned)
+
+
+def _in_zone(instants: pa.Array, tz: str) -> tuple[pa.Array, np.ndarray]:
+    """(wall-clock seconds in ``tz``, as int64 with the nulls kept; seconds that wall
+    clock is ahead of UTC, 0 where null) of zone-aware timestamps in whole seconds.
+    Raises ``pa.ArrowInvalid`` for a time the zone database cannot place."""
+    local = pc.local_timestamp(instants.cast(pa.timestamp("s", tz=tz))).cast(pa.int64())
+    utc = instants.cast(pa.timestamp("s")).cast(pa.int64())
+    ahead = pc.subtract(local, utc).fill_null(0).to_numpy(zero_copy_only=False)
+    return local, ahead
+
+
+# A time with its UTC offset: ``...08:30:00+08:00``, ``+0800``, ``+08`` or ``Z`` (RFC 3339
+# and ISO 8601 write these); the time before it is read as any other.
+_OFFSET = (
+    r"^\s*(?P<time>[^+Zz]*?\d:\d{2}(?::\d{2}(?:\.\d+)?)?)\s*"
+    r"(?:(?P<z>[Zz])|(?P<sign>[+-])(?P<hh>\d{2})(?::?(?P<mm>\d{2}))?)\s*$"
+)
+_MAX_OFFSET_S = 18 * 3600  # the most any zone is or was ahead of or behind UTC, and more
+
+
+def _with_offset(arr: pa.Array, rows: np.ndarray, year: int, tz: str, times: Times) -> np.ndarray:
+    """Read, in place in ``times``, the cells of ``rows`` (rejected so far) that end in
+    their UTC offset, as the instant they name in ``tz``'s wall clock (as a zone-aware
+    Parquet time is read: :func:`_in_zone`); returns the rows still rejected."""
+    cells = arr.take(pa.array(rows))
+    if not is_text(cells.type):
+        cells = cells.cast(pa.string())
+    found = pc.extract_regex(cells, _OFFSET)
+    has = pc.is_valid(found).to_numpy(zero_copy_only=False)
+    if not has.any():
+        return rows
+    found = found.filter(pa.array(has))
+    head = read_times(pc.struct_field(found, [0]), year, tz, offsets=False)
+    sign = np.where(pc.struct_field(found, [2]).to_numpy(zero_copy_only=False) == "-", -1, 1)
+    hh, mm = (
+        pc.cast(pc.if_else(pc.equal(f, ""), "0", f).fill_null("0"), pa.int64()).to_numpy()
+        for f in (pc.struct_field(found, [3]), pc.struct_field(found, [4]))
+    )
+    ahead = sign * (hh * 3600 + mm * 60)
+    ok = (head.status == TIME_OK) & (mm < 60) & (np.abs(ahead) <= _MAX_OFFSET_S)
+    at = rows[has][ok]
+    instants = pa.array(head.secs[ok] - ahead[ok], pa.timestamp("s", tz="UTC"))
+    try:
+        local, shift = _in_zone(instants, tz)
+    except pa.ArrowInvalid:  # a time the zone database cannot place: no time
+        return rows
+    values = local.to_numpy(zero_copy_only=False)
+    inside = (values >= _FIRST_S) & (values <= _LAST_S)
+    at, values, shift = at[inside], values[inside], shift[inside]
+    times.secs[at], times.offset[at], times.zoned[at] = values, shift, True
+    times.status[at] = TIME_OK
+    return rows[times.status[rows] == TIME_BAD]
 
 
 # What exports write for a missing value (SQL and Hive dumps, pandas, spreadsheets),
