@@ -115,7 +115,8 @@ def _windows(offset_s: np.ndarray, window_s: float, n_windows: int) -> np.ndarra
 
 def _visible_windows(accept_s: np.ndarray, due_w: np.ndarray, cfg: DataSettings) -> np.ndarray:
     """The window each request becomes visible in: its accept time's, never after its due
-    window (accept <= delivery after reading, so the min only guards the clamping)."""
+    window (accept <= delivery after reading but in the hour a clock goes back, where
+    zone-aware times are checked in absolute time, and the clamping)."""
     return np.minimum(_windows(accept_s, cfg.window_s, cfg.n_windows), due_w)
 
 

@@ -71,7 +71,7 @@ from .dates import (
     TIME_OK,
     ds_dates,
     ds_other_day,
-    parse_times,
+    read_times,
     years_of,
 )
 from .digest import sha256_file
@@ -672,8 +672,11 @@ def _check_errors(
     out: dict[str, np.ndarray] = {}
     bad: list[tuple[int, str, str]] = []  # (index, column, message)
     for name in ("accept_time", "delivery_time"):
-        secs, status = parse_times(table[name], cfg.year, cfg.tz)
+        times = read_times(table[name], cfg.year, cfg.tz)
+        secs, status = times.secs, times.status
         out[name], out[name + "_status"] = secs, status
+        out[name + "_utc"] = np.where(times.zoned, secs - times.offset, secs)
+        out[name + "_zoned"] = times.zoned
         if (i := _first(status == TIME_BAD)) is not None:
             value = _shown(table[name], i)
             msg = f"expected a time MM-DD HH:MM:SS or YYYY-MM-DD HH:MM:SS, got {value}"
@@ -827,7 +830,11 @@ def _drop_reasons(
     is_dup[live] = True
     is_dup[first["i_min"].to_numpy()] = False
     mark(is_dup, "duplicate")
-    mark(delivery < accept, "delivery_before_accept")
+    # In absolute time where both carry their zone: 01:10 GMT is 20 minutes after 01:50
+    # BST, the hour the clocks go back; else as the wall clock reads.
+    zoned = parsed["accept_time_zoned"] & parsed["delivery_time_zoned"]
+    a_utc, d_utc = parsed["accept_time_utc"], parsed["delivery_time_utc"]
+    mark(np.where(zoned, d_utc < a_utc, delivery < accept), "delivery_before_accept")
     return code, lng, lat
 
 

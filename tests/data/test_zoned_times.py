@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pyarrow as pa
+import pyarrow.parquet as pq
 import pytest
 
 from marops_cli.config import DataConfig
@@ -70,3 +71,51 @@ def test_a_bad_offset_in_a_csv_is_one_error_naming_the_cell(tmp_path: Path) -> N
     rows = [*CLEAN[:2], row("1004", dlv="2022-08-20 10:15:00+25:00")]
     with pytest.raises(InputError, match=r"zoned.csv, row 4, column 'delivery_time'"):
         read_lade(write_csv(tmp_path / "zoned.csv", rows), DataConfig())
+
+
+def _london_parquet(path: Path, accept_utc: list[str], delivery_utc: list[str]) -> Path:
+    """Rows in London with zone-aware times (the instants given, in UTC)."""
+    n = len(accept_utc)
+    ts = pa.timestamp("s", tz="Europe/London")
+
+    def instants(texts: list[str]) -> pa.Array:
+        return pa.array(np.array(texts, dtype="datetime64[s]"), pa.timestamp("s")).cast(ts)
+
+    pq.write_table(
+        pa.table(
+            {
+                "order_id": [str(i) for i in range(n)],
+                "lng": [-0.12] * n,
+                "lat": [51.5] * n,
+                "accept_time": instants(accept_utc),
+                "delivery_time": instants(delivery_utc),
+            }
+        ),
+        path,
+    )
+    return path
+
+
+def test_delivered_after_accepted_over_the_autumn_clock_change_is_kept(tmp_path: Path) -> None:
+    """Accepted 01:50 BST (00:50 UTC) and delivered 01:10 GMT (01:10 UTC) on 30 October
+    2022: 20 minutes later, though the wall clock reads 40 minutes earlier. Kept; an
+    order delivered 01:10 BST, before it was accepted, is still dropped."""
+    path = _london_parquet(
+        tmp_path / "london.parquet",
+        ["2022-10-30T00:50:00", "2022-10-30T00:50:00"],
+        ["2022-10-30T01:10:00", "2022-10-30T00:10:00"],
+    )
+    got = read_lade(path, DataConfig(tz="Europe/London"))
+    assert list(got.order_id) == ["0"]
+    assert got.report.to_dict()["dropped"]["delivery_before_accept"] == 1
+    # Wall-clock times, as every other time is read.
+    assert got.accept_s[0] == sec("2022-10-30T01:50:00")
+    assert got.delivery_s[0] == sec("2022-10-30T01:10:00")
+    # The same rows in text with their offsets read the same.
+    rows = [
+        row("0", "-0.12", "51.5", "2022-10-30 01:50:00+01:00", "2022-10-30 01:10:00+00:00"),
+        row("1", "-0.12", "51.5", "2022-10-30 01:50:00+01:00", "2022-10-30 01:10:00+01:00"),
+    ]
+    text = read_lade(write_csv(tmp_path / "london.csv", rows), DataConfig(tz="Europe/London"))
+    assert list(text.order_id) == ["0"]
+    np.testing.assert_array_equal(text.delivery_s, got.delivery_s)
