@@ -21,7 +21,7 @@ from ..config import OpsConfig, PlannerConfig, count
 from ..data.table import LadeTable
 from ..errors import InputError, option, switch
 from .inputs import in_memory
-from .messages import drop_report
+from .messages import drop_report, long_flights
 from .progress import SILENT, Progress
 
 if TYPE_CHECKING:
@@ -226,6 +226,9 @@ def evaluate(
         cache=not in_memory(data),  # a table in memory: no depots cache written
     )
     drop_report(progress, prep.source, prep.source.source.name)
+    from ..sim.fleet import DEFAULT_TYPE, DroneType
+
+    long_flights(progress, [DroneType(DEFAULT_TYPE, cfg.energy)], cfg)  # its drones are cfg's
     if prep.hubs and config.hubs is None:
         from ..segment.hubs import outside_warning
 

@@ -177,3 +177,35 @@ def _short(metrics: dict[str, Any]) -> float:
 
 def _drones(drones: int) -> str:
     return f"{drones} drone" if drones == 1 else f"{drones} drones"
+
+
+def long_flights(progress: Progress, types: Sequence[Any], cfg: Any) -> None:
+    """Warn, under ``busy = false`` (every flight ends in its window: the paper's model),
+    about the drone ``types`` (:class:`~marops_cli.sim.fleet.DroneType`) whose battery
+    lasts longer than a window: a route of one of them may outlast its window while its
+    drone is planned again in the next (docs/method.md, "Busy drones")."""
+    if cfg.ops.busy:
+        return
+    window_s = cfg.data.window_s
+    said: set[str] = set()
+    for t in types:
+        flight_s = longest_flight_s(t.model)
+        if flight_s > window_s and t.name not in said:
+            said.add(t.name)
+            progress.warning(
+                f"the fleet's drone type {t.name!r} flies up to {_duration(flight_s)} on a "
+                f"battery, longer than the {_duration(window_s, '-')} window: under busy = false "
+                "its drone is planned again in the next window while its flight may go on "
+                "(busy = true keeps it until it lands)"
+            )
+
+
+def longest_flight_s(model: Any) -> float:
+    """Seconds the usable battery of ``model`` (an EnergyModel) keeps its drone in the air
+    at the least power it flies at (empty): the longest flight a route can be."""
+    return float(model.usable_j / float(np.min(model.table_w)))
+
+
+def _duration(seconds: float, sep: str = " ") -> str:
+    """``2.2 h`` or ``30 min`` (``sep``: what goes between, ``-`` before a noun)."""
+    return f"{seconds / 3600:.1f}{sep}h" if seconds >= 5400 else f"{seconds / 60:.0f}{sep}min"

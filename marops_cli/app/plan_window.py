@@ -20,7 +20,7 @@ from .inputs import (
     in_memory,
     read_data,
 )
-from .messages import day_scope, drop_report, unservable_requests
+from .messages import day_scope, drop_report, long_flights, unservable_requests
 from .progress import SILENT, Progress
 
 if TYPE_CHECKING:
@@ -153,6 +153,7 @@ def plan_window(
     drop_report(progress, scn.table, data_name(data))
     day_scope(progress, scope, cfg)
     unservable_requests(progress, day, reqs, scn.depots.xy, list(dict.fromkeys(drones.models())))
+    long_flights(progress, drones.types, cfg)
     stops, routes = route_tables(scn, reqs, [plan], drones, method)
     meta = _meta(scn, cfg, pol, method, day, window, plan, given, drones)
     written: list[Path] = []

@@ -15,7 +15,7 @@ from ..errors import InputError, option
 from ..io import folder_lock, output_set, run_meta
 from ..io.ownership import JOURNAL
 from .identity import identity, matching_days, route_meta, written_with
-from .messages import day_scope, undelivered
+from .messages import day_scope, long_flights, undelivered
 from .progress import Progress
 
 if TYPE_CHECKING:
@@ -258,6 +258,8 @@ def replay_areas(
             else:
                 jobs.append(DayJob(len(jobs), i, day))
     _say_kept(kept, areas, progress)
+    if areas:
+        long_flights(progress, [t for a in areas for t in a.fleet.types], areas[0].scn.cfg)
     with ExitStack() as locks:
         for a in areas:  # one run at a time in a folder; stale temporaries go
             if a.out is not None:
