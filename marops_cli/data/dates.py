@@ -33,6 +33,8 @@ _DAY_FORMS = (
 )
 _EXPECTED_DAY = "expected a date like 820, 0820 or 2022-08-20"
 
+_DAY_S = 86_400
+
 # Parse status of a time cell.
 TIME_OK, TIME_EMPTY, TIME_BAD = 0, 1, 2
 
@@ -374,6 +376,59 @@ def _with_offset(arr: pa.Array, rows: np.ndarray, year: int, tz: str, times: Tim
     times.secs[at], times.offset[at], times.zoned[at] = values, shift, True
     times.status[at] = TIME_OK
     return rows[times.status[rows] == TIME_BAD]
+
+
+def instants(wall_s: np.ndarray, tz: str) -> np.ndarray:
+    """Seconds since 1970-01-01 UTC of naive wall-clock seconds in zone ``tz``. A wall
+    time a clock change repeats is the earlier (the first 01:30 of the night the clocks
+    go back); one it skips is the change's instant (01:30 of the night they go forward
+    is 02:00, when the clock reaches it). A day whose clock does not change is shifted
+    by its offset at once; only the rows of a day it changes are looked up each."""
+    wall = np.asarray(wall_s, dtype=np.int64)
+    if wall.size == 0:
+        return wall.copy()
+    day = wall // _DAY_S
+    first, last = int(day.min()), int(day.max())
+    if last - first < 4096:  # a file's days: a range of them, each row's found at once
+        days, which = np.arange(first, last + 1), day - first
+    else:
+        days, which = np.unique(day, return_inverse=True)
+    ahead, steady = _day_offsets(days, tz)
+    out = wall - ahead[which]
+    odd = ~steady[which]
+    if odd.any():
+        out[odd] = _assume(wall[odd], tz)
+    return out
+
+
+def _day_offsets(days: np.ndarray, tz: str) -> tuple[np.ndarray, np.ndarray]:
+    """Per day (days since 1970-01-01): the seconds ``tz``'s clock is ahead of UTC at its
+    start, and whether it is so all day (no clock change from its first second to its
+    last, neither of them skipped or repeated)."""
+    from zoneinfo import ZoneInfo
+
+    zone = ZoneInfo(tz)
+    ahead = np.zeros(days.size, np.int64)
+    steady = np.zeros(days.size, bool)
+    for k, d in enumerate(days.tolist()):
+        start = _EPOCH + dt.timedelta(days=d)
+        offsets = {
+            when.replace(tzinfo=zone, fold=fold).utcoffset()
+            for when in (start, start + dt.timedelta(seconds=_DAY_S - 1))
+            for fold in (0, 1)
+        }
+        first = start.replace(tzinfo=zone).utcoffset()
+        ahead[k] = 0 if first is None else first // dt.timedelta(seconds=1)
+        steady[k] = len(offsets) == 1
+    return ahead, steady
+
+
+def _assume(wall: np.ndarray, tz: str) -> np.ndarray:
+    """:func:`instants` of every one of ``wall``, each looked up in the zone database."""
+    at = pc.assume_timezone(
+        pa.array(wall.astype("datetime64[s]")), tz, ambiguous="earliest", nonexistent="latest"
+    )
+    return np.asarray(at.cast(pa.int64()).to_numpy(zero_copy_only=False), dtype=np.int64)
 
 
 # What exports write for a missing value (SQL and Hive dumps, pandas, spreadsheets),

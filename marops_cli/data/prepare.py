@@ -18,7 +18,7 @@ import numpy as np
 from scipy.special import ndtri
 
 from ..errors import InputError, naming
-from .dates import format_days
+from .dates import format_days, instants
 from .frame import Frame, densest_square
 from .settings import DataSettings
 from .table import DayRequests, LadeTable
@@ -120,23 +120,42 @@ def _visible_windows(accept_s: np.ndarray, due_w: np.ndarray, cfg: DataSettings)
     return np.minimum(_windows(accept_s, cfg.window_s, cfg.n_windows), due_w)
 
 
+def _since_start(table: LadeTable, cfg: DataSettings) -> tuple[np.ndarray, np.ndarray]:
+    """``(start, due)`` per row: the instant (s, UTC) service starts on its delivery day,
+    and its delivery time from that start in elapsed seconds. Windows are elapsed time
+    from the start (docs/decisions.md, "Study area, windows"): on a day the clocks
+    change, every window is still ``window_s`` long and none starts where another did."""
+    day = table.delivery_day.astype(np.int64)
+    days, which = np.unique(day, return_inverse=True)  # a few days for a file's rows
+    start = instants(days * _DAY_S + cfg.service_start_s, cfg.tz)[which]
+    at = table.delivery_at if table.delivery_at is not None else instants(table.delivery_s, cfg.tz)
+    return start, at - start
+
+
 def _in_service(
     table: LadeTable, frame: Frame, on: np.ndarray, cfg: DataSettings
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """``(start, due, x, y, inside, keep)`` per row: the service start (s) of its delivery
-    day, its delivery time from that start, its position in ``frame``, whether it is on
-    ``on`` and in the frame, and whether it is also due within service hours."""
-    start = table.delivery_day.astype(np.int64) * _DAY_S + cfg.service_start_s
-    due = (table.delivery_s - start).astype(np.float64)
+    """``(start, due, x, y, inside, keep)`` per row: the service start (s, UTC) of its
+    delivery day, its delivery time from that start, its position in ``frame``, whether
+    it is on ``on`` and in the frame, and whether it is also due within service hours."""
+    start, since = _since_start(table, cfg)
+    due = since.astype(np.float64)
     x, y = frame.to_xy(table.lng, table.lat)
     inside = on & frame.contains(x, y)
     return start, due, x, y, inside, inside & (due >= 0) & (due < cfg.span_s)
 
 
+def _accepted(table: LadeTable, start: np.ndarray, cfg: DataSettings) -> np.ndarray:
+    """The accept times of ``table`` from their day's service start (``start``, s UTC),
+    in elapsed seconds."""
+    at = table.accept_at if table.accept_at is not None else instants(table.accept_s, cfg.tz)
+    return (at - start).astype(np.float64)
+
+
 def in_service_hours(table: LadeTable, cfg: DataSettings) -> np.ndarray:
     """Per row: whether it is due within its day's service hours (as :func:`prepare_day`
     keeps it)."""
-    due = table.delivery_s - (table.delivery_day.astype(np.int64) * _DAY_S + cfg.service_start_s)
+    due = _since_start(table, cfg)[1]
     return (due >= 0) & (due < cfg.span_s)
 
 
@@ -164,7 +183,7 @@ def prepare_day(table: LadeTable, frame: Frame, day: dt.date, cfg: DataSettings)
         )
     sub = table.subset(mask)
     due, x, y = due[mask], x[mask], y[mask]
-    accept = (sub.accept_s - start[mask]).astype(np.float64)
+    accept = _accepted(sub, start[mask], cfg)
     # Stable sorts, last key first: due time, then order id, then file order.
     order = np.argsort(sub.order_id, kind="stable")
     order = order[np.argsort(due[order], kind="stable")]
@@ -175,6 +194,7 @@ def prepare_day(table: LadeTable, frame: Frame, day: dt.date, cfg: DataSettings)
         day=day,
         frame=frame,
         service_start_s=cfg.service_start_s,
+        tz=cfg.tz,
         window_s=cfg.window_s,
         n_windows=cfg.n_windows,
         order_id=sub.order_id[order],
@@ -200,7 +220,8 @@ def arrival_windows(
     accept time, 0 when accepted before service start)."""
     start, due, x, y, _, keep = _in_service(table, frame, due_on(table, list(days)), cfg)
     due_w = _windows(due[keep], cfg.window_s, cfg.n_windows)
-    accept = (table.accept_s[keep] - start[keep]).astype(np.float64)
+    at = table.accept_at if table.accept_at is not None else instants(table.accept_s, cfg.tz)
+    accept = (at[keep] - start[keep]).astype(np.float64)
     return x[keep], y[keep], _visible_windows(accept, due_w, cfg)
 
 

@@ -71,6 +71,7 @@ from .dates import (
     TIME_OK,
     ds_dates,
     ds_other_day,
+    instants,
     read_times,
     years_of,
 )
@@ -1140,4 +1141,18 @@ def _lade_table(
         row=rows[idx],
         source=source(),
         report=report,
+        **_instants(parsed, keep, cfg.tz),
     )
+
+
+def _instants(parsed: dict[str, np.ndarray], keep: np.ndarray, tz: str) -> dict[str, np.ndarray]:
+    """``accept_at`` and ``delivery_at`` of the kept rows (:class:`LadeTable`) when a
+    time of the file carried its zone: its own instant where it did, its wall clock's in
+    ``tz`` where not; nothing when none did (the wall clock is all there is)."""
+    if not any(parsed[f"{name}_time_zoned"][keep].any() for name in ("accept", "delivery")):
+        return {}
+    out = {}
+    for name in ("accept", "delivery"):
+        zoned, wall = parsed[f"{name}_time_zoned"][keep], parsed[f"{name}_time"][keep]
+        out[f"{name}_at"] = np.where(zoned, parsed[f"{name}_time_utc"][keep], instants(wall, tz))
+    return out

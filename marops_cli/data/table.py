@@ -163,6 +163,13 @@ class LadeTable:
     row: np.ndarray  # int64
     source: SourceInfo
     report: DropReport
+    accept_at: np.ndarray | None = None
+    """The instants (s since 1970-01-01 UTC) of ``accept_s`` where the file gave times
+    with their zone (exact where a row's did, from the wall clock in the data's zone
+    where not); None when no row did (:func:`marops_cli.data.dates.instants` of the
+    wall clock)."""
+    delivery_at: np.ndarray | None = None
+    """The same for ``delivery_s``."""
 
     def __len__(self) -> int:
         return int(self.order_id.shape[0])
@@ -189,6 +196,8 @@ class LadeTable:
             row=self.row[mask],
             source=self.source,
             report=self.report,
+            accept_at=None if self.accept_at is None else self.accept_at[mask],
+            delivery_at=None if self.delivery_at is None else self.delivery_at[mask],
         )
 
 
@@ -197,7 +206,9 @@ class DayRequests:
     """The requests due on one day inside the study area, ready for planning.
 
     Windows are 0-based over service hours; ``visible_w`` <= ``due_w`` always.
-    ``due_s`` and ``accept_s`` are seconds from the start of service hours.
+    ``due_s`` and ``accept_s`` are seconds from the start of service hours, elapsed
+    time (on a day the clocks change as on any other: docs/decisions.md, "Study area,
+    windows"); ``tz`` is the zone of the data's wall clock.
     """
 
     day: dt.date
@@ -217,6 +228,7 @@ class DayRequests:
     accept_s: np.ndarray  # float64 (negative when accepted before service start)
     outside_area: int = 0  # orders due that day left out: outside the study square
     outside_hours: int = 0  # ... inside it but due outside service hours
+    tz: str = "Asia/Shanghai"  # the data's zone (LaDe's times are Shanghai local time)
 
     @property
     def orders_due(self) -> int:
@@ -231,5 +243,19 @@ class DayRequests:
         return self.window_s / 3600.0
 
     def window_start(self, w: int) -> dt.datetime:
-        base = dt.datetime.combine(self.day, dt.time())
-        return base + dt.timedelta(seconds=self.service_start_s + w * self.window_s)
+        """The start of window ``w`` on the wall clock of ``tz`` (naive: for display;
+        :meth:`window_instant` is the instant)."""
+        return self.window_instant(w).replace(tzinfo=None)
+
+    def window_instant(self, w: int) -> dt.datetime:
+        """The start of window ``w`` as a time of ``tz`` (zone-aware): service start on
+        the day, then ``w`` windows of elapsed time, so on a day the clocks change no
+        window starts where another did (a repeated wall-clock time has its ``fold``)."""
+        from zoneinfo import ZoneInfo
+
+        from .dates import instants
+
+        wall = (self.day - dt.date(1970, 1, 1)).days * 86_400 + self.service_start_s
+        start = int(instants(np.array([wall]), self.tz)[0])
+        utc = dt.datetime(1970, 1, 1, tzinfo=dt.UTC) + dt.timedelta(seconds=start)
+        return (utc + dt.timedelta(seconds=w * self.window_s)).astimezone(ZoneInfo(self.tz))

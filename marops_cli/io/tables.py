@@ -107,7 +107,7 @@ def build_tables(
     zone = ZoneInfo(tz)
     day_s = day.day
     for plan in plans:
-        ws = day.window_start(plan.t).replace(tzinfo=zone)
+        ws = day.window_instant(plan.t).astimezone(zone)
         for r in plan.routes:
             key = (hub, day_s, plan.t, ws, r.drone)
             n = len(r.stops)
@@ -146,7 +146,12 @@ def build_tables(
                     stops["delay_h"].append(max(0, plan.t - int(day.due_w[i])) * day.window_hours)
                 stops["arrive_s"].append(float(arrive[seq]))
                 # whole seconds, like window_start (arrive_s keeps the fraction)
-                stops["arrive_time"].append(ws + dt.timedelta(seconds=int(arrive[seq])))
+                # elapsed time: ws + a timedelta would add it to the wall clock
+                stops["arrive_time"].append(
+                    (ws.astimezone(dt.UTC) + dt.timedelta(seconds=int(arrive[seq]))).astimezone(
+                        zone
+                    )
+                )
                 stops["leg_m"].append(float(leg_m[seq]))
                 stops["leg_j"].append(float(leg_j[seq]))
                 stops["payload_kg"].append(float(on_board[seq]))
