@@ -468,9 +468,12 @@ def read_lade(
         raise InputError(f"read_lade(): {validation_message(exc)}") from None
     table = read_data(data, cfg)
 
-    def local(seconds: Any) -> pa.Array:
-        # The reader's seconds are wall-clock times of the zone; a time a clock change
+    def local(seconds: Any, at: Any) -> pa.Array:
+        # The instants where the file's times carried their zone (``at``); else the
+        # reader's seconds are wall-clock times of the zone, and a time a clock change
         # makes ambiguous or skips is taken as the earlier one, as the outputs take it.
+        if at is not None:
+            return pa.array(at, pa.timestamp("s", tz="UTC")).cast(pa.timestamp("s", tz=cfg.tz))
         wall = pa.array(seconds.astype("datetime64[s]"))
         return pc.assume_timezone(wall, cfg.tz, ambiguous="earliest", nonexistent="earliest")
 
@@ -478,8 +481,8 @@ def read_lade(
         "order_id": table.order_id.astype(str),
         "lng": table.lng,
         "lat": table.lat,
-        "accept_time": local(table.accept_s),
-        "delivery_time": local(table.delivery_s),
+        "accept_time": local(table.accept_s, table.accept_at),
+        "delivery_time": local(table.delivery_s, table.delivery_at),
         "row": table.row,  # 1-based row in the file (header = row 1)
     }
     if table.weight_kg is not None:

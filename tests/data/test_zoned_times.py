@@ -119,3 +119,21 @@ def test_delivered_after_accepted_over_the_autumn_clock_change_is_kept(tmp_path:
     text = read_lade(write_csv(tmp_path / "london.csv", rows), DataConfig(tz="Europe/London"))
     assert list(text.order_id) == ["0"]
     np.testing.assert_array_equal(text.delivery_s, got.delivery_s)
+
+
+def test_read_lade_gives_a_zoned_time_of_the_repeated_hour_its_own_instant(
+    tmp_path: Path,
+) -> None:
+    """The API's table holds the instant a zone-aware time names: 01:10 GMT (01:10 UTC),
+    not the first 01:10 of the night (00:10 UTC), which would read as delivered 40
+    minutes before it was accepted."""
+    import marops_cli.api as marops
+
+    path = _london_parquet(
+        tmp_path / "london.parquet", ["2022-10-30T00:50:00"], ["2022-10-30T01:10:00"]
+    )
+    rows = marops.read_lade(path, tz="Europe/London")
+    utc = pa.timestamp("s", tz="UTC")
+    assert rows["delivery_time"].cast(utc).to_pylist()[0].isoformat() == "2022-10-30T01:10:00+00:00"
+    assert rows["accept_time"].cast(utc).to_pylist()[0].isoformat() == "2022-10-30T00:50:00+00:00"
+    assert rows.schema.field("delivery_time").type == pa.timestamp("s", tz="Europe/London")
