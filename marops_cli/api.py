@@ -433,9 +433,9 @@ def _one_call(force: bool, out: Any) -> Iterator[None]:
         yield
 
 
-def _given(options: dict[str, Any], **more: Any) -> set[str]:
+def _given(options: dict[str, Any], **more: Any) -> dict[str, Any]:
     """The options and keywords a call gave (not None, a switch not False), by name."""
-    return {name for name, v in {**options, **more}.items() if v is not None and v is not False}
+    return {name: v for name, v in {**options, **more}.items() if v is not None and v is not False}
 
 
 def _shown(value: Any) -> str:

@@ -10,7 +10,7 @@ from __future__ import annotations
 import dataclasses
 import inspect
 import os
-from collections.abc import Callable, Collection, Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
@@ -319,22 +319,33 @@ EXCLUSIVE: tuple[tuple[str, str, str], ...] = (
     ("drones", "fleet", "a fleet file's drones are the fleet"),
     ("n_depots", "depots", "a depots file's depots are the depots"),
     ("segment", "depots", "a depots file's depots are the depots"),
+    ("area=hubs", "depots", "a depots file's depots are one study square"),
+    ("area=hubs", "fleet", "a fleet file's drones fly one study square"),
+    ("city_drones", "depots", "a depots file's depots are one study square"),
+    ("city_drones", "fleet", "a fleet file's drones fly one study square"),
+    ("city_drones", "area=square", "one study square has no city to share drones over"),
 )
 """Pairs of options of which one, given, makes the other unused (``(option, option,
-why)``): given both, the second would win unsaid, so both are refused (a config file's
-value under an option is the config's precedence, and no contradiction)."""
+why)``; ``name=value``: that option given that value): given both, the second would win
+unsaid, so both are refused (a config file's value under an option is the config's
+precedence, and no contradiction)."""
 
 
-def refuse_both(given: Collection[str]) -> None:
+def refuse_both(given: Mapping[str, Any]) -> None:
     """Refuse, before any work, two options of a pair of :data:`EXCLUSIVE` both given
-    (``given``: the names of the options the caller gave: on the command line, or as
+    (``given``: the options the caller gave, name -> value: on the command line, or as
     the API's keywords)."""
+
+    def named(spec: str) -> str | None:
+        name, _, value = spec.partition("=")
+        if name not in given or value and str(given[name]).strip().lower() != value:
+            return None
+        return f"{option(name)} {value}" if value else option(name)
+
     for first, second, why in EXCLUSIVE:
-        if first in given and second in given:
-            raise InputError(
-                f"give at most one of {option(first)} or {option(second)}: {why}, "
-                f"so {option(first)} would be left unused"
-            )
+        a, b = named(first), named(second)
+        if a and b:
+            raise InputError(f"give at most one of {a} or {b}: {why}, so {a} would be left unused")
 
 
 HUBS_READ = ("year", "size_km", "strict")

@@ -119,7 +119,7 @@ def refuse_overridden(command: Any, ctx: Any, line: list[str]) -> None:
                 ctx,
             )
     on_line = {
-        p.name
+        p.name: ctx.params.get(p.name)
         for p in command.params
         if p.name and getattr(ctx.get_parameter_source(p.name), "name", None) == "COMMANDLINE"
     }

@@ -59,6 +59,22 @@ CASES = {
         ["replay-day", "{data}", "--date", "0811", "--segment", "squares", "--depots", "d.json"],
         ("--segment", "--depots"),
     ),
+    "replay-area-hubs-depots": (
+        ["replay-day", "{data}", "--date", "0811", "--area", "hubs", "--depots", "d.json"],
+        ("--area hubs", "--depots"),
+    ),
+    "replay-area-hubs-fleet": (
+        ["replay-day", "{data}", "--date", "0811", "--fleet", "fleet.toml", "--area", "Hubs"],
+        ("--area hubs", "--fleet"),
+    ),
+    "replay-city-drones-square": (
+        ["replay-day", "{data}", "--date", "0811", "--city-drones", "40", "--area", "square"],
+        ("--city-drones", "--area square"),
+    ),
+    "replay-city-drones-fleet": (
+        ["replay-day", "{data}", "--date", "0811", "--city-drones", "40", "--fleet", "fleet.toml"],
+        ("--city-drones", "--fleet"),
+    ),
     "segment-config-twice": (
         ["segment", "{data}", "--config", "a.toml", "--config", "b.toml"],
         ("--config given 2 times",),
@@ -117,6 +133,8 @@ def test_a_value_from_the_environment_is_no_contradiction(files: Path, example_c
         ("replay_day", {"n_depots": 4, "depots": "d.json"}, "n_depots or depots"),
         ("replay_day", {"segment": "squares", "depots": "d.json"}, "segment or depots"),
         ("plan_window", {"drones": 4, "fleet": "fleet.toml"}, "drones or fleet"),
+        ("replay_day", {"area": "hubs", "depots": "d.json"}, "area hubs or depots"),
+        ("replay_day", {"city_drones": 40, "area": "square"}, "city_drones or area square"),
     ],
 )
 def test_the_api_refuses_the_same_pairs(
