@@ -37,6 +37,7 @@ from numpy.typing import NDArray
 from ..config import BOUND_LABELS, PlanConfig
 from ..energy import EnergyModel
 from ..segment.depots import nearest_depot
+from . import pricing
 from .highs import new_highs, run_highs
 from .pricing import DroneClass, price
 from .problem import WindowProblem
@@ -62,7 +63,8 @@ class BoundCaps:
     ng: int = 8
     """The ng-neighbourhood size (≥ the requests: elementary routes)."""
     max_work: int = MAX_WORK
-    """Labels made in all."""
+    """Work in all: labels made, a label of a pricing over more than ``pricing.WIDE``
+    requests counting in proportion (a wide pricing stops short of it)."""
     time_limit_s: float | None = None
     """CPU seconds; None: no clock (the default), so that the bound is the same on any
     machine."""
@@ -96,13 +98,18 @@ class BoundResult:
     before the first round)."""
     capped: str
     """Which cap stopped the search short of the relaxation's value ("" when none):
-    "work" (``max_work`` labels made), "time", "iterations", or "labels" (a full
-    pricing, cut by ``max_labels``, found nothing more to add)."""
+    "work" (``max_work`` of work done, or a wide pricing or class stopped by it),
+    "requests" (a drone class may serve more than ``pricing.MAX_PRICED`` requests and
+    is bounded by its knapsack), "time", "iterations", or "labels" (a full pricing, cut
+    by ``max_labels``, found nothing more to add)."""
     iterations: int
     columns: int
     cpu_s: float
     labels: int = 0
-    """Labels the pricings made: the work done, the same on any machine."""
+    """Labels the pricings made."""
+    work: int = 0
+    """The work done, the same on any machine: labels, each counted ``max(1, m /
+    pricing.WIDE)`` in a pricing over ``m`` requests, and a wide pricing's tables."""
     plan: tuple[tuple[tuple[int, ...], int], ...] | None = None
     """The best plan over the routes the search found, when asked for with ``plan=True``:
     per task its stops (window positions, in visiting order; none: the task's empty
@@ -178,8 +185,14 @@ class _Master:
         return dual[: self.n_cls], dual[self.n_cls :]
 
 
-def _classes(problem: WindowProblem, ng: int) -> tuple[list[DroneClass], list[int]]:
-    """Identical drones as one class; each task's class."""
+def _classes(
+    problem: WindowProblem, ng: int, max_work: float
+) -> tuple[list[DroneClass], list[int], float]:
+    """Identical drones as one class; each task's class; the work their tables took.
+
+    A class of ``n`` > ``pricing.WIDE`` requests counts ``n · n / WIDE`` for its tables
+    (as many entries as a level of its labels scans); once that passes ``max_work`` the
+    remaining wide classes are made without them, and are not priced."""
     req_xy = np.asarray(problem.xy, dtype=np.float64)
     depots_xy = np.asarray(problem.depots_xy, dtype=np.float64)
     land_m = nearest_depot(req_xy, depots_xy)[1] if len(req_xy) else np.zeros(0)
@@ -193,8 +206,16 @@ def _classes(problem: WindowProblem, ng: int) -> tuple[list[DroneClass], list[in
             members.append([])
         members[keys[k]].append(u)
         of.append(keys[k])
-    classes = [DroneClass.of(problem.tasks[us[0]], problem, land_m, len(us), ng) for us in members]
-    return classes, of
+    classes: list[DroneClass] = []
+    work = 0.0
+    for us in members:
+        task = problem.tasks[us[0]]
+        n = int(np.asarray(task.allowed).size)
+        cost = n * n / pricing.WIDE if n > pricing.WIDE else 0.0
+        fits = work + cost <= max_work
+        work += cost if fits else 0.0
+        classes.append(DroneClass.of(task, problem, land_m, len(us), ng, tables=fits))
+    return classes, of, work
 
 
 def bound_g(
@@ -213,8 +234,8 @@ def bound_g(
     """
     c0 = time.process_time()
     prize = np.asarray(problem.prize, dtype=np.float64)
-    classes, of = _classes(problem, caps.ng)
     max_work, max_labels = caps.max_work, caps.max_labels
+    classes, of, setup = _classes(problem, caps.ng, max_work)
     const = -sum(c.count * c.e_empty for c in classes)
     servable = np.zeros(prize.size, dtype=bool)
     for c in classes:
@@ -236,7 +257,7 @@ def bound_g(
     master.add(warm)
     best, priced, converged, capped, it = trivial, False, False, "", 0
     heuristic, full_done = True, False
-    lp, work = -np.inf, 0
+    lp, work, labels = -np.inf, setup, 0
     clock = np.inf if caps.time_limit_s is None else float(caps.time_limit_s)
     while True:
         mu, pi = master.solve()
@@ -252,7 +273,7 @@ def bound_g(
             break
         it += 1
         profit = prize - pi
-        new, tops, exact = [], [], True
+        new, tops, exact, cut = [], [], True, ""
         for k, c in enumerate(classes):
             late = max_work - work if time.process_time() - c0 <= clock else 0
             pr = price(
@@ -262,9 +283,12 @@ def bound_g(
                 keep=_KEEP if heuristic else None,
                 max_labels=max_labels,
                 budget=late,
+                limit=max_work - work,
             )
-            work += pr.labels
+            work += pr.work
+            labels += pr.labels
             exact &= pr.exact
+            cut = cut or pr.cut
             tops.append(max(pr.ub, 0.0))
             new += [(k, s, float(prize[list(s)].sum()) - e + c.e_empty) for s, e, _ in pr.routes]
         # The master's own columns count too: a known route outside the drones' tasks
@@ -279,6 +303,9 @@ def bound_g(
         added = master.add(new)
         if best - lp <= _REL_STOP * max(abs(best), 1.0):
             converged = True
+            break
+        if cut:  # a pricing stopped short of its work limit or its class's size
+            capped = cut
             break
         if added == 0 and not heuristic:
             capped = "" if exact else "labels"
@@ -300,7 +327,8 @@ def bound_g(
         iterations=it,
         columns=len(master.keys),
         cpu_s=time.process_time() - c0,
-        labels=work,
+        labels=labels,
+        work=round(work),
         plan=best_plan,
         plan_g=best_g,
     )

@@ -38,6 +38,14 @@ __all__ = ["DroneClass", "Priced", "price"]
 
 _CHUNK = 2_000_000  # label x request entries formed at once
 _EPS = 1e-9
+WIDE = 256
+"""Requests a pricing may scan per label for one unit of work: a label of a pricing over
+``m`` requests counts ``max(1, m / WIDE)`` (extending it forms ``m`` label x request
+entries), so the work cap stays proportional to the CPU on a wide window."""
+MAX_PRICED = 4096
+"""Requests of one drone class a pricing takes at most: a class that may serve more is
+not priced (no distance table is built), its routes bounded by the knapsack of its
+profits."""
 
 
 @dataclass(frozen=True)
@@ -62,6 +70,9 @@ class DroneClass:
     count: int
     ng: NDArray[np.uint64]
     """(n, words) each request's ng-neighbourhood as a bit set (itself included)."""
+    priced: bool = True
+    """False: more than :data:`MAX_PRICED` requests; ``dist`` and ``ng`` are empty and
+    every pricing returns the knapsack bound (:func:`price`)."""
 
     @property
     def cap(self) -> float:
@@ -84,10 +95,12 @@ class DroneClass:
         land_m: NDArray[np.float64],
         count: int,
         ng: int,
+        tables: bool = True,
     ) -> DroneClass:
         """The class of ``count`` drones flying ``task`` in ``problem`` (landing at depot
         ``task.end``; -1: the depot nearest the last stop, ``land_m`` away from each
-        request), with ng-neighbourhoods of ``ng`` requests."""
+        request), with ng-neighbourhoods of ``ng`` requests; ``tables`` False (or more
+        than :data:`MAX_PRICED` requests): without its distance tables, not priced."""
         model = task.model
         depots_xy = np.asarray(problem.depots_xy, dtype=np.float64)
         req_xy = np.asarray(problem.xy, dtype=np.float64)
@@ -109,6 +122,12 @@ class DroneClass:
         ok &= alone <= model.usable_j + ENERGY_TOL_J
         pos, xy, w, d_start, land = pos[ok], xy[ok], w[ok], d_start[ok], land[ok]
         n = pos.size
+        if not tables or n > MAX_PRICED:  # (n, n) tables would cost more than the bound
+            no_ng = np.zeros((n, 1), dtype=np.uint64)
+            none = np.zeros((0, 0))
+            return cls(
+                start_xy, end, pos, w, none, d_start, land * e0, e_empty, model, count, no_ng, False
+            )
         dist = np.hypot(xy[:, None, 0] - xy[None, :, 0], xy[:, None, 1] - xy[None, :, 1])
         words = max(1, -(-n // 64))
         bits = np.zeros((n, words), dtype=np.uint64)
@@ -132,6 +151,12 @@ class Priced:
     routes: list[tuple[tuple[int, ...], float, float]] = field(default_factory=list)
     """(positions in visiting order, energy J, value) of the best routes found."""
     labels: int = 0
+    work: float = 0.0
+    """Labels made, each counted ``max(1, m / WIDE)`` over ``m`` requests, and the
+    knapsack tables' share on a wide pricing (:data:`WIDE`)."""
+    cut: str = ""
+    """What stopped it short: "work" (``limit``) or "requests" (the class is wider than
+    :data:`MAX_PRICED`); "" when neither did."""
 
     @property
     def exact(self) -> bool:
@@ -311,6 +336,7 @@ def price(
     max_labels: int = 20_000,
     n_routes: int = 8,
     budget: float = np.inf,
+    limit: float = np.inf,
 ) -> Priced:
     """The best route of drone class ``cls`` for request profits ``profit`` (per window
     position), a proven upper bound on every route's value, and the best routes worth
@@ -318,8 +344,10 @@ def price(
 
     ``keep``: extend only the best ``keep`` labels per node (a heuristic); None: every
     non-dominated label, at most ``max_labels`` of one length (a twentieth once more
-    than ``budget`` labels were made: a count, so the result is the same on any
-    machine), those of highest upper bound.
+    than ``budget`` work was done: a count, so the result is the same on any machine),
+    those of highest upper bound. ``limit``: the work a wide pricing (over more than
+    :data:`WIDE` requests) may do at most; it stops before a level of labels that
+    would pass it, and is not started when its tables and first labels would.
     Labels left out count with their upper bound in ``Priced.ub``, so the bound stays
     valid either way.
     """
@@ -329,6 +357,20 @@ def price(
     if sub.size == 0:
         return res
     w, pps = cls.w[sub], pp[sub]
+    # A label scans every request when it is extended: over more than WIDE requests it
+    # counts for more than one, and so do the pricing's tables (about two levels of
+    # labels' CPU); up to WIDE requests a label is one, as the label caps count.
+    per = max(1.0, sub.size / WIDE)
+    wide = sub.size > WIDE
+    setup = 2.0 * sub.size * per if wide and sub.size >= _REACH_MIN else 0.0
+    if not cls.priced or (wide and setup + sub.size * per > limit):
+        # No route fits more profit than the payload's 0/1 knapsack of the profits, and
+        # none flies less than the empty route (weights rounded down: still a bound).
+        steps = int(np.floor(cls.cap / _KNAP_STEP_KG + 1e-9))
+        units = np.floor(w / _KNAP_STEP_KG + 1e-9).astype(np.int64)
+        res.ub = float(_knapsack(units, pps, steps)[0, steps])
+        res.cut = "requests" if cls.pos.size > MAX_PRICED else "work"
+        return res
     dist = cls.dist[np.ix_(sub, sub)]
     d_start, e_land = cls.d_start[sub], cls.e_land[sub]
     local = sub  # bit index of each request: its index in the class (memory is per class)
@@ -351,9 +393,15 @@ def price(
     levels: list[tuple[NDArray[np.int64], NDArray[np.int64]]] = []
     best, left_out = -np.inf, -np.inf
     found: list[tuple[float, int, int, float]] = []  # value, level, label, energy
-    total = 0
+    total, work = 0, setup
     while lab.size:
+        if wide and work + lab.size * per > limit:
+            # Out of work: every route through these labels is worth at most their bound.
+            left_out = max(left_out, float(lab.ub.max()))
+            res.cut = "work"
+            break
         total += lab.size
+        work += lab.size * per
         e_start = d_start[lab.node] * cls.e(lab.load)
         val = lab.prof - e_start + cls.e_empty
         fits = lab.energy + e_start <= cls.usable  # else no route through it fits
@@ -378,7 +426,7 @@ def price(
         if keep is None:
             # A full pricing keeps the labels of highest upper bound when there are too
             # many (or it is late): what it leaves out then bounds the rest least.
-            cap = max_labels if total <= budget else max_labels // 20
+            cap = max_labels if work <= budget else max_labels // 20
             if nxt.size > cap:
                 nxt, dropped = _best_by_bound(nxt, cap)
                 left_out = max(left_out, dropped)
@@ -387,7 +435,7 @@ def price(
             nxt, dropped = _best_per_node(nxt, keep)
             left_out = max(left_out, dropped)
         lab = nxt
-    res.best, res.labels = best, total
+    res.best, res.labels, res.work = best, total, work
     # Routes left out were worth at most the threshold, or their label's bound.
     res.ub = max(best, left_out, threshold)
     found.sort(key=lambda f: -f[0])

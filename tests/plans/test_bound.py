@@ -292,3 +292,63 @@ def test_plan_routes_records_the_bound_only_when_asked(planner, scope, model):
     # Landing freely and serving anything bounds every planner's plan too.
     relaxed = window_bound(view, acts, model, cfg, relaxed=True)
     assert relaxed.bound >= sc["G"] - 1e-6
+
+
+def test_a_wide_window_is_priced_within_its_work(monkeypatch, model):
+    """800 requests, one drone: every label of a pricing scans all of them when it is
+    extended, so the work cap counts a label for 800 / 256 of one. The label × request
+    entries the search forms stay within the cap's (20,000 · 256), where the labels
+    alone let one round form tens of millions; the bound stays above the plan found."""
+    rng = np.random.default_rng(5)
+    n = 800
+    depots = np.array([[0.0, 0.0], [3000.0, 3000.0]])
+    xy = rng.uniform(0, 3000, (n, 2))
+    w = rng.uniform(0.2, 1.4, n)
+    value = 1.0 + rng.uniform(0, 2, n)
+    lam = lam_j(ALPHA, model.usable_j)
+    entries = [0]
+    real = pricing._extend
+
+    def counted(lab, idx, within, bar):
+        entries[0] += lab.size * within.pps.size
+        return real(lab, idx, within, bar)
+
+    monkeypatch.setattr(pricing, "_extend", counted)
+    task = Task(0, -1, np.arange(n, dtype=np.int64))
+    res = _bound(depots, xy, w, value, lam, [task], model, max_work=20_000, plan=True)
+    assert 0 < entries[0] <= 20_000 * 256
+    assert res.priced and res.capped == "work" and res.work <= 20_000
+    assert res.bound >= res.plan_g - 1e-6
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_a_bound_cut_by_its_work_or_its_size_stays_above_the_optimum(seed, model, monkeypatch):
+    """Every pricing counted as wide (a label as many units as requests), so the work
+    limit stops pricings between levels or before they start; or every class wider than
+    the pricing takes, bounded by its knapsack alone: the bound stays above the brute
+    force optimum whatever stops it."""
+    depots, xy, w, value, tasks = _window(20 + seed, 2 + seed % 2, 6)
+    lam = lam_j(ALPHA, model.usable_j)
+    ip, _ = _brute(depots, xy, w, value, tasks, model, lam)
+    monkeypatch.setattr(pricing, "WIDE", 1)
+    for work in (1, 10, 40, 100, 400, 2_000):
+        res = _bound(depots, xy, w, value, lam, tasks, model, max_work=work, plan=True)
+        assert res.bound >= ip - 1e-6 >= res.plan_g - 2e-6
+        assert res.converged or res.capped == "work"
+        assert res.work <= work + 1e-9
+    monkeypatch.setattr(pricing, "MAX_PRICED", 2)
+    res = _bound(depots, xy, w, value, lam, tasks, model)
+    assert res.capped == "requests" and res.labels == 0 and res.bound >= ip - 1e-6
+
+
+def test_a_class_too_wide_to_price_is_bounded_by_its_knapsack_by_hand(model, monkeypatch):
+    """The one-request window by hand: a drone that lands freely, wider than the pricing
+    takes, is bounded by its payload's knapsack of the prizes (λ·3: the 1 kg fits), the
+    route's energy left out; the true optimum is λ·3 − E."""
+    monkeypatch.setattr(pricing, "MAX_PRICED", 0)
+    depots = np.array([[0.0, 0.0], [3000.0, 0.0]])
+    task = Task(0, -1, np.array([0], dtype=np.int64))
+    lam = lam_j(ALPHA, model.usable_j)
+    res = _bound(depots, np.array([[1000.0, 0.0]]), np.array([1.0]), [3.0], lam, [task], model)
+    assert res.capped == "requests" and res.priced and res.labels == 0
+    assert res.bound == pytest.approx(3 * lam, abs=1e-6)
