@@ -17,6 +17,7 @@ from __future__ import annotations
 import importlib
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
+from pathlib import PurePath
 from typing import Any, Literal
 
 __all__ = [
@@ -232,6 +233,8 @@ def unknown_policy(spec: str) -> str | None:
     ``[sim] policy`` with it, and the policy registry parses every spec by it."""
     if spec in SHIPPED_KINDS or spec in _KINDS:
         return None
+    if spec.startswith("torchscript:") and not PurePath(spec.removeprefix("torchscript:")).name:
+        return f"torchscript:PATH names no actor file, got {spec!r}"
     if spec.startswith("torchscript:") or spec.endswith((".pt", ".safetensors")):
         return None
     return (

@@ -361,3 +361,13 @@ def test_requests_scattered_over_the_world_place_the_area_on_the_median_one(
     assert doc["frame"]["center_lng"] == pytest.approx(-8.5, abs=0.01)
     assert doc["frame"]["center_lat"] == pytest.approx(-3.0, abs=0.01)
     assert doc["depots"][0]["n_history"] == 1
+
+
+@pytest.mark.parametrize("spec", ["torchscript:", "torchscript:.", "torchscript:/"])
+def test_a_torchscript_policy_naming_no_file_is_one_line(
+    example_csv: Path, tmp_path: Path, spec: str, fails_cleanly
+) -> None:
+    """``--policy torchscript:`` with no file name (empty, ``.``, ``/``) is refused naming
+    the option, not a ValueError traceback from the actor's file names."""
+    args = ["replay-day", str(example_csv), "--date", "0811", "--policy", spec]
+    fails_cleanly([*args, "--out", str(tmp_path / "o")], tmp_path, "--policy", spec)
