@@ -88,6 +88,8 @@ def default_policy_path(name: str = DEFAULT_POLICY_NAME) -> Path | None:
     """
     env = os.environ.get("MAROPS_POLICY")
     if env and name in (DEFAULT_POLICY_NAME, DEFAULT_LANDING_NAME):
+        if not Path(env).name:  # '.', '/': a folder, whose actor files have no name
+            raise InputError(f"MAROPS_POLICY names no actor file, got {env!r}")
         return Path(env)
     try:
         found = resources.files("marops_cli.shipped") / name

@@ -371,3 +371,14 @@ def test_a_torchscript_policy_naming_no_file_is_one_line(
     the option, not a ValueError traceback from the actor's file names."""
     args = ["replay-day", str(example_csv), "--date", "0811", "--policy", spec]
     fails_cleanly([*args, "--out", str(tmp_path / "o")], tmp_path, "--policy", spec)
+
+
+@pytest.mark.parametrize("env", [".", "/"])
+def test_marops_policy_naming_a_folder_without_a_name_is_one_line(
+    example_csv: Path, tmp_path: Path, env: str, fails_cleanly, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``MAROPS_POLICY=.`` (or ``/``) is refused naming the variable, not a ValueError
+    traceback from the actor's file names."""
+    monkeypatch.setenv("MAROPS_POLICY", env)
+    args = ["replay-day", str(example_csv), "--date", "0811", "--out", str(tmp_path / "o")]
+    fails_cleanly(args, tmp_path, "MAROPS_POLICY", repr(env))
