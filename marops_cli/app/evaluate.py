@@ -351,8 +351,11 @@ def sweep_fields(
 def actor_paths(policy: str | Path | None, mappo_policy: str | Path | None) -> dict[str, Path]:
     """:attr:`EvaluateConfig.actors` of the options: ``policy`` replaces the shipped actor
     of the learned methods (marops, squares), ``mappo_policy`` the direct one (mappo)."""
-    kinds = (("learned", policy), ("direct", mappo_policy))
-    return {kind: Path(path) for kind, path in kinds if path is not None}
+    kinds = (("learned", "policy", policy), ("direct", "mappo_policy", mappo_policy))
+    for _, name, path in kinds:
+        if path is not None and not Path(path).name:  # '.', '/': no actor file's name
+            raise InputError(f"{option(name)} names no actor file, got {str(path)!r}")
+    return {kind: Path(path) for kind, _, path in kinds if path is not None}
 
 
 def _plan_line(prep: Prepared, config: EvaluateConfig) -> str:

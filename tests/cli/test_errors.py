@@ -382,3 +382,15 @@ def test_marops_policy_naming_a_folder_without_a_name_is_one_line(
     monkeypatch.setenv("MAROPS_POLICY", env)
     args = ["replay-day", str(example_csv), "--date", "0811", "--out", str(tmp_path / "o")]
     fails_cleanly(args, tmp_path, "MAROPS_POLICY", repr(env))
+
+
+@pytest.mark.parametrize("flag", ["--policy", "--mappo-policy"])
+def test_an_evaluate_actor_naming_no_file_is_one_line(
+    example_csv: Path, tmp_path: Path, flag: str, fails_cleanly
+) -> None:
+    """evaluate's ``--policy .`` or ``--mappo-policy /`` is refused naming the option,
+    not a ValueError traceback from the actor's file names."""
+    args = ["evaluate", str(example_csv), "--dates", "0811", "--methods", "stay"]
+    for path in (".", "/"):
+        out = ["--out", str(tmp_path / "o"), flag, path]
+        fails_cleanly([*args, *out], tmp_path, flag, repr(path))
