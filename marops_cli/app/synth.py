@@ -80,6 +80,12 @@ def synth(
             file=out,
         )
     suffix_fmt, gzipped = file_format(out)
+    if fmt == "csv" and suffix_fmt == "parquet" and not gzipped:  # read as Parquet
+        raise InputError(
+            f"invalid option --format: csv under a {last_suffix} name, which the reader "
+            "takes for Parquet; name the file .csv (or .csv.gz), or leave --format out",
+            file=out,
+        )
     kind: Literal["csv", "parquet"] = "parquet" if (fmt or suffix_fmt) == "parquet" else "csv"
     if kind == "parquet" and gzipped:  # the reader would take gzip for CSV
         raise InputError(

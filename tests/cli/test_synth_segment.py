@@ -211,6 +211,15 @@ def test_synth_refuses_gzipped_parquet(tmp_path: Path, fails_cleanly, args: list
     fails_cleanly(["synth", "--days", "1", *args], tmp_path, "invalid option --out", ".csv.gz")
 
 
+@pytest.mark.parametrize("name", ["s.parquet", "s.PQ"])
+def test_synth_refuses_csv_under_a_parquet_name(tmp_path: Path, fails_cleanly, name: str) -> None:
+    """--format csv into a .parquet file wrote CSV that the reader refused as a broken
+    Parquet file: refused up front, naming --format."""
+    out = str(tmp_path / name)
+    args = ["synth", "--days", "1", "--format", "csv", "--out", out]
+    fails_cleanly(args, tmp_path, "invalid option --format", ".csv")
+
+
 @pytest.mark.parametrize(
     "extra",
     [[], ["--hubs", "auto"], ["--center", "121.47,31.23"]],
