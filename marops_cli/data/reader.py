@@ -711,7 +711,9 @@ def _check_errors(
         w = _numbers(table["weight_kg"])
         if (i := _first(~((w > 0) & np.isfinite(w)) & ~empty_row)) is not None:
             value = table["weight_kg"][i].as_py()
-            bad.append((i, "weight_kg", f"expected a positive weight in kg, got {value!r}"))
+            empty = value is None or (isinstance(value, str) and not value.strip())
+            shown = "an empty cell" if empty else _shown(table["weight_kg"], i)
+            bad.append((i, "weight_kg", f"expected a positive weight in kg, got {shown}"))
         out["weight_kg"] = w
     if bad:
         i, column, message = min(bad)

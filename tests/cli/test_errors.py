@@ -394,3 +394,14 @@ def test_an_evaluate_actor_naming_no_file_is_one_line(
     for path in (".", "/"):
         out = ["--out", str(tmp_path / "o"), flag, path]
         fails_cleanly([*args, *out], tmp_path, flag, repr(path))
+
+
+@pytest.mark.parametrize("cell", ["", "  "])
+def test_an_empty_weight_cell_is_called_empty(tmp_path: Path, cell: str, fails_cleanly) -> None:
+    """An empty weight_kg cell among weights is named as an empty cell, where the line
+    read 'got None' (or the blanks' repr)."""
+    rows = [f"{_row(1)},0.5", f"{_row(2)},{cell}"]
+    data = _write(tmp_path, [HEADER + ",weight_kg", *rows])
+    args = ["segment", str(data), "--n-depots", "1", "--out", str(tmp_path / "d.json")]
+    err = fails_cleanly(args, tmp_path, "row 3, column 'weight_kg'", "got an empty cell")
+    assert "None" not in err
