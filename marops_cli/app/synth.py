@@ -43,7 +43,9 @@ def synth(
 
     if fmt not in (None, "csv", "parquet"):
         raise InputError(f"--format expects csv or parquet, got {fmt!r}")
-    first = start if isinstance(start, dt.date) else parse_day(start, 2022, "--start")
+    first = (
+        start if isinstance(start, dt.date) else parse_day(start, 2022, "--start", year_option=None)
+    )
     try:  # a file the reader could not read with its own --year
         DataConfig(year=first.year)
     except ValidationError:

@@ -39,10 +39,13 @@ _DAY_S = 86_400
 TIME_OK, TIME_EMPTY, TIME_BAD = 0, 1, 2
 
 
-def parse_day(text: str, year: int, option: str | None = None) -> dt.date:
+def parse_day(
+    text: str, year: int, option: str | None = None, *, year_option: str | None = "--year"
+) -> dt.date:
     """``"820"``, ``"0820"``, ``"08-20"``, ``"20220820"`` or ``"2022-08-20"`` -> a date.
 
-    Forms without a year take ``year``. Raises :class:`InputError` naming the
+    Forms without a year take ``year`` (set by ``year_option``; None: by no option, so
+    February 29 asks for the year to be written). Raises :class:`InputError` naming the
     value (and the ``option`` that gave it, e.g. ``--date``) when it is not a valid date.
     """
     s = str(text).strip()
@@ -56,7 +59,8 @@ def parse_day(text: str, year: int, option: str | None = None) -> dt.date:
             return dt.date(y, parts[0], parts[1])
         except ValueError:
             if parts == [2, 29] and not has_year:  # the form is right, the year is not
-                leap = f": February 29 is no day of {year}, the year of days without one (--year)"
+                leap = f": February 29 is no day of {year}, the year of days without one"
+                leap += f" ({year_option})" if year_option else "; write a leap year's, 2024-02-29"
                 raise _bad(f"{_EXPECTED_DAY}, got {text!r}{leap}", option) from None
             break
     raise _bad(f"{_EXPECTED_DAY}, got {text!r}{_range_hint(s, year)}", option)

@@ -62,8 +62,10 @@ def test_synth_refuses_orders_per_day_out_of_range(
         # A year the reader's --year refuses: the file could not be read back.
         (["--start", "1969-12-31"], "invalid option --start: 1969-12-31 is in a year"),
         (["--start", "9999-12-31"], "(1970 ≤ year ≤ 2100, --year)"),
+        # synth has no --year: a February 29 without its year asks for the year written.
+        (["--start", "0229"], "of days without one; write a leap year's, 2024-02-29"),
     ],
-    ids=["seed-big", "seed-negative", "new-year", "days-beyond-calendar", "1969", "9999"],
+    ids=["seed-big", "seed-negative", "new-year", "days-beyond-calendar", "1969", "9999", "0229"],
 )
 def test_synth_refuses_seeds_and_spans_it_cannot_make(
     tmp_path: Path, fails_cleanly, args: list[str], says: str
