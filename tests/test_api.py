@@ -530,3 +530,13 @@ def test_api_evaluate_results_carry_the_files_metadata(example_csv: Path, tmp_pa
     assert ev.results.column("day").to_pylist() == [dt.date(2022, 8, 11)]
     in_memory = marops.evaluate(example_csv, methods="stay", dates="0811", workers=1, **one)
     assert in_memory.results.schema.metadata[b"marops"] == from_file.schema.metadata[b"marops"]
+
+
+def test_api_an_actor_of_another_operating_model_names_the_keyword(example_csv: Path) -> None:
+    # The paper's actor under the realistic model (the default) is refused naming the
+    # keyword policy, as every API error names its keyword, not the flag --policy.
+    shipped = Path(__file__).parents[1] / "policies" / "marops-basic.pt"
+    depots = marops.segment(example_csv, dates="0801..0810")
+    with pytest.raises(InputError, match="or another policy$") as caught:
+        marops.plan_window(example_csv, depots, "0811", 5, policy=str(shipped))
+    assert "--policy" not in str(caught.value)

@@ -91,7 +91,7 @@ from typing import TYPE_CHECKING, Any, ClassVar, Literal, NamedTuple
 import numpy as np
 
 from ..data.jsonfile import refuse_misspelt_keys
-from ..errors import InputError, quoted
+from ..errors import InputError, option, quoted
 from ..plans.view import FREE
 from .base import WindowView, check_weight_range, read_tensors
 from .rules import EnergyAware, FlowPolicy, reachable, waiting_per_depot
@@ -246,7 +246,7 @@ def check_trained_for(trained_for: str | None, model: str, actor: str | Path | N
     if trained_for is not None and model != trained_for:
         raise InputError(
             f"this actor was trained for the operating model {quoted(trained_for)}, the run's "
-            f"[ops] is {model!r}: use a config whose [ops] matches, or another --policy",
+            f"[ops] is {model!r}: use a config whose [ops] matches, or another {option('policy')}",
             file=actor,
         )
 
