@@ -540,3 +540,17 @@ def test_api_an_actor_of_another_operating_model_names_the_keyword(example_csv: 
     with pytest.raises(InputError, match="or another policy$") as caught:
         marops.plan_window(example_csv, depots, "0811", 5, policy=str(shipped))
     assert "--policy" not in str(caught.value)
+
+
+def test_api_errors_name_keywords_not_flags(example_csv: Path, tmp_path: Path) -> None:
+    # A window outside the day and a row strict=True makes an error name the API's
+    # keywords, where they named the command line's --window and --strict.
+    depots = marops.segment(example_csv, dates="0801..0810")
+    with pytest.raises(InputError, match=r"^window 99 is outside 0\.\.15$"):
+        marops.plan_window(example_csv, depots, "0811", 99)
+    bad = tmp_path / "bad.csv"
+    lines = example_csv.read_text().splitlines()[:3]
+    bad.write_text("\n".join([*lines, lines[1].replace("121.", "521.", 1)]) + "\n")
+    with pytest.raises(InputError, match="and strict=True is set") as caught:
+        marops.read_lade(bad, strict=True)
+    assert "--strict" not in str(caught.value)

@@ -17,7 +17,7 @@ from collections.abc import Iterable
 import numpy as np
 from scipy.special import ndtri
 
-from ..errors import InputError, naming
+from ..errors import InputError, naming, switch
 from .dates import format_days, instants
 from .frame import Frame, densest_square
 from .settings import DataSettings
@@ -54,8 +54,8 @@ def check_days_in_file(table: LadeTable, days: Iterable[dt.date]) -> None:
     rep = table.report
     if not have and rep.total:  # every row was dropped: say why, not which day is missing
         raise InputError(
-            f"none of its {rep.total:,} rows can be used ({rep.reasons()}); --strict names "
-            "the first",
+            f"none of its {rep.total:,} rows can be used ({rep.reasons()}); {switch('strict')} "
+            "names the first",
             file=table.source.path,
         )
     from .reader import IN_MEMORY

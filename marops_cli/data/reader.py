@@ -63,7 +63,7 @@ import pyarrow.compute as pc
 import pyarrow.csv as pacsv
 import pyarrow.parquet as pq
 
-from ..errors import InputError, not_found, quoted
+from ..errors import InputError, not_found, option, quoted, switch
 from .arrow import is_text, native_file
 from .dates import (
     TIME_BAD,
@@ -682,7 +682,8 @@ def _check_errors(
             value = _shown(table[name], i)
             msg = f"expected a time MM-DD HH:MM:SS or YYYY-MM-DD HH:MM:SS, got {value}"
             if re.fullmatch(r"'\s*02-29[ T][\d:.]+\s*'", value):  # the form is right
-                msg += f": February 29 is no day of {cfg.year}, the year of MM-DD times (--year)"
+                year = option("year")
+                msg += f": February 29 is no day of {cfg.year}, the year of MM-DD times ({year})"
             bad.append((i, name, msg))
     # A ds without its year is a day of its delivery time's year (a full time's own,
     # 2024 for 229 beside 2024-02-29; --year where the time is MM-DD or no time).
@@ -868,7 +869,10 @@ def _strict_error(
         first.append((int(rows[i]), reason, name))
     row, why, column = min(first, key=lambda f: f[0])
     return InputError(
-        f"row would be dropped ({why}) and --strict is set", file=path, row=row, column=column
+        f"row would be dropped ({why}) and {switch('strict')} is set",
+        file=path,
+        row=row,
+        column=column,
     )
 
 

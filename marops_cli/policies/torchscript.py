@@ -17,7 +17,7 @@ from typing import Any, Literal
 
 from ..config import clipped
 from ..data.jsonfile import first_line, read_json, refuse_misspelt_keys
-from ..errors import InputError, not_a_file, quoted
+from ..errors import InputError, not_a_file, option, quoted
 from .base import WindowView
 from .observation import OBS_VERSION, OBS_VERSIONS, n_choices, obs_dim
 from .recurrent import RecurrentPolicy
@@ -239,9 +239,9 @@ class TorchScriptPolicy(RecurrentPolicy):
         n, a = view.depots.candidates.shape
         if a != self.n_actions:
             fix = (
-                f"segment at least {self.n_actions} depots (--n-depots)"
+                f"segment at least {self.n_actions} depots ({option('n_depots')})"
                 if n < self.n_actions  # each depot's candidates are itself and its nearest
-                else f"segment with --actions {self.n_actions}"
+                else f"segment with {option('actions')} {self.n_actions}"
             )
             raise InputError(
                 f"the policy expects {self.n_actions} actions per depot, "

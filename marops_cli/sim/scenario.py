@@ -25,7 +25,7 @@ from ..data.prepare import arrival_windows, check_days_in_file, prepare_day, stu
 from ..data.reader import read_lade, sha256_file
 from ..data.table import DayRequests, LadeTable
 from ..energy import EnergyModel
-from ..errors import InputError, naming, not_found
+from ..errors import InputError, naming, not_found, option
 from ..methods import METHODS as _METHODS
 from ..methods import method as method_spec
 from ..plans.window import WindowPlan
@@ -368,7 +368,7 @@ def plan_one_window(
     fl = as_fleet(fleet, cfg.energy)
     reqs = prepare_day(scn.table, scn.frame, day, cfg.data)
     if not 0 <= window < reqs.n_windows:
-        raise InputError(f"--window {window} is outside 0..{reqs.n_windows - 1}")
+        raise InputError(f"{option('window')} {window} is outside 0..{reqs.n_windows - 1}")
     state = DayState(
         reqs, scn.depots, fl.depot, cfg.plan.coverage, cfg.plan.ties, drone_models=fl.models()
     )
