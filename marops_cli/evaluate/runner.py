@@ -22,7 +22,7 @@ import numpy as np
 
 from ..config import OpsConfig, PlannerConfig, override
 from ..data.dates import format_days
-from ..data.prepare import prepare_day
+from ..data.prepare import check_days_in_file, prepare_day
 from ..data.reader import read_lade, sha256_file
 from ..data.table import LadeTable
 from ..errors import InputError, in_hub, not_a_file, option
@@ -180,6 +180,8 @@ def prepare(
     if not chosen:
         raise InputError(f"no days to evaluate (the file has {format_days(table.days())})")
     check_replays([*counts, (len(chosen), "day", "days")])  # before any segmentation
+    if days:  # a day named that the file lacks, named as replay-day names it, before any work
+        check_days_in_file(table, chosen)
     history = hubs_history(table, chosen)
     unplaced = 0
     if hubs is None and cfg.data.area == "hubs" and cfg.data.center is None:

@@ -630,6 +630,24 @@ def test_a_split_day_no_hub_plans_is_left_out_and_a_named_one_refused(
     assert days == {"2022-08-11", "2022-08-12"}
 
 
+def test_a_named_day_the_export_lacks_is_refused_as_replay_day_refuses_it(
+    example_csv, tmp_path, fails_cleanly
+):
+    """evaluate over hubs (the default) given --dates with a day the export has no row
+    of (a day missing inside it) names that day and the file's days, as replay-day
+    does, before any hub is segmented; it said there were no requests inside any hub's
+    square, as if the hubs had left the day's orders out."""
+    data = tmp_path / "gap.csv"
+    lines = example_csv.read_text(encoding="utf-8").splitlines(keepends=True)
+    data.write_text("".join(x for x in lines if not x.rstrip().endswith(",810")), "utf-8")
+    args = ["evaluate", str(data), "--methods", "stay", "--no-plot", "--dates", "0809..0811"]
+    fails_cleanly(
+        [*args, "--out", str(tmp_path / "ev")],
+        tmp_path,
+        "date 2022-08-10 not in the file (it has 2022-08-01..2022-08-09, 2022-08-11..2022-08-12",
+    )
+
+
 def test_the_whole_export_places_no_hub_too_sparse_for_its_depots(example_csv):
     """A hub that would own fewer history orders than its depots need is not placed
     (its orders fall to the hubs left or outside every hub); none left is refused."""
