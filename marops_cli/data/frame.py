@@ -84,6 +84,17 @@ REACH_M = 150_000.0
 """How far from the points' median (east-west and north-south) a study area or a hub
 is sought: points beyond it (another city, a bad fix) would only blow up the grid."""
 
+
+def within_reach(
+    lng: np.ndarray, lat: np.ndarray, of_lng: np.ndarray, of_lat: np.ndarray
+) -> np.ndarray:
+    """Mask of the points ``lng, lat`` within :data:`REACH_M` (east-west and north-south)
+    of the median of ``of_lng, of_lat``, as a study area or a hub is sought."""
+    ref = Frame(_median_lng(np.asarray(of_lng)), float(np.median(of_lat)), 1.0)
+    x, y = ref.to_xy(np.asarray(lng, dtype=np.float64), np.asarray(lat, dtype=np.float64))
+    return (np.abs(x) <= REACH_M) & (np.abs(y) <= REACH_M)
+
+
 MAX_GRID_CELLS = 16_000_000
 """Cells the densest-square search may count (128 MB, and as much for its sums): a 10 m
 step over 40 km."""

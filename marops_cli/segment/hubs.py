@@ -22,7 +22,7 @@ from pydantic import Field
 from ..config import MAX_DRONES, DataConfig, PlannerConfig, override
 from ..data.dates import format_days
 from ..data.filemodel import FileModel, Whole, validated
-from ..data.frame import REACH_M, Frame, hub_squares
+from ..data.frame import REACH_M, Frame, hub_squares, within_reach
 from ..data.jsonfile import read_json
 from ..data.prepare import check_days_in_file, due_on, prepare_day
 from ..data.table import LadeTable
@@ -270,6 +270,9 @@ def hub_demand(
     return [int(c) for c in counts]
 
 
+MIN_HUB_SHARE = 0.004
+"""The least ``[data] hub_min_share`` (config.py): at most 250 hubs."""
+
 OUTSIDE_WARNING = 0.05
 """The share of the orders due that, outside every hub the run placed, it warns of."""
 
@@ -320,10 +323,41 @@ def outside_warning(
         )
     reach = (
         f"hubs are placed within {REACH_M / 1000:g} km of the export's median point, where "
-        f"at least {min_share * 100:g}% of its orders are ([data] hub_min_share); give "
-        f"another city a file of its own, or name its squares in a hubs file ({option('hubs')})"
+        f"at least {min_share * 100:g}% of its orders are ([data] hub_min_share); "
     )
-    return head + why + reach
+    if owner is None:
+        owner = hub_owner(table, hubs)
+    out = due_on(table, days) & (owner < 0)
+    placed = due_on(table, history if history is not None else days)
+    if (
+        placed.any()
+        and 2
+        * within_reach(table.lng[out], table.lat[out], table.lng[placed], table.lat[placed]).sum()
+        >= out.sum()
+    ):  # most lie within reach: the city's own sparse squares
+        lower = (
+            "lower it (to 0.004 at the least) to place hubs there, or "
+            if min_share > MIN_HUB_SHARE
+            else ""
+        )
+        return (
+            head
+            + why
+            + reach
+            + (
+                f"most of these lie within it, in squares that each add less: {lower}name their "
+                f"squares in a hubs file ({option('hubs')})"
+            )
+        )
+    return (
+        head
+        + why
+        + reach
+        + (
+            f"give another city a file of its own, or name its squares in a hubs file "
+            f"({option('hubs')})"
+        )
+    )
 
 
 def hub_locations(table: LadeTable, hubs: Sequence[Hub], days: Sequence[dt.date]) -> list[int]:

@@ -123,6 +123,36 @@ def test_the_outside_warning_says_why_the_orders_lie_outside(points_table):
     assert "--n-depots" in spelled(few) and "150 km" in few
 
 
+def test_the_outside_warning_tells_sparse_squares_from_another_city(points_table):
+    """Orders left out 40 km from the hub, within the 150 km hubs are sought in (a city's
+    sparse villages), are no other city: the warning says to lower [data] hub_min_share
+    (while above its least, 0.004) or name their squares; 300 km away, another city's
+    file. It said 'give another city a file of its own' for both."""
+    import datetime as dt
+
+    from marops_cli.segment.hubs import outside_warning
+
+    ref = Frame(LNG, LAT, 10.0)
+    day = [dt.date(1970, 1, 1)]
+    hub = [Hub(0, Frame(LNG, LAT, 10.0))]
+    for far_m, sparse in ((40_000.0, True), (300_000.0, False)):
+        x = np.r_[np.zeros(30), np.full(10, far_m)]
+        table = points_table(*ref.to_lnglat(x, np.zeros(40)))
+        said = str(outside_warning(table, hub, day, 0.01))
+        assert "10 of the 40 orders due (25%)" in said
+        assert ("another city" not in said) is sparse
+        assert ("lower it (to 0.004 at the least)" in said) is sparse
+    least = str(
+        outside_warning(
+            points_table(*ref.to_lnglat(np.r_[np.zeros(30), np.full(10, 40_000.0)], np.zeros(40))),
+            hub,
+            day,
+            0.004,
+        )
+    )
+    assert "lower it" not in least and "name their squares in a hubs file" in least
+
+
 @pytest.mark.parametrize(
     ("doc", "column", "needle"),
     [
