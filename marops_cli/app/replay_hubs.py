@@ -31,7 +31,7 @@ def replay_hubs(
     """Replay every hub of a hubs file, or (``hubs_path`` None) of hubs placed over the
     whole export: each a study area with its own depots and share of the fleet, into
     ``out/hub-<id>/``, and the city's coverage into ``out/metrics.json``."""
-    from ..data.prepare import check_days_in_file
+    from ..data.prepare import check_days_in_file, late_warning
     from ..segment.hubs import hub_areas, hub_owner, hubs_history, load_hubs
     from ..sim.scenario import load_scenario
 
@@ -100,6 +100,9 @@ def replay_hubs(
     drop_report(progress, table, data_name(data))
     if far is not None:
         progress.warning(far)
+    late = late_warning(table, days, cfg.data, held=owner >= 0)
+    if late is not None:
+        progress.warning(late)
     for line in skipped:
         progress.message(line)
     with ExitStack() as held:

@@ -159,6 +159,42 @@ def in_service_hours(table: LadeTable, cfg: DataSettings) -> np.ndarray:
     return (due >= 0) & (due < cfg.span_s)
 
 
+LATE_WARNING = 0.5
+"""The share of the orders due that, due outside service hours, a run warns of."""
+
+
+def _clock(s: float) -> str:
+    """Seconds into a day as ``HH:MM``."""
+    m = int(s) % 86_400 // 60
+    return f"{m // 60:02d}:{m % 60:02d}"
+
+
+def late_warning(
+    table: LadeTable, days: Iterable[dt.date], cfg: DataSettings, held: np.ndarray | None = None
+) -> str | None:
+    """A warning when at least :data:`LATE_WARNING` of the orders due on ``days`` are due
+    outside service hours (times of another zone than ``cfg.tz``, a UTC export): the run
+    leaves them out, and its city line alone would show it. It names the clock times
+    the middle half of the orders are due between, the zone and the settings to give.
+    ``held``: the rows a hub holds (the others are left out as outside every hub, and
+    counted so), when the run plans hubs."""
+    due = due_on(table, list(days))
+    total = int(due.sum())
+    late_rows = due & ~in_service_hours(table, cfg)
+    late = int((late_rows if held is None else late_rows & held).sum())
+    if not total or late < LATE_WARNING * total:
+        return None
+    lo, hi = np.percentile(np.mod(table.delivery_s[due], 86_400), [25, 75])
+    start = cfg.service_start_s
+    return (
+        f"{late:,} of the {total:,} orders due ({late / total:.0%}) are due outside service "
+        f"hours {_clock(start)}-{_clock(start + cfg.span_s)}, and are left out; the middle "
+        f"half of all is due between {_clock(lo)} and {_clock(hi)}: if the file's times are "
+        f"of another zone than {cfg.tz}, write each with its offset (+00:00), read as the "
+        "instant it names, else set [data] service_start and service_end"
+    )
+
+
 def prepare_day(table: LadeTable, frame: Frame, day: dt.date, cfg: DataSettings) -> DayRequests:
     """The requests due on ``day`` inside ``frame`` and within service hours.
 
