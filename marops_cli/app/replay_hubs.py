@@ -165,13 +165,11 @@ def city_fleet(
 def _why_empty(table: Any, day: dt.date, owner: Any, cfg: Any, far: str | None) -> str:
     """Why no hub plans ``day``: its orders in a hub's square are all due outside service
     hours, or (none in a square) the run's warning of orders outside every hub, ``far``."""
-    mask, reason = left_out(table, [day], owner, cfg)
-    late = int((mask & (reason == "outside service hours")).sum())
-    if late:
-        hours = f"{cfg.data.service_start}-{cfg.data.service_end}"
-        if late == 1:
-            return f": its one order inside a hub's square is due outside {hours}"
-        return f": its {late:,} orders inside a hub's square are all due outside {hours}"
+    from ..data.prepare import late_note
+
+    note = late_note(table, day, owner >= 0, cfg.data)
+    if note:
+        return note
     return f": {far}" if far is not None else ""
 
 

@@ -195,6 +195,19 @@ def late_warning(
     )
 
 
+def late_note(table: LadeTable, day: dt.date, held: np.ndarray, cfg: DataSettings) -> str:
+    """Why no hub plans ``day`` when its orders in a hub's square (``held``) are all due
+    outside service hours (``: its 160 orders inside a hub's square are all due outside
+    09:00-17:00``), else ``""``."""
+    late = int((due_on(table, [day]) & held & ~in_service_hours(table, cfg)).sum())
+    if not late:
+        return ""
+    hours = f"{_clock(cfg.service_start_s)}-{_clock(cfg.service_start_s + cfg.span_s)}"
+    if late == 1:
+        return f": its one order inside a hub's square is due outside {hours}"
+    return f": its {late:,} orders inside a hub's square are all due outside {hours}"
+
+
 def prepare_day(table: LadeTable, frame: Frame, day: dt.date, cfg: DataSettings) -> DayRequests:
     """The requests due on ``day`` inside ``frame`` and within service hours.
 

@@ -22,7 +22,7 @@ import numpy as np
 
 from ..config import OpsConfig, PlannerConfig, override
 from ..data.dates import format_days
-from ..data.prepare import check_days_in_file, prepare_day
+from ..data.prepare import check_days_in_file, late_note, prepare_day
 from ..data.reader import read_lade, sha256_file
 from ..data.table import LadeTable
 from ..errors import InputError, in_hub, not_a_file, option
@@ -234,9 +234,10 @@ def prepare(
         planned = {d for _, ds in hub_days for d in ds}
         empty = [d for d in chosen if d not in planned]
         if empty and days:
+            held = owner >= 0 if owner is not None else np.zeros(table.lng.size, dtype=bool)
             raise InputError(
                 f"no requests on {empty[0].isoformat()} inside any hub's square due within "
-                "service hours",
+                "service hours" + late_note(table, empty[0], held, cfg.data),
                 file=path,
             )
         skipped += empty

@@ -842,3 +842,20 @@ def test_a_day_mostly_due_outside_service_hours_is_warned_of(tmp_path):
         if warned:
             assert "the middle half of all is due between 05:" in " ".join(res.output.split())
             assert "of another zone than Asia/Shanghai" in " ".join(res.output.split())
+
+
+def test_evaluate_says_why_a_named_day_has_nothing_to_plan(example_csv, tmp_path, fails_cleanly):
+    """evaluate --dates over hubs names why a day has nothing to plan, as replay-day
+    does: its one order inside a hub's square is due outside service hours (an export
+    of another zone's clock has whole days so); it said only that there were none."""
+    data = tmp_path / "straggler.csv"
+    row = "999999,1,Shanghai,7,121.34,31.13,1,2,08-12 23:50:00,,,,08-13 00:20:00,,,,813"
+    data.write_text(example_csv.read_text(encoding="utf-8") + row + "\n", encoding="utf-8")
+    for command in ("evaluate", "replay-day"):
+        args = [command, str(data), "--dates", "0812,0813", "--out", str(tmp_path / command)]
+        fails_cleanly(
+            args,
+            tmp_path,
+            "no requests on 2022-08-13 inside any hub's square due within service hours: "
+            "its one order inside a hub's square is due outside 09:00-17:00",
+        )
