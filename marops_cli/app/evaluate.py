@@ -243,6 +243,14 @@ def evaluate(
         )
         if far is not None:
             progress.warning(far)
+    if prep.hubs:
+        from ..data.prepare import late_warning
+        from ..segment.hubs import hub_owner
+
+        held = hub_owner(prep.source, prep.hubs) >= 0
+        late = late_warning(prep.source, prep.days, cfg.data, held=held)
+        if late is not None:
+            progress.warning(late)
     if prep.skipped:
         left = ", ".join(d.isoformat() for d in prep.skipped)
         where = "any hub's square" if prep.hubs else "the study area"

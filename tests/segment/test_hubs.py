@@ -810,30 +810,31 @@ def test_hubs_placed_by_share_stay_within_the_hub_cap() -> None:
         DataConfig(hub_min_share=least / 2)
 
 
+def _shifted_export(path: Path, shift_h: int) -> Path:
+    """Two days of 160 orders in one town, accepted 09:00-16:00 less ``shift_h`` hours
+    (times of a zone ``shift_h`` hours behind LaDe's) and due 30 minutes later."""
+    rng = np.random.default_rng(3)
+    rows = ["order_id,lng,lat,accept_time,delivery_time,ds"]
+    for day in (1, 2):
+        for k in range(160):
+            lng, lat = 121.47 + rng.normal(0, 0.01), 31.23 + rng.normal(0, 0.01)
+            accept = 9 * 60 + int(rng.integers(0, 420)) - 60 * shift_h
+            due = accept + 30
+            rows.append(
+                f"{day}{k:04d},{lng:.6f},{lat:.6f},08-0{day} {accept // 60:02d}:"
+                f"{accept % 60:02d}:00,08-0{day} {due // 60:02d}:{due % 60:02d}:00,80{day}"
+            )
+    path.write_text("\n".join(rows) + "\n", encoding="utf-8")
+    return path
+
+
 def test_a_day_mostly_due_outside_service_hours_is_warned_of(tmp_path):
     """An export whose times are of another zone (6 hours before LaDe's clock) has most
     orders due outside 09:00-17:00: replay-day over the whole export warns how many
     it leaves out for it, between which clock times the orders fall, and what to set;
     only the city line's figures said so. LaDe's own clock: no such warning."""
-    rng = np.random.default_rng(3)
-    head = "order_id,lng,lat,accept_time,delivery_time,ds"
-
-    def export(path: Path, shift_h: int) -> Path:
-        rows = [head]
-        for day in (1, 2):
-            for k in range(160):
-                lng, lat = 121.47 + rng.normal(0, 0.01), 31.23 + rng.normal(0, 0.01)
-                accept = 9 * 60 + int(rng.integers(0, 420)) - 60 * shift_h
-                due = accept + 30
-                rows.append(
-                    f"{day}{k:04d},{lng:.6f},{lat:.6f},08-0{day} {accept // 60:02d}:"
-                    f"{accept % 60:02d}:00,08-0{day} {due // 60:02d}:{due % 60:02d}:00,80{day}"
-                )
-        path.write_text("\n".join(rows) + "\n", encoding="utf-8")
-        return path
-
     for shift_h, warned in ((6, True), (0, False)):
-        data = export(tmp_path / f"shift{shift_h}.csv", shift_h)
+        data = _shifted_export(tmp_path / f"shift{shift_h}.csv", shift_h)
         args = ["replay-day", str(data), "--date", "0802", "--method", "stay", "--workers", "1"]
         res = runner.invoke(app, [*args, "--out", str(tmp_path / f"o{shift_h}"), "-q"])
         assert res.exit_code == 0, res.output
@@ -859,3 +860,15 @@ def test_evaluate_says_why_a_named_day_has_nothing_to_plan(example_csv, tmp_path
             "no requests on 2022-08-13 inside any hub's square due within service hours: "
             "its one order inside a hub's square is due outside 09:00-17:00",
         )
+
+
+def test_evaluate_warns_of_days_mostly_due_outside_service_hours(tmp_path):
+    """evaluate over hubs warns as replay-day does of days whose orders are mostly due
+    outside service hours (times of another zone); it compared methods on a fifth of
+    the day with nothing said."""
+    data = _shifted_export(tmp_path / "shift6.csv", 6)
+    args = ["evaluate", str(data), "--dates", "0802", "--methods", "stay", "--no-plot"]
+    res = runner.invoke(app, [*args, "--workers", "1", "--out", str(tmp_path / "ev"), "-q"])
+    assert res.exit_code == 0, res.output
+    said = " ".join(res.output.split())
+    assert "are due outside service hours 09:00-17:00, and are left out" in said, said
