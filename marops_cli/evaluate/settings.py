@@ -181,7 +181,11 @@ def split_days(days: Sequence[dt.date], split: str) -> list[dt.date]:
     if split not in ("test", "train"):
         raise InputError(f"{option('split')} expects test or train, got {split!r}")
     if len(days) < 2:
-        raise InputError(f"{option('split')} needs at least 2 days in the file, it has {len(days)}")
+        named = f": name its day with {option('dates')} {days[0]:%m%d}" if days else ""
+        raise InputError(
+            f"{option('split')} {split} (by default test: the last 20 % of the file's days) needs "
+            f"at least 2 days in the file, it has {len(days)}{named}"
+        )
     train, test = split_by_date(days)
     return test if split == "test" else train
 

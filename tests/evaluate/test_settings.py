@@ -127,3 +127,16 @@ def test_a_sweep_of_more_replays_than_the_bound_is_refused_before_it_is_listed()
     with pytest.raises(InputError, match=r"× 3 days\)"):
         plan_jobs(20_000, ["stay", "greedy"], days, repeats=1, seed=0, hub_days=hubs)
     assert len(plan_jobs(20_000, ["stay"], days, repeats=1, seed=0, hub_days=hubs)) == 60_000
+
+
+def test_a_one_day_file_names_its_day_for_dates() -> None:
+    """An export of one day cannot be split; the line says the split is the default one
+    and names the day to give as ``--dates``, where it only named ``--split``."""
+    import pytest
+
+    from marops_cli.errors import InputError
+
+    with pytest.raises(
+        InputError, match=r"by default test.*it has 1: name its day with --dates 0603"
+    ):
+        split_days([dt.date(2022, 6, 3)], "test")
