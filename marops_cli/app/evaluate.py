@@ -281,8 +281,8 @@ def _with_meta(results: pa.Table, prep: Prepared) -> pa.Table:
 
 
 def check_out(out: Path) -> None:
-    """--out must be a folder this user can write (or create), found out before anything
-    runs and without writing anything."""
+    """--out must be a folder this user can write (or create), and no evaluation's jobs
+    folder nor inside one, found out before anything runs and without writing anything."""
     if out.exists() and not out.is_dir():
         raise InputError(f"{option('out')} must be a folder; this is a file", file=out)
     probe = out.absolute()
@@ -292,6 +292,9 @@ def check_out(out: Path) -> None:
         raise InputError(f"{option('out')} cannot be created: {probe} is a file", file=out)
     if not os.access(probe, os.W_OK | os.X_OK):
         raise InputError(f"{option('out')} is not writable ({probe})", file=out)
+    from ..evaluate.dataset import check_outside_jobs
+
+    check_outside_jobs(out)  # not among another evaluation's jobs
 
 
 def default_methods(

@@ -66,6 +66,21 @@ def check_jobs_folder(root: Path) -> None:
         )
 
 
+def check_outside_jobs(out: Path) -> None:
+    """``out`` is no evaluation's jobs folder (one holding :data:`IDENTITY_FILE`) and lies
+    in none: an evaluation's files written there would lie among that evaluation's jobs,
+    which it then refuses to resume or summarise. One line naming ``out`` and the jobs
+    folder, before any work."""
+    here = Path(out).absolute()
+    for folder in (here, *here.parents):
+        if (folder / IDENTITY_FILE).is_file():
+            raise InputError(
+                f"lies in the jobs folder of the evaluation in {folder.parent}, which would "
+                f"then hold files that are not its jobs; choose another {option('out')}",
+                file=out,
+            )
+
+
 class JobStore:
     """The jobs dataset of one evaluation under ``root`` (``OUT/jobs``).
 

@@ -249,6 +249,23 @@ def test_out_jobs_that_is_no_folder_fails_before_any_work(
     assert kind != "file" or jobs.read_text() == "mine"
 
 
+@pytest.mark.parametrize("where", [("jobs",), ("jobs", "hub=0"), ("jobs", "mine")])
+def test_out_in_another_evaluations_jobs_folder_fails_before_any_work(
+    prep, example_csv: Path, tmp_path: Path, fails_cleanly, where: tuple[str, ...]
+) -> None:
+    """An --out that is an evaluation's jobs folder, or a folder inside it, was taken:
+    its tables and jobs went among that evaluation's jobs, which it then refused to
+    resume or summarise. One line naming it, before any work, nothing written."""
+    first = tmp_path / "first"
+    store = JobStore(first / "jobs", prep, run_identity(prep))
+    store.open()
+    store.add(prep.jobs[0], {"mean_energy_kj": 1.0, "delivered": 1})
+    out = first.joinpath(*where)
+    args = ["evaluate", str(example_csv), "--area", "square", "--dates", "0811"]
+    args += ["--methods", "stay", "--workers", "1", "--no-plot", "--out", str(out)]
+    fails_cleanly(args, tmp_path, f"{out}: lies in the jobs folder of the evaluation in {first}")
+
+
 def test_ctrl_c_exits_130_keeps_finished_jobs_and_prints_no_traceback(
     example_csv: Path, tmp_path: Path, stop_marops
 ) -> None:
