@@ -497,13 +497,19 @@ judges on them."""
 
 def check_battery_regimes(names: Sequence[str], with_spares: bool, flag: str = "") -> None:
     """Refuse a name of ``names`` that is not a battery regime of :data:`BATTERY_PRESETS`,
-    and regimes given ``with_spares`` (both set the batteries per depot); ``flag`` (the
-    command line's ``--batteries``) starts the line."""
+    one given twice, and regimes given ``with_spares`` (both set the batteries per
+    depot); ``flag`` (the command line's ``--batteries``) starts the line."""
     unknown = [b for b in names if b not in BATTERY_PRESETS]
     if unknown:
         raise InputError(
             f"{flag + ': ' if flag else ''}unknown battery regime {unknown[0]!r} "
             f"(expected {', '.join(BATTERY_PRESETS)})"
+        )
+    repeated = [b for i, b in enumerate(names) if b in names[:i]]
+    if repeated:  # each regime one scenario: a repeat would train on it twice as often
+        raise InputError(
+            f"{flag + ': ' if flag else ''}battery regime {repeated[0]!r} given twice "
+            f"(expected distinct names of {', '.join(BATTERY_PRESETS)})"
         )
     if names and with_spares:
         raise InputError(

@@ -332,6 +332,10 @@ def test_training_log_gives_the_time_left(monkeypatch) -> None:
         (["--rules", "flow,stay"], "invalid option --rules: expected distinct names of ops-global"),
         (["--batteries", "plenty"], "--batteries: unknown battery regime 'plenty' (expected"),
         (["--batteries", ","], "--batteries expects names of scarce, default, ample"),
+        (
+            ["--batteries", "scarce,ample,scarce"],
+            "--batteries: battery regime 'scarce' given twice",
+        ),
         (["--batteries", "ample", "--spares", "2"], "give batteries per depot (--spares) or"),
         (["--train-weights", "new"], "--train-weights new trains the features --init's actor"),
         (["--train-weights", "some"], "invalid option --train-weights: Input should be 'all'"),

@@ -217,6 +217,7 @@ def test_battery_regimes_set_spares_chargers_and_power_per_scenario(
         (4, 2, 125.0),
     ]
     for bad, line in (({"batteries": ["lots"]}, "unknown battery regime 'lots'"),
+                      ({"batteries": ["ample", "ample"]}, "regime 'ample' given twice"),
                       ({"batteries": ["ample"], "spares": [2]}, "not both")):  # fmt: skip
         with pytest.raises(InputError, match=line):
             load_training_data(tiny_csv, small_cfg, tcfg, **bad)
