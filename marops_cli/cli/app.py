@@ -92,6 +92,25 @@ def _interrupt(signum: int, frame: object) -> None:
     raise KeyboardInterrupt
 
 
+def _unraisable(args: Any) -> None:
+    """Ctrl-C or SIGTERM that Python could not raise (its handler ran in a finaliser or a
+    weakref callback, where an exception is printed as ignored, with a traceback, and
+    the run went on to its end and exit 0): the signal is sent again, from a timer's
+    thread so that it lands after this hook, to be taken where the run stops as from any
+    other point. Other such exceptions print as before."""
+    import threading
+
+    from ..io.atomic import Terminated
+
+    if isinstance(args.exc_value, KeyboardInterrupt):
+        sig = signal.SIGTERM if isinstance(args.exc_value, Terminated) else signal.SIGINT
+        again = threading.Timer(0.05, os.kill, (os.getpid(), sig))  # once the hook is done
+        again.daemon = True
+        again.start()
+        return
+    sys.__unraisablehook__(args)
+
+
 def _one_line_warning(
     message: Warning | str,
     category: type[Warning],
@@ -112,6 +131,7 @@ def _run() -> int | str | None:
     signal.signal(signal.SIGTERM, _terminate)
     if signal.getsignal(signal.SIGINT) is signal.default_int_handler:  # not when ignored
         signal.signal(signal.SIGINT, _interrupt)
+    sys.unraisablehook = _unraisable
     warnings.showwarning = _one_line_warning
     try:
         code = app(standalone_mode=False)

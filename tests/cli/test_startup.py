@@ -193,3 +193,33 @@ def test_the_methods_that_load_torch_are_named() -> None:
     shipped = ROOT / "policies"
     assert not loads_actor("stay", str(shipped / "marops-ops.safetensors"), paper=False)
     assert loads_actor("stay", str(shipped / "marops-basic.safetensors"), paper=False)
+
+
+@pytest.mark.parametrize("sig", ["SIGINT", "SIGTERM"])
+def test_a_stop_that_lands_in_a_finaliser_still_stops_the_run(sig: str) -> None:
+    """Ctrl-C or SIGTERM whose handler ran in a finaliser or weakref callback (seen as an
+    evaluation freed its objects) was printed as an ignored exception with a traceback,
+    and the run went on to its end and exit 0; now it stops the run as anywhere else."""
+    code = f"""
+import os, signal, sys
+from marops_cli.cli import app as a
+signal.signal(signal.SIGINT, a._interrupt)
+signal.signal(signal.SIGTERM, a._terminate)
+sys.unraisablehook = a._unraisable
+class Freed:
+    def __del__(self):
+        os.kill(os.getpid(), signal.{sig})
+        for _ in range(100_000):
+            pass
+try:
+    Freed()
+    for _ in range(10_000_000):
+        pass
+    print("ran on")
+except KeyboardInterrupt as exc:
+    print("stopped", type(exc).__name__)
+"""
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    name = "Terminated" if sig == "SIGTERM" else "KeyboardInterrupt"
+    assert res.stdout.strip() == f"stopped {name}", (res.stdout, res.stderr)
+    assert "Traceback" not in res.stderr and "ignored" not in res.stderr, res.stderr
