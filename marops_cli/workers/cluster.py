@@ -12,6 +12,7 @@ not depend on where a job ran.
 
 from __future__ import annotations
 
+import gc
 import logging
 import threading
 import uuid
@@ -128,13 +129,22 @@ def connect(scheduler: str, workers: int) -> Iterator[Any]:
                 # not the user's business.
                 silence_logs=logging.CRITICAL,
             )
+        # The scheduler's tasks run in this process: one a stop cuts short (a scatter
+        # whose worker left) is logged by asyncio as a traceback, never retrieved.
+        quiet = logging.getLogger("asyncio")
+        level = quiet.level
+        quiet.setLevel(logging.CRITICAL)
         try:
             with distributed.Client(cluster, security=security) as client:
                 client.run_on_scheduler(_stop_http)
                 client.run(_stop_http)
                 yield client
         finally:
-            cluster.close()
+            try:
+                cluster.close()
+                gc.collect()  # the tasks it dropped, logged (not) now
+            finally:
+                quiet.setLevel(level)
         return
     _probe(scheduler)
     try:

@@ -7,6 +7,7 @@ from __future__ import annotations
 import csv
 import http.server
 import io
+import logging
 import shutil
 import signal
 import socketserver
@@ -295,3 +296,23 @@ def test_a_replay_worker_with_another_actor_refuses_to_run() -> None:
     work = ReplayWork({}, "marops", None, 0, False, method("marops"), sha256_file(actor))
     assert work.refuse() is None
     assert ReplayWork({}, "myopic", None, 0, False, method("myopic")).refuse() is None
+
+
+def test_a_task_of_the_local_scheduler_cut_short_prints_no_traceback(caplog) -> None:
+    """Ctrl-C while the work was scattered to a local cluster's workers left a scheduler
+    task failed (KeyError of a worker gone) that asyncio logged as 'Task exception was
+    never retrieved' with its traceback, above marops's one line."""
+    pytest.importorskip("distributed")
+    import time
+
+    from marops_cli.workers.cluster import connect
+
+    async def cut_short() -> None:
+        raise KeyError("tls://127.0.0.1:43953")
+
+    with connect("local", 1) as client:
+        loop = client.loop.asyncio_loop
+        loop.call_soon_threadsafe(lambda: loop.create_task(cut_short()) and None)
+        time.sleep(0.5)
+    assert "never retrieved" not in caplog.text
+    assert logging.getLogger("asyncio").level == logging.NOTSET  # as it was
