@@ -79,6 +79,9 @@ def make_report(
             f"is not a folder (the {option('out')} of replay-day, plan-window or evaluate)",
             file=folder,
         )
+    from ..io.atomic import check_free
+
+    check_free(folder)  # a run still writing there: said as such, not as nothing to report
     require_plotly()
     targets = report_folders(folder)
     if not targets:

@@ -246,3 +246,24 @@ def test_segment_synth_and_train_into_a_running_run_s_folder_are_refused(
     finally:
         first.communicate("", timeout=60)
     assert first.returncode == 0
+
+
+def test_report_on_a_folder_a_run_is_writing_says_so(tmp_path: Path) -> None:
+    """``report DIR`` while a run still writes into DIR (its evaluation not yet summed
+    up) said DIR held no marops outputs to report on; now it names the run writing
+    there, as a second run into that folder is told, and writes nothing."""
+    from typer.testing import CliRunner
+
+    from marops_cli.cli.app import app
+
+    out = tmp_path / "o"
+    first = _start(out)
+    try:
+        assert first.stdout is not None and first.stdout.readline() == "holding\n"
+        before = set(out.rglob("*"))
+        res = CliRunner().invoke(app, ["report", str(out)])
+        assert f"another marops run (pid {first.pid}) is writing here" in res.stderr
+        assert res.stderr.count("\n") == 1 and "Traceback" not in res.output
+        assert set(out.rglob("*")) == before
+    finally:
+        first.communicate("", timeout=60)
