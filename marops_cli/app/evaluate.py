@@ -292,7 +292,7 @@ def check_out(out: Path) -> None:
         raise InputError(f"{option('out')} cannot be created: {probe} is a file", file=out)
     if not os.access(probe, os.W_OK | os.X_OK):
         raise InputError(f"{option('out')} is not writable ({probe})", file=out)
-    from ..evaluate.dataset import check_outside_jobs
+    from ..io.ownership import check_outside_jobs
 
     check_outside_jobs(out)  # not among another evaluation's jobs
 

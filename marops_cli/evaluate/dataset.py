@@ -26,13 +26,13 @@ from ..data.arrow import parquet_rows, read_parquet, read_parquet_schema
 from ..data.jsonfile import parse_json, read_small_text
 from ..errors import InputError, RunError, option, switch
 from ..io import output_set, run_meta
-from ..io.ownership import remove_ours
+from ..io.ownership import JOBS_IDENTITY, remove_ours
 from ..io.tables import with_meta, write_parquet
 from .runner import Prepared, identity_changes, identity_doc
 from .settings import Job
 from .tables import KEY_COLUMNS, job_row, key_columns, row_table
 
-IDENTITY_FILE = "_identity.json"  # "_": dataset readers (pyarrow.dataset) skip it
+IDENTITY_FILE = JOBS_IDENTITY  # "_": dataset readers (pyarrow.dataset) skip it
 PARTITION = ("hub", "method", "day")
 
 
@@ -64,21 +64,6 @@ def check_jobs_folder(root: Path) -> None:
             f"another {option('out')}",
             file=root,
         )
-
-
-def check_outside_jobs(out: Path) -> None:
-    """``out`` is no evaluation's jobs folder (one holding :data:`IDENTITY_FILE`) and lies
-    in none: an evaluation's files written there would lie among that evaluation's jobs,
-    which it then refuses to resume or summarise. One line naming ``out`` and the jobs
-    folder, before any work."""
-    here = Path(out).absolute()
-    for folder in (here, *here.parents):
-        if (folder / IDENTITY_FILE).is_file():
-            raise InputError(
-                f"lies in the jobs folder of the evaluation in {folder.parent}, which would "
-                f"then hold files that are not its jobs; choose another {option('out')}",
-                file=out,
-            )
 
 
 class JobStore:

@@ -31,6 +31,9 @@ from ..errors import InputError, RunError, option, switch
 JOURNAL = ".marops-files.json"
 JOURNAL_FORMAT = "marops-files/1"
 TMP_MARK = "marops-"
+JOBS_IDENTITY = "_identity.json"
+"""The file that marks an evaluation's jobs folder (``OUT/jobs``, evaluate/dataset.py):
+no other output goes there or below it."""
 """Temporaries are ``.NAME.marops-XXXXXXXX.tmp``: nothing a user makes is named so."""
 
 _REPLACE_FOREIGN: ContextVar[bool] = ContextVar("replace_foreign", default=False)
@@ -313,6 +316,7 @@ def check_outputs(paths: Iterable[Path], journal: bool = False) -> None:
     with _journals_read_once():  # the probes below write no journal
         for final in paths:
             final = Path(final)
+            check_outside_jobs(final)
             check_replaceable([final], journal)
             to_make = missing_folders(final)
             folder = (to_make[-1] if to_make else final.absolute()).parent
@@ -328,6 +332,21 @@ def check_outputs(paths: Iterable[Path], journal: bool = False) -> None:
                     os.unlink(probe)
             except OSError as exc:  # found before the work: bad usage, exit 2
                 raise InputError(f"cannot write ({_reason(exc)})", file=final) from None
+
+
+def check_outside_jobs(path: Path) -> None:
+    """``path`` (an output, or an output folder) is no evaluation's jobs folder (one
+    holding :data:`JOBS_IDENTITY`) and lies in none: written there it would lie among
+    that evaluation's jobs, which it then refuses to resume or summarise. One line naming
+    ``path`` and the jobs folder, before any work."""
+    here = Path(path).absolute()
+    for folder in (here, *here.parents):
+        if (folder / JOBS_IDENTITY).is_file():
+            raise InputError(
+                f"lies in the jobs folder of the evaluation in {folder.parent}, which would "
+                f"then hold files that are not its jobs; choose another {option('out')}",
+                file=path,
+            )
 
 
 def _names_fit(final: Path, folder: Path, to_make: list[str]) -> None:

@@ -266,6 +266,29 @@ def test_out_in_another_evaluations_jobs_folder_fails_before_any_work(
     fails_cleanly(args, tmp_path, f"{out}: lies in the jobs folder of the evaluation in {first}")
 
 
+@pytest.mark.parametrize(
+    ("command", "name"),
+    [
+        (["segment"], "depots.json"),
+        (["replay-day", "--date", "0811", "--method", "stay", "--area", "square"], "day"),
+        (["train"], "a.pt"),
+    ],
+)
+def test_other_commands_into_an_evaluations_jobs_folder_fail_before_any_work(
+    prep, example_csv: Path, tmp_path: Path, fails_cleanly, command: list[str], name: str
+) -> None:
+    """segment, replay-day and train took an --out inside an evaluation's jobs folder,
+    whose jobs that evaluation then refused to resume or summarise (a file it did not
+    write among them); now one line naming it, before any work, nothing written."""
+    first = tmp_path / "first"
+    store = JobStore(first / "jobs", prep, run_identity(prep))
+    store.open()
+    store.add(prep.jobs[0], {"mean_energy_kj": 1.0, "delivered": 1})
+    out = first / "jobs" / name
+    args = [command[0], str(example_csv), *command[1:], "--out", str(out)]
+    fails_cleanly(args, tmp_path, f"lies in the jobs folder of the evaluation in {first}")
+
+
 def test_ctrl_c_exits_130_keeps_finished_jobs_and_prints_no_traceback(
     example_csv: Path, tmp_path: Path, stop_marops
 ) -> None:
