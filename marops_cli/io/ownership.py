@@ -31,10 +31,10 @@ from ..errors import InputError, RunError, option, switch
 JOURNAL = ".marops-files.json"
 JOURNAL_FORMAT = "marops-files/1"
 TMP_MARK = "marops-"
+"""Temporaries are ``.NAME.marops-XXXXXXXX.tmp``: nothing a user makes is named so."""
 JOBS_IDENTITY = "_identity.json"
 """The file that marks an evaluation's jobs folder (``OUT/jobs``, evaluate/dataset.py):
 no other output goes there or below it."""
-"""Temporaries are ``.NAME.marops-XXXXXXXX.tmp``: nothing a user makes is named so."""
 
 _REPLACE_FOREIGN: ContextVar[bool] = ContextVar("replace_foreign", default=False)
 _RUN_INPUTS: ContextVar[tuple[Path, ...]] = ContextVar("run_inputs", default=())
@@ -341,7 +341,11 @@ def check_outside_jobs(path: Path) -> None:
     ``path`` and the jobs folder, before any work."""
     here = Path(path).absolute()
     for folder in (here, *here.parents):
-        if (folder / JOBS_IDENTITY).is_file():
+        try:
+            marked = (folder / JOBS_IDENTITY).is_file()
+        except OSError:  # a name too long for the system: no folder, no jobs (said later)
+            marked = False
+        if marked:
             raise InputError(
                 f"lies in the jobs folder of the evaluation in {folder.parent}, which would "
                 f"then hold files that are not its jobs; choose another {option('out')}",
