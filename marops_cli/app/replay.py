@@ -197,7 +197,7 @@ def _one_area(
     run: Run,
     progress: Progress,
 ) -> ReplayResult:
-    from ..data.prepare import prepare_day
+    from ..data.prepare import late_warning, prepare_day
     from ..sim.scenario import load_scenario
 
     table = read_data(data, cfg.data)
@@ -216,6 +216,10 @@ def _one_area(
     # an error is the only line a failed run prints.
     area = make_area(scn, out, days, several, fleet, run, given)
     drop_report(progress, scn.table, data_name(data))
+    inside = scn.frame.contains(*scn.frame.to_xy(scn.table.lng, scn.table.lat))
+    late = late_warning(scn.table, days, cfg.data, held=inside)
+    if late is not None:
+        progress.warning(late)
     rows, tables = _replay_areas([area], run, progress)
     return ReplayResult(rows[0], aggregate_days(rows[0]), tables, None, out, area.written)
 

@@ -828,15 +828,18 @@ def _shifted_export(path: Path, shift_h: int) -> Path:
     return path
 
 
-def test_a_day_mostly_due_outside_service_hours_is_warned_of(tmp_path):
+@pytest.mark.parametrize("area", ["hubs", "square"])
+def test_a_day_mostly_due_outside_service_hours_is_warned_of(tmp_path, area):
     """An export whose times are of another zone (6 hours before LaDe's clock) has most
-    orders due outside 09:00-17:00: replay-day over the whole export warns how many
-    it leaves out for it, between which clock times the orders fall, and what to set;
-    only the city line's figures said so. LaDe's own clock: no such warning."""
+    orders due outside 09:00-17:00: replay-day over the whole export, or one square,
+    warns how many it leaves out for it, between which clock times the orders fall, and
+    what to set; only the city line's figures (a square's: none) said so. LaDe's own
+    clock: no such warning."""
     for shift_h, warned in ((6, True), (0, False)):
         data = _shifted_export(tmp_path / f"shift{shift_h}.csv", shift_h)
         args = ["replay-day", str(data), "--date", "0802", "--method", "stay", "--workers", "1"]
-        res = runner.invoke(app, [*args, "--out", str(tmp_path / f"o{shift_h}"), "-q"])
+        args += ["--area", area, "--out", str(tmp_path / f"o{shift_h}"), "-q"]
+        res = runner.invoke(app, args)
         assert res.exit_code == 0, res.output
         said = "are due outside service hours 09:00-17:00, and are left out"
         assert (said in res.output) is warned, res.output
