@@ -397,7 +397,7 @@ def instants(wall_s: np.ndarray, tz: str) -> np.ndarray:
         days, which = np.arange(first, last + 1), day - first
     else:
         days, which = np.unique(day, return_inverse=True)
-    ahead, steady = _day_offsets(days, tz)
+    ahead, steady = day_offsets(days, tz)
     out = wall - ahead[which]
     odd = ~steady[which]
     if odd.any():
@@ -405,7 +405,7 @@ def instants(wall_s: np.ndarray, tz: str) -> np.ndarray:
     return out
 
 
-def _day_offsets(days: np.ndarray, tz: str) -> tuple[np.ndarray, np.ndarray]:
+def day_offsets(days: np.ndarray, tz: str) -> tuple[np.ndarray, np.ndarray]:
     """Per day (days since 1970-01-01): the seconds ``tz``'s clock is ahead of UTC at its
     start, and whether it is so all day (no clock change from its first second to its
     last, neither of them skipped or repeated)."""

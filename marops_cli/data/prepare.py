@@ -18,7 +18,7 @@ import numpy as np
 from scipy.special import ndtri
 
 from ..errors import InputError, naming, switch
-from .dates import format_days, instants
+from .dates import day_offsets, format_days, instants
 from .frame import Frame, densest_square
 from .settings import DataSettings
 from .table import DayRequests, LadeTable
@@ -126,10 +126,18 @@ def _since_start(table: LadeTable, cfg: DataSettings) -> tuple[np.ndarray, np.nd
     from the start (docs/decisions.md, "Study area, windows"): on a day the clocks
     change, every window is still ``window_s`` long and none starts where another did."""
     day = table.delivery_day.astype(np.int64)
-    days, which = np.unique(day, return_inverse=True)  # a few days for a file's rows
-    start = instants(days * _DAY_S + cfg.service_start_s, cfg.tz)[which]
+    first = int(day.min()) if day.size else 0
+    if day.size and int(day.max()) - first < 4096:  # a file's days: found without a sort
+        days, which = np.arange(first, int(day.max()) + 1), day - first
+    else:
+        days, which = np.unique(day, return_inverse=True)
+    wall = days * _DAY_S + cfg.service_start_s
+    start = instants(wall, cfg.tz)
+    if table.delivery_at is None and day_offsets(days, cfg.tz)[1].all():
+        # No clock change on any of its days: elapsed time is wall-clock time.
+        return start[which], table.delivery_s - wall[which]
     at = table.delivery_at if table.delivery_at is not None else instants(table.delivery_s, cfg.tz)
-    return start, at - start
+    return start[which], at - start[which]
 
 
 def _in_service(

@@ -114,3 +114,28 @@ def test_a_time_with_its_offset_in_the_repeated_hour_is_placed_by_its_instant(
     reqs = prepare_day(table, study_frame(table, LONDON, [AUTUMN]), AUTUMN, LONDON)
     got = dict(zip(reqs.order_id, reqs.due_w.tolist(), strict=True))
     assert got == {"gmt": 4, "bst": 2, "wall": 2}
+
+
+@pytest.mark.parametrize("tz", ["Asia/Shanghai", "Europe/London"])
+def test_elapsed_time_from_service_start_is_wall_clock_time_on_steady_days(tz: str) -> None:
+    """On days no clock changes, a row's time from its day's service start is found by
+    wall-clock arithmetic alone (no instant per row); it equals the instants' difference,
+    and on a day the clock changes the instants are used (an hour apart here)."""
+    import types
+
+    from marops_cli.data import prepare
+    from marops_cli.data.dates import instants
+
+    days = np.array([19_000, 19_001, 19_002, 19_292], dtype=np.int32)  # 2022-01-08.., 2022-10-27
+    day = np.repeat(days, 3)
+    wall = day.astype(np.int64) * 86_400 + np.tile([9 * 3600, 12 * 3600, 16 * 3600], 4)
+    table = types.SimpleNamespace(delivery_day=day, delivery_s=wall, delivery_at=None)
+    cfg = DataConfig(tz=tz)
+    start, due = prepare._since_start(table, cfg)
+    assert due.tolist() == (instants(wall, tz) - start).tolist()
+    assert due[:3].tolist() == [0, 3 * 3600, 7 * 3600]
+    changed = np.full(3, 19_295, dtype=np.int32)  # 2022-10-30, London's clocks go back at 02:00
+    night = changed.astype(np.int64) * 86_400 + np.array([0, 3600, 3 * 3600])
+    table = types.SimpleNamespace(delivery_day=changed, delivery_s=night, delivery_at=None)
+    start, due = prepare._since_start(table, DataConfig(tz=tz, service_start="00:00"))
+    assert due.tolist() == ([0, 3600, 4 * 3600] if tz == "Europe/London" else [0, 3600, 3 * 3600])
