@@ -70,8 +70,8 @@ class Tensors:
         return values.astype(np.float32).reshape(self.shape(name))
 
 
-def read_tensors(path: Path) -> Tensors:
-    """The safetensors file ``path`` (its size bounded by the caller), read once and its
+def read_tensors(path: Path, limit: int) -> Tensors:
+    """The safetensors file ``path`` of at most ``limit`` bytes, read once and its
     header parsed once: a file that is none (too short, a header past its end, not a JSON
     object, or a key given twice, which every other JSON marops reads refuses and the
     safetensors reader kept the last of unsaid), or whose tensors do not fill its data
@@ -81,9 +81,11 @@ def read_tensors(path: Path) -> Tensors:
 
     try:
         with open(path, "rb") as f:
-            raw = f.read()
+            raw = f.read(limit + 1)  # never more, were the file to grow after its size was read
     except OSError as exc:
         raise InputError(f"not a safetensors weights file ({first_line(exc)})", file=path) from None
+    if len(raw) > limit:
+        raise InputError(f"larger than {limit:,} bytes, more than its actor's weights", file=path)
     size = int.from_bytes(raw[:8], "little") if len(raw) >= 8 else -1
     try:
         if not 0 < size <= len(raw) - 8:

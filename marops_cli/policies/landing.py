@@ -573,7 +573,7 @@ def load_landing_actor(path: Path, side: Any, sidecar: Path) -> LandingActor:
     size = _FORMATS[read.format]
     if path.stat().st_size > (1 << 16):
         raise InputError("larger than a landing actor's weights", file=path)
-    f = read_tensors(path)
+    f = read_tensors(path, 1 << 16)
     names = f.names()
     if names != {"weight"}:
         raise InputError(

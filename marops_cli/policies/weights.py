@@ -99,7 +99,7 @@ def load_weights(model_path: str | Path, side: dict[str, Any], sidecar: Path) ->
         raise InputError(
             f"larger than the network its sidecar describes ({limit:,} bytes)", file=path
         )
-    f = read_tensors(path)
+    f = read_tensors(path, limit)
     _check_tensors(f, expect, path)
     state = {name: torch.from_numpy(f.float32(name)) for name in expect}
     _check_digest(path, side, sidecar)  # a well-formed file, but is it this actor's?

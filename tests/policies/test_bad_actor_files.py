@@ -86,3 +86,21 @@ def test_a_sidecar_whose_obs_dim_is_not_its_versions_is_refused(
     args += ["--config", str(example_csv.parent / "paper.toml")]
     line = fails_cleanly(args, tmp_path, "actor.json", "key 'obs_dim'")
     assert "obs_dim 99 disagrees with obs_version 5" in line and "102 features" in line
+
+
+def test_a_weights_file_is_read_no_further_than_its_limit(tmp_path: Path) -> None:
+    """A weights file is read to its limit and one byte more, never whole: a file that
+    grew after its size was checked (or a device reporting none) is refused naming it."""
+    import struct
+
+    from marops_cli.errors import InputError
+    from marops_cli.policies.base import read_tensors
+
+    header = json.dumps({"w": {"dtype": "F32", "shape": [2], "data_offsets": [0, 8]}}).encode()
+    path = tmp_path / "w.safetensors"
+    path.write_bytes(struct.pack("<Q", len(header)) + header + b"\0" * 8)
+    size = path.stat().st_size
+    assert read_tensors(path, size).float32("w").tolist() == [0.0, 0.0]
+    with pytest.raises(InputError, match=f"larger than {size - 1:,} bytes") as err:
+        read_tensors(path, size - 1)
+    assert err.value.file == str(path)
