@@ -7,6 +7,7 @@ import contextlib
 import os
 import signal
 import sys
+import threading
 import warnings
 from typing import Annotated, Any, NoReturn
 
@@ -98,17 +99,27 @@ def _unraisable(args: Any) -> None:
     the run went on to its end and exit 0): the signal is sent again, from a timer's
     thread so that it lands after this hook, to be taken where the run stops as from any
     other point. Other such exceptions print as before."""
-    import threading
-
     from ..io.atomic import Terminated
 
     if isinstance(args.exc_value, KeyboardInterrupt):
         sig = signal.SIGTERM if isinstance(args.exc_value, Terminated) else signal.SIGINT
-        again = threading.Timer(0.05, os.kill, (os.getpid(), sig))  # once the hook is done
+        again = threading.Timer(0.05, _again, (sig,))  # once the hook is done
         again.daemon = True
         again.start()
         return
     sys.__unraisablehook__(args)
+
+
+_LEAVING = threading.Event()
+"""Set once the process ends (:func:`_leave`): a stop sent again then would cut its exit
+handlers short."""
+
+
+def _again(sig: int) -> None:
+    """Send ``sig`` to this process again, unless the run has taken a stop already (the
+    command reported one) or is ending."""
+    if not STATE["stopped"] and not _LEAVING.is_set():
+        os.kill(os.getpid(), sig)
 
 
 def _one_line_warning(
@@ -257,6 +268,7 @@ def _leave(code: int | str | None) -> NoReturn:
     else:  # sys.exit("message"): the message goes to stderr, status 1
         print(code, file=sys.stderr)
         status = 1
+    _LEAVING.set()
     atexit._run_exitfuncs()
     for stream in (sys.stdout, sys.stderr):
         with contextlib.suppress(Exception):

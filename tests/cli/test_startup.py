@@ -223,3 +223,26 @@ except KeyboardInterrupt as exc:
     name = "Terminated" if sig == "SIGTERM" else "KeyboardInterrupt"
     assert res.stdout.strip() == f"stopped {name}", (res.stdout, res.stderr)
     assert "Traceback" not in res.stderr and "ignored" not in res.stderr, res.stderr
+
+
+def test_a_stop_sent_again_is_not_sent_once_the_run_took_one_or_ends(monkeypatch) -> None:
+    """The signal a finaliser swallowed is sent again only while it can still stop the
+    run: not once the command reported a stop, nor while the process ends (it would cut
+    the exit handlers short)."""
+    import signal
+
+    from marops_cli.cli import app as a
+    from marops_cli.cli.common import STATE
+
+    sent: list[int] = []
+    monkeypatch.setattr(a.os, "kill", lambda pid, sig: sent.append(sig))
+    monkeypatch.setitem(STATE, "stopped", False)
+    a._again(signal.SIGINT)
+    assert sent == [signal.SIGINT]
+    monkeypatch.setitem(STATE, "stopped", True)
+    a._again(signal.SIGINT)
+    monkeypatch.setitem(STATE, "stopped", False)
+    monkeypatch.setattr(a, "_LEAVING", a.threading.Event())
+    a._LEAVING.set()
+    a._again(signal.SIGTERM)
+    assert sent == [signal.SIGINT]
