@@ -173,7 +173,7 @@ def _json_is_ours(path: Path) -> bool:
         from .routejson import route_json_meta
 
         try:
-            head = route_json_meta(path, "marops" if path.suffix == ".geojson" else "meta")
+            head = route_json_meta(path, "marops" if path.suffix.lower() == ".geojson" else "meta")
         except KeyError:
             return False
         return isinstance(head, dict) and head.get("package") == "marops"

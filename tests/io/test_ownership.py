@@ -68,7 +68,7 @@ def test_a_json_file_past_the_small_file_cap_is_judged_by_its_head_alone(
 
     path = tmp_path / "stops.json"
     path.write_text(json.dumps({"meta": {"package": "marops"}, "stops": ["x" * 4096]}))
-    geo = tmp_path / "routes.geojson"
+    geo = tmp_path / "routes.GeoJSON"  # a suffix in capitals is a GeoJSON all the same
     geo.write_text(
         json.dumps({"type": "FeatureCollection", "marops": {"package": "marops"}, "f": "x" * 4096})
     )
