@@ -153,10 +153,15 @@ def _in_service(
     return start, due, x, y, inside, inside & (due >= 0) & (due < cfg.span_s)
 
 
-def _accepted(table: LadeTable, start: np.ndarray, cfg: DataSettings) -> np.ndarray:
-    """The accept times of ``table`` from their day's service start (``start``, s UTC),
-    in elapsed seconds."""
-    at = table.accept_at if table.accept_at is not None else instants(table.accept_s, cfg.tz)
+def _accepted(
+    table: LadeTable, rows: np.ndarray, start: np.ndarray, cfg: DataSettings
+) -> np.ndarray:
+    """The accept times of ``table``'s ``rows`` (a mask) from their day's service start
+    (``start``, s UTC, of those rows), in elapsed seconds."""
+    if table.accept_at is not None:
+        at = table.accept_at[rows]
+    else:
+        at = instants(table.accept_s[rows], cfg.tz)
     return (at - start).astype(np.float64)
 
 
@@ -177,6 +182,11 @@ def _clock(s: float) -> str:
     return f"{m // 60:02d}:{m % 60:02d}"
 
 
+def _hours(cfg: DataSettings) -> str:
+    """The service hours as ``09:00-17:00``."""
+    return f"{_clock(cfg.service_start_s)}-{_clock(cfg.service_start_s + cfg.span_s)}"
+
+
 def late_warning(
     table: LadeTable, days: Iterable[dt.date], cfg: DataSettings, held: np.ndarray | None = None
 ) -> str | None:
@@ -193,10 +203,9 @@ def late_warning(
     if not total or late < LATE_WARNING * total:
         return None
     lo, hi = np.percentile(np.mod(table.delivery_s[due], 86_400), [25, 75])
-    start = cfg.service_start_s
     return (
         f"{late:,} of the {total:,} orders due ({late / total:.0%}) are due outside service "
-        f"hours {_clock(start)}-{_clock(start + cfg.span_s)}, and are left out; the middle "
+        f"hours {_hours(cfg)}, and are left out; the middle "
         f"half of all is due between {_clock(lo)} and {_clock(hi)}: if the file's times are "
         f"of another zone than {cfg.tz}, write each with its offset (+00:00), read as the "
         "instant it names, else set [data] service_start and service_end"
@@ -210,10 +219,9 @@ def late_note(table: LadeTable, day: dt.date, held: np.ndarray, cfg: DataSetting
     late = int((due_on(table, [day]) & held & ~in_service_hours(table, cfg)).sum())
     if not late:
         return ""
-    hours = f"{_clock(cfg.service_start_s)}-{_clock(cfg.service_start_s + cfg.span_s)}"
     if late == 1:
-        return f": its one order inside a hub's square is due outside {hours}"
-    return f": its {late:,} orders inside a hub's square are all due outside {hours}"
+        return f": its one order inside a hub's square is due outside {_hours(cfg)}"
+    return f": its {late:,} orders inside a hub's square are all due outside {_hours(cfg)}"
 
 
 def prepare_day(table: LadeTable, frame: Frame, day: dt.date, cfg: DataSettings) -> DayRequests:
@@ -240,7 +248,7 @@ def prepare_day(table: LadeTable, frame: Frame, day: dt.date, cfg: DataSettings)
         )
     sub = table.subset(mask)
     due, x, y = due[mask], x[mask], y[mask]
-    accept = _accepted(sub, start[mask], cfg)
+    accept = _accepted(table, mask, start[mask], cfg)
     # Stable sorts, last key first: due time, then order id, then file order.
     order = np.argsort(sub.order_id, kind="stable")
     order = order[np.argsort(due[order], kind="stable")]
@@ -277,8 +285,7 @@ def arrival_windows(
     accept time, 0 when accepted before service start)."""
     start, due, x, y, _, keep = _in_service(table, frame, due_on(table, list(days)), cfg)
     due_w = _windows(due[keep], cfg.window_s, cfg.n_windows)
-    at = table.accept_at if table.accept_at is not None else instants(table.accept_s, cfg.tz)
-    accept = (at[keep] - start[keep]).astype(np.float64)
+    accept = _accepted(table, keep, start[keep], cfg)
     return x[keep], y[keep], _visible_windows(accept, due_w, cfg)
 
 
