@@ -21,7 +21,7 @@ from ..config import OpsConfig, PlannerConfig, count
 from ..data.table import LadeTable
 from ..errors import InputError, option, switch
 from .inputs import in_memory
-from .messages import drop_report, long_flights
+from .messages import drop_report, late_orders, long_flights
 from .progress import SILENT, Progress
 
 if TYPE_CHECKING:
@@ -244,13 +244,9 @@ def evaluate(
         if far is not None:
             progress.warning(far)
     if prep.hubs:
-        from ..data.prepare import late_warning
         from ..segment.hubs import hub_owner
 
-        held = hub_owner(prep.source, prep.hubs) >= 0
-        late = late_warning(prep.source, prep.days, cfg.data, held=held)
-        if late is not None:
-            progress.warning(late)
+        late_orders(progress, prep.source, prep.days, cfg, hub_owner(prep.source, prep.hubs) >= 0)
     if prep.skipped:
         left = ", ".join(d.isoformat() for d in prep.skipped)
         where = "any hub's square" if prep.hubs else "the study area"

@@ -209,3 +209,16 @@ def longest_flight_s(model: Any) -> float:
 def _duration(seconds: float, sep: str = " ") -> str:
     """``2.2 h`` or ``30 min`` (``sep``: what goes between, ``-`` before a noun)."""
     return f"{seconds / 3600:.1f}{sep}h" if seconds >= 5400 else f"{seconds / 60:.0f}{sep}min"
+
+
+def late_orders(
+    progress: Progress, table: LadeTable, days: Sequence[dt.date], cfg: Any, held: np.ndarray
+) -> None:
+    """Warn when most orders due on ``days`` are due outside service hours
+    (:func:`~marops_cli.data.prepare.late_warning`; ``held``: the rows the run plans
+    from, a hub's or the square's)."""
+    from ..data.prepare import late_warning
+
+    late = late_warning(table, days, cfg.data, held=held)
+    if late is not None:
+        progress.warning(late)

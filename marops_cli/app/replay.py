@@ -22,7 +22,7 @@ from .inputs import (
     protect_inputs,
     read_data,
 )
-from .messages import drop_report
+from .messages import drop_report, late_orders
 from .options import planner_config
 from .progress import SILENT, Progress
 from .replay_areas import SUMMED, DayTables, ReplayResult, Run, aggregate_days, make_area
@@ -197,7 +197,7 @@ def _one_area(
     run: Run,
     progress: Progress,
 ) -> ReplayResult:
-    from ..data.prepare import late_warning, prepare_day
+    from ..data.prepare import prepare_day
     from ..sim.scenario import load_scenario
 
     table = read_data(data, cfg.data)
@@ -217,9 +217,7 @@ def _one_area(
     area = make_area(scn, out, days, several, fleet, run, given)
     drop_report(progress, scn.table, data_name(data))
     inside = scn.frame.contains(*scn.frame.to_xy(scn.table.lng, scn.table.lat))
-    late = late_warning(scn.table, days, cfg.data, held=inside)
-    if late is not None:
-        progress.warning(late)
+    late_orders(progress, scn.table, days, cfg, inside)
     rows, tables = _replay_areas([area], run, progress)
     return ReplayResult(rows[0], aggregate_days(rows[0]), tables, None, out, area.written)
 

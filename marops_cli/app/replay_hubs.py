@@ -12,7 +12,7 @@ from ..errors import InputError, in_hub
 from ..io import folder_lock, output_set, run_meta
 from ..io.meta import file_sha256
 from .inputs import data_name, in_memory, read_data
-from .messages import drop_report
+from .messages import drop_report, late_orders
 from .progress import Progress
 from .replay_areas import ReplayResult, Run, aggregate_days, make_area, replay_areas
 
@@ -31,7 +31,7 @@ def replay_hubs(
     """Replay every hub of a hubs file, or (``hubs_path`` None) of hubs placed over the
     whole export: each a study area with its own depots and share of the fleet, into
     ``out/hub-<id>/``, and the city's coverage into ``out/metrics.json``."""
-    from ..data.prepare import check_days_in_file, late_warning
+    from ..data.prepare import check_days_in_file
     from ..segment.hubs import hub_areas, hub_owner, hubs_history, load_hubs
     from ..sim.scenario import load_scenario
 
@@ -100,9 +100,7 @@ def replay_hubs(
     drop_report(progress, table, data_name(data))
     if far is not None:
         progress.warning(far)
-    late = late_warning(table, days, cfg.data, held=owner >= 0)
-    if late is not None:
-        progress.warning(late)
+    late_orders(progress, table, days, cfg, owner >= 0)
     for line in skipped:
         progress.message(line)
     with ExitStack() as held:
