@@ -391,18 +391,24 @@ def instants(wall_s: np.ndarray, tz: str) -> np.ndarray:
     wall = np.asarray(wall_s, dtype=np.int64)
     if wall.size == 0:
         return wall.copy()
-    day = wall // _DAY_S
-    first, last = int(day.min()), int(day.max())
-    if last - first < 4096:  # a file's days: a range of them, each row's found at once
-        days, which = np.arange(first, last + 1), day - first
-    else:
-        days, which = np.unique(day, return_inverse=True)
+    days, which = day_index(wall // _DAY_S)
     ahead, steady = day_offsets(days, tz)
     out = wall - ahead[which]
     odd = ~steady[which]
     if odd.any():
         out[odd] = _assume(wall[odd], tz)
     return out
+
+
+def day_index(day: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(days, which)``: the days (since 1970-01-01) of ``day`` and each one's place in
+    them, ``days[which] == day``; a file's days, a range of them, found without a sort."""
+    day = np.asarray(day, dtype=np.int64)
+    if day.size and int(day.max()) - int(day.min()) < 4096:
+        first = int(day.min())
+        return np.arange(first, int(day.max()) + 1), day - first
+    days, which = np.unique(day, return_inverse=True)
+    return days, which
 
 
 def day_offsets(days: np.ndarray, tz: str) -> tuple[np.ndarray, np.ndarray]:

@@ -18,7 +18,7 @@ import numpy as np
 from scipy.special import ndtri
 
 from ..errors import InputError, naming, switch
-from .dates import day_offsets, format_days, instants
+from .dates import day_index, day_offsets, format_days, instants
 from .frame import Frame, densest_square
 from .settings import DataSettings
 from .table import DayRequests, LadeTable
@@ -125,12 +125,7 @@ def _since_start(table: LadeTable, cfg: DataSettings) -> tuple[np.ndarray, np.nd
     and its delivery time from that start in elapsed seconds. Windows are elapsed time
     from the start (docs/decisions.md, "Study area, windows"): on a day the clocks
     change, every window is still ``window_s`` long and none starts where another did."""
-    day = table.delivery_day.astype(np.int64)
-    first = int(day.min()) if day.size else 0
-    if day.size and int(day.max()) - first < 4096:  # a file's days: found without a sort
-        days, which = np.arange(first, int(day.max()) + 1), day - first
-    else:
-        days, which = np.unique(day, return_inverse=True)
+    days, which = day_index(table.delivery_day)
     wall = days * _DAY_S + cfg.service_start_s
     start = instants(wall, cfg.tz)
     if table.delivery_at is None and day_offsets(days, cfg.tz)[1].all():
